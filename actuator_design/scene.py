@@ -1,0 +1,243 @@
+"""The validated, dimensionless scene: what every solver layer consumes.
+
+A :class:`Scene` is the output of configuration (``actuator_design.config``) and the input of the
+physics layer. All values are dimensionless per THEORY §5: lengths in units of the rod length ℓ,
+energies in units of B0/ℓ (B0 the bending stiffness at the clamp), fields in units of a field scale
+H0 whose strength is folded into the group ``h``. A physical scene carries its :class:`Scales` so
+results can be converted back.
+
+Which energy terms a scene *contains* is structural: ``field is None`` means no magnetic term is
+built, ``tip_force is None`` means no load term, and so on. A term that is present with value zero
+is still built (so it can be continued or designed), a term that is absent is not.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field as dc_field, replace
+from typing import Optional, Tuple, Union
+
+import numpy as np
+
+from .profiles import Profile, constant_profile
+
+__all__ = [
+    "UniformField",
+    "DipoleField",
+    "ExpressionField",
+    "Field",
+    "Scales",
+    "Scene",
+    "default_scene",
+]
+
+
+@dataclass(frozen=True)
+class UniformField:
+    """Uniform applied field at angle ``phi`` (rad) to the undeformed rod axis c1.
+
+    Its strength is the scene's group ``h`` (THEORY §5).
+    """
+
+    phi: float = 0.0
+    kind: str = dc_field(default="uniform", init=False)
+    is_uniform: bool = dc_field(default=True, init=False)
+
+
+@dataclass(frozen=True)
+class DipoleField:
+    """Field of a point dipole (a small permanent magnet) lying in the plane of the rod.
+
+    Dimensionless: positions in units of ℓ; the field scale is H0 = |m| / (4π ℓ³), the field of the
+    dipole on its axis-normal at distance ℓ, so that ĥ(ρ) = [3 (m̂·ρ̂) ρ̂ − m̂] / |ρ|³ with
+    ρ = x − x0 (THEORY §3; a 3-D dipole evaluated in its own equatorial plane z = 0).
+
+    Parameters
+    ----------
+    x0, y0 : float
+        Dipole position, units of ℓ, clamp at the origin.
+    moment_angle : float
+        Direction of the moment m̂ in the plane, rad from c1.
+    """
+
+    x0: float = 0.5
+    y0: float = -0.5
+    moment_angle: float = 0.5 * math.pi
+    kind: str = dc_field(default="dipole", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+
+@dataclass(frozen=True)
+class ExpressionField:
+    """A user field ĥ(x, y) = (hx, hy) given as expressions in x, y (units of ℓ).
+
+    The expressions describe a z-invariant (two-dimensional) field; they are parsed by a whitelist
+    parser (no ``eval``) and checked to be divergence- and curl-free over the disc the rod can
+    reach (``actuator_design.physics.fields``). Its strength is scaled by the group ``h``.
+    """
+
+    hx: str = "1"
+    hy: str = "0"
+    kind: str = dc_field(default="expression", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+
+Field = Union[UniformField, DipoleField, ExpressionField]
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Physical scales that convert dimensionless results back to SI units.
+
+    Attributes
+    ----------
+    length : float
+        ℓ, m.
+    bending_stiffness : float
+        B0 = E I at the clamp, N m².
+    field : float
+        H0, A/m (0 when the scene has no field).
+    """
+
+    length: float
+    bending_stiffness: float
+    field: float = 0.0
+
+    @property
+    def force(self) -> float:
+        """Force scale B0/ℓ², N."""
+        return self.bending_stiffness / self.length**2
+
+    @property
+    def moment(self) -> float:
+        """Moment and energy scale B0/ℓ, N m (= J)."""
+        return self.bending_stiffness / self.length
+
+    @property
+    def stiffness(self) -> float:
+        """Tip stiffness scale B0/ℓ³, N/m."""
+        return self.bending_stiffness / self.length**3
+
+    @property
+    def distributed_load(self) -> float:
+        """Distributed load scale B0/ℓ³, N/m."""
+        return self.bending_stiffness / self.length**3
+
+    def as_dict(self) -> dict:
+        return {
+            "length_m": self.length,
+            "bending_stiffness_Nm2": self.bending_stiffness,
+            "field_A_per_m": self.field,
+            "force_N": self.force,
+            "moment_Nm": self.moment,
+            "energy_J": self.moment,
+            "stiffness_N_per_m": self.stiffness,
+            "distributed_load_N_per_m": self.distributed_load,
+        }
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A dimensionless magneto-elastic cantilever (THEORY §4–5).
+
+    Attributes
+    ----------
+    field : Field or None
+        Applied field shape; ``None`` builds no magnetic term.
+    h : float
+        Orientational group, h² = μ0 χ̄ H0² A ℓ² / (2 B0) ≥ 0 (THEORY §5).
+    h_pos : float
+        Positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for
+        non-uniform fields (in a uniform field it is a constant).
+    fibres : Profile
+        Fibre angle α(s), rad, s ∈ [0, 1].
+    stiffness : Profile
+        Relative bending stiffness b(s) = B(s)/B0 > 0, b(0) = 1 for physical scenes.
+    tip_force : (fx, fy) or None
+        Dead tip force, units of B0/ℓ². ``p`` of THEORY §5 is ``fy``.
+    tip_moment : float or None
+        Dead tip moment, units of B0/ℓ, counter-clockwise positive.
+    distributed_load : (qx, qy) or None
+        Dead load per unit length (e.g. weight), units of B0/ℓ³.
+    theta0 : float
+        Clamp angle, rad.
+    scales : Scales or None
+        Present for physical scenes.
+    name : str
+        Free text for reports.
+    """
+
+    field: Optional[Field] = dc_field(default_factory=UniformField)
+    h: float = 0.0
+    h_pos: float = 0.0
+    fibres: Profile = dc_field(default_factory=lambda: constant_profile(0.0))
+    stiffness: Profile = dc_field(default_factory=lambda: constant_profile(1.0))
+    tip_force: Optional[Tuple[float, float]] = (0.0, 0.0)
+    tip_moment: Optional[float] = None
+    distributed_load: Optional[Tuple[float, float]] = None
+    theta0: float = 0.0
+    scales: Optional[Scales] = None
+    name: str = "dimensionless cantilever"
+
+    # -- convenience -------------------------------------------------------------------------
+    @property
+    def phi(self) -> float:
+        """Uniform field angle (rad); 0 for other fields."""
+        return self.field.phi if isinstance(self.field, UniformField) else 0.0
+
+    @property
+    def p(self) -> float:
+        """Vertical tip load p = fy (THEORY §5); 0 when the scene has no tip force."""
+        return 0.0 if self.tip_force is None else float(self.tip_force[1])
+
+    def with_values(self, *, h=None, phi=None, p=None, alpha=None) -> "Scene":
+        """Return a copy with the dimensionless values of THEORY §5 overridden.
+
+        Overriding ``phi`` requires a uniform field (or no field: one is added); overriding ``p``
+        adds a tip force if the scene has none; ``alpha`` (rad) sets a constant fibre angle.
+        """
+        scene = self
+        if h is not None:
+            scene = replace(scene, h=float(h), field=scene.field or UniformField())
+        if phi is not None:
+            if scene.field is not None and not isinstance(scene.field, UniformField):
+                raise ValueError(
+                    f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field"
+                )
+            scene = replace(scene, field=UniformField(phi=float(phi)))
+        if p is not None:
+            fx = 0.0 if scene.tip_force is None else scene.tip_force[0]
+            scene = replace(scene, tip_force=(fx, float(p)))
+        if alpha is not None:
+            scene = replace(scene, fibres=constant_profile(float(alpha)))
+        return scene
+
+    def describe_groups(self) -> dict:
+        """The dimensionless groups used, as a plain dict (for results and reports)."""
+        out = {"h": self.h, "h_squared": self.h**2, "theta0": self.theta0}
+        if self.field is not None:
+            out["field"] = self.field.kind
+            if isinstance(self.field, UniformField):
+                out["phi"] = self.field.phi
+            if not self.field.is_uniform:
+                out["h_pos"] = self.h_pos
+        if self.tip_force is not None:
+            out["tip_force"] = list(self.tip_force)
+            out["p"] = self.p
+        if self.tip_moment is not None:
+            out["tip_moment"] = self.tip_moment
+        if self.distributed_load is not None:
+            out["distributed_load"] = list(self.distributed_load)
+        return out
+
+
+def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
+    """THEORY §5's dimensionless cantilever: uniform field (h, φ), vertical tip load p,
+    constant fibre angle α, clamp angle 0, nothing else."""
+    return Scene(
+        field=UniformField(phi=float(phi)),
+        h=float(h),
+        fibres=constant_profile(float(alpha)),
+        tip_force=(0.0, float(p)),
+        name="default dimensionless cantilever (THEORY §5)",
+    )
+
