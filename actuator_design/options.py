@@ -40,7 +40,7 @@ class SolverOptions:
     elements: int = 4
     degree: int = 10
     method: str = "ipopt"
-    tol: float = 1e-12
+    tol: float = 1e-10
     max_iter: int = 200
     ensure_stable: bool = True
 

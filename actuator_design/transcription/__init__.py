@@ -1,0 +1,15 @@
+"""Discretisations of θ(s), swappable by name (``SolverOptions.transcription``)."""
+from .base import DiscreteEnergy, ParamLayout, Transcription
+from .lgl import LGL
+from .midpoint import Midpoint
+
+__all__ = ["DiscreteEnergy", "ParamLayout", "Transcription", "LGL", "Midpoint", "make_transcription"]
+
+
+def make_transcription(options) -> Transcription:
+    """The transcription named by a :class:`~actuator_design.options.SolverOptions`."""
+    if options.transcription == "lgl":
+        return LGL(options.elements, options.degree)
+    if options.transcription == "midpoint":
+        return Midpoint(options.elements)
+    raise ValueError(f"unknown transcription {options.transcription!r}")

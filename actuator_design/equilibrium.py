@@ -1,0 +1,221 @@
+"""``solve``: one equilibrium of a scene, with its stability verdict (the public forward API)."""
+from __future__ import annotations
+
+import time
+from typing import Optional, Union
+
+import numpy as np
+
+from .options import SolverOptions
+from .result import EquilibriumResult
+from .scene import Scene
+from .solver import EquilibriumSolver, RawSolution, get_solver
+
+__all__ = ["solve"]
+
+_GL_T, _GL_W = np.polynomial.legendre.leggauss(12)
+
+
+def solve(scene: Scene, options: Optional[SolverOptions] = None,
+          initial: Union[None, np.ndarray, EquilibriumResult] = None,
+          solver: Optional[EquilibriumSolver] = None) -> EquilibriumResult:
+    """Compute an equilibrium of ``scene`` by minimising its discrete energy.
+
+    Parameters
+    ----------
+    scene : Scene
+        Dimensionless scene (THEORY §5).
+    options : SolverOptions, optional
+        Transcription, resolution, method; defaults to ``SolverOptions()``.
+    initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
+        Warm start (θ at the nodes). Default: the straight rod at the clamp angle.
+    solver : EquilibriumSolver, optional
+        A solver built for this scene's structure (default: the cached one).
+
+    Returns
+    -------
+    EquilibriumResult
+        Never raises on non-convergence: ``success``/``status``/``message`` say what happened.
+    """
+    options = options or SolverOptions()
+    if solver is None:
+        solver = get_solver(scene, options)
+    else:
+        solver.check_structure(scene)
+    t0 = time.perf_counter()
+    params = solver.parameter_vector(scene)
+    if isinstance(initial, EquilibriumResult):
+        initial = initial.z
+    z0 = solver.initial_guess(params, initial)
+
+    method = options.method
+    raw = _solve_once(solver, z0, params, method)
+    verdict = solver.stability(raw.z, params) if raw.converged else None
+    escaped = False
+    notes = []
+    for _ in range(3):
+        if not (options.ensure_stable and raw.converged and verdict.morse_index > 0):
+            break
+        v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
+        trial = _solve_once(solver, raw.z + 0.2 * v, params, "ipopt")
+        if not trial.converged:
+            notes.append("a saddle escape did not converge")
+            break
+        notes.append(f"left an unstable equilibrium (Morse index {verdict.morse_index}) along its unstable mode")
+        raw, verdict, escaped = trial, solver.stability(trial.z, params), True
+    solve_time = time.perf_counter() - t0
+    return _make_result(scene, options, solver, params, raw, verdict, escaped, notes, solve_time)
+
+
+def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSolution:
+    """One solve with the requested method, a Newton polish, and an IPOPT fallback for Newton."""
+    if method == "newton":
+        raw = solver.solve_newton(z0, params)
+        if raw.converged:
+            return raw
+        fallback = solver.solve_ipopt(z0, params)
+        fallback.message = f"{raw.message}; fell back to {fallback.message}"
+        raw = fallback
+    else:
+        raw = solver.solve_ipopt(z0, params)
+    if np.all(np.isfinite(raw.z)):
+        polish = solver.solve_newton(raw.z, params, max_iter=4, tol=solver.options.tol)
+        if polish.converged and polish.stationarity <= raw.stationarity:
+            polish.iterations += raw.iterations
+            polish.message = raw.message + " (+ Newton polish)"
+            polish.status = "converged"
+            raw = polish
+        elif raw.converged and raw.stationarity > 1e-6:
+            raw.converged = False
+            raw.status = "not_converged"
+            raw.message += f"; stationarity {raw.stationarity:.3g} is too large to trust"
+    return raw
+
+
+def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
+    """A callable s -> (θ, θ', x, y): the transcription's interpolant, positions by Gauss
+    quadrature of (cos θ, sin θ) between the breakpoints (exact to rounding for LGL)."""
+    tr = solver.transcription
+    bp = tr.breakpoints
+    if tr.name == "midpoint":  # the midpoint rod is the polygon through its nodes
+        th_q = 0.5 * (z[1:] + z[:-1])
+        xn = np.concatenate(([0.0], np.cumsum(tr.h * np.cos(th_q))))
+        yn = np.concatenate(([0.0], np.cumsum(tr.h * np.sin(th_q))))
+
+        def dense(s):
+            th, dth = tr.theta_dense(z, s)
+            return th, dth, np.interp(s, tr.nodes, xn), np.interp(s, tr.nodes, yn)
+        return dense
+
+    a, b = bp[:-1], bp[1:]
+    sg = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]
+    thg, _ = tr.theta_dense(z, sg.ravel())
+    wg = 0.5 * (b - a)[:, None] * _GL_W[None, :]
+    X0 = np.concatenate(([0.0], np.cumsum((wg * np.cos(thg.reshape(sg.shape))).sum(1))))
+    Y0 = np.concatenate(([0.0], np.cumsum((wg * np.sin(thg.reshape(sg.shape))).sum(1))))
+
+    def dense(s):
+        s = np.clip(np.asarray(s, float), 0.0, 1.0)
+        k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
+        lo = bp[k]
+        pts = lo[:, None] + 0.5 * (s - lo)[:, None] * (_GL_T[None, :] + 1.0)
+        th_p, _ = tr.theta_dense(z, pts.ravel())
+        th_p = th_p.reshape(pts.shape)
+        half = 0.5 * (s - lo)[:, None] * _GL_W[None, :]
+        th, dth = tr.theta_dense(z, s)
+        return th, dth, X0[k] + (half * np.cos(th_p)).sum(1), Y0[k] + (half * np.sin(th_p)).sum(1)
+    return dense
+
+
+def _balance(solver: EquilibriumSolver, params, dense, scene: Scene, z):
+    """Clamp reaction and the integrated Euler–Lagrange residual (THEORY §4).
+
+    With τ = −∂V/∂θ and F = −∂V/∂r the distributed torque and force, f and m the tip force and
+    moment, n(s) = f + ∫_s^1 F the internal force, the moment balance of the free part [s, 1]
+    about the origin reads  R(s) = b θ'(s) − m − r(1)×f − ∫_s^1 (τ + r×F) dσ + r(s)×n(s) = 0.
+    Its derivative is the Euler–Lagrange equation (bθ')' + τ + r'×n = 0 and R(1) = 0 is the free
+    end condition. Evaluated on 8 sub-intervals per element with 12-point Gauss quadrature.
+    """
+    tr = solver.transcription
+    bp = tr.breakpoints
+    sub = 2 if tr.name == "midpoint" else 8
+    edges = np.unique(np.concatenate([np.linspace(bp[i], bp[i + 1], sub + 1) for i in range(len(bp) - 1)]))
+    a, b = edges[:-1], edges[1:]
+    sg = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]).ravel()
+    wg = (0.5 * (b - a)[:, None] * _GL_W[None, :]).ravel()
+    th, _, x, y = dense(sg)
+    dens_f, tip_f = solver._pointwise
+    alpha, bstiff = scene.fibres(sg), scene.stiffness(sg)
+    row = lambda v: np.asarray(v, float).reshape(1, -1)  # CasADi evaluates row inputs pointwise
+    tau, Fx, Fy = (np.asarray(v, float).ravel() for v in dens_f(row(th), row(x), row(y), row(alpha), row(bstiff), params))
+    tip_theta, tip_x, tip_y = (float(v) for v in solver.f_tip(z, params))
+    m, fx, fy = (float(v) for v in tip_f(tip_theta, tip_x, tip_y, params))
+
+    def tail(values):  # ∫_{edge_k}^1 values, for every edge k
+        per = (wg * values).reshape(a.size, -1).sum(1)
+        return np.concatenate((np.cumsum(per[::-1])[::-1], [0.0]))
+
+    I_tau, I_Fx, I_Fy, I_rF = tail(tau), tail(Fx), tail(Fy), tail(x * Fy - y * Fx)
+    r1xf = tip_x * fy - tip_y * fx
+    clamp_force = -np.array([fx + I_Fx[0], fy + I_Fy[0]])
+    clamp_moment = -(m + r1xf + I_tau[0] + I_rF[0])
+
+    # residual at the edges where θ' is defined (not on element boundaries, where it may jump)
+    keep = ~np.isin(edges, bp[1:-1])
+    if tr.name == "midpoint":
+        keep = ~np.isin(edges, bp)
+    se = edges[keep]
+    _, dth_e, xe, ye = dense(se)
+    nx, ny = fx + I_Fx[keep], fy + I_Fy[keep]
+    R = scene.stiffness(se) * dth_e - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
+    return clamp_force, float(clamp_moment), float(np.max(np.abs(R)))
+
+
+def _self_intersecting(x: np.ndarray, y: np.ndarray) -> bool:
+    """Whether the polyline through the nodes crosses itself (non-adjacent segments)."""
+    p = np.stack([x, y], 1)
+    if len(p) > 400:
+        p = p[np.linspace(0, len(p) - 1, 400).astype(int)]
+    A, B = p[:-1], p[1:]
+    d = B - A
+    n = len(A)
+    for i in range(n - 2):
+        Ai, di = A[i], d[i]
+        Aj, dj = A[i + 2:], d[i + 2:]
+        den = di[0] * dj[:, 1] - di[1] * dj[:, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((Aj[:, 0] - Ai[0]) * dj[:, 1] - (Aj[:, 1] - Ai[1]) * dj[:, 0]) / den
+            u = ((Aj[:, 0] - Ai[0]) * di[1] - (Aj[:, 1] - Ai[1]) * di[0]) / den
+        if np.any((den != 0) & (t > 0) & (t < 1) & (u > 0) & (u < 1)):
+            return True
+    return False
+
+
+def _make_result(scene, options, solver, params, raw: RawSolution, verdict, escaped, notes, solve_time):
+    z = raw.z
+    finite = bool(np.all(np.isfinite(z)))
+    stats = {"method": options.method, "iterations": raw.iterations, "solve_time_s": solve_time,
+             "build_time_s": solver.build_time, "nlp_reused": bool(getattr(solver, "cached", False)),
+             "n_unknowns": int(z.size)}
+    message = "; ".join([raw.message] + notes)
+    if not finite:
+        nan = np.full(z.size, np.nan)
+        return EquilibriumResult(
+            success=False, status=raw.status if raw.status != "converged" else "not_converged",
+            message=message + "; the iterate is not finite", scene=scene, options=options,
+            s=solver.transcription.nodes.copy(), theta=nan, tip={"x": np.nan, "y": np.nan, "angle": np.nan},
+            energy=np.nan, stationarity=np.inf, eigenvalues=np.full(1, np.nan), morse_index=-1,
+            stable=False, stats=stats, z=z, _dense=lambda s: (np.full(np.shape(s), np.nan),) * 4,
+            _balance=lambda: (np.full(2, np.nan), np.nan, np.nan), _intersects=lambda x, y: False)
+    if verdict is None:
+        verdict = solver.stability(z, params)
+    dense = _dense_shape(solver, z)
+    tip_theta, tip_x, tip_y = (float(v) for v in solver.f_tip(z, params))
+    return EquilibriumResult(
+        success=bool(raw.converged), status="converged" if raw.converged else raw.status, message=message,
+        scene=scene, options=options, s=solver.transcription.nodes.copy(), theta=z.copy(),
+        tip={"x": tip_x, "y": tip_y, "angle": tip_theta},
+        energy=float(solver.f_energy(z, params)), stationarity=raw.stationarity,
+        eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
+        marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
+        _balance=lambda: _balance(solver, params, dense, scene, z), _intersects=_self_intersecting)

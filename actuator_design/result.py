@@ -1,0 +1,206 @@
+"""The result of an equilibrium solve: status, shape, tip, energy, reactions, stability.
+
+Modelled on scipy's ``solve_bvp`` result: it never hides non-convergence (``success``, ``status``,
+``message``), and its shape can be evaluated densely between the solver's nodes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Callable, Dict, Optional
+
+import numpy as np
+
+from .options import SolverOptions
+from .scene import Scene
+
+__all__ = ["EquilibriumResult"]
+
+
+@dataclass
+class EquilibriumResult:
+    """An equilibrium of a scene (dimensionless, THEORY §5; ``scales`` converts to SI).
+
+    Attributes
+    ----------
+    success : bool
+        The solver converged to a stationary point (stability is separate: see ``stable``).
+    status : str
+        ``"converged"``, ``"not_converged"`` or the solver's own status word.
+    message : str
+        Human-readable account, including any saddle escape.
+    s, theta : ndarray, shape (n_nodes,)
+        Arc length (units of ℓ) and tangent angle θ (rad) at the solver's nodes.
+    x, y : ndarray, shape (n_nodes,)
+        Centre-line positions at the nodes, units of ℓ, clamp at the origin.
+    tip : dict
+        ``x``, ``y`` (units of ℓ) and ``angle`` = θ(1) (rad).
+    energy : float
+        Discrete energy Ê, units of B0/ℓ.
+    clamp_force : ndarray, shape (2,)
+        Force the clamp exerts on the rod, units of B0/ℓ².
+    clamp_moment : float
+        Moment the clamp exerts on the rod, units of B0/ℓ (counter-clockwise positive).
+    el_residual : float
+        max over s of |moment balance of the free part [s, 1]| (units of B0/ℓ): the integrated
+        Euler–Lagrange equation evaluated on the dense solution.
+    stationarity : float
+        max_i |∂Ê/∂θ_i| / m_i of the discrete problem.
+    eigenvalues : ndarray
+        Smallest eigenvalues of the reduced Hessian (against the L² mass), ascending.
+    morse_index : int
+    stable : bool
+    escaped_saddle : bool
+        True when the solver first stopped at an unstable equilibrium and was perturbed along its
+        unstable eigenvector to reach this one.
+    stats : dict
+        Iterations, times (s), build/cached flags, method used.
+    """
+
+    success: bool
+    status: str
+    message: str
+    scene: Scene
+    options: SolverOptions
+    s: np.ndarray
+    theta: np.ndarray
+    tip: Dict[str, float]
+    energy: float
+    stationarity: float
+    eigenvalues: np.ndarray
+    morse_index: int
+    stable: bool
+    marginal: bool = False
+    escaped_saddle: bool = False
+    stats: Dict[str, object] = field(default_factory=dict)
+    z: Optional[np.ndarray] = None  # raw node vector (warm starts)
+    #: callables filled by the solver; the diagnostics they compute are evaluated on first access
+    _dense: Optional[Callable] = field(default=None, repr=False)
+    _balance: Optional[Callable] = field(default=None, repr=False)
+    _intersects: Optional[Callable] = field(default=None, repr=False)
+
+    # -- lazily evaluated diagnostics ------------------------------------------------------------
+    @cached_property
+    def _nodes_xy(self):
+        _, _, x, y = self._dense(self.s)
+        return x, y
+
+    @property
+    def x(self) -> np.ndarray:
+        return self._nodes_xy[0]
+
+    @property
+    def y(self) -> np.ndarray:
+        return self._nodes_xy[1]
+
+    @cached_property
+    def _reaction(self):
+        return self._balance()
+
+    @property
+    def clamp_force(self) -> np.ndarray:
+        return self._reaction[0]
+
+    @property
+    def clamp_moment(self) -> float:
+        return self._reaction[1]
+
+    @property
+    def el_residual(self) -> float:
+        return self._reaction[2]
+
+    @cached_property
+    def self_intersecting(self) -> bool:
+        return bool(self._intersects(self.x, self.y))
+
+    # -- dense evaluation ----------------------------------------------------------------------
+    def evaluate(self, s) -> Dict[str, np.ndarray]:
+        """θ, θ', x, y at arbitrary arc lengths ``s`` ∈ [0, 1] (interpolant of the transcription)."""
+        theta, dtheta, x, y = self._dense(np.asarray(s, float))
+        return {"s": np.asarray(s, float), "theta": theta, "dtheta": dtheta, "x": x, "y": y}
+
+    @property
+    def gamma(self) -> float:
+        """θ'(0), the clamp curvature (units of 1/ℓ)."""
+        return float(self.evaluate(np.array([0.0]))["dtheta"][0])
+
+    # -- conversions -----------------------------------------------------------------------------
+    def physical(self) -> Optional[Dict[str, object]]:
+        """Tip and reactions in SI units, or ``None`` for a dimensionless scene."""
+        sc = self.scene.scales
+        if sc is None:
+            return None
+        return {
+            "tip_x_m": self.tip["x"] * sc.length,
+            "tip_y_m": self.tip["y"] * sc.length,
+            "tip_angle_rad": self.tip["angle"],
+            "energy_J": self.energy * sc.moment,
+            "clamp_force_N": (self.clamp_force * sc.force).tolist(),
+            "clamp_moment_Nm": self.clamp_moment * sc.moment,
+            "field_A_per_m": sc.field,
+        }
+
+    def to_dict(self) -> Dict[str, object]:
+        """The JSON contract of ``actuator-design solve --json`` (keys are stable; more may be added)."""
+        phys = self.physical()
+        return {
+            "success": bool(self.success),
+            "status": self.status,
+            "message": self.message,
+            "stable": bool(self.stable),
+            "morse_index": int(self.morse_index),
+            "marginal": bool(self.marginal),
+            "escaped_saddle": bool(self.escaped_saddle),
+            "self_intersecting": bool(self.self_intersecting),
+            "tip": {k: float(v) for k, v in self.tip.items()},
+            "energy": float(self.energy),
+            "h": float(self.scene.h),
+            "phi": float(self.scene.phi),
+            "p": float(self.scene.p),
+            "gamma": self.gamma,
+            "clamp_reaction": {"force": [float(v) for v in self.clamp_force], "moment": float(self.clamp_moment)},
+            "el_residual": float(self.el_residual),
+            "stationarity": float(self.stationarity),
+            "eigenvalues": [float(v) for v in self.eigenvalues],
+            "shape": {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
+                      "theta": self.theta.tolist()},
+            "groups": self.scene.describe_groups(),
+            "scales": None if self.scene.scales is None else self.scene.scales.as_dict(),
+            "physical": phys,
+            "units": {"length": "rod length", "energy": "B0/l", "force": "B0/l^2", "moment": "B0/l",
+                      "angle": "rad"},
+            "solver": {**self.options.as_dict(), **{k: v for k, v in self.stats.items()}},
+        }
+
+    def summary(self) -> str:
+        """A readable multi-line summary."""
+        lines = [
+            f"{self.scene.name}",
+            f"  status      : {self.status} ({'success' if self.success else 'FAILED'}) — {self.message}",
+            f"  groups      : h = {self.scene.h:.6g}, phi = {np.degrees(self.scene.phi):.6g} deg, "
+            f"p = {self.scene.p:.6g}",
+            f"  tip         : x = {self.tip['x']:.10f}, y = {self.tip['y']:.10f}, "
+            f"angle = {self.tip['angle']:.10f} rad ({np.degrees(self.tip['angle']):.6f} deg)  [units of l]",
+            f"  energy      : {self.energy:.12g}  [B0/l]",
+            f"  clamp       : force = ({self.clamp_force[0]:.6g}, {self.clamp_force[1]:.6g}) [B0/l^2], "
+            f"moment = {self.clamp_moment:.6g} [B0/l]",
+            f"  stability   : {'STABLE' if self.stable else 'UNSTABLE'} (Morse index {self.morse_index}; "
+            f"smallest eigenvalues {', '.join(f'{v:.6g}' for v in self.eigenvalues)})",
+            f"  accuracy    : EL residual {self.el_residual:.2e}, stationarity {self.stationarity:.2e}",
+            f"  solver      : {self.options.transcription} (elements {self.options.elements}"
+            + (f", degree {self.options.degree}" if self.options.transcription == "lgl" else "")
+            + f"), {self.stats.get('method', '')}, {self.stats.get('iterations', '?')} iterations, "
+            f"{1e3 * float(self.stats.get('solve_time_s', 0)):.2f} ms",
+        ]
+        if self.escaped_saddle:
+            lines.append("  note        : the solver first stopped at an unstable equilibrium and was "
+                         "perturbed along its unstable mode to reach this stable one")
+        if self.self_intersecting:
+            lines.append("  warning     : the shape intersects itself; contact is not modelled")
+        phys = self.physical()
+        if phys:
+            lines.append(f"  physical    : tip = ({1e3 * phys['tip_x_m']:.6g}, {1e3 * phys['tip_y_m']:.6g}) mm, "
+                         f"clamp force = ({phys['clamp_force_N'][0]:.4g}, {phys['clamp_force_N'][1]:.4g}) N, "
+                         f"clamp moment = {phys['clamp_moment_Nm']:.4g} N m, field scale H0 = "
+                         f"{phys['field_A_per_m']:.6g} A/m")
+        return "\n".join(lines)

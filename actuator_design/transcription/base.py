@@ -1,0 +1,168 @@
+"""The transcription interface: a discretisation of θ(s) that turns energy terms into an NLP.
+
+A transcription owns the discrete unknowns (θ at its nodes), the quadrature points where densities
+are evaluated, how θ' and the positions r(s) = ∫ (cos θ, sin θ) are formed there, and how a discrete
+solution is evaluated densely. :meth:`Transcription.transcribe` returns a :class:`DiscreteEnergy`:
+the energy as a CasADi expression of (θ nodes, parameter vector) with named parameter packing.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, List, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+from ..physics.terms import NODE_FIELDS, EnergyTerm, PointState, TipState
+
+__all__ = ["ParamLayout", "DiscreteEnergy", "Transcription"]
+
+
+class ParamLayout:
+    """Named slices of the NLP parameter vector (never stride slicing by hand).
+
+    Parameters
+    ----------
+    entries : sequence of (name, size)
+    """
+
+    def __init__(self, entries: Sequence[Tuple[str, int]]):
+        self.slices: Dict[str, slice] = {}
+        offset = 0
+        for name, size in entries:
+            if name in self.slices:
+                continue
+            self.slices[name] = slice(offset, offset + size)
+            offset += size
+        self.size = offset
+
+    def symbols(self, vector: ca.SX) -> Dict[str, ca.SX]:
+        """Split a symbolic parameter vector into named pieces (scalars for size 1)."""
+        return {k: vector[sl] for k, sl in self.slices.items()}
+
+    def pack(self, values: Dict[str, object]) -> np.ndarray:
+        """Pack numerical values by name into one vector; every name must be given."""
+        out = np.zeros(self.size)
+        for name, sl in self.slices.items():
+            if name not in values:
+                raise KeyError(f"missing NLP parameter {name!r}")
+            v = np.broadcast_to(np.asarray(values[name], float).ravel(), (sl.stop - sl.start,))
+            out[sl] = v
+        return out
+
+
+@dataclass
+class DiscreteEnergy:
+    """The discrete energy of one scene structure on one transcription.
+
+    Attributes
+    ----------
+    z : SX, shape (n_nodes,)
+        θ at the transcription's nodes, rad.
+    params : SX, shape (layout.size,)
+        Parameter vector (values with named slices in ``layout``).
+    energy : SX scalar
+        Discrete Ê (units of B0/ℓ).
+    layout : ParamLayout
+    tip : (θ(1), x(1), y(1)) as SX
+    point_state : PointState at the quadrature points (positions present only if built)
+    """
+
+    z: ca.SX
+    params: ca.SX
+    energy: ca.SX
+    layout: ParamLayout
+    tip: Tuple[ca.SX, ca.SX, ca.SX]
+    point_state: PointState
+
+
+class Transcription:
+    """Base class. Subclasses define nodes, quadrature and the discrete operators."""
+
+    name = "base"
+    order_description = ""
+
+    # -- geometry of the discretisation -------------------------------------------------------
+    @property
+    def nodes(self) -> np.ndarray:
+        """Arc lengths of the unknowns θ_i, shape (n_nodes,), nodes[0] = 0 (clamp), nodes[-1] = 1."""
+        raise NotImplementedError
+
+    @property
+    def quadrature_points(self) -> np.ndarray:
+        """Arc lengths where densities are evaluated, shape (n_q,)."""
+        raise NotImplementedError
+
+    @property
+    def quadrature_weights(self) -> np.ndarray:
+        raise NotImplementedError
+
+    @property
+    def mass(self) -> np.ndarray:
+        """Lumped mass (quadrature weight carried by each node), shape (n_nodes,): the discrete
+        L² inner product used to scale gradients and eigenvalues."""
+        raise NotImplementedError
+
+    @property
+    def breakpoints(self) -> np.ndarray:
+        """Arc lengths where the θ interpolant may have a kink (element boundaries)."""
+        raise NotImplementedError
+
+    # -- discrete operators (symbolic) --------------------------------------------------------
+    def point_values(self, z: ca.SX) -> Tuple[ca.SX, ca.SX]:
+        """θ and θ' at the quadrature points."""
+        raise NotImplementedError
+
+    def point_positions(self, theta_q: ca.SX) -> Tuple[ca.SX, ca.SX]:
+        """x, y at the quadrature points from θ there."""
+        raise NotImplementedError
+
+    def tip_position(self, theta_q: ca.SX) -> Tuple[ca.SX, ca.SX]:
+        w = ca.DM(self.quadrature_weights)
+        return ca.dot(w, ca.cos(theta_q)), ca.dot(w, ca.sin(theta_q))
+
+    # -- dense evaluation (numerical) ---------------------------------------------------------
+    def theta_dense(self, z: np.ndarray, s: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+        """θ(s) and θ'(s) of the discrete solution at arbitrary s ∈ [0, 1]."""
+        raise NotImplementedError
+
+    def structure(self) -> tuple:
+        raise NotImplementedError
+
+    # -- the NLP ------------------------------------------------------------------------------
+    def transcribe(self, terms: List[EnergyTerm]) -> DiscreteEnergy:
+        """Build the discrete energy of ``terms`` (only what they need is built)."""
+        nq = self.quadrature_points.size
+        entries = [("theta0", 1)]
+        for t in terms:
+            entries += [(p, 1) for p in t.scalar_params]
+        fields = sorted({f for t in terms for f in t.node_fields})
+        entries += [(f, nq) for f in fields]
+        layout = ParamLayout(entries)
+        params = ca.SX.sym("params", layout.size)
+        P = layout.symbols(params)
+
+        z = ca.SX.sym("theta", self.nodes.size)
+        theta_q, kappa_q = self.point_values(z)
+        x_q = y_q = None
+        if any(t.needs_position for t in terms):
+            x_q, y_q = self.point_positions(theta_q)
+        st = PointState(theta=theta_q, kappa=kappa_q, x=x_q, y=y_q, fields={f: P[f] for f in fields})
+        tip_x, tip_y = self.tip_position(theta_q)
+        tip = TipState(theta=z[-1], x=tip_x, y=tip_y)
+
+        w = ca.DM(self.quadrature_weights)
+        energy = 0
+        for t in terms:
+            d = t.density(st, P)
+            if d is not None:
+                energy = energy + ca.dot(w, d)
+            e = t.tip(tip, P)
+            if e is not None:
+                energy = energy + e
+        return DiscreteEnergy(z=z, params=params, energy=energy, layout=layout,
+                              tip=(z[-1], tip_x, tip_y), point_state=st)
+
+    def node_field_values(self, scene, names) -> Dict[str, np.ndarray]:
+        s = self.quadrature_points
+        return {n: NODE_FIELDS[n](scene, s) for n in names}
