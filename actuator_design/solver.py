@@ -205,7 +205,8 @@ class EquilibriumSolver:
             else:
                 break
             zr, g, H, res = zr + t * step, g_new, H_new, res_new
-            if t == 1.0 and np.max(np.abs(step)) <= 1e-14 * (1.0 + np.max(np.abs(zr))):
+            if (t == 1.0 and res <= 1e3 * tol
+                    and np.max(np.abs(step)) <= 1e-14 * (1.0 + np.max(np.abs(zr)))):
                 z[1:] = zr  # a full Newton step below rounding: converged to machine precision
                 return RawSolution(z, True, "converged", "Newton: converged (step below rounding)",
                                    it + 1, float(res))

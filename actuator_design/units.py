@@ -1,0 +1,186 @@
+"""Physical quantities from configuration files: ``"27.5 mm"``, ``"5 kA/m"``, ``"10 mT"``, ``"30 deg"``.
+
+:func:`parse_quantity` turns a number or a string with a unit into a float in SI base units, checking
+that the unit has the expected dimension. Conventions:
+
+* A **plain number** (``27.5`` or ``"27.5"``) is taken in SI base units (m, Pa, N, A/m, ...), except
+  for angles, see below. Write the unit whenever the value is not in SI base units.
+* An **angle** given as a plain number is in radians and must lie within [-2π, 2π]; a larger value
+  such as ``90`` is rejected because it almost certainly means degrees (write ``"90 deg"``).
+* A **magnetic field** may be given as a field strength H (``"5 kA/m"``) or as a flux density B in
+  tesla (``"10 mT"``); the latter is converted as H = B/μ0 with μ0 = 4π·10⁻⁷ H/m (the field in
+  vacuum/air, which is how a magnet or coil field is usually quoted).
+
+The unit registry is created once, at import.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import pint
+
+__all__ = ["ureg", "MU0", "DIMENSIONS", "QuantityError", "parse_quantity"]
+
+ureg = pint.UnitRegistry()
+MU0 = 4.0e-7 * math.pi
+"""Vacuum permeability μ0 = 4π·10⁻⁷ H/m (THEORY §1)."""
+
+_TWO_PI = 2.0 * math.pi
+_NON_FINITE = re.compile(r"^\s*[+-]?(nan|inf)", re.IGNORECASE)
+_MAX_LENGTH = 200
+
+
+@dataclass(frozen=True)
+class _Dimension:
+    description: str  # "a length"
+    example: str  # "27.5 mm"
+    unit: str  # SI unit the value is returned in (pint syntax)
+
+
+DIMENSIONS = {
+    "length": _Dimension("a length", "27.5 mm", "m"),
+    "area": _Dimension("an area", "21 mm^2", "m^2"),
+    "pressure": _Dimension("a pressure or modulus", "2.25 MPa", "Pa"),
+    "bending_stiffness": _Dimension("a bending stiffness", "3.5e-5 N m^2", "N m^2"),
+    "force": _Dimension("a force", "1 mN", "N"),
+    "moment": _Dimension("a moment", "0.1 mN m", "N m"),
+    "force_per_length": _Dimension("a force per length", "0.2 N/m", "N/m"),
+    "magnetic_field": _Dimension("a magnetic field", "5 kA/m' or '10 mT", "A/m"),
+    "magnetic_moment": _Dimension("a magnetic moment", "0.05 A m^2", "A m^2"),
+    "density": _Dimension("a density", "1100 kg/m^3", "kg/m^3"),
+    "acceleration": _Dimension("an acceleration", "9.81 m/s^2", "m/s^2"),
+    "angle": _Dimension("an angle", "30 deg", "rad"),
+    "dimensionless": _Dimension("a plain number", "0.25", ""),
+}
+"""Supported dimensions: name → description, example and the SI unit returned."""
+
+
+class QuantityError(ValueError):
+    """A value could not be read as the expected quantity.
+
+    ``str(err)`` is ``"<field>: <detail>"``; ``err.field`` and ``err.detail`` hold the two parts.
+    """
+
+    def __init__(self, field: str, detail: str):
+        self.field = field
+        self.detail = detail
+        super().__init__(f"{field}: {detail}")
+
+
+def _short(field_name: str) -> str:
+    return field_name.rsplit(".", 1)[-1] or "value"
+
+
+def _plain_number(value):
+    """``value`` as a float if it is a plain number (or a string holding only one), else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        return float(value)
+    try:
+        return float(str(value).strip())
+    except ValueError:
+        return None
+
+
+def _check_finite(x: float, value, field_name: str) -> float:
+    if not math.isfinite(x):
+        raise QuantityError(field_name, f"must be a finite number, got {value!r}")
+    return x
+
+
+def _parse_string(text: str, dim: _Dimension, field_name: str):
+    if len(text) > _MAX_LENGTH:
+        raise QuantityError(field_name, f"value too long ({len(text)} characters)")
+    if _NON_FINITE.match(text):
+        raise QuantityError(field_name, f"must be a finite number, got '{text}'")
+    if not re.match(r"^\s*[+-]?(\d|\.\d)", text):
+        raise QuantityError(
+            field_name, f"expected a number with a unit, e.g. '{dim.example}', got '{text}'")
+    try:
+        q = ureg.Quantity(text.replace("°", " deg"))
+    except pint.UndefinedUnitError as err:
+        raise QuantityError(field_name, f"unknown unit in '{text}': {err}") from None
+    except Exception as err:  # pint's tokenizer/evaluator: syntax errors, overflow, ...
+        raise QuantityError(field_name, f"cannot read '{text}' as {dim.description}: {err}") from None
+    try:
+        if not isinstance(q, ureg.Quantity):  # e.g. a bare number expression
+            q = ureg.Quantity(float(q))
+        magnitude = float(q.magnitude)
+    except (OverflowError, TypeError, ValueError) as err:
+        raise QuantityError(field_name, f"cannot read '{text}' as {dim.description}: {err}") from None
+    _check_finite(magnitude, text, field_name)
+    return q
+
+
+def _wrong_dimension(text: str, q, dim: _Dimension, field_name: str) -> QuantityError:
+    base = q.to_base_units().units
+    return QuantityError(
+        field_name, f"expected {dim.description} (e.g. '{dim.example}'), got '{text}' [{base}]")
+
+
+def _is_angle_unit(q) -> bool:
+    return q.to_base_units().units == ureg.radian
+
+
+def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
+    """Read a number or a ``"<number> <unit>"`` string as a float in SI base units.
+
+    Parameters
+    ----------
+    value : float, int or str
+        E.g. ``27.5e-3``, ``"27.5 mm"``, ``"5 kA/m"``, ``"10 mT"``, ``"30 deg"``. A plain number is
+        taken in SI base units, except an angle, which is in radians and must lie in [-2π, 2π].
+    dimension : str
+        One of :data:`DIMENSIONS`: ``"length"`` (m), ``"area"`` (m²), ``"pressure"`` (Pa),
+        ``"bending_stiffness"`` (N m²), ``"force"`` (N), ``"moment"`` (N m),
+        ``"force_per_length"`` (N/m), ``"magnetic_field"`` (A/m; a flux density in tesla is
+        converted as H = B/μ0), ``"magnetic_moment"`` (A m²), ``"density"`` (kg/m³),
+        ``"acceleration"`` (m/s²), ``"angle"`` (rad), ``"dimensionless"``.
+    field_name : str
+        Dotted name of the configuration field, used in error messages.
+
+    Returns
+    -------
+    float
+        The value in the SI unit of ``dimension`` (``DIMENSIONS[dimension].unit``).
+
+    Raises
+    ------
+    QuantityError
+        ``"<field_name>: <reason>"`` for a non-finite value, an unknown unit, a unit of the wrong
+        dimension, or an angle given as a plain number outside [-2π, 2π].
+    """
+    if dimension not in DIMENSIONS:
+        raise KeyError(f"unknown dimension {dimension!r} (known: {', '.join(DIMENSIONS)})")
+    dim = DIMENSIONS[dimension]
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise QuantityError(
+            field_name, f"expected {dim.description} (e.g. '{dim.example}'), got {value!r}")
+
+    plain = _plain_number(value)
+    if plain is not None:
+        _check_finite(plain, value, field_name)
+        if dimension == "angle" and abs(plain) > _TWO_PI:
+            raise QuantityError(
+                field_name,
+                f"{_short(field_name)} = {value} looks like degrees: write '{value} deg' "
+                "or radians within [-2π, 2π]")
+        return plain
+
+    text = str(value)
+    q = _parse_string(text, dim, field_name)
+    if dimension == "magnetic_field" and q.dimensionality == ureg.tesla.dimensionality:
+        return float(q.to(ureg.tesla).magnitude) / MU0
+    if dimension == "angle":
+        if not (q.unitless or _is_angle_unit(q)):
+            raise _wrong_dimension(text, q, dim, field_name)
+        return float(q.to(ureg.radian).magnitude)
+    if dimension == "dimensionless" and _is_angle_unit(q):
+        raise _wrong_dimension(text, q, dim, field_name)
+    target = ureg.Unit(dim.unit) if dim.unit else ureg.dimensionless
+    if q.dimensionality != target.dimensionality:
+        raise _wrong_dimension(text, q, dim, field_name)
+    return float(q.to(target).magnitude)
