@@ -732,8 +732,21 @@ class Config(_Model):
         return self._raw
 
     def to_scene(self) -> Scene:
-        """The dimensionless :class:`Scene` (physical scenes carry their :class:`Scales`)."""
-        return self.scene.to_scene(self.name)
+        """The dimensionless :class:`Scene` (physical scenes carry their :class:`Scales`).
+
+        A user expression field is checked here to be divergence- and curl-free over the disc the
+        rod can reach (THEORY §3), so no caller can solve with a field that is not a field.
+        """
+        scene = self.scene.to_scene(self.name)
+        if isinstance(scene.field, ExpressionField):
+            from .physics.fields import FieldCheckError, check_current_free, field_model
+
+            model = field_model(scene.field)
+            try:
+                check_current_free(model, model.parameter_values(scene.field), name="scene.field")
+            except FieldCheckError as err:
+                raise ConfigError("scene.field", str(err).split(": ", 1)[-1]) from None
+        return scene
 
     def solver_options(self) -> SolverOptions:
         return self.solver.to_options()

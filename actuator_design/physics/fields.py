@@ -139,7 +139,7 @@ def check_current_free(model: FieldModel, values=None, radius: float = 1.0, n: i
     syms = {k: ca.SX.sym(k) for k in model.params}
     hx, hy = model.value(xs, ys, syms)
     J = ca.jacobian(ca.vertcat(hx, hy), ca.vertcat(xs, ys))
-    f = ca.Function("jac", [xs, ys] + list(syms.values()), [J[0, 0] + J[1, 1], J[1, 0] - J[0, 1], ca.norm_fro(J)])
+    f = ca.Function("divcurl", [xs, ys] + list(syms.values()), [J[0, 0] + J[1, 1], J[1, 0] - J[0, 1], ca.norm_fro(J)])
     g = np.linspace(-radius, radius, n)
     X, Y = np.meshgrid(g, g)
     inside = X**2 + Y**2 <= radius**2 * (1 + 1e-12)

@@ -1,0 +1,134 @@
+"""Helpers shared by the subcommands: errors, argument types, loading scenes, field checks."""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Optional
+
+__all__ = [
+    "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
+    "UsageError", "InputError", "error_line", "package_version", "finite_float",
+    "nonnegative_float", "bad_input", "load_config", "check_out_dir",
+    "stdout_to_stderr",
+]
+
+PROG = "actuator-design"
+EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 0, 1, 2, 3
+
+
+class UsageError(Exception):
+    """The command line itself is malformed (argparse error)."""
+
+
+class InputError(Exception):
+    """The user's input (flags, config file, field) is invalid; exit code 2."""
+
+
+def error_line(exc: BaseException) -> str:
+    """``actuator-design: error: <message>`` on one line."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    return f"{PROG}: error: {'; '.join(lines) or type(exc).__name__}"
+
+
+def package_version() -> str:
+    """The installed package version."""
+    from .. import __version__
+    return __version__
+
+
+# -- argument types -------------------------------------------------------------------------------
+def finite_float(text: str) -> float:
+    """argparse type: a finite real number."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}: expected a finite real number")
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}: must be a finite real number")
+    return value
+
+
+def nonnegative_float(text: str) -> float:
+    """argparse type: a finite number ≥ 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}: must be a finite number >= 0")
+    return value
+
+
+# -- turning library errors into bad-input errors -------------------------------------------------
+@contextlib.contextmanager
+def bad_input(prefix: str = ""):
+    """Re-raise ``ValueError`` (``ConfigError``, ``FieldCheckError``, …) and ``OSError`` raised
+    inside the block as :class:`InputError` (exit code 2), with an optional message prefix."""
+    try:
+        yield
+    except InputError:
+        raise
+    except (ValueError, OSError) as exc:
+        raise InputError(f"{prefix}{exc}") from exc
+    except Exception as exc:
+        try:
+            import yaml
+        except ImportError:  # pragma: no cover - pyyaml is a dependency
+            raise exc
+        if isinstance(exc, yaml.YAMLError):
+            raise InputError(f"{prefix}invalid YAML: {exc}") from exc
+        raise
+
+
+def load_config(path: str):
+    """Load and validate a YAML config: ``(Scene, SolverOptions, raw dict)``.
+
+    Raises
+    ------
+    InputError
+        The file does not exist, is not valid YAML, or fails validation (``ConfigError``).
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"config file not found: {path}")
+    with bad_input():
+        from ..config import load_scene
+        return load_scene(p)
+
+
+def check_out_dir(out: Optional[str]) -> None:
+    """Fail early (before solving) when ``--out`` names something that is not a directory."""
+    if out is not None and os.path.exists(out) and not os.path.isdir(out):
+        raise InputError(f"--out: {out} exists and is not a directory")
+
+
+@contextlib.contextmanager
+def stdout_to_stderr(enabled: bool = True):
+    """Send everything written to file descriptor 1 (including C libraries) to stderr.
+
+    Keeps stdout clean for ``--json``. A no-op when the descriptors cannot be duplicated.
+    """
+    if not enabled:
+        yield
+        return
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+        os.dup2(2, 1)
+    except (OSError, ValueError, AttributeError):
+        yield
+        return
+    old_stdout = sys.stdout
+    sys.stdout = sys.stderr
+    try:
+        yield
+    finally:
+        sys.stdout = old_stdout
+        with contextlib.suppress(OSError):
+            os.dup2(saved, 1)
+        os.close(saved)
+

@@ -1,0 +1,103 @@
+"""Entry point of the ``actuator-design`` command line (meshio / PyFR style).
+
+Every subcommand lives in its own module ``actuator_design.cli.<name>`` that defines
+
+``HELP``
+    a one-line summary shown in ``actuator-design --help``;
+``add_args(parser)``
+    which adds its arguments to an :class:`argparse.ArgumentParser`;
+``run(args) -> int``
+    which calls the library API and returns the exit code.
+
+Adding a subcommand means writing such a module and adding its name to :data:`COMMANDS`
+(an underscore in the module name becomes a hyphen in the command name).
+
+Exit codes: 0 success, 1 unexpected internal error, 2 bad input (one line on stderr, nothing
+written), 3 the solver did not converge (the result is still printed / written, ``success`` false).
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import os
+import sys
+import traceback
+from typing import List, Optional, Sequence
+
+from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, InputError, PROG, UsageError, error_line,
+                     package_version)
+
+__all__ = ["main", "build_parser", "COMMANDS"]
+
+#: Subcommand modules of ``actuator_design.cli``, in the order ``--help`` lists them.
+COMMANDS: List[str] = ["solve", "validate"]
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors become :class:`UsageError` (one line, exit 2)."""
+
+    def error(self, message):  # noqa: D102 - argparse hook
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The top-level parser with one sub-parser per module in :data:`COMMANDS`."""
+    parser = _Parser(
+        prog=PROG,
+        description="Equilibria of magneto-elastic soft actuators: elastic rods with magnetic "
+                    "particles bent by an applied field. All values are dimensionless (THEORY §5): "
+                    "lengths in rod lengths l, energies in B0/l, forces in B0/l^2, angles in the "
+                    "unit named by each flag.",
+        epilog="Exit codes: 0 success, 1 internal error, 2 bad input, 3 solver did not converge.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    sub.required = True
+    for name in COMMANDS:
+        module = importlib.import_module(f"{__package__}.{name}")
+        p = sub.add_parser(name.replace("_", "-"), help=module.HELP, description=module.__doc__,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_args(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``) and return the exit code.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments without the program name.
+
+    Returns
+    -------
+    int
+        0 success, 1 internal error, 2 bad input, 3 not converged.
+    """
+    try:
+        parser = build_parser()
+        args = parser.parse_args(None if argv is None else list(argv))
+        return int(args._run(args))
+    except (UsageError, InputError) as exc:
+        print(error_line(exc), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except SystemExit as exc:  # --help, --version
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_BAD_INPUT)
+    except BrokenPipeError:  # e.g. `actuator-design solve --json | head`
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_INTERNAL
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the last line of defence
+        traceback.print_exc(file=sys.stderr)
+        print(f"{PROG}: internal error: {type(exc).__name__}: {' '.join(str(exc).split())}",
+              file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,200 @@
+"""Drawing results: pure, never solves (matplotlib, Agg backend chosen only when drawing).
+
+:func:`plot_shape` draws the deformed rod, the undeformed rod, the clamp, the applied field and the
+tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l).
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+
+__all__ = ["plot_shape", "save_shape_png"]
+
+#: Points of the dense deformed shape.
+DENSE_POINTS = 300
+
+
+def _new_axes(figsize=(6.4, 5.6)):
+    """A figure and axes without touching pyplot's global state (Agg when pyplot is unused)."""
+    import matplotlib
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig.add_subplot()
+
+
+def plot_shape(result, ax=None, title=None):
+    """Draw an equilibrium: rod, undeformed rod, clamp, field and tip force.
+
+    Parameters
+    ----------
+    result : EquilibriumResult
+        The equilibrium to draw (converged or not; a non-finite shape draws nothing).
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw into; a new Agg figure is made when omitted.
+    title : str, optional
+        Title; default: h, φ (deg), p and the stability verdict.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    if ax is None:
+        ax = _new_axes()
+    scene = result.scene
+    d = result.evaluate(np.linspace(0.0, 1.0, DENSE_POINTS))
+    x, y = np.asarray(d["x"], float), np.asarray(d["y"], float)
+    t0 = float(scene.theta0)
+    s = np.linspace(0.0, 1.0, 2)
+    ux, uy = s * math.cos(t0), s * math.sin(t0)
+    window = _window(np.r_[x, ux, 0.0], np.r_[y, uy, 0.0], scene.field)
+
+    _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy])
+    ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
+    ax.plot(x, y, color="C0", lw=2.6, label="deformed", zorder=4)
+    _draw_clamp(ax, t0)
+    _draw_tip_force(ax, scene, result.tip, window)
+
+    ax.set_xlim(window[0], window[1])
+    ax.set_ylim(window[2], window[3])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+    ax.set_title(_default_title(result) if title is None else title, fontsize=10)
+    ax.legend(loc="best", fontsize=8, framealpha=0.85)
+    return ax
+
+
+def save_shape_png(result, path, dpi: int = 150):
+    """Draw ``result`` with :func:`plot_shape` and save it as PNG to ``path`` (a path or a binary
+    file object)."""
+    ax = plot_shape(result)
+    ax.figure.savefig(path, format="png", dpi=dpi)
+    return path
+
+
+# -- pieces ---------------------------------------------------------------------------------------
+def _default_title(result) -> str:
+    scene = result.scene
+    from .scene import UniformField
+    parts = [f"h = {scene.h:.4g}"]
+    if isinstance(scene.field, UniformField):
+        parts.append(f"φ = {math.degrees(scene.field.phi):.4g}°")
+    elif scene.field is not None:
+        parts.append(f"{scene.field.kind} field")
+    parts.append(f"p = {scene.p:.4g}")
+    verdict = "stable" if result.stable else f"unstable (Morse index {result.morse_index})"
+    if not result.success:
+        verdict = "NOT CONVERGED, " + verdict
+    return ", ".join(parts) + " — " + verdict
+
+
+def _window(xs, ys, field):
+    """Square-ish plot window around the finite points (and a dipole), with a margin."""
+    from .scene import DipoleField
+    xs, ys = list(xs[np.isfinite(xs)]), list(ys[np.isfinite(ys)])
+    if isinstance(field, DipoleField):
+        xs.append(field.x0)
+        ys.append(field.y0)
+    x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+    span = max(x1 - x0, y1 - y0, 1.0)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    half = 0.5 * span + 0.35
+    return cx - half, cx + half, cy - half, cy + half
+
+
+def _draw_clamp(ax, t0: float) -> None:
+    """A wall at the origin, perpendicular to the clamp direction, hatched on the far side."""
+    from matplotlib.patches import Polygon
+    t = np.array([math.cos(t0), math.sin(t0)])
+    n = np.array([-t[1], t[0]])
+    w, depth = 0.14, 0.07
+    a, b = -w * n, w * n
+    ax.add_patch(Polygon([a, b, b - depth * t, a - depth * t], closed=True, facecolor="none",
+                         edgecolor="0.25", hatch="////", lw=0.0, zorder=3, label="clamp"))
+    ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=2.2, zorder=3)
+
+
+def _draw_field(ax, scene, window, xs, ys) -> None:
+    from .scene import DipoleField, UniformField
+    field = scene.field
+    if field is None:
+        return
+    if isinstance(field, UniformField):
+        _draw_uniform(ax, field.phi, scene.h, window, xs, ys)
+        return
+    _draw_streamlines(ax, field, scene.h, window)
+    if isinstance(field, DipoleField):
+        ax.plot([field.x0], [field.y0], marker="o", ms=9, color="C3", zorder=5, ls="none",
+                label="dipole")
+        m = 0.12 * np.array([math.cos(field.moment_angle), math.sin(field.moment_angle)])
+        ax.annotate("", xy=(field.x0 + m[0], field.y0 + m[1]), xytext=(field.x0 - m[0], field.y0 - m[1]),
+                    arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8), zorder=6)
+
+
+def _draw_uniform(ax, phi: float, h: float, window, xs, ys) -> None:
+    """Three parallel arrows in direction φ, labelled with h, in the corner farthest from the rod."""
+    x0, x1, y0, y1 = window
+    w = x1 - x0
+    e = np.array([math.cos(phi), math.sin(phi)])
+    n = np.array([-e[1], e[0]])
+    size = 0.08 * w
+    corners = [np.array([cx, cy]) for cx in (x0 + 0.14 * w, x1 - 0.14 * w)
+               for cy in (y1 - 0.12 * w, y0 + 0.2 * w)]
+    pts = np.column_stack([xs, ys])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    centre = max(corners, key=lambda c: np.min(np.hypot(*(pts - c).T)) if len(pts) else 0.0)
+    for k in (-1, 0, 1):
+        c = centre + 0.45 * size * k * n
+        ax.annotate("", xy=c + size * e, xytext=c - size * e,
+                    arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.6), zorder=5)
+    ax.text(centre[0], centre[1] - 1.25 * size, f"field: h = {h:.4g}, φ = {math.degrees(phi):.4g}°",
+            color="C2", ha="center", va="top", fontsize=8, zorder=5)
+
+
+def _draw_streamlines(ax, field, h: float, window, n: int = 41) -> None:
+    """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
+    from .physics.fields import field_model
+    from .scene import DipoleField
+    model = field_model(field)
+    gx = np.linspace(window[0], window[1], n)
+    gy = np.linspace(window[2], window[3], n)
+    X, Y = np.meshgrid(gx, gy)
+    with np.errstate(all="ignore"):
+        H = model.evaluate(X.ravel(), Y.ravel(), model.parameter_values(field))
+        U, V = H[0].reshape(X.shape), H[1].reshape(X.shape)
+        mag = np.hypot(U, V)
+        bad = ~np.isfinite(mag) | (mag == 0)
+        if isinstance(field, DipoleField):
+            bad |= np.hypot(X - field.x0, Y - field.y0) < 0.06 * (window[1] - window[0])
+        finite = mag[~bad]
+        if finite.size:  # points where |ĥ| explodes (other singularities)
+            bad |= mag > 1e3 * np.median(finite)
+        U = np.ma.masked_array(np.where(bad, 0.0, U / np.where(bad, 1.0, mag)), mask=bad)
+        V = np.ma.masked_array(np.where(bad, 0.0, V / np.where(bad, 1.0, mag)), mask=bad)
+    if np.all(bad):
+        return
+    ax.streamplot(gx, gy, U, V, color="C2", linewidth=0.7, density=1.1, arrowsize=0.8, zorder=1)
+    ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, h = {h:.4g})")
+
+
+def _draw_tip_force(ax, scene, tip, window) -> None:
+    """An arrow of fixed length at the tip in the direction of the tip force, labelled."""
+    f = scene.tip_force
+    if f is None:
+        return
+    fx, fy = float(f[0]), float(f[1])
+    mag = math.hypot(fx, fy)
+    tx, ty = float(tip["x"]), float(tip["y"])
+    if mag == 0.0 or not (math.isfinite(tx) and math.isfinite(ty)):
+        return
+    L = 0.12 * (window[1] - window[0])
+    e = np.array([fx, fy]) / mag
+    ax.annotate("", xy=(tx + L * e[0], ty + L * e[1]), xytext=(tx, ty),
+                arrowprops=dict(arrowstyle="-|>", color="C3", lw=2.0), zorder=6)
+    label = f"p = {fy:.4g}" if fx == 0.0 else f"f = ({fx:.4g}, {fy:.4g})"
+    ax.text(tx + 1.15 * L * e[0], ty + 1.15 * L * e[1], label + " B0/l²", color="C3", fontsize=8,
+            ha="left" if e[0] >= 0 else "right", va="bottom" if e[1] >= 0 else "top", zorder=6)
