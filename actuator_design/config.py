@@ -36,7 +36,7 @@ import copy
 import difflib
 import math
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, List, Literal, Optional, Tuple, Union
+from typing import Annotated, Any, ClassVar, Dict, List, Literal, Optional, Tuple, Union
 
 import numpy as np
 import yaml
@@ -725,6 +725,9 @@ class Config(_Model):
     solver: SolverSpec = SolverSpec()
     name: Optional[StrictStr] = None
     description: Optional[StrictStr] = None
+    #: An analysis or study section (``type:`` names it); validated by the analysis that runs it
+    #: (``actuator_design.analysis.registry``), not here.
+    study: Optional[Dict[str, Any]] = None
     _raw: dict = PrivateAttr(default_factory=dict)
 
     @property

@@ -10,7 +10,8 @@ Every subcommand lives in its own module ``actuator_design.cli.<name>`` that def
     which calls the library API and returns the exit code.
 
 Adding a subcommand means writing such a module and adding its name to :data:`COMMANDS`
-(an underscore in the module name becomes a hyphen in the command name).
+(an underscore in the module name becomes a hyphen in the command name, and a trailing underscore
+is dropped, so ``continue_`` is the command ``continue``).
 
 Exit codes: 0 success, 1 unexpected internal error, 2 bad input (one line on stderr, nothing
 written), 3 the solver did not converge (the result is still printed / written, ``success`` false).
@@ -56,7 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for name in COMMANDS:
         module = importlib.import_module(f"{__package__}.{name}")
-        p = sub.add_parser(name.replace("_", "-"), help=module.HELP, description=module.__doc__,
+        p = sub.add_parser(name.rstrip("_").replace("_", "-"), help=module.HELP, description=module.__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)
         p.set_defaults(_run=module.run)

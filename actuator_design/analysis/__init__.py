@@ -1,0 +1,1 @@
+"""Analyses over equilibria: each a function over results that re-solves one built NLP."""

@@ -1,0 +1,15 @@
+"""The plain forward solve as a registered analysis (one row per study point)."""
+from __future__ import annotations
+
+from ..equilibrium import solve
+from .registry import register
+
+
+@register("solve")
+def run_solve(scene, options, **settings) -> dict:
+    """One equilibrium: the ``solve --json`` contract without the shape (keeps study tables flat)."""
+    if settings:
+        raise ValueError(f"solve takes no settings, got {sorted(settings)}")
+    out = solve(scene, options).to_dict()
+    out.pop("shape")
+    return out
