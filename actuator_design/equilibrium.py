@@ -26,7 +26,9 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     scene : Scene
         Dimensionless scene (THEORY §5).
     options : SolverOptions, optional
-        Transcription, resolution, method; defaults to ``SolverOptions()``.
+        Transcription, resolution, method; defaults to ``SolverOptions()``. With
+        ``options.accuracy`` set (and no ``solver``), the resolution is chosen for that tip error
+        and the result carries ``error_estimate`` (:func:`actuator_design.accuracy.solve_to_tolerance`).
     initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
         Warm start (θ at the nodes). Default: the straight rod at the clamp angle.
     solver : EquilibriumSolver, optional
@@ -38,6 +40,12 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         Never raises on non-convergence: ``success``/``status``/``message`` say what happened.
     """
     options = options or SolverOptions()
+    if options.accuracy is not None and solver is None:
+        from dataclasses import replace
+
+        from .accuracy import solve_to_tolerance
+        return solve_to_tolerance(scene, options.accuracy, options=replace(options, accuracy=None),
+                                  initial=initial)
     if solver is None:
         solver = get_solver(scene, options)
     else:
@@ -68,7 +76,18 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
 
 
 def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSolution:
-    """One solve with the requested method, a Newton polish, and an IPOPT fallback for Newton."""
+    """One solve with the requested method, a Newton polish, and an IPOPT fallback for Newton.
+
+    ``"fast"``: full Newton steps (:meth:`EquilibriumSolver.solve_fast`); when a safeguard stops it,
+    the damped Newton and then IPOPT take over and the message says so.
+    """
+    if method == "fast":
+        raw = solver.solve_fast(z0, params)
+        if raw.converged:
+            return raw
+        fallback = _solve_once(solver, z0, params, "newton")
+        fallback.message = f"{raw.message}; fell back to {fallback.message}"
+        return fallback
     if method == "newton":
         raw = solver.solve_newton(z0, params)
         if raw.converged:
@@ -79,16 +98,19 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSoluti
     else:
         raw = solver.solve_ipopt(z0, params)
     if np.all(np.isfinite(raw.z)):
-        polish = solver.solve_newton(raw.z, params, max_iter=4, tol=solver.options.tol)
-        if polish.converged and polish.stationarity <= raw.stationarity:
+        # confirm a converged IPOPT point (up to 30 cheap steps); from a failed one try briefly
+        polish = solver.solve_newton(raw.z, params, max_iter=30 if raw.converged else 4,
+                                     tol=solver.options.tol)
+        if polish.converged:  # a small gradient and a small Newton step: the equilibrium located
             polish.iterations += raw.iterations
             polish.message = raw.message + " (+ Newton polish)"
-            polish.status = "converged"
             raw = polish
-        elif raw.converged and raw.stationarity > 1e-6:
+        elif raw.converged:
+            # IPOPT's stopping test is on the gradient only: where the energy is flat (near
+            # bifurcations and folds) that does not locate the equilibrium, so do not claim it
             raw.converged = False
             raw.status = "not_converged"
-            raw.message += f"; stationarity {raw.stationarity:.3g} is too large to trust"
+            raw.message += f"; not confirmed by Newton ({polish.message})"
     return raw
 
 
@@ -108,13 +130,19 @@ def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
         return dense
 
     a, b = bp[:-1], bp[1:]
-    sg = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]
-    thg, _ = tr.theta_dense(z, sg.ravel())
-    wg = 0.5 * (b - a)[:, None] * _GL_W[None, :]
-    X0 = np.concatenate(([0.0], np.cumsum((wg * np.cos(thg.reshape(sg.shape))).sum(1))))
-    Y0 = np.concatenate(([0.0], np.cumsum((wg * np.sin(thg.reshape(sg.shape))).sum(1))))
+    cache = {}
+
+    def breakpoint_positions():  # x, y at the breakpoints, computed on first use
+        if not cache:
+            sg = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]
+            thg, _ = tr.theta_dense(z, sg.ravel())
+            wg = 0.5 * (b - a)[:, None] * _GL_W[None, :]
+            cache["X0"] = np.concatenate(([0.0], np.cumsum((wg * np.cos(thg.reshape(sg.shape))).sum(1))))
+            cache["Y0"] = np.concatenate(([0.0], np.cumsum((wg * np.sin(thg.reshape(sg.shape))).sum(1))))
+        return cache["X0"], cache["Y0"]
 
     def dense(s):
+        X0, Y0 = breakpoint_positions()
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
         k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
         lo = bp[k]
@@ -210,12 +238,14 @@ def _make_result(scene, options, solver, params, raw: RawSolution, verdict, esca
     if verdict is None:
         verdict = solver.stability(z, params)
     dense = _dense_shape(solver, z)
-    tip_theta, tip_x, tip_y = (float(v) for v in solver.f_tip(z, params))
+    energy, tip_theta, tip_x, tip_y = solver.summary(z, params)
+    if solver.jit_note:
+        stats["jit"] = solver.jit_note
     return EquilibriumResult(
         success=bool(raw.converged), status="converged" if raw.converged else raw.status, message=message,
         scene=scene, options=options, s=solver.transcription.nodes.copy(), theta=z.copy(),
         tip={"x": tip_x, "y": tip_y, "angle": tip_theta},
-        energy=float(solver.f_energy(z, params)), stationarity=raw.stationarity,
+        energy=energy, stationarity=raw.stationarity,
         eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
         marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
         _balance=lambda: _balance(solver, params, dense, scene, z), _intersects=_self_intersecting)

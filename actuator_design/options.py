@@ -2,11 +2,12 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Optional
 
 __all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS"]
 
 TRANSCRIPTIONS = ("lgl", "midpoint")
-METHODS = ("ipopt", "newton")
+METHODS = ("ipopt", "newton", "fast")
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,22 @@ class SolverOptions:
     ensure_stable : bool
         When the solver stops at an unstable equilibrium (Morse index > 0), perturb along the most
         unstable eigenvector and re-solve, reporting that it did.
+    accuracy : float or None
+        Target tip error (units of ℓ and rad). When set, :func:`~actuator_design.equilibrium.solve`
+        picks the LGL resolution itself and reports an a-posteriori ``error_estimate`` from two
+        resolutions (:mod:`actuator_design.accuracy`); ``transcription``, ``elements``,
+        ``degree`` and ``tol`` are then chosen for it.
+    jit : bool
+        Compile the gradient/Hessian evaluation to machine code with the system C compiler
+        (CasADi JIT; about 1 s more build time, several times faster evaluation). Falls back to
+        CasADi's virtual machine, with a note in the result, when no compiler works.
+
+    Notes
+    -----
+    ``method="fast"``: full Newton steps on the stationarity equations with the exact Hessian,
+    evaluated through CasADi's low-overhead buffer interface and solved by LAPACK (dense or banded);
+    every step must reduce the residual, otherwise it falls back to ``"newton"`` (and that to
+    IPOPT). Meant for warm re-solves; the stability verdict is still computed.
     """
 
     transcription: str = "lgl"
@@ -43,6 +60,8 @@ class SolverOptions:
     tol: float = 1e-10
     max_iter: int = 200
     ensure_stable: bool = True
+    jit: bool = False
+    accuracy: Optional[float] = None
 
     def __post_init__(self):
         if self.transcription not in TRANSCRIPTIONS:
@@ -55,6 +74,8 @@ class SolverOptions:
             raise ValueError(f"degree must be >= 2 for lgl, got {self.degree}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
+        if self.accuracy is not None and not (0 < self.accuracy < 1):
+            raise ValueError(f"accuracy must lie in (0, 1) (a tip error in rod lengths/rad), got {self.accuracy}")
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -74,6 +74,8 @@ class EquilibriumResult:
     escaped_saddle: bool = False
     stats: Dict[str, object] = field(default_factory=dict)
     z: Optional[np.ndarray] = None  # raw node vector (warm starts)
+    #: a-posteriori estimate of the tip error (rod lengths) when an accuracy was asked for
+    error_estimate: Optional[float] = None
     #: callables filled by the solver; the diagnostics they compute are evaluated on first access
     _dense: Optional[Callable] = field(default=None, repr=False)
     _balance: Optional[Callable] = field(default=None, repr=False)
@@ -160,6 +162,7 @@ class EquilibriumResult:
             "gamma": self.gamma,
             "clamp_reaction": {"force": [float(v) for v in self.clamp_force], "moment": float(self.clamp_moment)},
             "el_residual": float(self.el_residual),
+            "error_estimate": None if self.error_estimate is None else float(self.error_estimate),
             "stationarity": float(self.stationarity),
             "eigenvalues": [float(v) for v in self.eigenvalues],
             "shape": {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
@@ -186,7 +189,8 @@ class EquilibriumResult:
             f"moment = {self.clamp_moment:.6g} [B0/l]",
             f"  stability   : {'STABLE' if self.stable else 'UNSTABLE'} (Morse index {self.morse_index}; "
             f"smallest eigenvalues {', '.join(f'{v:.6g}' for v in self.eigenvalues)})",
-            f"  accuracy    : EL residual {self.el_residual:.2e}, stationarity {self.stationarity:.2e}",
+            f"  accuracy    : EL residual {self.el_residual:.2e}, stationarity {self.stationarity:.2e}"
+            + ("" if self.error_estimate is None else f", estimated tip error {self.error_estimate:.2e} [l]"),
             f"  solver      : {self.options.transcription} (elements {self.options.elements}"
             + (f", degree {self.options.degree}" if self.options.transcription == "lgl" else "")
             + f"), {self.stats.get('method', '')}, {self.stats.get('iterations', '?')} iterations, "

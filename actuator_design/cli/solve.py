@@ -28,7 +28,7 @@ DEFAULTS = {"h": 1.0, "phi_deg": 45.0, "p": 0.0, "alpha_deg": 0.0}
 
 #: Solver flags and the SolverOptions field each overrides.
 _SOLVER_FLAGS = {"transcription": "--transcription", "elements": "--elements",
-                 "degree": "--degree", "method": "--method", "tol": "--tol"}
+                 "degree": "--degree", "method": "--method", "tol": "--tol", "accuracy": "--accuracy"}
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -56,8 +56,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     s.add_argument("--elements", type=int, metavar="N", help=f"number of elements (>= 1; default {d.elements})")
     s.add_argument("--degree", type=int, metavar="D",
                    help=f"polynomial degree per lgl element (>= 2; default {d.degree})")
-    s.add_argument("--method", choices=("ipopt", "newton"),
-                   help=f"ipopt: interior point; newton: damped Newton with IPOPT fallback (default {d.method})")
+    s.add_argument("--method", choices=("ipopt", "newton", "fast"),
+                   help=f"ipopt: interior point; newton: damped Newton with IPOPT fallback; fast: "
+                        f"low-overhead Newton (falls back to newton, then ipopt) (default {d.method})")
+    s.add_argument("--accuracy", type=finite_float, metavar="TOL",
+                   help="target tip accuracy in rod lengths, in (0, 1): picks the cheapest resolution "
+                        "that meets it and reports the estimated error (overrides --elements/--degree)")
     s.add_argument("--tol", type=finite_float, metavar="TOL",
                    help=f"tolerance on the stationarity residual, dimensionless, in (0, 1) (default {d.tol:g})")
     s.add_argument("--no-ensure-stable", dest="ensure_stable", action="store_false", default=None,
