@@ -1,0 +1,468 @@
+"""Critical values directly: folds by the augmented system, fold curves, and every critical point
+of a parameter window over all branches (THEORY §7–8).
+
+* :func:`locate_fold` — Newton on the Moore–Spence system
+  G(u, λ) = 0,  H(u, λ) v = 0,  cᵀ M v = 1  (2n + 1 equations in u, λ, v; M the lumped mass, c a
+  fixed guess of v): an equilibrium whose reduced Hessian is singular. Its Jacobian is regular at a
+  quadratic fold with ψᵀG_λ ≠ 0 (Moore & Spence 1980), so Newton converges quadratically.
+* :func:`fold_curve` — pseudo-arclength continuation of that system in a second parameter μ:
+  the critical curve λ_crit(μ), e.g. p_crit^(k)(h²) for φ = 0.
+* :func:`critical_points` — every fold and branch point in a window [a, b] of λ over all branches:
+  the equilibria are found (:func:`~.equilibria.find_equilibria`, complete up to resolution) at
+  ``n_samples`` values of λ spread over the window, every equilibrium not already on a traced
+  branch is continued both ways until the branch leaves the window, branches bifurcating at the
+  branch points found are followed too, and the critical points are deduplicated. The number of
+  equilibria on either side of each critical value is counted by the shooting scan at the middle
+  of each interval between consecutive critical values (where the count is constant).
+  A branch that exists only strictly between two sample values and is connected to no traced
+  branch (an isola) is missed; raise ``n_samples`` to rule that out.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+from ..options import SolverOptions
+from ..scene import Scene
+from .continuation import (Branch, Continuation, CriticalPoint, get_param, set_param,
+                           substituted_energy)
+from .equilibria import find_equilibria
+from .registry import register
+
+__all__ = ["fold_function", "locate_fold", "FoldCurve", "fold_curve", "CriticalResult",
+           "critical_points", "critical_curves", "count_equilibria"]
+
+_FOLD_CACHE: Dict[tuple, ca.Function] = {}
+
+
+def fold_function(cont: Continuation, second: Optional[str] = None) -> ca.Function:
+    """CasADi ``(u, λ, v, c, μ, P) -> (F, J, F_μ)`` of the Moore–Spence system
+    F = [g; H v; cᵀ M v − 1] in X = (u, λ, v), with J = ∂F/∂X dense and F_μ = ∂F/∂μ for a second
+    parameter ``second`` (μ is ignored when it is None). Cached per structure and names."""
+    solver = cont.solver
+    key = (solver.key, solver.transcription.structure(), cont.name, second)
+    fn = _FOLD_CACHE.get(key)
+    if fn is not None:
+        return fn
+    names = [cont.name] + ([second] if second else [])
+    u, lams, P, Er = substituted_energy(solver, names)
+    lam = lams[0]
+    mu = lams[1] if second else ca.SX.sym("mu_unused")
+    n = u.numel()
+    v, c = ca.SX.sym("v", n), ca.SX.sym("c", n)
+    g = ca.gradient(Er, u)
+    H = ca.jacobian(g, u)
+    M = ca.DM(solver.transcription.mass[1:])
+    F = ca.vertcat(g, ca.mtimes(H, v), ca.dot(c, M * v) - 1)
+    X = ca.vertcat(u, lam, v)
+    fn = ca.Function("fold", [u, lam, v, c, mu, P],
+                     [F, ca.densify(ca.jacobian(F, X)), ca.densify(ca.jacobian(F, mu))])
+    _FOLD_CACHE[key] = fn
+    return fn
+
+
+def _null_vector(cont: Continuation, u, lam):
+    _, H, _ = cont.ev(u, lam)
+    A = cont.Ms[:, None] * H * cont.Ms[None, :]
+    w, V = np.linalg.eigh(0.5 * (A + A.T))
+    k = int(np.argmin(np.abs(w)))
+    v = cont.Ms * V[:, k]
+    return v / math.sqrt(float(v @ (cont.mass * v)))
+
+
+def locate_fold(cont: Continuation, z, lam: float, v=None, *, mu: Optional[float] = None,
+                second: Optional[str] = None, max_iter: int = 30):
+    """Newton on the Moore–Spence system from an approximate fold (z, λ).
+
+    Parameters
+    ----------
+    cont : Continuation
+        Built for the fold's parameter λ (and the scene's other values).
+    z : ndarray, shape (n_nodes,)
+        Node vector near the fold.
+    lam : float
+    v : ndarray (n,), optional
+        Null-vector guess (default: the eigenvector of the eigenvalue of H closest to zero).
+    mu, second : float, str
+        Value of a second parameter (for fold curves).
+
+    Returns
+    -------
+    (z, λ, v, converged)
+        The fold's node vector, parameter value and null vector (cᵀMv = 1).
+    """
+    fn = fold_function(cont, second)
+    n = cont.n
+    u = np.asarray(z, float)[1:].copy()
+    if v is None:
+        v = _null_vector(cont, u, lam)
+    c = np.asarray(v, float) / float(v @ (cont.mass * v))
+    P = cont.P  # λ and μ enter the fold function symbolically
+    X = np.concatenate([u, [lam], v])
+    muv = 0.0 if mu is None else float(mu)
+    for _ in range(max_iter):
+        F, J, _ = fn(X[:n], X[n], X[n + 1:], c, muv, P)
+        F = np.asarray(F).ravel()
+        if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:2 * n])) <= 1e-9 \
+                and abs(F[-1]) <= 1e-12:
+            return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), True
+        try:
+            dX = np.linalg.solve(np.asarray(J), -F)
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(dX)):
+            break
+        X = X + dX
+    return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), False
+
+
+# -- fold curves --------------------------------------------------------------------------------
+@dataclass
+class FoldCurve:
+    """A fold continued in a second parameter: λ_crit(μ).
+
+    Attributes
+    ----------
+    param, second : str
+        λ (the folding parameter) and μ.
+    mu, lam : ndarray, shape (N,)
+    tip_angle : ndarray, shape (N,)
+        θ(1) at the fold (rad).
+    status : str
+    gamma : ndarray, shape (N,)
+        θ'(0) at the fold (1/ℓ).
+    """
+
+    param: str
+    second: str
+    mu: np.ndarray
+    lam: np.ndarray
+    tip_angle: np.ndarray
+    status: str
+    gamma: Optional[np.ndarray] = None
+
+    def to_dict(self) -> dict:
+        return {"param": self.param, "second": self.second, "points": [
+            {self.second: float(m), self.param: float(l), "tip_angle": float(a)}
+            for m, l, a in zip(self.mu, self.lam, self.tip_angle)], "status": self.status}
+
+
+def fold_curve(scene: Scene, param: str, second: str, z, lam: float, window: Sequence[float], *,
+               options: Optional[SolverOptions] = None, ds: float = 0.1, ds_max: float = 1.0,
+               max_points: int = 500, lam_window: Optional[Sequence[float]] = None) -> FoldCurve:
+    """Continue a fold of ``param`` (at (z, λ) for the value of ``second`` in ``scene``) in the
+    second parameter over ``window`` (both directions from the start), by pseudo-arclength on the
+    Moore–Spence system in Y = (u, λ, v, μ) with metric weights (M, 1, 0, 1).
+
+    Returns
+    -------
+    FoldCurve
+        Sorted by arclength; it stops where μ leaves ``window``, λ leaves ``lam_window``, at a
+        cusp where Newton fails (``status``), or after ``max_points``.
+    """
+    mu0 = get_param(scene, second)
+    cont = Continuation(scene, param, options)
+    fn = fold_function(cont, second)
+    n = cont.n
+    zf, lf, v, ok = locate_fold(cont, z, lam, mu=mu0, second=second)
+    if not ok:
+        raise RuntimeError(f"fold_curve: no fold of {param} near {param} = {lam:g}")
+    Wt = np.concatenate([cont.mass, [1.0], np.zeros(n), [1.0]])
+    lo, hi = min(window), max(window)
+    llo, lhi = (-np.inf, np.inf) if lam_window is None else (min(lam_window), max(lam_window))
+
+    def FJ(Y, c):
+        F, J, Fm = fn(Y[:n], Y[n], Y[n + 1:2 * n + 1], c, Y[-1], cont.P)  # μ enters symbolically
+        return np.asarray(F).ravel(), np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
+
+    def tangent(J, t_prev=None):
+        if t_prev is None:
+            _, _, Vt = np.linalg.svd(J)
+            t = Vt[-1]
+        else:
+            t = np.linalg.solve(np.vstack([J, t_prev * Wt]), np.eye(J.shape[1])[-1])
+        return t / math.sqrt(float(t @ (Wt * t)))
+
+    halves = []
+    Y0 = np.concatenate([zf[1:], [lf], v, [mu0]])
+    c0 = v / float(v @ (cont.mass * v))
+    _, J0 = FJ(Y0, c0)
+    t0 = tangent(J0)
+    status = "left_window"
+    for sgn in (1.0, -1.0):
+        Y, t, c, step = Y0.copy(), sgn * t0, c0.copy(), ds
+        pts = [Y.copy()]
+        while len(pts) < max_points:
+            Yp = Y + step * t
+            edge = None
+            if not lo <= Yp[-1] <= hi:  # land on the window's edge (μ fixed there), then stop
+                edge = hi if Yp[-1] > hi else lo
+                if abs(t[-1]) < 1e-12 or abs(Y[-1] - edge) < 1e-12:
+                    break
+                Yp = Y + ((edge - Y[-1]) / t[-1]) * t
+            row = t * Wt if edge is None else np.eye(Y.size)[-1]
+            Yn, conv = Yp.copy(), False
+            for _ in range(10):
+                F, J = FJ(Yn, c)
+                arc = float(row @ (Yn - Yp))
+                if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:])) <= 1e-9 \
+                        and abs(arc) <= 1e-10:
+                    conv = True
+                    break
+                try:
+                    dY = np.linalg.solve(np.vstack([J, row]), -np.append(F, arc))
+                except np.linalg.LinAlgError:
+                    break
+                if not np.all(np.isfinite(dY)) or np.max(np.abs(dY[:n + 1])) > 2.0:
+                    break
+                Yn = Yn + dY
+            if not conv:
+                step *= 0.5
+                if step < 1e-6:
+                    status = "newton_failed (a cusp or the end of the fold curve?)"
+                    break
+                continue
+            tn = tangent(J, t)
+            if not (lo - 1e-9 <= Yn[-1] <= hi + 1e-9 and llo <= Yn[n] <= lhi):
+                break
+            pts.append(Yn.copy())
+            if edge is not None:
+                break
+            Y, t = Yn, tn
+            vv = Y[n + 1:2 * n + 1]
+            c = vv / float(vv @ (cont.mass * vv))
+            step = min(1.5 * step, ds_max)
+        halves.append(pts)
+    Ys = np.array(halves[1][::-1] + halves[0][1:])
+    zs = np.column_stack([np.full(len(Ys), cont._theta0), Ys[:, :n]])
+    tips = np.asarray(cont.solver.f_tip.map(len(Ys))(zs.T, cont.P)[0], float).ravel()
+    dmu = np.diff(Ys[:, -1])
+    order = np.arange(len(Ys)) if np.all(dmu > 0) or not np.all(dmu < 0) else np.arange(len(Ys))[::-1]
+    gam = zs @ cont._gamma_row()
+    return FoldCurve(param, second, Ys[order, -1], Ys[order, n], tips[order], status, gam[order])
+
+
+# -- all critical points of a window ------------------------------------------------------------
+@dataclass
+class CriticalResult:
+    """Every fold and branch point of λ in a window over all traced branches.
+
+    Attributes
+    ----------
+    folds, branch_points : list of dict
+        Each with ``value`` (λ*), ``tip_angle``, ``equilibria_below`` and ``equilibria_above``
+        (number of equilibria just below / above λ*), ``located``, Morse indices.
+    branches : list of Branch
+    counts : list of dict
+        ``{"from", "to", "equilibria", "stable"}`` per interval between consecutive critical values.
+    """
+
+    param: str
+    window: tuple
+    folds: List[dict]
+    branch_points: List[dict]
+    branches: List[Branch]
+    counts: List[dict]
+    samples: List[float]
+    stats: dict
+    fold_points: List[CriticalPoint] = field(default_factory=list, repr=False)
+    branch_point_objects: List[CriticalPoint] = field(default_factory=list, repr=False)
+
+    def to_dict(self, branches: bool = False) -> dict:
+        """The ``critical --json`` contract: ``folds`` and ``branch_points`` with the parameter
+        value, the tip angle and the number of equilibria on either side."""
+        out = {"param": self.param, "window": list(self.window), "folds": self.folds,
+               "branch_points": self.branch_points, "counts": self.counts, "samples": self.samples,
+               "stats": self.stats}
+        if branches:
+            out["branches"] = [b.to_dict() for b in self.branches]
+        return out
+
+
+def count_equilibria(scene: Scene, options: Optional[SolverOptions] = None, **kw) -> Tuple[int, int]:
+    """(number of equilibria, number of stable ones) by :func:`~.equilibria.find_equilibria`."""
+    r = find_equilibria(scene, options, **kw)
+    return r.count, r.stable_count
+
+
+def _join(back: Branch, fwd: Branch) -> Branch:
+    """One branch from a backward half (reversed) and a forward half sharing their first point."""
+    cat = lambda a, b: np.concatenate([a[::-1][:-1], b]) if a.ndim == 1 else np.vstack([a[::-1][:-1], b])
+    br = Branch(fwd.param, cat(back.lam, fwd.lam), cat(back.z, fwd.z), cat(back.morse_index, fwd.morse_index),
+                cat(back.min_eig, fwd.min_eig), back.folds + fwd.folds, back.branch_points + fwd.branch_points,
+                f"{back.status} / {fwd.status}", f"{back.message} / {fwd.message}",
+                {k: back.stats.get(k, 0) + fwd.stats.get(k, 0) for k in fwd.stats}, cat(back.tips, fwd.tips),
+                cat(back.energy, fwd.energy), cat(back.gamma, fwd.gamma), fwd.origin)
+    return br
+
+
+def _on_branch(cont: Continuation, br: Branch, z, lam, tol=1e-6) -> bool:
+    """Whether the equilibrium (z, λ) lies on ``br``: every crossing of λ by the branch is
+    corrected by Newton at fixed λ and compared node-wise."""
+    L = br.lam
+    idx = np.flatnonzero((L[:-1] - lam) * (L[1:] - lam) <= 0)
+    for i in idx:
+        w = 0.0 if L[i + 1] == L[i] else (lam - L[i]) / (L[i + 1] - L[i])
+        guess = (1 - w) * br.z[i, 1:] + w * br.z[i + 1, 1:]
+        if np.max(np.abs(guess - z[1:])) > 0.5:
+            continue
+        u, ok, _ = cont.correct_fixed(guess, lam, max_iter=15)
+        if ok and np.max(np.abs(u - z[1:])) <= tol * max(1.0, np.max(np.abs(z))):
+            return True
+    return False
+
+
+def _dedupe(points: List[CriticalPoint], rtol=1e-7, atol_angle=1e-5) -> List[CriticalPoint]:
+    """Merge equal critical points; drop an unlocated one whose step interval contains a located
+    one of the same kind (e.g. a branch passing through a pitchfork's vertex)."""
+    located = [c for c in points if c.located]
+    points = located + [c for c in points if not c.located and not any(
+        o.kind == c.kind and c.interval is not None and c.interval[0] <= o.value <= c.interval[1]
+        for o in located)]
+    out: List[CriticalPoint] = []
+    for cp in sorted(points, key=lambda c: (c.value, c.tip["angle"])):
+        if any(o.kind == cp.kind and abs(o.value - cp.value) <= rtol * (1 + abs(cp.value))
+               and abs(o.tip["angle"] - cp.tip["angle"]) <= atol_angle for o in out):
+            continue
+        out.append(cp)
+    return out
+
+
+def critical_points(scene: Scene, param: str, window: Sequence[float], *,
+                    options: Optional[SolverOptions] = None, n_samples: int = 5,
+                    ds: float = 0.05, ds_max: float = 0.3, max_points: int = 3000,
+                    switch: bool = True) -> CriticalResult:
+    """Every fold and branch point of ``param`` in ``window`` over all branches (module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+        Uniform field (or none); the other parameters are fixed at their values here.
+    param : str
+        A key of :data:`~.continuation.PARAMETERS`.
+    window : (a, b)
+        Parameter interval, a < b.
+    n_samples : int
+        Values of λ (ends included) at which all equilibria are computed and continued.
+
+    Returns
+    -------
+    CriticalResult
+    """
+    t0 = time.perf_counter()
+    a, b = (float(v) for v in window)
+    if not b > a:
+        raise ValueError(f"window must be increasing, got ({a}, {b})")
+    if param == "h2" and a < 0:
+        raise ValueError(f"window: h2 must be >= 0, got {a}")
+    cont = Continuation(scene, param, options)
+    samples = list(np.linspace(a, b, max(2, int(n_samples))))
+    branches: List[Branch] = []
+    kw = dict(ds=ds, ds_max=ds_max, max_points=max_points)
+
+    def trace(x0, t0=None):
+        fwd = cont.run(x0, (a, b), direction=1.0, t0=t0, **kw)
+        back = cont.run(x0, (a, b), direction=-1.0, t0=None if t0 is None else -t0, **kw)
+        return _join(back, fwd)
+
+    def known(z, lam):
+        return any(_on_branch(cont, br, z, lam) for br in branches)
+
+    for lam in samples:
+        eqs = find_equilibria(cont.scene_at(lam), options)
+        for e in eqs.equilibria:
+            z = e.result.z
+            if known(z, lam):
+                continue
+            u, ok, _ = cont.correct_fixed(z[1:], lam)
+            if ok:
+                branches.append(trace(np.append(u, lam)))
+    if switch:
+        done = 0
+        while done < len(branches):
+            br = branches[done]
+            done += 1
+            for bp in _dedupe(br.branch_points):
+                for half in cont.switch(bp, (a, b), **kw):
+                    if len(half) and not known(half.z[0], half.lam[0]):
+                        branches.append(half)
+    folds = _dedupe([cp for br in branches for cp in br.folds])
+    bps = _dedupe([cp for br in branches for cp in br.branch_points])
+    # counts between consecutive critical values
+    vals = sorted({round(c.value, 9) for c in folds + bps})
+    edges = [a] + [v for v in vals if a < v < b] + [b]
+    counts = []
+    for lo_, hi_ in zip(edges[:-1], edges[1:]):
+        mid = 0.5 * (lo_ + hi_)
+        n_eq, n_st = count_equilibria(cont.scene_at(mid), options)
+        counts.append({"from": lo_, "to": hi_, "at": mid, "equilibria": n_eq, "stable": n_st})
+
+    def side_counts(v):
+        below = [c for c in counts if c["to"] <= v + 1e-9 * (1 + abs(v))]
+        above = [c for c in counts if c["from"] >= v - 1e-9 * (1 + abs(v))]
+        return (below[-1]["equilibria"] if below else None, above[0]["equilibria"] if above else None)
+
+    def rows(cps):
+        out = []
+        for cp in cps:
+            d = cp.to_dict()
+            d["equilibria_below"], d["equilibria_above"] = side_counts(cp.value)
+            out.append(d)
+        return out
+
+    stats = {"branches": len(branches), "points": int(sum(len(br) for br in branches)),
+             "time_s": time.perf_counter() - t0}
+    return CriticalResult(param, (a, b), rows(folds), rows(bps), branches, counts,
+                          [float(s) for s in samples], stats, folds, bps)
+
+
+def critical_curves(scene: Scene, param: str, second: str, window: Sequence[float],
+                    second_window: Sequence[float], *, options: Optional[SolverOptions] = None,
+                    n_starts: int = 3, n_samples: int = 5) -> List[FoldCurve]:
+    """Every fold curve λ_crit(μ) of ``param`` in ``window`` over μ = ``second`` in
+    ``second_window``: :func:`critical_points` at ``n_starts`` values of μ (ends included), each fold
+    not already on a curve continued by :func:`fold_curve` (e.g. p_crit^(k)(h²) for φ = 0).
+
+    Returns
+    -------
+    list of FoldCurve
+        Sorted by their λ at the first μ.
+    """
+    curves: List[FoldCurve] = []
+    a, b = (float(v) for v in window)
+    for mu in np.linspace(min(second_window), max(second_window), max(1, int(n_starts))):
+        sc = set_param(scene, second, mu)
+        cr = critical_points(sc, param, (a, b), options=options, n_samples=n_samples)
+        for cp in cr.fold_points:
+            on = False
+            for c in curves:
+                if c.mu.min() - 1e-9 <= mu <= c.mu.max() + 1e-9 and len(c.mu) > 1:
+                    o = np.argsort(c.mu)
+                    lam_c = np.interp(mu, c.mu[o], c.lam[o])
+                    ang_c = np.interp(mu, c.mu[o], c.tip_angle[o])
+                    if abs(lam_c - cp.value) <= 1e-3 * (1 + abs(cp.value)) and abs(ang_c - cp.tip["angle"]) < 1e-2:
+                        on = True
+                        break
+            if not on:
+                try:
+                    curves.append(fold_curve(sc, param, second, cp.z, cp.value, second_window,
+                                             options=options, lam_window=(a, b)))
+                except RuntimeError:
+                    continue
+    curves.sort(key=lambda c: c.lam[0])
+    return curves
+
+
+@register("critical")
+def run_critical(scene, options, **settings) -> dict:
+    """Settings: ``param``, ``window`` (a, b), optional ``n_samples``."""
+    try:
+        param, window = settings.pop("param"), settings.pop("window")
+    except KeyError as err:
+        raise ValueError(f"critical needs the setting {err.args[0]!r}") from None
+    return critical_points(scene, param, window, options=options, **settings).to_dict()

@@ -1,0 +1,157 @@
+"""Continue an equilibrium branch in one parameter (pseudo-arclength), with stability, folds and
+branch points.
+
+The equilibrium at --from A (the solver's stable one, or the straight rod with --straight) is
+followed through folds until the parameter leaves [min(A, B), max(A, B)]. Parameters (--param):
+h, h2 (= h^2), phi (rad), p (vertical tip load), fx, fy, m_tip, qx, qy, alpha (constant fibre
+angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter; branch points are
+where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
+phi = 90 deg, p = 0); --switch also follows the branches that bifurcate there.
+
+Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
+angles in rad (the --phi-deg and --alpha-deg flags take degrees).
+
+With CONFIG, its `study:` section (type: continuation; keys param, from, to, ds, ds_max,
+max_points, switch, straight and the scene values h, phi_deg, p, alpha_deg) and then the flags
+apply.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Literal
+
+from pydantic import Field
+
+from .common import EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir, finite_float, stdout_to_stderr
+from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, png_bytes,
+                         write_outputs)
+
+__all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
+
+HELP = "continue an equilibrium branch in one parameter (folds, branch points, stability)"
+
+PARAM_NAMES = ("h", "h2", "phi", "p", "fx", "fy", "m_tip", "qx", "qy", "alpha", "theta0")
+ParamName = Literal["h", "h2", "phi", "p", "fx", "fy", "m_tip", "qx", "qy", "alpha", "theta0"]
+
+
+class ContinuationStudy(StudyBase):
+    type: Literal["continuation"]
+    param: ParamName
+    start: float = Field(alias="from")
+    to: float
+    ds: float = Field(0.05, gt=0, le=10)
+    ds_max: float = Field(0.5, gt=0, le=100)
+    max_points: int = Field(2000, ge=2, le=10**6)
+    switch: bool = False
+    straight: bool = False
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``continue``."""
+    add_scene_args(parser)
+    c = parser.add_argument_group("continuation")
+    c.add_argument("--param", choices=PARAM_NAMES, help="the continuation parameter")
+    c.add_argument("--from", dest="start", type=finite_float, metavar="A", help="start value")
+    c.add_argument("--to", dest="stop", type=finite_float, metavar="B", help="end value")
+    c.add_argument("--ds", type=finite_float, help="initial arclength step (> 0; default 0.05)")
+    c.add_argument("--ds-max", type=finite_float, help="largest arclength step (> 0; default 0.5)")
+    c.add_argument("--max-points", type=int, help="at most this many points per branch (default 2000)")
+    c.add_argument("--switch", action="store_true", default=None,
+                   help="also follow the branches bifurcating at branch points")
+    c.add_argument("--straight", action="store_true", default=None,
+                   help="start from the straight rod (Newton, no saddle escape) instead of the stable state")
+    add_output_args(parser, "branch.json, branch.csv and branch.png")
+
+
+def _csv(res) -> str:
+    lines = [f"# branch in {res.param}; tip x, y in rod lengths l, angle in rad, energy in B0/l",
+             "branch,value,tip_angle,tip_x,tip_y,energy,morse_index,stable"]
+    for k, br in enumerate([res.branch] + res.secondary):
+        for i in range(len(br)):
+            lines.append(f"{k},{br.lam[i]!r},{br.tips[i, 0]!r},{br.tips[i, 1]!r},{br.tips[i, 2]!r},"
+                         f"{br.energy[i]!r},{int(br.morse_index[i])},{int(br.morse_index[i] == 0)}")
+    return "\n".join(lines) + "\n"
+
+
+def _pick(flag, study, key, default=None):
+    if flag is not None:
+        return flag
+    if study is not None:
+        return getattr(study, key)
+    return default
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``continue``."""
+    check_out_dir(args.out)
+    scene, options, raw, study = build_scene(args, ContinuationStudy, "continuation")
+    param = _pick(args.param, study, "param")
+    start = _pick(args.start, study, "start")
+    stop = _pick(args.stop, study, "to")
+    for flag, v in (("--param", param), ("--from", start), ("--to", stop)):
+        if v is None:
+            raise InputError(f"{flag}: required (or give it in the config's study section)")
+    if start == stop:
+        raise InputError(f"--from and --to must differ, got {start:g} twice")
+    ds = _pick(args.ds, study, "ds", 0.05)
+    ds_max = _pick(args.ds_max, study, "ds_max", 0.5)
+    max_points = _pick(args.max_points, study, "max_points", 2000)
+    if not ds > 0 or not ds_max > 0:
+        raise InputError(f"--ds, --ds-max: must be > 0, got {ds:g}, {ds_max:g}")
+    if max_points < 2:
+        raise InputError(f"--max-points: must be >= 2, got {max_points}")
+    switch = bool(_pick(args.switch, study, "switch", False))
+    straight = bool(_pick(args.straight, study, "straight", False))
+
+    from ..analysis.continuation import continue_branch, set_param
+    from ..io import dumps_json
+    import numpy as np
+
+    with bad_input(f"--param {param}: "):
+        set_param(scene, param, start)
+        set_param(scene, param, stop)
+    with stdout_to_stderr(args.json):
+        initial = None
+        if straight:  # the straight rod θ ≡ θ0 as the Newton start
+            from ..solver import get_solver
+            theta0 = start if param == "theta0" else scene.theta0
+            n = get_solver(set_param(scene, param, start), options).transcription.nodes.size
+            initial = np.full(n, theta0)
+        try:
+            res = continue_branch(scene, param, start, stop, options=options, initial=initial, ds=ds,
+                                  ds_max=ds_max, max_points=max_points, switch=switch)
+        except RuntimeError as err:
+            print(f"actuator-design: error: {err}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
+        except ValueError as err:
+            raise InputError(str(err)) from err
+    payload = res.to_dict()
+    if args.json:
+        print(dumps_json(payload))
+    else:
+        br = res.branch
+        print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g} to {br.lam[-1]:.6g} "
+              f"({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
+        for cp in br.folds:
+            print(f"  fold at {param} = {cp.value:.12g}, tip angle {cp.tip['angle']:+.8f} rad "
+                  f"(Morse index {cp.morse_before} -> {cp.morse_after})")
+        for cp in br.branch_points:
+            print(f"  branch point at {param} = {cp.value:.12g}, tip angle {cp.tip['angle']:+.8f} rad "
+                  f"(Morse index {cp.morse_before} -> {cp.morse_after})")
+        for s in res.secondary:
+            print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}")
+    if args.out is not None:
+        from ..plotting_landscape import plot_branches
+        with stdout_to_stderr(args.json):
+            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
+            files = {"branch.json": dumps_json({**res.to_dict(), "config": raw}, indent=1) + "\n",
+                     "branch.csv": _csv(res), "branch.png": png_bytes(ax)}
+        with bad_input(f"--out: cannot write to {args.out}: "):
+            paths = write_outputs(args.out, files)
+        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if res.branch.status == "step_too_small":
+        print(f"actuator-design: warning: the continuation stopped early: {res.branch.message}",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK

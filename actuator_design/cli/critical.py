@@ -1,0 +1,110 @@
+"""Find every fold and branch point of one parameter in a window, over all equilibrium branches.
+
+All equilibria are computed (complete shooting scan) at a few values of the parameter across the
+window, each is continued until its branch leaves the window, the branches bifurcating at branch
+points are followed too, and the critical points are located accurately (root of the reduced
+Hessian's eigenvalue along the branch) and deduplicated. Each is reported with the parameter value,
+the tip angle (rad) and the number of equilibria just below and above it (shooting counts between
+consecutive critical values). Parameters (--param) as for `continue`: h, h2, phi, p, fx, fy,
+m_tip, qx, qy, alpha, theta0 (angles in rad).
+
+Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
+angles in rad (the --phi-deg and --alpha-deg flags take degrees).
+
+With CONFIG, its `study:` section (type: critical; keys param, window [a, b], n_samples and the
+scene values h, phi_deg, p, alpha_deg) and then the flags apply.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Literal, Tuple
+
+from pydantic import Field, field_validator
+
+from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
+from .continue_ import PARAM_NAMES, ParamName
+from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, pair, png_bytes,
+                         write_outputs)
+
+__all__ = ["HELP", "add_args", "run", "CriticalStudy"]
+
+HELP = "every fold and branch point of a parameter window, over all branches"
+
+
+class CriticalStudy(StudyBase):
+    type: Literal["critical"]
+    param: ParamName
+    window: Tuple[float, float]
+    n_samples: int = Field(5, ge=2, le=200)
+
+    @field_validator("window")
+    @classmethod
+    def _increasing(cls, w):
+        if not w[0] < w[1]:
+            raise ValueError("must be increasing [a, b] with a < b")
+        return w
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``critical``."""
+    add_scene_args(parser)
+    c = parser.add_argument_group("critical points")
+    c.add_argument("--param", choices=PARAM_NAMES, help="the parameter")
+    c.add_argument("--window", type=pair, metavar="A,B", help="parameter window, A < B")
+    c.add_argument("--samples", type=int, metavar="N",
+                   help="parameter values where all equilibria are computed (>= 2; default 5)")
+    add_output_args(parser, "critical.json, critical.csv and critical.png")
+
+
+def _csv(res) -> str:
+    lines = [f"# critical points of {res.param}; tip angle in rad",
+             "kind,value,tip_angle,equilibria_below,equilibria_above,located"]
+    for d in res.folds + res.branch_points:
+        lines.append(f"{d['kind']},{d['value']!r},{d['tip_angle']!r},{d['equilibria_below']},"
+                     f"{d['equilibria_above']},{int(d['located'])}")
+    return "\n".join(lines) + "\n"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``critical``."""
+    check_out_dir(args.out)
+    scene, options, raw, study = build_scene(args, CriticalStudy, "critical")
+    param = args.param or (study.param if study else None)
+    window = args.window or (tuple(study.window) if study else None)
+    if param is None:
+        raise InputError("--param: required (or give it in the config's study section)")
+    if window is None:
+        raise InputError("--window: required as A,B (or give it in the config's study section)")
+    n_samples = args.samples if args.samples is not None else (study.n_samples if study else 5)
+    if n_samples < 2:
+        raise InputError(f"--samples: must be >= 2, got {n_samples}")
+
+    from ..analysis.continuation import set_param
+    from ..analysis.critical import critical_points
+    from ..io import dumps_json
+
+    with bad_input(f"--param {param}: "):
+        set_param(scene, param, window[0])
+        set_param(scene, param, window[1])
+    with stdout_to_stderr(args.json), bad_input():
+        res = critical_points(scene, param, window, options=options, n_samples=n_samples)
+    payload = res.to_dict()
+    if args.json:
+        print(dumps_json(payload))
+    else:
+        print(f"{param} in [{window[0]:g}, {window[1]:g}]: {len(res.folds)} fold(s), "
+              f"{len(res.branch_points)} branch point(s) over {res.stats['branches']} branch(es)")
+        for d in res.folds + res.branch_points:
+            print(f"  {d['kind']:12s} {param} = {d['value']:.12g}  tip angle {d['tip_angle']:+.8f} rad  "
+                  f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}")
+    if args.out is not None:
+        from ..plotting_landscape import plot_branches
+        with stdout_to_stderr(args.json):
+            ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
+            files = {"critical.json": dumps_json({**res.to_dict(branches=True), "config": raw}, indent=1) + "\n",
+                     "critical.csv": _csv(res), "critical.png": png_bytes(ax)}
+        with bad_input(f"--out: cannot write to {args.out}: "):
+            paths = write_outputs(args.out, files)
+        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    return EXIT_OK

@@ -1,0 +1,165 @@
+"""Find every equilibrium of a uniform-field cantilever, with its stability.
+
+The shooting parameter gamma = theta'(0) is bounded a priori (|gamma| <= h^2 + |p| for THEORY §5's
+scene; see actuator_design.analysis.equilibria); it is scanned on a grid that is refined until the
+number of sign changes of the free-end residual is stable, each root is refined and confirmed by
+the collocation NLP. Each equilibrium is reported with its tip (x, y in rod lengths, angle in rad),
+energy (B0/l), Morse index, stable flag, gamma (1/l) and whether the shape intersects itself.
+
+Without CONFIG the scene is THEORY §5's cantilever with h = 1, phi = 45 deg, p = 0, alpha = 0 deg;
+with CONFIG its `study:` section (type: equilibria; keys h, phi_deg, p, alpha_deg, n_gamma, method)
+and then the flags override it.
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+from pathlib import Path
+from typing import List, Literal, Optional, Tuple
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+                     finite_float, load_config, stdout_to_stderr)
+from .scene_args import add_scene_args as _add_scene_args, build_scene as _build_scene, validate_study
+
+__all__ = ["HELP", "add_args", "run", "add_scene_args", "build_scene", "validate_study",
+           "write_outputs", "pair", "StudyBase", "EquilibriaStudy"]
+
+HELP = "find all equilibria of a uniform-field scene (complete shooting scan + NLP)"
+
+#: Scene defaults without CONFIG (those of ``solve``).
+DEFAULTS = {"h": 1.0, "phi_deg": 45.0, "p": 0.0, "alpha_deg": 0.0}
+
+
+# -- shared by the landscape commands (equilibria, continue, critical, map) -----------------------
+class StudyBase(BaseModel):
+    """Scene values a study may set (flags override them)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, populate_by_name=True)
+    h: Optional[float] = Field(None, ge=0)
+    phi_deg: Optional[float] = None
+    p: Optional[float] = None
+    alpha_deg: Optional[float] = None
+
+
+class EquilibriaStudy(StudyBase):
+    type: Literal["equilibria"]
+    n_gamma: int = Field(401, ge=11, le=100001)
+    method: Literal["shooting", "deflation"] = "shooting"
+
+
+def add_scene_args(parser: argparse.ArgumentParser) -> None:
+    """CONFIG, --h, --phi-deg, --p, --alpha-deg (the fixed scene values; shared implementation)."""
+    _add_scene_args(parser, DEFAULTS, resolution=False)
+
+
+def build_scene(args, model, kind: str):
+    """(scene, options, raw config, study) from CONFIG, its study section and the flags."""
+    loaded = load_config(args.config) if args.config is not None else None
+    study = validate_study(loaded[2] if loaded else None, model, kind)
+    scene, options, raw = _build_scene(args, DEFAULTS, study, loaded)
+    return scene, options, raw, study
+
+
+def add_output_args(parser: argparse.ArgumentParser, what: str) -> None:
+    o = parser.add_argument_group("output")
+    o.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    o.add_argument("--out", metavar="DIR", help=f"write {what} into DIR (created if needed)")
+
+
+def pair(text: str) -> Tuple[float, float]:
+    """argparse type: ``A,B`` with finite A < B."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}: expected A,B")
+    a, b = (finite_float(p.strip()) for p in parts)
+    if not a < b:
+        raise argparse.ArgumentTypeError(f"invalid value {text!r}: need A < B")
+    return a, b
+
+
+def write_outputs(out_dir: str, files: dict) -> List[Path]:
+    """Write ``{name: str | bytes}`` atomically into ``out_dir`` (created only now)."""
+    from ..io import atomic_write
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, data in files.items():
+        binary = isinstance(data, (bytes, bytearray))
+        paths.append(atomic_write(out / name, (lambda fh, d=data: fh.write(d)), binary=binary))
+    return paths
+
+
+def png_bytes(ax) -> bytes:
+    from ..plotting_landscape import save_png
+    buf = io.BytesIO()
+    save_png(ax, buf)
+    return buf.getvalue()
+
+
+# -- the command --------------------------------------------------------------------------------
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``equilibria``."""
+    add_scene_args(parser)
+    m = parser.add_argument_group("method")
+    m.add_argument("--n-gamma", type=int, metavar="N",
+                   help="initial number of gamma samples (>= 11, refined until stable; default 401)")
+    m.add_argument("--method", choices=("shooting", "deflation"),
+                   help="shooting: complete scan (default); deflation: deflated Newton multistart")
+    add_output_args(parser, "equilibria.json, equilibria.csv and equilibria.png")
+
+
+def _csv(result) -> str:
+    lines = ["# units: tip x, y in rod lengths l; angle in rad; energy in B0/l; gamma = theta'(0) in 1/l",
+             "gamma,tip_x,tip_y,tip_angle,energy,morse_index,stable,self_intersecting"]
+    for e in result.equilibria:
+        lines.append(f"{e.gamma!r},{e.tip['x']!r},{e.tip['y']!r},{e.tip['angle']!r},{e.energy!r},"
+                     f"{e.morse_index},{int(e.stable)},{int(e.self_intersecting)}")
+    return "\n".join(lines) + "\n"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``equilibria``."""
+    check_out_dir(args.out)
+    scene, options, raw, study = build_scene(args, EquilibriaStudy, "equilibria")
+    n_gamma = args.n_gamma if args.n_gamma is not None else (study.n_gamma if study else 401)
+    if not 11 <= n_gamma <= 100001:
+        raise InputError(f"--n-gamma: must lie in [11, 100001], got {n_gamma}")
+    method = args.method or (study.method if study else "shooting")
+    from ..analysis.equilibria import find_equilibria, find_equilibria_deflation
+    from ..io import dumps_json
+
+    with stdout_to_stderr(args.json), bad_input():
+        if method == "shooting":
+            result = find_equilibria(scene, options, n_gamma=n_gamma)
+        else:
+            result = find_equilibria_deflation(scene, options)
+    payload = result.to_dict()
+    if args.json:
+        print(dumps_json(payload))
+    else:
+        print(f"{result.count} equilibria ({result.stable_count} stable) with theta'(0) in "
+              f"[{result.window[0]:.6g}, {result.window[1]:.6g}] ({method}; complete: {result.complete})")
+        for e in result.equilibria:
+            print(f"  gamma = {e.gamma:+.10f}  tip = ({e.tip['x']:.8f}, {e.tip['y']:.8f}), angle "
+                  f"{e.tip['angle']:+.8f} rad  energy {e.energy:.10g}  "
+                  + ("STABLE" if e.stable else f"unstable (Morse index {e.morse_index})")
+                  + ("  [self-intersecting]" if e.self_intersecting else ""))
+    if args.out is not None:
+        from ..plotting_landscape import plot_equilibria
+        with stdout_to_stderr(args.json):
+            files = {"equilibria.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
+                     "equilibria.csv": _csv(result), "equilibria.png": png_bytes(plot_equilibria(result))}
+        with bad_input(f"--out: cannot write to {args.out}: "):
+            paths = write_outputs(args.out, files)
+        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if result.failures:
+        print(f"actuator-design: warning: {len(result.failures)} shooting root(s) not confirmed by the NLP",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not result.complete and method == "shooting":
+        print("actuator-design: warning: the bracket count did not stabilise; raise --n-gamma",
+              file=sys.stderr)
+    return EXIT_OK

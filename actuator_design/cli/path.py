@@ -1,0 +1,279 @@
+"""Follow the stable equilibrium along a quasi-static loading path; report snaps and hysteresis.
+
+Ramp one parameter (--param NAME) through --schedule A,B,C,... or --from A --to B [--back]
+[--steps N]; the other values are fixed by CONFIG and the scene flags. The rod follows its stable
+equilibrium (warm-started Newton with adaptive steps); where it loses stability at a fold it snaps
+to the stable state it lands on (IPOPT from the fold pushed along its null mode). The report lists
+every jump (where, from which state to which, energy released), continuous bifurcations, whether
+the path is snap-free, and the hysteresis loop (width in the parameter, area in the
+(parameter, tip angle) plane).
+
+NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos (dimensionless, THEORY §5), phi_deg,
+alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
+THEORY §5's cantilever with h = 0, phi = 0, p = 0, alpha = 0 unless flags set them. A CONFIG may
+carry the settings in a section
+    study: {type: path, param: h, from: 0, to: 2, back: true, steps: 40}
+or  study: {type: path, schedule: [{h: 0, phi_deg: 60}, {h: 1.5, phi_deg: 60}, {h: 1.5, phi_deg: 120}]}
+(a list of settings of several parameters: a multi-parameter path); flags override it.
+
+Units: lengths (tip x, y) in rod lengths l, energies in B0/l, loads in B0/l^2 (moments B0/l),
+stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the command line and
+radians in the output.
+
+JSON (--json): one object with points (param, tip {x, y, angle}, energy, stable, min_eigenvalue,
+...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops}.
+--out DIR writes path.json, path.csv and path.png. Exit codes: 0 success, 2 bad input, 3 the path
+could not be followed to its end (the part computed is still reported).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import io as _io
+import math
+import sys
+from pathlib import Path
+from typing import Dict, List, Optional, Union
+
+from .scene_args import add_scene_args, build_scene, validate_study
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+                     finite_float, load_config, stdout_to_stderr)
+
+__all__ = ["HELP", "add_args", "run", "add_scene_flags", "scene_and_options", "study_settings",
+           "write_files"]
+
+HELP = "quasi-static loading path: follow the stable state, snaps, hysteresis"
+
+#: Scene values without CONFIG (THEORY §5's cantilever).
+DEFAULTS = {"h": 0.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
+
+#: Command-line names in degrees and the API name they map to.
+_DEGREE_NAMES = {"phi_deg": "phi", "alpha_deg": "alpha", "theta0_deg": "theta0"}
+
+
+# -- helpers shared by path, stiffness and phase ---------------------------------------------------
+def study_settings(raw: Optional[dict], kind: str, model):
+    """The CONFIG's ``study:`` section validated by ``model`` (``model()`` when absent)."""
+    return validate_study(raw, model, kind) or model()
+
+
+def add_scene_flags(parser: argparse.ArgumentParser, defaults: Dict[str, float]) -> None:
+    """The scene flags and the solver resolution flags (the shared implementation)."""
+    add_scene_args(parser, defaults, config=False)
+
+
+scene_and_options = build_scene  # (args, defaults, study, loaded) -> (scene, options, raw)
+
+
+def write_files(out_dir, files: Dict[str, Union[str, bytes]]) -> List[Path]:
+    """Create ``out_dir`` and write every (name → text or bytes) atomically (io.atomic_write)."""
+    from ..io import atomic_write
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, data in files.items():
+        binary = isinstance(data, bytes)
+        written.append(atomic_write(out / name, lambda fh, d=data: fh.write(d), binary=binary))
+    return written
+
+
+def csv_text(columns, rows, comment: str = "") -> str:
+    buf = _io.StringIO()
+    if comment:
+        buf.write(f"# {comment}\n")
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for r in rows:
+        w.writerow([repr(float(v)) if isinstance(v, float) else v for v in r])
+    return buf.getvalue()
+
+
+# -- the path command ------------------------------------------------------------------------------
+def _study_model():
+    from typing import List as L, Literal, Optional as O, Union as U
+
+    from pydantic import BaseModel, ConfigDict, Field, StrictBool
+
+    class PathStudy(BaseModel):
+        """``study: {type: path, ...}`` — the flags of ``actuator-design path``."""
+
+        model_config = ConfigDict(extra="forbid", populate_by_name=True)
+        type: Literal["path"] = "path"
+        param: O[str] = None
+        schedule: O[U[L[float], L[Dict[str, float]]]] = None
+        start: O[float] = Field(None, alias="from")
+        to: O[float] = None
+        back: StrictBool = False
+        steps: O[int] = Field(None, ge=1, le=100000)
+        max_step: O[float] = Field(None, gt=0, le=1)
+        h: O[float] = Field(None, ge=0)
+        phi_deg: O[float] = None
+        p: O[float] = None
+        alpha_deg: O[float] = None
+
+    return PathStudy
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``path``."""
+    parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
+                        help="scene (and optional `study: {type: path, ...}`); omit for the default scene")
+    g = parser.add_argument_group("path")
+    g.add_argument("--param", metavar="NAME",
+                   help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, phi_deg, alpha_deg, "
+                        "theta0_deg (degrees) or phi, alpha, theta0 (radians)")
+    g.add_argument("--schedule", metavar="A,B,C,...", help="values of NAME in order (e.g. up and back down)")
+    g.add_argument("--from", dest="start", type=finite_float, metavar="A", help="first value of NAME")
+    g.add_argument("--to", type=finite_float, metavar="B", help="turning value of NAME")
+    g.add_argument("--back", action="store_true", default=None, help="ramp back from B to A")
+    g.add_argument("--steps", type=int, metavar="N",
+                   help="at least N steps per ramp (default: adaptive, about 20 per path)")
+    add_scene_flags(parser, DEFAULTS)
+    o = parser.add_argument_group("output")
+    o.add_argument("--json", action="store_true", help="print exactly one JSON object on stdout")
+    o.add_argument("--out", metavar="DIR", help="write path.json, path.csv and path.png into DIR")
+
+
+def _schedule(args, study):
+    """(schedule for the API, name as given, factor API → given units, max_step)."""
+    from ..analysis.loading import PARAMETERS
+
+    steps = args.steps if args.steps is not None else study.steps
+    if steps is not None and steps < 1:
+        raise InputError(f"--steps: must be >= 1, got {steps}")
+    text = args.schedule
+    start = args.start if args.start is not None else study.start
+    to = args.to if args.to is not None else study.to
+    back = args.back if args.back is not None else study.back
+    sched_study = study.schedule if (text is None and args.start is None and args.to is None) else None
+    max_step = study.max_step
+    if sched_study and isinstance(sched_study[0], dict):  # multi-parameter schedule from the config
+        rows = []
+        for i, row in enumerate(sched_study):
+            conv = {}
+            for k, v in row.items():
+                name = _DEGREE_NAMES.get(k, k)
+                if name not in PARAMETERS:
+                    raise InputError(f"study.schedule[{i}].{k}: unknown parameter (allowed: "
+                                     f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
+                conv[name] = math.radians(v) if k in _DEGREE_NAMES else v
+            rows.append(conv)
+        return rows, None, 1.0, max_step
+    name = args.param or study.param
+    if name is None:
+        raise InputError("--param: required (or `study: {type: path, param: NAME}` in CONFIG)")
+    key = name.replace("-", "_")
+    api = _DEGREE_NAMES.get(key, key)
+    if api not in PARAMETERS:
+        raise InputError(f"--param: unknown parameter {name!r} (allowed: "
+                         f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
+    factor = math.pi / 180.0 if key in _DEGREE_NAMES else 1.0
+    if text is not None:
+        try:
+            values = [float(v) for v in text.split(",")]
+        except ValueError:
+            raise InputError(f"--schedule: expected comma-separated numbers, got {text!r}") from None
+    elif sched_study is not None:
+        values = [float(v) for v in sched_study]
+    else:
+        if start is None or to is None:
+            raise InputError("--schedule or both --from and --to: required")
+        values = [start, to] + ([start] if back else [])
+        if steps is not None:
+            max_step = 1.0 / steps
+    if len(values) < 2 or not all(math.isfinite(v) for v in values):
+        raise InputError(f"--schedule: need at least 2 finite values, got {values}")
+    if steps is not None and max_step is None:
+        max_step = 1.0 / steps
+    return [{api: v * factor} for v in values], name, factor, max_step
+
+
+def _scaled_dict(path, factor: float, name: Optional[str]) -> dict:
+    """path.to_dict() with the ramped parameter in the units it was given (degrees for *_deg)."""
+    d = path.to_dict()
+    if name is not None:
+        d["param"] = name
+        if factor != 1.0:
+            for item in d["points"] + d["jumps"] + d["bifurcations"]:
+                item["param"] /= factor
+            hy = d["hysteresis"]
+            hy["width"] /= factor
+            hy["area"] /= factor
+            for loop in hy.get("loops", []):
+                loop["width"] /= factor
+                loop["area"] /= factor
+                loop["jumps"] = [v / factor for v in loop["jumps"]]
+                for key in ("branch_before", "branch_between"):
+                    loop[key] = [[a / factor, b] for a, b in loop.get(key, [])]
+            d["param_unit"] = "deg"
+    return d
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``path``."""
+    check_out_dir(args.out)
+    study, loaded = _study_model()(), None
+    if args.config is not None:
+        loaded = load_config(args.config)
+        study = study_settings(loaded[2], "path", _study_model())
+    scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
+    schedule, name, factor, max_step = _schedule(args, study)
+
+    from ..analysis.loading import follow_path
+    from ..io import dumps_json
+
+    with stdout_to_stderr(args.json), bad_input():
+        path = follow_path(scene, options, schedule, max_step=max_step)
+    data = _scaled_dict(path, factor, name)
+    if args.json:
+        print(dumps_json(data))
+    else:
+        print(path.summary() if factor == 1.0 else _summary_deg(path, data))
+    if args.out is not None:
+        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
+            written = write_files(args.out, _render(path, data, raw, factor))
+        print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr if args.json else sys.stdout)
+    if not path.success:
+        print(f"actuator-design: warning: the path could not be followed to its end: {path.message}",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
+def _summary_deg(path, data) -> str:
+    lines = path.summary().splitlines()
+    lines = [ln for ln in lines if not ln.lstrip().startswith(("jump", "hysteresis", "continuous"))]
+    out = lines[:2]
+    for j in data["jumps"]:
+        out.append(f"  jump ({j['kind']}) at {data['param']} = {j['param']:.10g} deg: tip angle "
+                   f"{j['from']['tip']['angle']:.6f} -> {j['to']['tip']['angle']:.6f} rad, energy released "
+                   f"{j['energy_released']:.6g} B0/l")
+    for b in data["bifurcations"]:
+        out.append(f"  continuous bifurcation at {data['param']} = {b['param']:.10g} deg")
+    hy = data["hysteresis"]
+    if hy.get("loops"):
+        out.append(f"  hysteresis: width {hy['width']:.8g} deg, loop area {hy['area']:.6g} deg rad")
+    return "\n".join(out + lines[2:])
+
+
+def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]]:
+    """path.json, path.csv and path.png in memory."""
+    from ..io import dumps_json
+    from ..plotting_loading import path_figure, save_png
+
+    payload = dict(data)
+    payload["config"] = raw
+    cols = ["t", "param", "tip_x", "tip_y", "tip_angle", "energy", "stable", "min_eigenvalue",
+            "morse_index", "branch", "direction", "kind"] + [f"value_{n}" for n in path.names]
+    rows = [[p["t"], p["param"], p["tip"]["x"], p["tip"]["y"], p["tip"]["angle"], p["energy"],
+             p["stable"], p["min_eigenvalue"], p["morse_index"], p["branch"], p["direction"], p["kind"]]
+            + [p["values"][n] for n in path.names] for p in data["points"]]
+    png = _io.BytesIO()
+    xlabel = None if path.param is None else data["param"] + (" [deg]" if factor != 1.0 else "")
+    save_png(path_figure(path, xscale=1.0 / factor, xlabel=xlabel), png)
+    return {"path.json": dumps_json(payload, indent=1) + "\n",
+            "path.csv": csv_text(cols, rows, "units: tip x, y in rod lengths l; angles in rad; energy in "
+                                             "B0/l; param in the units of --param; value_* in API units "
+                                             "(rad for angles)"),
+            "path.png": png.getvalue()}

@@ -1,0 +1,97 @@
+"""Scene flags and study sections shared by the analysis commands (one implementation for all).
+
+Precedence of the dimensionless scene values (THEORY §5): command-line flags, then the CONFIG's
+``study:`` section, then the CONFIG's scene, then the command's defaults (without CONFIG).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from dataclasses import replace
+from typing import Dict, Optional
+
+from .common import InputError, bad_input, finite_float, load_config, nonnegative_float
+
+__all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene"]
+
+#: The dimensionless scene values a command line may set (angles in degrees).
+SCENE_KEYS = ("h", "phi_deg", "p", "alpha_deg")
+
+
+def add_scene_args(parser: argparse.ArgumentParser, defaults: Dict[str, float], *, config: bool = True,
+                   resolution: bool = True) -> None:
+    """CONFIG (optional positional), --h, --phi-deg, --p, --alpha-deg and --elements/--degree."""
+    if config:
+        parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
+                            help="scene, solver and study configuration (YAML); omit for THEORY §5's scene")
+    g = parser.add_argument_group("scene (dimensionless, THEORY §5; override CONFIG and its study)")
+    g.add_argument("--h", type=nonnegative_float, metavar="H",
+                   help=f"field group h >= 0 (default without CONFIG {defaults['h']:g})")
+    g.add_argument("--phi-deg", type=finite_float, metavar="DEG",
+                   help=f"uniform field angle, degrees (default without CONFIG {defaults['phi_deg']:g})")
+    g.add_argument("--p", type=finite_float, metavar="P",
+                   help=f"vertical dead tip load p, units of B0/l^2 (default without CONFIG {defaults['p']:g})")
+    g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
+                   help=f"constant fibre angle, degrees (default without CONFIG {defaults['alpha_deg']:g})")
+    if resolution:
+        s = parser.add_argument_group("solver (override CONFIG)")
+        s.add_argument("--elements", type=int, metavar="N", help="number of elements (>= 1)")
+        s.add_argument("--degree", type=int, metavar="D", help="polynomial degree per lgl element (>= 2)")
+
+
+def validate_study(raw_config: Optional[dict], model, kind: str):
+    """The CONFIG's ``study:`` section validated by the pydantic ``model`` (None when absent).
+
+    Raises
+    ------
+    InputError
+        ``study.type`` is not ``kind``, or a field is invalid: one line naming ``study.<field>``.
+    """
+    from pydantic import ValidationError
+
+    raw = (raw_config or {}).get("study")
+    if raw is None:
+        return None
+    if not isinstance(raw, dict):
+        raise InputError(f"study: expected a mapping with a 'type' key, got {type(raw).__name__}")
+    if raw.get("type") != kind:
+        raise InputError(f"study.type: expected '{kind}' for this command, got {raw.get('type')!r}")
+    try:
+        return model.model_validate(raw)
+    except ValidationError as err:
+        e = err.errors()[0]
+        loc = ".".join(str(p) for p in e["loc"])
+        if e["type"] == "extra_forbidden":
+            allowed = ", ".join(f.alias or n for n, f in model.model_fields.items())
+            msg = f"unknown key (allowed: {allowed})"
+        else:
+            msg = e["msg"].removeprefix("Value error, ")
+            msg = f"{msg[:1].lower()}{msg[1:]}, got {e.get('input')!r}"
+        raise InputError(f"study.{loc}: {msg}") from None
+
+
+def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
+    """``(scene, options, raw)`` from CONFIG (``loaded``: its ``load_config`` triple if already
+    read), the study's scene values and the flags (flags win); --elements/--degree if present."""
+    from ..options import SolverOptions
+    from ..scene import default_scene
+
+    vals = {k: getattr(study, k, None) for k in SCENE_KEYS} if study is not None else {}
+    for k in SCENE_KEYS:
+        if getattr(args, k, None) is not None:
+            vals[k] = getattr(args, k)
+    rad = lambda k: None if vals.get(k) is None else math.radians(vals[k])
+    if getattr(args, "config", None) is None:
+        raw, options = None, SolverOptions()
+        full = {k: defaults[k] if vals.get(k) is None else vals[k] for k in SCENE_KEYS}
+        with bad_input():
+            scene = default_scene(h=full["h"], phi=math.radians(full["phi_deg"]), p=full["p"],
+                                  alpha=math.radians(full["alpha_deg"]))
+    else:
+        scene, options, raw = loaded if loaded is not None else load_config(args.config)
+        with bad_input("cannot apply the scene values to CONFIG: "):
+            scene = scene.with_values(h=vals.get("h"), p=vals.get("p"), phi=rad("phi_deg"), alpha=rad("alpha_deg"))
+    changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k, None) is not None}
+    with bad_input("solver options: "):
+        options = replace(options, **changes)
+    return scene, options, raw

@@ -1,0 +1,155 @@
+"""Drawing the equilibrium landscape: pure, never solves (matplotlib, Agg when pyplot is unused).
+
+* :func:`plot_equilibria` — the shapes of all equilibria of a scene, stable solid, unstable dashed;
+* :func:`plot_branches` — parameter against tip angle for continued branches, stable solid,
+  unstable dashed, folds (circles) and branch points (squares) marked;
+* :func:`plot_multiplicity` — a multiplicity map (counts as colours) with critical curves overlaid;
+* :func:`save_png` — save any of them.
+
+Every function takes result objects of :mod:`actuator_design.analysis` (or their plain arrays) and
+an optional matplotlib ``Axes``; units are those of the results (rod lengths, rad, dimensionless
+parameters).
+"""
+from __future__ import annotations
+
+import math
+import sys
+from typing import Iterable, Optional, Sequence
+
+import numpy as np
+
+__all__ = ["new_axes", "plot_equilibria", "plot_branches", "plot_multiplicity", "save_png"]
+
+
+def new_axes(figsize=(6.4, 5.2)):
+    """Axes of a new figure that does not touch pyplot's global state."""
+    import matplotlib
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig.add_subplot()
+
+
+def save_png(ax, path, dpi: int = 150):
+    """Save the figure of ``ax`` as PNG to a path or binary file object."""
+    ax.figure.savefig(path, format="png", dpi=dpi)
+    return path
+
+
+def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200):
+    """Draw every equilibrium of an :class:`~actuator_design.analysis.equilibria.EquilibriaResult`.
+
+    Stable shapes solid, unstable dashed; the legend gives θ'(0), the Morse index and flags
+    self-intersecting shapes.
+    """
+    ax = ax or new_axes()
+    s = np.linspace(0.0, 1.0, points)
+    for k, e in enumerate(result.equilibria):
+        d = e.result.evaluate(s)
+        label = (f"γ = {e.gamma:.4g}, " + ("stable" if e.stable else f"index {e.morse_index}")
+                 + (", self-intersecting" if e.self_intersecting else ""))
+        ax.plot(d["x"], d["y"], lw=2.2 if e.stable else 1.4, ls="-" if e.stable else "--",
+                color=f"C{k % 10}", label=label)
+    ax.plot([0, math.cos(result.scene.theta0)], [0, math.sin(result.scene.theta0)], color="0.6",
+            ls=":", lw=1, label="undeformed")
+    ax.plot([0], [0], marker="s", color="k", ms=6)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+    g = result.scene.describe_groups()
+    ax.set_title(title or (f"{result.count} equilibria ({result.stable_count} stable): h = {g.get('h', 0):.4g}, "
+                           f"φ = {math.degrees(g.get('phi', 0.0)):.4g}°, p = {g.get('p', 0.0):.4g}"),
+                 fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    return ax
+
+
+def _segments(lam, y, stable):
+    """Split a branch into runs of equal stability (each run shares its end point with the next)."""
+    runs, start = [], 0
+    for k in range(1, len(lam) + 1):
+        if k == len(lam) or stable[k] != stable[start]:
+            end = min(k + 1, len(lam))
+            runs.append((lam[start:end], y[start:end], bool(stable[start])))
+            start = k
+    return runs
+
+
+def plot_branches(branches: Iterable, ax=None, param_label: Optional[str] = None,
+                  quantity: str = "tip_angle", title: Optional[str] = None, reference=None):
+    """Parameter against tip angle (or ``"tip_x"``, ``"tip_y"``, ``"energy"``) for branches.
+
+    Parameters
+    ----------
+    branches : iterable of Branch
+    reference : sequence of (x, y, label), optional
+        Reference curves (e.g. a closed form) drawn thin and black.
+    """
+    ax = ax or new_axes()
+    col = {"tip_angle": 0, "tip_x": 1, "tip_y": 2}
+    name = None
+    for k, br in enumerate(branches):
+        name = br.param
+        y = br.energy if quantity == "energy" else br.tips[:, col[quantity]]
+        for lam, yy, st in _segments(br.lam, y, br.morse_index == 0):
+            ax.plot(lam, yy, color=f"C{k % 10}", ls="-" if st else "--", lw=1.8 if st else 1.2)
+        for cp in br.folds:
+            v = cp.energy if quantity == "energy" else (cp.tip["angle"] if quantity == "tip_angle" else
+                                                         cp.tip["x" if quantity == "tip_x" else "y"])
+            ax.plot([cp.value], [v], "o", mfc="none", mec="k", ms=7)
+        for cp in br.branch_points:
+            v = cp.energy if quantity == "energy" else (cp.tip["angle"] if quantity == "tip_angle" else
+                                                         cp.tip["x" if quantity == "tip_x" else "y"])
+            ax.plot([cp.value], [v], "s", mfc="none", mec="r", ms=7)
+    for xr, yr, lab in (reference or []):
+        ax.plot(xr, yr, color="k", lw=0.7, ls=":", label=lab)
+    ax.plot([], [], color="0.3", ls="-", label="stable")
+    ax.plot([], [], color="0.3", ls="--", label="unstable")
+    ax.plot([], [], "o", mfc="none", mec="k", label="fold")
+    ax.plot([], [], "s", mfc="none", mec="r", label="branch point")
+    ax.set_xlabel(param_label or (name or "parameter"))
+    ax.set_ylabel({"tip_angle": "tip angle θ(1) [rad]", "tip_x": "x(1) / l", "tip_y": "y(1) / l",
+                   "energy": "energy [B0/l]"}[quantity])
+    if title:
+        ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="best")
+    return ax
+
+
+def plot_multiplicity(mmap, curves: Sequence = (), ax=None, stable: bool = False,
+                      title: Optional[str] = None):
+    """A multiplicity map (number of equilibria, or of stable ones) with critical curves.
+
+    Parameters
+    ----------
+    mmap : MultiplicityMap
+    curves : sequence of FoldCurve (or objects with ``mu``, ``lam``)
+        Drawn as lines in the (x, y) plane of the map: μ along x, λ along y (or swapped when the
+        curve's ``param`` is the map's x parameter).
+    stable : bool
+        Colour by the number of stable equilibria instead.
+    """
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    ax = ax or new_axes()
+    data = mmap.stable if stable else mmap.counts
+    vals = np.unique(data)
+    cmap = ListedColormap([f"C{k % 10}" for k in (2, 1, 8, 3, 4, 5, 6, 7, 9, 0)][:max(1, len(vals))])
+    bounds = np.append(vals - 0.5, vals[-1] + 0.5)
+    norm = BoundaryNorm(bounds, cmap.N)
+    mesh = ax.pcolormesh(mmap.x, mmap.y, data, shading="nearest", cmap=cmap, norm=norm, alpha=0.85)
+    cb = ax.figure.colorbar(mesh, ax=ax, ticks=vals)
+    cb.set_label("stable equilibria" if stable else "equilibria")
+    for k, c in enumerate(curves):
+        if getattr(c, "param", None) == mmap.x_param:
+            ax.plot(c.lam, c.mu, color="k", lw=1.6)
+        else:
+            ax.plot(c.mu, c.lam, color="k", lw=1.6, label="critical curves (folds)" if k == 0 else None)
+    ax.set_xlim(mmap.x.min(), mmap.x.max())
+    ax.set_ylim(mmap.y.min(), mmap.y.max())
+    ax.set_xlabel({"h2": "h²"}.get(mmap.x_param, mmap.x_param))
+    ax.set_ylabel({"h2": "h²"}.get(mmap.y_param, mmap.y_param))
+    ax.set_title(title or "number of " + ("stable " if stable else "") + "equilibria", fontsize=10)
+    if len(curves):
+        ax.legend(fontsize=8, loc="upper left")
+    return ax

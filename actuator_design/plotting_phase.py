@@ -1,0 +1,78 @@
+"""Phase portraits (θ, θ'): pure drawing from a :class:`~actuator_design.analysis.phase.PhasePortrait`.
+
+Level lines of the first integral H in grey, the equilibria's trajectories highlighted (stable solid,
+unstable dashed), the start line θ = θ0 and the end line θ' = m/b, as in the paper's phase-diagram
+figures.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+
+__all__ = ["plot_phase", "phase_figure", "save_phase_png"]
+
+
+def _title(portrait) -> str:
+    sc = portrait.scene
+    parts = [f"h = {sc.h:.4g}", f"φ = {math.degrees(sc.phi):.4g}°", f"p = {sc.p:.4g}"]
+    if sc.fibres.value:
+        parts.append(f"α = {math.degrees(sc.fibres.value):.4g}°")
+    n, ns = len(portrait.trajectories), sum(t.stable for t in portrait.trajectories)
+    return ", ".join(parts) + f" — {n} equilibria ({ns} stable)"
+
+
+def plot_phase(portrait, ax=None, title: str = None, legend: bool = True):
+    """Draw one phase portrait into ``ax`` (a new Agg figure when omitted); returns the axes."""
+    if ax is None:
+        fig, axes = _figure(1)
+        ax = axes[0]
+    ax.contour(portrait.theta, portrait.dtheta, portrait.H, levels=portrait.levels, colors="0.7",
+               linewidths=0.6, linestyles="solid")
+    ax.axvline(portrait.theta0, color="k", lw=0.9, ls=":")
+    ax.axhline(portrait.end_dtheta, color="k", lw=0.9, ls=":")
+    for i, t in enumerate(portrait.trajectories):
+        c = f"C{i % 10}"
+        ax.plot(t.theta, t.dtheta, color=c, lw=2.2, ls="-" if t.stable else "--",
+                label=(f"θ(1) = {t.tip_angle:.3f}, " + ("stable" if t.stable else f"unstable (index {t.morse_index})")
+                       + (", self-intersecting" if t.self_intersecting else "")))
+        ax.plot([t.theta[0]], [t.dtheta[0]], "o", color=c, ms=4.5)
+        ax.plot([t.theta[-1]], [t.dtheta[-1]], "s", color=c, ms=4.5)
+    ax.set_xlim(portrait.theta[0], portrait.theta[-1])
+    ax.set_ylim(portrait.dtheta[0], portrait.dtheta[-1])
+    ax.set_xlabel("θ [rad]")
+    ax.set_ylabel("θ' = κ [rad/l]")
+    ax.set_title(title or _title(portrait), fontsize=9)
+    if legend and portrait.trajectories:
+        ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
+    return ax
+
+
+def _figure(n):
+    import matplotlib
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    ncols = min(n, 2)
+    nrows = int(math.ceil(n / ncols))
+    fig = Figure(figsize=(6.6 * ncols, 5.2 * nrows), layout="constrained")
+    return fig, np.atleast_1d(fig.subplots(nrows, ncols)).ravel()
+
+
+def phase_figure(portraits, titles=None):
+    """A figure with one panel per portrait (a single portrait or a list)."""
+    if not isinstance(portraits, (list, tuple)):
+        portraits = [portraits]
+    fig, axes = _figure(len(portraits))
+    for i, p in enumerate(portraits):
+        plot_phase(p, ax=axes[i], title=None if titles is None else titles[i])
+    for ax in axes[len(portraits):]:
+        ax.set_visible(False)
+    return fig
+
+
+def save_phase_png(portraits, path, titles=None, dpi: int = 150):
+    """Draw :func:`phase_figure` and save it as PNG to ``path`` (a path or a binary file object)."""
+    phase_figure(portraits, titles).savefig(path, format="png", dpi=dpi)
+    return path

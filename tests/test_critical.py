@@ -1,0 +1,90 @@
+"""Critical values directly (analysis.critical) against independent references.
+
+References: the fold loads of the cantilever by the independent shooting solver (r = 0 and
+∂r/∂γ = 0, ∂r/∂γ from its variational equation), at h² = 0 and along the critical curve
+p_crit(h²) for φ = 0; the pitchforks h_crit^(m) and the counts 2m + 1 of THEORY §6.
+"""
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import fsolve
+
+from actuator_design.analysis import registry
+from actuator_design.analysis.continuation import Continuation
+from actuator_design.analysis.critical import critical_points, fold_curve, locate_fold
+from actuator_design.reference.closed_forms import critical_field_transverse
+from actuator_design.reference.shooting import ShootingParams, shoot
+from actuator_design.scene import default_scene
+
+
+def reference_fold(p_guess, gamma_guess, h=0.0):
+    def F(x):
+        s = shoot(x[0], ShootingParams(h=h, fy=x[1]), variational=True)
+        return [s.residual, s.dresidual]
+    sol, _, ier, msg = fsolve(F, [gamma_guess, p_guess], xtol=1e-13, full_output=True)
+    assert ier == 1, msg
+    return sol[1], sol[0]
+
+
+@pytest.fixture(scope="module")
+def elastica_critical():
+    return critical_points(default_scene(h=0.0, p=0.0), "p", (0.0, 60.0))
+
+
+def test_all_folds_of_the_elastica_window(elastica_critical):
+    """Exactly two folds in p ∈ [0, 60], at the shooting values, with 1 → 3 → 5 equilibria."""
+    r = elastica_critical
+    assert not r.branch_points
+    assert len(r.folds) == 2
+    p1, _ = reference_fold(10.3, -2.8)
+    p2, _ = reference_fold(51.0, -3.7)
+    assert r.folds[0]["value"] == pytest.approx(p1, abs=1e-7)
+    assert r.folds[1]["value"] == pytest.approx(p2, abs=1e-6)
+    assert (r.folds[0]["equilibria_below"], r.folds[0]["equilibria_above"]) == (1, 3)
+    assert (r.folds[1]["equilibria_below"], r.folds[1]["equilibria_above"]) == (3, 5)
+    for d in r.folds:
+        assert {"value", "tip_angle", "equilibria_below", "equilibria_above"} <= set(d)
+
+
+def test_moore_spence_newton_from_a_rough_guess(elastica_critical):
+    """The augmented system (G = 0, H v = 0, cᵀMv = 1) converges from a point 0.3 away in p."""
+    cp = elastica_critical.fold_points[0]
+    cont = Continuation(default_scene(h=0.0, p=0.0), "p")
+    z, lam, v, ok = locate_fold(cont, cp.z * 1.02, cp.value + 0.3)
+    assert ok
+    p1, _ = reference_fold(10.3, -2.8)
+    assert lam == pytest.approx(p1, abs=1e-7)
+    _, H, _ = cont.ev(z[1:], lam)
+    assert np.max(np.abs(H @ v)) < 1e-8 * np.max(np.abs(H))
+
+
+def test_fold_curve_against_shooting(elastica_critical):
+    """p_crit^(1)(h²) continued in h² ∈ [0, 20] matches the shooting fold at h² = 10 and 20."""
+    cp = elastica_critical.fold_points[0]
+    fc = fold_curve(default_scene(h=0.0, p=0.0), "p", "h2", cp.z, cp.value, (0.0, 20.0))
+    assert fc.mu[0] == pytest.approx(0.0) and fc.mu[-1] == pytest.approx(20.0)
+    # the field lowers the critical load overall (paper, Fig. pmin_vs_chi) — though not
+    # monotonically: p_crit^(1) first rises slightly, to ≈ 10.329 near h² ≈ 0.25 (checked below)
+    assert fc.lam[-1] < fc.lam[0] - 4
+    k = int(np.argmax(fc.lam))
+    assert 0 < fc.mu[k] < 1 and fc.lam[k] > fc.lam[0] + 1e-3
+    p_ref, _ = reference_fold(fc.lam[k], fc.gamma[k], h=math.sqrt(fc.mu[k]))
+    assert fc.lam[k] == pytest.approx(p_ref, abs=1e-7)
+    for k in (len(fc.mu) // 2, len(fc.mu) - 1):  # the shooting fold nearest to this one
+        p_ref, g_ref = reference_fold(fc.lam[k], fc.gamma[k], h=math.sqrt(fc.mu[k]))
+        assert fc.lam[k] == pytest.approx(p_ref, abs=1e-7)
+        assert fc.gamma[k] == pytest.approx(g_ref, abs=1e-3)
+
+
+def test_transverse_window_over_all_branches():
+    """φ = π/2, h ∈ [0, 4]: the two pitchforks (closed form) with 1 → 3 → 5 equilibria; the
+    mirror branches through them are not reported as extra points."""
+    r = critical_points(default_scene(h=0.0, phi=math.pi / 2), "h", (0.0, 4.0), n_samples=3)
+    assert not r.folds
+    assert len(r.branch_points) == 2
+    for m, d in enumerate(r.branch_points, start=1):
+        assert d["value"] == pytest.approx(critical_field_transverse(m), abs=1e-8)
+        assert abs(d["tip_angle"]) < 1e-10
+        assert (d["equilibria_below"], d["equilibria_above"]) == (2 * m - 1, 2 * m + 1)
+    assert registry.get("critical")  # registered
