@@ -655,12 +655,13 @@ class PhysicalScene(_Model):
 
     def to_scene(self, name: Optional[str] = None) -> Scene:
         length, area, b0 = self.rod.length, self.rod.cross_section_area, self.rod.clamp_stiffness
-        field, h0, h, h_pos = None, 0.0, 0.0, 0.0
+        field, h0, h, h_pos, h_per_field = None, 0.0, 0.0, 0.0, 0.0
         if self.field is not None:
             field, h0 = self.field.to_field(length)
             chi_bar, chi_hat = self.magnetics.susceptibilities()
             h = magnetic_group(chi_bar, h0, area, length, b0)
             h_pos = magnetic_group(chi_hat, h0, area, length, b0)
+            h_per_field = magnetic_group(chi_bar, 1.0, area, length, b0)  # h is proportional to H0
         self._check_assumptions(field, h0)
         loads = self.loads or Loads()
         force, line = length**2 / b0, length**3 / b0
@@ -672,7 +673,7 @@ class PhysicalScene(_Model):
             tip_moment=None if loads.tip_moment is None else loads.tip_moment * length / b0,
             distributed_load=None if q is None else (q[0] * line, q[1] * line),
             theta0=self.clamp.angle if self.clamp else 0.0,
-            scales=Scales(length=length, bending_stiffness=b0, field=h0),
+            scales=Scales(length=length, bending_stiffness=b0, field=h0, h_per_field=h_per_field),
             name=name or "physical cantilever")
 
     def _check_assumptions(self, field, h0: float) -> None:
@@ -700,10 +701,14 @@ class SolverSpec(_Model):
     transcription: Literal["lgl", "midpoint"] = _DEFAULTS.transcription
     elements: Annotated[StrictInt, Field(ge=1)] = _DEFAULTS.elements
     degree: Annotated[StrictInt, Field(ge=2, le=60)] = _DEFAULTS.degree
-    method: Literal["ipopt", "newton"] = _DEFAULTS.method
+    method: Literal["ipopt", "newton", "fast"] = _DEFAULTS.method
     tol: Q("dimensionless", gt=0, lt=1) = _DEFAULTS.tol
     max_iter: Annotated[StrictInt, Field(ge=1)] = _DEFAULTS.max_iter
     ensure_stable: StrictBool = _DEFAULTS.ensure_stable
+    jit: StrictBool = False
+    #: target tip accuracy (rod lengths): the cheapest resolution that meets it is chosen from an
+    #: a-posteriori estimate with two resolutions (``actuator_design.accuracy``)
+    accuracy: Optional[Q("dimensionless", gt=0, lt=1)] = None
 
     def to_options(self) -> SolverOptions:
         return SolverOptions(**self.model_dump())

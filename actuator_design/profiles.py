@@ -12,7 +12,7 @@ import numpy as np
 
 from .expressions import Expression
 
-__all__ = ["Profile", "constant_profile", "table_profile", "expression_profile"]
+__all__ = ["Profile", "constant_profile", "table_profile", "expression_profile", "legendre_profile"]
 
 
 @dataclass(frozen=True)
@@ -21,11 +21,13 @@ class Profile:
 
     Attributes
     ----------
-    kind : {"constant", "table", "expression"}
+    kind : {"constant", "table", "expression", "legendre"}
     value : float
         The constant (``kind == "constant"``).
     s, values : tuple of float
         Table nodes (strictly increasing, covering [0, 1]) and values, linearly interpolated.
+        For ``kind == "legendre"``, ``values`` are the coefficients c_k of
+        Σ c_k P_k(2s − 1) (a smooth designed layout, evaluated exactly).
     expression : str
         An expression in ``s`` (``kind == "expression"``).
     """
@@ -43,6 +45,8 @@ class Profile:
             return np.full(s.shape, float(self.value))
         if self.kind == "table":
             return np.interp(s, np.asarray(self.s), np.asarray(self.values))
+        if self.kind == "legendre":
+            return np.polynomial.legendre.legval(2.0 * s - 1.0, np.asarray(self.values, float))
         if self.kind == "expression":
             out = Expression(self.expression, ("s",)).evaluate({"s": s})
             return np.broadcast_to(np.asarray(out, dtype=float), s.shape).copy()
@@ -57,6 +61,8 @@ class Profile:
             return {"type": "constant", "value": self.value}
         if self.kind == "table":
             return {"type": "table", "s": list(self.s), "values": list(self.values)}
+        if self.kind == "legendre":
+            return {"type": "legendre", "coefficients": list(self.values)}
         return {"type": "expression", "expression": self.expression}
 
 
@@ -66,6 +72,11 @@ def constant_profile(value: float) -> Profile:
 
 def table_profile(s, values) -> Profile:
     return Profile(kind="table", s=tuple(float(v) for v in s), values=tuple(float(v) for v in values))
+
+
+def legendre_profile(coefficients) -> Profile:
+    """Σ c_k P_k(2s − 1): the smooth few-parameter layouts that design produces."""
+    return Profile(kind="legendre", values=tuple(float(c) for c in coefficients))
 
 
 def expression_profile(text: str) -> Profile:

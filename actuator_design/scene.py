@@ -96,11 +96,15 @@ class Scales:
         B0 = E I at the clamp, N m².
     field : float
         H0, A/m (0 when the scene has no field).
+    h_per_field : float
+        dh/dH0 = √(μ0 χ̄ A ℓ² / (2 B0)), per A/m: converts a designed h to a field even when the
+        scene's own field is zero (0 when unknown).
     """
 
     length: float
     bending_stiffness: float
     field: float = 0.0
+    h_per_field: float = 0.0
 
     @property
     def force(self) -> float:
@@ -127,6 +131,7 @@ class Scales:
             "length_m": self.length,
             "bending_stiffness_Nm2": self.bending_stiffness,
             "field_A_per_m": self.field,
+            "h_per_field_per_A_per_m": self.h_per_field,
             "force_N": self.force,
             "moment_Nm": self.moment,
             "energy_J": self.moment,

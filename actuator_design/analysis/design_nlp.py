@@ -1,0 +1,374 @@
+"""The inverse-design NLP: equilibrium, stability and bounds as constraints on a design.
+
+One CasADi NLP per (scene structure, design variables, fibre-series length):
+
+    variables   x = (θ_1 … θ_n, d)         θ at the free nodes; d = (h, φ, c_0 … c_K, p) as chosen
+    equilibrium ∇Ê(θ; P(d)) / m = 0         the forward transcription's stationarity (THEORY §4–5)
+    stability   pivots of M^-½ H_r M^-½ − μ I ≥ 0
+                                            an LDLᵀ certificate that λ_min(H_r, M) ≥ μ (THEORY §7)
+    tip         tip(θ) − target ∈ [lo, hi]  free in stage A, pinned in stage B
+    bounds      0 ≤ h ≤ h_max, |α(s_q)| ≤ α_max at the quadrature points, |p| ≤ p_max
+    objective   w_tip·½|W (tip − target)|² + w_eff·effort
+
+Stage A (w_tip = 1, tiny w_eff, tip free) finds the nearest reachable pose; stage B (w_tip = 0,
+w_eff = 1, tip pinned) finds the least-effort design that reaches it. The numbers (target, weights,
+margin, bounds) are NLP parameters or bounds, so every multi-start and both stages share one build.
+The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-parameter layout).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+from ..options import SolverOptions
+from ..profiles import constant_profile, legendre_profile
+from ..scene import Scene, UniformField
+from ..solver import EquilibriumSolver, get_solver
+
+__all__ = ["DESIGN_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
+
+#: Design variables a user may vary, and what each means.
+DESIGN_VARIABLES = {
+    "h": "field magnitude (group h, THEORY §5)",
+    "phi": "field angle (rad)",
+    "alpha": "fibre layout α(s), a Legendre series",
+    "p": "vertical tip load (units of B0/l^2)",
+}
+
+_CACHE: Dict[tuple, "DesignNLP"] = {}
+
+
+@dataclass
+class DesignPoint:
+    """One local optimum of the design NLP (values of the design NLP's own state)."""
+
+    h: float
+    phi: float
+    coefficients: np.ndarray  # Legendre coefficients of α(s); length K+1 (K = -1: α unchanged)
+    p: float
+    z: np.ndarray  # θ at all nodes
+    tip: np.ndarray  # (x, y, angle)
+    converged: bool
+    status: str
+    stage: str
+
+
+def _ldl_pivots(A: ca.SX, bandwidth: int) -> List[ca.SX]:
+    """Pivots D_j of A = L D Lᵀ (no pivoting) for a symmetric matrix with the given bandwidth.
+
+    All pivots > 0 ⇔ A positive definite (Sylvester); entries outside the band stay zero in L.
+    """
+    n = A.shape[0]
+    L = [[None] * n for _ in range(n)]
+    D: List[ca.SX] = []
+    for j in range(n):
+        lo = max(0, j - bandwidth)
+        dj = A[j, j] - sum((L[j][k] ** 2 * D[k] for k in range(lo, j)), ca.SX(0))
+        D.append(dj)
+        for i in range(j + 1, min(n, j + bandwidth + 1)):
+            lo_i = max(0, i - bandwidth)
+            acc = A[i, j] - sum((L[i][k] * L[j][k] * D[k] for k in range(max(lo, lo_i), j)), ca.SX(0))
+            L[i][j] = acc / dj
+    return D
+
+
+class DesignNLP:
+    """The design NLP for one scene structure and one set of design variables.
+
+    Parameters
+    ----------
+    scene : Scene
+        Base scene; values not designed stay as given. Must have a uniform field to vary ``phi``
+        and a tip force to vary ``p`` (``prepare_scene`` adds one).
+    vary : sequence of str
+        Subset of :data:`DESIGN_VARIABLES`.
+    options : SolverOptions
+        Forward transcription (the design satisfies exactly its equilibrium equations).
+    alpha_terms : int
+        Number of Legendre coefficients of α(s) when ``"alpha"`` is varied.
+    """
+
+    def __init__(self, scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int = 4):
+        t0 = time.perf_counter()
+        self.vary = tuple(v for v in DESIGN_VARIABLES if v in vary)
+        self.alpha_terms = int(alpha_terms) if "alpha" in self.vary else 0
+        self.options = options
+        self.solver: EquilibriumSolver = get_solver(scene, options)
+        sv = self.solver
+        lay = sv.layout
+        tr = sv.transcription
+        n = tr.nodes.size - 1
+        self.n = n
+
+        # design vector d and its named slices
+        sizes = {"h": 1, "phi": 1, "alpha": self.alpha_terms, "p": 1}
+        self.dslices, off = {}, 0
+        for v in self.vary:
+            self.dslices[v] = slice(off, off + sizes[v])
+            off += sizes[v]
+        self.nd = off
+        zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
+        P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
+        P = ca.SX(P0)
+        if "h" in self.vary:
+            P[lay.slices["h"]] = d[self.dslices["h"]]
+        if "phi" in self.vary:
+            P[lay.slices["phi"]] = d[self.dslices["phi"]]
+        if "p" in self.vary:
+            P[lay.slices["fy"]] = d[self.dslices["p"]]
+        self.vandermonde = None
+        if "alpha" in self.vary:
+            V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
+            self.vandermonde = V
+            P[lay.slices["alpha"]] = ca.mtimes(ca.DM(V), d[self.dslices["alpha"]])
+
+        E, g, H = sv.f_grad_hess(zr, P)
+        m = tr.mass[1:]
+        theta0 = P0[lay.slices["theta0"]]
+        tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
+
+        target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
+        w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
+        margin = ca.SX.sym("margin")
+        effort = 0
+        if "h" in self.vary:
+            effort += d[self.dslices["h"]] ** 2
+        if "p" in self.vary:
+            effort += d[self.dslices["p"]] ** 2
+        if "alpha" in self.vary:
+            c = d[self.dslices["alpha"]]
+            k = np.arange(self.alpha_terms, dtype=float)
+            # smoothness: ∫ α'² ds grows like k² c_k²; penalise variation, not the mean angle
+            effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
+        err = weights * (tip - target)
+        # rate of change against the previous design (field schedules through waypoints)
+        d_prev, w_rate = ca.SX.sym("d_prev", self.nd), ca.SX.sym("w_rate")
+        f = w_tip * 0.5 * ca.dot(err, err) + w_eff * effort + w_rate * ca.sumsqr(d - d_prev)
+
+        # tip compliance dy(1)/dfy by the implicit function theorem: H w = −∂g/∂fy, c = ∂y(1)/∂θ · w
+        # (built into the NLP only for stiffness targets; needs a tip-force term in the scene)
+        self.has_tip_force = "fy" in lay.slices
+        if self.has_tip_force:
+            # differentiate at the actual fy in P (a designed p overwrites the base value's slot)
+            fy = lay.slices["fy"]
+            P_free = ca.SX.sym("P_free", lay.size)
+            g_free = sv.f_grad_hess(zr, P_free)[1]
+            dg_dfy = ca.substitute(ca.jacobian(g_free, P_free)[:, fy.start], P_free, P)
+            w_sens = ca.SX.sym("w_sens", n)
+            compliance = ca.dot(ca.gradient(tip[1], zr), w_sens)
+            stiffness_target = ca.SX.sym("stiffness_target")
+            sens_rows = (ca.mtimes(H, w_sens) + dg_dfy) / ca.DM(m)
+
+        alpha_rows = []
+        if "alpha" in self.vary:
+            alpha_rows = [ca.mtimes(ca.DM(self.vandermonde), d[self.dslices["alpha"]])]
+        self.n_alpha_rows = self.vandermonde.shape[0] if alpha_rows else 0
+        self._parts = dict(x=ca.vertcat(zr, d),
+                           p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
+                           eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows),
+                           H=H, m=m, margin=margin, n=n)
+        if self.has_tip_force:
+            # stiffness k = 1/c: the constraint c·k_target − 1 = 0 (k_target an NLP parameter)
+            self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
+                               k_target=stiffness_target)
+            self.f_sensitivity = ca.Function("sensitivity", [zr, d, P0], [H, dg_dfy, ca.gradient(tip[1], zr)])
+        self._nlp = {}
+        self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
+        self.build_time = time.perf_counter() - t0
+
+    def nlpsol(self, certified: bool, stiffness: bool = False):
+        """The NLP without (``certified=False``) or with the LDLᵀ stability certificate, and with
+        the stiffness constraint when ``stiffness``; each variant is built on first use. Without the
+        certificate, stability is checked at the solution (see :meth:`solve`)."""
+        key = (certified, stiffness)
+        if key not in self._nlp:
+            q = self._parts
+            x, p = q["x"], q["p"]
+            rows = [q["eq"]]
+            if stiffness:
+                if not self.has_tip_force:
+                    raise ValueError("a stiffness target needs a tip-force term in the scene")
+                x = ca.vertcat(x, q["w_sens"])
+                p = ca.vertcat(p, q["k_target"])
+                rows += [q["sens"], q["stiff"]]
+            if certified:
+                Ms = ca.DM(1.0 / np.sqrt(q["m"]))
+                A = ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"])
+                rows.append(ca.vertcat(*_ldl_pivots(A, _bandwidth(self.solver, q["n"]))))
+            rows += [q["tip"], q["alpha"]]
+            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
+                    "ipopt.max_iter": 400, "ipopt.acceptable_tol": 1e-7,
+                    # Starts are feasible stable equilibria: a small initial barrier keeps the
+                    # pivot constraints from outweighing the (small) tip objective at the start.
+                    "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
+            self._nlp[key] = ca.nlpsol("design", "ipopt", {"x": x, "p": p, "f": q["f"], "g": ca.vertcat(*rows)},
+                                       opts)
+        return self._nlp[key]
+
+    # -- helpers --------------------------------------------------------------------------------
+    def design_vector(self, h=None, phi=None, coefficients=None, p=None) -> np.ndarray:
+        d = np.zeros(self.nd)
+        for name, val in (("h", h), ("phi", phi), ("p", p)):
+            if name in self.vary:
+                d[self.dslices[name]] = val
+        if "alpha" in self.vary:
+            c = np.zeros(self.alpha_terms)
+            if coefficients is not None:
+                cc = np.asarray(coefficients, float)[: self.alpha_terms]
+                c[: cc.size] = cc
+            d[self.dslices["alpha"]] = c
+        return d
+
+    def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
+        """The forward scene of a design vector (fibres as an exact Legendre profile)."""
+        sc = base
+        if "h" in self.vary:
+            sc = replace(sc, h=float(d[self.dslices["h"]][0]))
+        if "phi" in self.vary:
+            sc = replace(sc, field=UniformField(phi=float(d[self.dslices["phi"]][0])))
+        if "p" in self.vary:
+            fx = 0.0 if sc.tip_force is None else sc.tip_force[0]
+            sc = replace(sc, tip_force=(fx, float(d[self.dslices["p"]][0])))
+        if "alpha" in self.vary:
+            sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
+        return sc
+
+    def solve(self, base: Scene, x0_theta: np.ndarray, d0: np.ndarray, req: "DesignRequest") -> DesignPoint:
+        """Solve one stage of a design request from a start (θ at the nodes, design vector).
+
+        The NLP without the stability certificate is tried first; when its solution violates
+        λ_min(H_r, M) ≥ margin, the certified NLP (LDLᵀ pivots ≥ 0) is solved from the same start.
+        """
+        pt = self._solve(base, x0_theta, d0, req, certified=False)
+        if pt.converged:
+            P = self.solver.parameter_vector(self.scene_for(base, self._dvec(pt)))
+            lam = self.solver.stability(pt.z, P).eigenvalues[0]
+            if lam >= req.margin * (1 - 1e-9):
+                return pt
+        return self._solve(base, x0_theta, d0, req, certified=True)
+
+    def stiffness(self, base: Scene, pt: "DesignPoint") -> float:
+        """Tip stiffness dp/dv1 of the design NLP's state (units of B0/ℓ³), from the reduced Hessian:
+        dθ/dfy = −H⁻¹ ∂g/∂fy, compliance = ∂y(1)/∂θ · dθ/dfy (used to rank optima; the design is
+        judged by finite differences of independent forward solves)."""
+        H, b, gy = (np.asarray(v, float) for v in self.f_sensitivity(pt.z[1:], self._dvec(pt),
+                                                                      self.solver.parameter_vector(base)))
+        try:
+            compliance = float(gy.ravel() @ np.linalg.solve(H, -b.ravel()))
+        except np.linalg.LinAlgError:
+            return float("nan")  # singular reduced Hessian: a fold, no finite stiffness
+        return 1.0 / compliance if compliance != 0.0 else float("inf")
+
+    def _dvec(self, pt: DesignPoint) -> np.ndarray:
+        return self.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p)
+
+    def _solve(self, base, x0_theta, d0, req: "DesignRequest", certified: bool) -> DesignPoint:
+        sv = self.solver
+        P0 = sv.parameter_vector(base)
+        use_angle = req.target is not None and len(req.target) > 2
+        tgt = np.zeros(3) if req.target is None else np.array(
+            [req.target[0], req.target[1], req.target[2] if use_angle else 0.0])
+        weights = np.array([1.0, 1.0, 1.0 if use_angle else 0.0])
+        w_tip, w_eff = (1.0, 1e-10) if req.stage == "A" else (0.0, 1.0)
+        d_prev = np.zeros(self.nd) if req.d_prev is None else np.asarray(req.d_prev, float)
+        p = np.concatenate([P0, tgt, weights, [w_tip, w_eff, req.margin], d_prev, [req.w_rate]])
+        stiff = req.stiffness is not None
+        if stiff:
+            p = np.concatenate([p, [req.stiffness]])
+
+        nx = self.n + self.nd + (self.n if stiff else 0)
+        lbx, ubx = np.full(nx, -np.inf), np.full(nx, np.inf)
+        b = req.bounds
+        if "h" in self.vary:
+            lbx[self.n + self.dslices["h"].start] = 0.0
+            ubx[self.n + self.dslices["h"].start] = b["h_max"]
+        if "phi" in self.vary:  # π-periodic energy: bounded to keep φ from wandering, wide enough
+            lbx[self.n + self.dslices["phi"].start] = -2 * np.pi  # for continuous rotating schedules
+            ubx[self.n + self.dslices["phi"].start] = 2 * np.pi
+        if "p" in self.vary:
+            lbx[self.n + self.dslices["p"].start] = -b["p_max"]
+            ubx[self.n + self.dslices["p"].start] = b["p_max"]
+        n_piv = self.n if certified else 0
+        n_sens = self.n + 1 if stiff else 0
+        a_max = b.get("alpha_max", np.inf)
+        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf),
+                              np.full(self.n_alpha_rows, -a_max)])
+        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf),
+                              np.full(self.n_alpha_rows, a_max)])
+        if req.stage == "B" and req.target is not None:
+            k = self.n + n_sens + n_piv
+            lbg[k:k + 2] = ubg[k:k + 2] = 0.0
+            if use_angle:
+                lbg[k + 2] = ubg[k + 2] = 0.0
+        x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
+        nlp = self.nlpsol(certified, stiff)
+        sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        st = nlp.stats()
+        x = np.asarray(sol["x"], float).ravel()
+        zr, d = x[: self.n], x[self.n:self.n + self.nd]
+        theta0 = P0[sv.layout.slices["theta0"]][0]
+        tip = np.asarray(self.f_tip(zr, d, P0), float).ravel()
+        coeffs = d[self.dslices["alpha"]] if "alpha" in self.vary else np.zeros(0)
+        get = lambda name, default: float(d[self.dslices[name]][0]) if name in self.vary else default
+        status = str(st.get("return_status"))
+        return DesignPoint(h=get("h", base.h), phi=get("phi", base.phi), coefficients=coeffs,
+                           p=get("p", base.p), z=np.concatenate([[theta0], zr]), tip=tip,
+                           converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
+                           status=status, stage=req.stage + ("+certificate" if certified else ""))
+
+
+@dataclass
+class DesignRequest:
+    """What one design-NLP solve asks for.
+
+    target : (x, y) or (x, y, angle) or None (no pose target, e.g. stiffness only)
+    stage : "A" (nearest pose: least squares) or "B" (least effort with the target pinned)
+    margin : stability margin μ (λ_min(H_r, M) ≥ μ)
+    bounds : h_max, p_max, alpha_max
+    d_prev, w_rate : previous design and weight of the rate term w_rate·|d − d_prev|²
+    stiffness : target tip stiffness dp/dv1 (units of B0/ℓ³), or None
+    """
+
+    target: Optional[Tuple[float, ...]]
+    stage: str
+    margin: float
+    bounds: Dict[str, float]
+    d_prev: Optional[np.ndarray] = None
+    w_rate: float = 0.0
+    stiffness: Optional[float] = None
+
+
+def _bandwidth(sv: EquilibriumSolver, n: int) -> int:
+    """Bandwidth of the reduced Hessian from its CasADi sparsity pattern (dense if positions are built)."""
+    sp = sv.f_grad_hess.sparsity_out(2)
+    rows, cols = sp.get_triplet()
+    return int(max((abs(r - c) for r, c in zip(rows, cols)), default=0))
+
+
+def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int) -> DesignNLP:
+    """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
+    from ..physics.terms import build_terms, structure_key
+
+    key = (structure_key(build_terms(scene)), tuple(sorted(vary)), options.transcription, options.elements,
+           options.degree, alpha_terms if "alpha" in vary else 0)
+    if key not in _CACHE:
+        _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms)
+    return _CACHE[key]
+
+
+def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
+    """Make sure the scene contains the terms the design varies (a tip force for ``p``, a uniform
+    field for ``h``/``phi``, a fibre profile for ``alpha``)."""
+    if ("h" in vary or "phi" in vary) and scene.field is None:
+        scene = replace(scene, field=UniformField(phi=0.0))
+    if "phi" in vary and not isinstance(scene.field, UniformField):
+        raise ValueError(f"--vary phi needs a uniform field; this scene has a {scene.field.kind} field")
+    if "p" in vary and scene.tip_force is None:
+        scene = replace(scene, tip_force=(0.0, 0.0))
+    if "alpha" in vary and scene.fibres.kind not in ("constant", "legendre"):
+        scene = replace(scene, fibres=constant_profile(0.0))
+    return scene

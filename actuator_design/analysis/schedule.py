@@ -1,0 +1,154 @@
+"""Field schedules: fields (h, φ) whose quasi-static equilibria pass through given tip waypoints.
+
+1. The first waypoint is a full :func:`~.design.design` (magnitude and angle; the fibre layout is
+   the scene's, fixed by fabrication), verified by a loading path from zero field.
+2. Each next waypoint is a stage-B design-NLP solve warm-started from the previous state, with
+   objective h² + w_rate·|(h, φ) − (h, φ)_prev|² (least field effort and rate of change) and the tip
+   pinned to the waypoint; continuity comes from the warm start and the rate term.
+3. The whole schedule (zero field → first waypoint, then straight lines in (h, φ) between waypoint
+   fields) is checked by one quasi-static loading path (:func:`~.loading.follow_path`): no snap,
+   every state stable, and the state at each waypoint's field on the waypoint.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from ..options import SolverOptions
+from ..result import EquilibriumResult
+from ..scene import Scene, default_scene
+from .design import DesignSettings, _normalise_phi, _tip_error, design
+from .design_nlp import DesignRequest, get_design_nlp, prepare_scene
+
+__all__ = ["field_schedule", "ScheduleResult"]
+
+
+@dataclass
+class ScheduleResult:
+    """A field schedule through tip waypoints (dimensionless; angles in rad).
+
+    rows : one per waypoint: target, achieved tip (from the verifying path), h, φ, error, margin.
+    schedule : the full verified schedule from zero field, a list of {"h", "phi"} (φ continuous).
+    waypoint_index : position of each waypoint's field in ``schedule``.
+    states : the loading path's state at every schedule point (for figures and animations).
+    """
+
+    success: bool
+    verified: bool
+    snap_free: bool
+    all_stable: bool
+    waypoints: List[tuple]
+    rows: List[Dict[str, float]]
+    schedule: List[Dict[str, float]]
+    waypoint_index: List[int]
+    message: str
+    scene: Scene
+    states: List[EquilibriumResult] = field(default_factory=list)
+    path: object = None
+    timings: Dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> Dict[str, object]:
+        return {"success": bool(self.success), "verified": bool(self.verified), "snap_free": bool(self.snap_free),
+                "all_stable": bool(self.all_stable),
+                "waypoints": [{"x": w[0], "y": w[1]} for w in self.waypoints], "rows": self.rows,
+                "schedule": self.schedule, "waypoint_index": self.waypoint_index, "message": self.message,
+                "timings_s": self.timings,
+                "units": {"length": "rod length", "angle": "rad", "h": "dimensionless field group"}}
+
+
+def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] = None,
+                   options: Optional[SolverOptions] = None, settings: Optional[DesignSettings] = None,
+                   rate_weight: float = 1.0, substeps: int = 8) -> ScheduleResult:
+    """Compute and verify a field schedule through tip ``waypoints``.
+
+    Parameters
+    ----------
+    waypoints : sequence of (x, y)
+        Tip positions in units of ℓ, in the order the tip should visit them.
+    scene : Scene, optional
+        The actuator (its fibre layout and loads stay fixed); default THEORY §5's cantilever.
+    rate_weight : float
+        Weight of |Δ(h, φ)|² against the field effort h² between consecutive waypoints.
+    substeps : int
+        Schedule points between consecutive waypoints (the path follower refines further).
+
+    Returns
+    -------
+    ScheduleResult
+    """
+    t0 = time.perf_counter()
+    wps = [tuple(float(v) for v in w) for w in waypoints]
+    if len(wps) < 2 or any(len(w) != 2 or not all(math.isfinite(v) for v in w) for w in wps):
+        raise ValueError("waypoints: expected at least two finite (x, y) pairs")
+    if not (rate_weight >= 0 and math.isfinite(rate_weight)):
+        raise ValueError(f"rate_weight: must be a finite number >= 0, got {rate_weight}")
+    if int(substeps) < 1:
+        raise ValueError(f"substeps: must be >= 1, got {substeps}")
+    options = options or SolverOptions()
+    settings = settings or DesignSettings()
+    vary = ("h", "phi")
+    base = prepare_scene(scene or default_scene(h=0.0), vary)
+    timings: Dict[str, float] = {}
+
+    first = design(wps[0], scene=base, vary=vary, options=options, settings=settings)
+    timings["first_waypoint"] = time.perf_counter() - t0
+    fail = lambda msg: ScheduleResult(False, False, False, False, wps, [], [], [], msg, base, timings=timings)
+    if not first.success:
+        return fail(f"waypoint 0 {wps[0]}: {first.message or 'no verified design'}")
+
+    nlp = get_design_nlp(base, vary, options, settings.alpha_terms)
+    schedule = [dict(s) for s in first.schedule]
+    index = [len(schedule) - 1]
+    h_prev, phi_prev = schedule[-1]["h"], schedule[-1]["phi"]  # φ continuous with the path
+    z_prev = first.path.final.z
+    t1 = time.perf_counter()
+    for k, wp in enumerate(wps[1:], start=1):
+        d_prev = nlp.design_vector(h=h_prev, phi=phi_prev)
+        req = DesignRequest(target=wp, stage="B", margin=settings.margin, bounds=settings.bounds(),
+                            d_prev=d_prev, w_rate=rate_weight)
+        pt = nlp.solve(base, z_prev, d_prev, req)
+        if not (pt.converged and _tip_error(pt.tip, wp) <= settings.reach_tol):
+            a = nlp.solve(base, z_prev, d_prev, replace(req, stage="A"))
+            if a.converged and _tip_error(a.tip, wp) <= 10 * settings.reach_tol:
+                pt = nlp.solve(base, a.z, nlp.design_vector(h=a.h, phi=a.phi), req)
+            if not (pt.converged and _tip_error(pt.tip, wp) <= settings.reach_tol):
+                return fail(f"waypoint {k} {wp}: not reachable continuously from waypoint {k - 1} with a stable "
+                            f"state (nearest {_tip_error(pt.tip, wp):.3g} rod lengths)")
+        for t in np.linspace(0, 1, substeps + 1)[1:]:
+            schedule.append({"h": float(h_prev + t * (pt.h - h_prev)), "phi": float(phi_prev + t * (pt.phi - phi_prev))})
+        index.append(len(schedule) - 1)
+        h_prev, phi_prev, z_prev = pt.h, pt.phi, pt.z
+    timings["waypoints"] = time.perf_counter() - t1
+
+    from .loading import follow_path  # independent verification along the whole schedule
+
+    t2 = time.perf_counter()
+    path = follow_path(replace(base, h=0.0), options, schedule, max_step=0.25, max_dtheta=0.5)
+    timings["verify"] = time.perf_counter() - t2
+    states = list(path.states)
+    ok_path = bool(path.success and len(states) == len(schedule))
+    all_stable = ok_path and all(s.stable for s in states)
+    rows = []
+    on_target = ok_path
+    for k, (wp, i) in enumerate(zip(wps, index)):
+        st = states[i] if ok_path else None
+        err = _tip_error((st.tip["x"], st.tip["y"]), wp) if st is not None else float("inf")
+        on_target = on_target and err <= 1e-6
+        nan = float("nan")
+        rows.append({"waypoint": k, "target_x": wp[0], "target_y": wp[1],
+                     "x": float(st.tip["x"]) if st else nan, "y": float(st.tip["y"]) if st else nan,
+                     "angle": float(st.tip["angle"]) if st else nan, "h": float(schedule[i]["h"]),
+                     "phi": float(schedule[i]["phi"]), "error": float(err),
+                     "margin": float(st.eigenvalues[0]) if st else nan})
+    success = bool(ok_path and path.snap_free and all_stable and on_target)
+    msg = ("every waypoint reached, continuously, without a snap, every state stable" if success else
+           f"verification failed: path {'ok' if ok_path else 'did not converge'}, snap-free {path.snap_free}, "
+           f"all stable {all_stable}, waypoints on target {on_target}; {path.message}")
+    timings["total"] = time.perf_counter() - t0
+    return ScheduleResult(success=success, verified=ok_path and on_target, snap_free=bool(path.snap_free),
+                          all_stable=all_stable, waypoints=wps, rows=rows, schedule=schedule, waypoint_index=index,
+                          message=msg, scene=base, states=states, path=path, timings=timings)

@@ -1,0 +1,257 @@
+"""Find the field (and, if needed, the fibre layout or tip load) that puts the tip at a target.
+
+Without CONFIG the scene is THEORY §5's dimensionless cantilever: uniform field, vertical tip load
+p (zero unless designed), fibre layout alpha(s), clamp angle 0, no weight. The design is always
+verified independently: a fresh forward solve and a quasi-static loading path from zero field that
+must reach the designed state without a snap, ending stable.
+
+Targets are in rod lengths l (clamp at the origin, rod initially along +x); with --target-units
+mm or m (physical scenes only) in those units. The optional third value is the tip angle in degrees.
+
+Exit codes: 0 verified design, 2 bad input, 3 reachable but not verified (no snap-free path or
+not stable), 4 unreachable target (the nearest reachable pose is reported).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import io as _io
+import math
+import sys
+
+from .common import (EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config,
+                     stdout_to_stderr)
+
+__all__ = ["HELP", "add_args", "run"]
+
+HELP = "inverse design: the field (and fibres, load) that puts the tip at a target, verified"
+
+EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
+_VARIABLES = ("h", "phi", "alpha", "p")
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    from ..analysis.design import DesignSettings
+
+    d = DesignSettings()
+    parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
+                        help="scene (and optional `study: {type: design, target: [x, y], ...}`); "
+                             "omit for the default scene")
+    parser.add_argument("--target-tip", metavar="X,Y[,ANGLE_DEG]",
+                        help="target tip position (rod lengths unless --target-units) and optional "
+                             "tip angle in degrees")
+    parser.add_argument("--target-units", choices=("rod", "mm", "m"), default=None,
+                        help="units of X,Y (default rod lengths; mm/m need a physical scene)")
+    parser.add_argument("--target-stiffness", metavar="K",
+                        help="target vertical tip stiffness dp/dv1: a number in units of B0/l^3, or a "
+                             "quantity such as '1.2 N/m' for a physical scene; alone or with --target-tip")
+    parser.add_argument("--vary", metavar="LIST",
+                        help="design variables, comma separated from: h (field magnitude), phi (field "
+                             "angle), alpha (fibre layout), p (tip load); default: h,phi, adding alpha "
+                             "automatically when needed")
+    g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
+    g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
+    g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")
+    g.add_argument("--alpha-max-deg", type=finite_float,
+                   help=f"largest |fibre angle|, degrees (default {math.degrees(d.alpha_max):g})")
+    g.add_argument("--alpha-terms", type=int, help=f"Legendre terms of alpha(s) (default {d.alpha_terms})")
+    g.add_argument("--margin", type=finite_float,
+                   help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
+    s = parser.add_argument_group("solver")
+    s.add_argument("--elements", type=int, metavar="N", help="elements of the forward transcription")
+    s.add_argument("--degree", type=int, metavar="D", help="degree per element")
+    s.add_argument("--no-verify", action="store_true",
+                   help="skip the independent verification (the result is then never 'success')")
+    o = parser.add_argument_group("output")
+    o.add_argument("--json", action="store_true", help="print exactly one JSON object (the design contract)")
+    o.add_argument("--out", metavar="DIR", help="write design.json, schedule.csv, shape.csv and design.png")
+
+
+def _parse_target(text: str, units: str, scene):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"--target-tip: expected X,Y or X,Y,ANGLE_DEG numbers, got {text!r}")
+    if len(values) not in (2, 3) or not all(math.isfinite(v) for v in values):
+        raise InputError(f"--target-tip: expected 2 or 3 finite numbers X,Y[,ANGLE_DEG], got {text!r}")
+    if units in ("mm", "m"):
+        if scene.scales is None:
+            raise InputError(f"--target-units {units}: needs a physical scene (this one is dimensionless)")
+        factor = (1e-3 if units == "mm" else 1.0) / scene.scales.length
+        values[0] *= factor
+        values[1] *= factor
+    if len(values) == 3:
+        values[2] = math.radians(values[2])
+    return tuple(values)
+
+
+def _inputs(args):
+    from ..analysis.design import DesignSettings
+    from ..options import SolverOptions
+    from ..scene import default_scene
+
+    study = {}
+    if args.config is None:
+        scene, options, raw = default_scene(h=0.0), SolverOptions(), None
+    else:
+        scene, options, raw = load_config(args.config)
+        study = dict((raw or {}).get("study") or {})
+        if study and study.get("type") != "design":
+            raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
+    study.pop("type", None)
+    allowed = {"target", "target_units", "vary", "stiffness", *[f.name for f in dataclasses.fields(DesignSettings)]}
+    unknown = sorted(set(study) - allowed)
+    if unknown:
+        raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(sorted(allowed))})")
+    target_text = args.target_tip
+    if target_text is None and "target" in study:
+        target_text = ",".join(str(v) for v in study["target"])
+    stiffness = _parse_stiffness(args.target_stiffness if args.target_stiffness is not None
+                                 else study.get("stiffness"), scene)
+    if target_text is None and stiffness is None:
+        raise InputError("--target-tip: required unless --target-stiffness is given (or `study: {type: "
+                         "design, target: [x, y]}` in CONFIG)")
+    target = None if target_text is None else _parse_target(
+        target_text, args.target_units or study.get("target_units", "rod"), scene)
+    vary_text = args.vary if args.vary is not None else study.get("vary")
+    vary = None
+    if vary_text is not None:
+        vary = [v.strip() for v in (vary_text.split(",") if isinstance(vary_text, str) else vary_text)]
+        bad = [v for v in vary if v not in _VARIABLES]
+        if bad or not vary:
+            raise InputError(f"--vary: unknown design variable {bad[0] if bad else ''!r} "
+                             f"(allowed: {', '.join(_VARIABLES)})")
+    settings_kw = {k: study[k] for k in study if k not in ("target", "target_units", "vary", "stiffness")}
+    for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
+                            ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
+                            ("margin", "margin", float)):
+        if getattr(args, flag) is not None:
+            settings_kw[key] = conv(getattr(args, flag))
+    with bad_input("design settings: "):
+        settings = DesignSettings(**settings_kw)
+        _check_settings(settings)
+        changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
+        options = dataclasses.replace(options, **changes)
+    return scene, options, raw, target, vary, settings, stiffness
+
+
+def _parse_stiffness(value, scene):
+    """A dimensionless stiffness (units of B0/l^3) or a quantity in N/m (physical scenes)."""
+    if value is None:
+        return None
+    try:
+        k = float(value)
+    except (TypeError, ValueError):
+        if scene.scales is None:
+            raise InputError(f"--target-stiffness: {value!r} has units, but the scene is dimensionless "
+                             "(give a number in units of B0/l^3)")
+        from ..units import parse_quantity
+        with bad_input():
+            k = parse_quantity(value, "force_per_length", "--target-stiffness") / scene.scales.stiffness
+    if not (math.isfinite(k) and k > 0):
+        raise InputError(f"--target-stiffness: must be a finite number > 0, got {value!r}")
+    return k
+
+
+def _check_settings(s) -> None:
+    if not (s.h_max > 0):
+        raise ValueError(f"h_max must be > 0, got {s.h_max}")
+    if not (s.p_max >= 0):
+        raise ValueError(f"p_max must be >= 0, got {s.p_max}")
+    if not (0 < s.alpha_max <= math.pi / 2 + 1e-12):
+        raise ValueError(f"alpha_max must lie in (0, 90] deg, got {math.degrees(s.alpha_max):g} deg")
+    if not (1 <= s.alpha_terms <= 12):
+        raise ValueError(f"alpha_terms must lie in [1, 12], got {s.alpha_terms}")
+    if not (s.margin >= 0):
+        raise ValueError(f"margin must be >= 0, got {s.margin}")
+
+
+def _summary(res) -> str:
+    d = res.design
+    lines = [
+        "actuator-design: inverse design",
+        (f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g}"
+         + (f", angle = {math.degrees(res.target[2]):.4g} deg" if len(res.target) > 2 else "") + "  [rod lengths]"
+         if res.target else "  target      : (no tip pose)")
+        + (f"; stiffness {res.stiffness_target:.8g} [B0/l^3]" if res.stiffness_target is not None else ""),
+        f"  variables   : {', '.join(res.vary)}",
+        f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {math.degrees(d.get('phi', float('nan'))):.6g} deg, "
+        f"p = {d.get('p', float('nan')):.6g}",
+    ]
+    if "alpha" in res.vary:
+        a = d["alpha"]["value"]
+        lines.append(f"  fibres      : alpha(s) from {math.degrees(a[0]):.3g} deg (clamp) to "
+                     f"{math.degrees(a[-1]):.3g} deg (tip), Legendre coefficients "
+                     f"{', '.join(f'{c:.4g}' for c in d['alpha']['legendre_coefficients'])} rad")
+    phys = res.to_dict().get("physical")
+    if phys:
+        lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
+    if res.achieved:
+        lines.append(f"  achieved    : x = {res.achieved['x']:.10f}, y = {res.achieved['y']:.10f}, "
+                     f"angle = {math.degrees(res.achieved['angle']):.6g} deg; error {res.error:.3e}")
+    if res.stiffness_target is not None and res.achieved_stiffness is not None:
+        lines.append(f"  stiffness   : achieved {res.achieved_stiffness:.10g} [B0/l^3] (central differences of "
+                     f"independent forward solves)")
+    lines.append(f"  verdict     : reachable {res.reachable}, verified {res.verified}, stable {res.stable} "
+                 f"(margin {res.stability_margin:.4g}), snap-free {res.snap_free}")
+    if res.schedule:
+        lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {res.schedule[-1]['h']:.6g} "
+                     f"at phi = {math.degrees(res.schedule[-1]['phi']):.5g} deg")
+    lines.append(f"  optima      : {len(res.optima)} distinct local optima (see --json 'optima')")
+    lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
+    if res.message:
+        lines.append(f"  note        : {res.message}")
+    lines.append("  RESULT      : " + ("SUCCESS — a verified, stable, snap-free design" if res.success else
+                                      "unreachable target" if not res.reachable else "NOT verified"))
+    return "\n".join(lines)
+
+
+def _write(res, out_dir, raw) -> list:
+    import csv
+    from pathlib import Path
+
+    from ..io import atomic_write, dumps_json, shape_csv_text, scene_to_dict
+    from ..plotting_design import save_design_png
+
+    payload = res.to_dict()
+    payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
+    payload["config"] = raw
+    text = dumps_json(payload, indent=1) + "\n"
+    sched = _io.StringIO()
+    w = csv.writer(sched)
+    w.writerow(["step", "h", "phi_rad"])
+    for k, s in enumerate(res.schedule):
+        w.writerow([k, repr(s["h"]), repr(s["phi"])])
+    state = res.path.final if res.path is not None else res.forward
+    shape = shape_csv_text(state) if state is not None and state.success else None
+    png = _io.BytesIO()
+    save_design_png(res, png)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [atomic_write(out / "design.json", lambda fh: fh.write(text)),
+               atomic_write(out / "schedule.csv", lambda fh: fh.write(sched.getvalue())),
+               atomic_write(out / "design.png", lambda fh: fh.write(png.getvalue()), binary=True)]
+    if shape is not None:
+        written.append(atomic_write(out / "shape.csv", lambda fh: fh.write(shape)))
+    return written
+
+
+def run(args: argparse.Namespace) -> int:
+    check_out_dir(args.out)
+    scene, options, raw, target, vary, settings, stiffness = _inputs(args)
+    from ..analysis.design import design
+    from ..io import dumps_json
+
+    with stdout_to_stderr(args.json), bad_input():
+        res = design(target, scene=scene, vary=vary, options=options, settings=settings,
+                     verify=not args.no_verify, stiffness=stiffness)
+    print(dumps_json(res.to_dict()) if args.json else _summary(res))
+    if args.out is not None:
+        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
+            paths = _write(res, args.out, raw)
+        print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if args.json else sys.stdout)
+    if not res.reachable:
+        return EXIT_UNREACHABLE
+    if not res.success:
+        return EXIT_NOT_VERIFIED
+    return EXIT_OK

@@ -1,0 +1,141 @@
+"""Figures of a design: the verified shape with its target, the fibre layout, the field schedule.
+
+Pure drawing from a :class:`~actuator_design.analysis.design.DesignResult`; never solves.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .plotting import _new_axes, plot_shape
+
+__all__ = ["design_figure", "save_design_png", "schedule_figure", "save_schedule_gif"]
+
+
+def design_figure(result):
+    """A figure with three panels: shape and target, α(s), field schedule (h and φ along the path).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(13.5, 4.8), layout="constrained")
+    ax_shape, ax_alpha, ax_sched = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.35, 1, 1]})
+    state = result.path.final if result.path is not None else result.forward
+    verdict = "verified, stable, snap-free" if result.success else (
+        "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
+    if state is not None and state.success:
+        plot_shape(state, ax=ax_shape, title=f"design — {verdict}")
+    tx, ty = result.target[0], result.target[1]
+    ax_shape.plot([tx], [ty], marker="x", color="crimson", markersize=12, mew=2.5, ls="none", label="target")
+    if len(result.target) > 2:
+        a = result.target[2]
+        ax_shape.annotate("", xy=(tx + 0.12 * math.cos(a), ty + 0.12 * math.sin(a)), xytext=(tx, ty),
+                          arrowprops=dict(arrowstyle="->", color="crimson"))
+    ax_shape.legend(loc="best", fontsize=8)
+
+    alpha = result.design.get("alpha", {})
+    if alpha:
+        ax_alpha.plot(alpha["s"], np.degrees(alpha["value"]), color="tab:purple")
+    ax_alpha.set_xlabel("s = X1 / l")
+    ax_alpha.set_ylabel("fibre angle α(s) / deg")
+    ax_alpha.set_title("fibre layout" + (" (designed)" if "alpha" in result.vary else " (given)"))
+    ax_alpha.grid(alpha=0.3)
+
+    if result.schedule:
+        k = np.arange(len(result.schedule))
+        ax_sched.plot(k, [s["h"] for s in result.schedule], color="tab:green", label="h")
+        ax_sched.set_xlabel("step of the verified schedule")
+        ax_sched.set_ylabel("field group h", color="tab:green")
+        ax2 = ax_sched.twinx()
+        ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange", label="φ")
+        ax2.set_ylabel("field angle φ / deg", color="tab:orange")
+        ax_sched.set_title("field schedule from zero field")
+    else:
+        ax_sched.text(0.5, 0.5, "no verified schedule", ha="center", va="center", transform=ax_sched.transAxes)
+        ax_sched.set_axis_off()
+    return fig
+
+
+def save_design_png(result, path, dpi: int = 130) -> None:
+    """Write :func:`design_figure` to ``path`` (file name or binary file object)."""
+    fig = design_figure(result)
+    fig.savefig(path, dpi=dpi, format="png")
+
+
+def _rod_xy(state, n: int = 150):
+    d = state.evaluate(np.linspace(0.0, 1.0, n))
+    return d["x"], d["y"]
+
+
+def schedule_figure(result):
+    """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule."""
+    from matplotlib import cm
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    ax, ax_s = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
+    colours = cm.viridis(np.linspace(0, 0.9, len(result.waypoint_index)))
+    for k, i in enumerate(result.waypoint_index):
+        if i < len(result.states):
+            x, y = _rod_xy(result.states[i])
+            ax.plot(x, y, color=colours[k], lw=2, label=f"waypoint {k}")
+    tips = [(s.tip["x"], s.tip["y"]) for s in result.states]
+    if tips:
+        ax.plot(*zip(*tips), color="0.6", lw=1, ls=":", label="tip path")
+    ax.plot(*zip(*result.waypoints), "x", color="crimson", ms=10, mew=2, label="waypoints")
+    ax.plot([0, 0], [-0.12, 0.12], color="k", lw=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+    ax.set_title("rod at the waypoints — " + ("verified, snap-free" if result.success else "NOT verified"))
+    ax.legend(fontsize=8, loc="best")
+    k = np.arange(len(result.schedule))
+    ax_s.plot(k, [s["h"] for s in result.schedule], color="tab:green")
+    ax_s.set_xlabel("schedule step (from zero field)")
+    ax_s.set_ylabel("field group h", color="tab:green")
+    ax2 = ax_s.twinx()
+    ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange")
+    ax2.set_ylabel("field angle φ / deg", color="tab:orange")
+    for i in result.waypoint_index:
+        ax_s.axvline(i, color="crimson", lw=0.8, ls="--")
+    ax_s.set_title("field schedule (dashed: waypoints)")
+    return fig
+
+
+def save_schedule_gif(result, path, fps: int = 12) -> None:
+    """Animate the rod along the verified schedule (GIF through matplotlib's Pillow writer)."""
+    import matplotlib
+
+    if "matplotlib.pyplot" not in __import__("sys").modules:
+        matplotlib.use("Agg")
+    from matplotlib.animation import FuncAnimation, PillowWriter
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5, 5), layout="constrained")
+    ax = fig.subplots()
+    ax.set_aspect("equal")
+    ax.set_xlim(-0.6, 1.1)
+    ax.set_ylim(-0.85, 0.85)
+    ax.plot(*zip(*result.waypoints), "x", color="crimson", ms=9, mew=2)
+    ax.plot([0, 0], [-0.1, 0.1], color="k", lw=3)
+    (line,) = ax.plot([], [], lw=2.5, color="tab:blue")
+    arrow = ax.annotate("", xy=(0, 0), xytext=(0, 0), arrowprops=dict(arrowstyle="->", color="tab:green"))
+    text = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9)
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+
+    def frame(i):
+        st, sc = result.states[i], result.schedule[i]
+        line.set_data(*_rod_xy(st))
+        c = (0.75, 0.65)
+        arrow.set_position(c)
+        arrow.xy = (c[0] + 0.25 * math.cos(sc["phi"]), c[1] + 0.25 * math.sin(sc["phi"]))
+        text.set_text(f"h = {sc['h']:.3f}, φ = {math.degrees(sc['phi']):.1f}°")
+        return line, arrow, text
+
+    anim = FuncAnimation(fig, frame, frames=len(result.states), blit=False)
+    anim.save(path, writer=PillowWriter(fps=fps))
