@@ -341,7 +341,7 @@ def test_validate_reports_physical_scales(capsys):
 
 
 # -- help and version ----------------------------------------------------------------------------------
-@pytest.mark.parametrize("argv", [["--help"], *[[c, "--help"] for c in COMMANDS]])
+@pytest.mark.parametrize("argv", [["--help"], *[[c.rstrip("_").replace("_", "-"), "--help"] for c in COMMANDS]])
 def test_help_exits_0_and_states_units(capsys, argv):
     code, out, _ = run_cli(capsys, *argv)
     assert code == 0

@@ -32,7 +32,9 @@ from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, InputError, PROG, UsageError
 __all__ = ["main", "build_parser", "COMMANDS"]
 
 #: Subcommand modules of ``actuator_design.cli``, in the order ``--help`` lists them.
-COMMANDS: List[str] = ["solve", "validate"]
+COMMANDS: List[str] = [
+    "solve", "validate", "design", "schedule", "equilibria", "continue_", "critical", "map", "path", "stiffness", "phase", "fit", "study", "bench",
+]
 
 
 class _Parser(argparse.ArgumentParser):
