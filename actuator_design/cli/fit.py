@@ -1,0 +1,70 @@
+"""Fit scene parameters to measured equilibria and report them with confidence intervals.
+
+CONFIG gives the scene (what is known) and a 'study:' section of 'type: fit' naming the
+parameters to fit (chi_bar, youngs_modulus or bending_stiffness, h, clamp_angle, field_scale,
+field_offset, field_angle_offset) with initial values and bounds in units. DATA is a CSV file whose
+header names the columns with their units, e.g. 'field [kA/m], tip_angle [deg]' or
+'field [kA/m], load [mN], tip_deflection [mm]' or 'field [mT], field_angle [deg], tip_x [mm],
+tip_y [mm]'. Each row's equilibrium is solved on the branch the measurement lies on; the
+least-squares fit uses exact sensitivities (implicit function theorem); intervals come from
+s^2 (J^T J)^-1. Parameters the data cannot separate (e.g. chi_bar and E from field data alone) are
+reported, one is held and the identifiable combination is fitted.
+
+Units: every value carries its unit (the CSV header, '2 MPa' in the config); results are in SI
+(rad, m, Pa, A/m). In a dimensionless scene lengths are in rod lengths l and loads in B0/l^2.
+
+Exit codes: 0 fitted, 2 bad input (one line naming the field, column or row), 3 the fit or an
+equilibrium did not converge (the result is still printed / written).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, PROG, bad_input, check_out_dir,
+                     stdout_to_stderr)
+
+__all__ = ["HELP", "add_args", "run"]
+
+HELP = "calibrate scene parameters against measured data (CSV with units), with intervals"
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    """Add the arguments of ``fit``."""
+    parser.add_argument("config", metavar="CONFIG.yaml",
+                        help="scene and 'study: {type: fit, parameters: ...}' (YAML)")
+    parser.add_argument("--data", required=True, metavar="DATA.csv",
+                        help="measurements: CSV with 'name [unit]' column headers")
+    parser.add_argument("--json", action="store_true",
+                        help="print exactly one JSON object (the fit result) on stdout")
+    parser.add_argument("--out", metavar="DIR",
+                        help="write fit.json, fit_points.csv, fit_data_vs_model.png and "
+                             "fit_residuals.png into DIR (created if needed)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fit``: load and check the inputs, fit, print and optionally write the result."""
+    check_out_dir(args.out)
+    from pathlib import Path
+
+    if not Path(args.config).is_file():
+        raise InputError(f"config file not found: {args.config}")
+    from ..fit import fit, prepare_fit, write_fit
+    from ..io import dumps_json
+
+    with bad_input():
+        problem = prepare_fit(args.config, args.data)
+    with stdout_to_stderr(args.json):
+        result = fit(problem)
+    if args.json:
+        print(dumps_json(result.to_dict()))
+        for w in result.warnings:
+            print(f"{PROG}: warning: {w}", file=sys.stderr)
+    else:
+        print(result.summary())
+    if args.out is not None:
+        with bad_input(f"--out: cannot write results to {args.out}: "), stdout_to_stderr(args.json):
+            paths = write_fit(result, args.out, config=problem.config.raw)
+        if not args.json:
+            print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    return EXIT_OK if result.success else EXIT_NOT_CONVERGED

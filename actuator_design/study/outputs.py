@@ -1,0 +1,130 @@
+"""A study's files: the tidy results table (CSV, Parquet when pyarrow is there) and the manifest.
+
+Pure I/O: nothing here solves. Every file goes through :func:`actuator_design.io.atomic_write`
+(or, for Parquet, a temporary name and :func:`os.replace`), so no reader sees a half-written file.
+
+The table has one row per point: ``point`` (index in the grid), one column per swept key
+(``field.magnitude [kA/m]``: the number in the unit of the key's first value), ``status``,
+``message``, ``time_s``, then the analysis results (``solve.tip.angle``, …) kept by ``outputs``.
+"""
+from __future__ import annotations
+
+import csv
+import fnmatch
+import io
+import os
+import platform
+import sys
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence
+
+from ..io import atomic_write, dumps_json
+
+__all__ = ["table_columns", "build_table", "write_csv", "write_parquet", "write_manifest",
+           "versions"]
+
+_PACKAGES = ("actuator-design", "casadi", "numpy", "scipy", "pydantic", "pint", "PyYAML",
+             "matplotlib", "tqdm", "dask", "distributed", "pyarrow")
+
+
+def versions() -> Dict[str, Optional[str]]:
+    """Python, platform and the versions of the package and its dependencies (None: absent)."""
+    from importlib import metadata
+
+    out: Dict[str, Optional[str]] = {"python": sys.version.split()[0],
+                                     "platform": platform.platform()}
+    for name in _PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def table_columns(axes, records: Dict[int, dict], outputs: Optional[Sequence[str]]) -> List[str]:
+    """Column names: fixed columns, swept keys, then result columns (first-seen order) kept by
+    the ``outputs`` glob patterns (all when None)."""
+    seen: Dict[str, None] = {}
+    for i in sorted(records):
+        for k in records[i].get("results", {}):
+            seen.setdefault(k, None)
+    results = list(seen)
+    if outputs is not None:
+        results = [c for c in results if any(fnmatch.fnmatchcase(c, p) for p in outputs)]
+    return ["point"] + [a.column for a in axes] + ["status", "message", "time_s"] + results
+
+
+def build_table(axes, indices, records: Dict[int, dict], outputs=None) -> Dict[str, list]:
+    """Column name → list of values (one per point with a record, by point index)."""
+    cols = table_columns(axes, records, outputs)
+    table: Dict[str, list] = {c: [] for c in cols}
+    for i in sorted(records):
+        rec = records[i]
+        res = rec.get("results", {})
+        table["point"].append(i)
+        for a, j in zip(axes, indices[i]):
+            table[a.column].append(a.numbers[j] if a.numbers[j] is not None else
+                                   (a.values[j] if isinstance(a.values[j], (str, int, float, bool))
+                                    else dumps_json(a.values[j])))
+        table["status"].append(rec.get("status"))
+        table["message"].append(rec.get("message", ""))
+        table["time_s"].append(rec.get("time_s"))
+        for c in cols[len(axes) + 4:]:
+            table[c].append(res.get(c))
+    return table
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def write_csv(path, table: Dict[str, list]) -> Path:
+    """Write the table as CSV (empty cell = missing)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    cols = list(table)
+    w.writerow(cols)
+    n = len(table[cols[0]]) if cols else 0
+    for r in range(n):
+        w.writerow([_cell(table[c][r]) for c in cols])
+    text = buf.getvalue()
+    return atomic_write(path, lambda fh: fh.write(text))
+
+
+def write_parquet(path, table: Dict[str, list]) -> Optional[Path]:
+    """Write the table as Parquet when pyarrow is installed (else do nothing and return None)."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return None
+    path = Path(path)
+    arrays = {}
+    for c, vals in table.items():
+        kinds = {type(v) for v in vals if v is not None}
+        if kinds <= {int, float} and kinds:
+            arrays[c] = pa.array([None if v is None else float(v) for v in vals], pa.float64())
+        elif kinds == {bool}:
+            arrays[c] = pa.array(vals, pa.bool_())
+        else:
+            arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        pq.write_table(pa.table(arrays), tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_manifest(path, manifest: dict) -> Path:
+    """Write ``manifest.json`` (strict JSON, NaN as null)."""
+    text = dumps_json(manifest, indent=1) + "\n"
+    return atomic_write(path, lambda fh: fh.write(text))

@@ -1,0 +1,177 @@
+"""Calibration against the SYNTHETIC data sets of problems/data (problems/make_synthetic_data.py).
+
+Those files were generated from known parameters with independent references — THEORY §6's closed
+form for the transverse field, the shooting solver of actuator_design.reference otherwise — plus
+Gaussian noise with a fixed seed. The tests check that
+
+* each fit recovers the known parameters inside its own confidence intervals, with a residual
+  scatter equal to the noise that was added;
+* the fitted model of the transverse data is THEORY §6's closed form θ(1) = −β, K(sin²β) = √2 h, on
+  the branch the data were measured on, and mirrored data (θ → −θ, a symmetry of the model) give
+  the same parameter on the mirrored branch;
+* χ̄ and E from field data alone are reported as not identifiable, and the combination χ̄/E is
+  recovered;
+* the exact sensitivities (implicit function theorem) agree with central finite differences of
+  re-solved equilibria.
+"""
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from actuator_design.cli.main import main
+from actuator_design.fit import fit, fit_config, prepare_fit
+from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "problems" / "data"
+CONFIGS = ROOT / "configs"
+MU0 = 4e-7 * math.pi
+
+# The known values the synthetic files were generated with (problems/make_synthetic_data.py).
+CHI, E = 0.5, 1.0e6
+L, W, T = 20e-3, 5e-3, 0.5e-3
+NOISE_DEG, NOISE_MM = 0.5, 0.05
+
+
+def field_coefficient(chi, e):
+    """h/H = √(μ0 χ̄ A ℓ²/(2 E I)) (THEORY §5), m/A."""
+    return math.sqrt(MU0 * chi * W * T * L**2 / (2.0 * e * W * T**3 / 12.0))
+
+
+def inside(p, true):
+    lo, hi = p["ci"]
+    return lo <= true <= hi
+
+
+@pytest.fixture(scope="module")
+def transverse_cli(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fit") / "out"
+    import contextlib
+    import io
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        code = main(["fit", str(CONFIGS / "fit_transverse_buckling.yaml"), "--data",
+                     str(DATA / "synthetic_transverse_buckling.csv"), "--json", "--out", str(out)])
+    return code, json.loads(buf.getvalue()), out
+
+
+def test_transverse_fit_recovers_chi_bar_and_clamp_angle(transverse_cli):
+    code, res, out = transverse_cli
+    assert code == 0 and res["success"], res["message"]
+    p = res["parameters"]
+    assert inside(p["chi_bar"], CHI), p["chi_bar"]
+    assert inside(p["clamp_angle"], 0.0), p["clamp_angle"]
+    assert p["chi_bar"]["ci"][1] - p["chi_bar"]["ci"][0] < 0.05  # informative, not vacuous
+    assert res["identifiable"] and not res["warnings"]
+    # the residual scatter is the noise that was added (0.5 deg), to sampling accuracy
+    assert 0.35 < res["rms"]["tip_angle"] < 0.65
+    assert all(pt["stable"] and pt["converged"] for pt in res["points"])
+    # derived: the buckling field H_crit = h_crit / c contains the true one
+    hc_true = critical_field_transverse() / field_coefficient(CHI, E)
+    assert inside(res["derived"]["transverse_critical_field"], hc_true)
+    for name in ("fit.json", "fit_points.csv", "fit_data_vs_model.png", "fit_residuals.png"):
+        assert (out / name).stat().st_size > 0
+    assert json.loads((out / "fit.json").read_text())["parameters"]["chi_bar"]["value"] == \
+        p["chi_bar"]["value"]
+
+
+@pytest.fixture(scope="module")
+def field_only_fits(tmp_path_factory):
+    """χ̄ and E from the transverse data, and from the same data mirrored (θ → −θ)."""
+    cfg = CONFIGS / "fit_transverse_buckling_unidentifiable.yaml"
+    src = DATA / "synthetic_transverse_buckling.csv"
+    lines = src.read_text().splitlines()
+    mirrored = [ln if (ln.startswith("#") or "[" in ln) else
+                f"{ln.split(',')[0]}, {-float(ln.split(',')[1]):.3f}" for ln in lines]
+    path = tmp_path_factory.mktemp("mirror") / "mirrored.csv"
+    path.write_text("\n".join(mirrored) + "\n")
+    return fit_config(cfg, src), fit_config(cfg, path)
+
+
+def test_chi_bar_and_modulus_are_not_identifiable_from_field_data(field_only_fits):
+    res, _ = field_only_fits
+    assert res.success, res.message
+    assert not res.identifiable
+    assert len(res.warnings) == 1
+    w = res.warnings[0]
+    assert "chi_bar" in w and "youngs_modulus" in w and "not identifiable" in w
+    assert res.parameters["youngs_modulus"]["fitted"] is False
+    assert res.parameters["youngs_modulus"]["value"] == 1e6  # held at its initial value
+    (combo,) = res.combinations
+    assert combo["name"] == "chi_bar * youngs_modulus^-1"
+    assert combo["ci"][0] <= CHI / E <= combo["ci"][1]
+    assert res.parameters["chi_bar"]["ci"][0] <= CHI <= res.parameters["chi_bar"]["ci"][1]
+
+
+def test_fitted_model_is_the_closed_form_on_the_measured_branch(field_only_fits):
+    res, mirrored = field_only_fits
+    c = res.derived["h_per_field"]["value"]
+    H = res.data.columns["field"]
+    model = res.model[:, 0]
+    hc = critical_field_transverse()
+    for Hi, m in zip(H, model):
+        h = c * Hi
+        if h < 0.995 * hc:
+            assert abs(m) < 1e-8  # only the straight rod exists (THEORY §6)
+        elif h > 1.005 * hc:
+            assert m == pytest.approx(-transverse_mode(h).beta, abs=1e-7)  # the downward branch
+    # mirrored data: the same χ̄ (a symmetry of the model), the upward branch
+    assert mirrored.parameters["chi_bar"]["value"] == pytest.approx(res.parameters["chi_bar"]["value"],
+                                                                    rel=1e-6)
+    np.testing.assert_allclose(mirrored.model[:, 0], -model, atol=1e-7)
+
+
+def test_load_deflection_at_several_fields_identifies_chi_bar_and_modulus():
+    res = fit_config(CONFIGS / "fit_load_deflection.yaml", DATA / "synthetic_load_deflection.csv")
+    assert res.success, res.message
+    assert res.identifiable
+    assert res.fitted_names == ["chi_bar", "youngs_modulus"]
+    assert res.parameters["chi_bar"]["ci"][0] <= CHI <= res.parameters["chi_bar"]["ci"][1]
+    assert res.parameters["youngs_modulus"]["ci"][0] <= E <= res.parameters["youngs_modulus"]["ci"][1]
+    assert 0.7 * NOISE_MM < res.rms["tip_deflection"] < 1.3 * NOISE_MM
+    assert res.correlation.shape == (2, 2) and abs(res.correlation[0, 1]) < 1.0
+    # the model curves pass through the fitted points (the figures draw them)
+    groups = res.curves["groups"]
+    assert res.curves["x"] == "load" and len(groups) == 3
+
+
+def test_tip_positions_at_several_field_angles():
+    res = fit_config(CONFIGS / "fit_tip_position.yaml", DATA / "synthetic_tip_position.csv")
+    assert res.success, res.message
+    assert res.parameters["chi_bar"]["ci"][0] <= CHI <= res.parameters["chi_bar"]["ci"][1]
+    assert res.parameters["clamp_angle"]["ci"][0] <= math.radians(2.0) <= \
+        res.parameters["clamp_angle"]["ci"][1]
+    # two columns without given uncertainties: each is weighted by its own scatter (≈ the noise)
+    for col in ("tip_x", "tip_y"):
+        assert 0.6 * NOISE_MM < res.rms[col] < 1.4 * NOISE_MM
+
+
+def test_dimensionless_scene_fits_h_at_a_reference_field(tmp_path):
+    cfg = {"name": "h from field data",
+           "scene": {"type": "dimensionless", "h": 1.0, "phi": "90 deg", "p": 0},
+           "study": {"type": "fit", "parameters": {"h": {"initial": 0.7, "bounds": [0.01, 10]}},
+                     "reference_field": "10 kA/m"}}
+    res = fit_config(cfg, DATA / "synthetic_transverse_buckling.csv")
+    assert res.success, res.message
+    h_true = field_coefficient(CHI, E) * 1e4
+    assert res.parameters["h"]["ci"][0] <= h_true <= res.parameters["h"]["ci"][1]
+
+
+def test_sensitivities_agree_with_finite_differences():
+    problem = prepare_fit(CONFIGS / "fit_load_deflection.yaml", DATA / "synthetic_load_deflection.csv")
+    theta = np.array([0.45, 1.2e6])
+    _, jac = problem.evaluate(theta, select=True)
+    for k in range(theta.size):
+        step = 1e-5 * theta[k]
+        tp, tm = theta.copy(), theta.copy()
+        tp[k] += step
+        tm[k] -= step
+        yp, _ = problem.evaluate(tp, jacobian=False)
+        ym, _ = problem.evaluate(tm, jacobian=False)
+        fd = (yp - ym) / (2 * step)
+        scale = np.max(np.abs(jac[:, :, k]))
+        assert scale > 0
+        np.testing.assert_allclose(jac[:, :, k], fd, rtol=1e-5, atol=1e-7 * scale)
