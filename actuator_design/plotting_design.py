@@ -60,7 +60,7 @@ def design_figure(result):
     return fig
 
 
-def save_design_png(result, path, dpi: int = 130) -> None:
+def save_design_png(result, path, dpi: int = 100) -> None:
     """Write :func:`design_figure` to ``path`` (file name or binary file object)."""
     fig = design_figure(result)
     fig.savefig(path, dpi=dpi, format="png")

@@ -203,9 +203,12 @@ def _optimise(nlp: DesignNLP, base: Scene, options, target, settings: DesignSett
     for _, d0, z0 in starts:
         best = None
         if target:
-            a = nlp.solve(base, z0, d0, req_a)
+            a = nlp.solve(base, z0, d0, req_a, certify=False)  # a probe: certified only if it reaches
             if not a.converged:
                 continue
+            if not getattr(a, "certified", True) and _tip_error(a.tip, target) <= 10 * settings.reach_tol + 1e-7:
+                # reached only by an unstable state: ask for the nearest stable one, certified
+                a = nlp._solve(base, z0, d0, req_a, certified=True)
             best, z0, d0 = a, a.z, _dvec(nlp, a)
             if _tip_error(a.tip, target) > 10 * settings.reach_tol + 1e-7:
                 if stiffness is not None:
@@ -413,6 +416,15 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
                             scene=base0, timings=timings, stiffness_target=stiffness)
 
     reachable = rank(best)[0] == 0
+    if not reachable and not getattr(best, "certified", True):
+        # the nearest pose reported for an unreachable target must itself be a stable state
+        z0, d0 = best.start
+        best_stable = best_nlp.solve(best_base, z0, d0, DesignRequest(
+            target=target, stage="A", margin=settings.margin, bounds=settings.bounds(), stiffness=None))
+        if best_stable.converged:
+            if stiffness is not None:
+                best_stable.stiffness = best_nlp.stiffness(best_base, best_stable)
+            best = best_stable
     err = _tip_error(best.tip, target) if target else 0.0
     alternatives: Dict[str, bool] = {}
     if not reachable:

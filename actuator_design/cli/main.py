@@ -44,8 +44,13 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{message} (see '{self.prog} --help')")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The top-level parser with one sub-parser per module in :data:`COMMANDS`."""
+def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
+    """The top-level parser with one sub-parser per module in :data:`COMMANDS`.
+
+    With ``only`` (a command name), only that command's module is imported and given its full
+    arguments: the others are listed by name, which keeps a command's start-up free of the imports
+    of every other command.
+    """
     parser = _Parser(
         prog=PROG,
         description="Equilibria of magneto-elastic soft actuators: elastic rods with magnetic "
@@ -58,12 +63,23 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
     sub.required = True
     for name in COMMANDS:
+        command = name.rstrip("_").replace("_", "-")
+        if only is not None and command != only:
+            sub.add_parser(command)
+            continue
         module = importlib.import_module(f"{__package__}.{name}")
-        p = sub.add_parser(name.rstrip("_").replace("_", "-"), help=module.HELP, description=module.__doc__,
+        p = sub.add_parser(command, help=module.HELP, description=module.__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)
         p.set_defaults(_run=module.run)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> Optional[str]:
+    """The subcommand named in ``argv`` (its first non-option word), if it is a known one."""
+    names = {n.rstrip("_").replace("_", "-") for n in COMMANDS}
+    first = next((a for a in argv if not a.startswith("-")), None)
+    return first if first in names else None
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -79,9 +95,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     int
         0 success, 1 internal error, 2 bad input, 3 not converged.
     """
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
-        parser = build_parser()
-        args = parser.parse_args(None if argv is None else list(argv))
+        parser = build_parser(only=_command_of(argv))
+        args = parser.parse_args(argv)
         return int(args._run(args))
     except (UsageError, InputError) as exc:
         print(error_line(exc), file=sys.stderr)
