@@ -119,9 +119,9 @@ class _Model(BaseModel):
     @classmethod
     def _reject_unknown_keys(cls, data):
         if isinstance(data, dict):
-            allowed = list(cls.model_fields)
+            allowed = [f.alias or n for n, f in cls.model_fields.items()]
             for key in data:
-                if key not in allowed:
+                if key not in allowed and key not in cls.model_fields:
                     near = difflib.get_close_matches(str(key), allowed, n=1)
                     hint = f"; did you mean '{near[0]}'?" if near else ""
                     raise PydanticCustomError(
@@ -129,6 +129,10 @@ class _Model(BaseModel):
                         {"key": str(key), "allowed": ", ".join(allowed), "hint": hint})
         return data
 
+
+#: The strict base model (unknown keys are errors naming the key and the allowed ones), for other
+#: layers that validate YAML sections (study specifications).
+StrictModel = _Model
 
 _UNION_TAGS: dict = {}  # field name of a tagged union → its tags (pydantic puts the tag in loc)
 

@@ -19,14 +19,13 @@ A sweep study::
 """
 from __future__ import annotations
 
-import difflib
 from typing import Any, Dict, List, Literal, Optional, Union
 
-from pydantic import (BaseModel, ConfigDict, Field, StrictFloat, StrictInt, StrictStr,
+from pydantic import (ConfigDict, Field, StrictFloat, StrictInt, StrictStr,
                       ValidationError, field_validator, model_validator)
 from pydantic_core import PydanticCustomError
 
-from ..config import ConfigError
+from ..config import ConfigError, StrictModel as _ConfigStrictModel
 
 __all__ = ["StrictModel", "spec_error", "translate", "validate_spec", "RangeSpec", "FigureSpec",
            "SweepSpec", "analysis_list"]
@@ -37,24 +36,10 @@ def spec_error(detail: str, field: Optional[str] = None) -> PydanticCustomError:
     return PydanticCustomError("spec", "{detail}", {"detail": detail, "field": field or ""})
 
 
-class StrictModel(BaseModel):
-    """Strict base: unknown keys are errors naming the key and the allowed ones."""
+class StrictModel(_ConfigStrictModel):
+    """Strict base: unknown keys are errors naming the key and the allowed ones (config's rule)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _reject_unknown_keys(cls, data):
-        if isinstance(data, dict):
-            allowed = [f.alias or n for n, f in cls.model_fields.items()]
-            for key in data:
-                if key not in allowed and key not in cls.model_fields:
-                    near = difflib.get_close_matches(str(key), allowed, n=1)
-                    hint = f"; did you mean '{near[0]}'?" if near else ""
-                    raise PydanticCustomError(
-                        "unknown_key", "unknown key (allowed: {allowed}{hint})",
-                        {"key": str(key), "allowed": ", ".join(allowed), "hint": hint})
-        return data
 
 
 def _dotted(parts) -> str:

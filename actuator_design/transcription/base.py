@@ -82,26 +82,31 @@ class Transcription:
     name = "base"
     order_description = ""
 
-    # -- geometry of the discretisation -------------------------------------------------------
+    # -- geometry of the discretisation (subclasses set these attributes in __init__) -----------
+    #: arc lengths of the unknowns θ_i, shape (n_nodes,); nodes[0] = 0 (clamp), nodes[-1] = 1
+    _nodes: np.ndarray
+    #: arc lengths where densities are evaluated and their weights, shape (n_q,)
+    _sq: np.ndarray
+    _wq: np.ndarray
+    #: lumped mass (quadrature weight carried by each node), shape (n_nodes,): the discrete L²
+    #: inner product used to scale gradients and eigenvalues
+    _mass: np.ndarray
+
     @property
     def nodes(self) -> np.ndarray:
-        """Arc lengths of the unknowns θ_i, shape (n_nodes,), nodes[0] = 0 (clamp), nodes[-1] = 1."""
-        raise NotImplementedError
+        return self._nodes
 
     @property
     def quadrature_points(self) -> np.ndarray:
-        """Arc lengths where densities are evaluated, shape (n_q,)."""
-        raise NotImplementedError
+        return self._sq
 
     @property
     def quadrature_weights(self) -> np.ndarray:
-        raise NotImplementedError
+        return self._wq
 
     @property
     def mass(self) -> np.ndarray:
-        """Lumped mass (quadrature weight carried by each node), shape (n_nodes,): the discrete
-        L² inner product used to scale gradients and eigenvalues."""
-        raise NotImplementedError
+        return self._mass
 
     @property
     def breakpoints(self) -> np.ndarray:

@@ -106,22 +106,6 @@ class LGL(Transcription):
         self._mass = mass
 
     @property
-    def nodes(self):
-        return self._nodes
-
-    @property
-    def quadrature_points(self):
-        return self._sq
-
-    @property
-    def quadrature_weights(self):
-        return self._wq
-
-    @property
-    def mass(self):
-        return self._mass
-
-    @property
     def breakpoints(self):
         return np.linspace(0.0, 1.0, self.E + 1)
 

@@ -31,22 +31,6 @@ class Midpoint(Transcription):
         self._mass = mass
 
     @property
-    def nodes(self):
-        return self._nodes
-
-    @property
-    def quadrature_points(self):
-        return self._sq
-
-    @property
-    def quadrature_weights(self):
-        return self._wq
-
-    @property
-    def mass(self):
-        return self._mass
-
-    @property
     def breakpoints(self):
         return self._nodes
 
