@@ -1,9 +1,14 @@
-"""Saving results: pure I/O, never solves.
+"""Saving results: all file writing, never solves, never draws.
 
-``write_result`` writes ``result.json`` (the result contract with the scene and config embedded),
-``shape.csv`` (the dense shape) and ``shape.png`` (a drawing) into a directory. Every file is written
-to a temporary name in the same directory and moved into place with :func:`os.replace`, so a reader
-never sees a half-written file.
+* :func:`atomic_write` writes one file to a temporary name beside it and moves it into place with
+  :func:`os.replace`, so a reader never sees a half-written file;
+* :func:`write_output_set` writes a command's whole output set all or nothing (see there);
+* :func:`write_result` writes ``result.json`` (the result contract with the scene and config
+  embedded), ``shape.csv`` (the dense shape) and, when given, the shape figure as ``shape.png``.
+
+Figures reach this module already drawn: as PNG bytes, or as any object with a matplotlib-like
+``savefig(file, format=..., dpi=...)`` method. This module never imports matplotlib or
+:mod:`actuator_design.viz`.
 """
 from __future__ import annotations
 
@@ -13,14 +18,20 @@ import io
 import json
 import math
 import os
+import shutil
 import uuid
 from pathlib import Path
-from typing import Callable, Dict, Optional
+from typing import Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
-__all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "write_result",
-           "shape_csv_text", "atomic_write"]
+__all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "result_files",
+           "write_result", "shape_csv_text", "atomic_write", "write_output_set", "encode_content",
+           "FileContent"]
+
+#: What a file of an output set may be given as: text (written as UTF-8), bytes, or a drawn figure
+#: (any object with ``savefig(file, format="png", dpi=...)``, written as PNG).
+FileContent = Union[str, bytes, bytearray, object]
 
 #: Number of points of the dense shape written to ``shape.csv``.
 CSV_POINTS = 201
@@ -107,6 +118,184 @@ def atomic_write(path, write: Callable, binary: bool = False) -> Path:
     return path
 
 
+def _unique_suffix() -> str:
+    return f"{os.getpid()}.{uuid.uuid4().hex[:8]}"
+
+
+def encode_content(content: FileContent, dpi: int = 150) -> bytes:
+    """The bytes of one output file: text as UTF-8, bytes as given, a figure as PNG.
+
+    Parameters
+    ----------
+    content : str, bytes or object with ``savefig``
+    dpi : int
+        Resolution of a figure given as an object (dots per inch).
+
+    Raises
+    ------
+    TypeError
+        ``content`` is none of these.
+    """
+    if isinstance(content, str):
+        return content.encode("utf-8")
+    if isinstance(content, (bytes, bytearray)):
+        return bytes(content)
+    if callable(getattr(content, "savefig", None)):
+        buf = io.BytesIO()
+        content.savefig(buf, format="png", dpi=dpi)
+        return buf.getvalue()
+    raise TypeError(f"cannot write an object of type {type(content).__name__} to a file: "
+                    "expected str, bytes or a figure with savefig")
+
+
+def _write_new_file(path: Path, data: bytes) -> None:
+    """Create ``path`` (it must not exist) holding ``data``, flushed to disk."""
+    with open(path, "xb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def _fsync_dir(path: Path) -> None:
+    """Make a rename in directory ``path`` durable (best effort: not every platform allows it)."""
+    with contextlib.suppress(OSError, AttributeError):
+        fd = os.open(path, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _make_parents(directory: Path) -> List[Path]:
+    """Create ``directory`` and its missing ancestors; return those created, outermost first."""
+    missing = []
+    d = directory
+    while not d.exists():
+        missing.append(d)
+        if d.parent == d:
+            break
+        d = d.parent
+    created = []
+    for d in reversed(missing):
+        try:
+            d.mkdir()
+        except FileExistsError:
+            continue
+        created.append(d)
+    return created
+
+
+def _commit_into_existing(staging: Path, out: Path, names: List[str]) -> None:
+    """Move the complete set in ``staging`` into the existing directory ``out``, all or nothing.
+
+    Each file of an earlier set is first moved aside (into ``staging``), then the new file moved in
+    (:func:`os.replace`: same file system). When any move fails, the new files are removed and the
+    earlier ones put back before the error is raised. Files of ``out`` outside the set are left
+    alone.
+    """
+    for name in names:
+        target = out / name
+        if target.is_dir() and not target.is_symlink():
+            raise IsADirectoryError(f"{target} is a directory, cannot replace it with a file")
+    previous = staging / ".previous"
+    previous.mkdir()
+    moved_aside: List[str] = []
+    placed: List[str] = []
+    try:
+        for name in names:
+            target = out / name
+            if os.path.lexists(target):
+                os.replace(target, previous / name)
+                moved_aside.append(name)
+            os.replace(staging / name, target)
+            placed.append(name)
+    except BaseException:
+        for name in reversed(placed):
+            with contextlib.suppress(OSError):
+                os.unlink(out / name)
+        for name in reversed(moved_aside):
+            with contextlib.suppress(OSError):
+                os.replace(previous / name, out / name)
+        raise
+    _fsync_dir(out)
+
+
+def write_output_set(out_dir, files: Mapping[str, FileContent], dpi: int = 150) -> List[Path]:
+    """Write a command's output set into ``out_dir``, all or nothing.
+
+    Every file is rendered in memory first (figures to PNG), then written into a hidden staging
+    folder; only when the whole set is there is it moved into place:
+
+    * ``out_dir`` does not exist: the staging folder is its sibling and is renamed to ``out_dir``
+      (one atomic rename; missing parents are created first);
+    * ``out_dir`` exists (an earlier set, other files, a mount point): the staging folder is inside
+      it (same file system) and each file replaces its namesake; if any move fails, the earlier
+      files are restored (see :func:`_commit_into_existing`).
+
+    On failure nothing of the new set is left: no file, no staging folder, no parent directory that
+    this call created.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The directory of the set.
+    files : mapping of file name → str, bytes or figure
+        Plain file names (no directories); see :data:`FileContent`.
+    dpi : int
+        Resolution of figures given as objects.
+
+    Returns
+    -------
+    list of Path
+        ``out_dir / name`` for every file, in the order of ``files``.
+
+    Raises
+    ------
+    OSError
+        A file could not be written or moved into place (the message names it); ``out_dir`` is
+        as before the call.
+    ValueError
+        A name is not a plain file name.
+    """
+    names = list(files)
+    for name in names:
+        if not name or name in (".", "..", ".previous") or os.sep in name \
+                or (os.altsep and os.altsep in name):
+            raise ValueError(f"output file name {name!r}: must be a plain file name")
+    data = {name: encode_content(files[name], dpi) for name in names}
+    out = Path(os.path.abspath(out_dir))
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"{out_dir} exists and is not a directory")
+    created = [] if out.exists() else _make_parents(out.parent)
+    fresh = not out.exists()
+    staging = (out.parent / f".{out.name}.partial-{_unique_suffix()}" if fresh
+               else out / f".partial-{_unique_suffix()}")
+    try:
+        staging.mkdir()
+        for name in names:
+            _write_new_file(staging / name, data[name])
+        _fsync_dir(staging)
+        try:
+            if not fresh:
+                raise FileExistsError
+            os.rename(staging, out)
+            _fsync_dir(out.parent)
+        except FileExistsError:  # out_dir exists (or appeared meanwhile): file by file
+            _commit_into_existing(staging, out, names)
+        except OSError:
+            if not out.is_dir():
+                raise
+            _commit_into_existing(staging, out, names)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        for d in reversed(created):
+            with contextlib.suppress(OSError):
+                d.rmdir()
+        raise
+    shutil.rmtree(staging, ignore_errors=True)
+    return [Path(out_dir) / name for name in names]
+
+
 def shape_csv_text(result) -> str:
     """The dense shape (:data:`CSV_POINTS` points) as CSV text: s, x, y, theta, dtheta [, x_m, y_m].
 
@@ -127,36 +316,49 @@ def shape_csv_text(result) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_result(result, out_dir, config: Optional[dict] = None) -> Dict[str, Path]:
-    """Write ``result.json``, ``shape.csv`` and ``shape.png`` into ``out_dir``.
+def result_files(result, config: Optional[dict] = None) -> Dict[str, str]:
+    """The data files of ``solve --out`` in memory: ``result.json`` and ``shape.csv`` (text).
 
-    Everything is rendered in memory first; the directory is created (with parents) only then, and
-    each file goes through :func:`atomic_write`.
+    Parameters
+    ----------
+    result : EquilibriumResult
+        A result of :func:`actuator_design.equilibrium.solve` (converged or not).
+    config : dict, optional
+        The raw configuration the scene came from, embedded in ``result.json``.
+    """
+    return {"result.json": dumps_json(result_to_dict(result, config), indent=1) + "\n",
+            "shape.csv": shape_csv_text(result)}
+
+
+def write_result(result, out_dir, config: Optional[dict] = None,
+                 figure: Optional[FileContent] = None) -> Dict[str, Path]:
+    """Write ``result.json``, ``shape.csv`` and (when ``figure`` is given) ``shape.png`` into
+    ``out_dir``, all or nothing (:func:`write_output_set`).
 
     Parameters
     ----------
     result : EquilibriumResult
         A result of :func:`actuator_design.equilibrium.solve` (converged or not).
     out_dir : str or Path
-        Output directory.
+        Output directory (created with its parents if needed).
     config : dict, optional
         The raw configuration the scene came from, embedded in ``result.json``.
+    figure : bytes or object with ``savefig``, optional
+        The drawing of the shape, e.g. ``viz.style.png_bytes(viz.shape.shape_figure(result))``.
 
     Returns
     -------
     dict
-        ``{"json": path, "csv": path, "png": path}``.
-    """
-    from .plotting import save_shape_png
+        ``{"json": path, "csv": path}`` and ``"png": path`` when a figure was given.
 
-    payload = dumps_json(result_to_dict(result, config), indent=1) + "\n"
-    csv_text = shape_csv_text(result)
-    png = io.BytesIO()
-    save_shape_png(result, png)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"json": out / "result.json", "csv": out / "shape.csv", "png": out / "shape.png"}
-    atomic_write(paths["json"], lambda fh: fh.write(payload))
-    atomic_write(paths["csv"], lambda fh: fh.write(csv_text))
-    atomic_write(paths["png"], lambda fh: fh.write(png.getvalue()), binary=True)
-    return paths
+    Raises
+    ------
+    OSError
+        A file of the set could not be written; nothing of the set was left in ``out_dir``.
+    """
+    files: Dict[str, FileContent] = dict(result_files(result, config))
+    if figure is not None:
+        files["shape.png"] = figure
+    paths = write_output_set(out_dir, files)
+    keys = {"result.json": "json", "shape.csv": "csv", "shape.png": "png"}
+    return {keys[p.name]: p for p in paths}

@@ -15,9 +15,11 @@ from pathlib import Path
 from scipy.optimize import fsolve
 
 from actuator_design.analysis.critical import critical_points
-from actuator_design.plotting_landscape import plot_branches, save_png
+from actuator_design.io import write_output_set
 from actuator_design.reference.shooting import ShootingParams, shoot
 from actuator_design.scene import default_scene
+from actuator_design.viz.landscape import plot_branches
+from actuator_design.viz.style import png_bytes
 
 PUBLISHED = {"p_crit^(1)": 10.33, "p_crit^(2)": 50.97}
 
@@ -46,10 +48,8 @@ def main(argv=None):
               + ("" if round(p_ref, 2) == pub else
                  f"   <- published value is off by {pub - p_ref:+.3f} (THEORY §6: the paper's last digit"
                  " is not reliable; both methods here agree)"))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     ax = plot_branches(r.branches, param_label="tip load p", title="field-free cantilever: load against tip angle")
-    path = save_png(ax, out / "paper_elastica_bifurcation.png")
+    path, = write_output_set(Path(args.out), {"paper_elastica_bifurcation.png": png_bytes(ax)})
     print(f"saved {path}")
     return 0
 

@@ -19,9 +19,10 @@ import numpy as np
 
 from actuator_design.analysis.critical import critical_curves
 from actuator_design.analysis.multiplicity import multiplicity_map
-from actuator_design.io import atomic_write
-from actuator_design.plotting_landscape import plot_multiplicity, save_png
+from actuator_design.io import write_output_set
 from actuator_design.scene import default_scene
+from actuator_design.viz.landscape import plot_multiplicity
+from actuator_design.viz.style import png_bytes
 
 
 def main(argv=None):
@@ -61,11 +62,10 @@ def main(argv=None):
                 bad += 1
     print(f"grid points (farther than 0.5 from a curve) whose count disagrees with the curves: {bad}")
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write(out / "paper_multiplicity_map.csv", lambda fh: fh.write(m.csv_text()))
-    path = save_png(plot_multiplicity(m, curves, title="axial field: number of equilibria"),
-                    out / "paper_multiplicity_map.png")
-    print(f"saved {path} and {out / 'paper_multiplicity_map.csv'}")
+    figure = plot_multiplicity(m, curves, title="axial field: number of equilibria")
+    csv_path, path = write_output_set(out, {"paper_multiplicity_map.csv": m.csv_text(),
+                                            "paper_multiplicity_map.png": png_bytes(figure)})
+    print(f"saved {path} and {csv_path}")
     return 0
 
 

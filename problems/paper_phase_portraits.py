@@ -18,16 +18,16 @@ Figures go to DIR (default problems/output/paper_phase_portraits).
 from __future__ import annotations
 
 import argparse
-import io
 import math
 from pathlib import Path
 
 from actuator_design.analysis.phase import phase_portrait
-from actuator_design.io import atomic_write, dumps_json
+from actuator_design.io import dumps_json, write_output_set
 from actuator_design.options import SolverOptions
-from actuator_design.plotting_phase import phase_figure
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 from actuator_design.scene import default_scene
+from actuator_design.viz.phase import phase_figure
+from actuator_design.viz.style import png_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,13 +73,10 @@ def main(argv=None) -> int:
     fig = phase_figure([elastica, transverse], titles=[
         f"cantilever elastica, h = 0, p = {p:g}: {n} equilibria (paper's phase diagram)",
         f"transverse field, h = {h:g}, p = 0: modes 1–3 and mirrors (paper's Fig. (a))"])
-    png = io.BytesIO()
-    fig.savefig(png, format="png", dpi=150)
+    png = png_bytes(fig, dpi=150)
     data = dumps_json({"elastica": elastica.to_dict(), "transverse": transverse.to_dict()}, indent=1) + "\n"
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write(out / "phase_portraits.png", lambda fh: fh.write(png.getvalue()), binary=True)
-    atomic_write(out / "phase_portraits.json", lambda fh: fh.write(data))
+    write_output_set(out, {"phase_portraits.png": png, "phase_portraits.json": data})
     print(f"\nwrote {out / 'phase_portraits.png'}, {out / 'phase_portraits.json'}")
     return 0
 

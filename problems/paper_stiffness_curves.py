@@ -25,7 +25,6 @@ Figures (PNG) and a CSV go to DIR (default problems/output/paper_stiffness_curve
 from __future__ import annotations
 
 import argparse
-import io
 from pathlib import Path
 
 import numpy as np
@@ -34,11 +33,12 @@ from scipy.optimize import brentq
 from actuator_design.analysis.loading import follow_path, ramp
 from actuator_design.analysis.stiffness import stiffness_field_curve, tip_stiffness
 from actuator_design.config import load_scene
-from actuator_design.io import atomic_write
-from actuator_design.plotting_loading import load_deflection_figure, save_png, stiffness_figure
+from actuator_design.io import write_output_set
 from actuator_design.reference.closed_forms import lowload_stiffness
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
 from actuator_design.scene import default_scene
+from actuator_design.viz.loading import load_deflection_figure, stiffness_figure
+from actuator_design.viz.style import png_bytes as _png
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_K_LOW, PAPER_K_HIGH = 4.4e-2, 1.2  # N/m, the paper's Discussion (H = 0 and 5 kA/m)
@@ -130,17 +130,9 @@ def main(argv=None) -> int:
           f"s(h) = {err:.1e}")
     files["stiffness_field.png"] = _png(stiffness_figure(curve, "tip stiffness against field, phi = 0, p = 0"))
 
-    out.mkdir(parents=True, exist_ok=True)
-    for name, data in files.items():
-        atomic_write(out / name, lambda fh, d=data: fh.write(d), binary=isinstance(data, bytes))
+    write_output_set(out, files)
     print(f"\nwrote {', '.join(str(out / n) for n in files)}")
     return 0
-
-
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    save_png(fig, buf)
-    return buf.getvalue()
 
 
 if __name__ == "__main__":

@@ -17,9 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from actuator_design.analysis.continuation import continue_branch
-from actuator_design.plotting_landscape import plot_branches, save_png
+from actuator_design.io import write_output_set
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 from actuator_design.scene import default_scene
+from actuator_design.viz.landscape import plot_branches
+from actuator_design.viz.style import png_bytes
 
 PUBLISHED = {1: 1.11}  # the paper's text quotes h_crit^(1) ≃ 1.11 and the formula (2m − 1)π/(2√2)
 
@@ -47,11 +49,9 @@ def main(argv=None):
         hh = np.linspace(critical_field_transverse(m) + 1e-6, 6.5, 200)
         beta = np.array([transverse_mode(h, m).beta for h in hh])
         refs += [(hh, beta, f"closed form, mode {m}" if m == 1 else None), (hh, -beta, None)]
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     ax = plot_branches([res.branch] + res.secondary, param_label="field h",
                        title="transverse field: first three modes", reference=refs)
-    path = save_png(ax, out / "paper_transverse_modes.png")
+    path, = write_output_set(Path(args.out), {"paper_transverse_modes.png": png_bytes(ax)})
     print(f"saved {path}")
     return 0
 

@@ -1,7 +1,6 @@
 """Phase portraits against the first integral (a conservation law) and the paper's closed relations:
 for h = 0, γ²/2 = p sin θ(1) (paper eq. 301); for the transverse field, the modes' θ'(0) of the
 elliptic-function solution (THEORY §6) and the paper's rule that mode m meets the θ axis m times."""
-import io
 import math
 from dataclasses import replace
 
@@ -74,10 +73,9 @@ def test_non_autonomous_scenes_are_refused_naming_the_field(change, field):
 
 
 def test_phase_figure_is_drawn():
-    from actuator_design.plotting_phase import save_phase_png
+    from actuator_design.viz.phase import phase_figure
+    from actuator_design.viz.style import png_bytes
 
     sc = default_scene(h=2.0, phi=0.5 * math.pi)
     pp = phase_portrait(sc, [solve(sc)])
-    buf = io.BytesIO()
-    save_phase_png([pp, pp], buf)
-    assert buf.getvalue()[:4] == b"\x89PNG"
+    assert png_bytes(phase_figure([pp, pp]))[:4] == b"\x89PNG"

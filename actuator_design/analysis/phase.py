@@ -18,7 +18,7 @@ H = ½θ'² + h² cos²(θ − φ) + p sin θ.
 :func:`phase_portrait` returns the grid of H, contour levels, and one trajectory per equilibrium
 (by default all equilibria of the scene from :func:`actuator_design.analysis.equilibria.find_equilibria`),
 each with the spread of H along it (a conservation check of the solution). Drawing is in
-:mod:`actuator_design.plotting_phase`.
+:mod:`actuator_design.viz.phase`.
 """
 from __future__ import annotations
 

@@ -4,6 +4,7 @@
 ``bvp``       the rod's Euler–Lagrange boundary-value problem in first-order form (numpy/scipy only):
               scipy ``solve_bvp`` as the peer and a multi-parameter shooting reference for
               position-dependent fields (dipole);
-``runner``    methods, the timing protocol and the table;
-``figure``    the error–time (Pareto) plot.
+``runner``    methods, the timing protocol and the table.
+
+The error–time (Pareto) figure is :mod:`actuator_design.viz.bench`'s.
 """

@@ -21,9 +21,9 @@ from __future__ import annotations
 import argparse
 import csv
 import io as _io
-import sys
 
 from .common import EXIT_OK, InputError, check_out_dir, stdout_to_stderr
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
 
     from ..benchmarks.runner import format_table, format_targets, run_benchmark, target_summary
-    from ..io import atomic_write, dumps_json
+    from ..io import dumps_json
 
     with stdout_to_stderr(args.json):
         rows = run_benchmark(names, quick=args.quick, repeats=repeats, workers=args.workers)
@@ -92,22 +92,19 @@ def run(args: argparse.Namespace) -> int:
                "protocol": {"repeats": repeats, "quick": bool(args.quick), "workers": args.workers,
                             "error": "max(|dx(1)|, |dy(1)|, |dtheta(1)|) against the reference",
                             "time_s": "median wall time of a warm re-solve at a perturbed parameter"}}
+    written = None
+    if args.out is not None:
+        from ..viz.bench import pareto_figure
+        from ..viz.style import png_bytes
+        files = {"bench.json": dumps_json(payload, indent=1), "bench.csv": _csv_text(rows),
+                 "bench_pareto.png": png_bytes(pareto_figure(rows), dpi=110)}
+        written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
         print(format_table(rows))
         print()
         print(format_targets(targets))
-    if args.out is not None:
-        from pathlib import Path
-
-        from ..benchmarks.figure import pareto_figure
-        from .common import bad_input
-        out = Path(args.out)
-        with bad_input(f"--out: cannot write to {args.out}: "):
-            out.mkdir(parents=True, exist_ok=True)
-            paths = [atomic_write(out / "bench.json", lambda fh: fh.write(dumps_json(payload, indent=1))),
-                     atomic_write(out / "bench.csv", lambda fh: fh.write(_csv_text(rows))),
-                     atomic_write(out / "bench_pareto.png", lambda fh: pareto_figure(rows, fh), binary=True)]
-        print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     return EXIT_OK

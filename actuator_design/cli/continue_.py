@@ -24,8 +24,8 @@ from typing import Literal
 from pydantic import Field
 
 from .common import EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir, finite_float, stdout_to_stderr
-from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, png_bytes,
-                         write_outputs)
+from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
 
@@ -127,6 +127,15 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as err:
             raise InputError(str(err)) from err
     payload = res.to_dict()
+    written = None
+    if args.out is not None:
+        from ..viz.landscape import plot_branches
+        from ..viz.style import png_bytes
+        with stdout_to_stderr(args.json):
+            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
+            files = {"branch.json": dumps_json({**res.to_dict(), "config": raw}, indent=1) + "\n",
+                     "branch.csv": _csv(res), "branch.png": png_bytes(ax, dpi=150)}
+        written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
@@ -141,15 +150,8 @@ def run(args: argparse.Namespace) -> int:
                   f"(Morse index {cp.morse_before} -> {cp.morse_after})")
         for s in res.secondary:
             print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}")
-    if args.out is not None:
-        from ..plotting_landscape import plot_branches
-        with stdout_to_stderr(args.json):
-            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
-            files = {"branch.json": dumps_json({**res.to_dict(), "config": raw}, indent=1) + "\n",
-                     "branch.csv": _csv(res), "branch.png": png_bytes(ax)}
-        with bad_input(f"--out: cannot write to {args.out}: "):
-            paths = write_outputs(args.out, files)
-        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     if res.branch.status == "step_too_small":
         print(f"actuator-design: warning: the continuation stopped early: {res.branch.message}",
               file=sys.stderr)

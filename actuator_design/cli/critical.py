@@ -17,15 +17,14 @@ scene values h, phi_deg, p, alpha_deg) and then the flags apply.
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Literal, Tuple
 
 from pydantic import Field, field_validator
 
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
 from .continue_ import PARAM_NAMES, ParamName
-from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, pair, png_bytes,
-                         write_outputs)
+from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene, pair
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "CriticalStudy"]
 
@@ -90,6 +89,15 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         res = critical_points(scene, param, window, options=options, n_samples=n_samples)
     payload = res.to_dict()
+    written = None
+    if args.out is not None:
+        from ..viz.landscape import plot_branches
+        from ..viz.style import png_bytes
+        with stdout_to_stderr(args.json):
+            ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
+            files = {"critical.json": dumps_json({**res.to_dict(branches=True), "config": raw}, indent=1) + "\n",
+                     "critical.csv": _csv(res), "critical.png": png_bytes(ax, dpi=150)}
+        written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
@@ -98,13 +106,6 @@ def run(args: argparse.Namespace) -> int:
         for d in res.folds + res.branch_points:
             print(f"  {d['kind']:12s} {param} = {d['value']:.12g}  tip angle {d['tip_angle']:+.8f} rad  "
                   f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}")
-    if args.out is not None:
-        from ..plotting_landscape import plot_branches
-        with stdout_to_stderr(args.json):
-            ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
-            files = {"critical.json": dumps_json({**res.to_dict(branches=True), "config": raw}, indent=1) + "\n",
-                     "critical.csv": _csv(res), "critical.png": png_bytes(ax)}
-        with bad_input(f"--out: cannot write to {args.out}: "):
-            paths = write_outputs(args.out, files)
-        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     return EXIT_OK

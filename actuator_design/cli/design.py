@@ -17,10 +17,10 @@ import argparse
 import dataclasses
 import io as _io
 import math
-import sys
 
 from .common import (EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config,
                      stdout_to_stderr)
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -206,12 +206,13 @@ def _summary(res) -> str:
     return "\n".join(lines)
 
 
-def _write(res, out_dir, raw) -> list:
+def _output_files(res, raw) -> dict:
+    """design.json, schedule.csv, design.png and (with a converged state) shape.csv, in memory."""
     import csv
-    from pathlib import Path
 
-    from ..io import atomic_write, dumps_json, shape_csv_text, scene_to_dict
-    from ..plotting_design import save_design_png
+    from ..io import dumps_json, scene_to_dict, shape_csv_text
+    from ..viz.design import design_figure
+    from ..viz.style import png_bytes
 
     payload = res.to_dict()
     payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
@@ -223,17 +224,11 @@ def _write(res, out_dir, raw) -> list:
     for k, s in enumerate(res.schedule):
         w.writerow([k, repr(s["h"]), repr(s["phi"])])
     state = res.path.final if res.path is not None else res.forward
-    shape = shape_csv_text(state) if state is not None and state.success else None
-    png = _io.BytesIO()
-    save_design_png(res, png)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = [atomic_write(out / "design.json", lambda fh: fh.write(text)),
-               atomic_write(out / "schedule.csv", lambda fh: fh.write(sched.getvalue())),
-               atomic_write(out / "design.png", lambda fh: fh.write(png.getvalue()), binary=True)]
-    if shape is not None:
-        written.append(atomic_write(out / "shape.csv", lambda fh: fh.write(shape)))
-    return written
+    files = {"design.json": text, "schedule.csv": sched.getvalue(),
+             "design.png": png_bytes(design_figure(res), dpi=100)}
+    if state is not None and state.success:
+        files["shape.csv"] = shape_csv_text(state)
+    return files
 
 
 def run(args: argparse.Namespace) -> int:
@@ -245,11 +240,12 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)
-    print(dumps_json(res.to_dict()) if args.json else _summary(res))
+    written = None
     if args.out is not None:
-        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
-            paths = _write(res, args.out, raw)
-        print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if args.json else sys.stdout)
+        written = write_out(args.out, _output_files(res, raw), args.json)
+    print(dumps_json(res.to_dict()) if args.json else _summary(res))
+    if written is not None:
+        print_written(written, args.json)
     if not res.reachable:
         return EXIT_UNREACHABLE
     if not res.success:

@@ -13,19 +13,18 @@ and then the flags override it.
 from __future__ import annotations
 
 import argparse
-import io
 import sys
-from pathlib import Path
-from typing import List, Literal, Optional, Tuple
+from typing import Literal, Optional, Tuple
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
+from .output import print_written, write_out
 from .scene_args import add_scene_args as _add_scene_args, build_scene as _build_scene, validate_study
 
 __all__ = ["HELP", "add_args", "run", "add_scene_args", "build_scene", "validate_study",
-           "write_outputs", "pair", "StudyBase", "EquilibriaStudy"]
+           "pair", "StudyBase", "EquilibriaStudy"]
 
 HELP = "find all equilibria of a uniform-field scene (complete shooting scan + NLP)"
 
@@ -69,6 +68,7 @@ def add_output_args(parser: argparse.ArgumentParser, what: str) -> None:
     o.add_argument("--out", metavar="DIR", help=f"write {what} into DIR (created if needed)")
 
 
+# -- the command --------------------------------------------------------------------------------
 def pair(text: str) -> Tuple[float, float]:
     """argparse type: ``A,B`` with finite A < B."""
     parts = text.split(",")
@@ -80,26 +80,6 @@ def pair(text: str) -> Tuple[float, float]:
     return a, b
 
 
-def write_outputs(out_dir: str, files: dict) -> List[Path]:
-    """Write ``{name: str | bytes}`` atomically into ``out_dir`` (created only now)."""
-    from ..io import atomic_write
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, data in files.items():
-        binary = isinstance(data, (bytes, bytearray))
-        paths.append(atomic_write(out / name, (lambda fh, d=data: fh.write(d)), binary=binary))
-    return paths
-
-
-def png_bytes(ax) -> bytes:
-    from ..plotting_landscape import save_png
-    buf = io.BytesIO()
-    save_png(ax, buf)
-    return buf.getvalue()
-
-
-# -- the command --------------------------------------------------------------------------------
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``equilibria``."""
     add_scene_args(parser)
@@ -137,6 +117,15 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = find_equilibria_deflation(scene, options)
     payload = result.to_dict()
+    written = None
+    if args.out is not None:
+        from ..viz.landscape import plot_equilibria
+        from ..viz.style import png_bytes
+        with stdout_to_stderr(args.json):
+            files = {"equilibria.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
+                     "equilibria.csv": _csv(result),
+                     "equilibria.png": png_bytes(plot_equilibria(result), dpi=150)}
+        written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
@@ -147,14 +136,8 @@ def run(args: argparse.Namespace) -> int:
                   f"{e.tip['angle']:+.8f} rad  energy {e.energy:.10g}  "
                   + ("STABLE" if e.stable else f"unstable (Morse index {e.morse_index})")
                   + ("  [self-intersecting]" if e.self_intersecting else ""))
-    if args.out is not None:
-        from ..plotting_landscape import plot_equilibria
-        with stdout_to_stderr(args.json):
-            files = {"equilibria.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "equilibria.csv": _csv(result), "equilibria.png": png_bytes(plot_equilibria(result))}
-        with bad_input(f"--out: cannot write to {args.out}: "):
-            paths = write_outputs(args.out, files)
-        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     if result.failures:
         print(f"actuator-design: warning: {len(result.failures)} shooting root(s) not confirmed by the NLP",
               file=sys.stderr)

@@ -24,8 +24,8 @@ from pydantic import Field
 
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
 from .continue_ import PARAM_NAMES, ParamName
-from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, pair,
-                         png_bytes, write_outputs)
+from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene, pair
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "MapStudy"]
 
@@ -119,6 +119,14 @@ def run(args: argparse.Namespace) -> int:
             except RuntimeError as err:
                 print(f"actuator-design: warning: critical curves not computed: {err}", file=sys.stderr)
     payload = {**m.to_dict(), "critical_curves": [c.to_dict() for c in curves]}
+    written = None
+    if args.out is not None:
+        from ..viz.landscape import plot_multiplicity
+        from ..viz.style import png_bytes
+        with stdout_to_stderr(args.json):
+            files = {"map.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
+                     "map.csv": m.csv_text(), "map.png": png_bytes(plot_multiplicity(m, curves), dpi=150)}
+        written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
@@ -128,12 +136,6 @@ def run(args: argparse.Namespace) -> int:
         for c in curves:
             print(f"  fold curve of {yp}: {yp} = {c.lam[0]:.8g} at {xp} = {c.mu[0]:.6g} ... "
                   f"{c.lam[-1]:.8g} at {xp} = {c.mu[-1]:.6g}")
-    if args.out is not None:
-        from ..plotting_landscape import plot_multiplicity
-        with stdout_to_stderr(args.json):
-            files = {"map.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "map.csv": m.csv_text(), "map.png": png_bytes(plot_multiplicity(m, curves))}
-        with bad_input(f"--out: cannot write to {args.out}: "):
-            paths = write_outputs(args.out, files)
-        print("wrote " + ", ".join(map(str, paths)), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     return EXIT_OK

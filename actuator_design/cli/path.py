@@ -32,15 +32,15 @@ import csv
 import io as _io
 import math
 import sys
-from pathlib import Path
-from typing import Dict, List, Optional, Union
+from typing import Dict, Optional, Union
 
 from .scene_args import add_scene_args, build_scene, validate_study
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "add_scene_flags", "scene_and_options", "study_settings",
-           "write_files"]
+           "csv_text"]
 
 HELP = "quasi-static loading path: follow the stable state, snaps, hysteresis"
 
@@ -63,19 +63,6 @@ def add_scene_flags(parser: argparse.ArgumentParser, defaults: Dict[str, float])
 
 
 scene_and_options = build_scene  # (args, defaults, study, loaded) -> (scene, options, raw)
-
-
-def write_files(out_dir, files: Dict[str, Union[str, bytes]]) -> List[Path]:
-    """Create ``out_dir`` and write every (name → text or bytes) atomically (io.atomic_write)."""
-    from ..io import atomic_write
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name, data in files.items():
-        binary = isinstance(data, bytes)
-        written.append(atomic_write(out / name, lambda fh, d=data: fh.write(d), binary=binary))
-    return written
 
 
 def csv_text(columns, rows, comment: str = "") -> str:
@@ -226,14 +213,15 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         path = follow_path(scene, options, schedule, max_step=max_step)
     data = _scaled_dict(path, factor, name)
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _render(path, data, raw, factor), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(path.summary() if factor == 1.0 else _summary_deg(path, data))
-    if args.out is not None:
-        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
-            written = write_files(args.out, _render(path, data, raw, factor))
-        print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     if not path.success:
         print(f"actuator-design: warning: the path could not be followed to its end: {path.message}",
               file=sys.stderr)
@@ -260,7 +248,8 @@ def _summary_deg(path, data) -> str:
 def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]]:
     """path.json, path.csv and path.png in memory."""
     from ..io import dumps_json
-    from ..plotting_loading import path_figure, save_png
+    from ..viz.loading import path_figure
+    from ..viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
@@ -269,11 +258,10 @@ def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]
     rows = [[p["t"], p["param"], p["tip"]["x"], p["tip"]["y"], p["tip"]["angle"], p["energy"],
              p["stable"], p["min_eigenvalue"], p["morse_index"], p["branch"], p["direction"], p["kind"]]
             + [p["values"][n] for n in path.names] for p in data["points"]]
-    png = _io.BytesIO()
     xlabel = None if path.param is None else data["param"] + (" [deg]" if factor != 1.0 else "")
-    save_png(path_figure(path, xscale=1.0 / factor, xlabel=xlabel), png)
+    png = png_bytes(path_figure(path, xscale=1.0 / factor, xlabel=xlabel), dpi=150)
     return {"path.json": dumps_json(payload, indent=1) + "\n",
             "path.csv": csv_text(cols, rows, "units: tip x, y in rod lengths l; angles in rad; energy in "
                                              "B0/l; param in the units of --param; value_* in API units "
                                              "(rad for angles)"),
-            "path.png": png.getvalue()}
+            "path.png": png}

@@ -21,12 +21,11 @@ phase.png. Exit codes: 0 success, 2 bad input (e.g. a scene whose equation is no
 from __future__ import annotations
 
 import argparse
-import io as _io
 import math
-import sys
 
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, load_config, stdout_to_stderr
-from .path import add_scene_flags, csv_text, scene_and_options, study_settings, write_files
+from .output import print_written, write_out
+from .path import add_scene_flags, csv_text, scene_and_options, study_settings
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -99,14 +98,15 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         portrait = phase_portrait(scene, None, options, theta_range=th_rng, dtheta_range=dth_rng)
     data = portrait.to_dict()
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _render(portrait, data, raw), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(_summary(portrait))
-    if args.out is not None:
-        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
-            written = write_files(args.out, _render(portrait, data, raw))
-        print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     return EXIT_OK
 
 
@@ -127,16 +127,16 @@ def _summary(portrait) -> str:
 
 def _render(portrait, data, raw):
     from ..io import dumps_json
-    from ..plotting_phase import save_phase_png
+    from ..viz.phase import phase_figure
+    from ..viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
     rows = [[i, j, float(th), float(dth)] for i, t in enumerate(portrait.trajectories)
             for j, (th, dth) in enumerate(zip(t.theta, t.dtheta))]
-    png = _io.BytesIO()
-    save_phase_png(portrait, png)
+    png = png_bytes(phase_figure(portrait), dpi=150)
     return {"phase.json": dumps_json(payload, indent=1) + "\n",
             "trajectories.csv": csv_text(["equilibrium", "point", "theta", "dtheta"], rows,
                                          "units: theta in rad, dtheta in rad per rod length; "
                                          "s = point/(n-1) along each equilibrium"),
-            "phase.png": png.getvalue()}
+            "phase.png": png}

@@ -15,10 +15,10 @@ import argparse
 import csv
 import io as _io
 import math
-import sys
 from pathlib import Path
 
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config, stdout_to_stderr
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -78,9 +78,12 @@ def _read_path_csv(path: str):
     return _points(((f"row {i + 1}", r["x"], r["y"]) for i, r in enumerate(rows)), "--path-csv")
 
 
-def _write(res, out_dir, raw) -> list:
-    from ..io import atomic_write, dumps_json
-    from ..plotting_design import save_schedule_gif, schedule_figure
+def _output_files(res, raw) -> dict:
+    """schedule.json, schedule.csv, waypoints.csv, schedule.png and (with states) schedule.gif,
+    in memory."""
+    from ..io import dumps_json
+    from ..viz.design import schedule_figure, schedule_gif_bytes
+    from ..viz.style import png_bytes
 
     payload = dict(res.to_dict(), config=raw)
     text = dumps_json(payload, indent=1) + "\n"
@@ -95,23 +98,11 @@ def _write(res, out_dir, raw) -> list:
         wr = csv.DictWriter(rows, fieldnames=list(res.rows[0]))
         wr.writeheader()
         wr.writerows(res.rows)
-    png, gif = _io.BytesIO(), None
-    schedule_figure(res).savefig(png, format="png", dpi=130)
+    files = {"schedule.json": text, "schedule.csv": sched.getvalue(), "waypoints.csv": rows.getvalue(),
+             "schedule.png": png_bytes(schedule_figure(res), dpi=130)}
     if res.states:
-        import tempfile
-        with tempfile.TemporaryDirectory() as tmp:
-            tmp_gif = Path(tmp) / "schedule.gif"
-            save_schedule_gif(res, tmp_gif)
-            gif = tmp_gif.read_bytes()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = [atomic_write(out / "schedule.json", lambda fh: fh.write(text)),
-               atomic_write(out / "schedule.csv", lambda fh: fh.write(sched.getvalue())),
-               atomic_write(out / "waypoints.csv", lambda fh: fh.write(rows.getvalue())),
-               atomic_write(out / "schedule.png", lambda fh: fh.write(png.getvalue()), binary=True)]
-    if gif is not None:
-        written.append(atomic_write(out / "schedule.gif", lambda fh: fh.write(gif), binary=True))
-    return written
+        files["schedule.gif"] = schedule_gif_bytes(res)
+    return files
 
 
 def run(args: argparse.Namespace) -> int:
@@ -153,6 +144,9 @@ def run(args: argparse.Namespace) -> int:
 
     with stdout_to_stderr(args.json), bad_input():
         res = field_schedule(wps, scene=scene, options=options, rate_weight=rate, substeps=sub)
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _output_files(res, raw), args.json)
     if args.json:
         print(dumps_json(res.to_dict()))
     else:
@@ -163,8 +157,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{math.degrees(r['phi']):>9.3f} {r['error']:>9.2e} {r['margin']:>8.4g}")
         print(f"  schedule: {len(res.schedule)} points from zero field; {res.message}")
         print(f"  time: {res.timings.get('total', float('nan')):.2f} s")
-    if args.out is not None:
-        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
-            paths = _write(res, args.out, raw)
-        print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     return EXIT_OK if res.success else EXIT_NOT_VERIFIED

@@ -18,6 +18,7 @@ import sys
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, nonnegative_float,
                      stdout_to_stderr)
+from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "build_inputs"]
 
@@ -122,24 +123,33 @@ def run(args: argparse.Namespace) -> int:
     scene, options, raw = build_inputs(args)
 
     from ..equilibrium import solve
-    from ..io import dumps_json, write_result
+    from ..io import dumps_json
 
     with stdout_to_stderr(args.json):
         result = solve(scene, options)
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _output_files(result, raw), args.json, what="results ")
     if args.json:
         print(dumps_json(result.to_dict()))
     else:
         print(result.summary())
-    if args.out is not None:
-        with bad_input(f"--out: cannot write results to {args.out}: "), stdout_to_stderr(args.json):
-            paths = write_result(result, args.out, config=raw)
-        print("wrote " + ", ".join(str(p) for p in paths.values()),
-              file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     if not result.success:
         print(f"actuator-design: warning: the solver did not converge ({result.status}): "
               f"{' '.join(result.message.split())}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _output_files(result, raw) -> dict:
+    """``result.json``, ``shape.csv`` and ``shape.png`` of ``--out``, in memory."""
+    from ..io import result_files
+    from ..viz.shape import shape_figure
+    from ..viz.style import png_bytes
+
+    return dict(result_files(result, raw), **{"shape.png": png_bytes(shape_figure(result), dpi=150)})
 
 
 def _rad(deg):

@@ -25,13 +25,13 @@ Exit codes: 0 success, 2 bad input, 3 the equilibrium (or a sweep point) did not
 from __future__ import annotations
 
 import argparse
-import io as _io
 import math
 import sys
 
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      load_config, stdout_to_stderr)
-from .path import add_scene_flags, csv_text, scene_and_options, study_settings, write_files
+from .output import print_written, write_out
+from .path import add_scene_flags, csv_text, scene_and_options, study_settings
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -124,14 +124,15 @@ def run(args: argparse.Namespace) -> int:
     data = st.to_dict()
     if curve is not None:
         data["field_sweep"] = curve.to_dict()
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _render(data, curve, raw, scene), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(_summary(st, curve))
-    if args.out is not None:
-        with bad_input(f"--out: cannot write to {args.out}: "), stdout_to_stderr(args.json):
-            written = write_files(args.out, _render(data, curve, raw, scene))
-        print("wrote " + ", ".join(str(p) for p in written), file=sys.stderr if args.json else sys.stdout)
+    if written is not None:
+        print_written(written, args.json)
     ok = st.equilibrium.success and (curve is None or bool(curve.success.all()))
     if not ok:
         print("actuator-design: warning: the equilibrium (or a sweep point) did not converge",
@@ -165,7 +166,8 @@ def _summary(st, curve) -> str:
 
 def _render(data, curve, raw, scene):
     from ..io import dumps_json
-    from ..plotting_loading import save_png, stiffness_figure
+    from ..viz.loading import stiffness_figure
+    from ..viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
@@ -175,7 +177,5 @@ def _render(data, curve, raw, scene):
         files["stiffness_curve.csv"] = csv_text(
             cols, rows, "units: h dimensionless (THEORY §5); stiffness in B0/l^3 (N/m columns in SI); "
                         "tip angle in rad; lowload_s = THEORY §6 s(h)")
-        png = _io.BytesIO()
-        save_png(stiffness_figure(curve, si=scene.scales is not None), png)
-        files["stiffness.png"] = png.getvalue()
+        files["stiffness.png"] = png_bytes(stiffness_figure(curve, si=scene.scales is not None), dpi=150)
     return files

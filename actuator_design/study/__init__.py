@@ -3,8 +3,8 @@
 ``run_study`` (in :mod:`actuator_design.study.runner`) is the entry point; the sweep specification
 lives in :mod:`actuator_design.study.spec`, the grid in :mod:`~actuator_design.study.grid`, the
 per-point work in :mod:`~actuator_design.study.worker`, the journal in
-:mod:`~actuator_design.study.journal`, the outputs in :mod:`~actuator_design.study.outputs` and the
-figures (pure drawing) in :mod:`~actuator_design.study.figures`. Imports are lazy so that importing
+:mod:`~actuator_design.study.journal` and the outputs in :mod:`~actuator_design.study.outputs`; the
+figures (pure drawing) are :mod:`actuator_design.viz.study`'s. Imports are lazy so that importing
 this package is cheap and never needs Dask.
 """
 

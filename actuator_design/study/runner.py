@@ -15,7 +15,7 @@ then) — and writes into the study folder:
 ``results.csv`` (and ``results.parquet`` when pyarrow is installed)
     the tidy table (:mod:`actuator_design.study.outputs`);
 ``figures/*.png``
-    a result against a swept key (:mod:`actuator_design.study.figures`).
+    a result against a swept key (:mod:`actuator_design.viz.study`).
 
 Every file is written to a temporary name and renamed. An interrupted study (Ctrl-C, SIGTERM, or a
 killed process) resumes with ``resume=True`` without recomputing its finished points.
@@ -483,7 +483,7 @@ def _point_list(plan: StudyPlan, records: Dict[int, dict]) -> List[dict]:
 
 
 def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
-    from .figures import default_figures, study_figures
+    from ..viz.study import default_figures, study_figures
 
     table = build_table(plan.axes, plan.indices, records, plan.spec.outputs)
     files: Dict[str, Any] = {"journal": JOURNAL_NAME}

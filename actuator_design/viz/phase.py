@@ -7,11 +7,12 @@ figures.
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 
-__all__ = ["plot_phase", "phase_figure", "save_phase_png"]
+from .style import new_figure
+
+__all__ = ["plot_phase", "phase_figure"]
 
 
 def _title(portrait) -> str:
@@ -50,18 +51,20 @@ def plot_phase(portrait, ax=None, title: str = None, legend: bool = True):
 
 
 def _figure(n):
-    import matplotlib
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")
-    from matplotlib.figure import Figure
+    """A figure for ``n`` panels, two per row: (fig, flat array of axes)."""
     ncols = min(n, 2)
     nrows = int(math.ceil(n / ncols))
-    fig = Figure(figsize=(6.6 * ncols, 5.2 * nrows), layout="constrained")
+    fig = new_figure((6.6 * ncols, 5.2 * nrows))
     return fig, np.atleast_1d(fig.subplots(nrows, ncols)).ravel()
 
 
 def phase_figure(portraits, titles=None):
-    """A figure with one panel per portrait (a single portrait or a list)."""
+    """A figure with one panel per portrait (a single portrait or a list).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     if not isinstance(portraits, (list, tuple)):
         portraits = [portraits]
     fig, axes = _figure(len(portraits))
@@ -71,8 +74,3 @@ def phase_figure(portraits, titles=None):
         ax.set_visible(False)
     return fig
 
-
-def save_phase_png(portraits, path, titles=None, dpi: int = 150):
-    """Draw :func:`phase_figure` and save it as PNG to ``path`` (a path or a binary file object)."""
-    phase_figure(portraits, titles).savefig(path, format="png", dpi=dpi)
-    return path

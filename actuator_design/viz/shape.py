@@ -1,29 +1,25 @@
-"""Drawing results: pure, never solves (matplotlib, Agg backend chosen only when drawing).
+"""The shape of one equilibrium: pure drawing, never solves.
 
 :func:`plot_shape` draws the deformed rod, the undeformed rod, the clamp, the applied field and the
-tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l).
+tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l);
+:func:`shape_figure` is the figure of ``solve --out`` (``shape.png``).
 """
 from __future__ import annotations
 
 import math
-import sys
 
 import numpy as np
 
-__all__ = ["plot_shape", "save_shape_png"]
+from .style import new_axes
+
+__all__ = ["plot_shape", "shape_figure"]
 
 #: Points of the dense deformed shape.
 DENSE_POINTS = 300
 
 
-def _new_axes(figsize=(6.4, 5.6)):
-    """A figure and axes without touching pyplot's global state (Agg when pyplot is unused)."""
-    import matplotlib
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=figsize, layout="constrained")
-    return fig.add_subplot()
+#: Size in inches of the figure of one shape.
+SHAPE_FIGSIZE = (6.4, 5.6)
 
 
 def plot_shape(result, ax=None, title=None):
@@ -43,7 +39,7 @@ def plot_shape(result, ax=None, title=None):
     matplotlib.axes.Axes
     """
     if ax is None:
-        ax = _new_axes()
+        ax = new_axes(SHAPE_FIGSIZE)
     scene = result.scene
     d = result.evaluate(np.linspace(0.0, 1.0, DENSE_POINTS))
     x, y = np.asarray(d["x"], float), np.asarray(d["y"], float)
@@ -68,18 +64,20 @@ def plot_shape(result, ax=None, title=None):
     return ax
 
 
-def save_shape_png(result, path, dpi: int = 150):
-    """Draw ``result`` with :func:`plot_shape` and save it as PNG to ``path`` (a path or a binary
-    file object)."""
-    ax = plot_shape(result)
-    ax.figure.savefig(path, format="png", dpi=dpi)
-    return path
+def shape_figure(result, title=None):
+    """A new figure holding :func:`plot_shape` of ``result``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    return plot_shape(result, title=title).figure
 
 
 # -- pieces ---------------------------------------------------------------------------------------
 def _default_title(result) -> str:
     scene = result.scene
-    from .scene import UniformField
+    from ..scene import UniformField
     parts = [f"h = {scene.h:.4g}"]
     if isinstance(scene.field, UniformField):
         parts.append(f"φ = {math.degrees(scene.field.phi):.4g}°")
@@ -94,7 +92,7 @@ def _default_title(result) -> str:
 
 def _window(xs, ys, field):
     """Square-ish plot window around the finite points (and a dipole), with a margin."""
-    from .scene import DipoleField
+    from ..scene import DipoleField
     xs, ys = list(xs[np.isfinite(xs)]), list(ys[np.isfinite(ys)])
     if isinstance(field, DipoleField):
         xs.append(field.x0)
@@ -119,7 +117,7 @@ def _draw_clamp(ax, t0: float) -> None:
 
 
 def _draw_field(ax, scene, window, xs, ys) -> None:
-    from .scene import DipoleField, UniformField
+    from ..scene import DipoleField, UniformField
     field = scene.field
     if field is None:
         return
@@ -157,8 +155,8 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys) -> None:
 
 def _draw_streamlines(ax, field, h: float, window, n: int = 41) -> None:
     """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
-    from .physics.fields import field_model
-    from .scene import DipoleField
+    from ..physics.fields import field_model
+    from ..scene import DipoleField
     model = field_model(field)
     gx = np.linspace(window[0], window[1], n)
     gy = np.linspace(window[2], window[3], n)

@@ -1,9 +1,14 @@
-"""The error–time (Pareto) figure of the forward benchmark: pure drawing from benchmark rows."""
+"""The error–time (Pareto) figure of the forward benchmark: pure drawing from benchmark rows.
+
+Rows are those of :func:`actuator_design.benchmarks.runner.run_benchmark` (``problem``, ``method``,
+``error`` in rod lengths / rad, ``time_s`` in s, ``converged``, ``peer``).
+"""
 from __future__ import annotations
 
 import math
-import sys
 from typing import Dict, List, Sequence
+
+from .style import new_figure
 
 __all__ = ["pareto_figure", "pareto_front"]
 
@@ -27,21 +32,20 @@ def pareto_front(rows: Sequence[Dict]) -> List[Dict]:
     return front
 
 
-def pareto_figure(rows: Sequence[Dict], path) -> None:
-    """Save a grid of log-log error–time plots, one panel per problem, to ``path`` (PNG).
+def pareto_figure(rows: Sequence[Dict]):
+    """A grid of log-log error–time plots, one panel per problem.
 
     Each method family is one series (in order of resolution or tolerance); the Pareto front of the project's methods
     is shaded grey; ``solve_bvp`` (the peer) is black.
-    """
-    import matplotlib
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")
-    from matplotlib.figure import Figure
 
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     problems = list(dict.fromkeys(r["problem"] for r in rows))
     ncol = min(3, len(problems)) or 1
     nrow = math.ceil(len(problems) / ncol) or 1
-    fig = Figure(figsize=(4.6 * ncol, 3.8 * nrow), layout="constrained")
+    fig = new_figure((4.6 * ncol, 3.8 * nrow))
     axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
     floor_err = 1e-16
     for ax, prob in zip(axes, problems):
@@ -73,4 +77,4 @@ def pareto_figure(rows: Sequence[Dict], path) -> None:
         fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
                    ncol=min(6, len(handles)), fontsize=8)
     fig.suptitle("Forward solve: error against warm time (dotted: 1e-8 and 0.2 ms targets)")
-    fig.savefig(path, format="png", dpi=110)
+    return fig

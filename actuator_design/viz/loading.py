@@ -8,27 +8,17 @@ deflection curves (dimensionless or SI).
 """
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
-__all__ = ["path_figure", "stiffness_figure", "load_deflection_figure", "save_png"]
+from .style import new_figure
+
+__all__ = ["path_figure", "stiffness_figure", "load_deflection_figure"]
 
 
 def _figure(figsize, ncols=1):
-    import matplotlib
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=figsize, layout="constrained")
-    axes = fig.subplots(1, ncols)
-    return fig, np.atleast_1d(axes)
-
-
-def save_png(fig, path, dpi: int = 150):
-    """Save a figure as PNG to ``path`` (a path or a binary file object)."""
-    fig.savefig(path, format="png", dpi=dpi)
-    return path
+    """A figure of ``figsize`` inches with ``ncols`` panels in one row: (fig, 1-D array of axes)."""
+    fig = new_figure(figsize)
+    return fig, np.atleast_1d(fig.subplots(1, ncols))
 
 
 def _runs(points):

@@ -1,40 +1,24 @@
-"""Drawing the equilibrium landscape: pure, never solves (matplotlib, Agg when pyplot is unused).
+"""Drawing the equilibrium landscape: pure, never solves.
 
 * :func:`plot_equilibria` — the shapes of all equilibria of a scene, stable solid, unstable dashed;
 * :func:`plot_branches` — parameter against tip angle for continued branches, stable solid,
   unstable dashed, folds (circles) and branch points (squares) marked;
-* :func:`plot_multiplicity` — a multiplicity map (counts as colours) with critical curves overlaid;
-* :func:`save_png` — save any of them.
+* :func:`plot_multiplicity` — a multiplicity map (counts as colours) with critical curves overlaid.
 
 Every function takes result objects of :mod:`actuator_design.analysis` (or their plain arrays) and
-an optional matplotlib ``Axes``; units are those of the results (rod lengths, rad, dimensionless
+an optional matplotlib ``Axes`` (a new figure when omitted) and returns the axes; units are those of the results (rod lengths, rad, dimensionless
 parameters).
 """
 from __future__ import annotations
 
 import math
-import sys
 from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-__all__ = ["new_axes", "plot_equilibria", "plot_branches", "plot_multiplicity", "save_png"]
+from .style import new_axes
 
-
-def new_axes(figsize=(6.4, 5.2)):
-    """Axes of a new figure that does not touch pyplot's global state."""
-    import matplotlib
-    if "matplotlib.pyplot" not in sys.modules:
-        matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-    fig = Figure(figsize=figsize, layout="constrained")
-    return fig.add_subplot()
-
-
-def save_png(ax, path, dpi: int = 150):
-    """Save the figure of ``ax`` as PNG to a path or binary file object."""
-    ax.figure.savefig(path, format="png", dpi=dpi)
-    return path
+__all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity"]
 
 
 def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200):

@@ -1,6 +1,10 @@
-"""Figures of a design: the verified shape with its target, the fibre layout, the field schedule.
+"""Figures of a design and of a field schedule: pure drawing, never solves.
 
-Pure drawing from a :class:`~actuator_design.analysis.design.DesignResult`; never solves.
+* :func:`design_figure` — a :class:`~actuator_design.analysis.design.DesignResult`: the verified
+  shape with its target, the fibre layout, the field schedule;
+* :func:`schedule_figure` — a :class:`~actuator_design.analysis.schedule.ScheduleResult`: the rod
+  at every waypoint and h, φ along the schedule;
+* :func:`schedule_animation` / :func:`schedule_gif_bytes` — the rod moving along the schedule.
 """
 from __future__ import annotations
 
@@ -8,9 +12,10 @@ import math
 
 import numpy as np
 
-from .plotting import _new_axes, plot_shape
+from .shape import plot_shape
+from .style import gif_bytes, new_figure
 
-__all__ = ["design_figure", "save_design_png", "schedule_figure", "save_schedule_gif"]
+__all__ = ["design_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes"]
 
 
 def design_figure(result):
@@ -20,9 +25,7 @@ def design_figure(result):
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(13.5, 4.8), layout="constrained")
+    fig = new_figure((13.5, 4.8))
     ax_shape, ax_alpha, ax_sched = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.35, 1, 1]})
     state = result.path.final if result.path is not None else result.forward
     verdict = "verified, stable, snap-free" if result.success else (
@@ -60,23 +63,21 @@ def design_figure(result):
     return fig
 
 
-def save_design_png(result, path, dpi: int = 100) -> None:
-    """Write :func:`design_figure` to ``path`` (file name or binary file object)."""
-    fig = design_figure(result)
-    fig.savefig(path, dpi=dpi, format="png")
-
-
 def _rod_xy(state, n: int = 150):
     d = state.evaluate(np.linspace(0.0, 1.0, n))
     return d["x"], d["y"]
 
 
 def schedule_figure(result):
-    """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule."""
-    from matplotlib import cm
-    from matplotlib.figure import Figure
+    """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule.
 
-    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib import cm
+
+    fig = new_figure((11, 4.8))
     ax, ax_s = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
     colours = cm.viridis(np.linspace(0, 0.9, len(result.waypoint_index)))
     for k, i in enumerate(result.waypoint_index):
@@ -106,16 +107,16 @@ def schedule_figure(result):
     return fig
 
 
-def save_schedule_gif(result, path, fps: int = 12) -> None:
-    """Animate the rod along the verified schedule (GIF through matplotlib's Pillow writer)."""
-    import matplotlib
+def schedule_animation(result):
+    """The rod along the verified schedule, one frame per schedule point (rod lengths, field arrow).
 
-    if "matplotlib.pyplot" not in __import__("sys").modules:
-        matplotlib.use("Agg")
-    from matplotlib.animation import FuncAnimation, PillowWriter
-    from matplotlib.figure import Figure
+    Returns
+    -------
+    matplotlib.animation.FuncAnimation
+    """
+    from matplotlib.animation import FuncAnimation
 
-    fig = Figure(figsize=(5, 5), layout="constrained")
+    fig = new_figure((5, 5))
     ax = fig.subplots()
     ax.set_aspect("equal")
     ax.set_xlim(-0.6, 1.1)
@@ -137,5 +138,9 @@ def save_schedule_gif(result, path, fps: int = 12) -> None:
         text.set_text(f"h = {sc['h']:.3f}, φ = {math.degrees(sc['phi']):.1f}°")
         return line, arrow, text
 
-    anim = FuncAnimation(fig, frame, frames=len(result.states), blit=False)
-    anim.save(path, writer=PillowWriter(fps=fps))
+    return FuncAnimation(fig, frame, frames=len(result.states), blit=False)
+
+
+def schedule_gif_bytes(result, fps: int = 12) -> bytes:
+    """The GIF of :func:`schedule_animation` at ``fps`` frames per second."""
+    return gif_bytes(schedule_animation(result), fps=fps)

@@ -1,0 +1,46 @@
+"""A command's ``--out`` set: written all or nothing before anything is printed on stdout.
+
+The commands compose result → figures (:mod:`actuator_design.viz`) → files in memory, and hand the
+set to :func:`write_out`, which writes it through :func:`actuator_design.io.write_output_set`. The
+command prints its result (JSON or summary) only after that returned, and then
+:func:`print_written`; so a failed write leaves no file of the set and no JSON on stdout (exit 2).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import List, Mapping, Sequence
+
+from .common import bad_input, stdout_to_stderr
+
+__all__ = ["write_out", "print_written"]
+
+
+def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
+              what: str = "") -> List[Path]:
+    """Write ``{name: text, bytes or figure}`` into ``out_dir`` all or nothing.
+
+    Parameters
+    ----------
+    out_dir : str
+        The ``--out`` directory.
+    files : mapping of file name → str, bytes or object with ``savefig``
+    json_mode : bool
+        ``--json`` was given: anything printed while writing goes to stderr.
+    what : str
+        Named in the error message (``--out: cannot write <what>to DIR: ...``), e.g. ``"results "``.
+
+    Raises
+    ------
+    InputError
+        A file could not be written (exit 2); nothing of the set is left.
+    """
+    from ..io import write_output_set
+
+    with bad_input(f"--out: cannot write {what}to {out_dir}: "), stdout_to_stderr(json_mode):
+        return write_output_set(out_dir, files)
+
+
+def print_written(paths: Sequence[Path], json_mode: bool) -> None:
+    """``wrote a, b, c`` on stdout (stderr with ``--json``, which keeps stdout one JSON object)."""
+    print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if json_mode else sys.stdout)

@@ -1,0 +1,94 @@
+"""Shared figure setup: the Agg backend, figures without pyplot's global state, encoding to bytes.
+
+Every module of :mod:`actuator_design.viz` makes its figures here, so that drawing never touches
+pyplot's global state (no window, no figure registry) and the backend is Agg unless the caller has
+already chosen one through pyplot. matplotlib is imported only when a figure is made, so importing
+any ``viz`` module is cheap and does not load matplotlib.
+
+Figures leave ``viz`` as objects (for callers that compose panels) or as encoded bytes
+(:func:`png_bytes`, :func:`gif_bytes`); writing bytes to files is :mod:`actuator_design.io`'s job.
+"""
+from __future__ import annotations
+
+import io
+import os
+import sys
+import tempfile
+from typing import Tuple
+
+__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes"]
+
+
+def _use_agg() -> None:
+    """Choose the Agg backend unless pyplot (and with it a user's backend) is already in use."""
+    import matplotlib
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+
+
+def new_figure(figsize: Tuple[float, float] = (6.4, 4.8)):
+    """A new figure (constrained layout) that pyplot does not know about.
+
+    Parameters
+    ----------
+    figsize : (float, float)
+        Width and height in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    _use_agg()
+    from matplotlib.figure import Figure
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def new_axes(figsize: Tuple[float, float] = (6.4, 5.2)):
+    """The single axes of a :func:`new_figure` of size ``figsize`` (inches)."""
+    return new_figure(figsize).add_subplot()
+
+
+def new_axes_grid(nrows: int = 1, ncols: int = 1, panel_size: Tuple[float, float] = (6.4, 4.6)):
+    """A figure of ``nrows`` × ``ncols`` panels of ``panel_size`` inches each.
+
+    Returns
+    -------
+    fig : matplotlib.figure.Figure
+    axes : ndarray of Axes, shape (nrows, ncols)
+    """
+    fig = new_figure((panel_size[0] * ncols, panel_size[1] * nrows))
+    return fig, fig.subplots(nrows, ncols, squeeze=False)
+
+
+def png_bytes(figure, dpi: int = 150) -> bytes:
+    """The PNG encoding of a figure (or of the figure an ``Axes`` belongs to).
+
+    Parameters
+    ----------
+    figure : matplotlib.figure.Figure or matplotlib.axes.Axes
+    dpi : int
+        Resolution in dots per inch.
+
+    Returns
+    -------
+    bytes
+        A PNG file's content.
+    """
+    fig = getattr(figure, "figure", None) if not hasattr(figure, "savefig") else figure
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
+def gif_bytes(animation, fps: int = 12) -> bytes:
+    """The GIF encoding of a ``matplotlib.animation.Animation`` (Pillow writer).
+
+    Pillow's writer needs a file name, so the frames pass through a private temporary directory that
+    is removed before returning; nothing is written anywhere the caller can see.
+    """
+    from matplotlib.animation import PillowWriter
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "animation.gif")
+        animation.save(path, writer=PillowWriter(fps=fps))
+        with open(path, "rb") as fh:
+            return fh.read()
