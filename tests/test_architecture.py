@@ -1,0 +1,133 @@
+"""The layering of DESIGN.md, checked on the source: figures live in ``actuator_design/viz`` (the only
+importer of matplotlib), ``io`` writes files and knows nothing of plots, ``viz`` never solves, and
+the command line's solve path does not load matplotlib at all."""
+import ast
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "actuator_design"
+
+#: Files outside viz/ still allowed to import matplotlib: removed when the calibration package lands.
+MATPLOTLIB_EXCEPTIONS = {"fit.py", "fitdata.py"}
+
+#: What viz/ must never import: the machinery that solves (viz draws results, it never solves).
+SOLVING_MODULES = ("equilibrium", "solver", "analysis", "transcription", "accuracy", "study")
+
+
+def _modules():
+    for path in sorted(PACKAGE.rglob("*.py")):
+        yield path.relative_to(PACKAGE), ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def _imported(tree, relative: Path):
+    """Absolute dotted names of everything ``tree`` imports (relative imports resolved), including
+    ``__import__("x")`` and ``importlib.import_module("x")`` with a literal name."""
+    package = ["actuator_design", *relative.parent.parts]
+    names = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[:len(package) - (node.level - 1)]
+                prefix = ".".join(base + ([node.module] if node.module else []))
+            else:
+                prefix = node.module
+            names.append(prefix)
+            names += [f"{prefix}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
+                and isinstance(node.args[0].value, str):
+            func = node.func
+            name = func.id if isinstance(func, ast.Name) else getattr(func, "attr", None)
+            if name in ("__import__", "import_module"):
+                names.append(node.args[0].value)
+    return names
+
+
+def _is(name: str, module: str) -> bool:
+    return name == module or name.startswith(module + ".")
+
+
+def test_the_scan_sees_relative_and_dynamic_imports():
+    tree = ast.parse("from ..viz.style import png_bytes\nfrom . import viz\n"
+                     "import importlib\nimportlib.import_module('matplotlib.figure')\n")
+    names = _imported(tree, Path("cli/solve.py"))
+    assert "actuator_design.viz.style" in names and "actuator_design.cli.viz" in names
+    assert "matplotlib.figure" in names
+
+
+def test_matplotlib_is_imported_only_under_viz():
+    offenders = []
+    for rel, tree in _modules():
+        if rel.parts[0] == "viz" or str(rel) in MATPLOTLIB_EXCEPTIONS:
+            continue
+        offenders += [f"{rel}: {n}" for n in _imported(tree, rel) if _is(n, "matplotlib")]
+    assert not offenders, "matplotlib imported outside actuator_design/viz:\n" + "\n".join(offenders)
+
+
+def _module_name(rel: Path) -> str:
+    parts = ["actuator_design", *rel.with_suffix("").parts]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def test_io_knows_nothing_of_plots():
+    """Nothing io.py imports, directly or through other modules of the package, is viz or matplotlib."""
+    graph = {_module_name(rel): _imported(tree, rel) for rel, tree in _modules()}
+    seen, todo, reached = set(), ["actuator_design.io"], []
+    while todo:
+        mod = todo.pop()
+        if mod in seen:
+            continue
+        seen.add(mod)
+        for name in graph.get(mod, ()):
+            reached.append((mod, name))
+            # `from .x import y` names a module x or a name y in it: follow whichever is a module
+            todo += [n for n in (name, name.rpartition(".")[0]) if n in graph]
+    bad = sorted({f"{m} -> {n}" for m, n in reached
+                  if _is(n, "matplotlib") or _is(n, "actuator_design.viz")})
+    assert not bad, "io reaches plots:\n" + "\n".join(bad)
+
+
+def test_viz_never_reaches_for_the_solvers():
+    offenders = []
+    for rel, tree in _modules():
+        if rel.parts[0] != "viz":
+            continue
+        for n in _imported(tree, rel):
+            if any(_is(n, f"actuator_design.{m}") for m in SOLVING_MODULES):
+                offenders.append(f"{rel}: {n}")
+    assert not offenders, "viz imports solving code:\n" + "\n".join(offenders)
+
+
+def test_viz_package_marker_is_the_agreed_single_line():
+    # another branch creates the identical file; an exact match keeps the merge clean
+    assert (PACKAGE / "viz" / "__init__.py").read_text() == \
+        '"""Figures: pure functions of results; the only importer of matplotlib."""\n'
+
+
+def _run_python(code: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("MPLBACKEND", None)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                          cwd=ROOT, timeout=300)
+
+
+def test_importing_the_cli_and_the_solver_does_not_load_matplotlib():
+    p = _run_python("import sys\n"
+                    "import actuator_design.cli.main as m\n"
+                    "m.build_parser(only='solve')\n"
+                    "import actuator_design.equilibrium, actuator_design.io\n"
+                    "print('matplotlib' in sys.modules)")
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "False"
+
+
+def test_the_solve_command_without_out_does_not_load_matplotlib():
+    p = _run_python("import sys\n"
+                    "from actuator_design.cli.main import main\n"
+                    "code = main(['solve', '--h', '0.5', '--json'])\n"
+                    "print('matplotlib' in sys.modules, code, file=sys.stderr)")
+    assert p.stderr.strip().splitlines()[-1] == "False 0", p.stderr
