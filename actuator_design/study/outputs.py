@@ -2,6 +2,8 @@
 
 Pure I/O: nothing here solves. Every file goes through :func:`actuator_design.io.atomic_write`
 (or, for Parquet, a temporary name and :func:`os.replace`), so no reader sees a half-written file.
+A study folder grows by design (journal, resume, figures redrawn at the end), so unlike a command's
+``--out`` set (:func:`actuator_design.io.write_output_set`) it is not written all or nothing.
 
 The table has one row per point: ``point`` (index in the grid), one column per swept key
 (``field.magnitude [kA/m]``: the number in the unit of the key's first value), ``status``,
