@@ -233,7 +233,9 @@ def write_output_set(out_dir, files: Mapping[str, FileContent], dpi: int = 150) 
       files are restored (see :func:`_commit_into_existing`).
 
     On failure nothing of the new set is left: no file, no staging folder, no parent directory that
-    this call created.
+    this call created. (A process killed outright cannot clean up: it may leave its hidden
+    ``.partial-*`` staging folder behind and, if killed during the final moves into an existing
+    folder, a mix of earlier and new files.)
 
     Parameters
     ----------
