@@ -20,7 +20,9 @@ class SolverOptions:
         ``"lgl"``: spectral elements on Legendre–Gauss–Lobatto nodes of polynomial ``degree``
         (high order); ``"midpoint"``: piecewise-linear θ with the midpoint rule (second order).
     elements : int
-        Number of elements (``lgl``) or intervals (``midpoint``), ≥ 1.
+        Number of elements (``lgl``) or intervals (``midpoint``), ≥ 1, and at most what keeps the
+        Hessian under ~1 GB (:mod:`actuator_design.config.limits`: 4·10⁵ banded entries, i.e.
+        elements × degree × (2 degree + 1) for ``lgl`` and 3 × elements for ``midpoint``).
     degree : int
         Polynomial degree per element for ``lgl`` (≥ 2); ignored by ``midpoint``.
     method : {"ipopt", "newton"}
@@ -74,6 +76,12 @@ class SolverOptions:
             raise ValueError(f"degree must be >= 2 for lgl, got {self.degree}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
+        if self.accuracy is None:
+            from .config.limits import mesh_problem  # the memory budget (README "Units and scenes")
+
+            problem = mesh_problem(self.transcription, int(self.elements), int(self.degree))
+            if problem is not None:
+                raise ValueError(problem)
         if self.accuracy is not None and not (0 < self.accuracy < 1):
             raise ValueError(f"accuracy must lie in (0, 1) (a tip error in rod lengths/rad), got {self.accuracy}")
 
