@@ -241,7 +241,8 @@ class PhysicalScene(StrictModel):
         if self.field is not None:
             _, h0 = self.field.to_field(length)
             chi_bar, chi_hat = self.magnetics.susceptibilities()
-            field_src = [f"field.{k} = {getattr(self.field, k):g}" for k in ("magnitude", "moment", "scale")
+            field_src = [f"field.{k} = {getattr(self.field, k):g} {unit}" for k, unit in
+                         (("magnitude", "A/m"), ("moment", "A m^2"), ("scale", "A/m"))
                          if hasattr(self.field, k)]
             mag_src = ["magnetics.particles" if self.magnetics.particles else
                        f"magnetics.chi_bar = {chi_bar:g}"]
