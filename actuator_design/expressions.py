@@ -32,6 +32,7 @@ FUNCTIONS = (
     "sin", "cos", "tan", "exp", "log", "sqrt", "tanh", "sinh", "cosh",
     "arctan", "arcsin", "arccos", "atan2", "abs", "fmin", "fmax",
 )
+_BINARY_FUNCTIONS = ("atan2", "fmin", "fmax")
 CONSTANTS = {"pi": math.pi, "e": math.e}
 _BINOPS = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div", ast.Pow: "pow"}
 
@@ -97,7 +98,12 @@ class Expression:
                 stack.extend((k, False) for k in kids)
                 continue
             if isinstance(node, ast.Constant):
-                value[id(node)] = np.float64(node.value)
+                try:
+                    value[id(node)] = np.float64(node.value)
+                except OverflowError:  # an integer literal beyond float64
+                    value[id(node)] = np.float64(np.inf)
+                if not np.isfinite(value[id(node)]):
+                    raise ExpressionError(f"{_cut(repr(node.value))} is not a finite float64 number")
             elif isinstance(node, ast.Name):
                 value[id(node)] = None if node.id in self.variables else np.float64(CONSTANTS[node.id])
             elif any(value[id(k)] is None for k in kids):
@@ -138,6 +144,10 @@ class Expression:
             if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS or node.keywords:
                 raise ExpressionError(
                     f"{_cut(self.text)!r}: only the functions {', '.join(FUNCTIONS)} may be called")
+            arity = 2 if node.func.id in _BINARY_FUNCTIONS else 1
+            if len(node.args) != arity:
+                raise ExpressionError(f"{_cut(self.text)!r}: {node.func.id} takes {arity} argument"
+                                      f"{'s' if arity > 1 else ''}, got {len(node.args)}")
             for arg in node.args:
                 self._check(arg)
         else:

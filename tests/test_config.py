@@ -470,6 +470,11 @@ def test_expression_bounds():
     for text in ("1/0", "10**10**10", "2**(-1e6)*0 + log(0)", "sqrt(-1)"):
         with pytest.raises(ExpressionError, match="not a finite number"):
             Expression(text, ("s",))
+    for text in ("1" + "0" * 400 + "*s", "1e400*s"):  # literals beyond float64 (max ≈ 1.8e308)
+        with pytest.raises(ExpressionError, match="not a finite float64 number"):
+            Expression(text, ("s",))
+    with pytest.raises(ExpressionError, match="sin takes 1 argument, got 2"):
+        Expression("sin(1, s)", ("s",))
     # a constant part is folded in float64 only to check it; the value stays exact
     assert Expression("1/3 + s", ("s",)).evaluate({"s": 0.0}) == 1.0 / 3.0
     # 101-term sums are fine (depth 101 < 200)

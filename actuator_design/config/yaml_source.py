@@ -80,15 +80,15 @@ def read_yaml(path: Path) -> Any:
         file, and for a document that nests, aliases or repeats keys beyond the bounds.
     """
     try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ConfigError("config", f"{path} is {size} bytes; a configuration may have at most "
-                                        f"{MAX_FILE_BYTES} bytes (1 MiB)")
-        raw = path.read_bytes()[:MAX_FILE_BYTES + 1]
+        with path.open("rb") as stream:  # a bounded read: /dev/zero or a FIFO must not hang us
+            raw = stream.read(MAX_FILE_BYTES + 1)
     except FileNotFoundError:
         raise ConfigError("config", f"file not found: {path}") from None
     except OSError as err:
         raise ConfigError("config", f"cannot read {path}: {err.strerror or err}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ConfigError("config", f"{path} is larger than {MAX_FILE_BYTES} bytes (1 MiB), the most a "
+                                    "configuration may have")
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
