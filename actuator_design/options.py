@@ -4,10 +4,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Optional
 
-__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS"]
+__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE"]
 
 TRANSCRIPTIONS = ("lgl", "midpoint")
 METHODS = ("ipopt", "newton", "fast")
+#: Highest LGL degree (as in a config's ``solver.degree``): beyond it the nodes and the
+#: differentiation matrix lose accuracy and one element's dense block dominates the Hessian.
+MAX_DEGREE = 60
 
 
 @dataclass(frozen=True)
@@ -20,9 +23,11 @@ class SolverOptions:
         ``"lgl"``: spectral elements on Legendre–Gauss–Lobatto nodes of polynomial ``degree``
         (high order); ``"midpoint"``: piecewise-linear θ with the midpoint rule (second order).
     elements : int
-        Number of elements (``lgl``) or intervals (``midpoint``), ≥ 1.
+        Number of elements (``lgl``) or intervals (``midpoint``), ≥ 1, and at most what keeps the
+        Hessian under ~1 GB (:mod:`actuator_design.config.limits`: 4·10⁵ banded entries, i.e.
+        elements × degree × (2 degree + 1) for ``lgl`` and 3 × elements for ``midpoint``).
     degree : int
-        Polynomial degree per element for ``lgl`` (≥ 2); ignored by ``midpoint``.
+        Polynomial degree per element for ``lgl``, in [2, 60]; ignored by ``midpoint``.
     method : {"ipopt", "newton"}
         ``"ipopt"``: interior-point minimisation of the discrete energy with the clamp as a
         constraint. ``"newton"``: damped Newton on the discrete stationarity equations (fast warm
@@ -70,10 +75,16 @@ class SolverOptions:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
         if int(self.elements) < 1:
             raise ValueError(f"elements must be >= 1, got {self.elements}")
-        if self.transcription == "lgl" and int(self.degree) < 2:
-            raise ValueError(f"degree must be >= 2 for lgl, got {self.degree}")
+        if self.transcription == "lgl" and not 2 <= int(self.degree) <= MAX_DEGREE:
+            raise ValueError(f"degree must be in [2, {MAX_DEGREE}] for lgl, got {self.degree}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
+        if self.accuracy is None:
+            from .config.limits import mesh_problem  # the memory budget (README "Units and scenes")
+
+            problem = mesh_problem(self.transcription, int(self.elements), int(self.degree))
+            if problem is not None:
+                raise ValueError(problem)
         if self.accuracy is not None and not (0 < self.accuracy < 1):
             raise ValueError(f"accuracy must lie in (0, 1) (a tip error in rod lengths/rad), got {self.accuracy}")
 

@@ -30,6 +30,11 @@ MU0 = 4.0e-7 * math.pi
 _TWO_PI = 2.0 * math.pi
 _NON_FINITE = re.compile(r"^\s*[+-]?(nan|inf)", re.IGNORECASE)
 _MAX_LENGTH = 200
+# powers: a unit exponent is a small number ("mm^2", "m**3"); a tower such as "10**10**10" or
+# "(10**9)**9" makes pint compute a huge integer (minutes), so it is refused before pint sees it
+_POWER = re.compile(r"(\*\*|\^)\s*\(?\s*([+-]?\d*\.?\d+(?:[eE][+-]?\d+)?)")
+_POWER_OF_POWER = re.compile(r"(\*\*|\^)[^a-zA-Z]*?(\*\*|\^)")
+_MAX_EXPONENT = 12
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,10 @@ def _parse_string(text: str, dim: _Dimension, field_name: str):
         raise QuantityError(field_name, f"value too long ({len(text)} characters)")
     if _NON_FINITE.match(text):
         raise QuantityError(field_name, f"must be a finite number, got '{text}'")
+    if _POWER_OF_POWER.search(text) or any(abs(float(m.group(2))) > _MAX_EXPONENT
+                                           for m in _POWER.finditer(text)):
+        raise QuantityError(field_name, f"cannot read '{text}' as {dim.description}: powers are "
+                                        f"allowed on units only, with exponents up to {_MAX_EXPONENT}")
     if not re.match(r"^\s*[+-]?(\d|\.\d)", text):
         raise QuantityError(
             field_name, f"expected a number with a unit, e.g. '{dim.example}', got '{text}'")
@@ -172,6 +181,11 @@ def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
 
     text = str(value)
     q = _parse_string(text, dim, field_name)
+    return _check_finite(_to_si(q, text, dimension, dim, field_name), text, field_name)
+
+
+def _to_si(q, text: str, dimension: str, dim: _Dimension, field_name: str) -> float:
+    """``q`` in the SI unit of ``dimension`` (may overflow to inf: "1e308 km"; checked by the caller)."""
     if dimension == "magnetic_field" and q.dimensionality == ureg.tesla.dimensionality:
         return float(q.to(ureg.tesla).magnitude) / MU0
     if dimension == "angle":

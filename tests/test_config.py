@@ -396,3 +396,86 @@ def test_paper_configs_values():
     area, bending = 7e-3 * 3e-3, 2.25e6 * 7e-3 * (3e-3) ** 3 / 12
     assert actuator.h**2 == pytest.approx(MU0 * 1.32e-4 * 5e3**2 * area * 0.0275**2 / (2 * bending))
     assert actuator.h**2 == pytest.approx(9.29e-7, rel=1e-3)
+
+
+# -- hostile input is bounded (issue 10 item 4) ---------------------------------------------------
+def test_group_ranges_on_dimensionless_scenes():
+    assert error_of(dimensionless(h=1e4 + 1)).startswith("scene.h: must be a finite number in [0, 10000]")
+    assert error_of(dimensionless(p=-1e5 * 1.5)).startswith("scene.p: ")
+    load_config(dimensionless(h=1e4, p=-1e5, tip_moment=1e5))  # the bounds themselves are valid
+
+
+def test_derived_group_overflow_names_its_sources():
+    message = error_of(physical(**{"rod.length": "1e308 m"}))
+    assert message.startswith("scene.h: derived h = inf") and "rod.length = 1e+308 m" in message
+
+
+def test_derived_tip_load_is_checked():
+    # p = F ℓ² / (E w t³/12): 1 kN on a 0.1 m, 10 mm × 1 mm, 1 MPa strip is 1e3 · 1e-2 / 8.33e-7 = 1.2e7
+    b0 = 1e6 * 1e-2 * 1e-3**3 / 12
+    assert 1e3 * 0.1**2 / b0 > 1e5
+    message = error_of(physical(**{"loads.tip_force": {"x": 0, "y": "1 kN"}}))
+    assert message.startswith("scene.p: derived p = ") and "loads.tip_force" in message
+
+
+def test_mesh_budget_in_solver_section_and_options():
+    # banded budget 4e5 Hessian entries: lgl degree 10 has 21 entries per unknown, 10 unknowns
+    # per element → 1904 elements; midpoint 3 per unknown → 133 333 intervals
+    assert load_config({**dimensionless(h=1), "solver": {"elements": 1904}})
+    assert error_of({**dimensionless(h=1), "solver": {"elements": 1905}}).startswith(
+        "solver.elements: must be <= 1904")
+    assert load_config({**dimensionless(h=1), "solver": {"transcription": "midpoint", "elements": 133_333}})
+    with pytest.raises(ValueError, match=r"^elements must be <= "):
+        SolverOptions(transcription="midpoint", elements=133_334)
+
+
+def test_dense_mesh_budget_needs_a_non_uniform_field():
+    dipole = {"type": "dipole", "position": {"x": 0.5, "y": 0.5}}
+    assert error_of({**dimensionless(h=1, field=dipole), "solver": {"elements": 21}}).startswith(
+        "solver.elements: must be <= 20")
+    load_config({**dimensionless(h=1, field=dipole), "solver": {"elements": 20}})
+    load_config({**dimensionless(h=1), "solver": {"elements": 21}})
+
+
+def test_shared_reference_bomb_in_a_dict_is_stopped():
+    bomb = [1.0] * 10
+    for _ in range(12):  # 10^13 values once expanded
+        bomb = [bomb] * 10
+    with pytest.raises(ConfigError, match=r"^config: .* expands to more than 100000 values"):
+        load_config({**dimensionless(h=1), "study": {"type": "sweep", "values": bomb}})
+
+
+def test_yaml_duplicate_keys_and_encoding(tmp_path):
+    dup = tmp_path / "dup.yaml"
+    dup.write_text("scene:\n  type: dimensionless\n  p: 1\n  h: 1\n  p: 2\n")
+    with pytest.raises(ConfigError, match=r"^config: duplicate key 'p' at line 5 of .*dup.yaml "
+                                          r"\(first given at line 3\)"):
+        load_config(dup)
+    latin = tmp_path / "latin.yaml"
+    latin.write_bytes("name: \xe9t\xe9\nscene: {type: dimensionless}\n".encode("latin-1"))
+    with pytest.raises(ConfigError, match=r"^config: .*latin.yaml is not UTF-8"):
+        load_config(latin)
+    merged = tmp_path / "merge.yaml"  # a merge key is not a duplicate: explicit keys override it
+    merged.write_text("scene:\n  <<: {type: dimensionless, h: 2}\n  h: 1\n")
+    assert load_scene(merged)[0].h == 1.0
+
+
+def test_expression_bounds():
+    from actuator_design.expressions import Expression, ExpressionError
+
+    with pytest.raises(ExpressionError, match="too long"):
+        Expression("+".join(["s"] * 6000), ("s",))
+    with pytest.raises(ExpressionError, match="nested deeper"):
+        Expression("-" * 300 + "s", ("s",))
+    for text in ("1/0", "10**10**10", "2**(-1e6)*0 + log(0)", "sqrt(-1)"):
+        with pytest.raises(ExpressionError, match="not a finite number"):
+            Expression(text, ("s",))
+    for text in ("1" + "0" * 400 + "*s", "1e400*s"):  # literals beyond float64 (max ≈ 1.8e308)
+        with pytest.raises(ExpressionError, match="not a finite float64 number"):
+            Expression(text, ("s",))
+    with pytest.raises(ExpressionError, match="sin takes 1 argument, got 2"):
+        Expression("sin(1, s)", ("s",))
+    # a constant part is folded in float64 only to check it; the value stays exact
+    assert Expression("1/3 + s", ("s",)).evaluate({"s": 0.0}) == 1.0 / 3.0
+    # 101-term sums are fine (depth 101 < 200)
+    assert Expression("+".join(["s"] * 101), ("s",)).evaluate({"s": 2.0}) == 202.0

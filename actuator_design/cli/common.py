@@ -13,7 +13,7 @@ __all__ = [
     "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
     "UsageError", "InputError", "error_line", "package_version", "finite_float",
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
-    "stdout_to_stderr",
+    "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags",
 ]
 
 PROG = "actuator-design"
@@ -61,6 +61,30 @@ def nonnegative_float(text: str) -> float:
     if not (math.isfinite(value) and value >= 0.0):
         raise argparse.ArgumentTypeError(f"invalid value {text!r}: must be a finite number >= 0")
     return value
+
+
+#: Numeric flags (by argparse ``dest``) that set or bound a dimensionless group, and that group
+#: (:data:`actuator_design.config.limits.GROUP_RANGES`): checked for every command before it runs.
+SCENE_FLAG_GROUPS = {"h": "h", "p": "p", "h_max": "h", "p_max": "p"}
+
+
+def check_scene_flags(args: argparse.Namespace) -> None:
+    """Every scene flag given on the command line within its group's valid range.
+
+    Raises
+    ------
+    InputError
+        ``--h: invalid value 1e+155: must be a finite number in [0, 10000]`` (exit code 2).
+    """
+    from ..config.limits import group_problem
+
+    for dest, group in SCENE_FLAG_GROUPS.items():
+        value = getattr(args, dest, None)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            problem = group_problem(group, float(value))
+            if problem is not None:
+                flag = "--" + dest.replace("_", "-")
+                raise InputError(f"{flag}: invalid value {value:g}: {problem.split(', got')[0]}")
 
 
 # -- turning library errors into bad-input errors -------------------------------------------------

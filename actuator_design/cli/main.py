@@ -22,12 +22,13 @@ import argparse
 import contextlib
 import importlib
 import os
+import re
 import sys
 import traceback
 from typing import List, Optional, Sequence
 
-from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, InputError, PROG, UsageError, error_line,
-                     package_version)
+from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, InputError, PROG, UsageError, check_scene_flags,
+                     error_line, package_version)
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -37,8 +38,18 @@ COMMANDS: List[str] = [
 ]
 
 
+#: What argparse must read as a (negative) number, not as an option: ``-1``, ``-1.5``, ``-.5``,
+#: ``-1e3``, ``-2.5E-4`` (argparse's own pattern misses exponents, so ``--p -1e3`` failed).
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose usage errors become :class:`UsageError` (one line, exit 2)."""
+    """An argument parser whose usage errors become :class:`UsageError` (one line, exit 2) and that
+    reads every negative number, exponents included, as a value (sub-parsers inherit the class)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message):  # noqa: D102 - argparse hook
         raise UsageError(f"{message} (see '{self.prog} --help')")
@@ -99,6 +110,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         parser = build_parser(only=_command_of(argv))
         args = parser.parse_args(argv)
+        check_scene_flags(args)
         return int(args._run(args))
     except (UsageError, InputError) as exc:
         print(error_line(exc), file=sys.stderr)

@@ -94,4 +94,11 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k, None) is not None}
     with bad_input("solver options: "):
         options = replace(options, **changes)
+    # the study's values and the flags changed the scene and the mesh after CONFIG was checked:
+    # the groups' ranges, the memory budget and the profiles on this mesh again (README "Units and
+    # scenes")
+    from ..config.checks import check_scene_and_options
+
+    with bad_input():
+        check_scene_and_options(scene, options)
     return scene, options, raw

@@ -1,0 +1,102 @@
+"""One-line configuration errors: ``"<dotted.field.path>: <what is wrong>"``.
+
+Pydantic reports a failure as a location tuple and an error kind; :func:`translate` turns the first
+one into a :class:`ConfigError` naming the field by its dotted path, with the ``type:`` tags of
+tagged unions removed from the path (``scene.field.magnitude``, not ``scene.field.uniform.magnitude``).
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, List, Optional
+
+from pydantic import ValidationError
+from pydantic_core import PydanticCustomError
+
+__all__ = ["ConfigError", "error", "dotted", "translate", "first_non_finite", "UNION_TAGS"]
+
+#: Field name of a tagged union → its tags (pydantic puts the tag in the error location).
+UNION_TAGS: Dict[str, List[str]] = {}
+
+
+class ConfigError(ValueError):
+    """An invalid configuration: ``"<dotted.field.path>: <what is wrong>"`` on one line.
+
+    Attributes
+    ----------
+    field : str
+        Dotted path of the offending field (``"config"`` for the file as a whole).
+    detail : str
+        What is wrong and what is allowed.
+    """
+
+    def __init__(self, field: str, detail: str):
+        self.field = field
+        self.detail = " ".join(str(detail).split())
+        super().__init__(f"{field}: {self.detail}")
+
+
+def error(detail: str, field: Optional[str] = None) -> PydanticCustomError:
+    """A validation error raised inside a model; ``field`` names a sub-field of that model."""
+    return PydanticCustomError("config", "{detail}", {"detail": detail, "field": field or ""})
+
+
+def dotted(loc) -> str:
+    """``("scene", "rod", "length")`` → ``"scene.rod.length"``; list indices as ``[i]``."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "config"
+
+
+def _strip_tags(loc) -> list:
+    out = []
+    for i, part in enumerate(loc):
+        if i and loc[i - 1] in UNION_TAGS and part in UNION_TAGS[loc[i - 1]]:
+            continue
+        out.append(part)
+    return out
+
+
+def translate(err: ValidationError) -> ConfigError:
+    """The first error of ``err`` as a :class:`ConfigError` naming the field by its dotted path."""
+    e = err.errors()[0]
+    loc, kind, ctx, value = _strip_tags(e["loc"]), e["type"], e.get("ctx") or {}, e.get("input")
+    if kind == "config":
+        loc += [ctx["field"]] if ctx.get("field") else []
+        detail = ctx["detail"]
+    elif kind == "unknown_key":
+        loc.append(ctx["key"])
+        detail = f"unknown key (allowed: {ctx['allowed']}{ctx['hint']})"
+    elif kind in ("union_tag_invalid", "union_tag_not_found"):
+        tags = ", ".join(UNION_TAGS.get(loc[-1] if loc else "", []))
+        what = f"unknown type '{ctx['tag']}'" if kind == "union_tag_invalid" else "missing"
+        loc.append("type")
+        detail = f"{what} (allowed: {tags})"
+    elif kind == "missing":
+        detail = "required (missing)"
+    elif kind == "extra_forbidden":
+        detail = "unknown key"
+    elif kind in ("model_attributes_type", "model_type", "dict_type"):
+        detail = f"expected a mapping of keys to values, got {_short_repr(value)}"
+    else:
+        msg = e["msg"].removeprefix("Value error, ")
+        detail = f"{msg[:1].lower()}{msg[1:]}, got {_short_repr(value)}"
+    return ConfigError(dotted(loc), detail)
+
+
+def _short_repr(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a hostile value must not flood the message)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + "...'"
+
+
+def first_non_finite(obj, path=()):
+    """Path (tuple of keys/indices) of the first NaN/inf float in nested dicts/lists, or None."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return path
+    items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else ()
+    for key, val in items:
+        found = first_non_finite(val, path + (key,))
+        if found is not None:
+            return found
+    return None

@@ -1,0 +1,301 @@
+"""The ``type: physical`` scene: SI quantities non-dimensionalised with ℓ, B0 and H0 (THEORY §5).
+
+* h² = μ0 χ̄ H0² A ℓ² / (2 B0),  h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0);
+* tip force F ℓ²/B0, tip moment M ℓ/B0, distributed load q ℓ³/B0 (weight: q = ρ g A along gravity);
+* uniform field: H0 = magnitude; dipole of moment m: H0 = m/(4π ℓ³), positions /ℓ; expression
+  field: H0 = ``scale``.
+
+The derived quantities (A, B0, H0) and groups are computed in float64 without exceptions (an
+overflow gives inf) and then checked: A and B0 positive and finite, every group within its range
+(:mod:`actuator_design.config.limits`). A failure names the derived group and the fields it comes
+from, with their values, so ``length: 1e308 m`` is one clear line.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Dict, List, Literal, Optional, Tuple
+
+import numpy as np
+from pydantic import model_validator
+
+from ..profiles import constant_profile
+from ..scene import Scales, Scene
+from ..units import MU0
+from .base import Angle, Positive, Q, StrictModel
+from .errors import ConfigError, error
+from .field_specs import ForceXY, LineLoadXY, PhysicalDipole, PhysicalField, max_shape_on_rod
+from .limits import GROUP_RANGES, group_problem
+from .profile_specs import FibreProfile, StiffnessProfile
+
+__all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
+           "magnetic_group"]
+
+_HALF_PI = 0.5 * math.pi
+
+
+class Rod(StrictModel):
+    """Rod geometry and stiffness: A = w t, I = w t³/12, B0 = E I (or ``bending_stiffness``)."""
+
+    length: Q("length", gt=0)
+    width: Optional[Q("length", gt=0)] = None
+    thickness: Optional[Q("length", gt=0)] = None
+    youngs_modulus: Optional[Q("pressure", gt=0)] = None
+    bending_stiffness: Optional[Q("bending_stiffness", gt=0)] = None
+    area: Optional[Q("area", gt=0)] = None
+    stiffness_profile: Optional[StiffnessProfile] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        has_wt = self.width is not None and self.thickness is not None
+        if (self.width is None) != (self.thickness is None):
+            missing = "width" if self.width is None else "thickness"
+            raise error("required together with " + ("thickness" if missing == "width" else "width"),
+                        missing)
+        if self.youngs_modulus is None and self.bending_stiffness is None:
+            raise error("required (or give bending_stiffness)", "youngs_modulus")
+        if self.youngs_modulus is not None and self.bending_stiffness is not None:
+            raise error("give either youngs_modulus or bending_stiffness, not both", "bending_stiffness")
+        if self.youngs_modulus is not None and not has_wt:
+            raise error("required with youngs_modulus (I = w t³/12)", "width")
+        if self.area is not None and (has_wt or self.youngs_modulus is not None):
+            raise error("give either area (with bending_stiffness) or width and thickness", "area")
+        if self.area is None and not has_wt:
+            raise error("required with bending_stiffness when width and thickness are not given", "area")
+        if self.stiffness_profile is not None:
+            b0 = float(self.stiffness_profile.to_profile()(0.0))
+            if abs(b0 - 1.0) > 1e-12:
+                raise error(f"must equal 1 at s = 0 (B0 is the clamp stiffness), got {b0:g}",
+                            "stiffness_profile")
+        for name, value in (("cross_section_area", self.cross_section_area),
+                            ("clamp_stiffness", self.clamp_stiffness)):
+            if not (math.isfinite(value) and value > 0):
+                field = self._source_of(name)
+                what = "A = w t" if name == "cross_section_area" else "B0 = E w t³/12"
+                raise error(f"gives {what} = {value:g}, which must be positive and finite (over- or "
+                            f"underflow: check the value and its unit)", field)
+        return self
+
+    def _source_of(self, derived: str) -> str:
+        if derived == "cross_section_area":
+            return "area" if self.area is not None else "width"
+        return "bending_stiffness" if self.bending_stiffness is not None else "youngs_modulus"
+
+    @property
+    def cross_section_area(self) -> float:
+        """A, m²."""
+        if self.area is not None:
+            return self.area
+        with np.errstate(all="ignore"):
+            return float(np.float64(self.width) * self.thickness)
+
+    @property
+    def clamp_stiffness(self) -> float:
+        """B0, N m²."""
+        if self.bending_stiffness is not None:
+            return self.bending_stiffness
+        with np.errstate(all="ignore"):
+            return float(np.float64(self.youngs_modulus) * self.width * np.float64(self.thickness) ** 3
+                         / 12.0)
+
+    def sources(self) -> List[str]:
+        """The given rod fields with their values, for messages about derived groups."""
+        names = ["length", "width", "thickness", "youngs_modulus", "bending_stiffness", "area"]
+        units = {"length": "m", "width": "m", "thickness": "m", "youngs_modulus": "Pa",
+                 "bending_stiffness": "N m^2", "area": "m^2"}
+        return [f"rod.{n} = {getattr(self, n):g} {units[n]}" for n in names
+                if getattr(self, n) is not None]
+
+
+class Particles(StrictModel):
+    """Spheroidal particles (THEORY §2); fields in A/m (or T)."""
+
+    axis_ratio: Q("dimensionless", ge=1)
+    chi_par: Positive
+    chi_perp: Positive
+    volume_fraction: Q("dimensionless", gt=0, lt=1)
+    saturation_field: Optional[Q("magnetic_field", gt=0)] = None
+
+
+class Magnetics(StrictModel):
+    """Effective susceptibilities χ̄, χ̂ (dimensionless), given or computed from ``particles``."""
+
+    chi_bar: Optional[Q("dimensionless", ge=0)] = None
+    chi_hat: Optional[Q("dimensionless", ge=0)] = None
+    particles: Optional[Particles] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.particles is not None and (self.chi_bar is not None or self.chi_hat is not None):
+            raise error("give either chi_bar/chi_hat or particles, not both", "particles")
+        if self.particles is None and self.chi_bar is None:
+            raise error("required (or give particles)", "chi_bar")
+        return self
+
+    def susceptibilities(self) -> Tuple[float, float]:
+        """(χ̄, χ̂), dimensionless."""
+        if self.particles is None:
+            return self.chi_bar, self.chi_hat or 0.0
+        from ..magnetics import effective_susceptibilities
+
+        p = self.particles
+        with np.errstate(all="ignore"):
+            chi_bar, chi_hat = effective_susceptibilities(p.chi_par, p.chi_perp, p.axis_ratio,
+                                                          p.volume_fraction)
+        return float(chi_bar), float(chi_hat)
+
+
+class Weight(StrictModel):
+    """Self-weight q = ρ g A per unit length along the gravity direction ``gravity_angle``."""
+
+    density: Q("density", gt=0)
+    gravity_angle: Angle = -_HALF_PI
+    g: Q("acceleration", gt=0) = 9.81
+
+
+class Loads(StrictModel):
+    """Dead loads: tip force (N), tip moment (N m), distributed load (N/m) or weight."""
+
+    tip_force: Optional[ForceXY] = None
+    tip_moment: Optional[Q("moment")] = None
+    distributed: Optional[LineLoadXY] = None
+    weight: Optional[Weight] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.distributed is not None and self.weight is not None:
+            raise error("give either distributed or weight, not both", "weight")
+        return self
+
+    def line_load(self, area: float):
+        """Distributed load (qx, qy) in N/m, or None."""
+        if self.weight is None:
+            return None if self.distributed is None else (self.distributed.x, self.distributed.y)
+        w = self.weight
+        with np.errstate(all="ignore"):
+            q = float(np.float64(w.density) * w.g * area)
+        # round-off of cos(-π/2) etc. to an exact zero, so "down" is exactly (0, -q)
+        cx, cy = (0.0 if abs(c) < 1e-15 else c for c in (math.cos(w.gravity_angle),
+                                                           math.sin(w.gravity_angle)))
+        return (q * cx, q * cy)
+
+
+class Clamp(StrictModel):
+    """Clamp angle θ(0), rad."""
+
+    angle: Angle = 0.0
+
+
+def magnetic_group(chi: float, field: float, area: float, length: float, stiffness: float) -> float:
+    """√(μ0 χ H0² A ℓ² / (2 B0)) (THEORY §5): h for χ = χ̄, h_pos for χ = χ̂. SI inputs.
+
+    Computed in float64 (the same operations as in plain floats), so an overflow gives inf, not an
+    exception.
+    """
+    with np.errstate(all="ignore"):
+        return float(np.sqrt(np.float64(MU0) * chi * np.float64(field) ** 2 * area
+                             * np.float64(length) ** 2 / (2.0 * stiffness)))
+
+
+@dataclass
+class _Derived:
+    """The dimensionless groups of a physical scene and the fields each comes from."""
+
+    values: Dict[str, float]
+    sources: Dict[str, List[str]]
+    h0: float
+    h_per_field: float
+
+
+class PhysicalScene(StrictModel):
+    """SI description, non-dimensionalised by ℓ, B0 and H0 (THEORY §5)."""
+
+    type: Literal["physical"]
+    rod: Rod
+    magnetics: Optional[Magnetics] = None
+    field: Optional[PhysicalField] = None
+    loads: Optional[Loads] = None
+    fibres: Optional[FibreProfile] = None
+    clamp: Optional[Clamp] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.field is not None and self.magnetics is None:
+            raise error("required when a field is given", "magnetics")
+        if isinstance(self.field, PhysicalDipole):  # the position check needs ℓ
+            self.field.to_field(self.rod.length, where="field.position")
+        derived = self._derived()
+        for name, value in derived.values.items():
+            problem = group_problem(name, value)
+            if problem is not None:
+                rng = GROUP_RANGES[name]
+                raise error(f"derived {name} = {value:g} must be a finite number in {rng.text()}; it "
+                            f"comes from {', '.join(derived.sources[name])} (THEORY §5)", name)
+        return self
+
+    def _derived(self) -> _Derived:
+        rod = self.rod
+        length, area, b0 = rod.length, rod.cross_section_area, rod.clamp_stiffness
+        values, sources = {}, {}
+        h0 = h_per_field = 0.0
+        if self.field is not None:
+            _, h0 = self.field.to_field(length)
+            chi_bar, chi_hat = self.magnetics.susceptibilities()
+            field_src = [f"field.{k} = {getattr(self.field, k):g} {unit}" for k, unit in
+                         (("magnitude", "A/m"), ("moment", "A m^2"), ("scale", "A/m"))
+                         if hasattr(self.field, k)]
+            mag_src = ["magnetics.particles" if self.magnetics.particles else
+                       f"magnetics.chi_bar = {chi_bar:g}"]
+            values["h"] = magnetic_group(chi_bar, h0, area, length, b0)
+            values["h_pos"] = magnetic_group(chi_hat, h0, area, length, b0)
+            sources["h"] = sources["h_pos"] = rod.sources() + mag_src + field_src
+            h_per_field = magnetic_group(chi_bar, 1.0, area, length, b0)  # h is proportional to H0
+        loads = self.loads or Loads()
+        with np.errstate(all="ignore"):
+            force = np.float64(length) ** 2 / b0
+            if loads.tip_force is not None:
+                values["fx"] = float(loads.tip_force.x * force)
+                values["p"] = float(loads.tip_force.y * force)
+                sources["fx"] = sources["p"] = rod.sources() + [
+                    f"loads.tip_force = ({loads.tip_force.x:g}, {loads.tip_force.y:g}) N"]
+            if loads.tip_moment is not None:
+                values["tip_moment"] = float(loads.tip_moment * np.float64(length) / b0)
+                sources["tip_moment"] = rod.sources() + [f"loads.tip_moment = {loads.tip_moment:g} N m"]
+            q = loads.line_load(area)
+            if q is not None:
+                line = np.float64(length) ** 3 / b0
+                values["qx"], values["qy"] = float(q[0] * line), float(q[1] * line)
+                given = "loads.weight" if loads.weight is not None else "loads.distributed"
+                sources["qx"] = sources["qy"] = rod.sources() + [f"{given} = ({q[0]:g}, {q[1]:g}) N/m"]
+        return _Derived(values, sources, float(h0), float(h_per_field))
+
+    def to_scene(self, name: Optional[str] = None) -> Scene:
+        length, b0 = self.rod.length, self.rod.clamp_stiffness
+        d = self._derived()
+        v = d.values
+        field = None if self.field is None else self.field.to_field(length)[0]
+        self._check_assumptions(field, d.h0)
+        return Scene(
+            field=field, h=v.get("h", 0.0), h_pos=v.get("h_pos", 0.0),
+            fibres=_profile(self.fibres, 0.0), stiffness=_profile(self.rod.stiffness_profile, 1.0),
+            tip_force=(v["fx"], v["p"]) if "p" in v else None,
+            tip_moment=v.get("tip_moment"),
+            distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
+            theta0=self.clamp.angle if self.clamp else 0.0,
+            scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field),
+            name=name or "physical cantilever")
+
+    def _check_assumptions(self, field, h0: float) -> None:
+        """Warn (ModelAssumptionWarning) about dense particles or a field above saturation."""
+        p = self.magnetics.particles if self.magnetics else None
+        if p is None:
+            return
+        from ..magnetics import check_assumptions
+
+        h_max = None if field is None else h0 * max_shape_on_rod(field)
+        check_assumptions(volume_fraction=p.volume_fraction, field=h_max,
+                          saturation_field=p.saturation_field)
+
+
+def _profile(spec, default: float):
+    return constant_profile(default) if spec is None else spec.to_profile()
