@@ -114,6 +114,9 @@ def build_inputs(args: argparse.Namespace):
     except ValueError as exc:
         field = str(exc).split(" ", 1)[0]
         raise InputError(f"{_SOLVER_FLAGS.get(field, 'solver options')}: {exc}") from exc
+    from ..config.checks import check_scene_and_options
+    with bad_input():  # flags applied on top of CONFIG: the mesh caps and profiles on the new mesh
+        check_scene_and_options(scene, options)
     return scene, options, raw
 
 
