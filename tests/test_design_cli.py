@@ -188,6 +188,12 @@ def test_main_job_prints_one_field_angle_and_says_it_is_an_axis(tmp_path):
     end = float(re.search(r"at phi = (\S+) deg", sched_line).group(1))
     d = json.loads((out / "design.json").read_text())
     assert not design_contradictions(d)
+    # the README shows this output verbatim, except the lines it says vary by machine
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("What the design prints")[1].split("```")[1].strip("\n").splitlines()
+    mask = lambda lines: [re.sub(r"error \S+$", "error E", line) for line in lines
+                          if not line.strip().startswith(("time", "wrote"))]
+    assert mask(block) == mask(text.strip("\n").splitlines())
     if m is None:  # the schedule ends at the design's own representative
         assert "phi = " in design_line and end == pytest.approx(math.degrees(d["design"]["phi"]), abs=1e-3)
         return
