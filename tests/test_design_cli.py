@@ -209,3 +209,18 @@ def test_main_job_prints_one_field_angle_and_says_it_is_an_axis(tmp_path):
     r1, r2 = (solve(sc) for sc in scenes)
     assert r1.success and r2.success
     assert np.allclose([r1.tip[k] for k in ("x", "y", "angle")], [r2.tip[k] for k in ("x", "y", "angle")], atol=1e-8)
+
+
+def test_summary_of_a_failed_search_with_the_fibre_layout_prints():
+    """When no variable set yields a stable optimum, the design has no α(s): the text summary (which
+    raised KeyError 'alpha') prints the verdict and the reason."""
+    import time
+
+    from actuator_design.analysis.design import _no_design, design_problem
+    from actuator_design.cli.design import _summary
+
+    problem = design_problem((0.3, 0.5), None, ["h", "phi", "alpha"], None, None, None, time.perf_counter())
+    res = _no_design(problem, {"total": 0.0})
+    text = _summary(res)
+    assert "unreachable target" in text and "no stable design of h, phi, alpha" in text
+    assert not design_contradictions(res.to_dict())

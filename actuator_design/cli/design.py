@@ -10,8 +10,9 @@ mm or m (physical scenes only) in those units. The optional third value is the t
 taken modulo 360 (reported in [-180, 180]). The field acts on its axis: phi and phi + 180 deg are
 one field, and the text output says so where it prints one of them.
 
-Exit codes: 0 verified design, 2 bad input, 3 reachable but not verified (no snap-free path or
-not stable), 4 unreachable target (the nearest reachable pose is reported).
+Exit codes: 0 verified design, 2 bad input, 3 reachable but not a verified success (no snap-free
+path, not stable, or the verified tip or stiffness outside the tolerance: the note says which),
+4 unreachable target (the nearest reachable pose is reported).
 """
 from __future__ import annotations
 
