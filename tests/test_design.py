@@ -128,3 +128,52 @@ def test_pose_and_stiffness_recover_field_and_load():
     assert res.success
     assert [res.design[v] for v in ("h", "phi", "p")] == pytest.approx([h, phi, p], abs=1e-6)
     assert res.achieved_stiffness == pytest.approx(k, rel=1e-6)
+
+
+# -- issue 9 item 5: verified, success and the message never contradict each other ------------------
+from result_invariants import design_contradictions  # noqa: E402
+
+
+def test_verdicts_and_messages_agree_over_the_kinds_of_result(monkeypatch):
+    """One result of each kind: a success, an unreachable target, a skipped verification, a design
+    verified but outside an (absurdly) tight acceptance, and a lying design NLP that the independent
+    verification refuses. The contradiction check covers each; the tip of the success is judged by
+    an independent forward solve of the reported design."""
+    target = _pose(solve(default_scene(h=1.3, phi=1.1), OPTS))[:2]
+    results = {
+        "success": design(target, vary=["h", "phi"]),
+        "unreachable": design((1.3, 0.5), vary=["h", "phi"]),
+        "skipped": design(target, vary=["h", "phi"], verify=False),
+        "tight": design(target, vary=["h", "phi"], settings=DesignSettings(accept_tol=1e-300)),
+    }
+    original = design_nlp.DesignNLP._solve
+
+    def lying(self, *args, **kwargs):
+        pt = original(self, *args, **kwargs)
+        pt.h = pt.h * 1.2
+        return pt
+
+    monkeypatch.setattr(design_nlp.DesignNLP, "_solve", lying)
+    monkeypatch.setattr(design_nlp, "_CACHE", {})
+    results["lying"] = design(target, vary=["h", "phi"], settings=DesignSettings(ramp_steps=6))
+    for kind, res in results.items():
+        assert design_contradictions(res.to_dict()) == [], kind
+    ok = results["success"]
+    check = solve(default_scene(h=ok.design["h"], phi=ok.design["phi"]), OPTS)
+    assert ok.success and math.hypot(check.tip["x"] - target[0], check.tip["y"] - target[1]) < 1e-6
+    assert not results["unreachable"].success and not results["unreachable"].reachable
+    assert not results["skipped"].verified and "skipped" in results["skipped"].message
+    tight = results["tight"]
+    assert tight.verified and not tight.success and "not a success" in tight.message
+    assert not results["lying"].success and not results["lying"].verified
+
+
+def test_target_angle_is_taken_modulo_two_pi():
+    """A target angle and the same angle plus whole turns are one target: the same design comes back
+    (the reference is the known field of a forward-made pose)."""
+    pose = _pose(solve(default_scene(h=1.3, phi=1.1), OPTS))
+    res = design((pose[0], pose[1], pose[2] + 6 * math.pi), vary=["h", "phi"])
+    assert res.target[2] == pytest.approx(pose[2], abs=1e-12)
+    assert res.success and res.design["h"] == pytest.approx(1.3, abs=1e-6)
+    assert res.design["phi"] == pytest.approx(1.1, abs=1e-6)
+    assert not design_contradictions(res.to_dict())

@@ -68,7 +68,7 @@ class MultiplicityMap:
         buf.write(f"{self.x_param},{self.y_param},equilibria,stable\n")
         for i, yv in enumerate(self.y):
             for j, xv in enumerate(self.x):
-                buf.write(f"{xv!r},{yv!r},{int(self.counts[i, j])},{int(self.stable[i, j])}\n")
+                buf.write(f"{float(xv)!r},{float(yv)!r},{int(self.counts[i, j])},{int(self.stable[i, j])}\n")
         return buf.getvalue()
 
 

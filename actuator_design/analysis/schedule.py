@@ -4,7 +4,10 @@
    the scene's, fixed by fabrication), verified by a loading path from zero field.
 2. Each next waypoint is a stage-B design-NLP solve warm-started from the previous state, with
    objective h² + w_rate·|(h, φ) − (h, φ)_prev|² (least field effort and rate of change) and the tip
-   pinned to the waypoint; continuity comes from the warm start and the rate term.
+   pinned to the waypoint; continuity comes from the warm start and the rate term. The field acts
+   on its axis (φ and φ + π are one field, THEORY §5: the energy depends on cos²(θ + α − φ)), so
+   each new angle is taken modulo π as the representative nearest the previous one: the field
+   rotates the short way (at most 90°) between waypoints.
 3. The whole schedule (zero field → first waypoint, then straight lines in (h, φ) between waypoint
    fields) is checked by one quasi-static loading path (:func:`~.loading.follow_path`): no snap,
    every state stable, and the state at each waypoint's field on the waypoint.
@@ -21,10 +24,11 @@ import numpy as np
 from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene, default_scene
-from .design import DesignSettings, _normalise_phi, _tip_error, design
+from .design import DesignSettings, design
+from .design_types import normalise_phi, tip_error
 from .design_nlp import DesignRequest, get_design_nlp, prepare_scene
 
-__all__ = ["field_schedule", "ScheduleResult"]
+__all__ = ["field_schedule", "ScheduleResult", "nearest_axis_angle"]
 
 
 @dataclass
@@ -35,6 +39,8 @@ class ScheduleResult:
     schedule : the full verified schedule from zero field, a list of {"h", "phi"} (φ continuous).
     waypoint_index : position of each waypoint's field in ``schedule``.
     states : the loading path's state at every schedule point (for figures and animations).
+    verified : the independent loading path confirms every claim (no snap, all stable, waypoints
+        hit); it equals ``success``.
     """
 
     success: bool
@@ -111,17 +117,18 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
         req = DesignRequest(target=wp, stage="B", margin=settings.margin, bounds=settings.bounds(),
                             d_prev=d_prev, w_rate=rate_weight)
         pt = nlp.solve(base, z_prev, d_prev, req)
-        if not (pt.converged and _tip_error(pt.tip, wp) <= settings.reach_tol):
+        if not (pt.converged and tip_error(pt.tip, wp) <= settings.reach_tol):
             a = nlp.solve(base, z_prev, d_prev, replace(req, stage="A"))
-            if a.converged and _tip_error(a.tip, wp) <= 10 * settings.reach_tol:
+            if a.converged and tip_error(a.tip, wp) <= 10 * settings.reach_tol:
                 pt = nlp.solve(base, a.z, nlp.design_vector(h=a.h, phi=a.phi), req)
-            if not (pt.converged and _tip_error(pt.tip, wp) <= settings.reach_tol):
+            if not (pt.converged and tip_error(pt.tip, wp) <= settings.reach_tol):
                 return fail(f"waypoint {k} {wp}: not reachable continuously from waypoint {k - 1} with a stable "
-                            f"state (nearest {_tip_error(pt.tip, wp):.3g} rod lengths)")
+                            f"state (nearest {tip_error(pt.tip, wp):.3g} rod lengths)")
+        phi_next = nearest_axis_angle(pt.phi, phi_prev)
         for t in np.linspace(0, 1, substeps + 1)[1:]:
-            schedule.append({"h": float(h_prev + t * (pt.h - h_prev)), "phi": float(phi_prev + t * (pt.phi - phi_prev))})
+            schedule.append({"h": float(h_prev + t * (pt.h - h_prev)), "phi": float(phi_prev + t * (phi_next - phi_prev))})
         index.append(len(schedule) - 1)
-        h_prev, phi_prev, z_prev = pt.h, pt.phi, pt.z
+        h_prev, phi_prev, z_prev = pt.h, phi_next, pt.z
     timings["waypoints"] = time.perf_counter() - t1
 
     from .loading import follow_path  # independent verification along the whole schedule
@@ -136,7 +143,7 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
     on_target = ok_path
     for k, (wp, i) in enumerate(zip(wps, index)):
         st = states[i] if ok_path else None
-        err = _tip_error((st.tip["x"], st.tip["y"]), wp) if st is not None else float("inf")
+        err = tip_error((st.tip["x"], st.tip["y"]), wp) if st is not None else float("inf")
         on_target = on_target and err <= 1e-6
         nan = float("nan")
         rows.append({"waypoint": k, "target_x": wp[0], "target_y": wp[1],
@@ -144,11 +151,18 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
                      "angle": float(st.tip["angle"]) if st else nan, "h": float(schedule[i]["h"]),
                      "phi": float(schedule[i]["phi"]), "error": float(err),
                      "margin": float(st.eigenvalues[0]) if st else nan})
+    # verified = the independent path confirms every claim of the schedule, so it equals success
     success = bool(ok_path and path.snap_free and all_stable and on_target)
     msg = ("every waypoint reached, continuously, without a snap, every state stable" if success else
            f"verification failed: path {'ok' if ok_path else 'did not converge'}, snap-free {path.snap_free}, "
            f"all stable {all_stable}, waypoints on target {on_target}; {path.message}")
     timings["total"] = time.perf_counter() - t0
-    return ScheduleResult(success=success, verified=ok_path and on_target, snap_free=bool(path.snap_free),
+    return ScheduleResult(success=success, verified=success, snap_free=bool(path.snap_free),
                           all_stable=all_stable, waypoints=wps, rows=rows, schedule=schedule, waypoint_index=index,
                           message=msg, scene=base, states=states, path=path, timings=timings)
+
+
+def nearest_axis_angle(phi: float, reference: float) -> float:
+    """The angle equivalent to ``phi`` modulo π (the same field axis) nearest ``reference`` (rad):
+    ``reference + d`` with d ≡ phi − reference (mod π), d in (−π/2, π/2]."""
+    return float(reference + normalise_phi(phi - reference))

@@ -72,8 +72,10 @@ def _csv(res) -> str:
              "branch,value,tip_angle,tip_x,tip_y,energy,morse_index,stable"]
     for k, br in enumerate([res.branch] + res.secondary):
         for i in range(len(br)):
-            lines.append(f"{k},{br.lam[i]!r},{br.tips[i, 0]!r},{br.tips[i, 1]!r},{br.tips[i, 2]!r},"
-                         f"{br.energy[i]!r},{int(br.morse_index[i])},{int(br.morse_index[i] == 0)}")
+            # float(): numpy scalars' repr is "np.float64(…)" since numpy 2
+            lines.append(f"{k},{float(br.lam[i])!r},{float(br.tips[i, 0])!r},{float(br.tips[i, 1])!r},"
+                         f"{float(br.tips[i, 2])!r},{float(br.energy[i])!r},{int(br.morse_index[i])},"
+                         f"{int(br.morse_index[i] == 0)}")
     return "\n".join(lines) + "\n"
 
 

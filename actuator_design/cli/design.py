@@ -6,10 +6,13 @@ verified independently: a fresh forward solve and a quasi-static loading path fr
 must reach the designed state without a snap, ending stable.
 
 Targets are in rod lengths l (clamp at the origin, rod initially along +x); with --target-units
-mm or m (physical scenes only) in those units. The optional third value is the tip angle in degrees.
+mm or m (physical scenes only) in those units. The optional third value is the tip angle in degrees,
+taken modulo 360 (reported in [-180, 180]). The field acts on its axis: phi and phi + 180 deg are
+one field, and the text output says so where it prints one of them.
 
-Exit codes: 0 verified design, 2 bad input, 3 reachable but not verified (no snap-free path or
-not stable), 4 unreachable target (the nearest reachable pose is reported).
+Exit codes: 0 verified design, 2 bad input, 3 reachable but not a verified success (no snap-free
+path, not stable, or the verified tip or stiffness outside the tolerance: the note says which),
+4 unreachable target (the nearest reachable pose is reported).
 """
 from __future__ import annotations
 
@@ -57,6 +60,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--alpha-terms", type=int, help=f"Legendre terms of alpha(s) (default {d.alpha_terms})")
     g.add_argument("--margin", type=finite_float,
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
+    g.add_argument("--time-limit", type=finite_float, metavar="S",
+                   help=f"wall-clock budget of the search in seconds (default {d.time_limit:g}); once spent, "
+                        "no further starting design is optimised")
     s = parser.add_argument_group("solver")
     s.add_argument("--elements", type=int, metavar="N", help="elements of the forward transcription")
     s.add_argument("--degree", type=int, metavar="D", help="degree per element")
@@ -80,8 +86,8 @@ def _parse_target(text: str, units: str, scene):
         factor = (1e-3 if units == "mm" else 1.0) / scene.scales.length
         values[0] *= factor
         values[1] *= factor
-    if len(values) == 3:
-        values[2] = math.radians(values[2])
+    if len(values) == 3:  # an angle modulo 360 deg (remainder is exact for any finite magnitude)
+        values[2] = math.radians(math.remainder(values[2], 360.0))
     return tuple(values)
 
 
@@ -124,7 +130,7 @@ def _inputs(args):
     settings_kw = {k: study[k] for k in study if k not in ("target", "target_units", "vary", "stiffness")}
     for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
                             ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
-                            ("margin", "margin", float)):
+                            ("margin", "margin", float), ("time_limit", "time_limit", float)):
         if getattr(args, flag) is not None:
             settings_kw[key] = conv(getattr(args, flag))
     with bad_input("design settings: "):
@@ -164,6 +170,8 @@ def _check_settings(s) -> None:
         raise ValueError(f"alpha_terms must lie in [1, 12], got {s.alpha_terms}")
     if not (s.margin >= 0):
         raise ValueError(f"margin must be >= 0, got {s.margin}")
+    if not (0 < s.time_limit <= 86400):
+        raise ValueError(f"time_limit must lie in (0, 86400] s, got {s.time_limit}")
 
 
 def _summary(res) -> str:
@@ -175,10 +183,10 @@ def _summary(res) -> str:
          if res.target else "  target      : (no tip pose)")
         + (f"; stiffness {res.stiffness_target:.8g} [B0/l^3]" if res.stiffness_target is not None else ""),
         f"  variables   : {', '.join(res.vary)}",
-        f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {math.degrees(d.get('phi', float('nan'))):.6g} deg, "
+        f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {_phi_text(res)}, "
         f"p = {d.get('p', float('nan')):.6g}",
     ]
-    if "alpha" in res.vary:
+    if "alpha" in res.vary and "alpha" in d:
         a = d["alpha"]["value"]
         lines.append(f"  fibres      : alpha(s) from {math.degrees(a[0]):.3g} deg (clamp) to "
                      f"{math.degrees(a[-1]):.3g} deg (tip), Legendre coefficients "
@@ -196,14 +204,26 @@ def _summary(res) -> str:
                  f"(margin {res.stability_margin:.4g}), snap-free {res.snap_free}")
     if res.schedule:
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {res.schedule[-1]['h']:.6g} "
-                     f"at phi = {math.degrees(res.schedule[-1]['phi']):.5g} deg")
+                     f"at phi = {math.degrees(res.schedule[-1]['phi']):.6g} deg")
     lines.append(f"  optima      : {len(res.optima)} distinct local optima (see --json 'optima')")
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     if res.message:
         lines.append(f"  note        : {res.message}")
     lines.append("  RESULT      : " + ("SUCCESS — a verified, stable, snap-free design" if res.success else
-                                      "unreachable target" if not res.reachable else "NOT verified"))
+                                      "unreachable target" if not res.reachable else
+                                      "verified, but NOT a success (see note)" if res.verified else "NOT verified"))
     return "\n".join(lines)
+
+
+def _phi_text(res) -> str:
+    """The field angle as the field is left at the end of the schedule, and, when the design's
+    representative in (-90, 90] deg differs, the word that they are one field axis."""
+    phi = res.design.get("phi", float("nan"))
+    end = res.schedule[-1]["phi"] if res.schedule else phi
+    text = f"{math.degrees(end):.6g} deg"
+    if math.isfinite(end) and abs(end - phi) > 1e-9:
+        text += f" (field axis, the same as {math.degrees(phi):.6g} deg)"
+    return text
 
 
 def _output_files(res, raw) -> dict:

@@ -1,5 +1,8 @@
 """Independent shooting solver and Jacobi stability test for uniform-field scenes.
 
+The model (parameters, Q(s), right-hand side) lives in :mod:`.shooting_model`, the Jacobi/Sturm
+test in :mod:`.jacobi`; this module holds the solver and re-exports all public names.
+
 This module is one of the project's *independent references*: numpy/scipy only, no casadi and
 nothing from :mod:`actuator_design` except that the profiles b(s), α(s) may be
 :class:`actuator_design.profiles.Profile` objects (any callable of s, or a float, works).
@@ -31,14 +34,17 @@ linearisation of (EL): the Jacobi equation is (b η')' = Q η.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, Callable, Optional, Tuple, Union
+from typing import Any, Optional, Tuple
 
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.optimize import newton as _secant
+
+from .jacobi import JacobiResult, jacobi_morse_index, sturm_morse_index
+from .shooting_model import ATOL, RTOL, _EPS, ShootingParams, _eval_profile, _make_rhs, jacobi_coefficient
 
 __all__ = [
     "ShootingParams",
@@ -51,143 +57,6 @@ __all__ = [
     "sturm_morse_index",
     "jacobi_morse_index",
 ]
-
-ProfileLike = Union[float, Callable[[Any], Any]]
-
-RTOL = 1e-12
-ATOL = 1e-13
-_EPS = np.finfo(float).eps
-
-
-def _snap(v: float) -> float:
-    """Round trigonometric values within 4 ε of 0 to exactly 0.
-
-    ``math.sin(2 * (math.pi / 2))`` is 1.2e-16, not 0: snapping makes φ = π/2 (or any multiple of
-    π/4) given as a float describe the exactly symmetric scene, so that e.g. the straight rod is an
-    exact solution and the mirror symmetry θ → −θ holds bit for bit.
-    """
-    return 0.0 if abs(v) < 4.0 * _EPS else v
-
-
-def _as_scalar_fun(p: ProfileLike) -> Tuple[Callable[[float], float], Optional[float]]:
-    """Return (scalar function of s, constant value or None)."""
-    if callable(p):
-        return (lambda s: float(np.asarray(p(s), dtype=float))), None
-    c = float(p)
-    return (lambda s: c), c
-
-
-def _eval_profile(p: ProfileLike, s: np.ndarray) -> np.ndarray:
-    """Evaluate a profile (float or callable) on an array of s; returns an array of shape s."""
-    s = np.asarray(s, dtype=float)
-    if callable(p):
-        return np.broadcast_to(np.asarray(p(s), dtype=float), s.shape).astype(float)
-    return np.full(s.shape, float(p))
-
-
-@dataclass
-class ShootingParams:
-    """Scene parameters of the uniform-field rod (all dimensionless, THEORY §5).
-
-    Attributes
-    ----------
-    h : float
-        Field magnitude, h² = μ0 χ̄ H² A ℓ² / (2 B₀).
-    phi : float
-        Field angle to the undeformed rod axis [rad].
-    fx, fy : float
-        Dead tip force / (B₀/ℓ²); THEORY's p is ``fy``.
-    m : float
-        Tip moment / (B₀/ℓ) (boundary condition b(1) θ'(1) = m).
-    qx, qy : float
-        Uniform distributed dead load / (B₀/ℓ³) (e.g. weight).
-    theta0 : float
-        Clamp angle θ(0) [rad].
-    alpha : float or callable
-        Fibre angle α(s) [rad]; a float or a callable of s (e.g. a ``Profile``); default 0.
-    b : float or callable
-        Relative bending stiffness b(s) = B(s)/B₀ > 0; float or callable; default 1.
-    """
-
-    h: float = 0.0
-    phi: float = 0.0
-    fx: float = 0.0
-    fy: float = 0.0
-    m: float = 0.0
-    qx: float = 0.0
-    qy: float = 0.0
-    theta0: float = 0.0
-    alpha: ProfileLike = 0.0
-    b: ProfileLike = 1.0
-
-    # -- derived quantities (not fields) ---------------------------------------------------
-    @property
-    def cos2phi(self) -> float:
-        return _snap(math.cos(2.0 * self.phi))
-
-    @property
-    def sin2phi(self) -> float:
-        return _snap(math.sin(2.0 * self.phi))
-
-
-def jacobi_coefficient(theta, s, params: ShootingParams):
-    """Coefficient Q(s) of the second variation / Jacobi equation, eq. (Q) of the module docstring.
-
-    Q = 2h² cos(2(θ + α − φ)) + n_x cos θ + n_y sin θ,  n(s) = f + q (1 − s)   (THEORY §7).
-
-    Parameters
-    ----------
-    theta : array_like, shape (n,)
-        Tangent angle θ(s) [rad].
-    s : array_like, shape (n,)
-        Arc length in [0, 1].
-    params : ShootingParams
-
-    Returns
-    -------
-    Q : ndarray, shape (n,)
-    """
-    theta = np.asarray(theta, dtype=float)
-    s = np.asarray(s, dtype=float)
-    ta = theta + _eval_profile(params.alpha, s)
-    c2, s2 = params.cos2phi, params.sin2phi
-    cos2psi = np.cos(2.0 * ta) * c2 + np.sin(2.0 * ta) * s2  # cos(2(θ+α−φ))
-    nx = params.fx + params.qx * (1.0 - s)
-    ny = params.fy + params.qy * (1.0 - s)
-    return 2.0 * params.h**2 * cos2psi + nx * np.cos(theta) + ny * np.sin(theta)
-
-
-def _make_rhs(params: ShootingParams, variational: bool):
-    """Right-hand side of the first-order form of (EL) (+ its linearisation).
-
-    State y = (θ, M, x, y[, η, P]) with M = b θ', P = b η':
-        θ' = M/b,  M' = h² sin(2(θ+α−φ)) − n_y cos θ + n_x sin θ,  x' = cos θ,  y' = sin θ,
-        η' = P/b,  P' = Q η                                        (EL), (Q)
-    """
-    h2 = float(params.h) ** 2
-    c2, s2 = params.cos2phi, params.sin2phi
-    fx, fy, qx, qy = (float(params.fx), float(params.fy), float(params.qx), float(params.qy))
-    bfun, bconst = _as_scalar_fun(params.b)
-    afun, aconst = _as_scalar_fun(params.alpha)
-    sin, cos = math.sin, math.cos
-
-    def rhs(s, y):
-        th = y[0]
-        b = bconst if bconst is not None else bfun(s)
-        ta = th + (aconst if aconst is not None else afun(s))
-        nx = fx + qx * (1.0 - s)
-        ny = fy + qy * (1.0 - s)
-        sn2, cs2 = sin(2.0 * ta), cos(2.0 * ta)
-        ct, st = cos(th), sin(th)
-        # sin(2(θ+α−φ)) = sin 2(θ+α) cos 2φ − cos 2(θ+α) sin 2φ
-        dM = h2 * (sn2 * c2 - cs2 * s2) - ny * ct + nx * st  # (EL)
-        if not variational:
-            return [y[1] / b, dM, ct, st]
-        Q = 2.0 * h2 * (cs2 * c2 + sn2 * s2) + nx * ct + ny * st  # (Q)
-        return [y[1] / b, dM, ct, st, y[5] / b, Q * y[4]]
-
-    return rhs
-
 
 @dataclass(eq=False)
 class ShootingSolution:
@@ -493,159 +362,3 @@ def solve_shooting(params: ShootingParams, gamma_guess: float = 0.0, *,
                 return finish(gb, method)
         delta *= 10.0
     return finish(g, method)
-
-
-@dataclass(eq=False)
-class JacobiResult:
-    """Result of the Jacobi conjugate-point (Sturm) test.
-
-    Attributes
-    ----------
-    index : int
-        Morse index: number of negative eigenvalues λ of −(b η')' + Q η = λ η, η(0) = 0,
-        b(1) η'(1) = 0 (the second variation on the clamped–free rod, THEORY §7).
-    degenerate : bool
-        True when 0 is (within ``tol``) an eigenvalue: b η'(1) = 0 for the Jacobi field.
-    stable : bool
-        index == 0 and not degenerate (second variation positive definite).
-    prufer_end : float
-        Prüfer angle ϑ(1) = atan2(η, b η') continued from ϑ(0) = 0 [rad].
-    zeros_moment : int
-        Number of sign changes of b η' in (0, 1) (equals ``index`` whenever ϑ crosses the
-        levels π/2 + jπ only upwards, e.g. when Q ≤ 0 there; see Notes of
-        :func:`sturm_morse_index`).
-    zeros_eta : int
-        Number of zeros of η in (0, 1) (conjugate points of s = 0).
-    eta, moment : callable
-        η(s) and b η'(s) of the Jacobi field (dense output).
-    """
-
-    index: int
-    degenerate: bool
-    prufer_end: float
-    zeros_moment: int
-    zeros_eta: int
-    eta: Callable = field(repr=False)
-    moment: Callable = field(repr=False)
-
-    @property
-    def stable(self) -> bool:
-        return self.index == 0 and not self.degenerate
-
-
-def sturm_morse_index(Q: Callable[[float], float], b: ProfileLike = 1.0, *, tol: float = 1e-8,
-                      rtol: float = RTOL, atol: float = ATOL) -> JacobiResult:
-    """Morse index of Q[η] = ∫₀¹ b η'² + Q(s) η² ds on {η(0) = 0, η(1) free} by Sturm theory.
-
-    Integrates the Jacobi equation (b η')' = Q η, η(0) = 0, b η'(0) = 1, together with the
-    Prüfer angle ϑ = atan2(η, b η'):  ϑ' = cos² ϑ / b − Q sin² ϑ, ϑ(0) = 0.
-
-    Parameters
-    ----------
-    Q : callable
-        Q(s), scalar s → float.
-    b : float or callable
-        b(s) > 0.
-    tol : float
-        Distance of ϑ(1) from a level π/2 + jπ below which the zero eigenvalue is reported
-        (``degenerate=True``).
-
-    Returns
-    -------
-    JacobiResult
-
-    Notes
-    -----
-    For the eigenproblem −(b η')' + Q η = λ η, η(0) = 0, b(1)η'(1) = 0, the Prüfer angle
-    ϑ(1; λ) of the solution with η(0) = 0 increases strictly with λ and tends to 0 as λ → −∞;
-    λ is an eigenvalue iff ϑ(1; λ) = π/2 + jπ (j = 0, 1, ...).  Hence the number of negative
-    eigenvalues is the number of levels π/2 + jπ strictly below ϑ(1; 0):
-
-        index = #{j ≥ 0 : π/2 + jπ < ϑ(1)},   degenerate ⟺ ϑ(1) ∈ π/2 + πℤ  (b η'(1) = 0).
-
-    ϑ crosses the levels jπ (zeros of η) only upwards (ϑ' = 1/b > 0 there), but it can cross a
-    level π/2 + jπ downwards where Q > 0 (ϑ' = −Q there).  So "the number of zeros of b η' in
-    (0, 1)" equals the index only when those crossings are all upward (always true where Q ≤ 0 at
-    the zeros of b η', e.g. Q constant); ``zeros_moment`` is reported for comparison.
-    Equivalently index = Z + [η(1) · b η'(1) < 0] with Z the number of zeros of η in (0, 1).
-    """
-    bfun, bconst = _as_scalar_fun(b)
-    half_pi = 0.5 * math.pi
-
-    def rhs(s, y):
-        bb = bconst if bconst is not None else bfun(s)
-        q = float(Q(s))
-        c, sn = math.cos(y[2]), math.sin(y[2])
-        return [y[1] / bb, q * y[0], c * c / bb - q * sn * sn]
-
-    def ev_eta(s, y):
-        return y[0]
-
-    def ev_mom(s, y):
-        return y[1]
-
-    sol = solve_ivp(rhs, (0.0, 1.0), [0.0, 1.0, 0.0], method="DOP853", rtol=rtol, atol=atol,
-                    dense_output=True, events=[ev_eta, ev_mom])
-    if not sol.success:
-        raise RuntimeError(f"Jacobi integration failed: {sol.message}")
-    theta_end = float(sol.y[2, -1])
-    levels_below = math.floor((theta_end - half_pi) / math.pi) + 1 if theta_end > half_pi else 0
-    # nearest level π/2 + jπ
-    j_near = round((theta_end - half_pi) / math.pi)
-    degenerate = j_near >= 0 and abs(theta_end - (half_pi + j_near * math.pi)) < tol
-    index = levels_below
-    if degenerate and theta_end > half_pi + j_near * math.pi:
-        index -= 1  # that eigenvalue is (numerically) zero, not negative
-
-    interior = 1e-9
-    zeros_eta = int(np.sum((sol.t_events[0] > interior) & (sol.t_events[0] < 1.0 - interior)))
-    zeros_mom = int(np.sum((sol.t_events[1] > interior) & (sol.t_events[1] < 1.0 - interior)))
-    return JacobiResult(
-        index=int(index),
-        degenerate=bool(degenerate),
-        prufer_end=theta_end,
-        zeros_moment=zeros_mom,
-        zeros_eta=zeros_eta,
-        eta=lambda s: sol.sol(s)[0],
-        moment=lambda s: sol.sol(s)[1],
-    )
-
-
-def jacobi_morse_index(solution: ShootingSolution, params: Optional[ShootingParams] = None, *,
-                       tol: float = 1e-8) -> JacobiResult:
-    """Jacobi conjugate-point test of THEORY §7 along an equilibrium (independent of any Hessian).
-
-    Q(s) = 2h² cos(2(θ + α − φ)) + n_x cos θ + n_y sin θ (eq. Q) is evaluated on the dense output
-    θ(s) of ``solution``; then :func:`sturm_morse_index` counts the negative eigenvalues of the
-    second variation ∫ b η'² + Q η² on η(0) = 0 with the end s = 1 free.
-
-    Parameters
-    ----------
-    solution : ShootingSolution
-        An equilibrium (``converged``); any object with a vectorised ``theta(s)`` works.
-    params : ShootingParams, optional
-        Defaults to ``solution.params``.
-    tol : float
-        Tolerance of the zero-eigenvalue (``degenerate``) detection on the Prüfer angle.
-
-    Returns
-    -------
-    JacobiResult
-        ``index`` (Morse index), ``degenerate``, ``stable``, diagnostics.
-    """
-    if params is None:
-        params = solution.params
-
-    h2 = float(params.h) ** 2
-    c2, s2 = params.cos2phi, params.sin2phi
-    afun, aconst = _as_scalar_fun(params.alpha)
-
-    def Q(s: float) -> float:  # eq. (Q), scalar version of jacobi_coefficient
-        th = float(solution.theta(s))
-        ta = th + (aconst if aconst is not None else afun(s))
-        cos2psi = math.cos(2.0 * ta) * c2 + math.sin(2.0 * ta) * s2
-        nx = params.fx + params.qx * (1.0 - s)
-        ny = params.fy + params.qy * (1.0 - s)
-        return 2.0 * h2 * cos2psi + nx * math.cos(th) + ny * math.sin(th)
-
-    return sturm_morse_index(Q, params.b, tol=tol)

@@ -32,13 +32,15 @@ def design_figure(result):
         "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
     if state is not None and state.success:
         plot_shape(state, ax=ax_shape, title=f"design — {verdict}")
-    tx, ty = result.target[0], result.target[1]
-    ax_shape.plot([tx], [ty], marker="x", color="crimson", markersize=12, mew=2.5, ls="none", label="target")
-    if len(result.target) > 2:
-        a = result.target[2]
-        ax_shape.annotate("", xy=(tx + 0.12 * math.cos(a), ty + 0.12 * math.sin(a)), xytext=(tx, ty),
-                          arrowprops=dict(arrowstyle="->", color="crimson"))
-    ax_shape.legend(loc="best", fontsize=8)
+    if result.target:  # a stiffness-only design has no target pose
+        tx, ty = result.target[0], result.target[1]
+        ax_shape.plot([tx], [ty], marker="x", color="crimson", markersize=12, mew=2.5, ls="none", label="target")
+        if len(result.target) > 2:
+            a = result.target[2]
+            ax_shape.annotate("", xy=(tx + 0.12 * math.cos(a), ty + 0.12 * math.sin(a)), xytext=(tx, ty),
+                              arrowprops=dict(arrowstyle="->", color="crimson"))
+    if ax_shape.get_legend_handles_labels()[0]:
+        ax_shape.legend(loc="best", fontsize=8)
 
     alpha = result.design.get("alpha", {})
     if alpha:

@@ -1,0 +1,87 @@
+"""Stage 3 of :func:`~.design.design`, **choose**: the best optimum over the variable sets tried
+(reaching the target first, then least effort), made a stable state when the target is not
+reachable, with the notes that explain the choice (variables added, why a target is missed)."""
+from __future__ import annotations
+
+import math
+from typing import Dict, List, Optional
+
+from .design_nlp import DesignPoint, DesignRequest
+from .design_optimise import candidate, design_vector, optimise
+from .design_screen import screen
+from .design_types import Choice, DesignProblem, Optimised, normalise_phi, target_error, tip_error
+
+__all__ = ["choose", "optimum_dict"]
+
+
+def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice]:
+    """Pick the design to verify.
+
+    Parameters
+    ----------
+    problem : DesignProblem
+    searched : list of Optimised
+        One per variable set tried, in the order tried.
+
+    Returns
+    -------
+    Choice or None
+        None when no variable set produced any optimum (nothing stable was found).
+    """
+    best, best_opt = None, None
+    for opt in searched:
+        if opt.optima and (best is None or problem.rank(opt.optima[0]) < problem.rank(best)):
+            best, best_opt = opt.optima[0], opt
+    if best is None:
+        return None
+    cand, target, stiffness = best_opt.candidate, problem.target, problem.stiffness
+    notes: List[str] = []
+    reachable = problem.rank(best)[0] == 0
+    if reachable and not problem.user_vary and cand.vary != problem.variable_sets[0]:
+        notes.append(f"field magnitude and angle alone cannot reach the target; "
+                     f"used {', '.join(cand.vary)} (the fibre layout)")
+    if any(opt.out_of_time for opt in searched):
+        notes.append(f"time limit of {problem.settings.time_limit:g} s reached: not every starting design "
+                     "was optimised")
+    if not reachable and not getattr(best, "certified", True):
+        # the nearest pose reported for an unreachable target must itself be a stable state
+        z0, d0 = best.start
+        s = problem.settings
+        stable = cand.nlp.solve(cand.base, z0, d0, DesignRequest(target=target, stage="A", margin=s.margin,
+                                                                 bounds=s.bounds(), stiffness=None))
+        if stable.converged:
+            if stiffness is not None:
+                stable.stiffness = cand.nlp.stiffness(cand.base, stable)
+            best = stable
+    alternatives: Dict[str, bool] = {}
+    if not reachable:
+        what = "target" if stiffness is None else ("stiffness" if not target else "target pose and stiffness")
+        notes.append(f"the {what} is not reachable with {', '.join(cand.vary)}: the nearest stable design "
+                     f"misses by {target_error(best, target, stiffness):.3g} (reported as 'achieved')")
+        if target and math.hypot(target[0], target[1]) > 1.0:
+            notes.append("the target lies beyond the rod's length from the clamp (|r| > 1)")
+        elif problem.user_vary and "alpha" not in cand.vary and target and stiffness is None:
+            alternatives = _try_alternative(problem, cand.vary)
+            if alternatives.get("with_fibre_layout"):
+                notes.append(f"adding the fibre layout would reach it: --vary {','.join(cand.vary)},alpha")
+    optima = [optimum_dict(opt.candidate.vary, pt, target) for opt in searched for pt in opt.optima]
+    return Choice(point=best, candidate=cand, scene=cand.nlp.scene_for(cand.base, design_vector(cand.nlp, best)),
+                  reachable=reachable, notes=notes, alternatives=alternatives, optima=optima)
+
+
+def _try_alternative(problem: DesignProblem, vary) -> Dict[str, bool]:
+    """Would adding the fibre layout reach an unreachable target? (No verification: a hint.)"""
+    cand = candidate(problem, tuple(vary) + ("alpha",))
+    opt = optimise(problem, cand, screen(problem, cand, keep=2))
+    return {"with_fibre_layout": opt.reaches(problem)}
+
+
+def optimum_dict(vary, pt: DesignPoint, target) -> Dict[str, object]:
+    """One entry of the ``optima`` list of the JSON contract (φ reported in (−π/2, π/2])."""
+    out = {"vary": list(vary), "h": pt.h, "phi": normalise_phi(pt.phi), "p": pt.p,
+           "alpha_coefficients": [float(c) for c in pt.coefficients],
+           "tip": {"x": float(pt.tip[0]), "y": float(pt.tip[1]), "angle": float(pt.tip[2])},
+           "error": tip_error(pt.tip, target) if target else 0.0, "stage": pt.stage}
+    if getattr(pt, "stiffness", None) is not None:
+        out["stiffness"] = pt.stiffness
+    return out

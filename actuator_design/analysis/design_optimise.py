@@ -1,0 +1,90 @@
+"""Stage 2 of :func:`~.design.design`, **optimise**: from each screened start, the design NLP
+(:mod:`.design_nlp`) finds the nearest reachable pose (stage A), then the least-effort design that
+reaches the target exactly (stage B); distinct local optima are kept, best first."""
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import List
+
+import numpy as np
+
+from .design_nlp import DesignNLP, DesignPoint, DesignRequest, get_design_nlp, prepare_scene
+from .design_types import Candidate, DesignProblem, Optimised, ScreenedStart, normalise_phi, tip_error
+
+__all__ = ["candidate", "optimise", "design_vector"]
+
+
+def candidate(problem: DesignProblem, vary) -> Candidate:
+    """The base scene prepared for the variables ``vary`` and its (cached) design NLP."""
+    base = prepare_scene(problem.base, vary)
+    return Candidate(tuple(vary), base, get_design_nlp(base, vary, problem.options, problem.settings.alpha_terms))
+
+
+def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart]) -> Optimised:
+    """Multi-start: stage A (nearest pose) then stage B (least effort, pose and stiffness pinned);
+    with a stiffness target and no pose, stage B alone.
+
+    Parameters
+    ----------
+    problem : DesignProblem
+    cand : Candidate
+    starts : list of ScreenedStart
+        From :func:`~.design_screen.screen`, nearest first.
+
+    Returns
+    -------
+    Optimised
+        Distinct optima sorted by :meth:`DesignProblem.rank`; ``out_of_time`` when the time limit
+        stopped the loop before every start was optimised (at least one always is).
+    """
+    nlp, base, target, settings, stiffness = cand.nlp, cand.base, problem.target, problem.settings, problem.stiffness
+    reach_probe = 10 * settings.reach_tol + 1e-7
+    optima: List[DesignPoint] = []
+    req_a = DesignRequest(target=target or None, stage="A", margin=settings.margin, bounds=settings.bounds())
+    req_b = replace(req_a, stage="B", stiffness=stiffness)
+    out_of_time = False
+    for k, start in enumerate(starts):
+        if k > 0 and time.perf_counter() > problem.deadline:
+            out_of_time = True
+            break
+        d0, z0 = start.d, start.z
+        best = None
+        if target:
+            a = nlp.solve(base, z0, d0, req_a, certify=False)  # a probe: certified only if it reaches
+            if not a.converged:
+                continue
+            if not getattr(a, "certified", True) and tip_error(a.tip, target) <= reach_probe:
+                # reached only by an unstable state: ask for the nearest stable one, certified
+                a = nlp._solve(base, z0, d0, req_a, certified=True)
+            best, z0, d0 = a, a.z, design_vector(nlp, a)
+            if tip_error(a.tip, target) > reach_probe:
+                if stiffness is not None:
+                    a.stiffness = nlp.stiffness(base, a)
+                optima.append(a)
+                continue
+        b = nlp.solve(base, z0, d0, req_b)
+        if b.converged and (not target or tip_error(b.tip, target) <= settings.reach_tol):
+            best = b
+        if best is not None:
+            if stiffness is not None:
+                best.stiffness = nlp.stiffness(base, best)
+            optima.append(best)
+    return Optimised(cand, sorted(_distinct(nlp, optima), key=problem.rank), out_of_time)
+
+
+def design_vector(nlp: DesignNLP, pt: DesignPoint) -> np.ndarray:
+    """The design vector, shape (nlp.nd,), of a design point."""
+    return nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p)
+
+
+def _distinct(nlp: DesignNLP, optima: List[DesignPoint]) -> List[DesignPoint]:
+    """Drop repeats: same shape and same design, with φ compared modulo π (the energy's period)."""
+    def key(pt):
+        return nlp.design_vector(h=pt.h, phi=normalise_phi(pt.phi), coefficients=pt.coefficients, p=pt.p)
+
+    out: List[DesignPoint] = []
+    for pt in optima:
+        if all(np.max(np.abs(key(pt) - key(q))) > 1e-4 or np.max(np.abs(pt.z - q.z)) > 1e-4 for q in out):
+            out.append(pt)
+    return out

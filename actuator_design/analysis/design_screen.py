@@ -1,0 +1,95 @@
+"""Stage 1 of :func:`~.design.design`, **screen**: a grid of starting designs, each forward-solved
+(a stable state by construction), ranked by distance to the target; the nearest distinct ones are
+the starts of the optimisation stage."""
+from __future__ import annotations
+
+import math
+from typing import List
+
+import numpy as np
+
+from ..equilibrium import solve
+from ..scene import Scene
+from .design_nlp import DesignNLP, DesignPoint
+from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart
+
+__all__ = ["screen", "start_grid", "unpack"]
+
+
+def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[ScreenedStart]:
+    """Forward-solve each design of :func:`start_grid`; keep the ``keep`` nearest stable ones.
+
+    Parameters
+    ----------
+    problem : DesignProblem
+    candidate : Candidate
+        The design variables, their base scene and design NLP.
+    keep : int
+        Number of starts returned; starts whose shapes differ by less than 0.05 rad at every node
+        from a kept one are skipped.
+
+    Returns
+    -------
+    list of ScreenedStart
+        Nearest first. The distance is the pose distance (units of ℓ, plus the tip angle in rad when
+        targeted) plus |ln(k/k_target)| when a stiffness is asked for.
+    """
+    nlp, base, target, stiffness = candidate.nlp, candidate.base, problem.target, problem.stiffness
+    scored: List[ScreenedStart] = []
+    prev = None
+    for d in start_grid(nlp, base, problem.settings):
+        r = solve(nlp.scene_for(base, d), problem.options, initial=prev)
+        if not (r.success and r.stable):
+            r = solve(nlp.scene_for(base, d), problem.options)
+        if not (r.success and r.stable):
+            continue
+        prev = r
+        dist = 0.0
+        if target:
+            dist = math.hypot(r.tip["x"] - target[0], r.tip["y"] - target[1])
+            if len(target) > 2:
+                dist = math.hypot(dist, r.tip["angle"] - target[2])
+        if stiffness is not None:
+            h, phi, p = unpack(nlp, d, base)
+            coefficients = d[nlp.dslices["alpha"]] if "alpha" in nlp.vary else np.zeros(0)
+            pt = DesignPoint(h=h, phi=phi, coefficients=coefficients, p=p, z=r.z, tip=np.zeros(3),
+                             converged=True, status="", stage="screen")
+            k = nlp.stiffness(base, pt)
+            dist += abs(math.log(k / stiffness)) if (math.isfinite(k) and k > 0) else 1e3
+        scored.append(ScreenedStart(dist, d, r.z))
+    scored.sort(key=lambda s: s.distance)
+    chosen: List[ScreenedStart] = []
+    for item in scored:  # keep distinct starting shapes
+        if all(np.max(np.abs(item.z - c.z)) > 0.05 for c in chosen):
+            chosen.append(item)
+        if len(chosen) == keep:
+            break
+    return chosen
+
+
+def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np.ndarray]:
+    """Starting design vectors: field magnitudes × angles over one period of φ (× fibre slopes ×
+    loads), each of shape (nlp.nd,)."""
+    with_alpha = "alpha" in nlp.vary
+    hs = (1.5, 3.0, 5.0) if with_alpha else (0.8, 1.4, 2.2, 3.5, 5.5)
+    hs = [h for h in hs if h <= settings.h_max] or [settings.h_max]
+    n_phi = 8 if with_alpha else 12
+    phis = np.linspace(-math.pi / 2, math.pi / 2, n_phi + 1)[1:] if "phi" in nlp.vary else [base.phi]
+    slopes = [0.0]
+    if with_alpha:
+        slopes = [s for s in (-1.2, -0.6, 0.6, 1.2) if abs(s) <= settings.alpha_max]
+    ps = [base.p] if "p" not in nlp.vary else [-2.0, 0.0, 2.0]
+    out = []
+    for slope in slopes:
+        for p in ps:
+            for h in (hs if "h" in nlp.vary else [base.h]):
+                for phi in phis:
+                    c = [base.fibres.value if base.fibres.kind == "constant" else 0.0, slope]
+                    out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p))
+    return out
+
+
+def unpack(nlp: DesignNLP, d: np.ndarray, base: Scene):
+    """(h, φ, p) of a design vector; the base scene's values for variables not designed."""
+    get = lambda name, default: float(d[nlp.dslices[name]][0]) if name in nlp.vary else default
+    return get("h", base.h), get("phi", base.phi), get("p", base.p)

@@ -1,0 +1,249 @@
+"""What the stages of :func:`~.design.design` pass to each other, and the result they produce.
+
+The pipeline is ``problem → screen → optimise → choose → verify → result`` (see :mod:`.design`);
+each arrow carries one of the small dataclasses below. Also here: the target geometry shared by
+the stages (pose distance, the field-axis angle φ modulo π, the target tip angle modulo 2π).
+All quantities are dimensionless (THEORY §5): lengths in rod lengths ℓ, angles in rad.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Tuple
+
+import numpy as np
+
+from ..options import SolverOptions
+from ..result import EquilibriumResult
+from ..scene import Scene
+from .design_nlp import DesignNLP, DesignPoint
+
+__all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
+           "Choice", "Verification", "normalise_phi", "normalise_tip_angle", "tip_error", "target_error",
+           "effort", "rank"]
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """Bounds and tolerances of a design (dimensionless, THEORY §5).
+
+    h_max : largest field group h allowed.
+    p_max : largest |p| allowed when the tip load is designed.
+    alpha_max : largest |α(s)| (rad), a fabrication limit on the fibre angle.
+    alpha_terms : Legendre coefficients of α(s) (smooth layouts with few parameters).
+    margin : required stability margin μ: λ_min(H_r, M) ≥ μ.
+    reach_tol : a target is reachable when the nearest pose is within this distance (units of ℓ).
+    accept_tol : the verified achieved tip must be within this distance of the target.
+    ramp_steps : points of each leg (ramp, rotation) of a verification schedule; the path follower
+        refines between them (steps of ≤ 1/4 of a leg segment and ≤ 0.5 rad of shape change).
+    time_limit : wall-clock budget of the search (s): once spent, no further starting design is
+        optimised (the ones done are kept and the message says so); each NLP is also capped in
+        iterations (:mod:`.design_nlp`), so the work of a design is bounded.
+    """
+
+    h_max: float = 10.0
+    p_max: float = 20.0
+    alpha_max: float = math.pi / 2
+    alpha_terms: int = 4
+    margin: float = 1e-2
+    reach_tol: float = 1e-6
+    accept_tol: float = 1e-3
+    ramp_steps: int = 20
+    time_limit: float = 120.0
+
+    def bounds(self) -> Dict[str, float]:
+        return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max}
+
+
+@dataclass
+class DesignResult:
+    """Outcome of :func:`~.design.design`; :meth:`to_dict` is the ``design --json`` contract.
+
+    ``schedule`` is the verified path from zero field, a list of ``{"h", "phi"[, "p"]}``; its angles
+    are continuous (a rotating field is not wrapped), so its last φ may differ from ``design["phi"]``
+    (reported in (−π/2, π/2]) by a multiple of π — the same field axis, as the energy depends on
+    cos²(θ + α − φ) only.
+
+    Invariant: ``success`` implies ``verified``, ``reachable``, ``stable`` and ``snap_free``;
+    ``verified`` implies ``stable`` and ``snap_free``; the message says "verified by" exactly when
+    ``verified``, and states the reason whenever ``success`` is False.
+    """
+
+    success: bool
+    reachable: bool
+    verified: bool
+    stable: bool
+    snap_free: bool
+    target: Tuple[float, ...]
+    achieved: Dict[str, float]
+    error: float
+    design: Dict[str, object]
+    vary: Tuple[str, ...]
+    schedule: List[Dict[str, float]]
+    message: str
+    scene: Scene
+    design_scene: Optional[Scene] = None
+    forward: Optional[EquilibriumResult] = None
+    path: object = None
+    optima: List[Dict[str, object]] = field(default_factory=list)
+    stability_margin: float = float("nan")
+    alternatives: Dict[str, bool] = field(default_factory=dict)
+    timings: Dict[str, float] = field(default_factory=dict)
+    stiffness_target: Optional[float] = None
+    achieved_stiffness: Optional[float] = None
+
+    def to_dict(self) -> Dict[str, object]:
+        tgt = {} if not self.target else {"x": self.target[0], "y": self.target[1]}
+        if len(self.target) > 2:
+            tgt["angle"] = self.target[2]
+        if self.stiffness_target is not None:
+            tgt["stiffness"] = self.stiffness_target
+        out = {
+            "success": bool(self.success), "reachable": bool(self.reachable),
+            "verified": bool(self.verified), "stable": bool(self.stable), "snap_free": bool(self.snap_free),
+            "target": tgt, "achieved": {k: float(v) for k, v in self.achieved.items()},
+            "error": float(self.error), "design": self.design, "schedule": self.schedule,
+            "vary": list(self.vary), "message": self.message,
+            "stability_margin": float(self.stability_margin), "optima": self.optima,
+            "alternatives": self.alternatives, "timings_s": self.timings,
+            "units": {"length": "rod length", "angle": "rad", "h": "dimensionless field group",
+                      "p": "B0/l^2", "stiffness": "B0/l^3"},
+        }
+        if self.stiffness_target is not None:
+            out["achieved_stiffness"] = self.achieved_stiffness
+        sc = self.scene.scales
+        if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):
+            # h ∝ H0: the designed field scale in A/m and as μ0H in mT
+            H = self.design["h"] / sc.h_per_field
+            out["physical"] = {"field_A_per_m": H, "stiffness_scale_N_per_m": sc.stiffness,
+                               "field_mT": H * 4e-7 * math.pi * 1e3,
+                               "tip_x_m": self.achieved.get("x", float("nan")) * sc.length,
+                               "tip_y_m": self.achieved.get("y", float("nan")) * sc.length}
+            if self.achieved_stiffness is not None:
+                out["physical"]["stiffness_N_per_m"] = self.achieved_stiffness * sc.stiffness
+        return out
+
+
+# -- what flows between the stages -------------------------------------------------------------------
+@dataclass(frozen=True)
+class DesignProblem:
+    """A validated design request: what every stage reads.
+
+    target : () or (x, y) or (x, y, angle); the angle already normalised to (−π, π].
+    stiffness : target tip stiffness dp/dv1 (B0/ℓ³) or None.
+    base : the user's scene (with a tip-force term when a stiffness is asked for).
+    variable_sets : the sets of design variables tried in order (one when the user chose).
+    user_vary : whether the user chose the variables.
+    deadline : ``time.perf_counter()`` value after which no new start is optimised.
+    """
+
+    target: Tuple[float, ...]
+    stiffness: Optional[float]
+    base: Scene
+    options: SolverOptions
+    settings: DesignSettings
+    variable_sets: Tuple[Tuple[str, ...], ...]
+    user_vary: bool
+    deadline: float
+
+    def rank(self, pt: DesignPoint):
+        """Sort key: designs that reach the target first, by least effort; then by distance."""
+        return rank(pt, self.target, self.settings, self.stiffness)
+
+
+@dataclass
+class Candidate:
+    """One set of design variables with its prepared base scene and its (cached) design NLP."""
+
+    vary: Tuple[str, ...]
+    base: Scene
+    nlp: DesignNLP
+
+
+@dataclass
+class ScreenedStart:
+    """A starting design kept by the screen: its distance to the target, design vector d of shape
+    (nd,), and the stable forward state z (θ at the nodes, shape (n_nodes,))."""
+
+    distance: float
+    d: np.ndarray
+    z: np.ndarray
+
+
+@dataclass
+class Optimised:
+    """The distinct local optima of one candidate, best first (see :meth:`DesignProblem.rank`)."""
+
+    candidate: Candidate
+    optima: List[DesignPoint]
+    out_of_time: bool = False
+
+    def reaches(self, problem: DesignProblem) -> bool:
+        return bool(self.optima) and problem.rank(self.optima[0])[0] == 0
+
+
+@dataclass
+class Choice:
+    """The chosen design: the best optimum, its candidate, its forward scene and the notes so far.
+
+    A later stage (e.g. a robustness check) may replace ``point``/``scene`` and append notes.
+    """
+
+    point: DesignPoint
+    candidate: Candidate
+    scene: Scene
+    reachable: bool
+    notes: List[str]
+    alternatives: Dict[str, bool]
+    optima: List[Dict[str, object]]
+
+
+@dataclass
+class Verification:
+    """What the independent verification found: the fresh forward solve, the loading path (None
+    when no snap-free path reaches the design), its label, and the schedule followed."""
+
+    forward: Optional[EquilibriumResult]
+    path: object
+    label: str
+    schedule: List[Dict[str, float]]
+
+
+# -- target geometry ---------------------------------------------------------------------------------
+def normalise_phi(phi: float) -> float:
+    """The energy is π-periodic in φ (the field acts on its axis): the representative in (−π/2, π/2]."""
+    return float(phi - math.pi * math.ceil((phi - math.pi / 2) / math.pi))
+
+
+def normalise_tip_angle(angle: float) -> float:
+    """A target tip angle modulo 2π, in [−π, π] (finite input; exact for any magnitude)."""
+    return float(math.remainder(angle, 2.0 * math.pi))
+
+
+def tip_error(tip, target) -> float:
+    """Euclidean distance of tip (x, y[, angle]) from target (x, y[, angle]) (ℓ and rad mixed)."""
+    e = [tip[0] - target[0], tip[1] - target[1]]
+    if len(target) > 2:
+        e.append(tip[2] - target[2])
+    return float(np.linalg.norm(e))
+
+
+def target_error(pt: DesignPoint, target, stiffness: Optional[float]) -> float:
+    """Pose distance (units of ℓ) plus the relative stiffness error."""
+    err = tip_error(pt.tip, target) if target else 0.0
+    if stiffness is not None:
+        k = getattr(pt, "stiffness", None)
+        err += abs(k / stiffness - 1.0) if (k is not None and math.isfinite(k)) else np.inf
+    return err
+
+
+def effort(pt: DesignPoint) -> float:
+    """The stage-B objective: h² + p² + the smoothness of α (Σ k²(k+1)²/4 c_k², cf. ∫α'²)."""
+    k = np.arange(len(pt.coefficients), dtype=float)
+    return float(pt.h**2 + pt.p**2 + np.sum(k**2 * (k + 1) ** 2 / 4.0 * np.asarray(pt.coefficients) ** 2))
+
+
+def rank(pt: DesignPoint, target, settings: DesignSettings, stiffness: Optional[float] = None):
+    """Designs that reach the target first, by least effort; the others by distance."""
+    err = target_error(pt, target, stiffness)
+    return (0, effort(pt)) if err <= settings.reach_tol else (1, err)

@@ -1,0 +1,98 @@
+"""Stage 4 of :func:`~.design.design`, **verify**, independently of the design NLP's own state: a
+fresh forward solve, and a quasi-static loading path from zero field that must reach the design
+without a snap and end stable (a magnitude ramp at the designed angle or, where that lands on
+another branch, a ramp at another angle followed by a rotation of the field)."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Dict, List
+
+import numpy as np
+
+from ..equilibrium import solve
+from ..options import SolverOptions
+from ..result import EquilibriumResult
+from ..scene import Scene
+from .design_types import Choice, DesignProblem, Verification, normalise_phi
+
+__all__ = ["verify", "stiffness_by_differences"]
+
+
+def verify(problem: DesignProblem, choice: Choice) -> Verification:
+    """Fresh forward solve and a snap-free loading path from zero field; never the NLP's own state.
+
+    Schedules tried: the magnitude ramp at the designed angle; if it lands on another branch, a
+    ramp at φ_d ∓ Δ (Δ = 90°, 45°, 135°) followed by a rotation of the field to φ_d, rotating first
+    in the direction that winds the rod from where the plain ramp left it towards the design (a
+    rotating field can wind the rod onto branches a ramp never reaches).
+
+    Parameters
+    ----------
+    problem : DesignProblem
+    choice : Choice
+        The design: ``choice.scene`` is its forward scene, ``choice.point`` its NLP state (used
+        only for the tip the path must reach, to 1e-6).
+
+    Returns
+    -------
+    Verification
+        ``path`` is None when no schedule reaches the design; ``schedule`` is the one followed.
+    """
+    from .loading import follow_path  # the landscape layer's quasi-static path follower
+
+    pt, options = choice.point, problem.options
+    design_p = "p" in choice.candidate.vary
+    forward = solve(choice.scene, options)  # a fresh forward NLP from the straight rod
+    start = replace(choice.scene, h=0.0)
+    if design_p:
+        start = start.with_values(p=0.0)
+    steps = problem.settings.ramp_steps
+
+    def attempt(schedule):
+        path = follow_path(start, options, schedule, max_step=0.25, max_dtheta=0.5)
+        final = path.final
+        ok = (final is not None and final.success and path.snap_free and final.stable
+              and max(abs(final.tip["x"] - pt.tip[0]), abs(final.tip["y"] - pt.tip[1]),
+                      abs(final.tip["angle"] - pt.tip[2])) <= 1e-6)
+        return ok, path
+
+    ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p)
+    ok, path = attempt(ramp)
+    if ok:
+        return Verification(forward, path, "magnitude ramp at the designed angle", ramp)
+    reached = path.final.tip["angle"] if path.final is not None and path.final.success else 0.0
+    wind = 1.0 if pt.tip[2] >= reached else -1.0  # rotate the field the way the rod must turn
+    for sign in (wind, -wind):
+        for delta_deg in (90, 45, 135):
+            phi_a = pt.phi - sign * math.radians(delta_deg)
+            schedule = _ramp_then_rotate(pt.h, phi_a, pt.phi, pt.p, steps, design_p)
+            ok, path = attempt(schedule)
+            if ok:
+                return Verification(forward, path, f"ramp at {math.degrees(normalise_phi(phi_a)):.0f} deg, then "
+                                    f"rotate the field {'counter-' if sign > 0 else ''}clockwise by {delta_deg} "
+                                    f"deg to the designed angle", schedule)
+    return Verification(forward, None, "no snap-free path from zero field reaches the design", [])
+
+
+def _ramp(h: float, phi: float, p: float, steps: int, design_p: bool) -> List[Dict[str, float]]:
+    """``steps`` points from zero field (and load) to (h, φ[, p]) at the fixed angle φ."""
+    return [{"h": h * t, "phi": phi, **({"p": p * t} if design_p else {})} for t in np.linspace(0, 1, steps)]
+
+
+def _ramp_then_rotate(h, phi_a, phi, p, steps, design_p) -> List[Dict[str, float]]:
+    """A ramp at φ_a, then a rotation of the field from φ_a to φ at full magnitude."""
+    turn = [{"h": h, "phi": phi_a + (phi - phi_a) * t, **({"p": p} if design_p else {})}
+            for t in np.linspace(0, 1, steps)[1:]]
+    return _ramp(h, phi_a, p, steps, design_p) + turn
+
+
+def stiffness_by_differences(scene: Scene, options: SolverOptions, state: EquilibriumResult,
+                             dp: float = 1e-5) -> float:
+    """dp/dv1 (B0/ℓ³) by central differences of two independent forward solves (warm-started on the
+    verified state so they stay on its branch); truncation error O(dp²)."""
+    ys = []
+    for sgn in (+1.0, -1.0):
+        r = solve(scene.with_values(p=scene.p + sgn * dp), replace(options, ensure_stable=False), initial=state)
+        ys.append(r.tip["y"])
+    return float(2 * dp / (ys[0] - ys[1]))
