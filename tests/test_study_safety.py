@@ -28,7 +28,7 @@ from actuator_design.study.grid import DEFAULT_MAX_POINTS, grid_indices, grid_si
 from actuator_design.study.journal import Journal
 from actuator_design.study.lock import LOCK_NAME, FolderLock, holder_of
 from actuator_design.study.manifest import read_manifest
-from actuator_design.study.runner import plan_study, run_study
+from actuator_design.study.runner import plan_study
 from actuator_design.study.spec import SweepSpec, validate_spec
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -163,9 +163,10 @@ class FolderLock:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 return
             except OSError as err:
-                if not _busy(err):
+                if not _busy(err):  # e.g. ENOLCK: a file system without locks
                     os.close(fd)
-                    raise
+                    raise StudyError(f"--out: cannot lock {self.folder} "
+                                     f"({os.strerror(err.errno)}); choose a local folder") from None
             if attempt + 1 < _TRIES:
                 time.sleep(_PAUSE_S)
         holder = _read(fd)
