@@ -6,8 +6,9 @@ so that a second writer can say who has the folder. The kernel drops a ``flock``
 dies, also by ``kill -9``, so a dead run never keeps a folder: a lock file it left behind is
 taken over, with a note naming the run that left it.
 
-Where ``fcntl`` does not exist (Windows) the file is created exclusively instead, and an existing
-one is taken over only when it names a process of this host that is no longer running.
+Where ``fcntl`` does not exist (Windows) the file is created exclusively instead; an existing one
+is taken over only when it names a process of this host known to be gone (:func:`pid_alive`
+cannot tell on Windows: there the refusal names the file to remove).
 
 Locks are per open file: forked worker processes inherit the descriptor, so a worker calls
 :func:`close_inherited` first (otherwise a worker that outlived its parent would hold the lock).
@@ -107,8 +108,9 @@ def _busy(err: OSError) -> bool:
 def in_use_message(folder, holder: Optional[Holder]) -> str:
     """The one-line refusal of a second writer."""
     who = holder.describe() if holder else "another process"
+    gone = "" if fcntl is not None else f" (if that run is gone, remove {Path(folder) / LOCK_NAME})"
     return (f"--out: {folder} is in use by another study run ({who}); wait for it to end or "
-            "choose another folder")
+            f"choose another folder{gone}")
 
 
 class FolderLock:
@@ -219,13 +221,15 @@ class FolderLock:
         if fd is None:
             return
         _HELD.discard(fd)
+        if fcntl is None:  # pragma: no cover - Windows: an open file cannot be removed
+            os.close(fd)
         try:
             self.path.unlink()
         except OSError:
             pass
         if fcntl is not None:
             fcntl.flock(fd, fcntl.LOCK_UN)  # also drops the copies forked workers may still hold
-        os.close(fd)
+            os.close(fd)
 
     def __enter__(self) -> "FolderLock":
         self.acquire()
