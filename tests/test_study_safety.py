@@ -79,7 +79,7 @@ def _stop(proc) -> None:
             proc.communicate()
 
 
-# -- an independent forward solve ---------------------------------------------------------------------
+# -- an independent forward solve ------------------------------------------------------------------
 def _shoot_tip(h: float, phi: float, p: float):
     """Tip (x, y, θ) of θ'' = h² sin 2(θ − φ) − p cos θ, θ(0) = 0, θ'(1) = 0 (THEORY §5, α = 0)
     by shooting on γ = θ'(0); the root must be unique in a wide bracket (else no reference)."""
@@ -99,7 +99,7 @@ def _shoot_tip(h: float, phi: float, p: float):
     return x, y, th
 
 
-# -- (a) the grid's size is checked before any work ---------------------------------------------------
+# -- (a) the grid's size is checked before any work ------------------------------------------------
 @pytest.mark.parametrize("grid, sweep", [
     ("cartesian", {"h": [1, 2, 3], "phi": {"from": 0, "to": 1, "n": 4}, "p": [0, 1]}),
     ("zip", {"h": [1, 2, 3], "phi": {"from": 0, "to": 1, "n": 3}}),
@@ -131,7 +131,8 @@ def test_a_huge_grid_exits_2_before_allocating(tmp_path):
     assert proc.returncode == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("actuator-design: error: study.sweep:"), err
-    assert "1000 × 1000 × 1000 = 1000000000 points" in err and f"limit of {DEFAULT_MAX_POINTS}" in err
+    assert "1000 × 1000 × 1000 = 1000000000 points" in err
+    assert f"limit of {DEFAULT_MAX_POINTS}" in err
     assert "--max-points" in err
     assert not (tmp_path / "out").exists()
 
@@ -157,7 +158,7 @@ def test_the_point_limit_is_raised_by_flag_or_yaml(tmp_path):
     assert info.value.field == "study.max_points"
 
 
-# -- (b) one writer per folder ------------------------------------------------------------------------
+# -- (b) one writer per folder ---------------------------------------------------------------------
 def test_a_second_writer_exits_2_naming_the_holder(tmp_path):
     path = _slow_study(tmp_path, 3000)
     out = tmp_path / "s"
@@ -201,7 +202,7 @@ def test_lock_in_one_process_and_a_stale_lock_is_taken_over(tmp_path):
         lock.release()
 
 
-# -- (c) workers die with their parent; (e) the manifest is true after a crash ------------------------
+# -- (c) workers die with their parent; (e) the manifest is true after a crash ---------------------
 def _descendants(pid: int):
     """{pid: start time} of every descendant of pid, from /proc."""
     parent = {}
@@ -288,7 +289,7 @@ def test_a_running_manifest_is_running_while_its_lock_is_held(tmp_path):
     assert [r["status"] for r in m["runs"]] == ["completed", "interrupted"]
 
 
-# -- (d) journal records are checked against the grid -------------------------------------------------
+# -- (d) journal records are checked against the grid ----------------------------------------------
 def test_an_edited_journal_record_is_recomputed(tmp_path, capsys):
     """Point 1's record relabelled as point 3 (whose record is removed) would give point 3 the
     values of point 1: it is rejected, both points are computed again and match the shooting."""
@@ -309,7 +310,8 @@ def test_an_edited_journal_record_is_recomputed(tmp_path, capsys):
     report = json.loads(captured.out)
     assert report["computed"] == 2 and report["reused"] == 2
     warning = [x for x in captured.err.splitlines() if "warning: journal:" in x]
-    assert len(warning) == 1 and "1 record(s)" in warning[0] and "line 3: point 3" in warning[0]
+    assert len(warning) == 1 and "1 line(s) rejected" in warning[0]
+    assert "line 3: point 3 has the values" in warning[0]
     m = read_manifest(out)
     assert m["runs"][-1]["rejected_records"] == 1 and len(m["warnings"]) == 1
     final = {}

@@ -3,7 +3,8 @@
 Each backend is a generator of finished chunks (lists of point records,
 :func:`actuator_design.study.worker.run_chunk`) in the order they finish. Closing the generator
 early (an interrupt) drops the chunks not started and stops the workers. Local workers die with
-the study process even when it is killed outright (:func:`actuator_design.study.worker.init_worker`).
+the study process even when it is killed outright
+(:func:`actuator_design.study.worker.init_worker`).
 """
 from __future__ import annotations
 

@@ -195,7 +195,8 @@ class FolderLock:
         gone = (left.pid is not None and left.host == socket.gethostname()
                 and not pid_alive(left.pid))
         why = "that process is gone" if gone else "its lock was free"
-        return f"took over the lock of {self.folder} left by an earlier run ({left.describe()}): {why}"
+        return (f"took over the lock of {self.folder} left by an earlier run ({left.describe()}): "
+                f"{why}")
 
     def _acquire_exclusive_file(self) -> Optional[str]:  # pragma: no cover - Windows
         text = Holder.this_process().to_text()

@@ -179,8 +179,8 @@ def _rejection_warning(rejected: List[str]) -> Optional[str]:
     shown = "; ".join(rejected[:_SHOWN_REJECTIONS])
     more = f"; and {len(rejected) - _SHOWN_REJECTIONS} more" if len(rejected) > _SHOWN_REJECTIONS \
         else ""
-    return (f"journal: {len(rejected)} record(s) do not match the grid and are computed again "
-            f"({shown}{more})")
+    return (f"journal: {len(rejected)} line(s) rejected ({shown}{more}); points without an "
+            "accepted record are computed again")
 
 
 def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> StudyReport:
