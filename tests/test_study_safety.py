@@ -8,6 +8,7 @@ Euler–Lagrange equation with scipy, written here) and point counts against the
 import copy
 import json
 import os
+import re
 import resource
 import signal
 import socket
@@ -165,14 +166,15 @@ def test_a_second_writer_exits_2_naming_the_holder(tmp_path):
     first = _cli(path, out, "--workers", "1")
     try:
         _wait_for_records(first, out / "journal.jsonl", 2)
-        for extra in ([], ["--resume"]):
-            second = _cli(path, out, "--workers", "1", *extra)
-            _, err = second.communicate(timeout=120)
-            assert second.returncode == 2, err
-            lines = err.strip().splitlines()
-            assert len(lines) == 1, err
-            assert f"pid {first.pid} on host {socket.gethostname()}, started " in lines[0], err
-            assert "in use by another study run" in lines[0]
+        holder = f"pid {first.pid} on host {socket.gethostname()}, started "
+        second = _cli(path, out, "--workers", "1")
+        _, err = second.communicate(timeout=120)
+        assert second.returncode == 2, err
+        lines = err.strip().splitlines()
+        assert len(lines) == 1, err
+        assert holder in lines[0] and "in use by another study run" in lines[0], err
+        with pytest.raises(StudyError, match=re.escape(holder)):  # resuming it is refused as well
+            plan_study(path, out, resume=True)
         assert first.poll() is None  # the holder runs on, undisturbed
     finally:
         _stop(first)
