@@ -5,15 +5,24 @@
 progress bar on stderr when stderr is a terminal. Each worker process builds its own solvers (the
 CasADi caches are per process), so ``fn`` should take plain, picklable inputs — scenes, options,
 numbers — and return plain results.
+
+Worker processes die with their parent (:func:`die_with_parent`, run by every pool's initializer):
+a parent killed outright (``kill -9``) leaves no worker computing for nobody.
 """
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, List, Optional, TypeVar
 
-__all__ = ["map_parallel", "default_workers"]
+__all__ = ["map_parallel", "default_workers", "die_with_parent"]
+
+#: prctl(2) option: the signal this process gets when its parent dies (Linux).
+_PR_SET_PDEATHSIG = 1
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -25,6 +34,45 @@ def default_workers() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except (AttributeError, OSError):
         return max(1, os.cpu_count() or 1)
+
+
+def _exit_now() -> None:
+    os._exit(1)  # no clean-up: the parent that would use this worker's results is gone
+
+
+def _watch_parent(parent_pid: int, poll_s: float) -> None:
+    while True:
+        time.sleep(poll_s)
+        if os.getppid() != parent_pid:  # reparented: the parent is gone
+            _exit_now()
+
+
+def die_with_parent(parent_pid: int, poll_s: float = 1.0) -> None:
+    """Make this (worker) process end when the process ``parent_pid`` dies, however it dies.
+
+    On Linux the kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``, through
+    ctypes); everywhere, a daemon thread polls :func:`os.getppid` every ``poll_s`` seconds and
+    ends the process once it has been reparented (the portable fallback). A parent that died
+    before this call ends the process at once.
+
+    Parameters
+    ----------
+    parent_pid : int
+        Process id of the parent, taken in the parent (``os.getpid()`` passed as initarg).
+    poll_s : float
+        Seconds between two checks of the watchdog thread.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass  # the watchdog below still holds
+    if os.getppid() != parent_pid:
+        _exit_now()
+    threading.Thread(target=_watch_parent, args=(parent_pid, poll_s), name="die-with-parent",
+                     daemon=True).start()
 
 
 def _progress(total: int, desc: str, enabled: Optional[bool]):
@@ -73,7 +121,8 @@ def map_parallel(fn: Callable[[T], R], items: Iterable[T], workers: Optional[int
         if chunksize is None:
             chunksize = max(1, len(items) // (4 * workers))
         out = []
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent,
+                                 initargs=(os.getpid(),)) as pool:
             for r in pool.map(fn, items, chunksize=chunksize):
                 out.append(r)
                 bar.update(1)

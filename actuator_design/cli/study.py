@@ -17,6 +17,11 @@ results.parquet when pyarrow is installed), figures/*.png and journal.jsonl (one
 finished point; --resume skips the points it holds). Every file is written to a temporary name
 and renamed. With --scheduler tcp://HOST:PORT the points run on a Dask distributed cluster.
 
+Safety: a grid of more than 1 000 000 points is refused before any work (--max-points N or
+study.max_points raises the limit); one run at a time writes into a folder (a second one exits 2
+naming the holder; a lock left by a dead run is taken over with a warning); worker processes die
+with the study process; journal records that do not match the grid are computed again.
+
 Units: sweep values carry their units ('5 kA/m', '30 deg'; table columns say which); results of a
 dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad.
 
@@ -38,7 +43,7 @@ HELP = "run a sweep study (parallel, resumable; --scheduler for a Dask cluster)"
 _SCHEMES = ("tcp://", "tls://", "inproc://", "ucx://", "ws://", "wss://")
 
 
-def _workers(text: str) -> int:
+def _positive_int(text: str) -> int:
     try:
         n = int(text)
     except ValueError:
@@ -55,11 +60,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR",
                         help="output folder (default: study_<config file name> in the current "
                              "directory)")
-    parser.add_argument("--workers", type=_workers, metavar="N",
+    parser.add_argument("--workers", type=_positive_int, metavar="N",
                         help=f"local worker processes (default: all cores, here {os.cpu_count()})")
     parser.add_argument("--resume", action="store_true",
                         help="continue an interrupted study in DIR without recomputing its "
                              "finished points")
+    parser.add_argument("--max-points", type=_positive_int, metavar="N",
+                        help="largest grid run (default: study.max_points, else 1000000); a larger "
+                             "one is refused before any work")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on a Dask distributed cluster, e.g. tcp://127.0.0.1:8786 "
                              "(needs the 'distributed' package)")
@@ -67,6 +75,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="no progress bar on stderr")
     parser.add_argument("--json", action="store_true",
                         help="print one JSON object (the study summary) on stdout")
+
+
+def _warning(message: str) -> None:
+    print(f"{PROG}: warning: {message}", file=sys.stderr, flush=True)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,11 +99,11 @@ def run(args: argparse.Namespace) -> int:
     from ..study.runner import StudyError, StudyInterrupted, plan_study, run_study
 
     with bad_input():
-        plan = plan_study(args.config, out, resume=args.resume)
+        plan = plan_study(args.config, out, resume=args.resume, max_points=args.max_points)
     try:
         with stdout_to_stderr(args.json):
             report = run_study(plan, workers=args.workers, scheduler=args.scheduler,
-                               progress=args.progress)
+                               progress=args.progress, notify=_warning)
     except StudyInterrupted as exc:
         print(f"{PROG}: interrupted: {exc}", flush=True, file=sys.stderr)
         return 130

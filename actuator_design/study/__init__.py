@@ -1,14 +1,19 @@
 """Studies: sweeps of a scene run through registered analyses, in parallel, resumable.
 
-``run_study`` (in :mod:`actuator_design.study.runner`) is the entry point; the sweep specification
+``plan_study`` (in :mod:`actuator_design.study.plan`) checks a study before any work and
+``run_study`` (in :mod:`actuator_design.study.runner`) runs it; ``read_manifest`` reads a study
+folder's manifest truthfully (:mod:`~actuator_design.study.manifest`). The sweep specification
 lives in :mod:`actuator_design.study.spec`, the grid in :mod:`~actuator_design.study.grid`, the
-per-point work in :mod:`~actuator_design.study.worker`, the journal in
-:mod:`~actuator_design.study.journal` and the outputs in :mod:`~actuator_design.study.outputs`; the
-figures (pure drawing) are :mod:`actuator_design.viz.study`'s. Imports are lazy so that importing
+per-point work in :mod:`~actuator_design.study.worker`, where it runs in
+:mod:`~actuator_design.study.backends`, the folder's lock in :mod:`~actuator_design.study.lock`,
+the journal in :mod:`~actuator_design.study.journal` and the outputs in
+:mod:`~actuator_design.study.outputs`; the figures (pure drawing) are :mod:`actuator_design.viz.study`'s.
+Imports are lazy so that importing
 this package is cheap and never needs Dask.
 """
 
-__all__ = ["run_study", "StudyReport"]
+__all__ = ["run_study", "plan_study", "read_manifest", "StudyReport", "StudyError",
+           "StudyInterrupted", "StudyWarning"]
 
 
 def __getattr__(name):

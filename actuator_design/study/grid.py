@@ -22,7 +22,12 @@ import numpy as np
 from ..config import ConfigError
 from .spec import RangeSpec, SweepSpec
 
-__all__ = ["Axis", "resolve_axes", "grid_indices", "substitute", "point_values"]
+__all__ = ["Axis", "resolve_axes", "grid_indices", "substitute", "point_values", "grid_size",
+           "check_grid_size", "DEFAULT_MAX_POINTS"]
+
+#: Largest study run without ``--max-points`` / ``study.max_points``: a million points keep the
+#: plan, the manifest and the journal of a study within a few hundred MB.
+DEFAULT_MAX_POINTS = 1_000_000
 
 _NUMBER_UNIT = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
 
@@ -176,6 +181,41 @@ def resolve_axes(spec: SweepSpec) -> List[Axis]:
         incompatible or unknown units, log spacing through zero.
     """
     return [_resolve(k, v) for k, v in spec.sweep.items()]
+
+
+def grid_size(spec: SweepSpec) -> Tuple[int, List[int]]:
+    """The number of points of a sweep and of values per key, from the specification alone.
+
+    Nothing is built: ``{from, to, n}`` counts ``n`` values, a list its length.
+
+    Returns
+    -------
+    total : int
+        Product of the sizes (cartesian) or the common size (zip).
+    sizes : list of int
+        Values per key, in the order given.
+    """
+    sizes = [v.n if isinstance(v, RangeSpec) else len(v) for v in spec.sweep.values()]
+    total = sizes[0] if spec.grid == "zip" else math.prod(sizes)
+    return total, sizes
+
+
+def check_grid_size(spec: SweepSpec, max_points: int) -> int:
+    """The number of points, checked against ``max_points`` before any grid is built.
+
+    Raises
+    ------
+    ConfigError
+        ``study.sweep``: more points than ``max_points`` (the message gives both and says how to
+        raise the limit).
+    """
+    total, sizes = grid_size(spec)
+    if total > max_points:
+        shape = f"{' × '.join(map(str, sizes))} = " if len(sizes) > 1 and spec.grid != "zip" else ""
+        raise ConfigError("study.sweep", f"the grid has {shape}{total} points, more than the limit "
+                                         f"of {max_points}; raise the limit with --max-points N "
+                                         "(or study.max_points)")
+    return total
 
 
 def grid_indices(axes: Sequence[Axis], grid: str) -> List[Tuple[int, ...]]:

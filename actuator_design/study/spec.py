@@ -16,6 +16,8 @@ A sweep study::
       outputs: [solve.tip.*, solve.stable]   # result columns kept (glob patterns); default all
       figures:                   # optional; default: first swept key against the tip angle
         - {x: field.magnitude, y: solve.tip.angle, hue: field.angle}
+      max_points: 2000000        # optional; a larger grid is refused before any work
+                                 # (default 1 000 000; --max-points overrides)
 """
 from __future__ import annotations
 
@@ -120,6 +122,7 @@ class SweepSpec(StrictModel):
     outputs: Optional[List[StrictStr]] = None
     figures: Optional[List[FigureSpec]] = None
     chunk_size: Optional[StrictInt] = Field(default=None, ge=1, le=100_000)
+    max_points: Optional[StrictInt] = Field(default=None, ge=1)
 
     @field_validator("sweep", mode="before")
     @classmethod

@@ -9,7 +9,9 @@ builds it once. Points are computed independently of each other (no warm start a
 so a study's results do not depend on the number of workers, the chunking or a resume.
 
 A record (one JSON line of the journal) is
-``{"index", "status", "message", "results": {column: value}, "time_s"}`` with status
+``{"index", "values": {key: value}, "status", "message", "results": {column: value}, "time_s"}``
+(``values``: the point's swept values as substituted, checked against the grid on resume) with
+status
 ``ok`` | ``not_converged`` (an analysis reported ``success: false``) | ``invalid`` (the point's
 configuration failed validation) | ``error`` (an analysis raised).
 """
@@ -20,7 +22,7 @@ import time
 import warnings
 from typing import Any, Dict, List
 
-__all__ = ["run_chunk", "flatten", "MAX_LIST"]
+__all__ = ["run_chunk", "flatten", "init_worker", "MAX_LIST"]
 
 #: Lists of at most this many scalars become columns ``key.0``, ``key.1``, …; longer ones are
 #: left out of the table (e.g. a shape).
@@ -51,10 +53,11 @@ def flatten(obj: Any, prefix: str, out: Dict[str, Any] = None) -> Dict[str, Any]
 def _one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[str, Any]:
     from ..analysis import registry
     from ..config import ConfigError, load_config
-    from .grid import substitute
+    from .grid import point_values, substitute
 
     t0 = time.perf_counter()
-    rec: Dict[str, Any] = {"index": int(index), "status": "ok", "message": "", "results": {}}
+    rec: Dict[str, Any] = {"index": int(index), "values": point_values(axes, idx), "status": "ok",
+                           "message": "", "results": {}}
     notes: List[str] = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -113,8 +116,14 @@ def run_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
                 for i, idx in task["points"]]
 
 
-def ignore_sigint() -> None:
-    """Process-pool initializer: workers leave Ctrl-C to the parent, which stops them."""
+def init_worker(parent_pid: int) -> None:
+    """Process-pool initializer: workers leave Ctrl-C to the parent (which stops them), let go of
+    the study folder's lock inherited by a fork, and die with the parent (also on ``kill -9``)."""
     import signal
 
+    from ..parallel import die_with_parent
+    from .lock import close_inherited
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    close_inherited()
+    die_with_parent(parent_pid)

@@ -1,0 +1,118 @@
+"""Where a study's chunks run: this process, local worker processes, or a Dask cluster.
+
+Each backend is a generator of finished chunks (lists of point records,
+:func:`actuator_design.study.worker.run_chunk`) in the order they finish. Closing the generator
+early (an interrupt) drops the chunks not started and stops the workers. Local workers die with
+the study process even when it is killed outright
+(:func:`actuator_design.study.worker.init_worker`).
+"""
+from __future__ import annotations
+
+import os
+import threading
+from typing import Iterator, List
+
+from .errors import StudyError
+
+__all__ = ["StopRequest", "serial", "processes", "connect", "on_dask"]
+
+
+class StopRequest:
+    """Signal handler for SIGINT/SIGTERM during a run: the first signal asks to stop after the
+    point (serial) or chunk (parallel) in progress — IPOPT swallows a KeyboardInterrupt raised
+    inside it and would return a spurious failure that a resume would then keep —, a second one
+    stops at once."""
+
+    def __init__(self):
+        self.requested = False
+
+    def __call__(self, signum, frame):
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def check(self) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+
+
+def serial(tasks, stop: StopRequest) -> Iterator[List[dict]]:
+    """Points in this process, one at a time (journaled per point)."""
+    from .worker import run_chunk
+    for t in tasks:
+        for item in t["points"]:
+            stop.check()
+            yield run_chunk({**t, "points": [item]})
+
+
+def processes(tasks, workers: int) -> Iterator[List[dict]]:
+    """Submit every chunk to a local process pool now; the generator yields results as they
+    complete. Workers are forked when this process runs no other thread (they then inherit the
+    imported modules: no start-up cost), spawned otherwise."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    from .worker import init_worker, run_chunk
+
+    method = ("fork" if "fork" in multiprocessing.get_all_start_methods()
+              and threading.active_count() == 1 else "spawn")
+    ex = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method),
+                             initializer=init_worker, initargs=(os.getpid(),))
+    futures = [ex.submit(run_chunk, t) for t in tasks]
+
+    def results():
+        finished = False
+        try:
+            for f in as_completed(futures):
+                yield f.result()
+            finished = True
+        finally:
+            if finished:
+                ex.shutdown(wait=True)
+            else:  # interrupted: drop queued chunks and stop the workers now
+                procs = list((getattr(ex, "_processes", None) or {}).values())
+                ex.shutdown(wait=False, cancel_futures=True)
+                for p in procs:
+                    try:
+                        p.terminate()
+                    except Exception:  # noqa: BLE001 - already gone
+                        pass
+
+    return results()
+
+
+def connect(scheduler):
+    """A Dask client for an address (or the client given) and its number of worker threads."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise StudyError("--scheduler: running on a Dask cluster needs the 'distributed' package "
+                         "(pip install 'dask[distributed]')") from None
+    if isinstance(scheduler, str):
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as err:
+            raise StudyError(f"--scheduler: cannot connect to {scheduler}: "
+                             f"{' '.join(str(err).split())}") from None
+    else:
+        client = scheduler
+    info = client.scheduler_info()
+    threads = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values())
+    return client, max(1, threads)
+
+
+def on_dask(tasks, client) -> Iterator[List[dict]]:
+    """Chunks as Dask futures on ``client``; pending ones are cancelled when closed early."""
+    from distributed import as_completed
+
+    from .worker import run_chunk
+
+    futures = []
+    try:
+        futures = client.map(run_chunk, tasks, pure=False)
+        for f in as_completed(futures):
+            yield f.result()
+    finally:
+        pending = [f for f in futures if not f.done()]
+        if pending:
+            client.cancel(pending)

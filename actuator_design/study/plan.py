@@ -1,0 +1,154 @@
+"""Plan a study: read and check everything before any computing.
+
+:func:`plan_study` validates the configuration and its ``study:`` section, counts the grid's
+points *from the specification* and refuses more than the limit before building anything
+(:func:`actuator_design.study.grid.check_grid_size`), resolves the swept keys, and checks the
+output folder: not held by a live run (:mod:`~actuator_design.study.lock`), and holding either
+nothing or this same study when resuming. :func:`journal_records` reads what a resume can reuse,
+under the run's lock.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, List, Optional
+
+from ..config import ConfigError, load_config
+from ..io import dumps_json
+from .errors import StudyError
+from .grid import (DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values, resolve_axes,
+                   substitute)
+from .journal import JOURNAL_NAME, Journal, JournalRecords
+from .lock import holder_of, in_use_message
+from .spec import SweepSpec, analysis_list, validate_spec
+
+__all__ = ["StudyPlan", "plan_study", "journal_records"]
+
+#: ``study`` keys that do not change a study's results (left out of its identity).
+_RUN_SETTINGS = ("chunk_size", "max_points")
+
+
+@dataclass
+class StudyPlan:
+    """Everything a run needs, checked: built by :func:`plan_study`."""
+
+    raw: dict
+    config: Any
+    spec: SweepSpec
+    axes: list
+    indices: list
+    analyses: List[dict]
+    out: Path
+    study_id: str
+    resume: bool
+    name: str
+
+    @property
+    def n_points(self) -> int:
+        return len(self.indices)
+
+
+def plan_study(source, out_dir, resume: bool = False,
+               max_points: Optional[int] = None) -> StudyPlan:
+    """Load and check a study configuration and its output folder.
+
+    Parameters
+    ----------
+    source : str, Path or dict
+        The configuration (a ``study:`` section of ``type: sweep``).
+    out_dir : str or Path
+        The study folder.
+    resume : bool
+        Continue the study in ``out_dir``: its journal's points are not recomputed.
+    max_points : int, optional
+        Largest number of points allowed; default ``study.max_points``, else
+        :data:`~actuator_design.study.grid.DEFAULT_MAX_POINTS`.
+
+    Raises
+    ------
+    ConfigError
+        Invalid configuration or sweep (``study.<…>``), or a grid of more than ``max_points``.
+    StudyError
+        The folder is in use by a live run, holds another study, or holds this one and ``resume``
+        is not set.
+    """
+    config = load_config(source)
+    study = config.study
+    if study is None:
+        raise ConfigError("study", "required: a study needs 'study: {type: sweep, sweep: {...}, "
+                                   "analyses: [...]}'")
+    if isinstance(study, dict) and study.get("type") == "fit":
+        raise ConfigError("study.type", "'fit' studies are run by 'actuator-design fit CONFIG "
+                                        "--data DATA.csv'")
+    spec = validate_spec(SweepSpec, study)
+    check_grid_size(spec, max_points or spec.max_points or DEFAULT_MAX_POINTS)
+    axes = resolve_axes(spec)
+    analyses = analysis_list(spec)
+    indices = grid_indices(axes, spec.grid)
+    raw = config.raw
+    _check_keys(raw, axes)
+    # identity of the study: the configuration without settings that do not change results
+    ident = {**raw, "study": {k: v for k, v in (raw.get("study") or {}).items()
+                              if k not in _RUN_SETTINGS}}
+    study_id = hashlib.sha256(dumps_json(ident).encode()).hexdigest()[:16]
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise StudyError(f"--out: {out} exists and is not a directory")
+    holder = holder_of(out) if out.is_dir() else None
+    if holder is not None:
+        raise StudyError(in_use_message(out, holder))
+    _check_journal_header(out, study_id, len(indices), resume)
+    name = config.name or (Path(source).stem if isinstance(source, (str, Path)) else "study")
+    return StudyPlan(raw=raw, config=config, spec=spec, axes=axes, indices=indices,
+                     analyses=analyses, out=out, study_id=study_id, resume=resume, name=name)
+
+
+def _check_keys(raw: dict, axes) -> None:
+    """Each swept key must name a value the configuration accepts: try its first value."""
+    for a in axes:
+        try:
+            load_config(substitute(raw, [a], [0]))
+        except ConfigError as err:
+            path = ".".join((a.section,) + a.path)
+            if "unknown key" in err.detail and err.field.startswith(a.section):
+                raise ConfigError(f"study.sweep.{a.key}",
+                                  f"{path} is not a value of this {a.section}: {err}") from None
+
+
+def _check_journal_header(out: Path, study_id: str, n_points: int, resume: bool) -> bool:
+    """True when ``out`` holds a journal of this study and ``resume`` is set; False when it holds
+    none.
+
+    Raises
+    ------
+    StudyError
+        It holds a journal and ``resume`` is not set, or a journal of another study.
+    """
+    head = Journal.read_header(out / JOURNAL_NAME)
+    if head is None:
+        return False
+    if not resume:
+        raise StudyError(f"--out: {out} already holds a study ({JOURNAL_NAME}); pass --resume to "
+                         "continue it, or choose another folder")
+    if head.get("study_id") != study_id or head.get("n_points") != n_points:
+        raise StudyError(f"--resume: {out} holds a different study (its configuration or "
+                         "points differ from this one); choose another folder")
+    return True
+
+
+def journal_records(plan: StudyPlan) -> JournalRecords:
+    """The journal's records that a run of ``plan`` reuses (read under the run's lock).
+
+    Records whose index or swept values do not match the grid are rejected (their points are
+    computed again); see :meth:`actuator_design.study.journal.Journal.records`.
+
+    Raises
+    ------
+    StudyError
+        As :func:`plan_study`, when the folder changed since the plan.
+    """
+    if not _check_journal_header(plan.out, plan.study_id, plan.n_points, plan.resume):
+        return JournalRecords()
+    journal = Journal(plan.out / JOURNAL_NAME, plan.study_id, plan.n_points)
+    return journal.records(lambda i: point_values(plan.axes, plan.indices[i]))
