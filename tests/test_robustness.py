@@ -15,7 +15,7 @@ import pytest
 from actuator_design.analysis.continuation import continue_branch
 from actuator_design.analysis.design import design
 from actuator_design.analysis.design_nlp import get_design_nlp, prepare_scene
-from actuator_design.analysis.design_robust import robustify
+from actuator_design.analysis.design_robust import pose_designs, robustify
 from actuator_design.analysis.robustness import evaluate_robustness, follow_segment
 from actuator_design.analysis.tolerances import Tolerances, parse_tolerances, perturb
 from actuator_design.equilibrium import solve
@@ -145,11 +145,11 @@ def robust_design():
     z0 = _state_at_target(nlp, sc0, target)
     tol = Tolerances()
     fragile = evaluate_robustness(sc0, z0, target, tol, OPTS)
-    out = robustify(nlp, base, d0, z0, target, tol, margin=1e-2, bounds={"h_max": 10.0, "p_max": 100.0,
-                                                                          "alpha_max": HALF_PI})
+    out = robustify(nlp, base, [d0], [z0], [target], tol, margin=1e-2,
+                    bounds={"h_max": 10.0, "p_max": 100.0, "alpha_max": HALF_PI})
     assert out.point is not None and out.scale == 1.0
-    sc = nlp.scene_for(base, out.point.d)
-    rob = evaluate_robustness(sc, out.point.z[0], target, tol, OPTS)
+    (sc,) = pose_designs(out.nlp, base, out.point.d)
+    rob = evaluate_robustness(sc, out.point.z[0][0], target, tol, OPTS)
     return sc, rob, target, fragile
 
 
