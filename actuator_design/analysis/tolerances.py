@@ -85,6 +85,8 @@ class Tolerances:
     def corners(self) -> List[Dict[str, float]]:
         """The 2^k corners of the box as signed unit offsets {attribute: ±1} over the active axes."""
         act = self.active
+        if not act:
+            return []
         return [dict(zip(act, signs)) for signs in itertools.product((-1.0, 1.0), repeat=len(act))]
 
     def to_dict(self) -> Dict[str, float]:
