@@ -1,0 +1,380 @@
+"""Does a design hold over the lab's tolerance box? Branch following, not re-solving from rest.
+
+A design is an equilibrium on one branch. Over the tolerance box (:mod:`.tolerances`) the real
+actuator stays on that branch as long as the branch exists and is stable; it snaps where the branch
+ends (a fold) or loses stability (a branch point). So the box is checked by *following the branch*
+with warm-started Newton steps from the nominal design:
+
+* along a ray from the nominal point to every corner, and along every edge of the box (for up to
+  three active tolerances; with more, rays only), recording the tip and the smallest eigenvalue of
+  the reduced Hessian at every accepted step — the worst tip error is the largest over all of them;
+* along each axis (field magnitude up and down, field angle both ways) until the branch ends or
+  loses stability: the distance to the nearest snap (``fold_distance``).
+
+A step is accepted only when Newton converges (small residual and small step, the solver's rules),
+the state moved by at most ``max_dtheta`` rad at every node (else it jumped to another branch) and
+the state is stable; otherwise the step is halved. A segment fails when the step falls below
+``min_step`` (a fraction of the segment): the fold or stability loss is then located to that
+precision. A re-solve from rest at the perturbed scene would answer a different question (where
+the rod goes from straight), and can land on another branch.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..options import SolverOptions
+from ..scene import Scene, UniformField
+from ..solver import EquilibriumSolver, get_solver
+from .tolerances import Tolerances, apply_deltas, perturb
+
+__all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness"]
+
+
+@dataclass
+class Segment:
+    """The branch followed from parameters P_a (t = 0) towards P_b (t = 1).
+
+    completed : the whole segment was followed on a stable branch.
+    t_end : the last accepted t (1 when completed); a failure lies in (t_end, t_end + min_step].
+    z_end : θ at the nodes at t_end.
+    samples : list of (t, x(1), y(1), θ(1), λ_min) at every accepted step, t = 0 included.
+    reason : why it stopped ("" when completed): "fold or stability loss", "no convergence".
+    """
+
+    completed: bool
+    t_end: float
+    z_end: np.ndarray
+    samples: List[Tuple[float, float, float, float, float]]
+    reason: str = ""
+
+
+def _newton(solver: EquilibriumSolver, z_guess: np.ndarray, z_prev: np.ndarray, P: np.ndarray):
+    raw = solver.solve_fast(z_guess, P)
+    if not raw.converged:
+        raw = solver.solve_newton(z_prev, P, max_iter=40)
+    return raw
+
+
+def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P_b: np.ndarray, *,
+                   first_step: float = 0.125, max_step: float = 0.25, min_step: float = 1e-7,
+                   max_dtheta: float = 0.2, max_steps: int = 2000) -> Segment:
+    """Follow the equilibrium branch through ``z0`` along P(t) = (1 − t) P_a + t P_b, t ∈ [0, 1].
+
+    Parameters
+    ----------
+    solver : EquilibriumSolver
+        Built for the scene structure of P_a and P_b.
+    z0 : ndarray, shape (n_nodes,)
+        An equilibrium at P_a (θ at the nodes, rad).
+    P_a, P_b : ndarray, shape (n_params,)
+        Parameter vectors of the two ends.
+    first_step, max_step, min_step : float
+        Step control in t (a fraction of the segment).
+    max_dtheta : float
+        Largest change of θ at any node in one accepted step, rad (larger: another branch).
+    max_steps : int
+        Bound on the work (accepted and rejected steps together).
+
+    Returns
+    -------
+    Segment
+    """
+    def record(t, z, P, lam):
+        _, th1, x1, y1 = solver.summary(z, P)
+        samples.append((t, x1, y1, th1, lam))
+
+    samples: List[Tuple[float, float, float, float, float]] = []
+    z = np.asarray(z0, float).copy()
+    lam0 = solver.stability(z, P_a).eigenvalues[0]
+    record(0.0, z, P_a, float(lam0))
+    t, dt = 0.0, first_step
+    z_old, t_old = None, None
+    reason = ""
+    for _ in range(max_steps):
+        if t >= 1.0:
+            return Segment(True, 1.0, z, samples)
+        if dt < min_step:
+            return Segment(False, t, z, samples, reason or "no convergence")
+        t_new = min(1.0, t + dt)
+        P = (1.0 - t_new) * P_a + t_new * P_b
+        # secant predictor from the last two accepted states
+        guess = z if z_old is None else z + (z - z_old) * ((t_new - t) / (t - t_old))
+        raw = _newton(solver, guess, z, P)
+        if raw.converged and np.all(np.isfinite(raw.z)) and np.max(np.abs(raw.z - z)) <= max_dtheta:
+            verdict = solver.stability(raw.z, P)
+            if verdict.stable:
+                z_old, t_old, z, t = z, t, raw.z, t_new
+                record(t, z, P, float(verdict.eigenvalues[0]))
+                dt = min(max_step, 1.5 * dt)
+                continue
+            reason = "fold or stability loss"
+        else:
+            reason = "fold or stability loss" if samples[-1][4] < 1e-2 * max(1.0, abs(samples[0][4])) \
+                else "no convergence"
+        dt *= 0.5
+    return Segment(False, t, z, samples, "work bound reached")
+
+
+@dataclass
+class FoldDistance:
+    """Distance from the design to the nearest snap along each axis (None: none within ``search``).
+
+    h_rel_up / h_rel_down : relative field change (0.071 = 7.1 % more / less field).
+    phi_deg_ccw / phi_deg_cw : field-angle change, degrees (uniform fields only).
+    search : the range searched per axis, {"h_rel_up": ..., ...}.
+    """
+
+    h_rel_up: Optional[float]
+    h_rel_down: Optional[float]
+    phi_deg_ccw: Optional[float]
+    phi_deg_cw: Optional[float]
+    search: Dict[str, float]
+
+    @property
+    def h_rel(self) -> Optional[float]:
+        vals = [v for v in (self.h_rel_up, self.h_rel_down) if v is not None]
+        return min(vals) if vals else None
+
+    @property
+    def phi_deg(self) -> Optional[float]:
+        vals = [v for v in (self.phi_deg_ccw, self.phi_deg_cw) if v is not None]
+        return min(vals) if vals else None
+
+    def to_dict(self) -> dict:
+        return {"h_rel": self.h_rel, "phi_deg": self.phi_deg, "h_rel_up": self.h_rel_up,
+                "h_rel_down": self.h_rel_down, "phi_deg_ccw": self.phi_deg_ccw,
+                "phi_deg_cw": self.phi_deg_cw, "searched": dict(self.search)}
+
+    def sentence(self) -> str:
+        """E.g. "the nearest snap is 7.1 % more field or 3.4 deg of angle (clockwise) away"."""
+        parts = []
+        if self.h_rel is not None:
+            more = self.h_rel_up is not None and self.h_rel == self.h_rel_up
+            parts.append(f"{100 * self.h_rel:.3g} % {'more' if more else 'less'} field")
+        if self.phi_deg is not None:
+            ccw = self.phi_deg_ccw is not None and self.phi_deg == self.phi_deg_ccw
+            parts.append(f"{self.phi_deg:.3g} deg of angle ({'counter-clockwise' if ccw else 'clockwise'})")
+        if not parts:
+            lim = ", ".join(f"{k} {v:g}" for k, v in self.search.items())
+            return f"no snap within the searched range ({lim})"
+        return "the nearest snap is " + " or ".join(parts) + " away"
+
+
+@dataclass
+class Robustness:
+    """How a design holds over a tolerance box (the ``robustness`` object of ``design --json``).
+
+    Attributes
+    ----------
+    tolerances : Tolerances
+    worst_tip_error : float
+        Largest |tip − target| (units of ℓ) over every state followed in the box, plus
+        ``discretisation_error``; the tip angle's error is ``worst_angle_error`` (rad) when the
+        target has an angle.
+    discretisation_error : float
+        Largest change of the tip when the nominal and corner states are re-solved on a mesh with
+        twice the elements (an estimate of the mesh's tip error, units of ℓ).
+    stable_over_box : bool
+        Every ray and edge was followed to its end on a stable branch.
+    min_eigenvalue : float
+        Smallest λ_min(H_r, M) met in the box.
+    corners : list of dict
+        Per corner: offset (signed fractions of the half-widths), tip (x, y, angle), error, λ_min,
+        reached.
+    fold_distance : FoldDistance
+    spread : ndarray, shape (k, 2)
+        Every tip position followed in the box (for the figure).
+    corner_states : list of ndarray or None
+        θ at the nodes at each corner (None where the corner was not reached), for checks.
+    failures : list of str
+        Where the branch was lost inside the box.
+    """
+
+    tolerances: Tolerances
+    worst_tip_error: float
+    discretisation_error: float
+    worst_angle_error: Optional[float]
+    stable_over_box: bool
+    min_eigenvalue: float
+    corners: List[dict]
+    fold_distance: FoldDistance
+    spread: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 2)))
+    failures: List[str] = field(default_factory=list)
+    corner_states: List[Optional[np.ndarray]] = field(repr=False, default_factory=list)
+
+    @property
+    def holds(self) -> bool:
+        """Stable over the whole box and no snap inside it."""
+        fd, tol = self.fold_distance, self.tolerances
+        inside = ((fd.h_rel is not None and fd.h_rel <= tol.field_rel)
+                  or (fd.phi_deg is not None and fd.phi_deg <= math.degrees(tol.angle)))
+        return self.stable_over_box and not inside
+
+    def to_dict(self) -> dict:
+        return {"worst_tip_error": self.worst_tip_error, "discretisation_error": self.discretisation_error,
+                "worst_angle_error": self.worst_angle_error,
+                "stable_over_box": self.stable_over_box, "holds": self.holds,
+                "min_eigenvalue": self.min_eigenvalue, "fold_distance": self.fold_distance.to_dict(),
+                "corners": self.corners, "failures": list(self.failures)}
+
+    def summary(self) -> str:
+        box = self.tolerances.describe()
+        head = (f"holds over the box ({box}): worst tip error {self.worst_tip_error:.3g}" if self.holds
+                else f"does NOT hold over the box ({box})" + (f": {self.failures[0]}" if self.failures else ""))
+        return f"{head}; {self.fold_distance.sentence()}"
+
+
+def _axis_offsets(tol: Tolerances) -> Dict[str, Tuple[str, float, float]]:
+    """Fold searches: name -> (tolerance attribute, sign, search range in that attribute's unit)."""
+    out = {"h_rel_up": ("field_rel", 1.0, 1.0), "h_rel_down": ("field_rel", -1.0, 0.9)}
+    out["phi_deg_ccw"] = ("angle", 1.0, math.pi / 2)
+    out["phi_deg_cw"] = ("angle", -1.0, math.pi / 2)
+    return out
+
+
+def _edges(corners: List[Dict[str, float]]) -> List[Tuple[int, int]]:
+    """Pairs of corners that differ in exactly one sign (the box's edges)."""
+    out = []
+    for i, a in enumerate(corners):
+        for j in range(i + 1, len(corners)):
+            if sum(a[k] != corners[j][k] for k in a) == 1:
+                out.append((i, j))
+    return out
+
+
+def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[float]],
+                        tolerances: Tolerances, options: Optional[SolverOptions] = None, *,
+                        fold_search: bool = True) -> Robustness:
+    """Follow the design's branch over the tolerance box and to the nearest snap along each axis.
+
+    Parameters
+    ----------
+    scene : Scene
+        The nominal design scene (dimensionless).
+    z : ndarray, shape (n_nodes,)
+        The design's equilibrium (θ at the nodes of ``options``' transcription, rad).
+    target : (x, y) or (x, y, angle), optional
+        Tip target, units of ℓ (angle in rad); ``None`` measures the spread around the nominal tip.
+    tolerances : Tolerances
+    options : SolverOptions, optional
+    fold_search : bool
+        Also search the distance to the nearest snap (field magnitude both ways, and the angle for
+        uniform fields).
+
+    Returns
+    -------
+    Robustness
+    """
+    options = options or SolverOptions()
+    solver = get_solver(scene, options)
+    P0 = solver.parameter_vector(scene)
+    z = np.asarray(z, float)
+    _, th0, x0, y0 = solver.summary(z, P0)
+    ref = np.array([x0, y0, th0] if target is None else
+                   [target[0], target[1], target[2] if len(target) > 2 else np.nan], float)
+
+    def errors(samples):
+        arr = np.array(samples)
+        pos = np.hypot(arr[:, 1] - ref[0], arr[:, 2] - ref[1])
+        ang = np.abs(np.angle(np.exp(1j * (arr[:, 3] - ref[2])))) if np.isfinite(ref[2]) else None
+        return arr, pos, ang
+
+    all_samples: List[Tuple[float, float, float, float, float]] = list()
+    failures: List[str] = []
+    corners = tolerances.corners() if tolerances.active else []
+    corner_z: List[Optional[np.ndarray]] = []
+    corner_out: List[dict] = []
+    Pc = [solver.parameter_vector(perturb(scene, tolerances, c)) for c in corners]
+    for c, P in zip(corners, Pc):
+        seg = follow_segment(solver, z, P0, P)
+        all_samples += seg.samples
+        corner_z.append(seg.z_end if seg.completed else None)
+        last = seg.samples[-1]
+        err = float(math.hypot(last[1] - ref[0], last[2] - ref[1]))
+        corner_out.append({"offset": {k: float(v) for k, v in c.items()}, "reached": seg.completed,
+                           "tip": {"x": last[1], "y": last[2], "angle": last[3]},
+                           "error": err, "min_eigenvalue": float(min(s[4] for s in seg.samples))})
+        if not seg.completed:
+            failures.append(f"the branch is lost ({seg.reason}) on the way to the corner "
+                            f"{_describe_offset(c, tolerances)} at {100 * seg.t_end:.3g} % of the way")
+    if len(tolerances.active) <= 3:
+        for i, j in _edges(corners):
+            if corner_z[i] is None:
+                continue
+            seg = follow_segment(solver, corner_z[i], Pc[i], Pc[j])
+            all_samples += seg.samples
+            if not seg.completed:
+                failures.append(f"the branch is lost ({seg.reason}) on the edge from "
+                                f"{_describe_offset(corners[i], tolerances)} to "
+                                f"{_describe_offset(corners[j], tolerances)}")
+    disc = _discretisation_error(scene, tolerances, [z] + corner_z, [{}] + corners, solver, options)
+    if not all_samples:
+        lam = float(solver.stability(z, P0).eigenvalues[0])
+        all_samples = [(0.0, x0, y0, th0, lam)]
+    arr, pos, ang = errors(all_samples)
+
+    search: Dict[str, float] = {}
+    found: Dict[str, Optional[float]] = {}
+    if fold_search:
+        for name, (attr, sign, rng) in _axis_offsets(tolerances).items():
+            if attr == "angle" and not isinstance(scene.field, UniformField):
+                continue
+            if attr == "field_rel" and scene.h == 0.0:
+                continue
+            P_end = solver.parameter_vector(apply_deltas(scene, {attr: sign * rng}))
+            seg = follow_segment(solver, z, P0, P_end, first_step=0.01, max_step=0.05)
+            unit = 1.0 if attr == "field_rel" else math.degrees(1.0)
+            search[name] = rng * unit
+            # the snap lies in (t_end, t_end + min_step]: report the last stable point
+            found[name] = None if seg.completed else seg.t_end * rng * unit
+    fd = FoldDistance(found.get("h_rel_up"), found.get("h_rel_down"), found.get("phi_deg_ccw"),
+                      found.get("phi_deg_cw"), search)
+    return Robustness(tolerances=tolerances, worst_tip_error=float(pos.max()) + disc,
+                      discretisation_error=disc,
+                      worst_angle_error=None if ang is None else float(ang.max()),
+                      stable_over_box=not failures, min_eigenvalue=float(arr[:, 4].min()),
+                      corners=corner_out, fold_distance=fd, spread=arr[:, 1:3].copy(), failures=failures,
+                      corner_states=corner_z)
+
+
+def _discretisation_error(scene, tol, states, offsets, solver, options) -> float:
+    """Largest tip change when each state is re-solved, warm, on a mesh with twice the elements.
+
+    The refined mesh's error is smaller by ~2^(2d) (LGL) or 4 (midpoint), so the change estimates
+    the default mesh's tip error."""
+    from dataclasses import replace as _replace
+
+    from ..equilibrium import solve
+    fine = _replace(options, elements=2 * options.elements, accuracy=None)
+    fine_solver = None
+    worst = 0.0
+    for z, off in zip(states, offsets):
+        if z is None:
+            continue
+        sc = perturb(scene, tol, off) if off else scene
+        fine_solver = fine_solver or get_solver(sc, fine)
+        theta, _ = solver.transcription.theta_dense(z, fine_solver.transcription.nodes)
+        P = solver.parameter_vector(sc)
+        _, _, x, y = solver.summary(z, P)
+        raw = fine_solver.solve_newton(theta, fine_solver.parameter_vector(sc))
+        if not raw.converged:
+            return float("inf")
+        _, _, xf, yf = fine_solver.summary(raw.z, fine_solver.parameter_vector(sc))
+        worst = max(worst, math.hypot(x - xf, y - yf))
+    return worst
+
+
+def _describe_offset(offset: Dict[str, float], tol: Tolerances) -> str:
+    names = {"field_rel": ("field", True), "angle": ("angle", False), "youngs_rel": ("E", True),
+             "chi_rel": ("chi_bar", True), "fibre_angle": ("fibre angle", False),
+             "clamp_angle": ("clamp angle", False)}
+    parts = []
+    for attr, sgn in offset.items():
+        label, rel = names[attr]
+        v = sgn * getattr(tol, attr)
+        parts.append(f"{label} {100 * v:+.3g} %" if rel else f"{label} {math.degrees(v):+.3g} deg")
+    return "(" + ", ".join(parts) + ")"

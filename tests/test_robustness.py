@@ -1,0 +1,195 @@
+"""Robustness over a tolerance box, against independent references.
+
+* Distances to the nearest snap against a closed form (the transverse pitchfork h_crit = π/(2√2),
+  THEORY §6), against folds located with the shooting solver (R = θ'(1) = 0 and ∂R/∂γ = 0, numpy/scipy
+  only) and against the continuation's fold.
+* Box claims (tip at each corner, its error, stability) against independent shooting solves with a
+  Jacobi (Prüfer) Morse index, never against the code's own earlier output.
+* Tolerance scalings against THEORY §5's groups (h² ∝ χ̄ H² / E, p ∝ 1 / E).
+"""
+import math
+
+import numpy as np
+import pytest
+
+from actuator_design.analysis.continuation import continue_branch
+from actuator_design.analysis.design import design
+from actuator_design.analysis.design_nlp import get_design_nlp, prepare_scene
+from actuator_design.analysis.design_robust import pose_designs, robustify
+from actuator_design.analysis.robustness import evaluate_robustness, follow_segment
+from actuator_design.analysis.tolerances import Tolerances, parse_tolerances, perturb
+from actuator_design.equilibrium import solve
+from actuator_design.options import SolverOptions
+from actuator_design.profiles import (constant_profile, expression_profile, legendre_profile,
+                                      table_profile)
+from actuator_design.reference.closed_forms import critical_field_transverse
+from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
+from actuator_design.scene import default_scene
+from actuator_design.solver import get_solver
+from test_loading import shooting_fold
+
+OPTS = SolverOptions()
+HALF_PI = 0.5 * math.pi
+
+
+# -- tolerances ------------------------------------------------------------------------------------
+def test_parse_tolerances_units_and_defaults():
+    t = parse_tolerances("field=5%,angle=2deg")
+    assert t.field_rel == pytest.approx(0.05) and t.angle == pytest.approx(math.radians(2))
+    t = parse_tolerances({"field": "0.1", "youngs_modulus": "10%", "fibre_angle": "1 deg"})
+    assert (t.field_rel, t.youngs_rel, t.fibre_angle) == pytest.approx((0.1, 0.1, math.radians(1)))
+    assert t.angle == pytest.approx(math.radians(2))  # not given: the lab default
+    assert parse_tolerances("none").active == ()
+    assert Tolerances().to_dict()["phi_deg"] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("spec, words", [
+    ("field=5%,spin=3", "tolerance 'spin': unknown"),
+    ("field=five", "tolerance field: cannot read"),
+    ("field", "not NAME=VALUE"),
+    ("angle=60deg", "tolerance angle: must be a number in [0, 45 deg]"),
+    ("field=nan", "tolerance field: must be a number"),
+])
+def test_bad_tolerances_name_the_field(spec, words):
+    with pytest.raises(ValueError, match=None) as err:
+        parse_tolerances(spec)
+    assert words in str(err.value)
+
+
+def test_perturbation_follows_the_groups():
+    """h ∝ H √(χ̄/E) and loads ∝ 1/E (THEORY §5); angle offsets add."""
+    sc = default_scene(h=2.0, phi=0.3, p=1.5)
+    tol = Tolerances(field_rel=0.1, angle=0.02, youngs_rel=0.2, chi_rel=0.3, clamp_angle=0.01)
+    out = perturb(sc, tol, {"field_rel": 1, "angle": -1, "youngs_rel": -1, "chi_rel": 1, "clamp_angle": 1})
+    assert out.h == pytest.approx(2.0 * 1.1 * math.sqrt(1.3 / 0.8), rel=1e-15)
+    assert out.p == pytest.approx(1.5 / 0.8, rel=1e-15)
+    assert out.phi == pytest.approx(0.28) and out.theta0 == pytest.approx(0.01)
+
+
+@pytest.mark.parametrize("profile", [constant_profile(0.2), legendre_profile([0.1, -0.3, 0.2]),
+                                     table_profile([0, 0.5, 1], [0.0, 0.4, -0.1]),
+                                     expression_profile("0.3*sin(pi*s)")])
+def test_fibre_offset_is_exact_for_every_profile_kind(profile):
+    from dataclasses import replace
+    sc = replace(default_scene(h=1.0), fibres=profile)
+    out = perturb(sc, Tolerances(fibre_angle=0.05), {"fibre_angle": -1})
+    s = np.linspace(0, 1, 37)
+    np.testing.assert_allclose(out.fibres(s), profile(s) - 0.05, atol=1e-14)
+
+
+# -- distance to the nearest snap ------------------------------------------------------------------
+def test_pitchfork_distance_against_the_closed_form():
+    """Straight rod in a transverse field below h_crit: stability is lost at h_crit = π/(2√2)."""
+    h = 0.9
+    sc = default_scene(h=h, phi=HALF_PI)
+    z = np.zeros(get_solver(sc, OPTS).transcription.nodes.size)
+    rob = evaluate_robustness(sc, z, None, Tolerances(field_rel=0.05, angle=0.0), OPTS)
+    assert rob.holds and rob.stable_over_box
+    assert rob.fold_distance.h_rel_up == pytest.approx(critical_field_transverse(1) / h - 1.0, abs=1e-6)
+    assert rob.worst_tip_error < 1e-12  # the straight rod stays straight over a pure magnitude box
+
+
+def _buckled_against_load():
+    """Transverse field h = 2 with a small load p = −0.2 pulling against the upward-buckled rod."""
+    sc = default_scene(h=2.0, phi=HALF_PI, p=-0.2)
+    up = solve(default_scene(h=2.0, phi=HALF_PI, p=0.2), OPTS)
+    r = solve(sc, OPTS, initial=up)
+    assert r.success and r.stable and r.tip["y"] > 0
+    return sc, r
+
+
+def test_field_fold_distance_against_shooting_and_continuation():
+    sc, r = _buckled_against_load()
+    rob = evaluate_robustness(sc, r.z, None, Tolerances(field_rel=0.05, angle=0.0), OPTS)
+    _, h_fold = shooting_fold(lambda hh: ShootingParams(h=hh, phi=HALF_PI, fy=-0.2), 1.1 * r.gamma, 1.4)
+    h_fold = abs(h_fold)  # only h² enters: the shooting family is even in h
+    assert rob.fold_distance.h_rel_down == pytest.approx(1.0 - h_fold / 2.0, abs=1e-6)
+    # a second method: pseudo-arclength continuation in h locates the same fold
+    cont = continue_branch(sc, "h", 2.0, 1.0, options=OPTS, initial=r)
+    folds = [f["value"] for f in cont.to_dict()["folds"]]
+    assert folds and min(folds, key=lambda v: abs(v - h_fold)) == pytest.approx(h_fold, rel=1e-7)
+
+
+def test_angle_fold_distance_against_shooting():
+    """Rotating a strong field across the rod: the fold angle of the shooting family in φ."""
+    h, phi0 = 1.5, 0.5
+    sc = default_scene(h=h, phi=phi0)
+    r = solve(sc, OPTS)
+    rob = evaluate_robustness(sc, r.z, None, Tolerances(field_rel=0.0, angle=math.radians(2)), OPTS)
+    s0 = solve_shooting(ShootingParams(h=h, phi=1.7), float(r.gamma) * 1.05)
+    _, phi_fold = shooting_fold(lambda ph: ShootingParams(h=h, phi=ph), s0.gamma, 1.7)
+    assert rob.fold_distance.phi_deg_ccw == pytest.approx(math.degrees(phi_fold - phi0), abs=1e-5)
+
+
+def test_follow_segment_refuses_to_jump_branches():
+    """Past the fold the segment stops (it never reports a state of another branch)."""
+    sc, r = _buckled_against_load()
+    sv = get_solver(sc, OPTS)
+    seg = follow_segment(sv, r.z, sv.parameter_vector(sc), sv.parameter_vector(sc.with_values(h=1.0)))
+    assert not seg.completed and all(s[2] > 0 for s in seg.samples)  # still buckled upward
+
+
+# -- a robust design's claims against independent shooting ---------------------------------------
+@pytest.fixture(scope="module")
+def robust_design():
+    """The main job's target (0.3, 0.5) with h, φ and the fibre layout α(s): the nominal design sits on
+    a fold; the multi-scenario NLP moves it to one that holds over ±5 % field, ±2° angle."""
+    target = (0.3, 0.5)
+    nominal = design(target, verify=False)
+    base = prepare_scene(default_scene(h=0.0), ["h", "phi", "alpha"])
+    coef = nominal.design["alpha"]["legendre_coefficients"]
+    nlp = get_design_nlp(base, ["h", "phi", "alpha"], OPTS, len(coef))
+    d0 = nlp.design_vector(h=nominal.design["h"], phi=nominal.design["phi"], coefficients=coef)
+    sc0 = nlp.scene_for(base, d0)
+    # the nominal state on the design's branch: the state the design NLP reached (tip at the target)
+    z0 = _state_at_target(nlp, sc0, target)
+    tol = Tolerances()
+    fragile = evaluate_robustness(sc0, z0, target, tol, OPTS)
+    out = robustify(nlp, base, [d0], [z0], [target], tol, margin=1e-2,
+                    bounds={"h_max": 10.0, "p_max": 100.0, "alpha_max": HALF_PI})
+    assert out.point is not None and out.scale == 1.0
+    (sc,) = pose_designs(out.nlp, base, out.point.d)
+    rob = evaluate_robustness(sc, out.point.z[0][0], target, tol, OPTS)
+    return sc, rob, target, fragile
+
+
+def _state_at_target(nlp, sc, target):
+    """Newton from the aligned guesses θ = φ − α(s) + kπ; the one whose tip is at the target."""
+    sv = nlp.solver
+    P = sv.parameter_vector(sc)
+    al = sc.fibres(sv.transcription.nodes)
+    for k in (1, 0, -1, 2):
+        guess = sc.phi + k * math.pi - al
+        guess[0] = 0.0
+        raw = sv.solve_newton(guess, P)
+        _, _, x, y = sv.summary(raw.z, P)
+        if raw.converged and math.hypot(x - target[0], y - target[1]) < 1e-6:
+            return raw.z
+    raise AssertionError("the design's state was not found")
+
+
+def test_fragile_nominal_design_is_reported_as_such(robust_design):
+    *_, fragile = robust_design
+    assert not fragile.holds and fragile.failures
+    assert fragile.fold_distance.h_rel < 0.05 or fragile.fold_distance.phi_deg < 2.0
+
+
+def test_robust_design_holds_and_corners_match_shooting(robust_design):
+    sc, rob, target, _ = robust_design
+    fd = rob.fold_distance
+    assert rob.holds and rob.stable_over_box
+    assert (fd.h_rel is None or fd.h_rel > 0.05) and (fd.phi_deg is None or fd.phi_deg > 2.0)
+    tol = rob.tolerances
+    sv = get_solver(sc, OPTS)
+    for corner, z in zip(rob.corners, rob.corner_states):
+        assert corner["reached"] and z is not None
+        csc = perturb(sc, tol, corner["offset"])
+        _, dth = sv.transcription.theta_dense(z, np.array([0.0]))
+        ref = solve_shooting(ShootingParams(h=csc.h, phi=csc.phi, alpha=csc.fibres), float(dth[0]))
+        assert ref.converged
+        # the default mesh's tip error at h ≈ 7 is ~1e-6: the reported discretisation error covers it
+        assert 0 < rob.discretisation_error < 1e-4
+        assert math.hypot(ref.tip_x - corner["tip"]["x"], ref.tip_y - corner["tip"]["y"]) \
+            <= 1.01 * rob.discretisation_error + 1e-10
+        assert math.hypot(ref.tip_x - target[0], ref.tip_y - target[1]) <= rob.worst_tip_error
+        assert jacobi_morse_index(ref).index == 0  # stable, by the conjugate-point test
