@@ -14,12 +14,14 @@ import pytest
 
 from actuator_design.analysis import design_nlp
 from actuator_design.analysis.design import DesignSettings, design
+from actuator_design.analysis.tolerances import parse_tolerances
 from actuator_design.equilibrium import solve
 from actuator_design.options import SolverOptions
 from actuator_design.profiles import legendre_profile
 from actuator_design.scene import default_scene
 
 OPTS = SolverOptions()
+NO_BOX = parse_tolerances("none")
 
 
 def _pose(r):
@@ -84,7 +86,9 @@ def test_verification_never_trusts_the_design_nlp(monkeypatch):
 
     monkeypatch.setattr(design_nlp.DesignNLP, "_solve", lying)
     monkeypatch.setattr(design_nlp, "_CACHE", {})
-    res = design(target, vary=["h", "phi"], settings=DesignSettings(ramp_steps=6))
+    # no tolerance box: the robust stage would re-pose the design with its own NLP; this test is
+    # about the verification stage alone
+    res = design(target, vary=["h", "phi"], settings=DesignSettings(ramp_steps=6, tolerances=NO_BOX))
     assert not res.success
 
 
@@ -155,7 +159,7 @@ def test_verdicts_and_messages_agree_over_the_kinds_of_result(monkeypatch):
 
     monkeypatch.setattr(design_nlp.DesignNLP, "_solve", lying)
     monkeypatch.setattr(design_nlp, "_CACHE", {})
-    results["lying"] = design(target, vary=["h", "phi"], settings=DesignSettings(ramp_steps=6))
+    results["lying"] = design(target, vary=["h", "phi"], settings=DesignSettings(ramp_steps=6, tolerances=NO_BOX))
     for kind, res in results.items():
         assert design_contradictions(res.to_dict()) == [], kind
     ok = results["success"]

@@ -13,9 +13,8 @@ import numpy as np
 import pytest
 
 from actuator_design.analysis.continuation import continue_branch
-from actuator_design.analysis.design import design
+from actuator_design.analysis.design import DesignSettings, design
 from actuator_design.analysis.design_nlp import get_design_nlp, prepare_scene
-from actuator_design.analysis.design_robust import pose_designs, robustify
 from actuator_design.analysis.robustness import evaluate_robustness, follow_segment
 from actuator_design.analysis.tolerances import Tolerances, parse_tolerances, perturb
 from actuator_design.equilibrium import solve
@@ -131,26 +130,31 @@ def test_follow_segment_refuses_to_jump_branches():
 
 # -- a robust design's claims against independent shooting ---------------------------------------
 @pytest.fixture(scope="module")
-def robust_design():
-    """The main job's target (0.3, 0.5) with h, φ and the fibre layout α(s): the nominal design sits on
-    a fold; the multi-scenario NLP moves it to one that holds over ±5 % field, ±2° angle."""
+def main_job():
+    """The README's main job, ``design --target-tip 0.3,0.5`` on the default scene, as the API runs it
+    (default box: field ±5 %, angle ±2°)."""
+    return design((0.3, 0.5))
+
+
+@pytest.fixture(scope="module")
+def robust_design(main_job):
+    res = main_job
+    assert res.success and res.robustness is not None
+    return res.design_scene, res.robustness.robustness, (0.3, 0.5), None
+
+
+@pytest.fixture(scope="module")
+def fragile():
+    """The least-effort design of the same target (no tolerance box): it sits next to a fold."""
     target = (0.3, 0.5)
-    nominal = design(target, verify=False)
+    nominal = design(target, settings=DesignSettings(tolerances=parse_tolerances("none")), verify=False)
+    assert nominal.robustness is None
     base = prepare_scene(default_scene(h=0.0), ["h", "phi", "alpha"])
     coef = nominal.design["alpha"]["legendre_coefficients"]
     nlp = get_design_nlp(base, ["h", "phi", "alpha"], OPTS, len(coef))
-    d0 = nlp.design_vector(h=nominal.design["h"], phi=nominal.design["phi"], coefficients=coef)
-    sc0 = nlp.scene_for(base, d0)
-    # the nominal state on the design's branch: the state the design NLP reached (tip at the target)
-    z0 = _state_at_target(nlp, sc0, target)
-    tol = Tolerances()
-    fragile = evaluate_robustness(sc0, z0, target, tol, OPTS)
-    out = robustify(nlp, base, [d0], [z0], [target], tol, margin=1e-2,
-                    bounds={"h_max": 10.0, "p_max": 100.0, "alpha_max": HALF_PI})
-    assert out.point is not None and out.scale == 1.0
-    (sc,) = pose_designs(out.nlp, base, out.point.d)
-    rob = evaluate_robustness(sc, out.point.z[0][0], target, tol, OPTS)
-    return sc, rob, target, fragile
+    sc0 = nlp.scene_for(base, nlp.design_vector(h=nominal.design["h"], phi=nominal.design["phi"],
+                                                coefficients=coef))
+    return evaluate_robustness(sc0, _state_at_target(nlp, sc0, target), target, Tolerances(), OPTS)
 
 
 def _state_at_target(nlp, sc, target):
@@ -168,8 +172,7 @@ def _state_at_target(nlp, sc, target):
     raise AssertionError("the design's state was not found")
 
 
-def test_fragile_nominal_design_is_reported_as_such(robust_design):
-    *_, fragile = robust_design
+def test_fragile_nominal_design_is_reported_as_such(fragile):
     assert not fragile.holds and fragile.failures
     assert fragile.fold_distance.h_rel < 0.05 or fragile.fold_distance.phi_deg < 2.0
 
@@ -193,3 +196,13 @@ def test_robust_design_holds_and_corners_match_shooting(robust_design):
             <= 1.01 * rob.discretisation_error + 1e-10
         assert math.hypot(ref.tip_x - target[0], ref.tip_y - target[1]) <= rob.worst_tip_error
         assert jacobi_morse_index(ref).index == 0  # stable, by the conjugate-point test
+
+
+def test_main_job_json_contract(main_job):
+    """`tolerances` and `robustness` keys of ``design --json`` (issue 9's contract)."""
+    d = main_job.to_dict()
+    assert d["tolerances"]["h_rel"] == pytest.approx(0.05) and d["tolerances"]["phi_deg"] == pytest.approx(2.0)
+    rob = d["robustness"]
+    assert rob["stable_over_box"] and rob["holds"] and rob["worst_tip_error"] > 0
+    assert set(rob["fold_distance"]) >= {"h_rel", "phi_deg"}
+    assert main_job.success and "holds over the box" in main_job.robustness.sentence()

@@ -13,13 +13,15 @@ as a stable state the real actuator reaches from rest.
    target, the fibre layout α(s) is added (and the report says so).
 3. **Choose** (:mod:`.design_choose`) the best optimum over the sets tried, with the notes that
    explain it.
+3b. **Robustify** (:mod:`.design_robust_stage`): move the design to one that holds over the lab's
+   tolerance box (worst-case tip error over the box's corners, every corner stable; the target
+   exact at the nominal field) and report how it holds by following its branch over the box and
+   to the nearest snap. A design that does not hold over the box is not a success.
 4. **Verify independently** (:mod:`.design_verify`), never with the design NLP's own state: a fresh
    forward solve, and a quasi-static loading path from zero field to the design. A design counts
    only if such a path reaches it without a snap and it is stable.
 
-A further stage (e.g. robustness over a tolerance box) takes a :class:`~.design_types.Choice` and
-returns one, between choose and verify; :func:`result_of` turns the stages' outputs into the
-:class:`DesignResult`.
+:func:`result_of` turns the stages' outputs into the :class:`DesignResult`.
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ from ..scene import Scene, default_scene
 from .design_choose import choose
 from .design_nlp import DESIGN_VARIABLES
 from .design_optimise import candidate, optimise
+from .design_robust_stage import RobustReport, robust_stage
 from .design_screen import screen
 from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,
                            normalise_phi, normalise_tip_angle, tip_error)
@@ -89,12 +92,15 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
     if choice is None:
         timings["total"] = time.perf_counter() - t0
         return _no_design(problem, timings)
+    tr = time.perf_counter()
+    choice, robust = robust_stage(problem, choice)
+    timings["robustness"] = time.perf_counter() - tr
     verification = None
     if verify:
         tv = time.perf_counter()
         verification = verify_stage(problem, choice)
         timings["verify"] = time.perf_counter() - tv
-    result = result_of(problem, choice, verification, timings)
+    result = result_of(problem, choice, verification, timings, robust)
     timings["total"] = time.perf_counter() - t0
     return result
 
@@ -151,12 +157,14 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
 
 
 def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Verification],
-              timings: Dict[str, float]) -> DesignResult:
-    """The :class:`DesignResult` of a chosen design and its verification (None: not run).
+              timings: Dict[str, float], robust: Optional[RobustReport] = None) -> DesignResult:
+    """The :class:`DesignResult` of a chosen design, its robustness and its verification (None: not
+    run).
 
     ``success`` needs reachable, verified, stable, snap-free, the verified tip within
-    ``accept_tol`` and (if asked) the stiffness within ``accept_tol`` relative; the message gives
-    the reason whenever it is False.
+    ``accept_tol``, (if asked) the stiffness within ``accept_tol`` relative, and (with a tolerance
+    box and a pose target) the design holding over the box; the message gives the reason whenever
+    it is False.
     """
     best, vary, target, stiffness = choice.point, choice.candidate.vary, problem.target, problem.stiffness
     notes = list(choice.notes)
@@ -170,7 +178,9 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
                           "legendre_coefficients": [float(c) for c in best.coefficients]}},
         vary=vary, schedule=[], message="", scene=problem.base, design_scene=choice.scene, optima=choice.optima,
         alternatives=choice.alternatives, timings=timings, stiffness_target=stiffness,
-        achieved_stiffness=getattr(best, "stiffness", None))
+        achieved_stiffness=getattr(best, "stiffness", None),
+        tolerances=problem.settings.tolerances if problem.settings.tolerances.active else None,
+        robustness=robust)
     stiffness_ok = True
     if verification is None:
         notes.append("not verified (the independent verification was skipped)")
@@ -180,8 +190,11 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     else:
         stiffness_ok = _take_verified(result, problem, verification, notes)
     accept = problem.settings.accept_tol
+    robust_ok = robust is None or robust.holds
     result.success = bool(result.reachable and result.verified and result.stable and result.snap_free
-                          and result.error <= accept and stiffness_ok)
+                          and result.error <= accept and stiffness_ok and robust_ok)
+    if result.verified and not robust_ok:
+        notes.append("not a success: the design does not hold over the tolerance box")
     if result.verified and result.reachable and result.error > accept:
         notes.append(f"not a success: the verified tip misses the target by {result.error:.3g} (> {accept:g})")
     if result.verified and not stiffness_ok:
@@ -240,6 +253,9 @@ def run_design(scene, options, target=None, vary=None, stiffness=None, **setting
     and settings."""
     if target is None and stiffness is None:
         raise ValueError("design: give 'target' (e.g. target: [0.3, 0.5]) and/or 'stiffness'")
+    if "tolerances" in settings:
+        from .tolerances import parse_tolerances
+        settings = {**settings, "tolerances": parse_tolerances(settings["tolerances"])}
     res = design(target, scene=scene, vary=vary, options=options, settings=DesignSettings(**settings),
                  stiffness=stiffness)
     out = res.to_dict()

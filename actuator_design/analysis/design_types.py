@@ -17,6 +17,7 @@ from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene
 from .design_nlp import DesignNLP, DesignPoint
+from .tolerances import Tolerances
 
 __all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
            "Choice", "Verification", "normalise_phi", "normalise_tip_angle", "tip_error", "target_error",
@@ -39,6 +40,8 @@ class DesignSettings:
     time_limit : wall-clock budget of the search (s): once spent, no further starting design is
         optimised (the ones done are kept and the message says so); each NLP is also capped in
         iterations (:mod:`.design_nlp`), so the work of a design is bounded.
+    tolerances : the lab's tolerance box the design must hold over (default: field ±5 %, angle ±2°;
+        an empty box skips the robustness stage).
     """
 
     h_max: float = 10.0
@@ -50,6 +53,7 @@ class DesignSettings:
     accept_tol: float = 1e-3
     ramp_steps: int = 20
     time_limit: float = 120.0
+    tolerances: Tolerances = field(default_factory=Tolerances)
 
     def bounds(self) -> Dict[str, float]:
         return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max}
@@ -91,6 +95,8 @@ class DesignResult:
     timings: Dict[str, float] = field(default_factory=dict)
     stiffness_target: Optional[float] = None
     achieved_stiffness: Optional[float] = None
+    tolerances: Optional[Tolerances] = None
+    robustness: object = None  # a design_robust_stage.RobustReport, or None when not evaluated
 
     def to_dict(self) -> Dict[str, object]:
         tgt = {} if not self.target else {"x": self.target[0], "y": self.target[1]}
@@ -111,6 +117,9 @@ class DesignResult:
         }
         if self.stiffness_target is not None:
             out["achieved_stiffness"] = self.achieved_stiffness
+        if self.tolerances is not None:
+            out["tolerances"] = self.tolerances.to_dict()
+        out["robustness"] = None if self.robustness is None else self.robustness.to_dict()
         sc = self.scene.scales
         if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):
             # h ∝ H0: the designed field scale in A/m and as μ0H in mT

@@ -151,17 +151,22 @@ class FoldDistance:
 
     def sentence(self) -> str:
         """E.g. "the nearest snap is 7.1 % more field or 3.4 deg of angle (clockwise) away"."""
-        parts = []
+        parts, none = [], []
         if self.h_rel is not None:
             more = self.h_rel_up is not None and self.h_rel == self.h_rel_up
             parts.append(f"{100 * self.h_rel:.3g} % {'more' if more else 'less'} field")
+        elif "h_rel_up" in self.search:
+            none.append(f"{100 * self.search['h_rel_up']:.3g} % more or {100 * self.search['h_rel_down']:.3g} "
+                        f"% less field")
         if self.phi_deg is not None:
             ccw = self.phi_deg_ccw is not None and self.phi_deg == self.phi_deg_ccw
             parts.append(f"{self.phi_deg:.3g} deg of angle ({'counter-clockwise' if ccw else 'clockwise'})")
-        if not parts:
-            lim = ", ".join(f"{k} {v:g}" for k, v in self.search.items())
-            return f"no snap within the searched range ({lim})"
-        return "the nearest snap is " + " or ".join(parts) + " away"
+        elif "phi_deg_ccw" in self.search:
+            none.append(f"{self.search['phi_deg_ccw']:.3g} deg of angle either way")
+        text = ("the nearest snap is " + " or ".join(parts) + " away") if parts else ""
+        if none:
+            text += ("; " if text else "") + "no snap within " + " nor ".join(none)
+        return text or "no snap searched"
 
 
 @dataclass
