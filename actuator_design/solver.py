@@ -22,18 +22,18 @@ Re-solving with new values is a parameter change and a warm start, never a rebui
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from typing import Dict, Optional
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
 from scipy.linalg import lapack
 
 from .options import SolverOptions
 from .physics.terms import build_terms, scalar_parameter_values, structure_key
+from .reduced.linalg import lowest_eigenpairs as _lowest_eigenpairs
+from .reduced.newton import RawSolution, damped_newton, fast_newton
 from .scene import Scene
 from .transcription import make_transcription
 
@@ -58,16 +58,6 @@ class StabilityVerdict:
     morse_index: int
     stable: bool
     marginal: bool
-
-
-@dataclass
-class RawSolution:
-    z: np.ndarray
-    converged: bool
-    status: str
-    message: str
-    iterations: int
-    stationarity: float
 
 
 def _jit_options() -> dict:
@@ -205,42 +195,11 @@ class FastKernel:
 
     def lowest_eigenpairs(self, k: int):
         """Smallest ``k`` eigenvalues of M^-1/2 H M^-1/2 (last evaluated H), ascending, and the
-        eigenvector of the smallest, shape (n,).
-
-        Banded Hessians: eigenvalues by LAPACK's banded symmetric solver without vectors, the
-        eigenvector by shifted inverse iteration with a banded Cholesky solve (O(n·bw²) each);
-        small dense ones: the k smallest pairs by LAPACK syevr.
-        """
-        ms = np.sqrt(self.inv_mass)
-        vals = self.hnz * ms[self.rows] * ms[self.cols]
-        k = min(k, self.n)
-        if self.kind in ("tridiagonal", "banded") and self.n >= 64:
-            bw = self.bandwidth
-            upper = self.rows <= self.cols
-            a_band = np.zeros((bw + 1, self.n))
-            a_band[bw + self.rows[upper] - self.cols[upper], self.cols[upper]] = vals[upper]
-            lam = scipy.linalg.eig_banded(a_band, lower=False, select="i", select_range=(0, k - 1),
-                                          eigvals_only=True)
-            shifted = a_band.copy()
-            gap = lam[1] - lam[0] if k > 1 else 1.0
-            shifted[bw] -= lam[0] - max(1e-3 * gap, 1e-10 * max(1.0, abs(lam[0])))
-            v = np.ones(self.n) / math.sqrt(self.n)
-            try:
-                for _ in range(3):  # inverse iteration: (A − σ) is positive definite for σ < λ0
-                    v = scipy.linalg.solveh_banded(shifted, v, check_finite=False)
-                    v /= np.linalg.norm(v)
-            except np.linalg.LinAlgError:
-                A = self.hessian_dense() * ms[:, None] * ms[None, :]
-                lam_d, V = np.linalg.eigh(0.5 * (A + A.T))
-                return lam_d[:k], V[:, 0]
-            return lam, v
-        A = np.zeros((self.n, self.n))
-        A[self.rows, self.cols] = vals
-        A = 0.5 * (A + A.T)
-        # only the k smallest pairs (LAPACK syevr): 3-5x cheaper than a full eigh at n = 40, and
-        # much less exposed to BLAS thread contention on a loaded machine
-        lam, V = scipy.linalg.eigh(A, subset_by_index=[0, k - 1], driver="evr", check_finite=False)
-        return lam, V[:, 0]
+        eigenvector of the smallest, shape (n,): :func:`~actuator_design.reduced.linalg.lowest_eigenpairs`
+        on banded storage for band Hessians (n ≥ 64), dense otherwise."""
+        banded = self.kind in ("tridiagonal", "banded") and self.n >= 64
+        return _lowest_eigenpairs(self.rows, self.cols, self.hnz, self.inv_mass, k, banded,
+                                  self.bandwidth)
 
 
 class EquilibriumSolver:
@@ -470,59 +429,9 @@ class EquilibriumSolver:
         """
         tol = self.options.tol if tol is None else tol
         max_iter = self.options.max_iter if max_iter is None else max_iter
-        k = self.kernel
-        k.set_params(params)
-        atol = tol * self.residual_scale(params)
-        xtol = 10.0 * tol
-        z = np.array(z0, float)
-        z[0] = params[self._theta0_index]
-        zr = z[1:].copy()
-        res = k.evaluate(zr)
-        it = 0
-
-        def done(zr_, r_, how=""):
-            z[1:] = zr_
-            return RawSolution(z, True, "converged", f"Newton: converged{how}", it, float(r_))
-
-        for it in range(max_iter + 1):
-            if not np.isfinite(res):
-                break
-            step = k.newton_step()
-            if step is None:
-                break
-            snorm = float(np.abs(step).max())
-            if res <= atol and snorm <= xtol:
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))):
-                    return done(zr, res)  # the step is rounding noise: nothing to improve
-                res_new = k.evaluate(zr - step)
-                return done(zr - step, res_new) if res_new <= atol else done(zr, res)
-            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                return done(zr, res, " (at the rounding floor)")
-            if it == max_iter:
-                break
-            if res <= atol:  # flat energy (near-singular Hessian): follow Newton while it stays small
-                res_new = k.evaluate(zr - step)
-                if res_new <= atol:
-                    zr, res = zr - step, res_new
-                    continue
-            t = 1.0
-            while t > 1e-4:
-                res_new = k.evaluate(zr - t * step)
-                if np.isfinite(res_new) and res_new < (1 - 1e-4 * t) * res + 1e-14:
-                    break
-                t *= 0.5
-            else:
-                k.evaluate(zr)
-                if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                    return done(zr, res, " (at the rounding floor)")
-                break
-            zr, res = zr - t * step, res_new
-            if t == 1.0 and res <= 1e3 * atol and snorm <= 1e-14 * (1.0 + np.max(np.abs(zr))):
-                return done(zr, res, " (step below rounding)")  # converged to machine precision
-        z[1:] = zr
-        return RawSolution(z, False, "not_converged",
-                           f"Newton: stationarity {res:.3g} (tol {atol:.3g}) not confirmed by a small "
-                           f"Newton step after {it} iterations", it, float(res))
+        self.kernel.set_params(params)
+        return damped_newton(self.kernel, z0, params[self._theta0_index],
+                             tol * self.residual_scale(params), 10.0 * tol, max_iter)
 
     def solve_fast(self, z0: np.ndarray, params: np.ndarray, max_iter: int = 30,
                    tol: Optional[float] = None) -> RawSolution:
@@ -553,72 +462,9 @@ class EquilibriumSolver:
             Default ``options.tol``.
         """
         tol = self.options.tol if tol is None else tol
-        k = self.kernel
-        k.set_params(params)
-        atol = tol * self.residual_scale(params)
-        xtol = 10.0 * tol
-        theta0 = params[self._theta0_index]
-        zr = np.array(z0[1:], float)
-        res = k.evaluate(zr, hessian=False)
-        fresh = factored = False
-        it, why = 0, ""
-
-        def done(z, r, how=""):
-            return RawSolution(np.concatenate(([theta0], z)), True, "converged",
-                               f"fast Newton: converged{how}", it, float(r))
-
-        ratio = 1.0  # residual contraction of the last step: ~‖I − H0⁻¹H‖ for a reused H0
-        while True:
-            if not res < np.inf:  # also catches NaN
-                why = "the residual is not finite"
-                break
-            if it >= max_iter:
-                why = f"stationarity {res:.3g} (tol {atol:.3g}) after {it} steps"
-                break
-            if not factored:
-                res = k.evaluate(zr, hessian=True)
-                fresh = factored = k.factorize()
-                if not factored:
-                    why = "singular Hessian"
-                    break
-            step = k.solve()
-            if step is None:
-                why = "singular Hessian"
-                break
-            snorm = float(np.abs(step).max())
-            # a reused factorisation measures the Newton step well when it contracted strongly
-            trusted = fresh or ratio <= 0.1
-            if res <= atol and snorm <= xtol and trusted:  # converged: finish with the small step
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))):
-                    return done(zr, res)  # the step is rounding noise: nothing to improve
-                zr_new = zr - step
-                res_new = k.evaluate(zr_new, hessian=False)
-                return done(zr_new, res_new) if res_new <= atol else done(zr, res)
-            if res <= atol and not trusted:
-                factored = False  # small gradient, step not certified: refresh the Hessian
-                continue
-            if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                return done(zr, res, " (at the rounding floor)")
-            zr_new = zr - step
-            res_new = k.evaluate(zr_new, hessian=False)
-            it += 1
-            accept = res_new < res or (res <= atol and res_new <= atol)
-            if not accept:
-                if not fresh:  # the reused factorisation is stale: a full Newton step instead
-                    factored = False
-                    ratio = 1.0
-                    continue
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))) and res <= 1e3 * atol:
-                    return done(zr, res, " (step below rounding)")
-                why = f"a full Newton step did not reduce the residual ({res:.3g} -> {res_new:.3g})"
-                break
-            ratio = res_new / res if res > 0 else 0.0
-            zr, res = zr_new, res_new
-            fresh = False
-            if ratio > 0.1:  # slow contraction (or near-singular): refresh the Hessian
-                factored = False
-        return RawSolution(np.concatenate(([theta0], zr)), False, "not_converged",
-                           f"fast Newton: {why}", it, float(res))
+        self.kernel.set_params(params)
+        return fast_newton(self.kernel, z0, params[self._theta0_index],
+                           tol * self.residual_scale(params), 10.0 * tol, max_iter)
 
     def stability(self, z: np.ndarray, params: np.ndarray, k: int = 3, tol: float = 1e-9) -> StabilityVerdict:
         """Generalised eigenvalues of the reduced Hessian against the lumped mass (THEORY §7)."""
