@@ -160,7 +160,9 @@ def _balance(solver: EquilibriumSolver, params, dense, scene: Scene, z):
 
     With τ = −∂V/∂θ and F = −∂V/∂r the distributed torque and force, f and m the tip force and
     moment, n(s) = f + ∫_s^1 F the internal force, the moment balance of the free part [s, 1]
-    about the origin reads  R(s) = b θ'(s) − m − r(1)×f − ∫_s^1 (τ + r×F) dσ + r(s)×n(s) = 0.
+    about the origin reads  R(s) = M(s) − m − r(1)×f − ∫_s^1 (τ + r×F) dσ + r(s)×n(s) = 0,
+    M = ∂V/∂θ' the internal moment of all densities V (bθ' for bending); every term enters
+    through the solver's pointwise functions, so a plug-in term is checked like a built-in one.
     Its derivative is the Euler–Lagrange equation (bθ')' + τ + r'×n = 0 and R(1) = 0 is the free
     end condition. Evaluated on 8 sub-intervals per element with 12-point Gauss quadrature.
     """
@@ -171,11 +173,16 @@ def _balance(solver: EquilibriumSolver, params, dense, scene: Scene, z):
     a, b = edges[:-1], edges[1:]
     sg = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]).ravel()
     wg = (0.5 * (b - a)[:, None] * _GL_W[None, :]).ravel()
-    th, _, x, y = dense(sg)
+    th, dth, x, y = dense(sg)
     dens_f, tip_f = solver._pointwise
-    alpha, bstiff = scene.fibres(sg), scene.stiffness(sg)
     row = lambda v: np.asarray(v, float).reshape(1, -1)  # CasADi evaluates row inputs pointwise
-    tau, Fx, Fy = (np.asarray(v, float).ravel() for v in dens_f(row(th), row(x), row(y), row(alpha), row(bstiff), params))
+
+    def loads(th_, dth_, x_, y_, s_):  # (τ, Fx, Fy, M) of every term at arc lengths s_
+        fields = [row(fn(scene, s_)) for fn in solver._node_fields.values()]
+        return [np.asarray(v, float).ravel()
+                for v in dens_f(row(th_), row(x_), row(y_), row(dth_), *fields, params)]
+
+    tau, Fx, Fy, _ = loads(th, dth, x, y, sg)
     tip_theta, tip_x, tip_y = (float(v) for v in solver.f_tip(z, params))
     m, fx, fy = (float(v) for v in tip_f(tip_theta, tip_x, tip_y, params))
 
@@ -193,9 +200,10 @@ def _balance(solver: EquilibriumSolver, params, dense, scene: Scene, z):
     if tr.name == "midpoint":
         keep = ~np.isin(edges, bp)
     se = edges[keep]
-    _, dth_e, xe, ye = dense(se)
+    th_e, dth_e, xe, ye = dense(se)
+    moment = loads(th_e, dth_e, xe, ye, se)[3]  # the internal moment ∂V/∂θ' (= bθ' for bending)
     nx, ny = fx + I_Fx[keep], fy + I_Fy[keep]
-    R = scene.stiffness(se) * dth_e - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
+    R = moment - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
     return clamp_force, float(clamp_moment), float(np.max(np.abs(R)))
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field as dc_field, replace
-from typing import Optional, Tuple, Union
+from typing import Dict, Optional, Tuple, Union
 
 import numpy as np
 
@@ -27,6 +27,7 @@ __all__ = [
     "Field",
     "Scales",
     "Scene",
+    "TermValues",
     "default_scene",
 ]
 
@@ -141,6 +142,25 @@ class Scales:
 
 
 @dataclass(frozen=True)
+class TermValues:
+    """A plug-in energy term present in a scene, with its parameter values.
+
+    Attributes
+    ----------
+    name : str
+        The registered term name (``actuator_design.physics.registry``).
+    values : tuple of (str, float)
+        Slot name -> value (dimensionless, in the term's units); slots not given are 0.
+    """
+
+    name: str
+    values: Tuple[Tuple[str, float], ...] = ()
+
+    def as_dict(self) -> Dict[str, float]:
+        return {k: float(v) for k, v in self.values}
+
+
+@dataclass(frozen=True)
 class Scene:
     """A dimensionless magneto-elastic cantilever (THEORY §4–5).
 
@@ -169,6 +189,9 @@ class Scene:
         Present for physical scenes.
     name : str
         Free text for reports.
+    extra_terms : tuple of TermValues
+        Plug-in energy terms present in the scene, with their values (the extension point: which
+        terms are listed is structural, their values are not).
     """
 
     field: Optional[Field] = dc_field(default_factory=UniformField)
@@ -182,6 +205,31 @@ class Scene:
     theta0: float = 0.0
     scales: Optional[Scales] = None
     name: str = "dimensionless cantilever"
+    extra_terms: Tuple[TermValues, ...] = ()
+
+    # -- plug-in terms ---------------------------------------------------------------------------
+    def term_values(self, name: str) -> Optional[Dict[str, float]]:
+        """Values of the plug-in term ``name``, or ``None`` when the scene does not contain it."""
+        for t in self.extra_terms:
+            if t.name == name:
+                return t.as_dict()
+        return None
+
+    def extra_term_names(self) -> Tuple[str, ...]:
+        return tuple(t.name for t in self.extra_terms)
+
+    def with_term(self, name: str, **values: float) -> "Scene":
+        """A copy containing plug-in term ``name`` with ``values`` updated (added if absent)."""
+        old = self.term_values(name)
+        merged = {**(old or {}), **{k: float(v) for k, v in values.items()}}
+        entry = TermValues(name, tuple(sorted(merged.items())))
+        if old is None:
+            return replace(self, extra_terms=self.extra_terms + (entry,))
+        return replace(self, extra_terms=tuple(entry if t.name == name else t for t in self.extra_terms))
+
+    def without_term(self, name: str) -> "Scene":
+        """A copy without plug-in term ``name``."""
+        return replace(self, extra_terms=tuple(t for t in self.extra_terms if t.name != name))
 
     # -- convenience -------------------------------------------------------------------------
     @property
@@ -232,6 +280,8 @@ class Scene:
             out["tip_moment"] = self.tip_moment
         if self.distributed_load is not None:
             out["distributed_load"] = list(self.distributed_load)
+        for t in self.extra_terms:
+            out[t.name] = t.as_dict()
         return out
 
 

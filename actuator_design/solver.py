@@ -31,7 +31,9 @@ import numpy as np
 from scipy.linalg import lapack
 
 from .options import SolverOptions
-from .physics.terms import build_terms, scalar_parameter_values, structure_key
+from .physics.kinematics import PlanarKinematics, PlanarTip
+from .physics.terms import (build_terms, node_field_sources, residual_slots, scalar_parameter_values,
+                            structure_key)
 from .reduced.linalg import lowest_eigenpairs as _lowest_eigenpairs
 from .reduced.newton import RawSolution, damped_newton, fast_newton
 from .scene import Scene
@@ -241,11 +243,13 @@ class EquilibriumSolver:
         Hr = ca.jacobian(gr, zr, {"symmetric": True})  # = ca.hessian, faster to build when large
         self._sym = (z, zr, P, E, Er, gr, Hr)
         self._f_energy = self._f_grad_hess = self._f_tip = None
+        self._node_fields = node_field_sources(self.terms)
         self._pointwise = self._pointwise_functions(de)
         self._theta0_index = self.layout.slices["theta0"].start
         sl = self.layout.slices
-        self._scale_lin = [sl[k].start for k in ("fx", "fy", "m_tip", "qx", "qy") if k in sl]
-        self._scale_sq = [sl[k].start for k in ("h", "h_pos") if k in sl]
+        scales = residual_slots(self.terms)  # each term says how its values size the residual
+        self._scale_lin = [sl[k].start for k, how in scales.items() if how == "linear" and k in sl]
+        self._scale_sq = [sl[k].start for k, how in scales.items() if how == "squared" and k in sl]
         self.jit_note = ""
         self.kernel = self._build_kernel(zr, P, gr, Hr, options.jit)
         summary = ca.Function("summary", [z, P], [ca.vertcat(E, *de.tip)])
@@ -332,7 +336,8 @@ class EquilibriumSolver:
         return float(o[0]), float(o[1]), float(o[2]), float(o[3])
 
     def residual_scale(self, params: np.ndarray) -> float:
-        """max(1, h², h_pos², |f|, |m|, |q|): the size of the forces in the stationarity equations.
+        """max(1, h², h_pos², |f|, |m|, |q|, …): the size of the forces in the stationarity equations,
+        each slot entering linearly or squared as its term declares (``EnergyTerm.residual_scale``).
 
         Convergence is tested on the residual relative to this scale, so that huge fields or loads
         (whose rounding floor is ε times their size) are not held to an absolute 1e-10.
@@ -348,8 +353,9 @@ class EquilibriumSolver:
     def parameter_vector(self, scene: Scene) -> np.ndarray:
         """Pack a scene's numbers into the NLP parameter vector (named, never by stride)."""
         values = scalar_parameter_values(self.terms, scene)
-        fields = [n for n in ("alpha", "b") if n in self.layout.slices]
-        values.update(self.transcription.node_field_values(scene, fields))
+        s = self.transcription.quadrature_points
+        for name, field_values in self._node_fields.items():  # per-point fields the terms read
+            values[name] = field_values(scene, s)
         out = np.empty(self.layout.size)
         for name, sl in self.layout.slices.items():
             if name not in values:
@@ -364,31 +370,33 @@ class EquilibriumSolver:
 
     # -- pointwise physics for residuals and reactions ----------------------------------------
     def _pointwise_functions(self, de):
-        """Torque density τ = −∂V/∂θ and force density F = −∂V/∂r of the non-bending densities,
-        as functions of (θ, x, y, α, b, params) at single points (THEORY §4)."""
-        th, x, y, kap = ca.SX.sym("th"), ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("k")
-        al, b = ca.SX.sym("alpha"), ca.SX.sym("b")
-        P = ca.SX.sym("P", self.layout.size)
-        Pd = self.layout.symbols(P)
-        from .physics.terms import PointState, TipState
+        """Pointwise loads of all terms at single points (THEORY §4), for residuals and reactions.
 
-        st = PointState(theta=th, kappa=kap, x=x, y=y, fields={"alpha": al, "b": b})
+        Returns ``dens``: (θ, x, y, κ, *fields, params) -> (τ, Fx, Fy, M) with τ = −∂V/∂θ the
+        distributed torque, F = −∂V/∂r the distributed force and M = ∂V/∂κ the internal bending
+        moment of the densities V (M = bθ' for the bending term), the fields in the order of
+        ``node_field_sources``; and ``tip``: (θ, x, y, params) -> (m, fx, fy), the tip loads.
+        """
+        th, x, y, kap = ca.SX.sym("th"), ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("k")
+        fsyms = {name: ca.SX.sym(name) for name in self._node_fields}
+        P = ca.SX.sym("P", self.layout.size)
+        Pd = {**self.layout.symbols(P), **fsyms}
+        kin = PlanarKinematics(theta=th, kappa=kap, fields=fsyms, positions=(x, y))
         V = 0
         for t in self.terms:
-            if t.name == "bending":
-                continue
-            d = t.density(st, {**Pd, "alpha": al, "b": b})
+            d = t.density(kin, Pd)
             if d is not None:
                 V = V + d
-        tip_st = TipState(theta=th, x=x, y=y)
+        tip_st = PlanarTip(theta=th, x=x, y=y)
         T = 0
         for t in self.terms:
             e = t.tip(tip_st, Pd)
             if e is not None:
                 T = T + e
         V, T = ca.SX(V), ca.SX(T)
-        dens = ca.Function("dens", [th, x, y, al, b, P],
-                           [-ca.gradient(V, th), -ca.gradient(V, x), -ca.gradient(V, y)])
+        dens = ca.Function("dens", [th, x, y, kap, *fsyms.values(), P],
+                           [-ca.gradient(V, th), -ca.gradient(V, x), -ca.gradient(V, y),
+                            ca.gradient(V, kap)])
         tip = ca.Function("tipload", [th, x, y, P],
                           [-ca.gradient(T, th), -ca.gradient(T, x), -ca.gradient(T, y)])
         return dens, tip

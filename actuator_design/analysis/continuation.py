@@ -36,91 +36,42 @@ import numpy as np
 import scipy.linalg
 from scipy.optimize import brentq
 
+from .. import parameters as lens
 from ..equilibrium import solve
 from ..options import SolverOptions
-from ..profiles import constant_profile
+from ..parameters import Parameter
 from ..result import EquilibriumResult
-from ..scene import Scene, UniformField
+from ..scene import Scene
 from ..solver import EquilibriumSolver, get_solver
 from .registry import register
 
-__all__ = ["PARAMETERS", "get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
+__all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
 
-#: Continuation parameters: name -> (NLP parameter slice, description with units).
-PARAMETERS: Dict[str, Tuple[str, str]] = {
-    "h": ("h", "field group h (dimensionless)"),
-    "h2": ("h", "h squared (dimensionless)"),
-    "phi": ("phi", "uniform field angle phi (rad)"),
-    "p": ("fy", "vertical tip load p = fy (units of B0/l^2)"),
-    "fy": ("fy", "tip force y component (units of B0/l^2)"),
-    "fx": ("fx", "tip force x component (units of B0/l^2)"),
-    "m_tip": ("m_tip", "tip moment (units of B0/l)"),
-    "qx": ("qx", "distributed load x component (units of B0/l^3)"),
-    "qy": ("qy", "distributed load y component (units of B0/l^3)"),
-    "alpha": ("alpha", "constant fibre angle alpha (rad)"),
-    "theta0": ("theta0", "clamp angle theta0 (rad)"),
-}
+_WHAT = "continuation parameter"
 
 
-def _check_name(name: str) -> None:
-    if name not in PARAMETERS:
-        raise ValueError(f"unknown continuation parameter {name!r} (allowed: {', '.join(PARAMETERS)})")
+def _check_name(name: str) -> Parameter:
+    return lens.parameter(name, _WHAT)
 
 
 def get_param(scene: Scene, name: str) -> float:
-    """The value of continuation parameter ``name`` in ``scene`` (0 for an absent term)."""
-    _check_name(name)
-    if name == "h":
-        return float(scene.h)
-    if name == "h2":
-        return float(scene.h) ** 2
-    if name == "phi":
-        return float(scene.phi)
-    if name in ("p", "fy", "fx"):
-        f = scene.tip_force or (0.0, 0.0)
-        return float(f[0] if name == "fx" else f[1])
-    if name == "m_tip":
-        return float(scene.tip_moment or 0.0)
-    if name in ("qx", "qy"):
-        q = scene.distributed_load or (0.0, 0.0)
-        return float(q[0] if name == "qx" else q[1])
-    if name == "alpha":
-        if not scene.fibres.is_constant:
-            raise ValueError("alpha: the scene's fibre angle is not constant; alpha sets a constant fibre angle")
-        return float(scene.fibres.value)
-    return float(scene.theta0)
+    """The value of continuation parameter ``name`` in ``scene`` (0 for an absent term); a thin
+    name for :func:`actuator_design.parameters.get_value`."""
+    return lens.get_value(scene, name, _WHAT)
 
 
 def set_param(scene: Scene, name: str, value: float) -> Scene:
-    """A copy of ``scene`` with parameter ``name`` set to ``value`` (adding the term if absent).
+    """A copy of ``scene`` with parameter ``name`` set to ``value`` (adding the term if absent);
+    a thin name for :func:`actuator_design.parameters.set_value`.
 
     Raises
     ------
     ValueError
-        Unknown name, ``h2 < 0``, ``h < 0``, or ``phi`` on a non-uniform field.
+        Unknown name, a value outside the parameter's range (e.g. ``h2 < 0``), or ``phi`` on a
+        non-uniform field.
     """
-    _check_name(name)
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    if name in ("h", "h2"):
-        if v < 0:
-            raise ValueError(f"{name}: must be >= 0, got {v:g}")
-        return replace(scene, h=math.sqrt(v) if name == "h2" else v, field=scene.field or UniformField())
-    if name == "phi":
-        return scene.with_values(phi=v)
-    if name in ("p", "fy", "fx"):
-        fx, fy = scene.tip_force or (0.0, 0.0)
-        return replace(scene, tip_force=(v, fy) if name == "fx" else (fx, v))
-    if name == "m_tip":
-        return replace(scene, tip_moment=v)
-    if name in ("qx", "qy"):
-        qx, qy = scene.distributed_load or (0.0, 0.0)
-        return replace(scene, distributed_load=(v, qy) if name == "qx" else (qx, v))
-    if name == "alpha":
-        return replace(scene, fibres=constant_profile(v))
-    return replace(scene, theta0=v)
+    return lens.set_value(scene, name, value, _WHAT)
 
 
 # -- the system function, built once per (structure, transcription, parameter) --------------------
@@ -147,13 +98,13 @@ def substituted_energy(solver: EquilibriumSolver, names: Sequence[str]):
     Pl = P
     lams = []
     for name in names:
-        _check_name(name)
-        slot = PARAMETERS[name][0]
+        par = _check_name(name)
+        slot = par.slot
         if slot not in lay.slices:
             raise ValueError(f"{name}: this scene has no {slot!r} parameter (add the term to the scene)")
         sl = lay.slices[slot]
         lam = ca.SX.sym(f"lam_{name}")
-        expr = ca.sqrt(lam) if name == "h2" else lam
+        expr = par.slot_expr(lam)
         Pl = ca.vertcat(Pl[:sl.start], ca.repmat(expr, sl.stop - sl.start, 1), Pl[sl.stop:])
         lams.append(lam)
     u = ca.SX.sym("u", de.z.numel() - 1)
@@ -324,7 +275,7 @@ class Continuation:
     scene : Scene
         Uniform or non-uniform field; the other parameters stay at their values in ``scene``.
     name : str
-        A key of :data:`PARAMETERS`.
+        A name of the parameter lens (:mod:`actuator_design.parameters`).
     options : SolverOptions, optional
         Transcription and tolerance (``tol`` is the corrector's stationarity tolerance).
     """
@@ -601,9 +552,9 @@ class Continuation:
 
     def _params_matrix(self, lams):
         base = self.P.copy()
-        sl = self.solver.layout.slices[PARAMETERS[self.name][0]]
+        sl = self.solver.layout.slices[lens.parameter(self.name).slot]
         out = np.repeat(base[:, None], len(lams), axis=1)
-        vals = np.sqrt(np.maximum(lams, 0)) if self.name == "h2" else np.asarray(lams)
+        vals = np.asarray(lens.parameter(self.name).to_slot(np.asarray(lams, float)))
         out[sl, :] = vals[None, :]
         return out
 
@@ -719,7 +670,7 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     scene : Scene
         Other parameters fixed at their values here.
     param : str
-        A key of :data:`PARAMETERS`.
+        A name of the parameter lens (:mod:`actuator_design.parameters`).
     start, stop : float
         Parameter values (units of the parameter: rad for angles).
     initial : ndarray (n_nodes,) or EquilibriumResult, optional

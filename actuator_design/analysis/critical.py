@@ -27,6 +27,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
+from .. import parameters as lens
 from ..options import SolverOptions
 from ..scene import Scene
 from .continuation import (Branch, Continuation, CriticalPoint, get_param, set_param,
@@ -344,7 +345,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     scene : Scene
         Uniform field (or none); the other parameters are fixed at their values here.
     param : str
-        A key of :data:`~.continuation.PARAMETERS`.
+        A name of the parameter lens (:mod:`actuator_design.parameters`).
     window : (a, b)
         Parameter interval, a < b.
     n_samples : int
@@ -358,8 +359,11 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     a, b = (float(v) for v in window)
     if not b > a:
         raise ValueError(f"window must be increasing, got ({a}, {b})")
-    if param == "h2" and a < 0:
-        raise ValueError(f"window: h2 must be >= 0, got {a}")
+    par = lens.parameter(param, "continuation parameter")
+    if a < par.lower:
+        raise ValueError(f"window: {param} must be >= {par.lower:g}, got {a}")
+    if b > par.upper:
+        raise ValueError(f"window: {param} must be <= {par.upper:g}, got {b}")
     cont = Continuation(scene, param, options)
     samples = list(np.linspace(a, b, max(2, int(n_samples))))
     branches: List[Branch] = []

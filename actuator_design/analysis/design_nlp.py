@@ -24,6 +24,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
+from .. import parameters as lens
 from ..options import SolverOptions
 from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
@@ -31,12 +32,14 @@ from ..solver import EquilibriumSolver, get_solver
 
 __all__ = ["DESIGN_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
-#: Design variables a user may vary, and what each means.
+#: Design variables a user may vary, and what each means: the lens parameters h, phi and p
+#: (:mod:`actuator_design.parameters`), plus the fibre layout α(s) as a Legendre series.
+_LENS_VARIABLES = ("h", "phi", "p")
 DESIGN_VARIABLES = {
-    "h": "field magnitude (group h, THEORY §5)",
-    "phi": "field angle (rad)",
+    "h": lens.parameter("h").description + " (THEORY §5)",
+    "phi": lens.parameter("phi").description + " (rad)",
     "alpha": "fibre layout α(s), a Legendre series",
-    "p": "vertical tip load (units of B0/l^2)",
+    "p": lens.parameter("p").description + " (units of B0/l^2)",
 }
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
@@ -375,14 +378,15 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
 
 
 def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
-    """Make sure the scene contains the terms the design varies (a tip force for ``p``, a uniform
-    field for ``h``/``phi``, a fibre profile for ``alpha``)."""
+    """Make sure the scene contains the terms the design varies (through the parameter lens: a
+    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``) and a fibre
+    profile the Legendre series can replace for ``alpha``."""
     if ("h" in vary or "phi" in vary) and scene.field is None:
-        scene = replace(scene, field=UniformField(phi=0.0))
-    if "phi" in vary and not isinstance(scene.field, UniformField):
-        raise ValueError(f"--vary phi needs a uniform field; this scene has a {scene.field.kind} field")
-    if "p" in vary and scene.tip_force is None:
-        scene = replace(scene, tip_force=(0.0, 0.0))
+        scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
+    try:
+        scene = lens.prepare_scene(scene, [v for v in vary if v in _LENS_VARIABLES], "design variable")
+    except ValueError as err:
+        raise ValueError(f"--vary {err}") from None
     if "alpha" in vary and scene.fibres.kind not in ("constant", "legendre"):
         scene = replace(scene, fibres=constant_profile(0.0))
     return scene

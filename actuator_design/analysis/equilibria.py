@@ -56,6 +56,7 @@ from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene, UniformField
 from ..solver import get_solver
+from ..physics.registry import refuse_unsupported
 from .registry import register
 
 __all__ = ["ShootingProblem", "Equilibrium", "EquilibriaResult", "find_equilibria",
@@ -74,10 +75,21 @@ def _snap(v):
     return np.where(np.abs(v) < 4 * _EPS, 0.0, v)
 
 
-def _require_uniform(scene: Scene) -> None:
+#: The energy terms whose Euler–Lagrange equation (EL) the shooting scan integrates (module
+#: docstring); a scene with any other term is refused, never silently scanned without it.
+SHOOTING_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load")
+
+
+def _require_uniform_field(scene: Scene) -> None:
     if scene.field is not None and not isinstance(scene.field, UniformField):
         raise ValueError(f"equilibria: only uniform fields (or none) are supported, this scene has a "
                          f"{scene.field.kind} field")
+
+
+def _require_uniform(scene: Scene) -> None:
+    """The shooting scan's requirements: a uniform field (or none) and only :data:`SHOOTING_TERMS`."""
+    _require_uniform_field(scene)
+    refuse_unsupported(scene, SHOOTING_TERMS, "equilibria (shooting scan)")
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:

@@ -26,11 +26,10 @@ Parameters a schedule may name (dimensionless, THEORY §5; angles in rad)::
     h, h2 (= h²), phi, p (= fy), fx, fy, m_tip, alpha (constant fibre angle), theta0, qx, qy, h_pos
 
 Public API: :func:`follow_path`, :func:`ramp`, :class:`LoadingPath`, :class:`PathPoint`,
-:class:`Jump`, :func:`apply_values`, :data:`PARAMETERS`.
+:class:`Jump`, :func:`apply_values` (names: :mod:`actuator_design.parameters`).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
@@ -40,33 +39,17 @@ from scipy.integrate import trapezoid as _trapezoid
 from scipy.interpolate import PchipInterpolator
 from scipy.optimize import brentq
 
+from .. import parameters as lens
 from ..equilibrium import solve
 from ..options import SolverOptions
-from ..profiles import constant_profile
 from ..result import EquilibriumResult
-from ..scene import Scene, UniformField
+from ..scene import Scene
 from ..solver import get_solver
 from .registry import register
 from .stiffness import sensitivities
 
-__all__ = ["PARAMETERS", "apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
+__all__ = ["apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
            "PathPoint", "Jump", "Bifurcation"]
-
-#: Parameter names a schedule may use, with their meaning (dimensionless, THEORY §5).
-PARAMETERS: Dict[str, str] = {
-    "h": "field group h >= 0 (a non-uniform field's h_pos is scaled with it)",
-    "h2": "h^2 >= 0 (likewise)",
-    "phi": "uniform field angle, rad",
-    "p": "vertical tip load p = fy, units of B0/l^2",
-    "fx": "horizontal tip load, units of B0/l^2",
-    "fy": "vertical tip load (= p), units of B0/l^2",
-    "m_tip": "tip moment, units of B0/l",
-    "alpha": "constant fibre angle, rad",
-    "theta0": "clamp angle, rad",
-    "qx": "distributed load x, units of B0/l^3",
-    "qy": "distributed load y, units of B0/l^3",
-    "h_pos": "positional field group >= 0 (non-uniform fields)",
-}
 
 #: Trial steps allowed per schedule segment before the path gives up (a safeguard).
 MAX_TRIALS = 20000
@@ -74,114 +57,38 @@ MAX_TRIALS = 20000
 Schedule = Union[Sequence[Mapping[str, float]], Mapping[str, Sequence[float]]]
 
 
-# -- parameters --------------------------------------------------------------------------------
+# -- parameters: the lens (actuator_design.parameters), with this analysis' wording ---------------
+_WHAT = "path parameter"
+
+
 def _check_name(name: str) -> None:
-    if name not in PARAMETERS:
-        raise ValueError(f"unknown path parameter {name!r} (allowed: {', '.join(PARAMETERS)})")
+    lens.parameter(name, _WHAT)
 
 
 def prepare_scene(scene: Scene, names: Sequence[str]) -> Scene:
     """``scene`` with every term a parameter in ``names`` needs present (added at value zero), so
     that the whole path shares one NLP structure."""
-    for n in names:
-        _check_name(n)
-    if any(n in ("h", "h2", "phi") for n in names) and scene.field is None:
-        scene = replace(scene, field=UniformField(), h=0.0)
-    if "phi" in names and not isinstance(scene.field, UniformField):
-        raise ValueError(f"phi: can only be ramped in a uniform field; this scene has a "
-                         f"{scene.field.kind} field")
-    if any(n in ("p", "fx", "fy") for n in names) and scene.tip_force is None:
-        scene = replace(scene, tip_force=(0.0, 0.0))
-    if "m_tip" in names and scene.tip_moment is None:
-        scene = replace(scene, tip_moment=0.0)
-    if any(n in ("qx", "qy") for n in names) and scene.distributed_load is None:
-        scene = replace(scene, distributed_load=(0.0, 0.0))
-    return scene
+    return lens.prepare_scene(scene, names, _WHAT)
 
 
 def scene_values(scene: Scene, names: Sequence[str]) -> Dict[str, float]:
     """The current values of the named parameters in ``scene``."""
-    out = {}
-    for n in names:
-        _check_name(n)
-        if n == "h":
-            out[n] = scene.h
-        elif n == "h2":
-            out[n] = scene.h ** 2
-        elif n == "phi":
-            out[n] = scene.phi
-        elif n in ("p", "fy"):
-            out[n] = scene.p
-        elif n == "fx":
-            out[n] = 0.0 if scene.tip_force is None else float(scene.tip_force[0])
-        elif n == "m_tip":
-            out[n] = scene.tip_moment or 0.0
-        elif n == "alpha":
-            if not scene.fibres.is_constant:
-                raise ValueError("alpha: the scene's fibre profile is not constant")
-            out[n] = float(scene.fibres.value)
-        elif n == "theta0":
-            out[n] = scene.theta0
-        elif n in ("qx", "qy"):
-            q = scene.distributed_load or (0.0, 0.0)
-            out[n] = float(q[0 if n == "qx" else 1])
-        elif n == "h_pos":
-            out[n] = scene.h_pos
-    return {k: float(v) for k, v in out.items()}
+    return lens.scene_values(scene, names, _WHAT)
 
 
 def apply_values(scene: Scene, values: Mapping[str, float]) -> Scene:
-    """A copy of ``scene`` with the named parameters set (names of :data:`PARAMETERS`).
+    """A copy of ``scene`` with the named parameters set (names of the parameter lens).
 
     Setting ``h`` (or ``h2``) in a non-uniform field scales ``h_pos`` by the same factor (both
     groups are proportional to the field magnitude H, THEORY §5) unless ``h_pos`` is also given
-    or the scene's h is 0.
+    or the scene's h is 0: the lens' field-scaling rule (:func:`actuator_design.parameters.apply_values`).
 
     Raises
     ------
     ValueError
         Unknown name, non-finite value, h, h2 or h_pos negative, phi in a non-uniform field.
     """
-    for n, v in values.items():
-        _check_name(n)
-        if not math.isfinite(float(v)):
-            raise ValueError(f"{n}: must be a finite number, got {v!r}")
-        if n in ("h", "h2", "h_pos") and float(v) < 0:
-            raise ValueError(f"{n}: must be >= 0, got {v!r}")
-    if "h" in values and "h2" in values:
-        raise ValueError("give either h or h2, not both")
-    if "p" in values and "fy" in values:
-        raise ValueError("give either p or fy, not both")
-    v = {k: float(x) for k, x in values.items()}
-    if "h" in v or "h2" in v:
-        h_new = v["h"] if "h" in v else math.sqrt(v["h2"])
-        if ("h_pos" not in v and scene.field is not None and not scene.field.is_uniform
-                and scene.h > 0):
-            # h and h_pos are both ∝ H (THEORY §5): a field ramp keeps their ratio (the material).
-            # build_terms drops the positional term when h_pos == 0, which would change the NLP
-            # structure mid-path: keep the smallest normal float instead (its square is 0.0).
-            h_pos = scene.h_pos * h_new / scene.h
-            if scene.h_pos > 0:
-                h_pos = max(h_pos, np.finfo(float).tiny)
-            scene = replace(scene, h_pos=h_pos)
-        scene = scene.with_values(h=h_new)
-    if "phi" in v:
-        scene = scene.with_values(phi=v["phi"])
-    if "p" in v or "fy" in v or "fx" in v:
-        fx0, fy0 = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
-        scene = replace(scene, tip_force=(v.get("fx", fx0), v.get("p", v.get("fy", fy0))))
-    if "m_tip" in v:
-        scene = replace(scene, tip_moment=v["m_tip"])
-    if "alpha" in v:
-        scene = replace(scene, fibres=constant_profile(v["alpha"]))
-    if "theta0" in v:
-        scene = replace(scene, theta0=v["theta0"])
-    if "qx" in v or "qy" in v:
-        q0 = scene.distributed_load or (0.0, 0.0)
-        scene = replace(scene, distributed_load=(v.get("qx", q0[0]), v.get("qy", q0[1])))
-    if "h_pos" in v:
-        scene = replace(scene, h_pos=v["h_pos"])
-    return scene
+    return lens.apply_values(scene, values, _WHAT)
 
 
 def ramp(name: str, start: float, stop: float, back: bool = False) -> List[Dict[str, float]]:
@@ -436,9 +343,9 @@ class _Segment:
     def values(self, lam: float) -> Dict[str, float]:
         v = self.va + lam * (self.vb - self.va)
         out = dict(zip(self.names, map(float, v)))
-        for n in ("h", "h2", "h_pos"):  # a λ slightly past a segment end must not go negative
-            if n in out:
-                out[n] = max(out[n], 0.0)
+        for n in out:  # a λ slightly past a segment end must not leave the parameter's range
+            par = lens.parameter(n)
+            out[n] = min(max(out[n], par.lower), par.upper)
         return out
 
     def scene(self, lam: float) -> Scene:
@@ -742,7 +649,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         Transcription and resolution (default ``SolverOptions()``). Tracking steps use Newton
         without ``ensure_stable``; the start and the snaps use IPOPT with ``ensure_stable``.
     schedule : list of dict, or dict of lists
-        Parameter settings in order (names of :data:`PARAMETERS`, dimensionless, angles in rad),
+        Parameter settings in order (names of the parameter lens, dimensionless, angles in rad),
         e.g. ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}]`` or ``{"p": [0.5, -2, 0.5]}``;
         :func:`ramp` builds up/down ramps. At least two points.
     initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional

@@ -24,7 +24,8 @@ from typing import Optional, Sequence
 import numpy as np
 
 from ..scene import Scene
-from .continuation import PARAMETERS, set_param
+from .. import parameters as lens
+from .continuation import set_param
 from .equilibria import ShootingProblem, _steps_for, gamma_bound
 from .registry import register
 
@@ -38,7 +39,7 @@ class MultiplicityMap:
     Attributes
     ----------
     x_param, y_param : str
-        Parameter names (keys of :data:`~.continuation.PARAMETERS`).
+        Parameter names (of the lens, :mod:`actuator_design.parameters`).
     x, y : ndarray, shapes (nx,), (ny,)
     counts, stable : ndarray of int, shape (ny, nx)
         Number of equilibria and of stable equilibria at (x[j], y[i]).
@@ -62,8 +63,8 @@ class MultiplicityMap:
     def csv_text(self) -> str:
         """Long-format CSV: x, y, equilibria, stable (one line per grid point)."""
         buf = io.StringIO()
-        buf.write(f"# multiplicity map; {self.x_param}: {PARAMETERS[self.x_param][1]}; "
-                  f"{self.y_param}: {PARAMETERS[self.y_param][1]}\n")
+        buf.write(f"# multiplicity map; {self.x_param}: {lens.parameter(self.x_param).describe()}; "
+                  f"{self.y_param}: {lens.parameter(self.y_param).describe()}\n")
         buf.write(f"{self.x_param},{self.y_param},equilibria,stable\n")
         for i, yv in enumerate(self.y):
             for j, xv in enumerate(self.x):
@@ -147,7 +148,7 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
     scene : Scene
         Uniform field (or none); other parameters fixed at their values here.
     x_param, y_param : str
-        Keys of :data:`~.continuation.PARAMETERS` (e.g. ``"h2"``, ``"p"``).
+        Names of the parameter lens (e.g. ``"h2"``, ``"p"``).
     x_values, y_values : array_like, shapes (nx,), (ny,)
     n_gamma : int
         γ samples per grid point (made odd).
@@ -165,8 +166,7 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
     from tqdm import tqdm
 
     for name in (x_param, y_param):
-        if name not in PARAMETERS:
-            raise ValueError(f"unknown map parameter {name!r} (allowed: {', '.join(PARAMETERS)})")
+        lens.parameter(name, "map parameter")
     if x_param == y_param:
         raise ValueError("x_param and y_param must differ")
     xs = np.asarray(x_values, float).ravel()

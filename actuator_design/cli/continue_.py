@@ -23,6 +23,8 @@ from typing import Literal
 
 from pydantic import Field
 
+from ..parameters import names as parameter_names
+
 from .common import EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir, finite_float, stdout_to_stderr
 from .equilibria import (StudyBase, add_output_args, add_scene_args, build_scene, png_bytes,
                          write_outputs)
@@ -31,8 +33,9 @@ __all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
 
 HELP = "continue an equilibrium branch in one parameter (folds, branch points, stability)"
 
-PARAM_NAMES = ("h", "h2", "phi", "p", "fx", "fy", "m_tip", "qx", "qy", "alpha", "theta0")
-ParamName = Literal["h", "h2", "phi", "p", "fx", "fy", "m_tip", "qx", "qy", "alpha", "theta0"]
+#: Parameters the CLI offers: the lens' built-in ones (plug-in terms register theirs at run time).
+PARAM_NAMES = tuple(parameter_names())
+ParamName = Literal[PARAM_NAMES]  # type: ignore[valid-type]
 
 
 class ContinuationStudy(StudyBase):
@@ -104,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
     switch = bool(_pick(args.switch, study, "switch", False))
     straight = bool(_pick(args.straight, study, "straight", False))
 
-    from ..analysis.continuation import continue_branch, set_param
+    from ..analysis.continuation import continue_branch
+    from ..parameters import set_value as set_param
     from ..io import dumps_json
     import numpy as np
 

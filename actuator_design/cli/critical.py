@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     if n_samples < 2:
         raise InputError(f"--samples: must be >= 2, got {n_samples}")
 
-    from ..analysis.continuation import set_param
+    from ..parameters import set_value as set_param
     from ..analysis.critical import critical_points
     from ..io import dumps_json
 

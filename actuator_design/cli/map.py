@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         if not rng[0] < rng[1]:
             raise InputError(f"range of {name}: must be increasing, got {rng}")
 
-    from ..analysis.continuation import set_param
+    from ..parameters import set_value as set_param
     from ..analysis.critical import critical_curves
     from ..analysis.multiplicity import multiplicity_map
     from ..io import dumps_json

@@ -137,7 +137,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def _schedule(args, study):
     """(schedule for the API, name as given, factor API → given units, max_step)."""
-    from ..analysis.loading import PARAMETERS
+    from ..parameters import names as parameter_names
+
+    PARAMETERS = parameter_names()
 
     steps = args.steps if args.steps is not None else study.steps
     if steps is not None and steps < 1:

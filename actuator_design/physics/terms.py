@@ -1,85 +1,148 @@
 """One class per energy term of the dimensionless rod energy (THEORY §4–5), behind one interface.
 
-The total energy is Ê[θ] = ∫₀¹ Σ density(θ, θ', x, y) ds + Σ tip(θ(1), x(1), y(1)). A term reads
-scalar NLP parameters (``scalar_params``) and per-quadrature-point fields (``node_fields``: the fibre
-angle α and the relative stiffness b), and says whether it needs rod positions (a transcription
-builds x(s), y(s) at the quadrature points only if some term needs them).
+The total energy is Ê[θ] = ∫₀¹ Σ density(kinematics) ds + Σ tip(tip kinematics). A term reads the
+rod through a kinematics object (:mod:`.kinematics`: directors, curvature and — only if it asks —
+positions), scalar NLP parameters (``scalar_params``) and per-quadrature-point fields
+(``node_fields``: name -> how a scene evaluates it at arc lengths s, e.g. the fibre angle α and the
+relative stiffness b).
 
-Adding a physics term = adding a class here and a line in :func:`build_terms`.
+Adding a physics term = writing a subclass of :class:`EnergyTerm` and registering it
+(:func:`~.registry.register_term`); nothing else changes. A plug-in term is present in a scene when
+the scene lists it in ``extra_terms`` (with its values).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Dict, List, Optional, Tuple
+from dataclasses import replace
+from typing import Callable, Dict, List, Optional, Tuple
 
 import casadi as ca
 import numpy as np
 
-from ..scene import Scene
+from ..parameters import Parameter
+from ..profiles import constant_profile
+from ..scene import Scene, UniformField
 from .fields import FieldModel, field_model
+from .kinematics import PlanarKinematics, PlanarTip
+from .registry import register_term, registered_terms
 
-__all__ = ["PointState", "TipState", "EnergyTerm", "build_terms", "structure_key",
-           "scalar_parameter_values", "NODE_FIELDS"]
+__all__ = ["EnergyTerm", "build_terms", "structure_key", "scalar_parameter_values",
+           "node_field_sources", "node_field_values", "residual_slots", "Bending", "FieldOrientation",
+           "FieldPosition", "TipForce", "TipMoment", "DistributedLoad"]
 
-#: Per-point fields a term may read, and how a scene evaluates them at arc lengths s.
-NODE_FIELDS = {
-    "alpha": lambda scene, s: scene.fibres(s),
-    "b": lambda scene, s: scene.stiffness(s),
-}
-
-
-@dataclass
-class PointState:
-    """State at the quadrature points (CasADi column vectors of equal length)."""
-
-    theta: ca.SX
-    kappa: ca.SX
-    x: Optional[ca.SX]
-    y: Optional[ca.SX]
-    fields: Dict[str, ca.SX]
-
-
-@dataclass
-class TipState:
-    theta: ca.SX
-    x: ca.SX
-    y: ca.SX
+NodeField = Callable[[Scene, np.ndarray], np.ndarray]
 
 
 class EnergyTerm:
-    """Interface of an energy term; subclasses override what they contribute."""
+    """Interface of an energy term; subclasses override what they contribute.
+
+    Class attributes
+    ----------------
+    name : str
+        Unique registry name (also the name used in ``Scene.extra_terms`` for plug-ins).
+    parameters : tuple of Parameter
+        The lens parameters this term contributes (:mod:`actuator_design.parameters`).
+    scalar_params : tuple of str
+        Scalar NLP slots it reads (instances may extend them, e.g. with a field's slots).
+    node_fields : dict of str -> callable (Scene, s) -> ndarray
+        Per-quadrature-point fields it reads, and how a scene evaluates them.
+    """
 
     name = "term"
+    parameters: Tuple[Parameter, ...] = ()
     scalar_params: Tuple[str, ...] = ()
-    node_fields: Tuple[str, ...] = ()
-    needs_position = False
+    node_fields: Dict[str, NodeField] = {}
 
-    def density(self, st: PointState, P: Dict[str, ca.SX]):
+    # -- presence in a scene -------------------------------------------------------------------
+    @classmethod
+    def present(cls, scene: Scene) -> bool:
+        """Whether ``scene`` contains this term (plug-ins: listed in ``scene.extra_terms``)."""
+        return scene.term_values(cls.name) is not None
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> "EnergyTerm":
+        """The term instance for a scene that contains it."""
+        return cls()
+
+    # -- energy ------------------------------------------------------------------------------
+    def density(self, kin: PlanarKinematics, P: Dict[str, ca.SX]):
         """Energy per unit (dimensionless) length at each point, or ``None``."""
         return None
 
-    def tip(self, st: TipState, P: Dict[str, ca.SX]):
+    def tip(self, tip: PlanarTip, P: Dict[str, ca.SX]):
         """Energy concentrated at the free end, or ``None``."""
         return None
 
     def values(self, scene: Scene) -> Dict[str, float]:
-        """Numerical values of ``scalar_params`` for a scene."""
-        return {}
+        """Numerical values of ``scalar_params`` for a scene (plug-ins: from ``extra_terms``)."""
+        tv = scene.term_values(self.name) or {}
+        return {k: float(tv.get(k, 0.0)) for k in self.scalar_params}
+
+    def residual_scale(self) -> Dict[str, str]:
+        """Slot -> ``"linear"`` or ``"squared"``: how its value sizes the stationarity residual."""
+        return {p.slot: p.residual for p in self.parameters if p.residual}
 
     def structure(self) -> tuple:
         return (self.name,)
 
 
+# -- the built-in terms and their parameters ------------------------------------------------------
+def _with_field(sc: Scene) -> Scene:
+    return sc if sc.field is not None else replace(sc, field=UniformField(), h=0.0)
+
+
+def _with_uniform_field(sc: Scene) -> Scene:
+    sc = _with_field(sc)
+    if not isinstance(sc.field, UniformField):
+        raise ValueError(f"phi: needs a uniform field; this scene has a {sc.field.kind} field")
+    return sc
+
+
+def _fibre_angle(sc: Scene) -> float:
+    if not sc.fibres.is_constant:
+        raise ValueError("alpha: the scene's fibre angle is not constant; alpha sets a constant fibre angle")
+    return float(sc.fibres.value)
+
+
+def _tip_force(sc: Scene, i: int, v: Optional[float] = None):
+    f = list(sc.tip_force or (0.0, 0.0))
+    if v is None:
+        return float(f[i])
+    f[i] = v
+    return replace(sc, tip_force=tuple(f))
+
+
+def _load(sc: Scene, i: int, v: Optional[float] = None):
+    q = list(sc.distributed_load or (0.0, 0.0))
+    if v is None:
+        return float(q[i])
+    q[i] = v
+    return replace(sc, distributed_load=tuple(q))
+
+
+_H_KW = dict(term="field_orientation", lower=0.0, field_magnitude=True, residual="squared",
+             ensure=_with_field)
+_F_KW = dict(term="tip_force", residual="linear",
+             ensure=lambda sc: sc if sc.tip_force is not None else replace(sc, tip_force=(0.0, 0.0)))
+_Q_KW = dict(unit="B0/l^3", term="distributed_load", residual="linear",
+             ensure=lambda sc: sc if sc.distributed_load is not None else replace(sc, distributed_load=(0.0, 0.0)))
+
+
+@register_term
 class Bending(EnergyTerm):
     """½ b(s) θ'² (THEORY §4: ½ Ẽ I κ², scaled by B0/ℓ)."""
 
     name = "bending"
-    node_fields = ("b",)
+    node_fields = {"b": lambda scene, s: scene.stiffness(s)}
 
-    def density(self, st, P):
-        return 0.5 * st.fields["b"] * st.kappa**2
+    @classmethod
+    def present(cls, scene):
+        return True
+
+    def density(self, kin, P):
+        return 0.5 * kin.fields["b"] * kin.curvature**2
 
 
+@register_term
 class FieldOrientation(EnergyTerm):
     """−h² (ã_c·ĥ(r))², ã_c = (cos(θ+α), sin(θ+α)) (THEORY §4–5, the χ̄ term).
 
@@ -87,19 +150,40 @@ class FieldOrientation(EnergyTerm):
     """
 
     name = "field_orientation"
-    node_fields = ("alpha",)
+    node_fields = {"alpha": lambda scene, s: scene.fibres(s)}
+    parameters = (
+        Parameter("h", "field group h", "1", "h", read=lambda sc: sc.h,
+                  write=lambda sc, v: replace(sc, h=v, field=sc.field or UniformField()),
+                  field_power=1, **_H_KW),
+        Parameter("h2", "h squared", "1", "h", read=lambda sc: sc.h ** 2,
+                  write=lambda sc, v: replace(sc, h=float(np.sqrt(v)), field=sc.field or UniformField()),
+                  transform="sqrt", field_power=2, **_H_KW),
+        Parameter("phi", "uniform field angle phi", "rad", "phi", read=lambda sc: sc.phi,
+                  write=lambda sc, v: replace(sc, field=UniformField(phi=v)), term="field_orientation",
+                  ensure=_with_uniform_field),
+        Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
+                  write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
+                  per_point=True),
+    )
 
     def __init__(self, field: FieldModel):
         self.field = field
         self.scalar_params = ("h",) + field.params
-        self.needs_position = not field.is_uniform
 
-    def density(self, st, P):
+    @classmethod
+    def present(cls, scene):
+        return scene.field is not None
+
+    @classmethod
+    def from_scene(cls, scene):
+        return cls(field_model(scene.field))
+
+    def density(self, kin, P):
         h2 = P["h"] ** 2
-        u = st.theta + st.fields["alpha"]
+        u = kin.theta + kin.fields["alpha"]
         if self.field.is_uniform:
             return -h2 * ca.cos(u - P["phi"]) ** 2
-        hx, hy = self.field.value(st.x, st.y, P)
+        hx, hy = self.field.value(kin.x, kin.y, P)
         return -h2 * (ca.cos(u) * hx + ca.sin(u) * hy) ** 2
 
     def values(self, scene):
@@ -109,18 +193,31 @@ class FieldOrientation(EnergyTerm):
         return (self.name,) + self.field.structure()
 
 
+@register_term
 class FieldPosition(EnergyTerm):
     """−h_pos² |ĥ(r)|² (THEORY §4, the χ̂ term; built only for non-uniform fields)."""
 
     name = "field_position"
-    needs_position = True
+    parameters = (
+        Parameter("h_pos", "positional field group h_pos (non-uniform fields)", "1", "h_pos",
+                  read=lambda sc: sc.h_pos, write=lambda sc, v: replace(sc, h_pos=v),
+                  term="field_position", lower=0.0, field_power=1, residual="squared"),
+    )
 
     def __init__(self, field: FieldModel):
         self.field = field
         self.scalar_params = ("h_pos",) + field.params
 
-    def density(self, st, P):
-        hx, hy = self.field.value(st.x, st.y, P)
+    @classmethod
+    def present(cls, scene):
+        return scene.field is not None and not scene.field.is_uniform and scene.h_pos != 0.0
+
+    @classmethod
+    def from_scene(cls, scene):
+        return cls(field_model(scene.field))
+
+    def density(self, kin, P):
+        hx, hy = self.field.value(kin.x, kin.y, P)
         return -P["h_pos"] ** 2 * (hx**2 + hy**2)
 
     def values(self, scene):
@@ -130,61 +227,95 @@ class FieldPosition(EnergyTerm):
         return (self.name,) + self.field.structure()
 
 
+@register_term
 class TipForce(EnergyTerm):
     """−f·r(1): dead tip force f = (fx, fy), p = fy (THEORY §5)."""
 
     name = "tip_force"
     scalar_params = ("fx", "fy")
+    parameters = (
+        Parameter("p", "vertical tip load p = fy", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
+                  write=lambda sc, v: _tip_force(sc, 1, v), **_F_KW),
+        Parameter("fy", "tip force y component", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
+                  write=lambda sc, v: _tip_force(sc, 1, v), **_F_KW),
+        Parameter("fx", "tip force x component", "B0/l^2", "fx", read=lambda sc: _tip_force(sc, 0),
+                  write=lambda sc, v: _tip_force(sc, 0, v), **_F_KW),
+    )
 
-    def tip(self, st, P):
-        return -(P["fx"] * st.x + P["fy"] * st.y)
+    @classmethod
+    def present(cls, scene):
+        return scene.tip_force is not None
+
+    def tip(self, tip, P):
+        return -(P["fx"] * tip.x + P["fy"] * tip.y)
 
     def values(self, scene):
         return {"fx": scene.tip_force[0], "fy": scene.tip_force[1]}
 
 
+@register_term
 class TipMoment(EnergyTerm):
     """−m θ(1): dead tip moment, counter-clockwise positive."""
 
     name = "tip_moment"
     scalar_params = ("m_tip",)
+    parameters = (
+        Parameter("m_tip", "tip moment", "B0/l", "m_tip", read=lambda sc: sc.tip_moment or 0.0,
+                  write=lambda sc, v: replace(sc, tip_moment=v), term="tip_moment", residual="linear",
+                  ensure=lambda sc: sc if sc.tip_moment is not None else replace(sc, tip_moment=0.0)),
+    )
 
-    def tip(self, st, P):
-        return -P["m_tip"] * st.theta
+    @classmethod
+    def present(cls, scene):
+        return scene.tip_moment is not None
+
+    def tip(self, tip, P):
+        return -P["m_tip"] * tip.theta
 
     def values(self, scene):
         return {"m_tip": scene.tip_moment}
 
 
+@register_term
 class DistributedLoad(EnergyTerm):
     """−q·r(s) per unit length: a dead distributed load such as weight."""
 
     name = "distributed_load"
     scalar_params = ("qx", "qy")
-    needs_position = True
+    parameters = (
+        Parameter("qx", "distributed load x component", slot="qx", read=lambda sc: _load(sc, 0),
+                  write=lambda sc, v: _load(sc, 0, v), **_Q_KW),
+        Parameter("qy", "distributed load y component", slot="qy", read=lambda sc: _load(sc, 1),
+                  write=lambda sc, v: _load(sc, 1, v), **_Q_KW),
+    )
 
-    def density(self, st, P):
-        return -(P["qx"] * st.x + P["qy"] * st.y)
+    @classmethod
+    def present(cls, scene):
+        return scene.distributed_load is not None
+
+    def density(self, kin, P):
+        return -(P["qx"] * kin.x + P["qy"] * kin.y)
 
     def values(self, scene):
         return {"qx": scene.distributed_load[0], "qy": scene.distributed_load[1]}
 
 
+# -- derived from the registered terms ------------------------------------------------------------
 def build_terms(scene: Scene) -> List[EnergyTerm]:
-    """The terms this scene contains, and no others (a term absent from the scene is not built)."""
-    terms: List[EnergyTerm] = [Bending()]
-    if scene.field is not None:
-        fm = field_model(scene.field)
-        terms.append(FieldOrientation(fm))
-        if not fm.is_uniform and scene.h_pos != 0.0:
-            terms.append(FieldPosition(fm))
-    if scene.tip_force is not None:
-        terms.append(TipForce())
-    if scene.tip_moment is not None:
-        terms.append(TipMoment())
-    if scene.distributed_load is not None:
-        terms.append(DistributedLoad())
-    return terms
+    """The terms this scene contains, and no others (a term absent from the scene is not built).
+
+    Raises
+    ------
+    ValueError
+        The scene lists a plug-in term that is not registered.
+    """
+    classes = registered_terms()
+    known = {c.name for c in classes}
+    for name in scene.extra_term_names():
+        if name not in known:
+            raise ValueError(f"extra_terms: {name!r} is not a registered energy term "
+                             f"(registered: {', '.join(sorted(known))})")
+    return [cls.from_scene(scene) for cls in classes if cls.present(scene)]
 
 
 def structure_key(terms: List[EnergyTerm]) -> tuple:
@@ -197,3 +328,25 @@ def scalar_parameter_values(terms: List[EnergyTerm], scene: Scene) -> Dict[str, 
     for t in terms:
         out.update(t.values(scene))
     return {k: float(v) for k, v in out.items()}
+
+
+def node_field_sources(terms: List[EnergyTerm]) -> Dict[str, NodeField]:
+    """Per-point field name -> evaluator (Scene, s) -> values, over ``terms``, sorted by name."""
+    out: Dict[str, NodeField] = {}
+    for t in terms:
+        for name, fn in t.node_fields.items():
+            out.setdefault(name, fn)
+    return dict(sorted(out.items()))
+
+
+def node_field_values(terms: List[EnergyTerm], scene: Scene, s: np.ndarray) -> Dict[str, np.ndarray]:
+    """The per-point fields ``terms`` read, evaluated for ``scene`` at arc lengths ``s``."""
+    return {n: np.asarray(fn(scene, s), float) for n, fn in node_field_sources(terms).items()}
+
+
+def residual_slots(terms: List[EnergyTerm]) -> Dict[str, str]:
+    """Slot -> ``"linear"``/``"squared"`` over ``terms`` (their contribution to the residual scale)."""
+    out: Dict[str, str] = {}
+    for t in terms:
+        out.update(t.residual_scale())
+    return out

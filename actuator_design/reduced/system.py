@@ -26,12 +26,12 @@ __all__ = ["ReducedSystem", "reduced_system", "substituted_energy", "SystemEvalu
 _CACHE: Dict[tuple, "ReducedSystem"] = {}
 
 
-def _slot(name: str) -> Tuple[str, bool]:
-    """(NLP parameter slot, enters as √λ) of a continuation parameter name."""
-    from ..analysis.continuation import PARAMETERS, _check_name  # the parameter registry
+def _slot(name: str) -> Tuple[str, object]:
+    """(NLP parameter slot, slot expression of the symbol) of a lens parameter name."""
+    from ..parameters import parameter  # the parameter lens
 
-    _check_name(name)
-    return PARAMETERS[name][0], name == "h2"
+    par = parameter(name, "continuation parameter")
+    return par.slot, par.slot_expr
 
 
 def substituted_energy(solver, names: Sequence[str]):
@@ -54,12 +54,12 @@ def substituted_energy(solver, names: Sequence[str]):
     Pl = P
     lams = []
     for name in names:
-        slot, squared = _slot(name)
+        slot, slot_expr = _slot(name)
         if slot not in lay.slices:
             raise ValueError(f"{name}: this scene has no {slot!r} parameter (add the term to the scene)")
         sl = lay.slices[slot]
         lam = ca.SX.sym(f"lam_{name}")
-        expr = ca.sqrt(lam) if squared else lam
+        expr = slot_expr(lam)
         Pl = ca.vertcat(Pl[:sl.start], ca.repmat(expr, sl.stop - sl.start, 1), Pl[sl.stop:])
         lams.append(lam)
     u = ca.SX.sym("u", de.z.numel() - 1)
@@ -135,10 +135,10 @@ class ReducedSystem:
         lay = self.solver.layout
         Pl = self.P
         for name, lam in zip(self.names, self.lams):
-            slot, squared = _slot(name)
+            slot, slot_expr = _slot(name)
             sl = lay.slices[slot]
-            Pl = ca.vertcat(Pl[:sl.start], ca.repmat(ca.sqrt(lam) if squared else lam,
-                                                     sl.stop - sl.start, 1), Pl[sl.stop:])
+            Pl = ca.vertcat(Pl[:sl.start], ca.repmat(slot_expr(lam), sl.stop - sl.start, 1),
+                            Pl[sl.stop:])
         return Pl
 
     @cached_property

@@ -13,7 +13,8 @@ from typing import Dict, List, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from ..physics.terms import NODE_FIELDS, EnergyTerm, PointState, TipState
+from ..physics.kinematics import PlanarKinematics, PlanarTip
+from ..physics.terms import EnergyTerm, node_field_sources, node_field_values
 
 __all__ = ["ParamLayout", "DiscreteEnergy", "Transcription"]
 
@@ -65,7 +66,9 @@ class DiscreteEnergy:
         Discrete Ê (units of B0/ℓ).
     layout : ParamLayout
     tip : (θ(1), x(1), y(1)) as SX
-    point_state : PointState at the quadrature points (positions present only if built)
+    kinematics : PlanarKinematics at the quadrature points (positions built only if a term asked)
+    node_fields : tuple of str
+        Names of the per-point fields in the layout (each of the quadrature points' length).
     """
 
     z: ca.SX
@@ -73,7 +76,13 @@ class DiscreteEnergy:
     energy: ca.SX
     layout: ParamLayout
     tip: Tuple[ca.SX, ca.SX, ca.SX]
-    point_state: PointState
+    kinematics: PlanarKinematics
+    node_fields: Tuple[str, ...] = ()
+
+    @property
+    def uses_positions(self) -> bool:
+        """Whether some term read the rod's positions (the energy then couples all unknowns)."""
+        return self.kinematics.positions_built
 
 
 class Transcription:
@@ -136,12 +145,13 @@ class Transcription:
 
     # -- the NLP ------------------------------------------------------------------------------
     def transcribe(self, terms: List[EnergyTerm]) -> DiscreteEnergy:
-        """Build the discrete energy of ``terms`` (only what they need is built)."""
+        """Build the discrete energy of ``terms`` (only what they need is built: positions are
+        formed only if a term reads them)."""
         nq = self.quadrature_points.size
         entries = [("theta0", 1)]
         for t in terms:
             entries += [(p, 1) for p in t.scalar_params]
-        fields = sorted({f for t in terms for f in t.node_fields})
+        fields = tuple(node_field_sources(terms))
         entries += [(f, nq) for f in fields]
         layout = ParamLayout(entries)
         params = ca.SX.sym("params", layout.size)
@@ -149,25 +159,23 @@ class Transcription:
 
         z = ca.SX.sym("theta", self.nodes.size)
         theta_q, kappa_q = self.point_values(z)
-        x_q = y_q = None
-        if any(t.needs_position for t in terms):
-            x_q, y_q = self.point_positions(theta_q)
-        st = PointState(theta=theta_q, kappa=kappa_q, x=x_q, y=y_q, fields={f: P[f] for f in fields})
+        kin = PlanarKinematics(theta_q, kappa_q, {f: P[f] for f in fields},
+                               positions=lambda: self.point_positions(theta_q))
         tip_x, tip_y = self.tip_position(theta_q)
-        tip = TipState(theta=z[-1], x=tip_x, y=tip_y)
+        tip = PlanarTip(theta=z[-1], x=tip_x, y=tip_y)
 
         w = ca.DM(self.quadrature_weights)
         energy = 0
         for t in terms:
-            d = t.density(st, P)
+            d = t.density(kin, P)
             if d is not None:
                 energy = energy + ca.dot(w, d)
             e = t.tip(tip, P)
             if e is not None:
                 energy = energy + e
         return DiscreteEnergy(z=z, params=params, energy=energy, layout=layout,
-                              tip=(z[-1], tip_x, tip_y), point_state=st)
+                              tip=(z[-1], tip_x, tip_y), kinematics=kin, node_fields=fields)
 
-    def node_field_values(self, scene, names) -> Dict[str, np.ndarray]:
-        s = self.quadrature_points
-        return {n: NODE_FIELDS[n](scene, s) for n in names}
+    def node_field_values(self, scene, terms) -> Dict[str, np.ndarray]:
+        """The per-point fields ``terms`` read, for ``scene``, at the quadrature points."""
+        return node_field_values(terms, scene, self.quadrature_points)

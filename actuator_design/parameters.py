@@ -1,0 +1,252 @@
+"""One parameter lens: every named scene value an analysis may read, set, continue or design.
+
+A :class:`Parameter` knows its meaning and unit, how to get and set it on a :class:`~.scene.Scene`
+(setting adds the term it needs when absent and checks the range), the NLP slot it occupies and the
+transform to that slot (``h2`` → slot ``h`` through √), how it scales with the applied field
+magnitude H (THEORY §5: h and h_pos ∝ H, h² ∝ H²) and how it enters the solver's residual scale
+(loads linearly, field groups squared).
+
+Terms contribute their own parameters (``EnergyTerm.parameters`` in :mod:`.physics.terms`); the
+clamp angle ``theta0`` belongs to the transcription. The registry below collects them in the order
+the terms are registered, so a plug-in term's parameters are continued, designed and ramped like
+the built-in ones. Continuation, loading paths, critical values, maps, design and the CLI all look
+names up here: :func:`parameter` is the single source of truth.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .scene import Scene
+
+__all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
+           "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named, unit-carrying scene value seen through one lens.
+
+    Attributes
+    ----------
+    name : str
+        Name used by the API, the CLI and configs (e.g. ``"h2"``).
+    description : str
+        Meaning, one line.
+    unit : str
+        Dimensionless unit (THEORY §5): ``"1"``, ``"rad"``, ``"B0/l"``, ``"B0/l^2"``, ``"B0/l^3"``.
+    slot : str
+        The NLP parameter slot it sets (``h2`` sets slot ``h``).
+    read : callable (Scene) -> float
+        The value in a scene (0 when its term is absent).
+    write : callable (Scene, float) -> Scene
+        A copy with the value set (no validation; :meth:`set` validates and adds the term).
+    term : str or None
+        Name of the energy term whose slot it sets (``None``: the clamp, always present).
+    lower, upper : float
+        Valid closed range.
+    transform : {"identity", "sqrt"}
+        Slot value as a function of the parameter value.
+    field_power : int
+        The value is ∝ H^field_power (0: independent of the applied field).
+    field_magnitude : bool
+        Setting it sets the field magnitude (``h``, ``h2``): other field-scaled values follow.
+    residual : {None, "linear", "squared"}
+        How the slot value enters the stationarity residual scale (forces ∝ value or value²).
+    per_point : bool
+        The slot spans every quadrature point (a constant profile such as ``alpha``).
+    ensure : callable (Scene) -> Scene, optional
+        Adds the needed term at value zero (or raises ValueError when the scene cannot have it).
+    """
+
+    name: str
+    description: str
+    unit: str
+    slot: str
+    read: Callable[[Scene], float]
+    write: Callable[[Scene, float], Scene]
+    term: Optional[str] = None
+    lower: float = -math.inf
+    upper: float = math.inf
+    transform: str = "identity"
+    field_power: int = 0
+    field_magnitude: bool = False
+    residual: Optional[str] = None
+    per_point: bool = False
+    ensure: Optional[Callable[[Scene], Scene]] = None
+
+    # -- values --------------------------------------------------------------------------------
+    def get(self, scene: Scene) -> float:
+        """The value in ``scene`` (units of :attr:`unit`)."""
+        return float(self.read(scene))
+
+    def validate(self, value) -> float:
+        """``value`` as a float; ValueError naming the parameter and its range otherwise."""
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: must be a number, got {value!r}") from None
+        if not math.isfinite(v):
+            raise ValueError(f"{self.name}: must be finite, got {value!r}")
+        if v < self.lower:
+            raise ValueError(f"{self.name}: must be >= {self.lower:g}, got {v:g}")
+        if v > self.upper:
+            raise ValueError(f"{self.name}: must be <= {self.upper:g}, got {v:g}")
+        return v
+
+    def require(self, scene: Scene) -> Scene:
+        """``scene`` with the term this parameter needs (added at value zero if absent)."""
+        return self.ensure(scene) if self.ensure is not None else scene
+
+    def set(self, scene: Scene, value) -> Scene:
+        """A copy of ``scene`` with this parameter at ``value`` (validated; the term added)."""
+        return self.write(self.require(scene), self.validate(value))
+
+    # -- the NLP slot --------------------------------------------------------------------------
+    def to_slot(self, value):
+        """Slot value(s) from parameter value(s) (numpy; negative ``h2`` clipped to 0)."""
+        if self.transform == "sqrt":
+            return np.sqrt(np.maximum(value, 0.0))
+        return value
+
+    def slot_expr(self, symbol):
+        """The slot as a CasADi expression of a parameter symbol (``h2``: √λ, so h² = λ exactly)."""
+        if self.transform == "sqrt":
+            import casadi as ca
+            return ca.sqrt(symbol)
+        return symbol
+
+    def describe(self) -> str:
+        """``description (unit; range)`` for help texts and CSV headers."""
+        rng = []
+        if self.lower > -math.inf:
+            rng.append(f">= {self.lower:g}")
+        if self.upper < math.inf:
+            rng.append(f"<= {self.upper:g}")
+        return f"{self.description} ({self.unit}{'; ' + ', '.join(rng) if rng else ''})"
+
+
+THETA0 = Parameter("theta0", "clamp angle theta0", "rad", "theta0",
+                   read=lambda sc: sc.theta0, write=lambda sc, v: replace(sc, theta0=v))
+
+
+def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
+                     name: Optional[str] = None, lower: float = -math.inf, upper: float = math.inf,
+                     residual: Optional[str] = None, field_power: int = 0) -> Parameter:
+    """A parameter of a plug-in term whose value lives in the scene's ``extra_terms``.
+
+    Setting it adds the term (its other values 0) when the scene does not have it.
+    """
+    def read(sc: Scene) -> float:
+        return float((sc.term_values(term) or {}).get(slot, 0.0))
+
+    def write(sc: Scene, v: float) -> Scene:
+        return sc.with_term(term, **{slot: v})
+
+    def ensure(sc: Scene) -> Scene:
+        return sc if sc.term_values(term) is not None else sc.with_term(term)
+
+    return Parameter(name or slot, description, unit, slot, read, write, term=term, lower=lower,
+                     upper=upper, residual=residual, field_power=field_power, ensure=ensure)
+
+
+# -- the registry --------------------------------------------------------------------------------
+_CACHE: Dict[str, object] = {"version": None, "registry": {}}
+
+
+def parameters() -> Dict[str, Parameter]:
+    """Every parameter, name -> :class:`Parameter`, in term registration order, ``theta0`` last."""
+    from .physics.registry import registered_terms, registry_version
+
+    if _CACHE["version"] != registry_version():
+        reg: Dict[str, Parameter] = {}
+        for cls in registered_terms():
+            for p in cls.parameters:
+                reg.setdefault(p.name, p)
+        reg.setdefault(THETA0.name, THETA0)
+        _CACHE["registry"], _CACHE["version"] = reg, registry_version()
+    return _CACHE["registry"]  # type: ignore[return-value]
+
+
+def names() -> List[str]:
+    """Names of every registered parameter."""
+    return list(parameters())
+
+
+def parameter(name: str, what: str = "parameter") -> Parameter:
+    """The parameter called ``name``; ValueError ``unknown <what> 'name' (allowed: …)`` otherwise."""
+    reg = parameters()
+    p = reg.get(name)
+    if p is None:
+        raise ValueError(f"unknown {what} {name!r} (allowed: {', '.join(reg)})")
+    return p
+
+
+def get_value(scene: Scene, name: str, what: str = "parameter") -> float:
+    """The value of parameter ``name`` in ``scene`` (0 for an absent term)."""
+    return parameter(name, what).get(scene)
+
+
+def set_value(scene: Scene, name: str, value, what: str = "parameter") -> Scene:
+    """A copy of ``scene`` with parameter ``name`` set (its term added if absent, range checked)."""
+    return parameter(name, what).set(scene, value)
+
+
+def scene_values(scene: Scene, names_: Sequence[str], what: str = "parameter") -> Dict[str, float]:
+    """The current values of the named parameters in ``scene``."""
+    return {n: parameter(n, what).get(scene) for n in names_}
+
+
+def prepare_scene(scene: Scene, names_: Sequence[str], what: str = "parameter") -> Scene:
+    """``scene`` with every term the named parameters need present (added at value zero), so that
+    a whole path or design shares one NLP structure."""
+    for n in names_:
+        scene = parameter(n, what).require(scene)
+    return scene
+
+
+def _present(scene: Scene, term: Optional[str]) -> bool:
+    from .physics.registry import term_class
+
+    return term is None or term_class(term).present(scene)
+
+
+def apply_values(scene: Scene, values: Mapping[str, float], what: str = "parameter") -> Scene:
+    """A copy of ``scene`` with the named parameters set, the field-scaling rule applied.
+
+    Setting the field magnitude (``h`` or ``h2``) scales every other field-dependent value whose
+    term is present and that is not given too (THEORY §5: h_pos ∝ H like h), unless the scene's
+    magnitude is 0. A present term whose value would round to 0 keeps the smallest normal float
+    instead, so the NLP structure does not change along a ramp (its square is 0.0).
+
+    Raises
+    ------
+    ValueError
+        Unknown name, a value out of range, two names for one slot (``h`` and ``h2``).
+    """
+    params = [parameter(n, what) for n in values]
+    vals = {p.name: p.validate(values[p.name]) for p in params}
+    by_slot: Dict[str, str] = {}
+    for p in params:
+        if p.slot in by_slot and not p.per_point:
+            raise ValueError(f"give either {by_slot[p.slot]} or {p.name}, not both")
+        by_slot[p.slot] = p.name
+    order = sorted(params, key=lambda p: not p.field_magnitude)  # the magnitude first
+    for p in order:
+        if p.field_magnitude:
+            old = p.get(scene)
+            if old > 0 and scene.field is not None:
+                ratio = (vals[p.name] / old) ** (1.0 / p.field_power)  # H_new / H_old
+                for q in parameters().values():
+                    if (q.field_power and not q.field_magnitude and q.slot not in by_slot
+                            and _present(scene, q.term)):
+                        before = q.get(scene)
+                        after = before * ratio ** q.field_power
+                        if before != 0 and abs(after) < np.finfo(float).tiny:
+                            after = math.copysign(np.finfo(float).tiny, before)
+                        scene = q.write(scene, after)
+        scene = p.set(scene, vals[p.name])
+    return scene
