@@ -95,7 +95,7 @@ class ReducedSystem:
         self.u, self.lams, self.P, self.Er = substituted_energy(solver, self.names)
         self.lam = ca.vertcat(*self.lams) if self.lams else ca.SX(0, 1)
         self.g = ca.gradient(self.Er, self.u)
-        self.H = ca.jacobian(self.g, self.u, {"symmetric": True})
+        self.H = ca.jacobian(self.g, self.u)
         rows, cols = self.H.sparsity().get_triplet()
         self.hessian_pattern = (np.asarray(rows, np.intp), np.asarray(cols, np.intp))
         self.bandwidth = int(np.max(np.abs(self.hessian_pattern[0] - self.hessian_pattern[1]),
