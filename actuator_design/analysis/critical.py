@@ -30,55 +30,26 @@ import numpy as np
 from .. import parameters as lens
 from ..options import SolverOptions
 from ..scene import Scene
-from .continuation import (Branch, Continuation, CriticalPoint, get_param, set_param,
-                           substituted_energy)
+from .continuation import Branch, Continuation, CriticalPoint, get_param, set_param
+from ..reduced import locate_fold as _locate_fold, newton, null_vector, reduced_system
 from .equilibria import find_equilibria
 from .registry import register
 
 __all__ = ["fold_function", "locate_fold", "FoldCurve", "fold_curve", "CriticalResult",
            "critical_points", "critical_curves", "count_equilibria"]
 
-_FOLD_CACHE: Dict[tuple, ca.Function] = {}
-
-
 def fold_function(cont: Continuation, second: Optional[str] = None) -> ca.Function:
-    """CasADi ``(u, λ, v, c, μ, P) -> (F, J, F_μ)`` of the Moore–Spence system
+    """CasADi ``(u, λ (k,), v, c, P) -> (F, J, F_μ)`` of the Moore–Spence system
     F = [g; H v; cᵀ M v − 1] in X = (u, λ, v), with J = ∂F/∂X dense and F_μ = ∂F/∂μ for a second
-    parameter ``second`` (μ is ignored when it is None). Cached per structure and names."""
-    solver = cont.solver
-    key = (solver.key, solver.transcription.structure(), cont.name, second)
-    fn = _FOLD_CACHE.get(key)
-    if fn is not None:
-        return fn
+    parameter ``second`` (λ = (λ, μ) then): :attr:`actuator_design.reduced.ReducedSystem.f_fold`."""
     names = [cont.name] + ([second] if second else [])
-    u, lams, P, Er = substituted_energy(solver, names)
-    lam = lams[0]
-    mu = lams[1] if second else ca.SX.sym("mu_unused")
-    n = u.numel()
-    v, c = ca.SX.sym("v", n), ca.SX.sym("c", n)
-    g = ca.gradient(Er, u)
-    H = ca.jacobian(g, u)
-    M = ca.DM(solver.transcription.mass[1:])
-    F = ca.vertcat(g, ca.mtimes(H, v), ca.dot(c, M * v) - 1)
-    X = ca.vertcat(u, lam, v)
-    fn = ca.Function("fold", [u, lam, v, c, mu, P],
-                     [F, ca.densify(ca.jacobian(F, X)), ca.densify(ca.jacobian(F, mu))])
-    _FOLD_CACHE[key] = fn
-    return fn
-
-
-def _null_vector(cont: Continuation, u, lam):
-    _, H, _ = cont.ev(u, lam)
-    A = cont.Ms[:, None] * H * cont.Ms[None, :]
-    w, V = np.linalg.eigh(0.5 * (A + A.T))
-    k = int(np.argmin(np.abs(w)))
-    v = cont.Ms * V[:, k]
-    return v / math.sqrt(float(v @ (cont.mass * v)))
+    return reduced_system(cont.solver, names).f_fold
 
 
 def locate_fold(cont: Continuation, z, lam: float, v=None, *, mu: Optional[float] = None,
                 second: Optional[str] = None, max_iter: int = 30):
-    """Newton on the Moore–Spence system from an approximate fold (z, λ).
+    """Newton on the Moore–Spence system from an approximate fold (z, λ)
+    (:func:`actuator_design.reduced.locate_fold`).
 
     Parameters
     ----------
@@ -97,29 +68,15 @@ def locate_fold(cont: Continuation, z, lam: float, v=None, *, mu: Optional[float
     (z, λ, v, converged)
         The fold's node vector, parameter value and null vector (cᵀMv = 1).
     """
-    fn = fold_function(cont, second)
-    n = cont.n
-    u = np.asarray(z, float)[1:].copy()
+    names = [cont.name] + ([second] if second else [])
+    others = [0.0 if mu is None else float(mu)] if second else []
+    u = np.asarray(z, float)[1:]
     if v is None:
-        v = _null_vector(cont, u, lam)
-    c = np.asarray(v, float) / float(v @ (cont.mass * v))
-    P = cont.P  # λ and μ enter the fold function symbolically
-    X = np.concatenate([u, [lam], v])
-    muv = 0.0 if mu is None else float(mu)
-    for _ in range(max_iter):
-        F, J, _ = fn(X[:n], X[n], X[n + 1:], c, muv, P)
-        F = np.asarray(F).ravel()
-        if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:2 * n])) <= 1e-9 \
-                and abs(F[-1]) <= 1e-12:
-            return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), True
-        try:
-            dX = np.linalg.solve(np.asarray(J), -F)
-        except np.linalg.LinAlgError:
-            break
-        if not np.all(np.isfinite(dX)):
-            break
-        X = X + dX
-    return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), False
+        _, H, _ = cont.ev(u, lam)
+        v = null_vector(H, cont.mass)
+    fp = _locate_fold(reduced_system(cont.solver, names), cont.P, u, lam, v, others=others,
+                      tol=cont.tol, max_iter=max_iter)
+    return cont.full(fp.u, fp.lam), fp.lam, fp.v, fp.converged
 
 
 # -- fold curves --------------------------------------------------------------------------------
@@ -178,7 +135,7 @@ def fold_curve(scene: Scene, param: str, second: str, z, lam: float, window: Seq
     llo, lhi = (-np.inf, np.inf) if lam_window is None else (min(lam_window), max(lam_window))
 
     def FJ(Y, c):
-        F, J, Fm = fn(Y[:n], Y[n], Y[n + 1:2 * n + 1], c, Y[-1], cont.P)  # μ enters symbolically
+        F, J, Fm = fn(Y[:n], Y[[n, -1]], Y[n + 1:2 * n + 1], c, cont.P)  # μ enters symbolically
         return np.asarray(F).ravel(), np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
 
     def tangent(J, t_prev=None):
@@ -207,21 +164,20 @@ def fold_curve(scene: Scene, param: str, second: str, z, lam: float, window: Seq
                     break
                 Yp = Y + ((edge - Y[-1]) / t[-1]) * t
             row = t * Wt if edge is None else np.eye(Y.size)[-1]
-            Yn, conv = Yp.copy(), False
-            for _ in range(10):
-                F, J = FJ(Yn, c)
-                arc = float(row @ (Yn - Yp))
-                if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:])) <= 1e-9 \
-                        and abs(arc) <= 1e-10:
-                    conv = True
-                    break
-                try:
-                    dY = np.linalg.solve(np.vstack([J, row]), -np.append(F, arc))
-                except np.linalg.LinAlgError:
-                    break
-                if not np.all(np.isfinite(dY)) or np.max(np.abs(dY[:n + 1])) > 2.0:
-                    break
-                Yn = Yn + dY
+            last = {}
+
+            def bordered(Y, c=c, row=row, Yp=Yp):
+                F, J = FJ(Y, c)
+                last["J"] = J
+                return np.append(F, float(row @ (Y - Yp))), np.vstack([J, row])
+
+            def converged(Y, Fa):
+                return (np.max(np.abs(Fa[:n] / cont.mass)) <= cont.tol
+                        and np.max(np.abs(Fa[n:-1])) <= 1e-9 and abs(Fa[-1]) <= 1e-10)
+
+            Yn, conv, _ = newton(bordered, Yp, converged, 9, reject_above=2.0,
+                                 reject_slice=slice(0, n + 1))
+            J = last.get("J")
             if not conv:
                 step *= 0.5
                 if step < 1e-6:
