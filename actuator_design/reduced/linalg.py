@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
 
-__all__ = ["lowest_eigenpairs", "inertia", "signed_distance_to_singularity", "bordered_solve",
+__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "inertia", "signed_distance_to_singularity", "bordered_solve",
            "lu_det_sign", "mass_scaled", "null_vector"]
 
 _dsytrf, _dsyevr = lapack.dsytrf, lapack.dsyevr
@@ -85,6 +85,16 @@ def lowest_eigenpairs(rows: np.ndarray, cols: np.ndarray, values: np.ndarray, in
     # less exposed to BLAS thread contention on a loaded machine
     lam, V = scipy.linalg.eigh(A, subset_by_index=[0, k - 1], driver="evr", check_finite=False)
     return lam, V[:, 0]
+
+
+def lowest_eigenpairs_dense(H: np.ndarray, inv_mass: np.ndarray, k: int = 1):
+    """:func:`lowest_eigenpairs` for a dense H (n, n): the k smallest eigenvalues of
+    M^-1/2 H M^-1/2 and the eigenvector of the smallest in the original coordinates,
+    v = M^-1/2 u with |u| = 1, shape (n,)."""
+    n = inv_mass.size
+    rows, cols = np.divmod(np.arange(n * n), n)
+    lam, u = lowest_eigenpairs(rows, cols, np.asarray(H, float).ravel(), inv_mass, k, False, n - 1)
+    return lam, np.sqrt(inv_mass) * u
 
 
 def inertia(A: np.ndarray) -> Tuple[int, float]:

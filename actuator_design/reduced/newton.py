@@ -196,7 +196,9 @@ def newton(evaluate: Callable[[np.ndarray], Tuple[np.ndarray, np.ndarray]], x0: 
            converged: Callable[[np.ndarray, np.ndarray], bool], max_iter: int, *,
            reject_above: Optional[float] = None, reject_slice: slice = slice(None),
            clip_at: Optional[float] = None,
-           solve: Callable[[np.ndarray, np.ndarray], np.ndarray] = np.linalg.solve):
+           solve: Callable[[np.ndarray, np.ndarray], np.ndarray] = np.linalg.solve,
+           converged_after_step: Optional[Callable[[np.ndarray, np.ndarray], bool]] = None,
+           reject: Optional[Callable[[np.ndarray], bool]] = None):
     """Newton's method on a square system F(x) = 0 with the exact Jacobian.
 
     Each iteration evaluates (F, J) at x, stops successfully when ``converged(x, F)``, and
@@ -217,6 +219,11 @@ def newton(evaluate: Callable[[np.ndarray], Tuple[np.ndarray, np.ndarray]], x0: 
         Scale the step down to max |δx| = clip_at (damping).
     solve : callable
         (J, b) -> J⁻¹ b; raises ``numpy.linalg.LinAlgError`` when singular.
+    converged_after_step : callable, optional
+        (F, δx) -> bool, tested after the step x ← x + δx: success with the new x (a residual
+        test confirmed by a small step).
+    reject : callable, optional
+        x -> bool after each step: fail (the iterate left the region of interest).
 
     Returns
     -------
@@ -244,4 +251,8 @@ def newton(evaluate: Callable[[np.ndarray], Tuple[np.ndarray, np.ndarray]], x0: 
             if big > clip_at:
                 dx = dx * (clip_at / big)
         x = x + dx
+        if reject is not None and reject(x):
+            return x, False, it + 1
+        if converged_after_step is not None and converged_after_step(F, dx):
+            return x, True, it + 1
     return x, False, max_iter
