@@ -112,7 +112,8 @@ def test_palc_passes_the_elastica_fold_natural_stops_there():
     ("window", (1.0, 0.0), "window: must be two numbers (lo, hi) with lo < hi"),
     ("direction", 0.5, "direction: must be +1 or -1"),
     ("tol", float("nan"), "tol: must be a finite number > 0"),
-    ("min_cos_turn", 1.5, "min_cos_turn: must be in (0, 1)"),
+    ("min_cos_turn", 1.5, "min_cos_turn: must be in [-1, 1)"),
+    ("grow_iterations", -1, "grow_iterations: must be an integer >= 0"),
 ])
 def test_settings_validate_themselves(field, value, fragment):
     with pytest.raises(ValueError) as err:

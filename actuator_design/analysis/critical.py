@@ -19,7 +19,6 @@ of a parameter window over all branches (THEORY §7–8).
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -31,7 +30,8 @@ from .. import parameters as lens
 from ..options import SolverOptions
 from ..scene import Scene
 from .continuation import Branch, Continuation, CriticalPoint, get_param, set_param
-from ..reduced import locate_fold as _locate_fold, newton, null_vector, reduced_system
+from ..continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
+from ..reduced import locate_fold as _locate_fold, null_vector, reduced_system
 from .equilibria import find_equilibria
 from .registry import register
 
@@ -125,77 +125,28 @@ def fold_curve(scene: Scene, param: str, second: str, z, lam: float, window: Seq
     """
     mu0 = get_param(scene, second)
     cont = Continuation(scene, param, options)
-    fn = fold_function(cont, second)
     n = cont.n
     zf, lf, v, ok = locate_fold(cont, z, lam, mu=mu0, second=second)
     if not ok:
         raise RuntimeError(f"fold_curve: no fold of {param} near {param} = {lam:g}")
-    Wt = np.concatenate([cont.mass, [1.0], np.zeros(n), [1.0]])
-    lo, hi = min(window), max(window)
-    llo, lhi = (-np.inf, np.inf) if lam_window is None else (min(lam_window), max(lam_window))
-
-    def FJ(Y, c):
-        F, J, Fm = fn(Y[:n], Y[[n, -1]], Y[n + 1:2 * n + 1], c, cont.P)  # μ enters symbolically
-        return np.asarray(F).ravel(), np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
-
-    def tangent(J, t_prev=None):
-        if t_prev is None:
-            _, _, Vt = np.linalg.svd(J)
-            t = Vt[-1]
-        else:
-            t = np.linalg.solve(np.vstack([J, t_prev * Wt]), np.eye(J.shape[1])[-1])
-        return t / math.sqrt(float(t @ (Wt * t)))
-
-    halves = []
+    lam_win = (-np.inf, np.inf) if lam_window is None else tuple(lam_window)
+    problem = FoldCurveProblem(reduced_system(cont.solver, [param, second]), cont.P, v, lam_win)
     Y0 = np.concatenate([zf[1:], [lf], v, [mu0]])
-    c0 = v / float(v @ (cont.mass * v))
-    _, J0 = FJ(Y0, c0)
-    t0 = tangent(J0)
-    status = "left_window"
-    for sgn in (1.0, -1.0):
-        Y, t, c, step = Y0.copy(), sgn * t0, c0.copy(), ds
-        pts = [Y.copy()]
-        while len(pts) < max_points:
-            Yp = Y + step * t
-            edge = None
-            if not lo <= Yp[-1] <= hi:  # land on the window's edge (μ fixed there), then stop
-                edge = hi if Yp[-1] > hi else lo
-                if abs(t[-1]) < 1e-12 or abs(Y[-1] - edge) < 1e-12:
-                    break
-                Yp = Y + ((edge - Y[-1]) / t[-1]) * t
-            row = t * Wt if edge is None else np.eye(Y.size)[-1]
-            last = {}
-
-            def bordered(Y, c=c, row=row, Yp=Yp):
-                F, J = FJ(Y, c)
-                last["J"] = J
-                return np.append(F, float(row @ (Y - Yp))), np.vstack([J, row])
-
-            def converged(Y, Fa):
-                return (np.max(np.abs(Fa[:n] / cont.mass)) <= cont.tol
-                        and np.max(np.abs(Fa[n:-1])) <= 1e-9 and abs(Fa[-1]) <= 1e-10)
-
-            Yn, conv, _ = newton(bordered, Yp, converged, 9, reject_above=2.0,
-                                 reject_slice=slice(0, n + 1))
-            J = last.get("J")
-            if not conv:
-                step *= 0.5
-                if step < 1e-6:
-                    status = "newton_failed (a cusp or the end of the fold curve?)"
-                    break
-                continue
-            tn = tangent(J, t)
-            if not (lo - 1e-9 <= Yn[-1] <= hi + 1e-9 and llo <= Yn[n] <= lhi):
-                break
-            pts.append(Yn.copy())
-            if edge is not None:
-                break
-            Y, t = Yn, tn
-            vv = Y[n + 1:2 * n + 1]
-            c = vv / float(vv @ (cont.mass * vv))
-            step = min(1.5 * step, ds_max)
-        halves.append(pts)
-    Ys = np.array(halves[1][::-1] + halves[0][1:])
+    halves, status = [], "left_window"
+    for direction in (1.0, -1.0):
+        problem.accept(Y0)
+        st = ContinuationSettings(ds=ds, ds_min=min(1e-6, ds), ds_max=ds_max, max_steps=max_points,
+                                  window=(min(window), max(window)), direction=direction,
+                                  tol=cont.tol, arc_tol=1e-10, max_corrector_iter=9,
+                                  min_cos_turn=-1.0, grow_iterations=9, shrink_iterations=10)
+        half = continuation(problem, PALC(), st, x0=Y0)
+        if half.status == "step_too_small":
+            status = "newton_failed (a cusp or the end of the fold curve?)"
+        X = half.x
+        if len(X) > 1 and np.array_equal(X[-1], X[-2]):
+            X = X[:-1]  # started on the window's edge: the edge point is the start itself
+        halves.append(X)
+    Ys = np.vstack([halves[1][::-1], halves[0][1:]])
     zs = np.column_stack([np.full(len(Ys), cont._theta0), Ys[:, :n]])
     tips = np.asarray(cont.solver.f_tip.map(len(Ys))(zs.T, cont.P)[0], float).ravel()
     dmu = np.diff(Ys[:, -1])

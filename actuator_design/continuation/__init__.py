@@ -9,8 +9,9 @@ Loading paths, branches and fold curves of :mod:`actuator_design.analysis` run o
 """
 from .engine import PALC, ContinuationBranch, Natural, continuation
 from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
+from .fold_problem import FoldCurveProblem
 from .problem import BifurcationProblem
 from .settings import ContinuationSettings
 
-__all__ = ["continuation", "BifurcationProblem", "PALC", "Natural", "ContinuationSettings",
+__all__ = ["continuation", "BifurcationProblem", "FoldCurveProblem", "PALC", "Natural", "ContinuationSettings",
            "ContinuationBranch", "Fold", "BranchPoint", "UserEvent", "EventPoint", "BranchState"]

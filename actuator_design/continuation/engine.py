@@ -2,7 +2,7 @@
 
 Predictor x_p = x_k + s t_k, corrector Newton on [G(x); rowᵀ(x − x_p)] = 0 (row = W t_k for
 PALC, e_λ for natural continuation), new tangent from [G_x; t_kᵀW] t = e_{n+1}; step adapted to
-the number of Newton iterations (×1.5 for ≤ 2, ×0.6 for ≥ 5) and halved when the corrector fails
+the number of Newton iterations (×1.5 for few, ×0.6 for many: settings) and halved when the corrector fails
 or the tangent turns too much. Along the branch: the Morse index and smallest eigenvalue of
 M^-1/2 H M^-1/2 at every point, and the events asked for (:mod:`.events`), located on the step
 where they are detected.
@@ -157,7 +157,9 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
 
     Parameters
     ----------
-    problem : BifurcationProblem
+    problem : BifurcationProblem or FoldCurveProblem
+        Anything with their interface (corrector, tangent, stability, ``accept`` and ``inside``
+        hooks, ``evaluations``).
     algorithm : PALC or Natural
     settings : ContinuationSettings
     events : sequence of Fold, BranchPoint, UserEvent
@@ -175,7 +177,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
     lo, hi = st.window
     n = problem.n
     W = problem.W
-    calls0 = problem.ev.calls
+    calls0 = problem.evaluations
     if x0 is None:
         if problem.u0 is None or problem.lam0 is None:
             raise ValueError("continuation: the problem has no start (u0, lam0) and no x0 was given")
@@ -196,8 +198,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
     else:
         t0 = np.asarray(tangent, float)
         t, dsign = problem.tangent(x, t0 / math.sqrt(float(t0 @ (W * t0))))
-    problem.ev(x[:n], x[n])
-    idx, mu0 = problem.fast_inertia()
+    idx, mu0 = problem.stability(x)
     X, T, IDX, MU, D = [x], [t], [idx], [mu0], [dsign]
     U = [float(e.function(BranchState(problem, x))) for e in users]
     found: List[EventPoint] = []
@@ -210,7 +211,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
         if ok:
             idx, mu = problem.fast_inertia()
             tn, dn = problem.tangent(xn, t, evaluate=False)
-            if float(tn @ (W * t)) < st.min_cos_turn and ds > 10 * st.ds_min:
+            if st.min_cos_turn > -1.0 and float(tn @ (W * t)) < st.min_cos_turn and ds > 10 * st.ds_min:
                 ok = False
         if not ok:
             ds *= 0.5
@@ -239,22 +240,26 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
                 if lo <= ev.lam <= hi:
                     found.append(ev)
         U = u_new
+        if not problem.inside(xn):
+            status, msg = "left_window", "left the problem's domain"
+            break
         if not (lo <= xn[n] <= hi):
             edge = hi if xn[n] > hi else lo
             xe = _to_edge(problem, st, x, xn, edge)
             if xe is not None:
-                problem.ev(xe[:n], xe[n])
-                ie, me = problem.fast_inertia()
+                ie, me = problem.stability(xe)
                 X.append(xe), T.append(tn), IDX.append(ie), MU.append(me), D.append(dn)
             status, msg = "left_window", f"reached {problem.lens} = {edge:g}"
             break
         X.append(xn), T.append(tn), IDX.append(idx), MU.append(mu), D.append(dn)
         x, t = xn, tn
+        problem.accept(x)
         if len(X) > 10 and math.sqrt(float((x - X[0]) @ (W * (x - X[0])))) < 0.5 * ds \
                 and float(t @ (W * T[0])) > 0.9:
             status, msg = "closed_loop", "the branch closed on itself (an isola or a loop)"
             break
-        ds = min(ds * 1.5, st.ds_max) if it <= 2 else (ds * 0.6 if it >= 5 else ds)
+        ds = (min(ds * 1.5, st.ds_max) if it <= st.grow_iterations
+              else (ds * 0.6 if it >= st.shrink_iterations else ds))
     return ContinuationBranch(np.array(X), np.array(T), np.array(IDX), np.array(MU), found, status, msg,
-                              {"points": len(X), "newton_evaluations": problem.ev.calls - calls0,
+                              {"points": len(X), "newton_evaluations": problem.evaluations - calls0,
                                "time_s": time.perf_counter() - tstart})

@@ -50,6 +50,23 @@ class BifurcationProblem:
         self.lam0 = lam0
         self.theta0 = float(theta0)
 
+    @property
+    def evaluations(self) -> int:
+        """Number of system evaluations so far."""
+        return self.ev.calls
+
+    def accept(self, x: np.ndarray) -> None:
+        """Hook called by the engine on every accepted point (nothing to update here)."""
+
+    def inside(self, x: np.ndarray) -> bool:
+        """Whether x is in the problem's domain (always: the window is the settings')."""
+        return True
+
+    def stability(self, x: np.ndarray) -> Tuple[int, float]:
+        """(Morse index, smallest eigenvalue) at x, by LDLᵀ inertia."""
+        self.ev(x[:self.n], x[self.n])
+        return self.fast_inertia()
+
     # -- points ---------------------------------------------------------------------------------
     def full(self, u: np.ndarray, lam: float) -> np.ndarray:
         """Node vector z = (θ0, u), shape (n + 1,)."""

@@ -31,7 +31,11 @@ class ContinuationSettings:
     max_corrector_iter : int
         Newton steps per corrector.
     min_cos_turn : float
-        A step whose tangent turns by more than arccos(min_cos_turn) is halved, in (0, 1).
+        A step whose tangent turns by more than arccos(min_cos_turn) is halved, in [−1, 1)
+        (−1: never).
+    grow_iterations, shrink_iterations : int
+        After a corrector of ≤ ``grow_iterations`` Newton steps the step grows by 1.5 (up to
+        ds_max); after ≥ ``shrink_iterations`` it shrinks by 0.6.
 
     Raises
     ------
@@ -49,6 +53,8 @@ class ContinuationSettings:
     arc_tol: float = 1e-9
     max_corrector_iter: int = 8
     min_cos_turn: float = 0.95
+    grow_iterations: int = 2
+    shrink_iterations: int = 5
 
     def __post_init__(self):
         for name in ("ds", "ds_min", "ds_max", "tol", "arc_tol"):
@@ -59,7 +65,8 @@ class ContinuationSettings:
             raise ValueError(f"ds_min: must be <= ds = {self.ds:g}, got {self.ds_min:g}")
         if self.ds_min > self.ds_max:
             raise ValueError(f"ds_max: must be >= ds_min = {self.ds_min:g}, got {self.ds_max:g}")
-        for name, low in (("max_steps", 2), ("max_corrector_iter", 1)):
+        for name, low in (("max_steps", 2), ("max_corrector_iter", 1), ("grow_iterations", 0),
+                          ("shrink_iterations", 1)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int) or v < low:
                 raise ValueError(f"{name}: must be an integer >= {low}, got {v!r}")
@@ -72,5 +79,5 @@ class ContinuationSettings:
         object.__setattr__(self, "window", (lo, hi))
         if self.direction not in (1, -1):
             raise ValueError(f"direction: must be +1 or -1, got {self.direction!r}")
-        if not 0.0 < self.min_cos_turn < 1.0:
-            raise ValueError(f"min_cos_turn: must be in (0, 1), got {self.min_cos_turn!r}")
+        if not -1.0 <= self.min_cos_turn < 1.0:
+            raise ValueError(f"min_cos_turn: must be in [-1, 1), got {self.min_cos_turn!r}")
