@@ -4,8 +4,10 @@ of a parameter window over all branches (THEORY §7–8).
 * :func:`locate_fold` — Newton on the Moore–Spence system
   G(u, λ) = 0,  H(u, λ) v = 0,  cᵀ M v = 1  (2n + 1 equations in u, λ, v; M the lumped mass, c a
   fixed guess of v): an equilibrium whose reduced Hessian is singular. Its Jacobian is regular at a
-  quadratic fold with ψᵀG_λ ≠ 0 (Moore & Spence 1980), so Newton converges quadratically.
-* :func:`fold_curve` — pseudo-arclength continuation of that system in a second parameter μ:
+  quadratic fold with ψᵀG_λ ≠ 0 (Moore & Spence 1980), so Newton converges quadratically. The
+  locator is the reduced toolkit's (:func:`actuator_design.reduced.locate_fold`).
+* :func:`fold_curve` — pseudo-arclength continuation of that system in a second parameter μ on the
+  continuation engine (:class:`actuator_design.continuation.FoldCurveProblem` under PALC):
   the critical curve λ_crit(μ), e.g. p_crit^(k)(h²) for φ = 0.
 * :func:`critical_points` — every fold and branch point in a window [a, b] of λ over all branches:
   the equilibria are found (:func:`~.equilibria.find_equilibria`, complete up to resolution) at
@@ -21,17 +23,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
+from ..continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
 from ..options import SolverOptions
+from ..reduced import locate_fold as _locate_fold, null_vector, reduced_system
 from ..scene import Scene
 from .continuation import Branch, Continuation, CriticalPoint, get_param, set_param
-from ..continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
-from ..reduced import locate_fold as _locate_fold, null_vector, reduced_system
 from .equilibria import find_equilibria
 from .registry import register
 
