@@ -109,7 +109,7 @@ def test_palc_passes_the_elastica_fold_natural_stops_there():
     ("ds", -0.1, "ds: must be a finite number > 0"),
     ("ds_min", 1.0, "ds_min: must be <= ds"),
     ("max_steps", 1, "max_steps: must be an integer >= 2"),
-    ("window", (1.0, 0.0), "window: must be two numbers (lo, hi) with lo < hi"),
+    ("window", (1.0, 0.0), "window: must be two numbers (lo, hi) with lo <= hi"),
     ("direction", 0.5, "direction: must be +1 or -1"),
     ("tol", float("nan"), "tol: must be a finite number > 0"),
     ("min_cos_turn", 1.5, "min_cos_turn: must be in [-1, 1)"),

@@ -73,9 +73,9 @@ class ContinuationSettings:
         try:
             lo, hi = (float(w) for w in self.window)
         except (TypeError, ValueError):
-            raise ValueError(f"window: must be two numbers (lo, hi) with lo < hi, got {self.window!r}") from None
-        if math.isnan(lo) or math.isnan(hi) or not lo < hi:
-            raise ValueError(f"window: must be two numbers (lo, hi) with lo < hi, got {self.window!r}")
+            raise ValueError(f"window: must be two numbers (lo, hi) with lo <= hi, got {self.window!r}") from None
+        if math.isnan(lo) or math.isnan(hi) or not lo <= hi:
+            raise ValueError(f"window: must be two numbers (lo, hi) with lo <= hi, got {self.window!r}")
         object.__setattr__(self, "window", (lo, hi))
         if self.direction not in (1, -1):
             raise ValueError(f"direction: must be +1 or -1, got {self.direction!r}")
