@@ -246,22 +246,21 @@ class Scene:
         """Return a copy with the dimensionless values of THEORY §5 overridden.
 
         Overriding ``phi`` requires a uniform field (or no field: one is added); overriding ``p``
-        adds a tip force if the scene has none; ``alpha`` (rad) sets a constant fibre angle.
+        adds a tip force if the scene has none; ``alpha`` (rad) sets a constant fibre angle. The
+        values are written through the parameter lens (``actuator_design.parameters``), without
+        its range checks.
         """
+        from .parameters import parameter
+
         scene = self
-        if h is not None:
-            scene = replace(scene, h=float(h), field=scene.field or UniformField())
-        if phi is not None:
-            if scene.field is not None and not isinstance(scene.field, UniformField):
+        for name, value in (("h", h), ("phi", phi), ("p", p), ("alpha", alpha)):
+            if value is None:
+                continue
+            if name == "phi" and scene.field is not None and not isinstance(scene.field, UniformField):
                 raise ValueError(
                     f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field"
                 )
-            scene = replace(scene, field=UniformField(phi=float(phi)))
-        if p is not None:
-            fx = 0.0 if scene.tip_force is None else scene.tip_force[0]
-            scene = replace(scene, tip_force=(fx, float(p)))
-        if alpha is not None:
-            scene = replace(scene, fibres=constant_profile(float(alpha)))
+            scene = parameter(name).write(scene, float(value))
         return scene
 
     def describe_groups(self) -> dict:

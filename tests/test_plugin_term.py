@@ -131,3 +131,46 @@ def test_shooting_scan_refuses_the_unknown_term():
     sc = spring_scene().with_values(h=1.0, phi=0.5)
     with pytest.raises(ValueError, match=NAME):
         find_equilibria(sc)
+
+
+def test_phase_portrait_refuses_the_unknown_term():
+    from actuator_design.analysis.phase import check_autonomous
+
+    with pytest.raises(ValueError, match=f"^phase: .*{NAME}"):
+        check_autonomous(spring_scene().with_values(h=1.0, phi=0.5))
+
+
+def test_equilibria_cli_refuses_the_unknown_term_with_exit_2(monkeypatch, capsys):
+    """The CLI cannot express a plug-in term in YAML yet: hand it the scene (as a config would)."""
+    from actuator_design.cli import equilibria as cli_equilibria
+    from actuator_design.cli.main import main
+
+    sc = spring_scene().with_values(h=1.0, phi=0.5)
+    monkeypatch.setattr(cli_equilibria, "build_scene",
+                        lambda args, model, kind: (sc, SolverOptions(), {}, None))
+    assert main(["equilibria"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and NAME in err[0]
+
+
+def test_a_config_model_registered_with_the_term_reads_its_yaml_entry(toy_term):
+    import yaml
+    from pydantic import BaseModel, ConfigDict, Field
+
+    from actuator_design.physics.registry import parse_term_config
+
+    class SpringConfig(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        k_spring: float = Field(ge=0)
+        theta_star: float = 0.0
+
+    register_term(toy_term, config_model=SpringConfig, replace=True)
+    entry = yaml.safe_load("{type: toy_torsional_spring, k_spring: 4, theta_star: 0.5}")
+    tv = parse_term_config(entry)
+    sc = Scene(field=None, tip_force=None, extra_terms=(tv,))
+    assert sc.term_values(NAME) == {"k_spring": 4.0, "theta_star": 0.5}
+    assert solve(sc).tip["angle"] == pytest.approx(float(closed_form(1.0, 4.0, 0.5)), abs=1e-11)
+    with pytest.raises(ValueError, match=r"^terms\.toy_torsional_spring\.k_spring: "):
+        parse_term_config({"type": NAME, "k_spring": -1})
+    with pytest.raises(ValueError, match=r"^terms\.toy_torsional_spring\.bogus: "):
+        parse_term_config({"type": NAME, "k_spring": 1, "bogus": 2})

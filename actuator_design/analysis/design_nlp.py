@@ -118,12 +118,9 @@ class DesignNLP:
         zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
         P = ca.SX(P0)
-        if "h" in self.vary:
-            P[lay.slices["h"]] = d[self.dslices["h"]]
-        if "phi" in self.vary:
-            P[lay.slices["phi"]] = d[self.dslices["phi"]]
-        if "p" in self.vary:
-            P[lay.slices["fy"]] = d[self.dslices["p"]]
+        for v in self.vary:  # h, phi, p: their NLP slots from the parameter lens
+            if v in _LENS_VARIABLES:
+                P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
         self.vandermonde = None
         if "alpha" in self.vary:
             V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
@@ -236,13 +233,9 @@ class DesignNLP:
     def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
         """The forward scene of a design vector (fibres as an exact Legendre profile)."""
         sc = base
-        if "h" in self.vary:
-            sc = replace(sc, h=float(d[self.dslices["h"]][0]))
-        if "phi" in self.vary:
-            sc = replace(sc, field=UniformField(phi=float(d[self.dslices["phi"]][0])))
-        if "p" in self.vary:
-            fx = 0.0 if sc.tip_force is None else sc.tip_force[0]
-            sc = replace(sc, tip_force=(fx, float(d[self.dslices["p"]][0])))
+        for v in self.vary:  # h, phi, p written through the parameter lens
+            if v in _LENS_VARIABLES:
+                sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
         if "alpha" in self.vary:
             sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
         return sc

@@ -29,10 +29,14 @@ from typing import Callable, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..options import SolverOptions
+from ..physics.registry import refuse_unsupported
 from ..result import EquilibriumResult
 from ..scene import Scene, UniformField
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
+
+#: Terms whose first integral :func:`first_integral` knows; scenes with others are refused.
+PHASE_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load")
 
 #: Points per trajectory.
 TRAJECTORY_POINTS = 401
@@ -51,6 +55,7 @@ def check_autonomous(scene: Scene) -> None:
     if scene.distributed_load is not None and any(q != 0 for q in scene.distributed_load):
         raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
                          "equation depend on s)")
+    refuse_unsupported(scene, PHASE_TERMS, "phase")
 
 
 def first_integral(scene: Scene) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:

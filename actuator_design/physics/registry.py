@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Dict, List, Optional, Type
 
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
-           "registry_version"]
+           "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -108,3 +108,45 @@ def refuse_unsupported(scene, supported, analysis: str) -> None:
     if extra:
         raise ValueError(f"{analysis}: the scene contains the energy term {extra[0]!r}, which this "
                          f"analysis does not support (it supports: {', '.join(supported)})")
+
+
+def parse_term_config(spec) -> "TermValues":
+    """A plug-in term's YAML entry ``{type: <name>, <slot>: <value>, …}`` as scene ``TermValues``.
+
+    The values are validated by the pydantic model registered with the term (unknown keys and bad
+    values are errors naming the field); a term registered without a model takes plain numbers.
+
+    Raises
+    ------
+    ValueError
+        No ``type``, an unregistered type, or a value its model rejects (one line naming the field).
+    """
+    from ..scene import TermValues
+
+    if not isinstance(spec, dict) or "type" not in spec:
+        raise ValueError(f"terms: each entry needs a 'type' (one of: {', '.join(_TERMS)}), got {spec!r}")
+    name = spec["type"]
+    cls = term_class(name)
+    values = {k: v for k, v in spec.items() if k != "type"}
+    model = _CONFIG_MODELS.get(name)
+    if model is not None:
+        try:
+            values = model(**values).model_dump()
+        except Exception as err:  # pydantic.ValidationError: report its first error in one line
+            errors = getattr(err, "errors", None)
+            if callable(errors) and errors():
+                e = errors()[0]
+                loc = ".".join(str(p) for p in e.get("loc", ()))
+                raise ValueError(f"terms.{name}.{loc}: {e.get('msg', err)}") from None
+            raise ValueError(f"terms.{name}: {err}") from None
+    else:
+        unknown = [k for k in values if k not in cls.scalar_params]
+        if unknown:
+            raise ValueError(f"terms.{name}.{unknown[0]}: unknown key (allowed: {', '.join(cls.scalar_params)})")
+    out = []
+    for k, v in values.items():
+        try:
+            out.append((k, float(v)))
+        except (TypeError, ValueError):
+            raise ValueError(f"terms.{name}.{k}: must be a number, got {v!r}") from None
+    return TermValues(name, tuple(sorted(out)))
