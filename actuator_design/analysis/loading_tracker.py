@@ -205,7 +205,7 @@ class Tracker:
         return None, 0
 
     # -- one segment -----------------------------------------------------------------------------
-    def run_segment(self, k, seg: _Segment, cur: EquilibriumResult):
+    def run_segment(self, k, seg: Segment, cur: EquilibriumResult):
         lam, step = 0.0, self.max_step
         tol = self.solver.options.tol
         min_step = 1e-10
