@@ -2,6 +2,7 @@
 
 * :mod:`.system` — :class:`ReducedSystem`: gradient, Hessian, parameter derivatives, directional
   third derivatives, the tip map and its Jacobians, cached per (structure, transcription, names);
+* :mod:`.kernel` — :class:`FastKernel`: buffered gradient/Hessian evaluation, LAPACK Newton steps;
 * :mod:`.newton` — the equilibrium Newtons (damped, fast) and Newton on augmented systems;
 * :mod:`.linalg` — bordered solve, inertia, lowest eigenpairs (banded or dense storage);
 * :mod:`.fold` — the fold locator (Moore–Spence).

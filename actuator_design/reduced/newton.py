@@ -9,7 +9,7 @@
 The two equilibrium Newtons share one convergence rule: the residual r = max_i |∂Ê/∂θ_i| / m_i is
 below ``atol`` **and** the Newton step there is below ``xtol`` (rad) — near bifurcations and folds
 the energy is so flat that a small gradient alone does not locate the equilibrium — or, at the
-rounding floor (:meth:`~actuator_design.solver.FastKernel.rounding_floor`), a step below ``xtol``
+rounding floor (:meth:`~actuator_design.reduced.kernel.FastKernel.rounding_floor`), a step below ``xtol``
 with the residual within min(floor, 1e4 atol) of tolerance.
 """
 from __future__ import annotations
