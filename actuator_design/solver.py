@@ -22,20 +22,19 @@ Re-solving with new values is a parameter change and a warm start, never a rebui
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from typing import Dict, Optional
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
-from scipy.linalg import lapack
 
 from .options import SolverOptions
 from .physics.kinematics import PlanarKinematics, PlanarTip
 from .physics.terms import (build_terms, node_field_sources, residual_slots, scalar_parameter_values,
                             structure_key)
+from .reduced.kernel import FastKernel
+from .reduced.newton import RawSolution, damped_newton, fast_newton
 from .scene import Scene
 from .transcription import make_transcription
 
@@ -62,187 +61,9 @@ class StabilityVerdict:
     marginal: bool
 
 
-@dataclass
-class RawSolution:
-    z: np.ndarray
-    converged: bool
-    status: str
-    message: str
-    iterations: int
-    stationarity: float
-
-
 def _jit_options() -> dict:
     return {"jit": True, "compiler": "shell", "jit_cleanup": True,
             "jit_options": {"flags": ["-O2"], "verbose": False}}
-
-
-class FastKernel:
-    """Gradient, Hessian and Newton steps in the free unknowns with minimal per-call overhead.
-
-    Two CasADi functions, ``[θ_free, params] -> ∇Ê`` and ``-> (∇Ê, ∇²Ê)``, are called through their
-    buffer interface (no argument conversion: inputs and outputs are preallocated float64 arrays
-    shared by both), and the Newton system is factorised and solved with direct LAPACK calls chosen
-    from the Hessian's sparsity: ``getrf/getrs`` (dense), ``gttrf/gttrs`` (tridiagonal) or
-    ``gbtrf/gbtrs`` (banded, bandwidth ≪ n). The gradient alone costs a fraction of the Hessian,
-    which lets :meth:`EquilibriumSolver.solve_fast` reuse a factorisation over several steps.
-
-    Not thread-safe (one set of buffers per solver); processes build their own.
-
-    Parameters
-    ----------
-    f_g, f_gh : casadi.Function
-        ``[θ_free (n,), params (n_p,)] -> [g (n,), r]`` and ``-> [g (n,), r, H (n, n) sparse]``,
-        r = max_i |g_i| / m_i.
-    mass : ndarray, shape (n,)
-        Lumped mass of the free nodes: the residual is max_i |g_i| / m_i.
-    """
-
-    def __init__(self, f_g: ca.Function, f_gh: ca.Function, mass: np.ndarray):
-        self.n = n = int(f_gh.size1_in(0))
-        self.z = np.zeros(n)
-        self.p = np.zeros(int(f_gh.nnz_in(1)))
-        self.g = np.zeros(n)
-        sp = f_gh.sparsity_out(2)
-        self.hnz = np.zeros(sp.nnz())
-        self.r = np.zeros(1)
-        self._buf_g, self._eval_g = f_g.buffer()
-        self._buf_gh, self._eval_gh = f_gh.buffer()
-        for buf in (self._buf_g, self._buf_gh):
-            buf.set_arg(0, memoryview(self.z))
-            buf.set_arg(1, memoryview(self.p))
-            buf.set_res(0, memoryview(self.g))
-            buf.set_res(1, memoryview(self.r))
-        self._buf_gh.set_res(2, memoryview(self.hnz))
-        rows, cols = (np.asarray(v, dtype=np.intp) for v in sp.get_triplet())
-        self.rows, self.cols = rows, cols
-        self.inv_mass = 1.0 / np.asarray(mass, float)
-        bw = int(np.max(np.abs(rows - cols), initial=0))
-        self.bandwidth = bw
-        self._lu = None
-        if bw <= 1 and n > 2:
-            self.kind = "tridiagonal"
-            diag, lower, upper = rows == cols, rows == cols + 1, cols == rows + 1
-            self._idx_d = np.flatnonzero(diag)[np.argsort(rows[diag])]
-            self._idx_l = np.flatnonzero(lower)[np.argsort(cols[lower])]
-            self._idx_u = np.flatnonzero(upper)[np.argsort(rows[upper])]
-        elif n >= 64 and 4 * bw < n:
-            self.kind = "banded"
-            self._ab = np.zeros((3 * bw + 1, n), order="F")
-            self._ab_rows = 2 * bw + rows - cols  # LAPACK gbtrf storage: ab[kl+ku+i-j, j]
-        else:
-            self.kind = "dense"
-            # a structurally dense Hessian comes column by column: view it as a Fortran matrix
-            self._H = (self.hnz.reshape((n, n), order="F") if sp.nnz() == n * n
-                       else np.zeros((n, n), order="F"))
-            self._H_is_view = sp.nnz() == n * n
-
-    # -- evaluation ---------------------------------------------------------------------------
-    def set_params(self, params: np.ndarray) -> None:
-        self.p[:] = params
-
-    def evaluate(self, zr: np.ndarray, hessian: bool = True) -> float:
-        """Evaluate ∇Ê (and ∇²Ê) at ``zr`` (free unknowns); returns max_i |g_i|/m_i."""
-        self.z[:] = zr
-        if hessian:
-            self._eval_gh()
-        else:
-            self._eval_g()
-        return float(self.r[0])
-
-    def rounding_floor(self, zr: np.ndarray) -> float:
-        """The residual that rounding alone produces at ``zr``: 16 ε max_i Σ_j |H_ij| |z|∞ / m_i
-        (last evaluated H). For fine meshes (midpoint N ≳ 1000) it reaches 1e-10. The solvers
-        accept a residual above tolerance on this ground only up to 1e4 × tolerance (a huge
-        Hessian, e.g. a rod touching a dipole's singularity, must not excuse a large residual)."""
-        rowsum = np.bincount(self.rows, weights=np.abs(self.hnz), minlength=self.n)
-        return float(16.0 * np.finfo(float).eps * np.max(rowsum * self.inv_mass)
-                     * max(1.0, float(np.abs(zr).max(initial=0.0))))
-
-    def hessian_dense(self) -> np.ndarray:
-        """The last evaluated Hessian as a dense array, shape (n, n)."""
-        H = np.zeros((self.n, self.n))
-        H[self.rows, self.cols] = self.hnz
-        return H
-
-    def factorize(self) -> bool:
-        """LU-factorise the last evaluated Hessian; False when it is singular."""
-        h = self.hnz
-        if self.kind == "dense":
-            H = self._H
-            if not self._H_is_view:
-                H[self.rows, self.cols] = h
-            lu, piv, info = lapack.dgetrf(H)
-            self._lu = (lu, piv)
-        elif self.kind == "tridiagonal":
-            dl, d, du, du2, piv, info = lapack.dgttrf(h[self._idx_l], h[self._idx_d], h[self._idx_u])
-            self._lu = (dl, d, du, du2, piv)
-        else:
-            ab = self._ab
-            ab[self._ab_rows, self.cols] = h
-            lu, piv, info = lapack.dgbtrf(ab, self.bandwidth, self.bandwidth)
-            self._lu = (lu, piv)
-        if info != 0:
-            self._lu = None
-        return self._lu is not None
-
-    def solve(self) -> Optional[np.ndarray]:
-        """The Newton step H⁻¹ g for the current gradient and the last factorisation."""
-        if self._lu is None:
-            return None
-        if self.kind == "dense":
-            x, info = lapack.dgetrs(self._lu[0], self._lu[1], self.g)
-        elif self.kind == "tridiagonal":
-            x, info = lapack.dgttrs(*self._lu, self.g)
-        else:
-            bw = self.bandwidth
-            x, info = lapack.dgbtrs(self._lu[0], bw, bw, self.g, self._lu[1])
-        if info != 0:
-            return None
-        return x.ravel()  # non-finite values are caught by the callers' residual tests
-
-    def newton_step(self) -> Optional[np.ndarray]:
-        """Factorise the last evaluated Hessian and return H⁻¹ g (``None`` if singular)."""
-        return self.solve() if self.factorize() else None
-
-    def lowest_eigenpairs(self, k: int):
-        """Smallest ``k`` eigenvalues of M^-1/2 H M^-1/2 (last evaluated H), ascending, and the
-        eigenvector of the smallest, shape (n,).
-
-        Banded Hessians: eigenvalues by LAPACK's banded symmetric solver without vectors, the
-        eigenvector by shifted inverse iteration with a banded Cholesky solve (O(n·bw²) each);
-        small dense ones: the k smallest pairs by LAPACK syevr.
-        """
-        ms = np.sqrt(self.inv_mass)
-        vals = self.hnz * ms[self.rows] * ms[self.cols]
-        k = min(k, self.n)
-        if self.kind in ("tridiagonal", "banded") and self.n >= 64:
-            bw = self.bandwidth
-            upper = self.rows <= self.cols
-            a_band = np.zeros((bw + 1, self.n))
-            a_band[bw + self.rows[upper] - self.cols[upper], self.cols[upper]] = vals[upper]
-            lam = scipy.linalg.eig_banded(a_band, lower=False, select="i", select_range=(0, k - 1),
-                                          eigvals_only=True)
-            shifted = a_band.copy()
-            gap = lam[1] - lam[0] if k > 1 else 1.0
-            shifted[bw] -= lam[0] - max(1e-3 * gap, 1e-10 * max(1.0, abs(lam[0])))
-            v = np.ones(self.n) / math.sqrt(self.n)
-            try:
-                for _ in range(3):  # inverse iteration: (A − σ) is positive definite for σ < λ0
-                    v = scipy.linalg.solveh_banded(shifted, v, check_finite=False)
-                    v /= np.linalg.norm(v)
-            except np.linalg.LinAlgError:
-                A = self.hessian_dense() * ms[:, None] * ms[None, :]
-                lam_d, V = np.linalg.eigh(0.5 * (A + A.T))
-                return lam_d[:k], V[:, 0]
-            return lam, v
-        A = np.zeros((self.n, self.n))
-        A[self.rows, self.cols] = vals
-        A = 0.5 * (A + A.T)
-        # only the k smallest pairs (LAPACK syevr): 3-5x cheaper than a full eigh at n = 40, and
-        # much less exposed to BLAS thread contention on a loaded machine
-        lam, V = scipy.linalg.eigh(A, subset_by_index=[0, k - 1], driver="evr", check_finite=False)
-        return lam, V[:, 0]
 
 
 class EquilibriumSolver:
@@ -478,59 +299,9 @@ class EquilibriumSolver:
         """
         tol = self.options.tol if tol is None else tol
         max_iter = self.options.max_iter if max_iter is None else max_iter
-        k = self.kernel
-        k.set_params(params)
-        atol = tol * self.residual_scale(params)
-        xtol = 10.0 * tol
-        z = np.array(z0, float)
-        z[0] = params[self._theta0_index]
-        zr = z[1:].copy()
-        res = k.evaluate(zr)
-        it = 0
-
-        def done(zr_, r_, how=""):
-            z[1:] = zr_
-            return RawSolution(z, True, "converged", f"Newton: converged{how}", it, float(r_))
-
-        for it in range(max_iter + 1):
-            if not np.isfinite(res):
-                break
-            step = k.newton_step()
-            if step is None:
-                break
-            snorm = float(np.abs(step).max())
-            if res <= atol and snorm <= xtol:
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))):
-                    return done(zr, res)  # the step is rounding noise: nothing to improve
-                res_new = k.evaluate(zr - step)
-                return done(zr - step, res_new) if res_new <= atol else done(zr, res)
-            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                return done(zr, res, " (at the rounding floor)")
-            if it == max_iter:
-                break
-            if res <= atol:  # flat energy (near-singular Hessian): follow Newton while it stays small
-                res_new = k.evaluate(zr - step)
-                if res_new <= atol:
-                    zr, res = zr - step, res_new
-                    continue
-            t = 1.0
-            while t > 1e-4:
-                res_new = k.evaluate(zr - t * step)
-                if np.isfinite(res_new) and res_new < (1 - 1e-4 * t) * res + 1e-14:
-                    break
-                t *= 0.5
-            else:
-                k.evaluate(zr)
-                if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                    return done(zr, res, " (at the rounding floor)")
-                break
-            zr, res = zr - t * step, res_new
-            if t == 1.0 and res <= 1e3 * atol and snorm <= 1e-14 * (1.0 + np.max(np.abs(zr))):
-                return done(zr, res, " (step below rounding)")  # converged to machine precision
-        z[1:] = zr
-        return RawSolution(z, False, "not_converged",
-                           f"Newton: stationarity {res:.3g} (tol {atol:.3g}) not confirmed by a small "
-                           f"Newton step after {it} iterations", it, float(res))
+        self.kernel.set_params(params)
+        return damped_newton(self.kernel, z0, params[self._theta0_index],
+                             tol * self.residual_scale(params), 10.0 * tol, max_iter)
 
     def solve_fast(self, z0: np.ndarray, params: np.ndarray, max_iter: int = 30,
                    tol: Optional[float] = None) -> RawSolution:
@@ -561,72 +332,9 @@ class EquilibriumSolver:
             Default ``options.tol``.
         """
         tol = self.options.tol if tol is None else tol
-        k = self.kernel
-        k.set_params(params)
-        atol = tol * self.residual_scale(params)
-        xtol = 10.0 * tol
-        theta0 = params[self._theta0_index]
-        zr = np.array(z0[1:], float)
-        res = k.evaluate(zr, hessian=False)
-        fresh = factored = False
-        it, why = 0, ""
-
-        def done(z, r, how=""):
-            return RawSolution(np.concatenate(([theta0], z)), True, "converged",
-                               f"fast Newton: converged{how}", it, float(r))
-
-        ratio = 1.0  # residual contraction of the last step: ~‖I − H0⁻¹H‖ for a reused H0
-        while True:
-            if not res < np.inf:  # also catches NaN
-                why = "the residual is not finite"
-                break
-            if it >= max_iter:
-                why = f"stationarity {res:.3g} (tol {atol:.3g}) after {it} steps"
-                break
-            if not factored:
-                res = k.evaluate(zr, hessian=True)
-                fresh = factored = k.factorize()
-                if not factored:
-                    why = "singular Hessian"
-                    break
-            step = k.solve()
-            if step is None:
-                why = "singular Hessian"
-                break
-            snorm = float(np.abs(step).max())
-            # a reused factorisation measures the Newton step well when it contracted strongly
-            trusted = fresh or ratio <= 0.1
-            if res <= atol and snorm <= xtol and trusted:  # converged: finish with the small step
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))):
-                    return done(zr, res)  # the step is rounding noise: nothing to improve
-                zr_new = zr - step
-                res_new = k.evaluate(zr_new, hessian=False)
-                return done(zr_new, res_new) if res_new <= atol else done(zr, res)
-            if res <= atol and not trusted:
-                factored = False  # small gradient, step not certified: refresh the Hessian
-                continue
-            if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
-                return done(zr, res, " (at the rounding floor)")
-            zr_new = zr - step
-            res_new = k.evaluate(zr_new, hessian=False)
-            it += 1
-            accept = res_new < res or (res <= atol and res_new <= atol)
-            if not accept:
-                if not fresh:  # the reused factorisation is stale: a full Newton step instead
-                    factored = False
-                    ratio = 1.0
-                    continue
-                if snorm <= 1e-14 * (1.0 + float(np.abs(zr).max(initial=0.0))) and res <= 1e3 * atol:
-                    return done(zr, res, " (step below rounding)")
-                why = f"a full Newton step did not reduce the residual ({res:.3g} -> {res_new:.3g})"
-                break
-            ratio = res_new / res if res > 0 else 0.0
-            zr, res = zr_new, res_new
-            fresh = False
-            if ratio > 0.1:  # slow contraction (or near-singular): refresh the Hessian
-                factored = False
-        return RawSolution(np.concatenate(([theta0], zr)), False, "not_converged",
-                           f"fast Newton: {why}", it, float(res))
+        self.kernel.set_params(params)
+        return fast_newton(self.kernel, z0, params[self._theta0_index],
+                           tol * self.residual_scale(params), 10.0 * tol, max_iter)
 
     def stability(self, z: np.ndarray, params: np.ndarray, k: int = 3, tol: float = 1e-9) -> StabilityVerdict:
         """Generalised eigenvalues of the reduced Hessian against the lumped mass (THEORY §7)."""

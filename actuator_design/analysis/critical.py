@@ -4,8 +4,10 @@ of a parameter window over all branches (THEORY §7–8).
 * :func:`locate_fold` — Newton on the Moore–Spence system
   G(u, λ) = 0,  H(u, λ) v = 0,  cᵀ M v = 1  (2n + 1 equations in u, λ, v; M the lumped mass, c a
   fixed guess of v): an equilibrium whose reduced Hessian is singular. Its Jacobian is regular at a
-  quadratic fold with ψᵀG_λ ≠ 0 (Moore & Spence 1980), so Newton converges quadratically.
-* :func:`fold_curve` — pseudo-arclength continuation of that system in a second parameter μ:
+  quadratic fold with ψᵀG_λ ≠ 0 (Moore & Spence 1980), so Newton converges quadratically. The
+  locator is the reduced toolkit's (:func:`actuator_design.reduced.locate_fold`).
+* :func:`fold_curve` — pseudo-arclength continuation of that system in a second parameter μ on the
+  continuation engine (:class:`actuator_design.continuation.FoldCurveProblem` under PALC):
   the critical curve λ_crit(μ), e.g. p_crit^(k)(h²) for φ = 0.
 * :func:`critical_points` — every fold and branch point in a window [a, b] of λ over all branches:
   the equilibria are found (:func:`~.equilibria.find_equilibria`, complete up to resolution) at
@@ -19,66 +21,37 @@ of a parameter window over all branches (THEORY §7–8).
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
+from ..continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
 from ..options import SolverOptions
+from ..reduced import locate_fold as _locate_fold, null_vector, reduced_system
 from ..scene import Scene
-from .continuation import (Branch, Continuation, CriticalPoint, get_param, set_param,
-                           substituted_energy)
+from .continuation import Branch, Continuation, CriticalPoint, get_param, set_param
 from .equilibria import find_equilibria
 from .registry import register
 
 __all__ = ["fold_function", "locate_fold", "FoldCurve", "fold_curve", "CriticalResult",
            "critical_points", "critical_curves", "count_equilibria"]
 
-_FOLD_CACHE: Dict[tuple, ca.Function] = {}
-
-
 def fold_function(cont: Continuation, second: Optional[str] = None) -> ca.Function:
-    """CasADi ``(u, λ, v, c, μ, P) -> (F, J, F_μ)`` of the Moore–Spence system
+    """CasADi ``(u, λ (k,), v, c, P) -> (F, J, F_μ)`` of the Moore–Spence system
     F = [g; H v; cᵀ M v − 1] in X = (u, λ, v), with J = ∂F/∂X dense and F_μ = ∂F/∂μ for a second
-    parameter ``second`` (μ is ignored when it is None). Cached per structure and names."""
-    solver = cont.solver
-    key = (solver.key, solver.transcription.structure(), cont.name, second)
-    fn = _FOLD_CACHE.get(key)
-    if fn is not None:
-        return fn
+    parameter ``second`` (λ = (λ, μ) then): :attr:`actuator_design.reduced.ReducedSystem.f_fold`."""
     names = [cont.name] + ([second] if second else [])
-    u, lams, P, Er = substituted_energy(solver, names)
-    lam = lams[0]
-    mu = lams[1] if second else ca.SX.sym("mu_unused")
-    n = u.numel()
-    v, c = ca.SX.sym("v", n), ca.SX.sym("c", n)
-    g = ca.gradient(Er, u)
-    H = ca.jacobian(g, u)
-    M = ca.DM(solver.transcription.mass[1:])
-    F = ca.vertcat(g, ca.mtimes(H, v), ca.dot(c, M * v) - 1)
-    X = ca.vertcat(u, lam, v)
-    fn = ca.Function("fold", [u, lam, v, c, mu, P],
-                     [F, ca.densify(ca.jacobian(F, X)), ca.densify(ca.jacobian(F, mu))])
-    _FOLD_CACHE[key] = fn
-    return fn
-
-
-def _null_vector(cont: Continuation, u, lam):
-    _, H, _ = cont.ev(u, lam)
-    A = cont.Ms[:, None] * H * cont.Ms[None, :]
-    w, V = np.linalg.eigh(0.5 * (A + A.T))
-    k = int(np.argmin(np.abs(w)))
-    v = cont.Ms * V[:, k]
-    return v / math.sqrt(float(v @ (cont.mass * v)))
+    return reduced_system(cont.solver, names).f_fold
 
 
 def locate_fold(cont: Continuation, z, lam: float, v=None, *, mu: Optional[float] = None,
                 second: Optional[str] = None, max_iter: int = 30):
-    """Newton on the Moore–Spence system from an approximate fold (z, λ).
+    """Newton on the Moore–Spence system from an approximate fold (z, λ)
+    (:func:`actuator_design.reduced.locate_fold`).
 
     Parameters
     ----------
@@ -97,29 +70,15 @@ def locate_fold(cont: Continuation, z, lam: float, v=None, *, mu: Optional[float
     (z, λ, v, converged)
         The fold's node vector, parameter value and null vector (cᵀMv = 1).
     """
-    fn = fold_function(cont, second)
-    n = cont.n
-    u = np.asarray(z, float)[1:].copy()
+    names = [cont.name] + ([second] if second else [])
+    others = [0.0 if mu is None else float(mu)] if second else []
+    u = np.asarray(z, float)[1:]
     if v is None:
-        v = _null_vector(cont, u, lam)
-    c = np.asarray(v, float) / float(v @ (cont.mass * v))
-    P = cont.P  # λ and μ enter the fold function symbolically
-    X = np.concatenate([u, [lam], v])
-    muv = 0.0 if mu is None else float(mu)
-    for _ in range(max_iter):
-        F, J, _ = fn(X[:n], X[n], X[n + 1:], c, muv, P)
-        F = np.asarray(F).ravel()
-        if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:2 * n])) <= 1e-9 \
-                and abs(F[-1]) <= 1e-12:
-            return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), True
-        try:
-            dX = np.linalg.solve(np.asarray(J), -F)
-        except np.linalg.LinAlgError:
-            break
-        if not np.all(np.isfinite(dX)):
-            break
-        X = X + dX
-    return cont.full(X[:n], X[n]), float(X[n]), X[n + 1:].copy(), False
+        _, H, _ = cont.ev(u, lam)
+        v = null_vector(H, cont.mass)
+    fp = _locate_fold(reduced_system(cont.solver, names), cont.P, u, lam, v, others=others,
+                      tol=cont.tol, max_iter=max_iter)
+    return cont.full(fp.u, fp.lam), fp.lam, fp.v, fp.converged
 
 
 # -- fold curves --------------------------------------------------------------------------------
@@ -168,78 +127,28 @@ def fold_curve(scene: Scene, param: str, second: str, z, lam: float, window: Seq
     """
     mu0 = get_param(scene, second)
     cont = Continuation(scene, param, options)
-    fn = fold_function(cont, second)
     n = cont.n
     zf, lf, v, ok = locate_fold(cont, z, lam, mu=mu0, second=second)
     if not ok:
         raise RuntimeError(f"fold_curve: no fold of {param} near {param} = {lam:g}")
-    Wt = np.concatenate([cont.mass, [1.0], np.zeros(n), [1.0]])
-    lo, hi = min(window), max(window)
-    llo, lhi = (-np.inf, np.inf) if lam_window is None else (min(lam_window), max(lam_window))
-
-    def FJ(Y, c):
-        F, J, Fm = fn(Y[:n], Y[n], Y[n + 1:2 * n + 1], c, Y[-1], cont.P)  # μ enters symbolically
-        return np.asarray(F).ravel(), np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
-
-    def tangent(J, t_prev=None):
-        if t_prev is None:
-            _, _, Vt = np.linalg.svd(J)
-            t = Vt[-1]
-        else:
-            t = np.linalg.solve(np.vstack([J, t_prev * Wt]), np.eye(J.shape[1])[-1])
-        return t / math.sqrt(float(t @ (Wt * t)))
-
-    halves = []
+    lam_win = (-np.inf, np.inf) if lam_window is None else tuple(lam_window)
+    problem = FoldCurveProblem(reduced_system(cont.solver, [param, second]), cont.P, v, lam_win)
     Y0 = np.concatenate([zf[1:], [lf], v, [mu0]])
-    c0 = v / float(v @ (cont.mass * v))
-    _, J0 = FJ(Y0, c0)
-    t0 = tangent(J0)
-    status = "left_window"
-    for sgn in (1.0, -1.0):
-        Y, t, c, step = Y0.copy(), sgn * t0, c0.copy(), ds
-        pts = [Y.copy()]
-        while len(pts) < max_points:
-            Yp = Y + step * t
-            edge = None
-            if not lo <= Yp[-1] <= hi:  # land on the window's edge (μ fixed there), then stop
-                edge = hi if Yp[-1] > hi else lo
-                if abs(t[-1]) < 1e-12 or abs(Y[-1] - edge) < 1e-12:
-                    break
-                Yp = Y + ((edge - Y[-1]) / t[-1]) * t
-            row = t * Wt if edge is None else np.eye(Y.size)[-1]
-            Yn, conv = Yp.copy(), False
-            for _ in range(10):
-                F, J = FJ(Yn, c)
-                arc = float(row @ (Yn - Yp))
-                if np.max(np.abs(F[:n] / cont.mass)) <= cont.tol and np.max(np.abs(F[n:])) <= 1e-9 \
-                        and abs(arc) <= 1e-10:
-                    conv = True
-                    break
-                try:
-                    dY = np.linalg.solve(np.vstack([J, row]), -np.append(F, arc))
-                except np.linalg.LinAlgError:
-                    break
-                if not np.all(np.isfinite(dY)) or np.max(np.abs(dY[:n + 1])) > 2.0:
-                    break
-                Yn = Yn + dY
-            if not conv:
-                step *= 0.5
-                if step < 1e-6:
-                    status = "newton_failed (a cusp or the end of the fold curve?)"
-                    break
-                continue
-            tn = tangent(J, t)
-            if not (lo - 1e-9 <= Yn[-1] <= hi + 1e-9 and llo <= Yn[n] <= lhi):
-                break
-            pts.append(Yn.copy())
-            if edge is not None:
-                break
-            Y, t = Yn, tn
-            vv = Y[n + 1:2 * n + 1]
-            c = vv / float(vv @ (cont.mass * vv))
-            step = min(1.5 * step, ds_max)
-        halves.append(pts)
-    Ys = np.array(halves[1][::-1] + halves[0][1:])
+    halves, status = [], "left_window"
+    for direction in (1.0, -1.0):
+        problem.accept(Y0)
+        st = ContinuationSettings(ds=ds, ds_min=min(1e-6, ds), ds_max=ds_max, max_steps=max_points,
+                                  window=(min(window), max(window)), direction=direction,
+                                  tol=cont.tol, arc_tol=1e-10, max_corrector_iter=9,
+                                  min_cos_turn=-1.0, grow_iterations=9, shrink_iterations=10)
+        half = continuation(problem, PALC(), st, x0=Y0)
+        if half.status == "step_too_small":
+            status = "newton_failed (a cusp or the end of the fold curve?)"
+        X = half.x
+        if len(X) > 1 and np.array_equal(X[-1], X[-2]):
+            X = X[:-1]  # started on the window's edge: the edge point is the start itself
+        halves.append(X)
+    Ys = np.vstack([halves[1][::-1], halves[0][1:]])
     zs = np.column_stack([np.full(len(Ys), cont._theta0), Ys[:, :n]])
     tips = np.asarray(cont.solver.f_tip.map(len(Ys))(zs.T, cont.P)[0], float).ravel()
     dmu = np.diff(Ys[:, -1])

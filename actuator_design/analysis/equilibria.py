@@ -52,6 +52,7 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 from ..equilibrium import solve
+from ..reduced.newton import newton
 from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene, UniformField
@@ -578,31 +579,28 @@ def find_equilibria_deflation(scene: Scene, options: Optional[SolverOptions] = N
         _, g, H = solver.f_grad_hess(u, params)
         return np.asarray(g).ravel(), np.asarray(H)
 
+    def deflated_step(H, minus_g):
+        """τ δ_N: the Newton step of ∇Ê scaled by τ = 1/(1 − ∇log μ · δ_N)."""
+        dN = np.linalg.solve(H, minus_g)
+        u = current["u"]
+        grad_log_mu = np.zeros_like(u)
+        for r in roots:
+            e = u - r
+            n2 = float(np.dot(mass * e, e))
+            grad_log_mu += (-2.0 * mass * e / n2**2) / (1.0 / n2 + shift)
+        denom = 1.0 - float(grad_log_mu @ dN)
+        return (1.0 / denom if abs(denom) > 1e-12 else 1.0) * dN
+
+    current = {}
+
+    def stationary(u, g):
+        current["u"] = u
+        return np.max(np.abs(g / mass)) <= tol
+
     for u0 in starts:
-        u = th0 + u0
-        for _ in range(max_iter):
-            g, H = grad_hess(u)
-            if not np.all(np.isfinite(g)):
-                break
-            if np.max(np.abs(g / mass)) <= tol:
-                break
-            try:
-                dN = -np.linalg.solve(H, g)
-            except np.linalg.LinAlgError:
-                break
-            grad_log_mu = np.zeros_like(u)
-            for r in roots:
-                e = u - r
-                n2 = float(np.dot(mass * e, e))
-                grad_log_mu += (-2.0 * mass * e / n2**2) / (1.0 / n2 + shift)
-            denom = 1.0 - float(grad_log_mu @ dN)
-            tau = 1.0 / denom if abs(denom) > 1e-12 else 1.0
-            step = tau * dN
-            big = np.max(np.abs(step))
-            if big > 2.0:  # damping: at most 2 rad per iteration at any node
-                step *= 2.0 / big
-            u = u + step
-        else:
+        # damping: at most 2 rad per iteration at any node
+        u, ok, _ = newton(grad_hess, th0 + u0, stationary, max_iter - 1, clip_at=2.0, solve=deflated_step)
+        if not ok:
             continue
         g, _ = grad_hess(u)
         if not (np.all(np.isfinite(u)) and np.max(np.abs(g / mass)) <= tol):

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..equilibrium import solve
 from ..options import SolverOptions
+from ..reduced.system import reduced_system
 from ..result import EquilibriumResult
 from ..scene import Scene
 from ..solver import EquilibriumSolver, get_solver
@@ -48,7 +49,8 @@ _SENS: "weakref.WeakKeyDictionary[EquilibriumSolver, Sensitivities]" = weakref.W
 
 
 class Sensitivities:
-    """CasADi derivative functions of one built :class:`EquilibriumSolver` (built once, cached).
+    """Derivative functions of one built :class:`EquilibriumSolver`, taken from its reduced system
+    (:class:`~actuator_design.reduced.ReducedSystem`, built once and cached).
 
     Attributes
     ----------
@@ -67,33 +69,22 @@ class Sensitivities:
         self.layout = solver.layout
 
     @cached_property
-    def _symbols(self):
-        solver = self.solver
-        zr = ca.SX.sym("zr", solver.transcription.nodes.size - 1)
-        P = ca.SX.sym("P", solver.layout.size)
-        _, g, H = solver.f_grad_hess(zr, P)
-        return zr, P, g, H
+    def system(self):
+        return reduced_system(self.solver)
 
     # each function is built on first use (the third derivatives of a position-dependent energy
     # are expensive to build and only fold location needs them)
     @cached_property
     def g_P(self) -> ca.Function:
-        zr, P, g, _ = self._symbols
-        return ca.Function("g_P", [zr, P], [ca.jacobian(g, P)])
+        return self.system.f_g_P
 
     @cached_property
     def tip_jac(self) -> ca.Function:
-        zr, P, _, _ = self._symbols
-        z = ca.vertcat(P[self.solver.layout.slices["theta0"]], zr)
-        tip_theta, tip_x, tip_y = self.solver.f_tip(z, P)
-        return ca.Function("tip_jac", [zr, P], [ca.jacobian(ca.vertcat(tip_x, tip_y, tip_theta), zr)])
+        return self.system.f_tip_jacobian_P
 
     @cached_property
     def third(self) -> ca.Function:
-        zr, P, _, H = self._symbols
-        v = ca.SX.sym("v", zr.numel())
-        q = ca.dot(v, ca.mtimes(H, v))
-        return ca.Function("third", [zr, P, v], [ca.gradient(q, zr), ca.gradient(q, P)])
+        return self.system.f_curvature_derivatives
 
 
 def sensitivities(solver: EquilibriumSolver) -> Sensitivities:

@@ -1,0 +1,163 @@
+"""The continuation problem: the reduced system G(u, λ) = ∇_u Ê(u; λ) = 0 in one lens parameter λ,
+with its corrector, tangent and inertia (THEORY §7–8; Allgower & Georg ch. 2).
+
+Unknowns x = (u, λ) (n + 1,), u the free node values (θ_0 = θ0 eliminated). The metric
+W = diag(m_1, …, m_n, 1) makes ‖δu‖_W approximate the L² norm of δθ, so arclength steps do not
+depend on the resolution.
+"""
+from __future__ import annotations
+
+import math
+from typing import Optional, Tuple
+
+import numpy as np
+import scipy.linalg
+
+from ..reduced.linalg import inertia, lu_det_sign, signed_distance_to_singularity
+from ..reduced.newton import newton
+from ..reduced.system import ReducedSystem
+
+__all__ = ["BifurcationProblem"]
+
+
+class BifurcationProblem:
+    """G(u, λ) = 0 for one built reduced system, λ its first parameter name (the lens).
+
+    Parameters
+    ----------
+    system : ReducedSystem
+        ``system.names[0]`` is the continuation parameter.
+    P : ndarray, shape (n_P,)
+        NLP parameters of the other values (the entries λ controls are ignored).
+    u0 : ndarray (n,), optional
+        Start guess (free unknowns, rad); λ0 its parameter value.
+    lam0 : float, optional
+    theta0 : float
+        Clamp angle (rad) of the full node vector z = (θ0, u) — λ itself when the lens is θ0.
+    """
+
+    def __init__(self, system: ReducedSystem, P: np.ndarray, u0=None, lam0: Optional[float] = None,
+                 theta0: float = 0.0):
+        self.system = system
+        self.lens = system.names[0]
+        self.P = np.asarray(P, float)
+        self.ev = system.evaluator(self.P)
+        self.mass = system.mass
+        self.n = system.n
+        self.W = np.append(self.mass, 1.0)
+        self.Ms = 1.0 / np.sqrt(self.mass)
+        self.u0 = None if u0 is None else np.asarray(u0, float)
+        self.lam0 = lam0
+        self.theta0 = float(theta0)
+
+    @property
+    def evaluations(self) -> int:
+        """Number of system evaluations so far."""
+        return self.ev.calls
+
+    def accept(self, x: np.ndarray) -> None:
+        """Hook called by the engine on every accepted point (nothing to update here)."""
+
+    def inside(self, x: np.ndarray) -> bool:
+        """Whether x is in the problem's domain (always: the window is the settings')."""
+        return True
+
+    def stability(self, x: np.ndarray) -> Tuple[int, float]:
+        """(Morse index, smallest eigenvalue) at x, by LDLᵀ inertia."""
+        self.ev(x[:self.n], x[self.n])
+        return self.fast_inertia()
+
+    # -- points ---------------------------------------------------------------------------------
+    def full(self, u: np.ndarray, lam: float) -> np.ndarray:
+        """Node vector z = (θ0, u), shape (n + 1,)."""
+        return np.concatenate(([lam if self.lens == "theta0" else self.theta0], u))
+
+    def tip(self, x: np.ndarray):
+        """(θ(1), x(1), y(1)) at x = (u, λ)."""
+        t = np.asarray(self.system.f_tip(x[:self.n], x[self.n], self.P)[0], float).ravel()
+        return float(t[0]), float(t[1]), float(t[2])
+
+    def residual(self, g: np.ndarray) -> float:
+        """max_i |g_i| / m_i."""
+        return float(np.max(np.abs(g / self.mass)))
+
+    # -- correctors -----------------------------------------------------------------------------
+    def correct_fixed(self, u, lam, tol: float, max_iter: int = 20):
+        """Newton at fixed λ (steps clipped to 1 rad). Returns (u, converged, iterations)."""
+        def evaluate(u_):
+            g, H, _ = self.ev(u_, lam)
+            return g, H
+
+        return newton(evaluate, u, lambda u_, g: self.residual(g) <= tol, max_iter, clip_at=1.0)
+
+    def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8):
+        """Newton on [G(x); rowᵀ(x − x_p)] = 0 from x_p (PALC: row = W t; natural: row = e_λ).
+        Steps larger than 2 (rad) fail. Returns (x, converged, iterations)."""
+        n = self.n
+        Jb = np.empty((n + 1, n + 1))
+        Jb[n] = row
+        F = np.empty(n + 1)
+        xp = np.asarray(xp, float)
+
+        def evaluate(x):
+            g, H, gl = self.ev(x[:n], x[n])
+            F[:n] = g
+            F[n] = float(row @ (x - xp))
+            Jb[:n, :n] = H
+            Jb[:n, n] = gl
+            return F, Jb
+
+        return newton(evaluate, xp, lambda x, F_: self.residual(F_[:n]) <= tol and abs(F_[n]) <= arc_tol,
+                      max_iter, reject_above=2.0)
+
+    # -- tangent and inertia --------------------------------------------------------------------
+    def tangent(self, x, t_prev=None, evaluate: bool = True) -> Tuple[np.ndarray, float]:
+        """Unit tangent (W-norm) at a converged x, oriented along ``t_prev`` (or +λ), and the sign of
+        det [G_x; tᵀW]. ``evaluate=False`` reuses the last evaluation (which must be at x)."""
+        n = self.n
+        g, H, gl = self.ev(x[:n], x[n]) if evaluate else (self.ev.g, self.ev.H, self.ev.gl)
+        J = np.empty((n + 1, n + 1))
+        J[:n, :n], J[:n, n] = H, gl
+        if t_prev is None:
+            # null vector of [H gl] by SVD (robust also at a singular H)
+            _, _, Vt = np.linalg.svd(J[:n] / np.sqrt(self.W)[None, :])
+            t = Vt[-1] / np.sqrt(self.W)
+            if t[n] < 0:
+                t = -t
+        else:
+            # [G_x; t_prevᵀW] t = e_{n+1}. det[G_x; cᵀ] = κ (c·t) for any row c (the row space of
+            # G_x is t^⊥), so det[G_x; t_prevᵀW] and det[G_x; tᵀW] share the sign of κ: t_prevᵀW t
+            # = 1 > 0 and tᵀW t > 0.
+            J[n] = t_prev * self.W
+            lu, piv = scipy.linalg.lu_factor(J, check_finite=False)
+            e = np.zeros(n + 1)
+            e[n] = 1.0
+            t = scipy.linalg.lu_solve((lu, piv), e, check_finite=False)
+            t /= math.sqrt(float(t @ (self.W * t)))
+            return t, lu_det_sign(lu, piv)
+        t /= math.sqrt(float(t @ (self.W * t)))
+        J[n] = t * self.W
+        lu, piv = scipy.linalg.lu_factor(J, check_finite=False)
+        return t, lu_det_sign(lu, piv)
+
+    def _scaled_hessian(self, H):
+        A = self.Ms[:, None] * H * self.Ms[None, :]
+        return 0.5 * (A + A.T)
+
+    def inertia(self, x, evaluate: bool = True) -> Tuple[int, float, float]:
+        """(Morse index, smallest eigenvalue, (−1)^index · min|μ|) of M^{-1/2} H M^{-1/2} at x
+        (``evaluate=False`` reuses the last evaluation, which must be at x)."""
+        H = self.ev(x[: self.n], x[self.n])[1] if evaluate else self.ev.H
+        return signed_distance_to_singularity(self._scaled_hessian(H))
+
+    def fast_inertia(self) -> Tuple[int, float]:
+        """(Morse index, smallest eigenvalue) at the last evaluation, by LDLᵀ inertia."""
+        return inertia(self._scaled_hessian(self.ev.H))
+
+    def null_directions(self, x) -> np.ndarray:
+        """The two right singular vectors of [G_u G_λ] (W-scaled) with the smallest singular
+        values, shape (2, n + 1): at a simple branch point they span the two branch tangents."""
+        g, H, gl = self.ev(x[:self.n], x[self.n])
+        J = np.column_stack([H, gl]) / np.sqrt(self.W)[None, :]
+        _, _, Vt = np.linalg.svd(J)
+        return Vt[-2:] / np.sqrt(self.W)[None, :]

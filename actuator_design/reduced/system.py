@@ -1,0 +1,204 @@
+"""The reduced system of a built NLP: the energy in the free unknowns with the clamp eliminated.
+
+For an :class:`~actuator_design.solver.EquilibriumSolver` and a list of parameter names λ =
+(λ_1, …, λ_k) (each replacing the NLP entries it controls — by √λ for ``h2``, every quadrature
+point for ``alpha``), the reduced energy Ê(u; λ, P) with u = (θ_1, …, θ_n) (θ_0 = θ0 substituted)
+gives, all as CasADi functions built once and cached per (structure, transcription, names):
+
+* g = ∇_u Ê (n,), H = ∇²_u Ê (n, n; its band structure is kept: ``hessian_pattern``), G_λ = ∂g/∂λ (n, k);
+* the Moore–Spence fold system F = [g; H v; cᵀMv − 1] and its Jacobian (directional third
+  derivatives ∂(Hv)/∂u, ∂(Hv)/∂λ), with ∂F/∂λ_2.. for fold curves;
+* the tip map (θ(1), x(1), y(1)) and its Jacobians in u and λ;
+* with no names: ∂g/∂P and ∂(vᵀHv)/∂(u, P) in the full NLP parameter vector (sensitivities).
+
+Evaluation through CasADi's buffer interface into preallocated arrays (:class:`SystemEvaluator`).
+"""
+from __future__ import annotations
+
+from functools import cached_property
+from typing import Dict, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["ReducedSystem", "reduced_system", "substituted_energy", "SystemEvaluator"]
+
+_CACHE: Dict[tuple, "ReducedSystem"] = {}
+
+
+def _slot(name: str) -> Tuple[str, object]:
+    """(NLP parameter slot, slot expression of the symbol) of a lens parameter name."""
+    from ..parameters import parameter  # the parameter lens
+
+    par = parameter(name, "continuation parameter")
+    return par.slot, par.slot_expr
+
+
+def substituted_energy(solver, names: Sequence[str]):
+    """The reduced energy with parameters ``names`` as separate symbols.
+
+    Returns
+    -------
+    u : SX (n,)
+        Free unknowns θ_1..θ_n (θ_0 = θ0 substituted).
+    lams : list of SX scalars
+        One symbol per name; the NLP entries it controls are replaced by it (by √λ for ``h2``,
+        every quadrature-point entry for ``alpha``).
+    P : SX
+        The solver's parameter vector symbol (the other entries).
+    Er : SX scalar
+        Ê(u; P(λ…)).
+    """
+    de, lay = solver.discrete, solver.layout
+    P = de.params
+    Pl = P
+    lams = []
+    for name in names:
+        slot, slot_expr = _slot(name)
+        if slot not in lay.slices:
+            raise ValueError(f"{name}: this scene has no {slot!r} parameter (add the term to the scene)")
+        sl = lay.slices[slot]
+        lam = ca.SX.sym(f"lam_{name}")
+        expr = slot_expr(lam)
+        Pl = ca.vertcat(Pl[:sl.start], ca.repmat(expr, sl.stop - sl.start, 1), Pl[sl.stop:])
+        lams.append(lam)
+    u = ca.SX.sym("u", de.z.numel() - 1)
+    z_sub = ca.vertcat(Pl[lay.slices["theta0"]], u)
+    Er = ca.substitute(de.energy, ca.vertcat(de.z, P), ca.vertcat(z_sub, Pl))
+    return u, lams, P, Er
+
+
+class ReducedSystem:
+    """Derivatives of the reduced energy of one built solver in the parameters ``names``.
+
+    Parameters
+    ----------
+    solver : EquilibriumSolver
+    names : sequence of str
+        Continuation parameter names; the first is the one the Newton systems solve for.
+
+    Attributes
+    ----------
+    n : int
+        Number of free unknowns.
+    mass : ndarray, shape (n,)
+        Lumped mass of the free nodes (the metric of residuals and eigenproblems).
+    hessian_pattern : (rows, cols)
+        Structural nonzeros of H; ``bandwidth`` = max |i − j|.
+    """
+
+    def __init__(self, solver, names: Sequence[str] = ()):
+        self.solver = solver
+        self.names = tuple(names)
+        self.mass = np.asarray(solver.transcription.mass[1:], float).copy()
+        self.n = self.mass.size
+        self.u, self.lams, self.P, self.Er = substituted_energy(solver, self.names)
+        self.lam = ca.vertcat(*self.lams) if self.lams else ca.SX(0, 1)
+        self.g = ca.gradient(self.Er, self.u)
+        self.H = ca.jacobian(self.g, self.u)
+        rows, cols = self.H.sparsity().get_triplet()
+        self.hessian_pattern = (np.asarray(rows, np.intp), np.asarray(cols, np.intp))
+        self.bandwidth = int(np.max(np.abs(self.hessian_pattern[0] - self.hessian_pattern[1]),
+                                    initial=0))
+
+    # -- functions, built on first use ----------------------------------------------------------
+    @cached_property
+    def f_system(self) -> ca.Function:
+        """``(u, λ (k,), P) -> (g (n,), H (n, n) dense, G_λ (n, k) dense)``."""
+        return ca.Function("reduced_system", [self.u, self.lam, self.P],
+                           [self.g, ca.densify(self.H), ca.densify(ca.jacobian(self.g, self.lam))])
+
+    @cached_property
+    def f_fold(self) -> ca.Function:
+        """Moore–Spence: ``(u, λ (k,), v, c, P) -> (F, J, F_μ)`` with F = [g; H v; cᵀ M v − 1]
+        (2n + 1,), J = ∂F/∂(u, λ_1, v) dense, F_μ = ∂F/∂(λ_2..λ_k) (2n + 1, k − 1)."""
+        u, lam, n = self.u, self.lam, self.n
+        v, c = ca.SX.sym("v", n), ca.SX.sym("c", n)
+        F = ca.vertcat(self.g, ca.mtimes(self.H, v), ca.dot(c, ca.DM(self.mass) * v) - 1)
+        X = ca.vertcat(u, self.lams[0], v)
+        others = ca.vertcat(*self.lams[1:]) if len(self.lams) > 1 else ca.SX(0, 1)
+        return ca.Function("moore_spence", [u, lam, v, c, self.P],
+                           [F, ca.densify(ca.jacobian(F, X)), ca.densify(ca.jacobian(F, others))])
+
+    @cached_property
+    def f_tip(self) -> ca.Function:
+        """``(u, λ, P) -> (tip (3,) = (θ(1), x(1), y(1)), ∂tip/∂u (3, n), ∂tip/∂λ (3, k))``."""
+        de, lay = self.solver.discrete, self.solver.layout
+        Pl = self._substituted_params()
+        z = ca.vertcat(Pl[lay.slices["theta0"]], self.u)
+        tip = ca.substitute(ca.vertcat(*de.tip), ca.vertcat(de.z, de.params), ca.vertcat(z, Pl))
+        return ca.Function("tip_map", [self.u, self.lam, self.P],
+                           [tip, ca.densify(ca.jacobian(tip, self.u)),
+                            ca.densify(ca.jacobian(tip, self.lam))])
+
+    def _substituted_params(self):
+        lay = self.solver.layout
+        Pl = self.P
+        for name, lam in zip(self.names, self.lams):
+            slot, slot_expr = _slot(name)
+            sl = lay.slices[slot]
+            Pl = ca.vertcat(Pl[:sl.start], ca.repmat(slot_expr(lam), sl.stop - sl.start, 1),
+                            Pl[sl.stop:])
+        return Pl
+
+    @cached_property
+    def f_g_P(self) -> ca.Function:
+        """``(u, P) -> ∂g/∂P`` (n, n_P): sensitivity of the gradient to every NLP parameter."""
+        return ca.Function("g_P", [self.u, self.P], [ca.jacobian(self.g, self.P)])
+
+    @cached_property
+    def f_curvature_derivatives(self) -> ca.Function:
+        """``(u, P, v) -> (∂(vᵀHv)/∂u (n,), ∂(vᵀHv)/∂P (n_P,))``: the derivatives of a simple
+        eigenvalue of H (Hellmann–Feynman), third derivatives of Ê contracted twice with v."""
+        v = ca.SX.sym("v", self.n)
+        q = ca.dot(v, ca.mtimes(self.H, v))
+        return ca.Function("third", [self.u, self.P, v], [ca.gradient(q, self.u), ca.gradient(q, self.P)])
+
+    @cached_property
+    def f_tip_jacobian_P(self) -> ca.Function:
+        """``(u, P) -> ∂(x(1), y(1), θ(1))/∂u`` (3, n) at the NLP parameters P."""
+        z = ca.vertcat(self.P[self.solver.layout.slices["theta0"]], self.u)
+        tip_theta, tip_x, tip_y = self.solver.f_tip(z, self.P)
+        return ca.Function("tip_jac", [self.u, self.P],
+                           [ca.jacobian(ca.vertcat(tip_x, tip_y, tip_theta), self.u)])
+
+    def evaluator(self, P: np.ndarray) -> "SystemEvaluator":
+        """A zero-copy evaluator of :attr:`f_system` at the NLP parameters ``P``."""
+        return SystemEvaluator(self.f_system, P)
+
+
+class SystemEvaluator:
+    """Zero-copy evaluation of ``(u, λ, P) -> (g, H, G_λ)`` into preallocated numpy arrays.
+
+    Calling it with (u (n,), λ) returns (g (n,), H (n, n), g_λ) — g_λ has shape (n,) for one
+    parameter and (n, k) for several; the arrays are overwritten by the next call.
+    """
+
+    def __init__(self, fn: ca.Function, P: np.ndarray):
+        n, k = fn.size1_in(0), fn.size1_in(1)
+        self.u, self.lam, self.P = np.zeros(n), np.zeros(k), np.ascontiguousarray(P, float).copy()
+        self.g, self.H = np.zeros(n), np.zeros((n, n))
+        gl = np.zeros((k, n))  # CasADi writes column-major: (n, k) Fortran = (k, n) C
+        self.gl = gl[0] if k == 1 else gl.T
+        self.buf, self.ev = fn.buffer()
+        for i, a in enumerate((self.u, self.lam, self.P)):
+            self.buf.set_arg(i, memoryview(a))
+        for i, a in enumerate((self.g, self.H, gl)):
+            self.buf.set_res(i, memoryview(a))
+        self.calls = 0
+
+    def __call__(self, u, lam):
+        self.u[:] = u
+        self.lam[:] = lam
+        self.ev()
+        self.calls += 1
+        return self.g, self.H, self.gl
+
+
+def reduced_system(solver, names: Sequence[str] = ()) -> ReducedSystem:
+    """The cached :class:`ReducedSystem` of ``solver`` in ``names`` (built on first use)."""
+    key = (solver.key, solver.transcription.structure(), tuple(names))
+    sys_ = _CACHE.get(key)
+    if sys_ is None:
+        sys_ = _CACHE[key] = ReducedSystem(solver, names)
+    return sys_

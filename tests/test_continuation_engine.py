@@ -1,0 +1,128 @@
+"""The continuation engine (actuator_design.continuation) against independent references.
+
+References: the pitchfork h_crit^(1) = π/(2√2) of the straight rod in a transverse field and the
+elliptic first mode (THEORY §6, ``reference.closed_forms``); a user event "the tip crosses the wall
+x = c" against a plain bisection of independent forward solves (``equilibrium.solve``); the fold
+load p_crit^(1) of the elastica by the shooting solver.
+"""
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings,
+                                          Fold, Natural, UserEvent, continuation)
+from actuator_design.equilibrium import solve
+from actuator_design.options import SolverOptions
+from actuator_design.reduced import reduced_system
+from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
+from actuator_design.scene import default_scene
+from actuator_design.solver import get_solver
+
+
+def problem_for(scene, name, lam0, u0=None):
+    solver = get_solver(scene, SolverOptions())
+    if u0 is None:
+        u0 = solve(scene, SolverOptions(), solver=solver).z[1:]
+    return BifurcationProblem(reduced_system(solver, [name]), solver.parameter_vector(scene), u0, lam0)
+
+
+def test_transverse_pitchfork_is_a_branch_point_not_a_fold():
+    """Straight rod, φ = π/2, h ∈ [0, 2]: one branch point at π/(2√2), no fold, index 0 → 1."""
+    prob = problem_for(default_scene(h=0.0, phi=math.pi / 2), "h", 0.0)
+    br = continuation(prob, PALC(), ContinuationSettings(window=(0.0, 2.0)), (Fold(), BranchPoint()))
+    assert br.status == "left_window" and br.lam[-1] == pytest.approx(2.0)
+    assert [e.kind for e in br.events] == ["branch_point"]
+    bp = br.events[0]
+    assert bp.located and bp.lam == pytest.approx(critical_field_transverse(1), abs=1e-8)
+    assert bp.lam == pytest.approx(math.pi / (2 * math.sqrt(2)), abs=1e-8)
+    assert (bp.index_before, bp.index_after) == (0, 1)
+
+
+def test_user_event_tip_crosses_a_wall_matches_bisection_of_forward_solves():
+    """Elastica in p from 0: where x(1) = 0.9, by the engine and by bisection on forward solves."""
+    wall = 0.9
+    scene = default_scene(h=0.0, p=0.0)
+    prob = problem_for(scene, "p", 0.0)
+    event = UserEvent("wall", lambda state: state.tip["x"] - wall)
+    br = continuation(prob, PALC(), ContinuationSettings(window=(0.0, 5.0)), (event,))
+    hits = [e for e in br.events if e.name == "wall"]
+    assert len(hits) == 1 and hits[0].located
+    opts = SolverOptions()
+
+    def gap(p):
+        r = solve(default_scene(h=0.0, p=p), opts)
+        assert r.success
+        return r.tip["x"] - wall
+
+    a, b = 0.0, 5.0
+    assert gap(a) > 0 > gap(b)
+    while b - a > 1e-11:
+        m = 0.5 * (a + b)
+        a, b = (m, b) if gap(m) > 0 else (a, m)
+    assert hits[0].lam == pytest.approx(0.5 * (a + b), abs=1e-8)
+
+
+def test_natural_continuation_follows_the_elliptic_mode():
+    """Natural steps in h on the first transverse mode: tip angle = β(h) of the closed form."""
+    scene = default_scene(h=1.5, phi=math.pi / 2)
+    prob = problem_for(scene, "h", 1.5)
+    br = continuation(prob, Natural(), ContinuationSettings(ds=0.05, ds_max=0.05, window=(1.5, 2.5)))
+    assert br.status == "left_window" and len(br) > 15
+    n = prob.n
+    for x in br.x:
+        beta = transverse_mode(x[n], 1).beta
+        assert abs(abs(prob.tip(x)[0]) - beta) < 1e-8
+    assert np.allclose(np.diff(br.lam)[:-1], 0.05, atol=1e-12)  # steps of exactly ds in λ
+
+
+def test_palc_passes_the_elastica_fold_natural_stops_there():
+    """Through the fold p_crit^(1) ≈ 10.3252 (shooting value in the suite): PALC turns round it
+    and locates it; natural continuation cannot pass it and ends with a small step."""
+    from actuator_design.reduced import locate_fold
+    from actuator_design.reference.shooting import ShootingParams, shoot
+    from scipy.optimize import fsolve
+
+    def F(x):
+        s = shoot(x[0], ShootingParams(fy=x[1]), variational=True)
+        return [s.residual, s.dresidual]
+    g1, p1 = fsolve(F, [-2.8, 10.3], xtol=1e-13)
+    scene = default_scene(h=0.0, p=p1 + 1.0)
+    solver = get_solver(scene, SolverOptions())
+    guess = shoot(g1 + 0.2, ShootingParams(fy=p1 + 1.0))
+    u0 = np.array([guess.theta(s) for s in solver.transcription.nodes[1:]])
+    prob = BifurcationProblem(reduced_system(solver, ["p"]), solver.parameter_vector(scene), u0, p1 + 1.0)
+    st = ContinuationSettings(ds=0.05, ds_max=0.2, window=(p1 - 1.0, p1 + 2.0), max_steps=400,
+                              direction=-1.0)
+    br = continuation(prob, PALC(), st, (Fold(), BranchPoint()))
+    folds = [e for e in br.events if e.kind == "fold"]
+    assert len(folds) == 1 and folds[0].lam == pytest.approx(p1, abs=1e-7)
+    # the located event and the Moore–Spence locator agree
+    ms = locate_fold(prob.system, prob.P, folds[0].x[:-1], folds[0].lam)
+    assert ms.converged and ms.lam == pytest.approx(folds[0].lam, abs=1e-8)
+    nat = continuation(prob, Natural(), st)
+    assert nat.status == "step_too_small" and nat.lam.min() == pytest.approx(p1, abs=1e-3)
+
+
+@pytest.mark.parametrize("field, value, fragment", [
+    ("ds", -0.1, "ds: must be a finite number > 0"),
+    ("ds_min", 1.0, "ds_min: must be <= ds"),
+    ("max_steps", 1, "max_steps: must be an integer >= 2"),
+    ("window", (1.0, 0.0), "window: must be two numbers (lo, hi) with lo <= hi"),
+    ("direction", 0.5, "direction: must be +1 or -1"),
+    ("tol", float("nan"), "tol: must be a finite number > 0"),
+    ("min_cos_turn", 1.5, "min_cos_turn: must be in [-1, 1)"),
+    ("grow_iterations", -1, "grow_iterations: must be an integer >= 0"),
+])
+def test_settings_validate_themselves(field, value, fragment):
+    with pytest.raises(ValueError) as err:
+        ContinuationSettings(**{field: value})
+    assert fragment in str(err.value)
+
+
+def test_settings_are_frozen():
+    st = ContinuationSettings()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        st.ds = 1.0
+    assert dataclasses.replace(st, ds=0.1).ds == 0.1
