@@ -25,8 +25,11 @@ def design_figure(result):
     -------
     matplotlib.figure.Figure
     """
-    fig = new_figure((13.5, 4.8))
-    ax_shape, ax_alpha, ax_sched = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.35, 1, 1]})
+    rob = getattr(result, "robustness", None)
+    panels = 4 if rob is not None else 3
+    fig = new_figure((13.5 + 4.2 * (panels - 3), 4.8))
+    axes = fig.subplots(1, panels, gridspec_kw={"width_ratios": [1.35, 1, 1, 1][:panels]})
+    ax_shape, ax_alpha, ax_sched = axes[:3]
     state = result.path.final if result.path is not None else result.forward
     verdict = "verified, stable, snap-free" if result.success else (
         "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
@@ -39,6 +42,16 @@ def design_figure(result):
             a = result.target[2]
             ax_shape.annotate("", xy=(tx + 0.12 * math.cos(a), ty + 0.12 * math.sin(a)), xytext=(tx, ty),
                               arrowprops=dict(arrowstyle="->", color="crimson"))
+    if rob is not None and len(rob.robustness.spread):
+        # every tip the branch passes through over the tolerance box (rays to the corners, edges)
+        sp = rob.robustness.spread
+        ax_shape.plot(sp[:, 0], sp[:, 1], ".", color="tab:blue", markersize=2.5, alpha=0.6,
+                      label=f"tip over the box ({rob.robustness.tolerances.describe()})")
+        corners = [c["tip"] for c in rob.robustness.corners if c["reached"]]
+        if corners:
+            ax_shape.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none",
+                          color="tab:blue", markersize=6, label="box corners")
+        _spread_panel(axes[3], rob, result.target)
     if ax_shape.get_legend_handles_labels()[0]:
         ax_shape.legend(loc="best", fontsize=8)
 
@@ -63,6 +76,34 @@ def design_figure(result):
         ax_sched.text(0.5, 0.5, "no verified schedule", ha="center", va="center", transform=ax_sched.transAxes)
         ax_sched.set_axis_off()
     return fig
+
+
+def _spread_panel(ax, report, target) -> None:
+    """The tip over the tolerance box (every state followed on rays and edges), the box corners and
+    the reported worst-case error as a circle around the target (units of ℓ)."""
+    rob = report.robustness
+    sp = rob.spread
+    r = max(rob.worst_tip_error, 1e-9)
+    cx, cy = (target[0], target[1]) if target else (float(sp[0, 0]), float(sp[0, 1]))
+    ax.plot(sp[:, 0], sp[:, 1], ".", color="tab:blue", markersize=3, label="tip, branch followed")
+    corners = [c["tip"] for c in rob.corners if c["reached"]]
+    if corners:
+        ax.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none", color="tab:blue",
+                markersize=7, label="box corners")
+    t = np.linspace(0, 2 * math.pi, 200)
+    ax.plot(cx + r * np.cos(t), cy + r * np.sin(t), "--", color="crimson", lw=1,
+            label=f"worst-case error {r:.3g} l")
+    if target:
+        ax.plot([cx], [cy], "x", color="crimson", mew=2.5, markersize=10, label="target")
+    ax.set_xlim(cx - 1.3 * r, cx + 1.3 * r)
+    ax.set_ylim(cy - 1.3 * r, cy + 1.3 * r)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+    ax.grid(alpha=0.3)
+    verdict = "holds" if rob.holds else "does NOT hold"
+    ax.set_title(f"tip over the box ({rob.tolerances.describe()}): {verdict}", fontsize=9)
+    ax.legend(loc="lower right", fontsize=7)
 
 
 def _rod_xy(state, n: int = 150):
