@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from actuator_design.cli.main import main
-from actuator_design.fit import fit, fit_config, prepare_fit
+from actuator_design.calibration import fit, fit_config, prepare_fit
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
 
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
-    from ..fit import fit, prepare_fit, write_fit
+    from ..calibration import fit, prepare_fit, write_fit
     from ..io import dumps_json
 
     with bad_input():

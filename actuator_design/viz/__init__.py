@@ -1,0 +1,1 @@
+"""Figures: pure functions of results; the only importer of matplotlib."""
