@@ -17,16 +17,40 @@ from ..units import ureg
 from .parameters import unit_of
 
 __all__ = ["null_direction", "choose_held", "identifiability_message", "combinations",
-           "combination_value"]
+           "combination_value", "ZERO_SENSITIVITY"]
+
+#: A column of the weighted Jacobian (residuals in units of σ per unit of the fitted coordinate:
+#: log p, or p for linear parameters) with rms below this carries no information: an e-fold change
+#: of the parameter moves the residuals by less than this many σ. Rounding noise of an exactly
+#: zero sensitivity (e.g. a straight rod in a transverse field, THEORY §6) is far below it.
+ZERO_SENSITIVITY = 1e-9
+
 
 def null_direction(J: np.ndarray, tol: float):
-    """(null vector in the columns of J, its relative singular value, column norms), or None."""
+    """A direction in the fitted coordinates that the data do not determine, or None.
+
+    Parameters
+    ----------
+    J : ndarray, shape (m, k)
+        Weighted Jacobian of the residuals with respect to the free fitted coordinates.
+    tol : float
+        Relative singular value (of the column-normalised J) below which a direction is null.
+
+    Returns
+    -------
+    (vec, rel, colnorm) or None
+        ``vec``: unit null vector, shape (k,); ``rel``: its relative singular value (0 for a
+        column without information, then ``vec`` selects the last such column); ``colnorm``:
+        column norms, shape (k,), with columns without information set to 0.
+    """
     if J.shape[1] == 0:
         return None
     colnorm = np.linalg.norm(J, axis=0)
-    if np.any(colnorm == 0):
-        v = (colnorm == 0).astype(float)
-        return v / np.linalg.norm(v), 0.0, colnorm
+    zero = colnorm <= ZERO_SENSITIVITY * np.sqrt(max(J.shape[0], 1))
+    if np.any(zero):
+        v = np.zeros(J.shape[1])
+        v[np.flatnonzero(zero)[-1]] = 1.0
+        return v, 0.0, np.where(zero, 0.0, colnorm)
     _, s, Vt = np.linalg.svd(J / colnorm, full_matrices=False)
     rel = s[-1] / s[0]
     if rel >= tol:
@@ -41,7 +65,8 @@ def choose_held(vec: np.ndarray, colnorm: np.ndarray) -> int:
     return int(big[-1])
 
 
-def identifiability_message(names, free, vec, j, rel, is_log, problem) -> str:
+def identifiability_message(names, free, vec, j, rel, is_log, problem,
+                            combined: bool = True) -> str:
     """One line: which parameters the null direction ``vec`` involves, and which one is held."""
     involved = [names[free[a]] for a in range(len(free)) if abs(vec[a]) > 1e-6 * np.max(np.abs(vec))]
     if len(involved) == 1:
@@ -53,6 +78,8 @@ def identifiability_message(names, free, vec, j, rel, is_log, problem) -> str:
             what += "; they enter only through the field group h² ∝ χ̄ H²/B"
         what += ")"
     held = f"{names[j]} is held at {problem.initial[names[j]]:g} {unit_of(names[j])}".rstrip()
+    if not combined:
+        return f"{what}: {held}"
     return f"{what}: {held} and the identifiable combination is fitted"
 
 

@@ -151,11 +151,13 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
         nonlocal free
         vec, rel, colnorm = null
         j = free[choose_held(vec, colnorm)]
-        involved = np.abs(vec) > 1e-6 * np.max(np.abs(vec))
-        if np.count_nonzero(involved) == 1:  # no information at all on this parameter
-            undetermined.append(names[free[int(np.flatnonzero(involved)[0])]])
-        warnings.append(identifiability_message(names, free, vec, j, rel, is_log, problem))
-        combos.extend(combinations(names, free, vec, j, is_log, theta))
+        found = combinations(names, free, vec, j, is_log, theta)
+        warnings.append(identifiability_message(names, free, vec, j, rel, is_log, problem,
+                                                combined=bool(found)))
+        if not found:  # no information on it, or a mixture that is not reported: undetermined
+            involved = np.abs(vec) > 1e-6 * np.max(np.abs(vec))
+            undetermined.extend(names[free[a]] for a in np.flatnonzero(involved))
+        combos.extend(found)
         held[j] = names[j]
         free = [i for i in free if i != j]
         theta[j] = problem.initial[names[j]]
@@ -293,8 +295,8 @@ def _status(problem, opt, points, theta, free, undetermined, r):
         status = "not_converged"
     if undetermined:
         names = ", ".join(dict.fromkeys(undetermined))
-        msg += (f"; not identifiable: the data do not determine {names} (zero sensitivity at "
-                f"the {problem.n_conditions} distinct measured condition(s))")
+        msg += (f"; not identifiable: the data do not determine {names} (no or dependent "
+                f"sensitivities at the {problem.n_conditions} distinct measured condition(s))")
         status = status or "not_identifiable"
     initial = np.array([problem.initial[n] for n in problem.names])
     moved = not np.allclose(theta[free], initial[free], rtol=1e-9, atol=1e-12)
