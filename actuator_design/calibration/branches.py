@@ -40,6 +40,32 @@ STABLE = Verdict()
 Misfit = Callable[[np.ndarray], float]
 
 
+class _DenseCall:
+    """A CasADi function evaluated straight into preallocated numpy arrays.
+
+    Converting CasADi's sparse results to numpy costs more than evaluating them (a fit makes
+    one such call per condition and evaluation, 10⁵–10⁶ in all): the outputs are densified once
+    and written column-major into fixed buffers. The returned arrays are views of those buffers,
+    valid until the next call.
+    """
+
+    def __init__(self, f: ca.Function):
+        self._buffer, self._evaluate = f.buffer()
+        self._args = [np.zeros(f.nnz_in(i)) for i in range(f.n_in())]
+        self._shapes = [(f.size1_out(j), f.size2_out(j)) for j in range(f.n_out())]
+        self._res = [np.zeros(a * b) for a, b in self._shapes]
+        for i, a in enumerate(self._args):
+            self._buffer.set_arg(i, memoryview(a))
+        for j, r in enumerate(self._res):
+            self._buffer.set_res(j, memoryview(r))
+
+    def __call__(self, *args) -> List[np.ndarray]:
+        for buf, a in zip(self._args, args):
+            buf[:] = a
+        self._evaluate()
+        return [r.reshape(shape, order="F") for r, shape in zip(self._res, self._shapes)]
+
+
 class BranchSelector:
     """Equilibria of one scene structure, their stability, outputs and sensitivities.
 
@@ -72,10 +98,11 @@ class BranchSelector:
         tip = ca.substitute(ca.vertcat(*de.tip), z, zfull)
         slots = [int(i) for i in slot_index]
         # only the slot columns of ∂(∇Ê)/∂P and ∂T/∂P are needed (P also holds per-node fields)
-        self.f_state = ca.Function("fit_state", [zr, P], [Hr, tip])
-        self.f_sens = ca.Function("fit_sens", [zr, P],
-                                  [Hr, tip, ca.jacobian(gr, P)[:, slots], ca.jacobian(tip, zr),
-                                   ca.jacobian(tip, P)[:, slots]])
+        dense = ca.densify
+        self.f_state = _DenseCall(ca.Function("fit_state", [zr, P], [dense(Hr), dense(tip)]))
+        self.f_sens = _DenseCall(ca.Function(
+            "fit_sens", [zr, P], [dense(Hr), dense(tip), dense(ca.jacobian(gr, P)[:, slots]),
+                                  dense(ca.jacobian(tip, zr)), dense(ca.jacobian(tip, P)[:, slots])]))
         self.theta0_index = layout.slices["theta0"].start
         self.n_nodes = solver.transcription.nodes.size
 
@@ -107,9 +134,9 @@ class BranchSelector:
         """(stability verdict, outputs) at an equilibrium ``z``: Cholesky first, eigen-analysis
         (Morse index, unstable mode) only when H_r is not positive definite."""
         Hr, tip = self.f_state(z[1:], P)
-        out = self.outputs(np.asarray(tip, float))
+        out = self.outputs(tip)
         try:
-            np.linalg.cholesky(np.asarray(Hr, float))
+            np.linalg.cholesky(Hr)
             return STABLE, out
         except np.linalg.LinAlgError:
             v = self.solver.stability(z, P)
@@ -129,7 +156,11 @@ class BranchSelector:
         raw = self.converge(z0, P)
         if not raw.converged:
             return raw.z, False, None, None
-        z = raw.z
+        return self.leave_unstable(raw.z, P, misfit)
+
+    def leave_unstable(self, z: np.ndarray, P: np.ndarray, misfit: Misfit):
+        """From an equilibrium ``z``: itself if stable, else the stable equilibrium reached by
+        leaving along the unstable mode towards the measurement (as :meth:`stable_equilibrium`)."""
         verdict, out = self.verdict(z, P)
         for _ in range(3):
             if verdict.accepted:
@@ -154,22 +185,37 @@ class BranchSelector:
     def best(self, starts: List[np.ndarray], P: np.ndarray, misfit: Misfit, incumbent=None):
         """The accepted (stable) equilibrium closest to the measurement over ``starts``.
 
-        Starts that coincide (to 1e-12) are tried once. ``incumbent``: a previous return value to
+        Starts that coincide (to 1e-12), or that converge to an equilibrium already reached (to
+        1e-10), are followed once. ``incumbent``: a previous return value to
         improve on. Returns ``(rank, z, verdict, outputs)`` with rank = (unstable, misfit), or
         None when no start converged; an unstable equilibrium wins only if no stable one exists.
         """
-        best, tried = incumbent, []
+        best, tried, reached = incumbent, [], []
         for z0 in starts:
             if any(np.max(np.abs(z0 - t)) <= 1e-12 for t in tried):
                 continue
             tried.append(z0)
-            z, ok, verdict, out = self.stable_equilibrium(z0, P, misfit)
-            if not ok:
+            raw = self.converge(z0, P)
+            # a start that reaches an equilibrium already reached leads where that one led
+            if not raw.converged or any(np.max(np.abs(raw.z - r)) <= 1e-10 for r in reached):
                 continue
+            reached.append(raw.z)
+            z, _, verdict, out = self.leave_unstable(raw.z, P, misfit)
             rank = (not verdict.accepted, misfit(out))
             if best is None or rank < best[0]:
                 best = (rank, z, verdict, out)
         return best
+
+    def stable_sensitivity(self, z: np.ndarray, P: np.ndarray, dq: np.ndarray):
+        """:meth:`sensitivity` at an equilibrium proved stable by a Cholesky factor of H_r, or None
+        when H_r is not positive definite (the caller then runs the full branch selection)."""
+        Hr, tip, Gq, Tz, Tq = self.f_sens(z[1:], P)
+        try:
+            factor = scipy.linalg.cho_factor(Hr, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError):
+            return None
+        dtip_dq = Tz @ -scipy.linalg.cho_solve(factor, Gq, check_finite=False) + Tq
+        return self.outputs(tip), (dtip_dq[self.comp] * self.out_scale[:, None]) @ dq
 
     def sensitivity(self, z: np.ndarray, P: np.ndarray, dq: np.ndarray):
         """Outputs and d(outputs)/dθ by the implicit function theorem, at an equilibrium ``z``.
@@ -187,7 +233,7 @@ class BranchSelector:
         outputs : ndarray, shape (n_out,), SI
         jacobian : ndarray, shape (n_out, k), SI per natural unit of θ
         """
-        Hr, tip, Gq, Tz, Tq = (np.asarray(a, float) for a in self.f_sens(z[1:], P))
+        Hr, tip, Gq, Tz, Tq = self.f_sens(z[1:], P)
         try:
             dz = -scipy.linalg.cho_solve(scipy.linalg.cho_factor(Hr), Gq)
         except (np.linalg.LinAlgError, ValueError):
