@@ -275,3 +275,17 @@ def test_repeated_conditions_solve_once_and_equal_the_weighted_mean_fit(tmp_path
     for name in ("chi_bar", "youngs_modulus"):
         assert repeated.parameters[name]["value"] == pytest.approx(
             mean_fit.parameters[name]["value"], rel=1e-6)
+
+
+def test_a_start_that_is_already_the_optimum_is_a_success(tmp_path):
+    """The model is odd under the mirror θ → −θ (φ = 90°, THEORY §6): data symmetric about the
+    straight rod are fitted best by θ0 = 0 exactly, the start; needing no step is not a failure."""
+    import yaml
+    cfg = yaml.safe_load((CONFIGS / "fit_transverse_buckling.yaml").read_text())
+    cfg["study"]["parameters"] = {"clamp_angle": {"initial": "0 deg", "bounds": ["-5 deg", "5 deg"]}}
+    data = tmp_path / "symmetric.csv"
+    data.write_text("field [kA/m], tip_angle [deg]\n5, 1\n5, -1\n8, 1.5\n8, -1.5\n")
+    res = fit_config(cfg, data)
+    assert res.success and res.status == "converged", res.message
+    assert res.parameters["clamp_angle"]["value"] == pytest.approx(0.0, abs=1e-12)
+    assert res.identifiable and 0 < res.parameters["clamp_angle"]["std"] < math.inf

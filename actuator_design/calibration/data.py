@@ -101,9 +101,10 @@ class MeasuredData:
     source : str
         File name (or ``"<data>"``).
     weights : ndarray of float, shape (n,), or None
-        Relative weight of each row (None: all 1). A row of weight w counts as w rows with its
-        values, e.g. the mean of w repeated measurements at one condition. Not read from files;
-        set through the API.
+        Relative weight of each row in the sum of squared residuals (None: all 1), e.g. w for
+        the mean of w repeated measurements at one condition: the fitted values then equal
+        those of the w rows (the residual degrees of freedom still count rows). Not read from
+        files; set through the API.
     """
 
     columns: Dict[str, np.ndarray]

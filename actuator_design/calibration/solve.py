@@ -249,7 +249,7 @@ def _result(problem, theta, free, held, undetermined, warnings, combos, is_log, 
         if i in free and params[n]["at_bound"]:
             warnings.append(f"{n} = {theta[i]:.6g} sits at a bound: the interval assumes an "
                             "interior optimum; widen the bounds")
-    status, ok, msg = _status(problem, opt, points, theta, free, undetermined, r)
+    status, ok, msg = _status(problem, opt, points, theta, free, undetermined, r, J)
     return FitResult(
         success=ok, status=status, message=msg,
         parameters=params, fitted_names=[names[i] for i in free], confidence=spec.confidence,
@@ -280,7 +280,7 @@ def _points(problem, model) -> List[dict]:
     return out
 
 
-def _status(problem, opt, points, theta, free, undetermined, r):
+def _status(problem, opt, points, theta, free, undetermined, r, J):
     """(status, success, message): the first failure among not converged, not identifiable and
     did not move; the message names every failure found."""
     msg = f"least squares: {opt.message}"
@@ -300,7 +300,11 @@ def _status(problem, opt, points, theta, free, undetermined, r):
         status = status or "not_identifiable"
     initial = np.array([problem.initial[n] for n in problem.names])
     moved = not np.allclose(theta[free], initial[free], rtol=1e-9, atol=1e-12)
-    if not moved and float(r @ r) > 1e-20 * max(r.size, 1):
+    # a start that is already the least-squares optimum (zero gradient Jᵀr with a well-conditioned
+    # J, e.g. data symmetric about it) is a fit that needed no step
+    optimal_start = (null_direction(J, problem.spec.identifiability_tol) is None and
+                     np.linalg.norm(J.T @ r) <= 1e-8 * np.linalg.norm(J) * np.linalg.norm(r))
+    if not moved and not optimal_start and float(r @ r) > 1e-20 * max(r.size, 1):
         msg += ("; did not move: the fitted values are the initial values, with residuals left "
                 "(no descent direction there: try other initial values or more varied data)")
         status = status or "did_not_move"
