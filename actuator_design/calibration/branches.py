@@ -208,14 +208,23 @@ class BranchSelector:
 
     def stable_sensitivity(self, z: np.ndarray, P: np.ndarray, dq: np.ndarray):
         """:meth:`sensitivity` at an equilibrium proved stable by a Cholesky factor of H_r, or None
-        when H_r is not positive definite (the caller then runs the full branch selection)."""
+        when H_r is not positive definite (the caller then runs the full branch selection).
+
+        Returns
+        -------
+        outputs : ndarray, shape (n_out,)
+        jacobian : ndarray, shape (n_out, k)
+        dz_dtheta : ndarray, shape (n_nodes − 1, k)
+            Sensitivity of the free nodes to the fitted parameters (natural units).
+        """
         Hr, tip, Gq, Tz, Tq = self.f_sens(z[1:], P)
         try:
             factor = scipy.linalg.cho_factor(Hr, check_finite=False)
         except (np.linalg.LinAlgError, ValueError):
             return None
-        dtip_dq = Tz @ -scipy.linalg.cho_solve(factor, Gq, check_finite=False) + Tq
-        return self.outputs(tip), (dtip_dq[self.comp] * self.out_scale[:, None]) @ dq
+        dz = -scipy.linalg.cho_solve(factor, Gq, check_finite=False)
+        dtip_dq = Tz @ dz + Tq
+        return self.outputs(tip), (dtip_dq[self.comp] * self.out_scale[:, None]) @ dq, dz @ dq
 
     def sensitivity(self, z: np.ndarray, P: np.ndarray, dq: np.ndarray):
         """Outputs and d(outputs)/dθ by the implicit function theorem, at an equilibrium ``z``.

@@ -44,6 +44,10 @@ class ConditionState:
     converged: bool = False
     stable: bool = False
     morse_index: int = -1
+    #: dz_r/dθ at ``z`` (shape (n_nodes − 1, k)) and the θ it was computed at: a first-order
+    #: predictor of the next evaluation's equilibrium (None when unknown)
+    dz_dtheta: Optional[np.ndarray] = None
+    theta: Optional[np.ndarray] = None
 
 
 class FitProblem:
@@ -308,6 +312,20 @@ class FitProblem:
         P[self.slot_index] = np.asarray(q, float).ravel()
         return P, np.asarray(dq, float).reshape(len(self.slots), -1)
 
+    @staticmethod
+    def _predicted(st: ConditionState, theta: np.ndarray) -> np.ndarray:
+        """Warm start for ``theta``: the tracked equilibrium moved along dz/dθ (first order),
+        unless that step is not small against the rod's deflection (near a bifurcation the
+        tangent can point across branches); then the tracked equilibrium itself."""
+        if st.dz_dtheta is None:
+            return st.z
+        step = st.dz_dtheta @ (np.asarray(theta, float) - st.theta)
+        if not np.max(np.abs(step)) <= 0.1 * max(np.max(np.abs(st.z[1:] - st.z[0])), 1e-3):
+            return st.z
+        start = st.z.copy()
+        start[1:] += step
+        return start
+
     def _condition_params(self, c: int, theta: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """:meth:`nlp_params` of condition ``c``, from the batch of the current evaluation."""
         batch = self._batch
@@ -350,12 +368,15 @@ class FitProblem:
         if jacobian and not select and st.z is not None:
             # the usual step of a fit: continue the tracked equilibrium; one Cholesky factor of
             # H_r proves it stable and gives its sensitivities
-            raw = sel.converge(st.z, P)
+            raw = sel.converge(self._predicted(st, theta), P)
             if raw.converged:
                 found = sel.stable_sensitivity(raw.z, P, dq)
                 if found is not None:
+                    out, jac, dz_dtheta = found
                     st.z, st.converged, st.stable, st.morse_index = raw.z, True, True, 0
-                    return (raw.z,) + found
+                    st.dz_dtheta, st.theta = dz_dtheta, np.array(theta, float)
+                    return raw.z, out, jac
+        st.dz_dtheta = st.theta = None
         misfit = self.target_misfit(self.Y_condition[c])
         straight = sel.straight(P)
         mirror = [] if z_prev is None else [z_prev, 2.0 * straight - z_prev]
