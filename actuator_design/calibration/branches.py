@@ -100,9 +100,9 @@ class BranchSelector:
         # only the slot columns of ∂(∇Ê)/∂P and ∂T/∂P are needed (P also holds per-node fields)
         dense = ca.densify
         self.f_state = _DenseCall(ca.Function("fit_state", [zr, P], [dense(Hr), dense(tip)]))
-        self.f_sens = _DenseCall(ca.Function(
-            "fit_sens", [zr, P], [dense(Hr), dense(tip), dense(ca.jacobian(gr, P)[:, slots]),
-                                  dense(ca.jacobian(tip, zr)), dense(ca.jacobian(tip, P)[:, slots])]))
+        sens = [Hr, tip, ca.jacobian(gr, P)[:, slots], ca.jacobian(tip, zr),
+                ca.jacobian(tip, P)[:, slots]]
+        self.f_sens = _DenseCall(ca.Function("fit_sens", [zr, P], [dense(a) for a in sens]))
         self.theta0_index = layout.slices["theta0"].start
         self.n_nodes = solver.transcription.nodes.size
 

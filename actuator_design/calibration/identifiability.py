@@ -2,14 +2,14 @@
 
 When the column-normalised weighted Jacobian J has a singular value below ``identifiability_tol``
 times the largest, a combination of parameters is not determined by the data (e.g. a field-only
-data set determines χ̄ and E only through h² ∝ χ̄/E, THEORY §5). The fit then holds the parameter the
-null direction leans on most at its initial value, fits the others, and reports the identifiable
-combination (e.g. ``chi_bar * youngs_modulus^-1``): for log-scale parameters p_i, p_j and null
+data set determines χ̄ and E only through h² ∝ χ̄/E, THEORY §5). The fit then holds the parameter
+the null direction leans on most at its initial value, fits the others, and reports the
+identifiable combination (e.g. ``chi_bar * youngs_modulus^-1``): for log-scale parameters p_i, p_j and null
 direction v (in log coordinates), p_i · p_j^(−v_i/v_j) is constant along v.
 """
 from __future__ import annotations
 
-from typing import List, Optional, Tuple
+from typing import List
 
 import numpy as np
 
@@ -68,7 +68,8 @@ def choose_held(vec: np.ndarray, colnorm: np.ndarray) -> int:
 def identifiability_message(names, free, vec, j, rel, is_log, problem,
                             combined: bool = True) -> str:
     """One line: which parameters the null direction ``vec`` involves, and which one is held."""
-    involved = [names[free[a]] for a in range(len(free)) if abs(vec[a]) > 1e-6 * np.max(np.abs(vec))]
+    big = np.abs(vec) > 1e-6 * np.max(np.abs(vec))
+    involved = [names[free[a]] for a in range(len(free)) if big[a]]
     if len(involved) == 1:
         what = f"the data carry no information on {involved[0]}"
     else:

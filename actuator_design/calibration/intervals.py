@@ -34,7 +34,8 @@ def parameter_entries(names, theta, initial, bounds, free, is_log, sd_x, tq) -> 
         lo_b, hi_b = bounds[i]
         entry = {"value": float(theta[i]), "unit": unit_of(n), "initial": float(initial[n]),
                  "bounds": [float(lo_b), float(hi_b)], "fitted": i in free,
-                 "scale": "log" if is_log[i] else "linear", "description": PARAMETERS[n].description}
+                 "scale": "log" if is_log[i] else "linear",
+                 "description": PARAMETERS[n].description}
         if i in free:
             a = free.index(i)
             if is_log[i]:

@@ -26,7 +26,8 @@ class FitParameter:
 
 #: Fittable parameters: dimension (for units), scale, scene types, meaning.
 PARAMETERS: Dict[str, FitParameter] = {
-    "chi_bar": FitParameter("dimensionless", True, ("physical",), "orientational susceptibility χ̄"),
+    "chi_bar": FitParameter("dimensionless", True, ("physical",),
+                            "orientational susceptibility χ̄"),
     "youngs_modulus": FitParameter("pressure", True, ("physical",), "Young's modulus E (B0 = E I)"),
     "bending_stiffness": FitParameter("bending_stiffness", True, ("physical",),
                                       "bending stiffness B0"),

@@ -306,7 +306,7 @@ class FitProblem:
 
     # -- evaluation -----------------------------------------------------------------------------
     def nlp_params(self, theta: np.ndarray, u: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-        """NLP parameter vector for inputs ``u`` (shape (4,)), and d(slots)/dθ, shape (n_slots, k)."""
+        """NLP parameter vector for inputs ``u`` (shape (4,)), and d(slots)/dθ (n_slots, k)."""
         q, dq = self.f_map(theta, u)
         P = self.base_params.copy()
         P[self.slot_index] = np.asarray(q, float).ravel()
@@ -336,7 +336,7 @@ class FitProblem:
         return self.nlp_params(theta, self.conditions[c])
 
     def _slots_of_all_conditions(self, theta: np.ndarray) -> None:
-        """Slots q (n_slots, n_c) and dq/dθ (n_c, n_slots, k) of every condition, one CasADi call."""
+        """Slots q (n_slots, n_c) and dq/dθ (n_c, n_slots, k) of all conditions: one CasADi call."""
         n_c, n_s = self.n_conditions, len(self.slots)
         q, dq = self.f_map_all(theta, self.conditions.T)
         dq = np.asarray(dq, float).reshape(n_s, n_c, -1).transpose(1, 0, 2)

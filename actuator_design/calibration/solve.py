@@ -4,8 +4,8 @@ A configuration gives the scene (what is known) and a ``study:`` section of ``ty
 the parameters to fit (:mod:`.spec`); a CSV file (:mod:`.data`) holds the measurements.
 
 Fittable parameters (:data:`.parameters.PARAMETERS`): ``chi_bar`` (χ̄), ``youngs_modulus`` (E) or
-``bending_stiffness`` (B0) — physical scenes; ``h`` (the group at ``reference_field``, or the scene's
-h when the data have no field column) — dimensionless scenes; ``clamp_angle`` (θ0), ``field_scale``
+``bending_stiffness`` (B0) — physical scenes; ``h`` (the group at ``reference_field``, or the
+scene's h when the data have no field column) — dimensionless scenes; ``clamp_angle`` (θ0), ``field_scale``
 (measured field × scale), ``field_offset`` (added to the measured field) and ``field_angle_offset``
 (added to the field angle) — both.
 
@@ -23,7 +23,7 @@ ones), and the fit moved from its start unless it started at an exact fit.
 from __future__ import annotations
 
 import sys
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List
 
 import numpy as np
 import scipy.optimize
