@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from actuator_design.cli.main import main
-from actuator_design.fit import fit, fit_config, prepare_fit
+from actuator_design.calibration import fit, fit_config, prepare_fit
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -175,3 +175,117 @@ def test_sensitivities_agree_with_finite_differences():
         scale = np.max(np.abs(jac[:, :, k]))
         assert scale > 0
         np.testing.assert_allclose(jac[:, :, k], fd, rtol=1e-5, atol=1e-7 * scale)
+
+
+# -- fits that are not a clean success, and repeated conditions (issue 10 item 5) -----------------
+def _identical_rows(tmp_path, n=40, field_kam=10.0, angle_deg=30.0):
+    path = tmp_path / "identical.csv"
+    path.write_text("field [kA/m], tip_angle [deg]\n" + f"{field_kam}, {angle_deg}\n" * n)
+    return path
+
+
+def test_identical_rows_cannot_determine_two_parameters(tmp_path, capsys):
+    """40 copies of one condition and one measured value: J has one distinct row, so its rank is
+    at most 1 and χ̄ and θ0 cannot both be determined — whatever the optimiser reaches."""
+    data = _identical_rows(tmp_path)
+    code = main(["fit", str(CONFIGS / "fit_transverse_buckling.yaml"), "--data", str(data),
+                 "--json", "--progress"])
+    out, err = capsys.readouterr()
+    res = json.loads(out)  # exactly one JSON object on stdout, progress on stderr only
+    assert code == 3
+    assert not res["success"] and res["status"] == "not_identifiable", res["message"]
+    assert "not identifiable" in res["message"] and "1 distinct measured condition" in res["message"]
+    assert res["optimizer"]["conditions"] == 1
+    assert "fit: evaluation" in err
+
+
+def test_zero_sensitivity_fit_did_not_move_and_is_not_identifiable(tmp_path):
+    """Below the transverse buckling field the straight rod is the only equilibrium for every χ̄
+    (THEORY §6): the tip angle does not depend on χ̄ or E, so the fit cannot leave its start.
+    At the initial χ̄ = 0.3, h = c·H with H = 10 kA/m is below h_crit (the check is the closed
+    form, not the code)."""
+    h = field_coefficient(0.3, E) * 1e4
+    assert h < critical_field_transverse()
+    res = fit_config(CONFIGS / "fit_transverse_buckling_unidentifiable.yaml",
+                     _identical_rows(tmp_path))
+    assert not res.success
+    assert res.status == "not_identifiable"
+    assert "did not move" in res.message and "do not determine" in res.message
+    assert res.parameters["chi_bar"]["value"] == 0.3  # never left its initial value
+    assert np.all(np.abs(res.model) < 1e-8)  # the straight rod
+
+
+def _repeated_load_deflection(rng):
+    """The load-deflection data with each condition repeated 1–4 times, the repeats scattered."""
+    base = np.loadtxt(DATA / "synthetic_load_deflection.csv", delimiter=",", comments="#",
+                      skiprows=5)
+    counts = rng.integers(1, 5, size=len(base))
+    rows = [(H, P, y + rng.normal(0.0, NOISE_MM)) for (H, P, y), c in zip(base, counts)
+            for _ in range(c)]
+    rows = [rows[i] for i in rng.permutation(len(rows))]  # repeats not adjacent
+    return np.array(rows)
+
+
+def test_repeated_conditions_solve_once_and_equal_the_weighted_mean_fit(tmp_path, monkeypatch):
+    """Rows sharing a condition share one forward solve per evaluation; and since
+    Σ_r (m − y_r)² = n (m − ȳ)² + Σ_r (y_r − ȳ)², the fit equals the fit of the condition means
+    ȳ weighted by their counts n (the check builds those means itself)."""
+    import yaml
+
+    from actuator_design.calibration import FitProblem, MeasuredData, parse_data
+    rows = _repeated_load_deflection(np.random.default_rng(7))
+    cfg = yaml.safe_load((CONFIGS / "fit_load_deflection.yaml").read_text())
+    cfg["study"]["uncertainty"] = {"tip_deflection": "0.05 mm"}
+    text = "field [kA/m], load [mN], tip_deflection [mm]\n" + "".join(
+        f"{float(H)!r}, {float(P)!r}, {float(y)!r}\n" for H, P, y in rows)
+    path = tmp_path / "repeated.csv"
+    path.write_text(text)
+
+    keys = {(H, P) for H, P, _ in rows}
+    calls = {"evaluations": 0, "solves": 0}
+    evaluate_conditions, solve_condition = FitProblem.evaluate_conditions, FitProblem.solve_condition
+
+    def counting_evaluate(self, *args, **kwargs):
+        calls["evaluations"] += 1
+        return evaluate_conditions(self, *args, **kwargs)
+
+    def counting_solve(self, *args, **kwargs):
+        calls["solves"] += 1
+        return solve_condition(self, *args, **kwargs)
+
+    monkeypatch.setattr(FitProblem, "evaluate_conditions", counting_evaluate)
+    monkeypatch.setattr(FitProblem, "solve_condition", counting_solve)
+    repeated = fit_config(cfg, path)
+    assert repeated.success, repeated.message
+    assert len(rows) > len(keys)
+    assert calls["solves"] == calls["evaluations"] * len(keys)
+    assert repeated.optimizer["conditions"] == len(keys)
+
+    # the condition means, weighted by their counts
+    uniq = sorted(keys)
+    means = [np.mean([y for H, P, y in rows if (H, P) == k]) for k in uniq]
+    counts = [sum(1 for H, P, _ in rows if (H, P) == k) for k in uniq]
+    d = parse_data("field [kA/m], load [mN], tip_deflection [mm]\n" + "".join(
+        f"{float(H)!r}, {float(P)!r}, {float(y)!r}\n" for (H, P), y in zip(uniq, means)),
+        source="means.csv")
+    weighted = MeasuredData(d.columns, d.units, d.factors, d.lines, source=d.source,
+                            weights=np.array(counts, float))
+    mean_fit = fit_config(cfg, weighted)
+    assert mean_fit.success, mean_fit.message
+    for name in ("chi_bar", "youngs_modulus"):
+        assert repeated.parameters[name]["value"] == pytest.approx(
+            mean_fit.parameters[name]["value"], rel=1e-6)
+
+
+def test_a_start_that_is_already_the_optimum_is_a_success(tmp_path):
+    """The model is odd under the mirror θ → −θ (φ = 90°, THEORY §6): data symmetric about the
+    straight rod are fitted best by θ0 = 0 exactly, the start; needing no step is not a failure."""
+    import yaml
+    cfg = yaml.safe_load((CONFIGS / "fit_transverse_buckling.yaml").read_text())
+    cfg["study"]["parameters"] = {"clamp_angle": {"initial": "0 deg", "bounds": ["-5 deg", "5 deg"]}}
+    data = tmp_path / "symmetric.csv"
+    data.write_text("field [kA/m], tip_angle [deg]\n5, 1\n5, -1\n8, 1.5\n8, -1.5\n")
+    res = fit_config(cfg, data)
+    assert res.success and res.status == "converged", res.message
+    assert res.parameters["clamp_angle"]["value"] == pytest.approx(0.0, abs=1e-12)
+    assert res.identifiable and 0 < res.parameters["clamp_angle"]["std"] < math.inf

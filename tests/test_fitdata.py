@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from actuator_design.cli.main import main
-from actuator_design.fitdata import DataError, parse_data
+from actuator_design.calibration import DataError, parse_data
 
 MU0 = 4e-7 * math.pi
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,8 +13,12 @@ reported, one is held and the identifiable combination is fitted.
 Units: every value carries its unit (the CSV header, '2 MPa' in the config); results are in SI
 (rad, m, Pa, A/m). In a dimensionless scene lengths are in rod lengths l and loads in B0/l^2.
 
+Rows sharing a condition (same field, field angle and loads) share one forward solve. Progress
+goes to stderr (when it is a terminal, or with --progress).
+
 Exit codes: 0 fitted, 2 bad input (one line naming the field, column or row), 3 the fit or an
-equilibrium did not converge (the result is still printed / written).
+equilibrium did not converge, the data do not determine a fitted parameter, or the fit did not
+move from its start (the result is still printed / written; its status and message say which).
 """
 from __future__ import annotations
 
@@ -40,6 +44,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR",
                         help="write fit.json, fit_points.csv, fit_data_vs_model.png and "
                              "fit_residuals.png into DIR (created if needed)")
+    parser.add_argument("--progress", action="store_true",
+                        help="show a progress bar on stderr (default: only when stderr is a "
+                             "terminal; never on stdout)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,13 +56,13 @@ def run(args: argparse.Namespace) -> int:
 
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
-    from ..fit import fit, prepare_fit, write_fit
+    from ..calibration import fit, prepare_fit, write_fit
     from ..io import dumps_json
 
     with bad_input():
         problem = prepare_fit(args.config, args.data)
     with stdout_to_stderr(args.json):
-        result = fit(problem)
+        result = fit(problem, progress=bool(args.progress or sys.stderr.isatty()))
     if args.json:
         print(dumps_json(result.to_dict()))
         for w in result.warnings:

@@ -43,7 +43,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .units import QuantityError, parse_quantity
+from ..units import QuantityError, parse_quantity
 
 __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "read_data", "parse_data"]
 
@@ -100,6 +100,11 @@ class MeasuredData:
         Comment lines (without the ``#``).
     source : str
         File name (or ``"<data>"``).
+    weights : ndarray of float, shape (n,), or None
+        Relative weight of each row in the sum of squared residuals (None: all 1), e.g. w for
+        the mean of w repeated measurements at one condition: the fitted values then equal
+        those of the w rows (the residual degrees of freedom still count rows). Not read from
+        files; set through the API.
     """
 
     columns: Dict[str, np.ndarray]
@@ -108,6 +113,15 @@ class MeasuredData:
     lines: np.ndarray
     comments: List[str] = field(default_factory=list)
     source: str = "<data>"
+    weights: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        if self.weights is not None:
+            w = np.asarray(self.weights, float).ravel()
+            if w.shape != self.lines.shape or not np.all(np.isfinite(w)) or np.any(w <= 0):
+                raise DataError(f"{self.source}: weights: expected {self.lines.size} finite "
+                                "values > 0 (one per row)")
+            self.weights = w
 
     @property
     def n(self) -> int:

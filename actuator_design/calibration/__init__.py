@@ -1,0 +1,27 @@
+"""Calibration: fit scene parameters to measured equilibria, with confidence intervals.
+
+Modules, one job each:
+
+* :mod:`.data` — measurement files (CSV, units in the header) → :class:`MeasuredData`;
+* :mod:`.parameters` — the fittable parameter table;
+* :mod:`.spec` — the ``study: {type: fit}`` section;
+* :mod:`.problem` — conditions → scenes → stable equilibria → outputs, exact sensitivities
+  (:mod:`.branches` picks the measured branch; :mod:`.curves` draws the model along an input);
+* :mod:`.solve` — nested least squares (:func:`fit`), with :mod:`.identifiability` and
+  :mod:`.intervals`;
+* :mod:`.result`, :mod:`.report`, :mod:`.outputs` — the result, its text/JSON/CSV, its files.
+
+Figures are in :mod:`actuator_design.viz.calibration`.
+"""
+from .data import COLUMNS, INPUTS, OUTPUTS, DataError, MeasuredData, parse_data, read_data
+from .outputs import write_fit
+from .parameters import PARAMETERS
+from .problem import FitProblem
+from .report import points_csv_text
+from .result import FitResult
+from .solve import fit, fit_config, prepare_fit
+from .spec import FitSpec, ParameterSpec
+
+__all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "parse_data", "read_data",
+           "PARAMETERS", "FitSpec", "ParameterSpec", "FitProblem", "FitResult", "prepare_fit",
+           "fit", "fit_config", "write_fit", "points_csv_text"]

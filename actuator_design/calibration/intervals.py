@@ -1,0 +1,106 @@
+"""Confidence intervals of fitted parameters, identifiable combinations and derived quantities.
+
+With weighted residuals r (m of them) and Jacobian J (in the fitted coordinates x: log p for
+positive parameters, p otherwise) at the optimum, cov_x = s² (JᵀJ)⁻¹ with s² = |r|²/(m − k).
+Intervals are t-intervals with m − k degrees of freedom, taken in x, so that those of positive
+parameters stay positive: p·exp(±t σ_x).
+"""
+from __future__ import annotations
+
+import math
+from typing import Dict, List
+
+import numpy as np
+
+from ..units import MU0
+from .identifiability import combination_value
+from .parameters import PARAMETERS, unit_of
+
+__all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
+           "derived_quantities"]
+
+
+def safe_exp(x: float) -> float:
+    """exp without OverflowError (an unbounded interval is +inf)."""
+    with np.errstate(over="ignore"):
+        return float(np.exp(x))
+
+
+def parameter_entries(names, theta, initial, bounds, free, is_log, sd_x, tq) -> Dict[str, dict]:
+    """name → {"value", "unit", "initial", "bounds", "fitted", "scale", "description", "std",
+    "ci", "at_bound"} in SI units; ``sd_x``: standard deviations of the free x, shape (k,)."""
+    params = {}
+    for i, n in enumerate(names):
+        lo_b, hi_b = bounds[i]
+        entry = {"value": float(theta[i]), "unit": unit_of(n), "initial": float(initial[n]),
+                 "bounds": [float(lo_b), float(hi_b)], "fitted": i in free,
+                 "scale": "log" if is_log[i] else "linear",
+                 "description": PARAMETERS[n].description}
+        if i in free:
+            a = free.index(i)
+            if is_log[i]:
+                lo = theta[i] * safe_exp(-tq * sd_x[a])
+                hi = theta[i] * safe_exp(tq * sd_x[a])
+                std = theta[i] * sd_x[a]
+            else:
+                lo, hi, std = theta[i] - tq * sd_x[a], theta[i] + tq * sd_x[a], sd_x[a]
+            entry.update(std=float(std), ci=[float(lo), float(hi)],
+                         at_bound=bool(np.isclose(theta[i], lo_b, rtol=1e-9, atol=0) or
+                                       np.isclose(theta[i], hi_b, rtol=1e-9, atol=0)))
+        else:
+            entry.update(std=None, ci=None, at_bound=False)
+        params[n] = entry
+    return params
+
+
+def combination_intervals(combos: List[dict], params: Dict[str, dict], free, sd_x, tq) -> None:
+    """Fill "value", "ci" and "std" of each identifiable combination (held parameter fixed, so
+    the combination's log varies as the free parameter's log); removes the private "_free"."""
+    for c in combos:
+        i_free = c.pop("_free")
+        c["value"] = float(combination_value(c, params))
+        if i_free in free:
+            a = free.index(i_free)
+            c["ci"] = [float(c["value"] * safe_exp(-tq * sd_x[a])),
+                       float(c["value"] * safe_exp(tq * sd_x[a]))]
+            c["std"] = float(c["value"] * sd_x[a])
+        else:
+            c["ci"], c["std"] = None, None
+
+
+def natural_covariance(cov_x: np.ndarray, theta_free: np.ndarray, is_log_free: np.ndarray):
+    """Covariance and correlation of the free parameters in natural units, shapes (k, k)
+    (first order: dp = p dx for log-scale parameters)."""
+    scale = np.where(is_log_free, theta_free, 1.0)
+    cov = cov_x * scale[:, None] * scale[None, :]
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    return cov, np.where(np.isfinite(corr), corr, 0.0)
+
+
+def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
+    """Physical scenes: the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) with its interval."""
+    if problem.kind != "physical" or problem.scene.field is None:
+        return {}
+    names, c = problem.names, problem.const
+    val = dict(zip(names, theta))
+    chi = val.get("chi_bar", c["chi0"])
+    B = (val["youngs_modulus"] / c["E0"] * c["B0"]) if "youngs_modulus" in val else \
+        val.get("bending_stiffness", c["B0"])
+    coef = math.sqrt(MU0 * chi * c["A"] * c["L"] ** 2 / (2.0 * B))
+    # d log c / d log χ̄ = 1/2, d log c / d log E (or B) = −1/2
+    g = np.array([0.5 if names[i] == "chi_bar" else
+                  -0.5 if names[i] in ("youngs_modulus", "bending_stiffness") else 0.0
+                  for i in free])
+    sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0
+    out = {"h_per_field": {"value": coef, "unit": "m/A", "std": coef * sd,
+                           "ci": [coef * safe_exp(-tq * sd), coef * safe_exp(tq * sd)],
+                           "description": "h = c·H, c = sqrt(mu0 chi_bar A l^2 / (2 B))"}}
+    if abs(math.cos(problem.scene.phi)) < 1e-9:
+        hc = math.pi / (2.0 * math.sqrt(2.0))  # THEORY §6, transverse buckling threshold
+        out["transverse_critical_field"] = {
+            "value": hc / coef, "unit": "A/m", "std": hc / coef * sd,
+            "ci": [hc / coef * safe_exp(-tq * sd), hc / coef * safe_exp(tq * sd)],
+            "description": "H at which h = h_crit = pi/(2 sqrt 2) (phi = 90 deg, THEORY §6)"}
+    return out

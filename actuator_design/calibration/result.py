@@ -1,0 +1,87 @@
+"""The result of a fit: parameters with intervals, residuals, identifiability, fitted model."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List
+
+import numpy as np
+
+from .data import MeasuredData
+
+__all__ = ["FitResult"]
+
+
+@dataclass
+class FitResult:
+    """Fitted parameters with intervals, residuals, identifiability, and the fitted model.
+
+    Attributes
+    ----------
+    success : bool
+        The optimiser converged, every data point has a converged, stable equilibrium, the fit
+        moved from its start (or started at the optimum) and the data determine every fitted
+        parameter (or a reported combination of held ones).
+    status, message : str
+        ``status`` is ``converged``, ``not_converged``, ``not_identifiable`` or
+        ``did_not_move``; ``message`` says what failed.
+    parameters : dict
+        name → {"value", "unit", "std", "ci": [low, high], "initial", "bounds", "fitted",
+        "scale"} in SI units (``fitted`` False for a parameter held because it was not
+        identifiable).
+    confidence : float
+    identifiable : bool
+    warnings : list of str
+    combinations : list of dict
+        Identifiable combinations reported when parameters were held.
+    covariance, correlation : ndarray, shape (k, k)
+        Of the fitted parameters (natural units), in ``fitted_names`` order.
+    singular_values : ndarray
+        Of the column-normalised weighted Jacobian, relative to the largest.
+    residuals : ndarray, shape (n, n_out)
+        Model − data, SI units.
+    model : ndarray, shape (n, n_out)
+    s2 : float
+        Residual variance of the weighted residuals.
+    """
+
+    success: bool
+    status: str
+    message: str
+    parameters: Dict[str, dict]
+    fitted_names: List[str]
+    confidence: float
+    identifiable: bool
+    warnings: List[str]
+    combinations: List[dict]
+    derived: Dict[str, dict]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    singular_values: np.ndarray
+    model: np.ndarray
+    residuals: np.ndarray
+    sigma: np.ndarray
+    s2: float
+    dof: int
+    optimizer: Dict[str, Any]
+    points: List[dict]
+    curves: Dict[str, Any]
+    data: MeasuredData
+    outputs: List[str]
+    name: str = "fit"
+    solver: Dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def rms(self) -> Dict[str, float]:
+        """RMS residual of each output column, in the unit of the data file."""
+        return {o: float(np.sqrt(np.mean(self.data.as_given(o, self.residuals[:, j]) ** 2)))
+                for j, o in enumerate(self.outputs)}
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The JSON contract of ``actuator-design fit --json`` (see :mod:`.report`)."""
+        from .report import result_dict
+        return result_dict(self)
+
+    def summary(self) -> str:
+        """A readable multi-line report (see :mod:`.report`)."""
+        from .report import summary_text
+        return summary_text(self)

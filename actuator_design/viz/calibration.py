@@ -1,0 +1,114 @@
+"""Figures of a calibration: measured data against the fitted model, and the residuals.
+
+Pure functions of a :class:`~actuator_design.calibration.FitResult` (they never solve); figures are
+made without pyplot's global state (Agg backend).
+"""
+from __future__ import annotations
+
+import io
+import sys
+from typing import Dict
+
+import numpy as np
+
+__all__ = ["fit_figures", "fit_figure_pngs"]
+
+
+def _figure(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6)):
+    import matplotlib
+    if "matplotlib.pyplot" not in sys.modules:
+        matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=(size[0] * ncols, size[1] * nrows), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False)
+    return fig, axes
+
+
+def fit_figures(result) -> Dict[str, object]:
+    """``fit_data_vs_model`` and ``fit_residuals`` figures of a fit result.
+
+    Parameters
+    ----------
+    result : actuator_design.calibration.FitResult
+
+    Returns
+    -------
+    dict of str → matplotlib.figure.Figure
+        Data against the fitted model curves (one panel per measured column, one curve per
+        group of the other inputs), and the residuals against the primary input (±2 rms dashed).
+    """
+    d, outputs, curves = result.data, result.outputs, result.curves
+    primary = curves.get("x")
+    n_out = len(outputs)
+    if primary is not None:
+        xdata = d.columns[primary]
+        xlabel = f"{primary} [{d.units[primary]}]" if d.units[primary] else primary
+    else:
+        xdata = np.arange(1, d.n + 1, dtype=float)
+        xlabel = "data row"
+    groups = curves.get("groups") or [{"label": "", "inputs": {}, "x": None, "y": {}}]
+
+    def in_group(g):
+        mask = np.ones(d.n, bool)
+        for c, v in g["inputs"].items():
+            mask &= d.columns[c] == v
+        return mask
+
+    fig, axs = _figure(ncols=n_out)
+    for j, o in enumerate(outputs):
+        ax = axs[0, j]
+        for gi, g in enumerate(groups):
+            color = f"C{gi % 10}"
+            mask = in_group(g)
+            xd = d.as_given(primary, xdata[mask]) if primary else xdata[mask]
+            ax.plot(xd, d.as_given(o, d.columns[o][mask]), "o", color=color, ms=4, mfc="none",
+                    label=f"data {g['label']}".strip())
+            if g.get("x") is not None:
+                ax.plot(d.as_given(primary, g["x"]), d.as_given(o, g["y"][o]), "-", color=color,
+                        lw=1.5, label=f"model {g['label']}".strip())
+        unit = f" [{d.units[o]}]" if d.units[o] else ""
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(o + unit)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(_fit_title(result), fontsize=9)
+
+    fig2, axs2 = _figure(ncols=n_out)
+    for j, o in enumerate(outputs):
+        ax = axs2[0, j]
+        res = d.as_given(o, result.residuals[:, j])
+        for gi, g in enumerate(groups):
+            mask = in_group(g)
+            xd = d.as_given(primary, xdata[mask]) if primary else xdata[mask]
+            ax.plot(xd, res[mask], "o", color=f"C{gi % 10}", ms=4, label=g["label"] or None)
+        s = float(np.sqrt(np.mean(res**2)))
+        ax.axhline(0.0, color="k", lw=0.8)
+        for sign in (-2, 2):
+            ax.axhline(sign * s, color="0.5", lw=0.8, ls="--")
+        unit = f" [{d.units[o]}]" if d.units[o] else ""
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(f"residual (model − data) {o}{unit}")
+        ax.set_title(f"rms {s:.3g}{unit}; dashed: ±2 rms", fontsize=9)
+        ax.grid(alpha=0.3)
+        if any(g["label"] for g in groups):
+            ax.legend(fontsize=7)
+    fig2.suptitle(_fit_title(result), fontsize=9)
+    return {"fit_data_vs_model": fig, "fit_residuals": fig2}
+
+
+def _fit_title(result) -> str:
+    parts = []
+    for name, p in result.parameters.items():
+        if p["fitted"]:
+            parts.append(f"{name} = {p['value']:.4g} [{p['ci'][0]:.4g}, {p['ci'][1]:.4g}]")
+    return (f"{result.name}\n" + "; ".join(parts) + f" ({100 * result.confidence:g}% CI)")
+
+
+def fit_figure_pngs(result, dpi: int = 130) -> Dict[str, bytes]:
+    """PNG bytes of :func:`fit_figures`, by figure name."""
+    pngs = {}
+    for name, fig in fit_figures(result).items():
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        pngs[name] = buf.getvalue()
+    return pngs
