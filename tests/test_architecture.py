@@ -11,7 +11,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "actuator_design"
 
 #: Files outside viz/ still allowed to import matplotlib: removed when the calibration package lands.
-MATPLOTLIB_EXCEPTIONS = {"fit.py", "fitdata.py"}
+MATPLOTLIB_EXCEPTIONS: set = set()
 
 #: What viz/ must never import: the machinery that solves (viz draws results, it never solves).
 SOLVING_MODULES = ("equilibrium", "solver", "analysis", "transcription", "accuracy", "study")

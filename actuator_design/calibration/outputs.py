@@ -7,34 +7,36 @@ from typing import Dict, Optional
 from .report import points_csv_text
 from .result import FitResult
 
-__all__ = ["write_fit"]
+__all__ = ["write_fit", "fit_files"]
+
+
+def fit_files(result: FitResult, config: Optional[dict] = None) -> Dict[str, object]:
+    """``fit.json``, ``fit_points.csv``, ``fit_data_vs_model.png`` and ``fit_residuals.png``, in memory
+    (text, then PNG bytes from :mod:`actuator_design.viz.calibration`)."""
+    from .. import __version__
+    from ..io import dumps_json
+    from ..viz.calibration import fit_figure_pngs
+
+    payload = {**result.to_dict(), "config": config, "package_version": __version__}
+    files: Dict[str, object] = {"fit.json": dumps_json(payload, indent=1) + "\n",
+                                "fit_points.csv": points_csv_text(result)}
+    files.update({f"{name}.png": data for name, data in fit_figure_pngs(result).items()})
+    return files
 
 
 def write_fit(result: FitResult, out_dir, config: Optional[dict] = None) -> Dict[str, Path]:
-    """Write ``fit.json``, ``fit_points.csv``, ``fit_data_vs_model.png`` and ``fit_residuals.png``
-    into ``out_dir`` (each written to a temporary name, then renamed).
-
-    Everything is composed in memory first (text, then figures from
-    :mod:`actuator_design.viz.calibration`), so a failure there writes nothing.
+    """Write the files of :func:`fit_files` into ``out_dir``, all or nothing
+    (:func:`actuator_design.io.write_output_set`).
 
     Returns
     -------
     dict of str → Path
         ``json``, ``csv`` and one entry per figure name.
     """
-    from .. import __version__
-    from ..io import atomic_write, dumps_json
-    from ..viz.calibration import fit_figure_pngs
+    from ..io import write_output_set
 
-    payload = {**result.to_dict(), "config": config, "package_version": __version__}
-    text = dumps_json(payload, indent=1) + "\n"
-    csv_text = points_csv_text(result)
-    pngs = fit_figure_pngs(result)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"json": out / "fit.json", "csv": out / "fit_points.csv"}
-    atomic_write(paths["json"], lambda fh: fh.write(text))
-    atomic_write(paths["csv"], lambda fh: fh.write(csv_text))
-    for name, data in pngs.items():
-        paths[name] = atomic_write(out / f"{name}.png", lambda fh, b=data: fh.write(b), binary=True)
-    return paths
+    files = fit_files(result, config)
+    written = {p.name: p for p in write_output_set(out_dir, files)}
+    out = {"json": written["fit.json"], "csv": written["fit_points.csv"]}
+    out.update({name[:-4]: path for name, path in written.items() if name.endswith(".png")})
+    return out

@@ -56,22 +56,25 @@ def run(args: argparse.Namespace) -> int:
 
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
-    from ..calibration import fit, prepare_fit, write_fit
+    from ..calibration import fit, prepare_fit
     from ..io import dumps_json
 
     with bad_input():
         problem = prepare_fit(args.config, args.data)
     with stdout_to_stderr(args.json):
         result = fit(problem, progress=bool(args.progress or sys.stderr.isatty()))
+    written = None
+    if args.out is not None:  # the files first, all or nothing; then stdout
+        from ..calibration.outputs import fit_files
+        from .output import write_out
+        written = write_out(args.out, fit_files(result, config=problem.config.raw), args.json, "results ")
     if args.json:
         print(dumps_json(result.to_dict()))
         for w in result.warnings:
             print(f"{PROG}: warning: {w}", file=sys.stderr)
     else:
         print(result.summary())
-    if args.out is not None:
-        with bad_input(f"--out: cannot write results to {args.out}: "), stdout_to_stderr(args.json):
-            paths = write_fit(result, args.out, config=problem.config.raw)
-        if not args.json:
-            print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    if written is not None:
+        from .output import print_written
+        print_written(written, args.json)
     return EXIT_OK if result.success else EXIT_NOT_CONVERGED
