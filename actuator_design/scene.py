@@ -189,6 +189,9 @@ class Scene:
         Present for physical scenes.
     name : str
         Free text for reports.
+    fibres_given : bool
+        The fibre layout was given by the user (a config's ``fibres``): it is fabricated, so inverse
+        design keeps it unless asked to vary it (``--vary ...,alpha``).
     extra_terms : tuple of TermValues
         Plug-in energy terms present in the scene, with their values (the extension point: which
         terms are listed is structural, their values are not).
@@ -206,6 +209,7 @@ class Scene:
     scales: Optional[Scales] = None
     name: str = "dimensionless cantilever"
     extra_terms: Tuple[TermValues, ...] = ()
+    fibres_given: bool = False
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:

@@ -45,7 +45,7 @@ from .design_verify import stiffness_by_differences, verify as verify_stage
 from .registry import register
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
-           "result_of"]
+           "result_of", "fibres_fixed"]
 
 #: Variable sets tried in order when the user does not choose (``--vary`` omitted).
 AUTO_VARIABLE_SETS = (("h", "phi"), ("h", "phi", "alpha"))
@@ -127,11 +127,21 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         if unknown or not vary:
             raise ValueError(f"--vary: unknown design variable(s) {unknown} (allowed: {', '.join(DESIGN_VARIABLES)})")
         sets = (tuple(vary),)
-    else:
-        sets = AUTO_VARIABLE_SETS if target else (("h",),)
+    elif not target:
+        sets = (("h",),)
+    else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
+        # actuator is the user's)
+        sets = (AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) else AUTO_VARIABLE_SETS
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
-                         deadline=t0 + settings.time_limit)
+                         deadline=t0 + settings.time_limit, fibres_fixed=fibres_fixed(base))
+
+
+def fibres_fixed(scene: Scene) -> bool:
+    """Whether the scene's fibre layout is the user's (given in a config, or any layout other than
+    the default straight fibres α = 0): inverse design then keeps it unless asked to vary it."""
+    f = scene.fibres
+    return bool(scene.fibres_given or not (f.kind == "constant" and f.value == 0.0))
 
 
 def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]:

@@ -143,6 +143,7 @@ class DesignProblem:
     base : the user's scene (with a tip-force term when a stiffness is asked for).
     variable_sets : the sets of design variables tried in order (one when the user chose).
     user_vary : whether the user chose the variables.
+    fibres_fixed : the scene's fibre layout is the user's (kept unless ``alpha`` is varied).
     deadline : ``time.perf_counter()`` value after which no new start is optimised.
     """
 
@@ -154,6 +155,7 @@ class DesignProblem:
     variable_sets: Tuple[Tuple[str, ...], ...]
     user_vary: bool
     deadline: float
+    fibres_fixed: bool = False
 
     def rank(self, pt: DesignPoint):
         """Sort key: designs that reach the target first, by least effort; then by distance."""

@@ -48,7 +48,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "omit for the default scene")
     parser.add_argument("--target-tip", metavar="X,Y[,ANGLE_DEG]",
                         help="target tip position (rod lengths unless --target-units) and optional "
-                             "tip angle in degrees")
+                             "tip angle in degrees; several poses separated by ';' (one actuator: one "
+                             "fibre layout, one field per pose), e.g. '0.3,0.5;0.6,0.2'")
     parser.add_argument("--target-units", choices=("rod", "mm", "m"), default=None,
                         help="units of X,Y (default rod lengths; mm/m need a physical scene)")
     parser.add_argument("--target-stiffness", metavar="K",
@@ -115,20 +116,29 @@ def _inputs(args):
         if study and study.get("type") != "design":
             raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
     study.pop("type", None)
-    allowed = {"target", "target_units", "vary", "stiffness", *[f.name for f in dataclasses.fields(DesignSettings)]}
+    allowed = {"target", "targets", "target_units", "vary", "stiffness", *[f.name for f in dataclasses.fields(DesignSettings)]}
     unknown = sorted(set(study) - allowed)
     if unknown:
         raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(sorted(allowed))})")
     target_text = args.target_tip
     if target_text is None and "target" in study:
         target_text = ",".join(str(v) for v in study["target"])
+    if target_text is None and "targets" in study:  # several poses: [[x, y], [x, y, angle], ...]
+        if not isinstance(study["targets"], list) or not all(isinstance(t, list) for t in study["targets"]):
+            raise InputError("study.targets: expected a list of [x, y] or [x, y, angle_deg] poses")
+        target_text = ";".join(",".join(str(v) for v in t) for t in study["targets"])
     stiffness = _parse_stiffness(args.target_stiffness if args.target_stiffness is not None
                                  else study.get("stiffness"), scene)
     if target_text is None and stiffness is None:
         raise InputError("--target-tip: required unless --target-stiffness is given (or `study: {type: "
                          "design, target: [x, y]}` in CONFIG)")
-    target = None if target_text is None else _parse_target(
-        target_text, args.target_units or study.get("target_units", "rod"), scene)
+    units = args.target_units or study.get("target_units", "rod")
+    if target_text is not None and ";" in target_text:  # several poses, one actuator
+        if stiffness is not None:
+            raise InputError("--target-stiffness: not available with several poses (--target-tip X1,Y1;X2,Y2)")
+        target = [_parse_target(t.strip(), units, scene) for t in target_text.split(";") if t.strip()]
+    else:
+        target = None if target_text is None else _parse_target(target_text, units, scene)
     vary_text = args.vary if args.vary is not None else study.get("vary")
     vary = None
     if vary_text is not None:
@@ -137,7 +147,7 @@ def _inputs(args):
         if bad or not vary:
             raise InputError(f"--vary: unknown design variable {bad[0] if bad else ''!r} "
                              f"(allowed: {', '.join(_VARIABLES)})")
-    settings_kw = {k: study[k] for k in study if k not in ("target", "target_units", "vary", "stiffness")}
+    settings_kw = {k: study[k] for k in study if k not in ("target", "targets", "target_units", "vary", "stiffness")}
     for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
                             ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
                             ("margin", "margin", float), ("time_limit", "time_limit", float)):
@@ -276,6 +286,9 @@ def _output_files(res, raw) -> dict:
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw, target, vary, settings, stiffness = _inputs(args)
+    if isinstance(target, list):
+        from .design_poses import run_poses
+        return run_poses(args, scene, options, raw, target, vary, settings)
     from ..analysis.design import design
     from ..io import dumps_json
 

@@ -71,7 +71,8 @@ class DimensionlessScene(StrictModel):
                      fibres=_profile(self.fibres, 0.0), stiffness=_profile(self.stiffness, 1.0),
                      tip_force=tip, tip_moment=self.tip_moment,
                      distributed_load=_xy(self.distributed_load), theta0=self.clamp_angle,
-                     scales=None, name=name or "dimensionless cantilever")
+                     scales=None, name=name or "dimensionless cantilever",
+                     fibres_given=self.fibres is not None)
 
 
 def _profile(spec, default: float):

@@ -283,7 +283,7 @@ class PhysicalScene(StrictModel):
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field),
-            name=name or "physical cantilever")
+            name=name or "physical cantilever", fibres_given=self.fibres is not None)
 
     def _check_assumptions(self, field, h0: float) -> None:
         """Warn (ModelAssumptionWarning) about dense particles or a field above saturation."""

@@ -15,7 +15,7 @@ import numpy as np
 from .shape import plot_shape
 from .style import gif_bytes, new_figure
 
-__all__ = ["design_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes"]
+__all__ = ["design_figure", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes"]
 
 
 def design_figure(result):
@@ -74,6 +74,54 @@ def design_figure(result):
         ax_sched.set_title("field schedule from zero field")
     else:
         ax_sched.text(0.5, 0.5, "no verified schedule", ha="center", va="center", transform=ax_sched.transAxes)
+        ax_sched.set_axis_off()
+    return fig
+
+
+def poses_figure(result):
+    """One actuator, several poses: every pose's verified shape with its target and tip spread over
+    the tolerance box, the shared fibre layout, and the field (h, φ) along the schedule.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = new_figure((13.5, 4.8))
+    ax_shape, ax_alpha, ax_sched = fig.subplots(1, 3, gridspec_kw={"width_ratios": [1.35, 1, 1]})
+    colours = ["tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:pink",
+               "tab:olive"]
+    for k, p in enumerate(result.poses):
+        c = colours[k % len(colours)]
+        if p.state is not None and p.state.success:
+            d = p.state.evaluate(np.linspace(0.0, 1.0, 150))
+            ax_shape.plot(d["x"], d["y"], color=c, lw=2.5, label=f"pose {k + 1}")
+        ax_shape.plot([p.target[0]], [p.target[1]], "x", color=c, mew=2.5, markersize=11)
+        if p.robustness is not None and len(p.robustness.spread):
+            sp = p.robustness.spread
+            ax_shape.plot(sp[:, 0], sp[:, 1], ".", color=c, markersize=2)
+    ax_shape.plot([0, 1], [0, 0], "--", color="grey", lw=1, label="undeformed")
+    ax_shape.set_aspect("equal")
+    ax_shape.set_xlabel("x / l")
+    ax_shape.set_ylabel("y / l")
+    ax_shape.grid(alpha=0.3)
+    ax_shape.legend(loc="best", fontsize=8)
+    ax_shape.set_title("one actuator, " + ("every pose verified" if result.success else "NOT a success"))
+    if result.alpha:
+        ax_alpha.plot(result.alpha["s"], np.degrees(result.alpha["value"]), color="tab:purple")
+    ax_alpha.set_xlabel("s = X1 / l")
+    ax_alpha.set_ylabel("fibre angle α(s) / deg")
+    ax_alpha.set_title("shared fibre layout")
+    ax_alpha.grid(alpha=0.3)
+    if result.schedule:
+        k = np.arange(len(result.schedule))
+        ax_sched.plot(k, [s["h"] for s in result.schedule], color="tab:green")
+        ax_sched.set_xlabel("step of the schedule")
+        ax_sched.set_ylabel("field group h", color="tab:green")
+        ax2 = ax_sched.twinx()
+        ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange")
+        ax2.set_ylabel("field angle φ / deg", color="tab:orange")
+        ax_sched.set_title("field schedule through the poses")
+    else:
         ax_sched.set_axis_off()
     return fig
 

@@ -1,0 +1,303 @@
+"""One actuator, several poses: one fibre layout α(s) and one field (h, φ[, p]) per pose.
+
+The central question of programmable soft actuators: a rod is built once (its fibre layout is
+fixed by fabrication) and driven to several poses by the field alone. :func:`design_poses` finds
+
+1. a first design of pose 1 (the single-pose pipeline: screen, optimise, choose), whose layout is
+   the start of the shared one;
+2. for every other pose, the field that brings the same rod nearest it (layout fixed);
+3. the joint design: one layout and one field per pose, every pose exact (the multi-scenario NLP of
+   :mod:`.design_robust` with an empty box), then made robust over the tolerance box (worst-case tip
+   error of each pose over the box's corners, every corner stable);
+4. per pose, the independent checks of the single-pose design: robustness by branch following
+   (:mod:`.robustness`) and a snap-free loading path from zero field (:mod:`.design_verify`);
+5. a schedule that visits the poses in order: from rest to pose 1, then from each pose straight to
+   the next field (the short way modulo π), checked by a loading path that must land on the next
+   pose's state; where it does not, the field is ramped down to zero and the next pose's verified
+   schedule from rest is used.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from ..options import SolverOptions
+from ..scene import Scene
+from .design import design_problem, search
+from .design_choose import choose
+from .design_nlp import DesignPoint
+from .design_optimise import design_vector
+from .design_robust import pose_designs, robustify
+from .design_types import Choice, DesignSettings, normalise_phi, tip_error
+from .design_verify import verify as verify_stage
+from .robustness import Robustness, evaluate_robustness
+from .tolerances import Tolerances
+
+__all__ = ["PoseResult", "MultiPoseResult", "design_poses", "MAX_POSES"]
+
+#: the work of a multi-pose design grows with the number of poses: a bound on it
+MAX_POSES = 8
+
+
+@dataclass
+class PoseResult:
+    """One pose of a multi-pose design (dimensionless; angles in rad)."""
+
+    target: tuple
+    achieved: Dict[str, float]
+    error: float
+    design: Dict[str, float]
+    robustness: Optional[Robustness]
+    verified: bool
+    stable: bool
+    snap_free: bool
+    schedule: List[Dict[str, float]]
+    label: str
+    z: Optional[np.ndarray] = field(default=None, repr=False)  # the pose's state (θ at the nodes)
+    state: object = field(default=None, repr=False)  # the verified EquilibriumResult (figures)
+
+    def to_dict(self) -> dict:
+        tgt = {"x": self.target[0], "y": self.target[1], **({"angle": self.target[2]} if len(self.target) > 2 else {})}
+        return {"target": tgt, "achieved": {k: float(v) for k, v in self.achieved.items()},
+                "error": float(self.error), "design": {k: float(v) for k, v in self.design.items()},
+                "robustness": None if self.robustness is None else self.robustness.to_dict(),
+                "verified": bool(self.verified), "stable": bool(self.stable), "snap_free": bool(self.snap_free),
+                "verification": self.label}
+
+
+@dataclass
+class MultiPoseResult:
+    """Outcome of :func:`design_poses`; :meth:`to_dict` is the ``design --json`` contract for several
+    poses: ``poses`` (each with ``target``, ``achieved``, ``design`` {h, phi, p}, ``robustness``) and
+    the shared ``design.alpha``."""
+
+    success: bool
+    poses: List[PoseResult]
+    alpha: Dict[str, object]
+    vary: tuple
+    schedule: List[Dict[str, float]]
+    transitions: List[str]
+    message: str
+    scene: Scene
+    tolerances: Optional[Tolerances]
+    scenes: List[Scene] = field(default_factory=list)
+    timings: Dict[str, float] = field(default_factory=dict)
+
+    @property
+    def reachable(self) -> bool:
+        return bool(self.poses) and all(p.error <= 1e-3 for p in self.poses)
+
+    @property
+    def robust(self) -> bool:
+        return all(p.robustness is None or p.robustness.holds for p in self.poses)
+
+    def to_dict(self) -> dict:
+        return {"success": bool(self.success), "reachable": self.reachable, "robust": self.robust,
+                "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha},
+                "vary": list(self.vary), "schedule": self.schedule, "transitions": self.transitions,
+                "message": self.message,
+                "tolerances": None if self.tolerances is None else self.tolerances.to_dict(),
+                "timings_s": self.timings,
+                "units": {"length": "rod length", "angle": "rad", "h": "dimensionless field group",
+                          "p": "B0/l^2"}}
+
+
+def _fail(message, scene, vary, tol, timings) -> MultiPoseResult:
+    return MultiPoseResult(False, [], {}, tuple(vary), [], [], message, scene, tol, timings=timings)
+
+
+def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = None,
+                 vary: Optional[Sequence[str]] = None, options: Optional[SolverOptions] = None,
+                 settings: Optional[DesignSettings] = None, verify: bool = True) -> MultiPoseResult:
+    """Design one fibre layout and one field per pose so that the rod reaches every target.
+
+    Parameters
+    ----------
+    targets : sequence of (x, y) or (x, y, angle)
+        Two to :data:`MAX_POSES` tip poses, units of ℓ (angles in rad), visited in this order.
+    scene : Scene, optional
+        Base scene (default: THEORY §5's cantilever). A fibre layout given in it is kept unless
+        ``vary`` includes ``alpha``.
+    vary : sequence of {"h", "phi", "alpha", "p"}, optional
+        Default (h, φ, α) — (h, φ) when the scene's fibres are fixed; α is shared by all poses, the
+        others are one per pose.
+    options, settings : as for :func:`~.design.design` (``settings.tolerances``: the box every pose
+        must hold over).
+    verify : bool
+        Run the independent checks (loading paths from zero field, transitions).
+
+    Returns
+    -------
+    MultiPoseResult
+    """
+    t0 = time.perf_counter()
+    timings: Dict[str, float] = {}
+    targets = [tuple(float(v) for v in t) for t in targets]
+    if not 2 <= len(targets) <= MAX_POSES:
+        raise ValueError(f"--target-tip: a multi-pose design takes 2 to {MAX_POSES} poses, got {len(targets)}")
+    settings = settings or DesignSettings()
+    no_box = Tolerances(field_rel=0.0, angle=0.0)
+    first = design_problem(targets[0], scene, vary, options, replace(settings, tolerances=no_box), None, t0)
+    vset = first.variable_sets[-1] if vary is None else tuple(vary)
+    if "stiffness" in vset:
+        raise ValueError("--vary: a multi-pose design varies h, phi, alpha, p")
+    first = replace(first, variable_sets=(vset,))
+    targets = [first.target] + [design_problem(t, scene, vset, options, settings, None, t0).target
+                                for t in targets[1:]]
+    tol = settings.tolerances
+    ch1 = choose(first, search(first, timings))
+    if ch1 is None or not ch1.reachable:
+        return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
+                     tol, timings)
+    nlp, base = ch1.candidate.nlp, ch1.candidate.base
+    coeffs = ch1.point.coefficients
+    d_list, z_list = [design_vector(nlp, ch1.point)], [ch1.point.z]
+    fixed = replace(base, fibres=ch1.scene.fibres)
+    per_pose = tuple(v for v in vset if v != "alpha")
+    for k, tgt in enumerate(targets[1:], start=2):
+        pk = design_problem(tgt, fixed, per_pose, options, replace(settings, tolerances=no_box), None, t0)
+        ck = choose(pk, search(pk, timings))
+        if ck is None:
+            return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings)
+        pt = ck.point
+        d_list.append(nlp.design_vector(h=pt.h, phi=pt.phi, p=pt.p, coefficients=coeffs))
+        z_list.append(pt.z)
+    timings["single_poses"] = time.perf_counter() - t0
+    s = settings
+    tj = time.perf_counter()
+    joint = _joint_nominal(nlp, base, d_list, z_list, targets, s)
+    if joint.point is None:
+        return _fail("no shared fibre layout with stable states at every pose was found "
+                     f"({'; '.join(joint.attempts)})", base, vset, tol, timings)
+    snlp, point, scale = joint.nlp, joint.point, 1.0
+    notes = []
+    if tol.active:
+        d_list = [snlp.pose_vector(point.d, k) for k in range(len(targets))]
+        z_list = [point.z[k][0] for k in range(len(targets))]
+        rob = robustify(nlp, base, d_list, z_list, targets, tol, margin=s.margin, bounds=s.bounds())
+        if rob.point is not None:
+            snlp, point, scale = rob.nlp, rob.point, rob.scale
+        else:
+            scale = 0.0
+        if scale < 1.0:
+            notes.append(f"no shared design found holds over the whole tolerance box; the most robust one "
+                         f"holds over {100 * scale:.3g} % of it")
+    timings["joint"] = time.perf_counter() - tj
+    scenes = pose_designs(snlp, base, point.d)
+    poses = _check_poses(snlp, nlp, scenes, point, targets, tol, first, ch1, verify, timings)
+    schedule, transitions = (_visit_in_order(poses, scenes, first, timings) if verify and all(p.verified for p in poses)
+                             else ([], []))
+    ok = (all(p.verified and p.stable and p.snap_free and p.error <= s.accept_tol for p in poses)
+          and all(p.robustness is None or p.robustness.holds for p in poses) and bool(schedule))
+    for k, p in enumerate(poses, start=1):
+        if not p.verified:
+            notes.append(f"pose {k} not verified: {p.label}")
+        elif p.robustness is not None and not p.robustness.holds:
+            notes.append(f"pose {k} does not hold over the box")
+    if verify and all(p.verified for p in poses) and not schedule:
+        notes.append("no snap-free schedule visits the poses in order")
+    s_dense = np.linspace(0.0, 1.0, 201)
+    alpha = {"s": s_dense.tolist(), "value": scenes[0].fibres(s_dense).tolist(),
+             "legendre_coefficients": [float(c) for c in (point.d[:snlp.n_alpha] if snlp.n_alpha else coeffs)]}
+    timings["total"] = time.perf_counter() - t0
+    head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok
+            else "NOT a success")
+    return MultiPoseResult(ok, poses, alpha, vset, schedule, transitions, "; ".join([head] + notes), first.base,
+                           tol if tol.active else None, scenes=scenes,
+                           timings=timings)
+
+
+def _joint_nominal(nlp, base, d_list, z_list, targets, settings, fractions=(0.25, 0.5, 0.75, 1.0)):
+    """Every pose exact with one shared layout, by homotopy in the targets: each pose's target moves
+    from the tip its start reaches to the real target in steps, each solve warm-started from the last
+    (a direct solve from starts far from the targets is often declared locally infeasible)."""
+    sv = nlp.solver
+    no_box = Tolerances(field_rel=0.0, angle=0.0)
+    start_tips = []
+    for d, z in zip(d_list, z_list):
+        _, th, x, y = sv.summary(z, sv.parameter_vector(nlp.scene_for(base, d)))
+        start_tips.append(np.array([x, y, th]))
+    out = None
+    for frac in fractions:
+        tg = [tuple(t0[:len(t)] + frac * (np.asarray(t) - t0[:len(t)])) for t0, t in zip(start_tips, targets)]
+        out = robustify(nlp, base, d_list, z_list, tg, no_box, margin=settings.margin, bounds=settings.bounds())
+        if out.point is None:
+            out.attempts.insert(0, f"targets {100 * frac:g} % of the way from the single-pose designs")
+            return out
+        d_list = [out.nlp.pose_vector(out.point.d, k) for k in range(len(targets))]
+        z_list = [out.point.z[k][0] for k in range(len(targets))]
+    return out
+
+
+def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, timings) -> List[PoseResult]:
+    """Per pose: robustness by branch following and, with ``verify``, a loading path from rest."""
+    out = []
+    sv = nlp.solver
+    for k, (sc, tgt) in enumerate(zip(scenes, targets)):
+        z = point.z[k][0]
+        _, th, x, y = sv.summary(z, sv.parameter_vector(sc))
+        dv = snlp.pose_vector(point.d, k)
+        get = lambda v, default: float(dv[nlp.dslices[v]][0]) if v in nlp.vary else default
+        dp = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi),
+                         coefficients=np.asarray(dv[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else
+                         np.zeros(0), p=get("p", sc.p), z=z, tip=np.array([x, y, th]), converged=True,
+                         status="joint", stage="poses")
+        rob = evaluate_robustness(sc, z, tgt, tol, problem.options) if tol.active else None
+        verified, stable, snap_free, label, sched, ach = False, False, False, "not verified (skipped)", [], \
+            {"x": x, "y": y, "angle": th}
+        state = None
+        if verify:
+            tv = time.perf_counter()
+            v = verify_stage(problem, Choice(point=dp, candidate=ch1.candidate, scene=sc, reachable=True,
+                                             notes=[], alternatives={}, optima=[]))
+            timings[f"verify_pose_{k + 1}"] = time.perf_counter() - tv
+            label = v.label
+            if v.path is not None:
+                final = v.path.final
+                state = final
+                verified, stable, snap_free = True, bool(final.stable), bool(v.path.snap_free)
+                ach = {"x": final.tip["x"], "y": final.tip["y"], "angle": final.tip["angle"]}
+                sched = [{"h": float(q["h"]), "phi": float(q["phi"]), **({"p": float(q["p"])} if "p" in q else {})}
+                         for q in v.schedule]
+        out.append(PoseResult(tgt, ach, tip_error((ach["x"], ach["y"], ach["angle"]), tgt),
+                              {"h": dp.h, "phi": normalise_phi(dp.phi), "p": dp.p}, rob, verified, stable,
+                              snap_free, sched, label, z, state))
+    return out
+
+
+def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timings):
+    """The schedule from rest through every pose in order, each transition checked by a loading path
+    that lands on the next pose's state; falls back to ramping the field down and the next pose's
+    verified schedule from rest."""
+    from .loading import follow_path
+    from .schedule import nearest_axis_angle
+
+    tv = time.perf_counter()
+    sched = [dict(q, pose=1) for q in poses[0].schedule]
+    labels = [f"pose 1: {poses[0].label}"]
+    for k in range(1, len(poses)):
+        prev, nxt = sched[-1], poses[k]
+        # the rod at pose k, as the previous leg left it, in pose k's scene (same rod, its field)
+        phi_next = nearest_axis_angle(nxt.design["phi"], prev["phi"])
+        leg = [{"h": prev["h"], "phi": prev["phi"]}, {"h": nxt.design["h"], "phi": phi_next}]
+        start_scene = scenes[k - 1].with_values(h=prev["h"], phi=prev["phi"])
+        path = follow_path(start_scene, problem.options, leg, initial=poses[k - 1].z, max_dtheta=0.3)
+        tip = path.final.tip if path.final is not None and path.final.success else None
+        first = path.points[0].tip if path.points else None
+        start_ok = first is not None and tip_error((first["x"], first["y"]), (poses[k - 1].achieved["x"],
+                                                                            poses[k - 1].achieved["y"])) <= 1e-6
+        if (tip is not None and path.snap_free and start_ok and path.final.stable
+                and tip_error((tip["x"], tip["y"]), (nxt.achieved["x"], nxt.achieved["y"])) <= 1e-6):
+            sched += [dict(q, pose=k + 1) for q in leg[1:]]
+            labels.append(f"pose {k + 1}: straight from pose {k}'s field, rotating "
+                          f"{math.degrees(phi_next - prev['phi']):+.3g} deg")
+            continue
+        down = [{"h": prev["h"] * t, "phi": prev["phi"], "pose": k} for t in np.linspace(1, 0, 6)[1:]]
+        sched += down + [dict(q, pose=k + 1) for q in nxt.schedule]
+        labels.append(f"pose {k + 1}: field down to zero, then its own schedule from rest ({nxt.label})")
+    timings["transitions"] = time.perf_counter() - tv
+    return sched, labels
