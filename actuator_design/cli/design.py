@@ -50,6 +50,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="target tip position (rod lengths unless --target-units) and optional "
                              "tip angle in degrees; several poses separated by ';' (one actuator: one "
                              "fibre layout, one field per pose), e.g. '0.3,0.5;0.6,0.2'")
+    parser.add_argument("--target-shape", metavar="FILE.csv",
+                        help="a target shape instead of a tip: a CSV with header s,x,y (s in (0, 1], x, y in "
+                             "rod lengths unless --target-units), fitted in least squares")
     parser.add_argument("--target-units", choices=("rod", "mm", "m"), default=None,
                         help="units of X,Y (default rod lengths; mm/m need a physical scene)")
     parser.add_argument("--target-stiffness", metavar="K",
@@ -129,7 +132,11 @@ def _inputs(args):
         target_text = ";".join(",".join(str(v) for v in t) for t in study["targets"])
     stiffness = _parse_stiffness(args.target_stiffness if args.target_stiffness is not None
                                  else study.get("stiffness"), scene)
-    if target_text is None and stiffness is None:
+    if getattr(args, "target_shape", None) is not None:
+        if target_text is not None or stiffness is not None:
+            raise InputError("--target-shape: give either a shape or --target-tip/--target-stiffness, not both")
+        target_text = None
+    elif target_text is None and stiffness is None:
         raise InputError("--target-tip: required unless --target-stiffness is given (or `study: {type: "
                          "design, target: [x, y]}` in CONFIG)")
     units = args.target_units or study.get("target_units", "rod")
@@ -286,6 +293,9 @@ def _output_files(res, raw) -> dict:
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw, target, vary, settings, stiffness = _inputs(args)
+    if args.target_shape is not None:
+        from .design_shape import run_shape
+        return run_shape(args, scene, options, raw, vary, settings)
     if isinstance(target, list):
         from .design_poses import run_poses
         return run_poses(args, scene, options, raw, target, vary, settings)
