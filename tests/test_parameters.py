@@ -83,6 +83,20 @@ def test_directors_are_orthonormal_and_rotate_by_a_quarter_turn():
 
 
 # -- one registry: every name an analysis accepts is a lens entry ---------------------------------
+def _scene_flag_names():
+    """Destinations of the CLI's scene-value flags (the 'scene' argument group)."""
+    import argparse
+
+    from actuator_design.cli.scene_args import SCENE_KEYS, add_scene_args
+
+    parser = argparse.ArgumentParser()
+    add_scene_args(parser, dict.fromkeys(SCENE_KEYS, 0.0))
+    group = next(g for g in parser._action_groups if g.title.startswith("scene"))
+    dests = {a.dest for a in group._group_actions}
+    assert {"h", "phi_deg", "p", "alpha_deg"} <= dests
+    return dests | set(SCENE_KEYS)
+
+
 def test_every_name_the_analyses_accept_is_a_lens_entry():
     from actuator_design.analysis import design, design_robust, stiffness, tolerances
     from actuator_design.analysis.design_nlp import DESIGN_VARIABLES
@@ -101,6 +115,7 @@ def test_every_name_the_analyses_accept_is_a_lens_entry():
         "robust design: per-pose variables and loads": set(design_robust._PER_POSE)
         | set(design_robust._LOADS),
         "tolerance box: physical axes": set(tolerances._SPEC) & set(lens.physical_parameters()),
+        "scene flags (--h, --phi-deg, ...)": _scene_flag_names(),
     }
     assert {"youngs_modulus", "chi_bar", "clamp_angle"} <= accepted["tolerance box: physical axes"]
     for what, got in accepted.items():

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..config import ConfigError
 from ..options import SolverOptions
+from ..parameters import get_value
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 from ..study.spec import validate_spec
@@ -197,10 +198,12 @@ class FitProblem:
         self.initial = init
 
     def _scene_value(self, name: str) -> float:
+        same_as = PARAMETERS[name].same_as
+        if same_as is not None:  # a value of the scene itself (h, the clamp angle θ0)
+            return get_value(self.scene, same_as)
         c = self.const
         return {"chi_bar": lambda: c["chi0"], "youngs_modulus": lambda: c["E0"],
-                "bending_stiffness": lambda: c["B0"], "h": lambda: c["h0"],
-                "clamp_angle": lambda: c["theta00"], "field_scale": lambda: 1.0,
+                "bending_stiffness": lambda: c["B0"], "field_scale": lambda: 1.0,
                 "field_offset": lambda: 0.0, "field_angle_offset": lambda: 0.0}[name]()
 
     # -- symbolic map θ, inputs → NLP slots, and the sensitivity functions ----------------------
