@@ -10,20 +10,34 @@ Terms contribute their own parameters (``EnergyTerm.parameters`` in :mod:`.physi
 clamp angle ``theta0`` belongs to the transcription. The registry below collects them in the order
 the terms are registered, so a plug-in term's parameters are continued, designed and ramped like
 the built-in ones. Continuation, loading paths, critical values, maps, design and the CLI all look
-names up here: :func:`parameter` is the single source of truth.
+names up here: :func:`parameter` is the single source of truth. Entries flagged ``designable`` are
+the inverse design's variables (:func:`designable`; ``alpha``, a per-point profile, is designed as
+a profile α(s)); angles (unit ``rad``) also answer to ``<name>_deg`` on the CLI
+(:func:`degree_aliases`).
+
+The lens also holds the unit-carrying *physical* parameters (:class:`PhysicalParameter`,
+:func:`physical_parameters`): material values (χ̄, E, B0), the groups themselves seen as
+measured quantities (``h``, the clamp angle) and the measurement model of a calibration (a factor
+and an offset on the measured field, an offset on its angle). Each knows its dimension (for pint),
+its scale (positive values are fitted in log scale), the scene types that have it and how the
+dimensionless groups of THEORY §5 scale with it (h² ∝ χ̄ H²/B, loads ∝ 1/B). Calibration fits
+exactly these.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Dict, List, Mapping, Optional, Sequence
+from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .scene import Scene
+from .units import DIMENSIONS
 
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
-           "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0"]
+           "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
+           "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
+           "physical_parameter", "entry_names"]
 
 
 @dataclass(frozen=True)
@@ -60,6 +74,8 @@ class Parameter:
         The slot spans every quadrature point (a constant profile such as ``alpha``).
     ensure : callable (Scene) -> Scene, optional
         Adds the needed term at value zero (or raises ValueError when the scene cannot have it).
+    designable : bool
+        A variable of the inverse design (a profile α(s) when ``per_point``).
     """
 
     name: str
@@ -77,6 +93,7 @@ class Parameter:
     residual: Optional[str] = None
     per_point: bool = False
     ensure: Optional[Callable[[Scene], Scene]] = None
+    designable: bool = False
 
     # -- values --------------------------------------------------------------------------------
     def get(self, scene: Scene) -> float:
@@ -185,6 +202,17 @@ def parameter(name: str, what: str = "parameter") -> Parameter:
     return p
 
 
+def designable() -> Dict[str, Parameter]:
+    """The inverse design's variables, name -> :class:`Parameter`, in registration order
+    (a ``per_point`` entry such as ``alpha`` is designed as a profile α(s))."""
+    return {n: p for n, p in parameters().items() if p.designable}
+
+
+def degree_aliases() -> Dict[str, str]:
+    """``<name>_deg`` -> ``<name>`` for every angle (unit ``rad``): the CLI's names in degrees."""
+    return {f"{n}_deg": n for n, p in parameters().items() if p.unit == "rad"}
+
+
 def get_value(scene: Scene, name: str, what: str = "parameter") -> float:
     """The value of parameter ``name`` in ``scene`` (0 for an absent term)."""
     return parameter(name, what).get(scene)
@@ -250,3 +278,98 @@ def apply_values(scene: Scene, values: Mapping[str, float], what: str = "paramet
                         scene = q.write(scene, after)
         scene = p.set(scene, vals[p.name])
     return scene
+
+
+# -- physical, unit-carrying parameters -------------------------------------------------------------
+@dataclass(frozen=True)
+class PhysicalParameter:
+    """A unit-carrying parameter of a scene's physical description (or of a measurement model).
+
+    Attributes
+    ----------
+    name : str
+        Name used by configs (``study.parameters.<name>`` of a fit) and JSON.
+    description : str
+        Meaning, one line (written into a fit's JSON).
+    dimension : str
+        A key of :data:`actuator_design.units.DIMENSIONS` (how pint reads a value with units).
+    log : bool
+        The value is positive and is fitted in log scale.
+    scenes : tuple of {"physical", "dimensionless"}
+        The scene types that have it.
+    groups : tuple of (str, float)
+        (NLP slot, exponent e): with every other input fixed, the dimensionless group in that slot
+        is ∝ value^e (THEORY §5: h ∝ χ̄^½ B^-½ H, loads ∝ 1/B).
+    through_field : bool
+        It acts on the applied field H (a measurement-model parameter), not on the rod.
+    shifts : str or None
+        The input it is added to: ``"field"`` (the field magnitude H) or a lens name (``"phi"``).
+    same_as : str or None
+        The lens parameter whose value it is (``h``; ``clamp_angle`` is ``theta0``).
+    term : str or None
+        The energy term it needs (the field term for χ̄, h and the field's measurement model).
+    """
+
+    name: str
+    description: str
+    dimension: str
+    log: bool
+    scenes: Tuple[str, ...]
+    groups: Tuple[Tuple[str, float], ...] = ()
+    through_field: bool = False
+    shifts: Optional[str] = None
+    same_as: Optional[str] = None
+    term: Optional[str] = None
+
+    @property
+    def unit(self) -> str:
+        """SI unit symbol of the value (``""`` when dimensionless)."""
+        return DIMENSIONS[self.dimension].unit
+
+    def exponent(self, slot: str) -> float:
+        """e in group(slot) ∝ value^e (0 when the group does not depend on it)."""
+        return dict(self.groups).get(slot, 0.0)
+
+
+_FIELD = "field_orientation"
+_BOTH = ("physical", "dimensionless")
+#: B0 = E I: the field groups h, h_pos ∝ B^-½ and the loads ∝ 1/B (THEORY §5)
+_STIFFNESS_GROUPS = (("h", -0.5), ("h_pos", -0.5), ("fx", -1.0), ("fy", -1.0), ("m_tip", -1.0),
+                     ("qx", -1.0), ("qy", -1.0))
+_PHYSICAL = (
+    PhysicalParameter("chi_bar", "orientational susceptibility χ̄", "dimensionless", True,
+                      ("physical",), groups=(("h", 0.5),), term=_FIELD),
+    PhysicalParameter("youngs_modulus", "Young's modulus E (B0 = E I)", "pressure", True,
+                      ("physical",), groups=_STIFFNESS_GROUPS),
+    PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,
+                      ("physical",), groups=_STIFFNESS_GROUPS),
+    PhysicalParameter("h", "field group h (THEORY §5)", "dimensionless", True, ("dimensionless",),
+                      groups=(("h", 1.0),), same_as="h", term=_FIELD),
+    PhysicalParameter("clamp_angle", "clamp angle θ0", "angle", False, _BOTH, same_as="theta0"),
+    PhysicalParameter("field_scale", "factor on the measured field", "dimensionless", True, _BOTH,
+                      groups=(("h", 1.0), ("h_pos", 1.0)), through_field=True, term=_FIELD),
+    PhysicalParameter("field_offset", "offset added to the measured field", "magnetic_field", False,
+                      _BOTH, through_field=True, shifts="field", term=_FIELD),
+    PhysicalParameter("field_angle_offset", "offset added to the field angle", "angle", False,
+                      _BOTH, through_field=True, shifts="phi", term=_FIELD),
+)
+_PHYSICAL_BY_NAME: Dict[str, PhysicalParameter] = {p.name: p for p in _PHYSICAL}
+
+
+def physical_parameters() -> Dict[str, PhysicalParameter]:
+    """Every physical parameter, name -> :class:`PhysicalParameter` (the fittable ones)."""
+    return _PHYSICAL_BY_NAME
+
+
+def physical_parameter(name: str, what: str = "parameter") -> PhysicalParameter:
+    """The physical parameter ``name``; ValueError ``unknown <what> …(allowed: …)`` otherwise."""
+    p = _PHYSICAL_BY_NAME.get(name)
+    if p is None:
+        raise ValueError(f"unknown {what} {name!r} (allowed: {', '.join(_PHYSICAL_BY_NAME)})")
+    return p
+
+
+def entry_names() -> List[str]:
+    """Every name the lens knows: scene parameters, their ``_deg`` aliases, physical parameters."""
+    out = names() + list(degree_aliases())
+    return out + [n for n in physical_parameters() if n not in out]

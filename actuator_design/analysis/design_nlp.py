@@ -32,15 +32,12 @@ from ..solver import EquilibriumSolver, get_solver
 
 __all__ = ["DESIGN_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
-#: Design variables a user may vary, and what each means: the lens parameters h, phi and p
-#: (:mod:`actuator_design.parameters`), plus the fibre layout α(s) as a Legendre series.
-_LENS_VARIABLES = ("h", "phi", "p")
-DESIGN_VARIABLES = {
-    "h": lens.parameter("h").description + " (THEORY §5)",
-    "phi": lens.parameter("phi").description + " (rad)",
-    "alpha": "fibre layout α(s), a Legendre series",
-    "p": lens.parameter("p").description + " (units of B0/l^2)",
-}
+#: Design variables a user may vary (the lens entries flagged designable, in registration order:
+#: h, phi, alpha, p) and what each means; a per-point entry (alpha) is designed as a profile α(s),
+#: a Legendre series, the others are scalars written into their NLP slots.
+DESIGN_VARIABLES = {n: (f"{n}(s), a Legendre series" if p.per_point else p.description) + f" ({p.unit})"
+                    for n, p in lens.designable().items()}
+_LENS_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
 _LBFGS_CERTIFIED = True
@@ -109,7 +106,7 @@ class DesignNLP:
         self.n = n
 
         # design vector d and its named slices
-        sizes = {"h": 1, "phi": 1, "alpha": self.alpha_terms, "p": 1}
+        sizes = {v: self.alpha_terms if lens.parameter(v).per_point else 1 for v in self.vary}
         self.dslices, off = {}, 0
         for v in self.vary:
             self.dslices[v] = slice(off, off + sizes[v])

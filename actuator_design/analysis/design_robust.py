@@ -37,15 +37,17 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
+from .. import parameters as lens
 from ..scene import Scene
-from .design_nlp import DesignNLP, _bandwidth, _ldl_pivots
+from .design_nlp import _LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots
 from .tolerances import Tolerances, perturb
 
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
            "pose_designs"]
 
-_LOADS = ("fx", "fy", "m_tip", "qx", "qy")
-_PER_POSE = ("h", "phi", "p")
+#: load slots (∝ 1/E, THEORY §5: the lens's groups of youngs_modulus): fx, fy, m_tip, qx, qy
+_LOADS = tuple(s for s, e in lens.physical_parameter("youngs_modulus").groups if e == -1.0)
+_PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set per pose
 
 
 @dataclass
@@ -114,7 +116,7 @@ class ScenarioDesignNLP:
             P = ca.SX(P0)
             for j, v in enumerate(self.per_pose):
                 val = d[self.pose_index(k, v)]
-                P[sl[{"h": "h", "phi": "phi", "p": "fy"}[v]]] = val
+                P[sl[lens.parameter(v).slot]] = val
             if alpha is not None:
                 P[sl["alpha"]] = alpha
             return P

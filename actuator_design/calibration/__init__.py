@@ -3,7 +3,8 @@
 Modules, one job each:
 
 * :mod:`.data` — measurement files (CSV, units in the header) → :class:`MeasuredData`;
-* :mod:`.parameters` — the fittable parameter table;
+* :mod:`.parameters` — the fittable parameters (the physical parameters of the lens
+  :mod:`actuator_design.parameters`) and the measured outputs;
 * :mod:`.spec` — the ``study: {type: fit}`` section;
 * :mod:`.problem` — conditions → scenes → stable equilibria → outputs, exact sensitivities
   (:mod:`.branches` picks the measured branch; :mod:`.curves` draws the model along an input);

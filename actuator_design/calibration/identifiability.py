@@ -14,7 +14,7 @@ from typing import List
 import numpy as np
 
 from ..units import ureg
-from .parameters import unit_of
+from .parameters import PARAMETERS, unit_of
 
 __all__ = ["null_direction", "choose_held", "identifiability_message", "combinations",
            "combination_value", "ZERO_SENSITIVITY"]
@@ -75,7 +75,7 @@ def identifiability_message(names, free, vec, j, rel, is_log, problem,
     else:
         what = (f"{' and '.join(involved)} are not identifiable separately from these data "
                 f"(relative singular value {rel:.1e}")
-        if set(involved) <= {"chi_bar", "youngs_modulus", "bending_stiffness", "h", "field_scale"}:
+        if all(PARAMETERS[n].exponent("h") for n in involved):  # power laws on h (lens groups)
             what += "; they enter only through the field group h² ∝ χ̄ H²/B"
         what += ")"
     held = f"{names[j]} is held at {problem.initial[names[j]]:g} {unit_of(names[j])}".rstrip()

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..units import MU0
 from .identifiability import combination_value
-from .parameters import PARAMETERS, unit_of
+from .parameters import PARAMETERS, field_coefficient_exponent, unit_of
 
 __all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
            "derived_quantities"]
@@ -90,9 +90,7 @@ def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
         val.get("bending_stiffness", c["B0"])
     coef = math.sqrt(MU0 * chi * c["A"] * c["L"] ** 2 / (2.0 * B))
     # d log c / d log χ̄ = 1/2, d log c / d log E (or B) = −1/2
-    g = np.array([0.5 if names[i] == "chi_bar" else
-                  -0.5 if names[i] in ("youngs_modulus", "bending_stiffness") else 0.0
-                  for i in free])
+    g = np.array([field_coefficient_exponent(names[i]) for i in free])
     sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0
     out = {"h_per_field": {"value": coef, "unit": "m/A", "std": coef * sd,
                            "ci": [coef * safe_exp(-tq * sd), coef * safe_exp(tq * sd)],

@@ -1,54 +1,37 @@
 """The fittable parameters and the measured outputs of a calibration.
 
-One small table, kept apart so that it can later be folded into the project-wide parameter lens
-(issue 11): name → physical dimension (for units), scale (positive parameters are fitted in log
-scale), the scene types it applies to, and a description.
+The fittable parameters are the physical parameters of the project's one parameter lens
+(:func:`actuator_design.parameters.physical_parameters`): name → dimension (for units), scale
+(positive parameters are fitted in log scale), the scene types that have it, how the dimensionless
+groups scale with it, and a description. This module only names them for the calibration and adds
+the measured outputs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Dict, Tuple
 
-from ..units import DIMENSIONS
+from ..parameters import PhysicalParameter, physical_parameters
 
-__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "SLOTS", "unit_of"]
+__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "unit_of", "field_coefficient_exponent"]
 
+#: A fittable parameter is a physical parameter of the lens.
+FitParameter = PhysicalParameter
 
-@dataclass(frozen=True)
-class FitParameter:
-    """A fittable parameter: dimension (a key of ``units.DIMENSIONS``), log scale, scene types."""
-
-    dimension: str
-    log: bool  # positive parameter, fitted in log scale
-    scenes: Tuple[str, ...]
-    description: str
-
-
-#: Fittable parameters: dimension (for units), scale, scene types, meaning.
-PARAMETERS: Dict[str, FitParameter] = {
-    "chi_bar": FitParameter("dimensionless", True, ("physical",),
-                            "orientational susceptibility χ̄"),
-    "youngs_modulus": FitParameter("pressure", True, ("physical",), "Young's modulus E (B0 = E I)"),
-    "bending_stiffness": FitParameter("bending_stiffness", True, ("physical",),
-                                      "bending stiffness B0"),
-    "h": FitParameter("dimensionless", True, ("dimensionless",), "field group h (THEORY §5)"),
-    "clamp_angle": FitParameter("angle", False, ("physical", "dimensionless"), "clamp angle θ0"),
-    "field_scale": FitParameter("dimensionless", True, ("physical", "dimensionless"),
-                                "factor on the measured field"),
-    "field_offset": FitParameter("magnetic_field", False, ("physical", "dimensionless"),
-                                 "offset added to the measured field"),
-    "field_angle_offset": FitParameter("angle", False, ("physical", "dimensionless"),
-                                       "offset added to the field angle"),
-}
+#: Fittable parameters: the lens's physical parameters (the same mapping, not a copy).
+PARAMETERS: Dict[str, PhysicalParameter] = physical_parameters()
 
 #: Measured output column → (component of the tip vector (θ(1), x(1), y(1)), is a length).
 OUTPUT_COMPONENT: Dict[str, Tuple[int, bool]] = {
     "tip_angle": (0, False), "tip_x": (1, True), "tip_y": (2, True), "tip_deflection": (2, True)}
 
-#: NLP parameter slots a fit may change (when the scene structure has them).
-SLOTS = ("h", "phi", "fx", "fy", "qx", "qy", "m_tip", "theta0")
-
 
 def unit_of(name: str) -> str:
     """SI unit symbol of fitted parameter ``name`` ("" when dimensionless)."""
-    return DIMENSIONS[PARAMETERS[name].dimension].unit
+    return PARAMETERS[name].unit
+
+
+def field_coefficient_exponent(name: str) -> float:
+    """e in c ∝ value^e for the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) (THEORY §5):
+    ½ for χ̄, −½ for E or B0, 0 for the field's own measurement model and the clamp angle."""
+    p = PARAMETERS[name]
+    return 0.0 if p.through_field else p.exponent("h")

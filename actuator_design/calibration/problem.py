@@ -24,13 +24,14 @@ import numpy as np
 
 from ..config import ConfigError
 from ..options import SolverOptions
+from ..parameters import get_value
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 from ..study.spec import validate_spec
 from ..units import MU0, QuantityError, parse_quantity
 from .branches import BranchSelector
 from .data import COLUMNS, DataError, MeasuredData
-from .parameters import OUTPUT_COMPONENT, PARAMETERS, SLOTS
+from .parameters import OUTPUT_COMPONENT, PARAMETERS
 from .spec import FitSpec
 
 __all__ = ["FitProblem", "ConditionState"]
@@ -144,8 +145,7 @@ class FitProblem:
         """The scene with the terms the data need (a tip force for load columns)."""
         cols = self.data.columns
         needs_field = ("field" in cols or "field_angle" in cols or
-                       {"chi_bar", "h", "field_scale", "field_offset",
-                        "field_angle_offset"} & set(self.names))
+                       any(PARAMETERS[n].term == "field_orientation" for n in self.names))
         if scene.field is not None and not isinstance(scene.field, UniformField):
             raise ConfigError("scene.field", f"fitting supports uniform fields (or none), got a "
                                              f"{scene.field.kind} field")
@@ -198,10 +198,12 @@ class FitProblem:
         self.initial = init
 
     def _scene_value(self, name: str) -> float:
+        same_as = PARAMETERS[name].same_as
+        if same_as is not None:  # a value of the scene itself (h, the clamp angle θ0)
+            return get_value(self.scene, same_as)
         c = self.const
         return {"chi_bar": lambda: c["chi0"], "youngs_modulus": lambda: c["E0"],
-                "bending_stiffness": lambda: c["B0"], "h": lambda: c["h0"],
-                "clamp_angle": lambda: c["theta00"], "field_scale": lambda: 1.0,
+                "bending_stiffness": lambda: c["B0"], "field_scale": lambda: 1.0,
                 "field_offset": lambda: 0.0, "field_angle_offset": lambda: 0.0}[name]()
 
     # -- symbolic map θ, inputs → NLP slots, and the sensitivity functions ----------------------
@@ -237,12 +239,13 @@ class FitProblem:
         fx = u[2] * scale_F if "load_x" in cols else c["f0"][0] * ratio
         fy = u[3] * scale_F if ("load" in cols or "load_y" in cols) else c["f0"][1] * ratio
         phi = (u[1] if "field_angle" in cols else c["phi0"]) + get("field_angle_offset", 0.0)
+        # the NLP slots a fit may change (lens slots; others keep the scene's value)
         slot_expr = {
             "h": h, "phi": phi, "fx": fx, "fy": fy, "qx": c["q0"][0] * ratio,
             "qy": c["q0"][1] * ratio, "m_tip": c["m0"] * ratio,
             "theta0": get("clamp_angle", c["theta00"]),
         }
-        self.slots = [s for s in SLOTS if s in layout.slices]
+        self.slots = [s for s in slot_expr if s in layout.slices]
         self.slot_index = np.array([layout.slices[s].start for s in self.slots])
         q = ca.vertcat(*[ca.SX(slot_expr[s]) for s in self.slots])
         self.f_map = ca.Function("fit_map", [th, u], [q, ca.jacobian(q, th)])

@@ -29,6 +29,7 @@ import math
 
 from .common import (EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config,
                      stdout_to_stderr)
+from ..parameters import designable
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -36,7 +37,7 @@ __all__ = ["HELP", "add_args", "run"]
 HELP = "inverse design: the field (and fibres, load) that puts the tip at a target, verified"
 
 EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
-_VARIABLES = ("h", "phi", "alpha", "p")
+_VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:

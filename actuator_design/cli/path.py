@@ -34,6 +34,7 @@ import math
 import sys
 from typing import Dict, Optional, Union
 
+from ..parameters import degree_aliases
 from .scene_args import add_scene_args, build_scene, validate_study
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
@@ -48,7 +49,7 @@ HELP = "quasi-static loading path: follow the stable state, snaps, hysteresis"
 DEFAULTS = {"h": 0.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
 
 #: Command-line names in degrees and the API name they map to.
-_DEGREE_NAMES = {"phi_deg": "phi", "alpha_deg": "alpha", "theta0_deg": "theta0"}
+_DEGREE_NAMES = degree_aliases()  # the lens angles: phi_deg, alpha_deg, theta0_deg
 
 
 # -- helpers shared by path, stiffness and phase ---------------------------------------------------

@@ -154,16 +154,16 @@ class FieldOrientation(EnergyTerm):
     parameters = (
         Parameter("h", "field group h", "1", "h", read=lambda sc: sc.h,
                   write=lambda sc, v: replace(sc, h=v, field=sc.field or UniformField()),
-                  field_power=1, **_H_KW),
+                  field_power=1, designable=True, **_H_KW),
         Parameter("h2", "h squared", "1", "h", read=lambda sc: sc.h ** 2,
                   write=lambda sc, v: replace(sc, h=float(np.sqrt(v)), field=sc.field or UniformField()),
                   transform="sqrt", field_power=2, **_H_KW),
         Parameter("phi", "uniform field angle phi", "rad", "phi", read=lambda sc: sc.phi,
                   write=lambda sc, v: replace(sc, field=UniformField(phi=v)), term="field_orientation",
-                  ensure=_with_uniform_field),
+                  ensure=_with_uniform_field, designable=True),
         Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
                   write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
-                  per_point=True),
+                  per_point=True, designable=True),
     )
 
     def __init__(self, field: FieldModel):
@@ -235,7 +235,7 @@ class TipForce(EnergyTerm):
     scalar_params = ("fx", "fy")
     parameters = (
         Parameter("p", "vertical tip load p = fy", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
-                  write=lambda sc, v: _tip_force(sc, 1, v), **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 1, v), designable=True, **_F_KW),
         Parameter("fy", "tip force y component", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
                   write=lambda sc, v: _tip_force(sc, 1, v), **_F_KW),
         Parameter("fx", "tip force x component", "B0/l^2", "fx", read=lambda sc: _tip_force(sc, 0),
