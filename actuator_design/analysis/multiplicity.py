@@ -26,7 +26,7 @@ import numpy as np
 from ..scene import Scene
 from .. import parameters as lens
 from .continuation import set_param
-from .equilibria import ShootingProblem, _steps_for, gamma_bound
+from .shooting_scan import ShootingProblem, gamma_bound, scan_validity, steps_for
 from .registry import register
 
 __all__ = ["MultiplicityMap", "multiplicity_map", "count_row"]
@@ -101,7 +101,7 @@ def count_row(scenes: Sequence[Scene], n_gamma: int = 161, rad_per_step: float =
                  for i in range(0, len(scenes), BATCH)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     W = np.array([gamma_bound(sc)["window"] for sc in scenes])
-    N = max(_steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step) for sc, w in zip(scenes, W))
+    N = max(steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step) for sc, w in zip(scenes, W))
     G = int(n_gamma) | 1  # odd: γ = 0 is on the grid
     g = W[:, None] * np.linspace(-1.0, 1.0, G)[None, :]
     prob = ShootingProblem(scenes, N)
