@@ -143,6 +143,7 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not result.complete and method == "shooting":
-        print("actuator-design: warning: the bracket count did not stabilise; raise --n-gamma",
-              file=sys.stderr)
+        print(f"actuator-design: warning: not complete: {result.incomplete_reason}", file=sys.stderr)
+        if not result.scan.get("validity", {}).get("valid", True):
+            return EXIT_NOT_CONVERGED  # nothing was scanned: no answer to call a success
     return EXIT_OK
