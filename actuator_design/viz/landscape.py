@@ -50,13 +50,23 @@ def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 
 
 
 def _segments(lam, y, stable):
-    """Split a branch into runs of equal stability (each run shares its end point with the next)."""
+    """Split a branch into runs of equal stability, each sharing its end point with the next.
+
+    A step between a stable and an unstable point belongs to the unstable run: the branch's
+    located stability changes are points of it (:mod:`actuator_design.analysis.stability_changes`,
+    with the index on the stable side), so a stable run ends exactly where stability is lost.
+    """
     runs, start = [], 0
-    for k in range(1, len(lam) + 1):
-        if k == len(lam) or stable[k] != stable[start]:
-            end = min(k + 1, len(lam))
-            runs.append((lam[start:end], y[start:end], bool(stable[start])))
-            start = k
+    n = len(lam)
+    while start < n - 1 or (start == 0 and n == 1):
+        if n == 1:
+            return [(lam, y, bool(stable[0]))]
+        st = bool(stable[start]) and bool(stable[start + 1])
+        end = start + 1
+        while end < n - 1 and (bool(stable[end]) and bool(stable[end + 1])) == st:
+            end += 1
+        runs.append((lam[start:end + 1], y[start:end + 1], st))
+        start = end
     return runs
 
 
