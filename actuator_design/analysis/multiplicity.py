@@ -83,9 +83,8 @@ class MultiplicityMap:
         """Long-format CSV: x, y, equilibria, stable (one line per grid point)."""
         buf = io.StringIO()
         buf.write(f"# multiplicity map; {self.x_param}: {lens.parameter(self.x_param).describe()}; "
-                  f"{self.y_param}: {lens.parameter(self.y_param).describe()}\n")
-        buf.write("# equilibria, stable: numbers of equilibria and of stable ones; -1 = the scan cannot "
-                  "be trusted there (unknown)\n")
+                  f"{self.y_param}: {lens.parameter(self.y_param).describe()}; equilibria, stable: "
+                  f"numbers of equilibria and of stable ones, -1 where the scan cannot be trusted\n")
         buf.write(f"{self.x_param},{self.y_param},equilibria,stable\n")
         for i, yv in enumerate(self.y):
             for j, xv in enumerate(self.x):

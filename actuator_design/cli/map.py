@@ -4,7 +4,9 @@ Every grid point's equilibria are counted by the vectorised shooting scan (sign 
 free-end residual over the a-priori window of theta'(0); Morse indices by Sturm's count of the
 Jacobi field), rows in parallel over --workers processes with a progress bar on stderr (off when
 stderr is not a terminal or with --quiet). The fold curves of the y parameter are continued in the
-x parameter and drawn over the map (skip with --no-curves). Defaults: the paper's phase diagram,
+x parameter and drawn over the map (skip with --no-curves). map.png shows the number of equilibria
+beside the number of stable ones, with bistable regions (two or more stable states) hatched; a
+grid point where the scan cannot be trusted (large h) is counted -1 (unknown) and drawn grey. Defaults: the paper's phase diagram,
 phi = 0, x = h2 in [0, 20], y = p in [0, 60].
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
