@@ -12,7 +12,9 @@ the tangent changes sign, branch points where det [G_x; tᵀW] does, both locate
 σ ↦ (−1)^{Morse index} · min|μ_i| along the step). It adds what the analyses need on top: the
 start from a forward solve, tips, energies and θ'(0) along the branch, and branch switching —
 the second null vector of [G_u G_λ] at a branch point (W-orthogonal to the branch tangent) is the
-direction of the bifurcating branch.
+direction of the bifurcating branch. Every change of stability along a branch is located to the
+corrector's accuracy and inserted as a branch point of its own (:mod:`.stability_changes`), so the
+branch data and figures switch from stable to unstable exactly there.
 """
 from __future__ import annotations
 
@@ -34,6 +36,7 @@ from ..result import EquilibriumResult
 from ..scene import Scene
 from ..solver import EquilibriumSolver, get_solver
 from .branch import Branch, ContinuationResult, CriticalPoint
+from .stability_changes import insert_stability_changes
 from .registry import register
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
@@ -187,6 +190,8 @@ class Continuation:
         events = (Fold(), BranchPoint()) if locate else ()
         res = continuation(self.problem, PALC(), settings, events, x0=x0, tangent=t0)
         n = self.n
+        if locate:
+            insert_stability_changes(self.problem, settings, res)
         Xa = res.x
         z = np.column_stack([np.where(self.theta0_fixed, self._theta0, Xa[:, n]), Xa[:, :n]])
         crit = [CriticalPoint(e.kind, self.name, e.lam, self.full(e.x[:n], e.lam),

@@ -17,7 +17,10 @@ of a parameter window over all branches (THEORY §7–8).
   equilibria on either side of each critical value is counted by the shooting scan at the middle
   of each interval between consecutive critical values (where the count is constant).
   A branch that exists only strictly between two sample values and is connected to no traced
-  branch (an isola) is missed; raise ``n_samples`` to rule that out.
+  branch (an isola) is missed; raise ``n_samples`` to rule that out. Where a scan cannot be
+  trusted (:func:`~.shooting_scan.scan_validity`, e.g. h ≳ 12) the result says ``complete: false``
+  with the reasons, never an empty window called complete. Each critical point is reported once
+  over all branches (:func:`_dedupe`: values to 1e-7 relative, shapes to its square root).
 """
 from __future__ import annotations
 
@@ -169,7 +172,11 @@ class CriticalResult:
         (number of equilibria just below / above λ*), ``located``, Morse indices.
     branches : list of Branch
     counts : list of dict
-        ``{"from", "to", "equilibria", "stable"}`` per interval between consecutive critical values.
+        ``{"from", "to", "equilibria", "stable", "complete"}`` per interval between consecutive
+        critical values.
+    complete : bool
+        Every equilibrium scan (samples and counts) was certified complete; else
+        ``incomplete_reasons`` says where and why (the branches and counts may then miss some).
     """
 
     param: str
@@ -182,13 +189,16 @@ class CriticalResult:
     stats: dict
     fold_points: List[CriticalPoint] = field(default_factory=list, repr=False)
     branch_point_objects: List[CriticalPoint] = field(default_factory=list, repr=False)
+    complete: bool = True
+    incomplete_reasons: List[str] = field(default_factory=list)
 
     def to_dict(self, branches: bool = False) -> dict:
         """The ``critical --json`` contract: ``folds`` and ``branch_points`` with the parameter
         value, the tip angle and the number of equilibria on either side."""
         out = {"param": self.param, "window": list(self.window), "folds": self.folds,
                "branch_points": self.branch_points, "counts": self.counts, "samples": self.samples,
-               "stats": self.stats}
+               "stats": self.stats, "complete": bool(self.complete),
+               "incomplete_reasons": list(self.incomplete_reasons)}
         if branches:
             out["branches"] = [b.to_dict() for b in self.branches]
         return out
@@ -198,6 +208,13 @@ def count_equilibria(scene: Scene, options: Optional[SolverOptions] = None, **kw
     """(number of equilibria, number of stable ones) by :func:`~.equilibria.find_equilibria`."""
     r = find_equilibria(scene, options, **kw)
     return r.count, r.stable_count
+
+
+def _incomplete(where: str, result) -> Optional[str]:
+    """One line saying why the equilibria at ``where`` are not certified complete, else None."""
+    if result.complete:
+        return None
+    return f"{where}: {result.incomplete_reason or 'the equilibria are not certified complete'}"
 
 
 def _join(back: Branch, fwd: Branch) -> Branch:
@@ -227,19 +244,34 @@ def _on_branch(cont: Continuation, br: Branch, z, lam, tol=1e-6) -> bool:
     return False
 
 
-def _dedupe(points: List[CriticalPoint], rtol=1e-7, atol_angle=1e-5) -> List[CriticalPoint]:
-    """Merge equal critical points; drop an unlocated one whose step interval contains a located
-    one of the same kind (e.g. a branch passing through a pitchfork's vertex)."""
+#: Relative accuracy of a located critical value: the engine's brentq runs on the arclength to
+#: 1e-15 and the corrector to ``tol``; two branches through one critical point locate it on
+#: different steps and agree to about 1e-8 (1.11072073 and 1.11072074 for the first pitchfork).
+VALUE_RTOL = 1e-7
+
+
+def _dedupe(points: List[CriticalPoint], rtol: float = VALUE_RTOL) -> List[CriticalPoint]:
+    """Report each critical point once, whichever branches it was found on.
+
+    Two points of one kind are the same when their values agree to τ = ``rtol`` (1 + |λ|) and their
+    shapes (node values, rad) to √τ: near a fold or a branch point the state depends on λ like a
+    square root (λ − λ* ∝ a² along a pitchfork's bifurcating branch, whose vertex is located by
+    t_λ = 0), so a value located to τ fixes the state only to about √τ — e.g. the first pitchfork
+    located on the straight rod (tip angle 0) and on the bifurcating branch (tip angle 9e-5).
+    An unlocated point whose step interval contains a located one of the same kind is dropped.
+    """
     located = [c for c in points if c.located]
     points = located + [c for c in points if not c.located and not any(
         o.kind == c.kind and c.interval is not None and c.interval[0] <= o.value <= c.interval[1]
         for o in located)]
     out: List[CriticalPoint] = []
-    for cp in sorted(points, key=lambda c: (c.value, c.tip["angle"])):
-        if any(o.kind == cp.kind and abs(o.value - cp.value) <= rtol * (1 + abs(cp.value))
-               and abs(o.tip["angle"] - cp.tip["angle"]) <= atol_angle for o in out):
+    for cp in sorted(points, key=lambda c: (not c.located, c.value, c.tip["angle"])):
+        tau = rtol * (1 + abs(cp.value))
+        if any(o.kind == cp.kind and abs(o.value - cp.value) <= tau
+               and np.max(np.abs(np.asarray(o.z) - np.asarray(cp.z))) <= np.sqrt(tau) for o in out):
             continue
         out.append(cp)
+    out.sort(key=lambda c: (c.value, c.tip["angle"]))
     return out
 
 
@@ -286,8 +318,10 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     def known(z, lam):
         return any(_on_branch(cont, br, z, lam) for br in branches)
 
+    reasons: List[str] = []
     for lam in samples:
         eqs = find_equilibria(cont.scene_at(lam), options)
+        reasons.append(_incomplete(f"{param} = {lam:.6g}", eqs))
         for e in eqs.equilibria:
             z = e.result.z
             if known(z, lam):
@@ -312,8 +346,11 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     counts = []
     for lo_, hi_ in zip(edges[:-1], edges[1:]):
         mid = 0.5 * (lo_ + hi_)
-        n_eq, n_st = count_equilibria(cont.scene_at(mid), options)
-        counts.append({"from": lo_, "to": hi_, "at": mid, "equilibria": n_eq, "stable": n_st})
+        eqs = find_equilibria(cont.scene_at(mid), options)
+        why = _incomplete(f"{param} = {mid:.6g}", eqs)
+        reasons.append(why)
+        counts.append({"from": lo_, "to": hi_, "at": mid, "equilibria": eqs.count,
+                       "stable": eqs.stable_count, "complete": why is None})
 
     def side_counts(v):
         below = [c for c in counts if c["to"] <= v + 1e-9 * (1 + abs(v))]
@@ -330,8 +367,9 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
 
     stats = {"branches": len(branches), "points": int(sum(len(br) for br in branches)),
              "time_s": time.perf_counter() - t0}
+    reasons = [r for r in reasons if r is not None]
     return CriticalResult(param, (a, b), rows(folds), rows(bps), branches, counts,
-                          [float(s) for s in samples], stats, folds, bps)
+                          [float(s) for s in samples], stats, folds, bps, not reasons, reasons)
 
 
 def critical_curves(scene: Scene, param: str, second: str, window: Sequence[float],

@@ -1,37 +1,17 @@
 """All equilibria of a uniform-field scene, with their stability (THEORY §5, §7, §8).
 
 Method A (default, :func:`find_equilibria`): a complete scan of the shooting parameter
-γ = θ'(0). For a uniform field (or none) the Euler–Lagrange equation of any scene of
-:class:`~actuator_design.scene.Scene` (fibre layout α(s), stiffness b(s), tip force f, tip moment
-m, uniform distributed dead load q) reads
-
-    (b θ')' − h² sin(2(θ + α − φ)) + n_y cos θ − n_x sin θ = 0,   n(s) = f + q (1 − s),
-    θ(0) = θ0,   b(1) θ'(1) = m,                                                        (EL)
-
-an initial-value problem in s once γ is chosen: the moment M = b θ' obeys M' = h² sin 2ψ
-− n_y cos θ + n_x sin θ (ψ = θ + α − φ) and θ' = M/b. Every equilibrium is a root of the free-end
-residual r(γ) = M(1; γ) − m, and every root lies in a window known a priori:
-
-* **integral bound** (any scene): integrating (EL) over [0, 1],
-  b(1)θ'(1) − b(0)θ'(0) = ∫₀¹ (h² sin 2ψ − n_y cos θ + n_x sin θ) ds, so
-
-      |γ| ≤ (|m| + h² + ∫₀¹ |n(s)| ds) / b(0),   ∫₀¹ |n| ds ≤ |f| + |q|/2,
-
-  which for THEORY §5's scene is |θ'(0)| ≤ h² + |p|;
-* **first-integral bound** (b and α constant, q = 0: the equation is autonomous):
-  E₁ = ½ b θ'² + V(θ), V(θ) = ½ h² cos 2ψ + n_y sin θ + n_x cos θ, is constant along s, so
-  ½ b γ² = ½ m²/b + V(θ(1)) − V(θ0) ≤ ½ m²/b + ½ h² + |n| − V(θ0)   (for φ = 0, θ0 = 0, m = 0:
-  |γ| ≤ √(2|p|)).
-
-The scan uses the smaller bound, widened by :data:`SAFETY` (5 % + 1e-3). r(γ) is evaluated on a
-uniform γ grid for all γ at once (a fixed-step classical Runge–Kutta integration in numpy over the
-whole grid), each sign change is refined by ``scipy.optimize.brentq`` (a scalar RK4 with twice as
-many steps), and each root is confirmed by the collocation NLP (Newton from the shooting shape,
-no saddle escape) and deduplicated. Completeness is ensured up to the resolution: the window is a
-rigorous bound, r is smooth in γ, and the number of sign changes must be the same on the grid
-and on a grid of half the step (else the step is halved again, up to :data:`MAX_REFINE` times and
-the result says ``complete: false``). Roots closer together than the final γ step (scenes within
-about that distance of a fold) can still be missed: this is stated in the result.
+γ = θ'(0) over an a-priori window (:mod:`.shooting_scan` has the equation, the bounds and the
+vectorised RK4): every sign change of the free-end residual r(γ) is refined by ``brentq`` and
+confirmed by the collocation NLP (Newton from the shooting shape, no saddle escape), and
+deduplicated. Completeness is ensured up to the resolution: the window is a rigorous bound, r is
+smooth in γ, and the number of sign changes must be the same on the grid and on a grid of half the
+step (else the step is halved again, up to :data:`MAX_REFINE` times and the result says
+``complete: false``). Roots closer together than the final γ step (scenes within about that
+distance of a fold) can still be missed: this is stated in the result. The scan is only run where
+it can be trusted (:func:`~.shooting_scan.scan_validity`: the IVP's error amplification e^L stays
+below 1e-6/(ε W), e.g. h ≲ 12 for THEORY §5's scene); elsewhere (``equilibria --h 1e4``, where the
+IVP overflows) the result is ``complete: false`` with the reason, never an empty complete set.
 
 Method B (independent, :func:`find_equilibria_deflation`): deflated Newton on the NLP's
 stationarity system from many initial shapes θ = θ0 + c s + d s² and the shapes of the
@@ -42,7 +22,6 @@ Non-uniform fields are not supported (the field force depends on the rod's posit
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional, Sequence
@@ -52,295 +31,20 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 from ..equilibrium import solve
-from ..reduced.newton import newton
 from ..options import SolverOptions
 from ..result import EquilibriumResult
-from ..scene import Scene, UniformField
+from ..scene import Scene
 from ..solver import get_solver
-from ..physics.registry import refuse_unsupported
 from .registry import register
+from .shooting_scan import (MAX_REFINE, SAFETY, SHOOTING_TERMS, ShootingProblem, brackets,
+                            curvature_bound, gamma_bound, min_gamma_points, require_uniform,
+                            scan_validity, steps_for)
 
 __all__ = ["ShootingProblem", "Equilibrium", "EquilibriaResult", "find_equilibria",
-           "find_equilibria_deflation", "gamma_bound", "curvature_bound", "SAFETY", "MAX_REFINE"]
+           "find_equilibria_deflation", "gamma_bound", "curvature_bound", "SAFETY", "MAX_REFINE",
+           "SHOOTING_TERMS"]
 
-#: Relative widening of the a-priori γ bound (and an absolute 1e-3).
-SAFETY = 0.05
-#: How many times the γ step may be halved when the bracket count is not yet stable.
-MAX_REFINE = 4
 _EPS = np.finfo(float).eps
-
-
-def _snap(v):
-    """Zero trigonometric values within 4 ε of 0 (φ = π/2 given as a float is exactly symmetric)."""
-    v = np.asarray(v, float)
-    return np.where(np.abs(v) < 4 * _EPS, 0.0, v)
-
-
-#: The energy terms whose Euler–Lagrange equation (EL) the shooting scan integrates (module
-#: docstring); a scene with any other term is refused, never silently scanned without it.
-SHOOTING_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load")
-
-
-def _require_uniform_field(scene: Scene) -> None:
-    if scene.field is not None and not isinstance(scene.field, UniformField):
-        raise ValueError(f"equilibria: only uniform fields (or none) are supported, this scene has a "
-                         f"{scene.field.kind} field")
-
-
-def _require_uniform(scene: Scene) -> None:
-    """The shooting scan's requirements: a uniform field (or none) and only :data:`SHOOTING_TERMS`."""
-    _require_uniform_field(scene)
-    refuse_unsupported(scene, SHOOTING_TERMS, "equilibria (shooting scan)")
-
-
-def gamma_bound(scene: Scene) -> Dict[str, float]:
-    """A-priori bound on |θ'(0)| over all equilibria of a uniform-field scene (module docstring).
-
-    Returns
-    -------
-    dict
-        ``integral`` (always), ``first_integral`` (autonomous scenes, else ``None``), ``bound``
-        (the smaller, before widening) and ``window`` (the widened half-width actually scanned).
-    """
-    _require_uniform(scene)
-    h2 = scene.h**2 if scene.field is not None else 0.0
-    f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
-    q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
-    m = float(scene.tip_moment or 0.0)
-    b0 = float(scene.stiffness(0.0))
-    t = np.linspace(0.0, 1.0, 2001)
-    n_abs = np.hypot(f[0] + q[0] * t, f[1] + q[1] * t)
-    int_n = min(float(np.linalg.norm(f) + 0.5 * np.linalg.norm(q)), float(n_abs.max()))
-    integral = (abs(m) + h2 + int_n) / b0
-    first = None
-    if scene.stiffness.is_constant and scene.fibres.is_constant and not np.any(q):
-        b, a, th0 = float(scene.stiffness.value), float(scene.fibres.value), float(scene.theta0)
-        V0 = 0.5 * h2 * math.cos(2 * (th0 + a - scene.phi)) + f[1] * math.sin(th0) + f[0] * math.cos(th0)
-        val = (m * m / b + h2 + 2 * float(np.linalg.norm(f)) - 2 * V0) / b
-        first = math.sqrt(max(val, 0.0))
-    bound = integral if first is None else min(integral, first)
-    return {"integral": integral, "first_integral": first, "bound": bound,
-            "window": bound * (1 + SAFETY) + 1e-3}
-
-
-class ShootingProblem:
-    """The initial-value problem of (EL) for a batch of B uniform-field scenes on a fixed grid.
-
-    Integrated with classical RK4 in ``n_steps`` equal steps, in the variables (c, s, M) =
-    (cos θ, sin θ, b θ'): c' = −s M/b, s' = c M/b, M' = h² sin 2ψ − n_y c + n_x s, which needs no
-    trigonometric function per stage (sin 2ψ = 2sc·cos 2(α−φ) + (c² − s²)·sin 2(α−φ)). The
-    coefficients are precomputed at the 2·n_steps + 1 half-step points with shape (S, B, 1) (S = 1
-    when every scene of the batch is autonomous: α, b constant, q = 0), so a (B, G) array of γ
-    values is integrated at once with in-place numpy operations.
-
-    Parameters
-    ----------
-    scenes : Scene or sequence of Scene
-        Uniform-field (or field-free) scenes.
-    n_steps : int
-        Number of RK4 steps on s ∈ [0, 1].
-    """
-
-    def __init__(self, scenes, n_steps: int):
-        scenes = [scenes] if isinstance(scenes, Scene) else list(scenes)
-        for sc in scenes:
-            _require_uniform(sc)
-        self.scenes, self.N = scenes, int(n_steps)
-        s = np.linspace(0.0, 1.0, 2 * self.N + 1)
-        self.s = s
-        col = lambda vals: np.asarray(vals, float).T[:, :, None]  # (B, S) -> (S, B, 1)
-        h2 = np.array([sc.h**2 if sc.field is not None else 0.0 for sc in scenes], float)
-        self.h2 = h2[None, :, None]
-        psi0 = [2 * (sc.fibres(s) - sc.phi) for sc in scenes]  # 2(α − φ), shape (S,) each
-        self.C, self.S = col(_snap(np.cos(psi0))), col(_snap(np.sin(psi0)))
-        self.invb = col([1.0 / sc.stiffness(s) for sc in scenes])
-        f = [sc.tip_force if sc.tip_force is not None else (0.0, 0.0) for sc in scenes]
-        q = [sc.distributed_load if sc.distributed_load is not None else (0.0, 0.0) for sc in scenes]
-        self.nx = col([fx + qx * (1 - s) for (fx, _), (qx, _) in zip(f, q)])
-        self.ny = col([fy + qy * (1 - s) for (_, fy), (_, qy) in zip(f, q)])
-        self.autonomous = all(sc.fibres.is_constant and sc.stiffness.is_constant and
-                              not np.any(q_) for sc, q_ in zip(scenes, q))
-        if self.autonomous:
-            for name in ("C", "S", "invb", "nx", "ny"):
-                setattr(self, name, getattr(self, name)[:1].copy())
-        # derived stage coefficients of M' = s·(A c − Bs s + nx) + D − ny c
-        self.A = 2 * self.h2 * self.C
-        self.Bs = 2 * self.h2 * self.S
-        self.D = self.h2 * self.S
-        self.unit_b = bool(np.all(self.invb == 1.0))
-        self.no_S = bool(np.all(self.S == 0.0))
-        self.theta0 = np.array([sc.theta0 for sc in scenes], float)[:, None]
-        self.m = np.array([float(sc.tip_moment or 0.0) for sc in scenes])[:, None]
-        self.b0 = np.array([float(sc.stiffness(0.0)) for sc in scenes])[:, None]
-
-    def residual(self, gammas: np.ndarray, jacobi: bool = False):
-        """r(γ) = b(1)θ'(1) − m for γ of shape (B, G) (or (G,) for B = 1) → same shape.
-
-        With ``jacobi=True`` also integrates the Jacobi field η = ∂θ/∂γ (η(0) = 0, bη'(0) = b(0);
-        (bη')' = Q η with Q = 2h² cos 2ψ + n_x cos θ + n_y sin θ, THEORY §7) and returns
-        (r, zeros, eta1): the number of sign changes of η over the step points in (0, 1] and η(1).
-        By Sturm theory the Morse index of an equilibrium is zeros + [η(1)·bη'(1) < 0], with
-        bη'(1) = r'(γ) (cf. :func:`actuator_design.reference.shooting.sturm_morse_index`).
-        """
-        g = np.asarray(gammas, float)
-        squeeze = g.ndim == 1
-        g = np.atleast_2d(g)
-        shape = g.shape
-        y = [np.broadcast_to(np.cos(self.theta0), shape).copy(),
-             np.broadcast_to(np.sin(self.theta0), shape).copy(), g * self.b0]
-        if jacobi:
-            y += [np.zeros(shape), np.broadcast_to(self.b0, shape).copy()]
-            zeros = np.zeros(shape, int)
-        nv = len(y)
-        k = [[np.empty(shape) for _ in range(nv)] for _ in range(4)]
-        ys = [np.empty(shape) for _ in range(nv)]
-        tmp, tmp2, eta_prev = np.empty(shape), np.empty(shape), np.empty(shape)
-        S1 = self.C.shape[0]
-        ds = 1.0 / self.N
-
-        def rhs(idx, st, out):
-            i = idx if S1 > 1 else 0
-            T1, T2 = tmp, tmp2
-            c, s_, M = st[0], st[1], st[2]
-            if self.unit_b:
-                kap = M
-            else:
-                kap = T1
-                np.multiply(M, self.invb[i], out=kap)
-            np.multiply(s_, kap, out=out[0])
-            np.negative(out[0], out=out[0])
-            np.multiply(c, kap, out=out[1])
-            if jacobi:
-                if self.unit_b:
-                    np.copyto(out[3], st[4])
-                else:
-                    np.multiply(st[4], self.invb[i], out=out[3])
-            # M' = s (A c − Bs s + nx) + D − ny c, written straight into out[2]
-            dM = out[2]
-            np.multiply(self.A[i], c, out=dM)
-            if not self.no_S:
-                np.multiply(self.Bs[i], s_, out=T2)
-                dM -= T2
-            dM += self.nx[i]
-            dM *= s_
-            np.multiply(self.ny[i], c, out=T2)
-            dM -= T2
-            if not self.no_S:
-                dM += self.D[i]
-            if jacobi:
-                # Q = 2h²[(c² − s²) C − 2 s c S] + nx c + ny s ;  P' = Q η
-                q = out[4]
-                np.multiply(c, c, out=q)
-                np.multiply(s_, s_, out=T2)
-                q -= T2
-                q *= self.A[i]
-                if not self.no_S:
-                    np.multiply(s_, c, out=T2)
-                    T2 *= 2 * self.Bs[i]
-                    q -= T2
-                np.multiply(self.nx[i], c, out=T2)
-                q += T2
-                np.multiply(self.ny[i], s_, out=T2)
-                q += T2
-                q *= st[3]
-
-        for j in range(self.N):
-            kk = 2 * j
-            rhs(kk, y, k[0])
-            for v in range(nv):
-                np.multiply(k[0][v], 0.5 * ds, out=ys[v]); ys[v] += y[v]
-            rhs(kk + 1, ys, k[1])
-            for v in range(nv):
-                np.multiply(k[1][v], 0.5 * ds, out=ys[v]); ys[v] += y[v]
-            rhs(kk + 1, ys, k[2])
-            for v in range(nv):
-                np.multiply(k[2][v], ds, out=ys[v]); ys[v] += y[v]
-            rhs(kk + 2, ys, k[3])
-            if jacobi:
-                np.copyto(eta_prev, y[3])
-            for v in range(nv):
-                k[1][v] += k[2][v]
-                k[1][v] *= 2.0
-                k[1][v] += k[0][v]
-                k[1][v] += k[3][v]
-                k[1][v] *= ds / 6.0
-                y[v] += k[1][v]
-            if jacobi:
-                if j > 0:
-                    zeros += (eta_prev * y[3] < 0)
-        r = y[2] - self.m
-        if jacobi:
-            out = (r, zeros, y[3])
-            return tuple(o[0] for o in out) if squeeze else out
-        return r[0] if squeeze else r
-
-    def scalar(self, i: int = 0):
-        """A scalar RK4 shot for batch item ``i``: ``f(gamma, record=False)`` returning the
-        residual, or (residual, s, θ, θ') at the step points when ``record``."""
-        h2 = float(self.h2[0, i, 0])
-        full = lambda a: np.broadcast_to(a[:, i, 0], (2 * self.N + 1,)).tolist()
-        C, S, invb, nx, ny = (full(a) for a in (self.C, self.S, self.invb, self.nx, self.ny))
-        th0, m, b0, N = float(self.theta0[i, 0]), float(self.m[i, 0]), float(self.b0[i, 0]), self.N
-        sin, cos, ds = math.sin, math.cos, 1.0 / N
-
-        def shot(gamma, record=False):
-            th, M = th0, gamma * b0
-            if record:
-                ths, dths = [th], [M * invb[0]]
-            for j in range(N):
-                k = 2 * j
-                st, ct = sin(th), cos(th)
-                a1, b1 = M * invb[k], h2 * (2 * st * ct * C[k] + (1 - 2 * st * st) * S[k]) - ny[k] * ct + nx[k] * st
-                t2, M2 = th + 0.5 * ds * a1, M + 0.5 * ds * b1
-                st, ct = sin(t2), cos(t2)
-                a2, b2 = M2 * invb[k + 1], h2 * (2 * st * ct * C[k + 1] + (1 - 2 * st * st) * S[k + 1]) - ny[k + 1] * ct + nx[k + 1] * st
-                t3, M3 = th + 0.5 * ds * a2, M + 0.5 * ds * b2
-                st, ct = sin(t3), cos(t3)
-                a3, b3 = M3 * invb[k + 1], h2 * (2 * st * ct * C[k + 1] + (1 - 2 * st * st) * S[k + 1]) - ny[k + 1] * ct + nx[k + 1] * st
-                t4, M4 = th + ds * a3, M + ds * b3
-                st, ct = sin(t4), cos(t4)
-                a4, b4 = M4 * invb[k + 2], h2 * (2 * st * ct * C[k + 2] + (1 - 2 * st * st) * S[k + 2]) - ny[k + 2] * ct + nx[k + 2] * st
-                th += ds / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
-                M += ds / 6 * (b1 + 2 * b2 + 2 * b3 + b4)
-                if record:
-                    ths.append(th)
-                    dths.append(M * invb[k + 2])
-            if record:
-                return M - m, np.linspace(0, 1, N + 1), np.array(ths), np.array(dths)
-            return M - m
-
-        return shot
-
-
-def curvature_bound(scene: Scene, window: float) -> float:
-    """A bound on max_s |θ'(s)| over the shots with |γ| ≤ ``window``.
-
-    Autonomous scenes (b, α constant, q = 0): the first integral ½bθ'² + V(θ) = const with
-    max V − min V ≤ h² + 2|f| gives θ'² ≤ γ² + 2(h² + 2|f|)/b. Otherwise the integral bound on
-    [0, s]: |bθ'(s)| ≤ b(0)|γ| + |m| + h² + ∫|n|, divided by min b.
-    """
-    gb = gamma_bound(scene)
-    h2 = scene.h**2 if scene.field is not None else 0.0
-    f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
-    if gb["first_integral"] is not None:
-        b = float(scene.stiffness.value)
-        return math.sqrt(window**2 + (2 * h2 + 4 * float(np.linalg.norm(f))) / b)
-    bmin = float(np.min(scene.stiffness(np.linspace(0, 1, 201))))
-    b0 = float(scene.stiffness(0.0))
-    return (b0 * window + gb["integral"] * b0) / bmin
-
-
-def _steps_for(scene: Scene, window: float, min_steps: int = 64, rad_per_step: float = 0.1) -> int:
-    """RK4 steps so that the tangent turns by at most ``rad_per_step`` per step."""
-    kappa = curvature_bound(scene, window)
-    return int(min(max(min_steps, math.ceil(kappa / rad_per_step)), 4000))
-
-
-def _brackets(g: np.ndarray, r: np.ndarray):
-    """Roots on a grid: exact zeros and strict sign changes (a zero is never also a bracket end)."""
-    zero = np.flatnonzero(r == 0.0)
-    sc = np.flatnonzero(r[:-1] * r[1:] < 0.0)
-    return [(g[i], g[i]) for i in zero] + [(g[i], g[i + 1]) for i in sc]
 
 
 @dataclass
@@ -407,6 +111,8 @@ class EquilibriaResult:
     failures : list of dict
         Brackets the NLP could not confirm (each with its γ and the solver message).
     method : str
+    incomplete_reason : str or None
+        Why ``complete`` is False (None when complete).
     """
 
     scene: Scene
@@ -417,6 +123,7 @@ class EquilibriaResult:
     scan: dict
     failures: list = field(default_factory=list)
     method: str = "shooting"
+    incomplete_reason: Optional[str] = None
 
     @property
     def count(self) -> int:
@@ -431,7 +138,7 @@ class EquilibriaResult:
         gamma (θ'(0)) each; plus counts, window and how completeness was checked."""
         return {"equilibria": [e.to_dict() for e in self.equilibria], "count": self.count,
                 "stable_count": self.stable_count, "complete": bool(self.complete),
-                "gamma_window": list(self.window), "method": self.method, "scan": self.scan,
+                "incomplete_reason": self.incomplete_reason, "gamma_window": list(self.window), "method": self.method, "scan": self.scan,
                 "failures": self.failures, "groups": self.scene.describe_groups(),
                 "units": {"gamma": "1/l", "length": "l", "energy": "B0/l", "angle": "rad"}}
 
@@ -472,32 +179,28 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
     EquilibriaResult
     """
     t0 = time.perf_counter()
-    _require_uniform(scene)
+    require_uniform(scene)
     opts = _nlp_options(options)
     gb = gamma_bound(scene)
     lo, hi = (-gb["window"], gb["window"]) if gamma_window is None else map(float, gamma_window)
     if not hi > lo:
         raise ValueError(f"gamma_window must be increasing, got ({lo}, {hi})")
-    N = n_steps or _steps_for(scene, max(abs(lo), abs(hi)))
+    validity = scan_validity(scene, max(abs(lo), abs(hi)))
+    if not validity["valid"]:
+        scan = {"gamma_bound": gb, "validity": validity, "time_total_s": time.perf_counter() - t0,
+                "note": "not scanned: " + validity["reason"]}
+        return EquilibriaResult(scene, opts, [], False, (lo, hi), scan, [], "shooting",
+                                validity["reason"])
+    N = n_steps or steps_for(scene, max(abs(lo), abs(hi)))
     prob = ShootingProblem(scene, N)
-    n = max(int(n_gamma), 11)
-    counts, complete = [], False
-    g = np.linspace(lo, hi, n)
-    r = prob.residual(g)
-    br = _brackets(g, r)
-    counts.append(len(br))
-    for _ in range(MAX_REFINE):
-        g2 = np.linspace(lo, hi, 2 * len(g) - 1)
-        r2 = np.empty(g2.size)
-        r2[::2] = r
-        r2[1::2] = prob.residual(g2[1::2])
-        br2 = _brackets(g2, r2)
-        counts.append(len(br2))
-        g, r, stable_count = g2, r2, len(br2) == len(br)
-        br = br2
-        if stable_count:
-            complete = True
-            break
+    n0 = max(int(n_gamma), 11, min_gamma_points(scene, max(abs(lo), abs(hi))))
+    g, r, br, counts, complete = _scan(prob, lo, hi, n0)
+    reason = None
+    if not np.all(np.isfinite(r)):
+        complete, reason = False, "the shooting residual overflowed on part of the gamma window"
+    elif not complete:
+        reason = (f"the number of sign changes did not stabilise after halving the gamma step "
+                  f"{MAX_REFINE} times (raise n_gamma)")
     t_scan = time.perf_counter() - t0
 
     fine = ShootingProblem(scene, min(2 * N, 8000))
@@ -535,88 +238,35 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
     scan = {"gamma_bound": gb, "n_gamma": int(g.size), "gamma_step": float(g[1] - g[0]),
             "bracket_counts": counts, "rk4_steps": N, "time_scan_s": t_scan,
             "time_total_s": time.perf_counter() - t0,
+            "validity": validity,
             "note": "complete up to roots closer together than gamma_step (near folds)"}
-    return EquilibriaResult(scene, opts, found, complete, (lo, hi), scan, failures, "shooting")
+    return EquilibriaResult(scene, opts, found, complete, (lo, hi), scan, failures, "shooting", reason)
 
 
-# -- Method B: deflated Newton from many starts ---------------------------------------------------
-def find_equilibria_deflation(scene: Scene, options: Optional[SolverOptions] = None, *,
-                              n_c: int = 13, n_d: int = 7, modes: int = 4, max_iter: int = 60,
-                              shift: float = 1.0) -> EquilibriaResult:
-    """Equilibria by deflated Newton on the NLP's stationarity system (Method B, independent).
+def _scan(prob: ShootingProblem, lo: float, hi: float, n: int):
+    """Sign changes of r(γ) on a uniform grid of [lo, hi], the step halved until their number is
+    stable (at most :data:`MAX_REFINE` times). Returns (γ grid, r, brackets, counts, stable)."""
+    g = np.linspace(lo, hi, n)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = prob.residual(g)
+        br = brackets(g, r)
+        counts, complete = [len(br)], False
+        for _ in range(MAX_REFINE):
+            g2 = np.linspace(lo, hi, 2 * len(g) - 1)
+            r2 = np.empty(g2.size)
+            r2[::2] = r
+            r2[1::2] = prob.residual(g2[1::2])
+            br2 = brackets(g2, r2)
+            counts.append(len(br2))
+            g, r, same = g2, r2, len(br2) == len(br)
+            br = br2
+            if same:
+                complete = True
+                break
+    return g, r, br, counts, complete
 
-    Starts: θ = θ0 + c s + d s² for c on ``n_c`` values in [−W, W] (W the a-priori γ window) and
-    d on ``n_d`` values in [−W/2, W/2], and θ = θ0 ± A sin((2k−1)πs/2) for k ≤ ``modes``. From
-    each start, Newton is applied to the deflated residual μ(u) ∇Ê(u), μ = Π_i (‖u − u_i‖⁻²_M +
-    ``shift``) over the roots u_i found so far (Farrell, Birkisson & Funke, SIAM J. Sci. Comput.
-    2015): the deflated step is τ δ_N with δ_N the Newton step of ∇Ê and
-    τ = 1/(1 − ∇log μ · δ_N). Without a bound on the unknowns this is a multistart heuristic:
-    it has no completeness guarantee (Method A has one).
 
-    Returns
-    -------
-    EquilibriaResult
-        ``complete`` is False (no guarantee); ``scan`` lists the starts and timings.
-    """
-    t0 = time.perf_counter()
-    _require_uniform(scene)
-    opts = _nlp_options(options)
-    solver = get_solver(scene, opts)
-    params = solver.parameter_vector(scene)
-    mass = solver.transcription.mass[1:]
-    s = solver.transcription.nodes[1:]
-    th0 = float(scene.theta0)
-    W = gamma_bound(scene)["window"]
-    starts = [c * s + d * s * s for c in np.linspace(-W, W, n_c) for d in np.linspace(-W / 2, W / 2, n_d)]
-    for k in range(1, modes + 1):
-        for A in (0.5, 1.0, 1.5, 2.5):
-            for sgn in (1, -1):
-                starts.append(sgn * A * np.sin((2 * k - 1) * np.pi * s / 2))
-    roots: List[np.ndarray] = []
-    tol = opts.tol
-
-    def grad_hess(u):
-        _, g, H = solver.f_grad_hess(u, params)
-        return np.asarray(g).ravel(), np.asarray(H)
-
-    def deflated_step(H, minus_g):
-        """τ δ_N: the Newton step of ∇Ê scaled by τ = 1/(1 − ∇log μ · δ_N)."""
-        dN = np.linalg.solve(H, minus_g)
-        u = current["u"]
-        grad_log_mu = np.zeros_like(u)
-        for r in roots:
-            e = u - r
-            n2 = float(np.dot(mass * e, e))
-            grad_log_mu += (-2.0 * mass * e / n2**2) / (1.0 / n2 + shift)
-        denom = 1.0 - float(grad_log_mu @ dN)
-        return (1.0 / denom if abs(denom) > 1e-12 else 1.0) * dN
-
-    current = {}
-
-    def stationary(u, g):
-        current["u"] = u
-        return np.max(np.abs(g / mass)) <= tol
-
-    for u0 in starts:
-        # damping: at most 2 rad per iteration at any node
-        u, ok, _ = newton(grad_hess, th0 + u0, stationary, max_iter - 1, clip_at=2.0, solve=deflated_step)
-        if not ok:
-            continue
-        g, _ = grad_hess(u)
-        if not (np.all(np.isfinite(u)) and np.max(np.abs(g / mass)) <= tol):
-            continue
-        if any(np.max(np.abs(u - r)) <= 1e-6 * max(1.0, np.max(np.abs(u))) for r in roots):
-            continue
-        roots.append(u.copy())
-    found: List[Equilibrium] = []
-    for u in roots:
-        res = solve(scene, opts, initial=np.concatenate(([th0], u)), solver=solver)
-        if res.success:
-            _dedupe_add(found, Equilibrium(res, res.gamma, None))
-    found.sort(key=lambda e: e.gamma)
-    scan = {"starts": len(starts), "time_total_s": time.perf_counter() - t0,
-            "note": "multistart deflated Newton: no completeness guarantee"}
-    return EquilibriaResult(scene, opts, found, False, (-W, W), scan, [], "deflation")
+from .equilibria_deflation import find_equilibria_deflation  # noqa: E402  (it builds on the above)
 
 
 @register("equilibria")
@@ -631,3 +281,4 @@ def run_equilibria(scene, options, **settings) -> dict:
     else:
         raise ValueError(f"equilibria.method must be 'shooting' or 'deflation', got {method!r}")
     return out.to_dict()
+

@@ -10,6 +10,9 @@ over processes (``concurrent.futures.ProcessPoolExecutor``) with a ``tqdm`` prog
 
 Resolution: roots closer together than the γ step (grid points within about that distance of a
 fold curve) may be missed; the counts are exact elsewhere up to the RK4 error (``rad_per_step``).
+The γ samples are raised to :func:`~.shooting_scan.min_gamma_points` where the IVP amplifies
+strongly, and a grid point where the scan cannot be trusted (:func:`~.shooting_scan.scan_validity`)
+is counted −1 (unknown), never 0. ``bistable`` marks the points with two or more stable equilibria.
 """
 from __future__ import annotations
 
@@ -26,7 +29,7 @@ import numpy as np
 from ..scene import Scene
 from .. import parameters as lens
 from .continuation import set_param
-from .equilibria import ShootingProblem, _steps_for, gamma_bound
+from .shooting_scan import ShootingProblem, gamma_bound, min_gamma_points, scan_validity, steps_for
 from .registry import register
 
 __all__ = ["MultiplicityMap", "multiplicity_map", "count_row"]
@@ -42,7 +45,8 @@ class MultiplicityMap:
         Parameter names (of the lens, :mod:`actuator_design.parameters`).
     x, y : ndarray, shapes (nx,), (ny,)
     counts, stable : ndarray of int, shape (ny, nx)
-        Number of equilibria and of stable equilibria at (x[j], y[i]).
+        Number of equilibria and of stable equilibria at (x[j], y[i]); −1 where the scan cannot be
+        trusted there (unknown).
     """
 
     x_param: str
@@ -54,17 +58,33 @@ class MultiplicityMap:
     settings: dict = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
 
+    @property
+    def complete(self) -> np.ndarray:
+        """bool (ny, nx): the scan could be trusted at this grid point."""
+        return self.counts >= 0
+
+    @property
+    def bistable(self) -> np.ndarray:
+        """bool (ny, nx): two or more stable equilibria (hysteresis and snapping are possible)."""
+        return self.stable >= 2
+
     def to_dict(self) -> dict:
+        """The ``map --json`` contract: ``counts`` and ``stable`` (−1 = unknown), ``bistable``,
+        ``complete`` (every point trusted) and ``incomplete_points``."""
         return {"x_param": self.x_param, "y_param": self.y_param, "x": self.x.tolist(),
                 "y": self.y.tolist(), "counts": self.counts.tolist(), "stable": self.stable.tolist(),
                 "distinct_counts": sorted(int(v) for v in np.unique(self.counts)),
+                "distinct_stable_counts": sorted(int(v) for v in np.unique(self.stable)),
+                "bistable": self.bistable.tolist(), "complete": bool(np.all(self.complete)),
+                "incomplete_points": int(np.sum(~self.complete)),
                 "settings": self.settings, "stats": self.stats}
 
     def csv_text(self) -> str:
         """Long-format CSV: x, y, equilibria, stable (one line per grid point)."""
         buf = io.StringIO()
         buf.write(f"# multiplicity map; {self.x_param}: {lens.parameter(self.x_param).describe()}; "
-                  f"{self.y_param}: {lens.parameter(self.y_param).describe()}\n")
+                  f"{self.y_param}: {lens.parameter(self.y_param).describe()}; equilibria, stable: "
+                  f"numbers of equilibria and of stable ones, -1 where the scan cannot be trusted\n")
         buf.write(f"{self.x_param},{self.y_param},equilibria,stable\n")
         for i, yv in enumerate(self.y):
             for j, xv in enumerate(self.x):
@@ -93,7 +113,8 @@ def count_row(scenes: Sequence[Scene], n_gamma: int = 161, rad_per_step: float =
     Returns
     -------
     counts, stable : ndarray of int, shape (B,)
-        ``stable`` is −1 when ``stability`` is False.
+        ``stable`` is −1 when ``stability`` is False; both are −1 for a scene whose scan cannot be
+        trusted (:func:`~.shooting_scan.scan_validity`).
     """
     scenes = list(scenes)
     if len(scenes) > BATCH:
@@ -101,8 +122,15 @@ def count_row(scenes: Sequence[Scene], n_gamma: int = 161, rad_per_step: float =
                  for i in range(0, len(scenes), BATCH)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     W = np.array([gamma_bound(sc)["window"] for sc in scenes])
-    N = max(_steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step) for sc, w in zip(scenes, W))
-    G = int(n_gamma) | 1  # odd: γ = 0 is on the grid
+    valid = np.array([scan_validity(sc, w, rad_per_step)["valid"] for sc, w in zip(scenes, W)])
+    if not np.all(valid):  # count the trusted scenes only; the others are unknown (-1)
+        counts, stable = np.full(len(scenes), -1), np.full(len(scenes), -1)
+        if np.any(valid):
+            ok = np.flatnonzero(valid)
+            counts[ok], stable[ok] = count_row([scenes[i] for i in ok], n_gamma, rad_per_step, stability)
+        return counts, stable
+    N = max(steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step) for sc, w in zip(scenes, W))
+    G = max(int(n_gamma), max(min_gamma_points(sc, w) for sc, w in zip(scenes, W))) | 1
     g = W[:, None] * np.linspace(-1.0, 1.0, G)[None, :]
     prob = ShootingProblem(scenes, N)
     if stability:

@@ -17,6 +17,7 @@ scene values h, phi_deg, p, alpha_deg) and then the flags apply.
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Literal, Tuple
 
 from pydantic import Field, field_validator
@@ -102,10 +103,13 @@ def run(args: argparse.Namespace) -> int:
         print(dumps_json(payload))
     else:
         print(f"{param} in [{window[0]:g}, {window[1]:g}]: {len(res.folds)} fold(s), "
-              f"{len(res.branch_points)} branch point(s) over {res.stats['branches']} branch(es)")
+              f"{len(res.branch_points)} branch point(s) over {res.stats['branches']} branch(es)"
+              f" (complete: {res.complete})")
         for d in res.folds + res.branch_points:
             print(f"  {d['kind']:12s} {param} = {d['value']:.12g}  tip angle {d['tip_angle']:+.8f} rad  "
                   f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}")
     if written is not None:
         print_written(written, args.json)
+    for why in res.incomplete_reasons:
+        print(f"actuator-design: warning: not complete at {why}", file=sys.stderr)
     return EXIT_OK

@@ -4,7 +4,9 @@ Every grid point's equilibria are counted by the vectorised shooting scan (sign 
 free-end residual over the a-priori window of theta'(0); Morse indices by Sturm's count of the
 Jacobi field), rows in parallel over --workers processes with a progress bar on stderr (off when
 stderr is not a terminal or with --quiet). The fold curves of the y parameter are continued in the
-x parameter and drawn over the map (skip with --no-curves). Defaults: the paper's phase diagram,
+x parameter and drawn over the map (skip with --no-curves). map.png shows the number of equilibria
+beside the number of stable ones, with bistable regions (two or more stable states) hatched; a
+grid point where the scan cannot be trusted (large h) is counted -1 (unknown) and drawn grey. Defaults: the paper's phase diagram,
 phi = 0, x = h2 in [0, 20], y = p in [0, 60].
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
@@ -121,18 +123,25 @@ def run(args: argparse.Namespace) -> int:
     payload = {**m.to_dict(), "critical_curves": [c.to_dict() for c in curves]}
     written = None
     if args.out is not None:
-        from ..viz.landscape import plot_multiplicity
+        from ..viz.landscape import plot_landscape_map
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             files = {"map.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "map.csv": m.csv_text(), "map.png": png_bytes(plot_multiplicity(m, curves), dpi=150)}
+                     "map.csv": m.csv_text(),
+                     "map.png": png_bytes(plot_landscape_map(m, curves)[0], dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
         vals, freq = np.unique(m.counts, return_counts=True)
         print(f"{ny} x {nx} grid of ({xp}, {yp}) in {m.stats['time_s']:.2f} s: "
-              + ", ".join(f"{f} points with {v} equilibria" for v, f in zip(vals, freq)))
+              + ", ".join(f"{f} points with {v} equilibria" for v, f in zip(vals, freq) if v >= 0))
+        svals, sfreq = np.unique(m.stable, return_counts=True)
+        print("  stable: " + ", ".join(f"{f} points with {v}" for v, f in zip(svals, sfreq) if v >= 0)
+              + f"; bistable (>= 2 stable) at {int(m.bistable.sum())} points")
+        if not np.all(m.complete):
+            print(f"  unknown: {int(np.sum(~m.complete))} points where the shooting scan cannot be "
+                  f"trusted (counted -1)")
         for c in curves:
             print(f"  fold curve of {yp}: {yp} = {c.lam[0]:.8g} at {xp} = {c.mu[0]:.6g} ... "
                   f"{c.lam[-1]:.8g} at {xp} = {c.mu[-1]:.6g}")

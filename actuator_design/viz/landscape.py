@@ -3,7 +3,9 @@
 * :func:`plot_equilibria` — the shapes of all equilibria of a scene, stable solid, unstable dashed;
 * :func:`plot_branches` — parameter against tip angle for continued branches, stable solid,
   unstable dashed, folds (circles) and branch points (squares) marked;
-* :func:`plot_multiplicity` — a multiplicity map (counts as colours) with critical curves overlaid.
+* :func:`plot_multiplicity` — a multiplicity map (counts as colours) with critical curves overlaid;
+* :func:`plot_landscape_map` — the total and the stable counts side by side, bistable regions
+  (two or more stable states) hatched, points whose scan cannot be trusted (−1) in grey.
 
 Every function takes result objects of :mod:`actuator_design.analysis` (or their plain arrays) and
 an optional matplotlib ``Axes`` (a new figure when omitted) and returns the axes; units are those of the results (rod lengths, rad, dimensionless
@@ -18,7 +20,7 @@ import numpy as np
 
 from .style import new_axes
 
-__all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity"]
+__all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity", "plot_landscape_map"]
 
 
 def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200):
@@ -50,13 +52,23 @@ def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 
 
 
 def _segments(lam, y, stable):
-    """Split a branch into runs of equal stability (each run shares its end point with the next)."""
+    """Split a branch into runs of equal stability, each sharing its end point with the next.
+
+    A step between a stable and an unstable point belongs to the unstable run: the branch's
+    located stability changes are points of it (:mod:`actuator_design.analysis.stability_changes`,
+    with the index on the stable side), so a stable run ends exactly where stability is lost.
+    """
     runs, start = [], 0
-    for k in range(1, len(lam) + 1):
-        if k == len(lam) or stable[k] != stable[start]:
-            end = min(k + 1, len(lam))
-            runs.append((lam[start:end], y[start:end], bool(stable[start])))
-            start = k
+    n = len(lam)
+    while start < n - 1 or (start == 0 and n == 1):
+        if n == 1:
+            return [(lam, y, bool(stable[0]))]
+        st = bool(stable[start]) and bool(stable[start + 1])
+        end = start + 1
+        while end < n - 1 and (bool(stable[end]) and bool(stable[end + 1])) == st:
+            end += 1
+        runs.append((lam[start:end + 1], y[start:end + 1], st))
+        start = end
     return runs
 
 
@@ -116,8 +128,8 @@ def plot_multiplicity(mmap, curves: Sequence = (), ax=None, stable: bool = False
     """
     from matplotlib.colors import BoundaryNorm, ListedColormap
     ax = ax or new_axes()
-    data = mmap.stable if stable else mmap.counts
-    vals = np.unique(data)
+    data = np.ma.masked_less(mmap.stable if stable else mmap.counts, 0)  # -1: unknown, not drawn
+    vals = np.unique(data.compressed()) if data.count() else np.array([0])
     cmap = ListedColormap([f"C{k % 10}" for k in (2, 1, 8, 3, 4, 5, 6, 7, 9, 0)][:max(1, len(vals))])
     bounds = np.append(vals - 0.5, vals[-1] + 0.5)
     norm = BoundaryNorm(bounds, cmap.N)
@@ -137,3 +149,38 @@ def plot_multiplicity(mmap, curves: Sequence = (), ax=None, stable: bool = False
     if len(curves):
         ax.legend(fontsize=8, loc="upper left")
     return ax
+
+
+def plot_landscape_map(mmap, curves: Sequence = (), title: Optional[str] = None):
+    """Two panels: the number of equilibria and the number of stable ones, bistable regions
+    (stable count ≥ 2) hatched on the second, critical curves on both, untrusted points grey.
+
+    Parameters
+    ----------
+    mmap : MultiplicityMap
+    curves : sequence of FoldCurve
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    ndarray of Axes, shape (2,)
+    """
+    from .style import new_axes_grid
+    fig, axes = new_axes_grid(1, 2, panel_size=(6.4, 5.2))
+    axes = np.ravel(axes)
+    for ax, st in zip(axes, (False, True)):
+        unknown = np.ma.masked_where(mmap.counts >= 0, np.ones_like(mmap.counts, float))
+        if unknown.count():
+            ax.pcolormesh(mmap.x, mmap.y, unknown, shading="nearest", cmap="Greys", vmin=0, vmax=2)
+        plot_multiplicity(mmap, curves, ax=ax, stable=st)
+    bi = np.asarray(mmap.stable >= 2, float)
+    if bi.any() and min(bi.shape) >= 2:
+        axes[1].contourf(mmap.x, mmap.y, bi, levels=[0.5, 1.5], colors="none", hatches=["//"])
+        axes[1].contour(mmap.x, mmap.y, bi, levels=[0.5], colors="k", linewidths=1.0)
+        axes[1].plot([], [], color="k", lw=1.0, label="bistable (≥ 2 stable)")
+        axes[1].legend(fontsize=8, loc="upper left")
+    axes[1].set_title("number of stable equilibria (bistable hatched)", fontsize=10)
+    if title:
+        fig.suptitle(title, fontsize=11)
+    return axes
