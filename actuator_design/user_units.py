@@ -23,7 +23,8 @@ from typing import Optional
 from .units import MU0, QuantityError, parse_quantity, ureg
 
 __all__ = ["UserUnits", "user_units", "length_unit_of", "parameter_from_text",
-           "parameter_physical", "parameter_unit_label"]
+           "parameter_physical", "parameter_unit_label", "physical_value_keys", "add_physical_values",
+           "pair_from_text"]
 
 
 @dataclass(frozen=True)
@@ -205,3 +206,40 @@ def _with_unit(text: str, param, units: Optional[UserUnits], flag: str) -> float
     dim, scale = {"force": ("force", units.force_scale), "moment": ("moment", units.moment_scale),
                   "force_per_length": ("force_per_length", units.stiffness_scale)}[kind]
     return parse_quantity(text, dim, flag) / scale
+
+
+_KEYS = {"force": "value_N", "moment": "value_N_m", "force_per_length": "value_N_per_m"}
+
+
+def physical_value_keys(param, value: float, units: Optional[UserUnits]) -> dict:
+    """JSON keys to add beside a parameter value: ``field_mT`` and ``field_A_per_m`` for the field
+    groups (h: H = h / (dh/dH); h2: of √h2), ``value_N``/``value_N_m``/``value_N_per_m`` for loads;
+    empty for a dimensionless scene or a parameter without a physical unit."""
+    label = parameter_unit_label(param, units)
+    if label is None or not math.isfinite(float(value)):
+        return {}
+    kind = _kind(param)
+    if kind in ("field", "field2"):
+        h = float(value) if kind == "field" else math.sqrt(max(float(value), 0.0))
+        return {"field_mT": units.field_mT(h), "field_A_per_m": units.field_A_per_m(h)}
+    return {_KEYS[kind]: parameter_physical(param, value, units)}
+
+
+def add_physical_values(items, param, units: Optional[UserUnits], key: str = "value") -> None:
+    """Add :func:`physical_value_keys` of ``item[key]`` to every dict in ``items`` (in place; the
+    existing keys are kept)."""
+    for item in items:
+        if isinstance(item, dict) and isinstance(item.get(key), (int, float)):
+            item.update(physical_value_keys(param, item[key], units))
+
+
+def pair_from_text(text: str, param, units: Optional[UserUnits], flag: str) -> tuple:
+    """``"A,B"`` (each a number or a quantity, e.g. ``"2 mT,6 mT"``) → (a, b) with a < b, in the
+    parameter's dimensionless unit (:func:`parameter_from_text`)."""
+    parts = [t for t in str(text).split(",")]
+    if len(parts) != 2:
+        raise ValueError(f"{flag}: expected A,B (two values, e.g. '0.5,1.5' or '2 mT,6 mT'), got {text!r}")
+    a, b = (parameter_from_text(t.strip(), param, units, flag) for t in parts)
+    if not a < b:
+        raise ValueError(f"{flag}: need A < B, got {text!r}")
+    return a, b

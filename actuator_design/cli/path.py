@@ -18,7 +18,10 @@ or  study: {type: path, schedule: [{h: 0, phi_deg: 60}, {h: 1.5, phi_deg: 60}, {
 
 Units: lengths (tip x, y) in rod lengths l, energies in B0/l, loads in B0/l^2 (moments B0/l),
 stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the command line and
-radians in the output.
+radians in the output. --from/--to/--schedule values may carry units where NAME has a physical
+meaning: angles ('30 deg'), and for a physical scene fields ('2 mT', '5 kA/m'; h = H dh/dH) and
+loads ('1 mN'); a physical scene's points and jumps then also carry field_mT and field_A_per_m
+(or value_N, ...) beside param.
 
 JSON (--json): one object with points (param, tip {x, y, angle}, energy, stable, min_eigenvalue,
 ...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops}.
@@ -111,8 +114,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, phi_deg, alpha_deg, "
                         "theta0_deg (degrees) or phi, alpha, theta0 (radians)")
     g.add_argument("--schedule", metavar="A,B,C,...", help="values of NAME in order (e.g. up and back down)")
-    g.add_argument("--from", dest="start", type=finite_float, metavar="A", help="first value of NAME")
-    g.add_argument("--to", type=finite_float, metavar="B", help="turning value of NAME")
+    g.add_argument("--from", dest="start", metavar="A", help="first value of NAME (units allowed, e.g. '2 mT')")
+    g.add_argument("--to", metavar="B", help="turning value of NAME (units allowed, e.g. '6 mT')")
     g.add_argument("--back", action="store_true", default=None, help="ramp back from B to A")
     g.add_argument("--steps", type=int, metavar="N",
                    help="at least N steps per ramp (default: adaptive, about 20 per path)")
@@ -122,7 +125,24 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     o.add_argument("--out", metavar="DIR", help="write path.json, path.csv and path.png into DIR")
 
 
-def _schedule(args, study):
+def _value(text, key: str, units, flag: str) -> float:
+    """A value of parameter ``key`` (a CLI name, ``phi_deg`` …) in its CLI unit; a quantity with a
+    unit is converted (angles to degrees for the *_deg names, fields through the scene's scales)."""
+    from ..parameters import parameter
+    from ..user_units import parameter_from_text
+
+    if key in _DEGREE_NAMES:
+        try:
+            return finite_float(str(text))
+        except Exception:
+            pass
+        with bad_input():
+            return math.degrees(parameter_from_text(text, parameter(_DEGREE_NAMES[key]), units, flag))
+    with bad_input():
+        return parameter_from_text(text, parameter(key), units, flag)
+
+
+def _schedule(args, study, units=None):
     """(schedule for the API, name as given, factor API → given units, max_step)."""
     from ..parameters import names as parameter_names
 
@@ -132,8 +152,7 @@ def _schedule(args, study):
     if steps is not None and steps < 1:
         raise InputError(f"--steps: must be >= 1, got {steps}")
     text = args.schedule
-    start = args.start if args.start is not None else study.start
-    to = args.to if args.to is not None else study.to
+    start, to = args.start, args.to
     back = args.back if args.back is not None else study.back
     sched_study = study.schedule if (text is None and args.start is None and args.to is None) else None
     max_step = study.max_step
@@ -158,11 +177,10 @@ def _schedule(args, study):
         raise InputError(f"--param: unknown parameter {name!r} (allowed: "
                          f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
     factor = math.pi / 180.0 if key in _DEGREE_NAMES else 1.0
+    start = study.start if start is None else _value(start, key, units, "--from")
+    to = study.to if to is None else _value(to, key, units, "--to")
     if text is not None:
-        try:
-            values = [float(v) for v in text.split(",")]
-        except ValueError:
-            raise InputError(f"--schedule: expected comma-separated numbers, got {text!r}") from None
+        values = [_value(v.strip(), key, units, "--schedule") for v in text.split(",")]
     elif sched_study is not None:
         values = [float(v) for v in sched_study]
     else:
@@ -207,7 +225,10 @@ def run(args: argparse.Namespace) -> int:
         loaded = load_config(args.config)
         study = study_settings(loaded[2], "path", _study_model())
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
-    schedule, name, factor, max_step = _schedule(args, study)
+    from ..user_units import add_physical_values, user_units
+
+    units = user_units(scene, raw)
+    schedule, name, factor, max_step = _schedule(args, study, units)
 
     from ..analysis.loading import follow_path
     from ..io import dumps_json
@@ -215,6 +236,11 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         path = follow_path(scene, options, schedule, max_step=max_step)
     data = _scaled_dict(path, factor, name)
+    if name is not None and factor == 1.0 and units is not None:
+        from ..parameters import parameter
+
+        p = parameter(name.replace("-", "_"))
+        add_physical_values(data["points"] + data["jumps"] + data["bifurcations"], p, units, key="param")
     written = None
     if args.out is not None:
         written = write_out(args.out, _render(path, data, raw, factor), args.json)
