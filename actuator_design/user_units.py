@@ -17,6 +17,7 @@ a physical meaning is one clear error.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Optional
 
@@ -188,6 +189,8 @@ def parameter_from_text(text, param, units: Optional[UserUnits], flag: str) -> f
 
 
 def _with_unit(text: str, param, units: Optional[UserUnits], flag: str) -> float:
+    if not re.match(r"^\s*[+-]?(\d|\.\d)", text):
+        raise ValueError(f"{flag}: expected a number or a quantity such as '2 mT', got {text!r}")
     kind = _kind(param)
     if kind is None:
         raise ValueError(f"{flag}: {param.name} is dimensionless ({param.unit}) and has no physical unit; "
