@@ -192,3 +192,29 @@ def test_bad_units_on_the_command_line_exit_2_with_one_line(config_file):
     assert p.returncode == 2 and "--rotation-rate" in p.stderr and "rotation rate" in p.stderr
     p = _cli("continue", str(config_file), "--param", "theta0", "--from", "1 mT", "--to", "0.2")
     assert p.returncode == 2 and "--from" in p.stderr
+
+
+def test_schedule_command_files_carry_the_physical_columns(physical):
+    """The `schedule` command's JSON and CSV (built from a hand-made result, no solve): each step
+    keeps h, phi and gains field_mT by hand and time_s; waypoints in mm (20 mm rod)."""
+    from actuator_design.analysis.schedule import ScheduleResult
+    from actuator_design.cli.schedule import _output_files, _payload
+
+    scene, units = physical
+    h1 = 2e-2 / MU0 * h_per_A_per_m()  # 20 mT
+    sched = [{"h": 0.0, "phi": 0.3}, {"h": h1, "phi": 0.3}, {"h": h1, "phi": 0.3 + math.radians(15)}]
+    row = {"waypoint": 0, "target_x": 0.5, "target_y": 0.25, "x": 0.5, "y": 0.25, "angle": 0.1, "h": h1,
+           "phi": 0.3, "error": 0.0, "margin": 1.0}
+    res = ScheduleResult(True, True, True, True, [(0.5, 0.25), (0.6, 0.4)], [row], sched, [1, 2], "ok", scene)
+    table = schedule_table(sched, units, field_rate=5e-3 / MU0, rotation_rate=math.radians(30))
+    payload = _payload(res, units, table)
+    assert [s["time_s"] for s in payload["schedule"]] == pytest.approx([0.0, 4.0, 4.5])
+    assert payload["schedule"][1]["field_mT"] == pytest.approx(20.0) and payload["schedule"][1]["h"] == h1
+    assert res.schedule[1] == {"h": h1, "phi": 0.3}  # the result itself is not changed
+    wp = payload["physical"]["waypoints"][0]
+    assert (wp["target_x"], wp["target_y"], wp["field_mT"]) == pytest.approx((10.0, 5.0, 20.0))
+    files = _output_files(res, None, payload, table, units)
+    rows = list(csv.DictReader(io.StringIO(files["schedule.csv"])))
+    assert [float(r["field_mT"]) for r in rows] == pytest.approx([mT_of_h(s["h"]) for s in sched], rel=1e-12)
+    assert [float(r["time_s"]) for r in rows] == pytest.approx([0.0, 4.0, 4.5])
+    assert json.loads(files["schedule.json"])["schedule"][2]["angle_deg"] == pytest.approx(math.degrees(0.3) + 15)

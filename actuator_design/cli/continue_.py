@@ -152,6 +152,9 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
+            if param == "h":  # h ∝ H: tick the parameter axis in mT
+                from ..viz.units import field_axis
+                field_axis(ax.xaxis, units)
             files = {"branch.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
                      "branch.csv": _csv(res), "branch.png": png_bytes(ax, dpi=150)}
         written = write_out(args.out, files, args.json)

@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
     from ..parameters import parameter
-    from ..user_units import add_physical_values, pair_from_text, parameter_unit_label, user_units
+    from ..user_units import (add_physical_values, pair_from_text, parameter_unit_label,
+                              physical_value_keys, user_units)
 
     units = user_units(scene, raw)
     with bad_input():
@@ -107,6 +108,9 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
+            if param == "h":  # h ∝ H: tick the parameter axis in mT
+                from ..viz.units import field_axis
+                field_axis(ax.xaxis, units)
             full = res.to_dict(branches=True)
             add_physical_values(full["folds"] + full["branch_points"], parameter(param), units)
             files = {"critical.json": dumps_json({**full, "config": raw}, indent=1) + "\n",
@@ -115,7 +119,9 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_json(payload))
     else:
-        print(f"{param} in [{window[0]:g}, {window[1]:g}]: {len(res.folds)} fold(s), "
+        ends = [physical_value_keys(parameter(param), v, units) for v in window]
+        span = (f" ({ends[0]['field_mT']:.6g} to {ends[1]['field_mT']:.6g} mT)" if "field_mT" in ends[0] else "")
+        print(f"{param} in [{window[0]:g}, {window[1]:g}]{span}: {len(res.folds)} fold(s), "
               f"{len(res.branch_points)} branch point(s) over {res.stats['branches']} branch(es)")
         for d in res.folds + res.branch_points:
             phys = f" ({d['field_mT']:.6g} mT)" if "field_mT" in d else (

@@ -243,11 +243,13 @@ def run(args: argparse.Namespace) -> int:
         add_physical_values(data["points"] + data["jumps"] + data["bifurcations"], p, units, key="param")
     written = None
     if args.out is not None:
-        written = write_out(args.out, _render(path, data, raw, factor), args.json)
+        written = write_out(args.out, _render(path, data, raw, factor, units), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(path.summary() if factor == 1.0 else _summary_deg(path, data))
+        for line in _physical_lines(data):
+            print(line)
     if written is not None:
         print_written(written, args.json)
     if not path.success:
@@ -255,6 +257,19 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _physical_lines(data) -> list:
+    """The jumps and bifurcations of a field ramp in mT (physical scenes; empty otherwise)."""
+    lines = []
+    for j in data["jumps"]:
+        if "field_mT" in j:
+            lines.append(f"  jump ({j['kind']}) at {data['param']} = {j['param']:.10g}: mu0 H = {j['field_mT']:.6g} mT "
+                         f"({j['field_A_per_m']:.6g} A/m)")
+    for b in data["bifurcations"]:
+        if "field_mT" in b:
+            lines.append(f"  continuous bifurcation at mu0 H = {b['field_mT']:.6g} mT")
+    return lines
 
 
 def _summary_deg(path, data) -> str:
@@ -273,7 +288,7 @@ def _summary_deg(path, data) -> str:
     return "\n".join(out + lines[2:])
 
 
-def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]]:
+def _render(path, data, raw, factor: float = 1.0, units=None) -> Dict[str, Union[str, bytes]]:
     """path.json, path.csv and path.png in memory."""
     from ..io import dumps_json
     from ..viz.loading import path_figure
@@ -287,7 +302,13 @@ def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]
              p["stable"], p["min_eigenvalue"], p["morse_index"], p["branch"], p["direction"], p["kind"]]
             + [p["values"][n] for n in path.names] for p in data["points"]]
     xlabel = None if path.param is None else data["param"] + (" [deg]" if factor != 1.0 else "")
-    png = png_bytes(path_figure(path, xscale=1.0 / factor, xlabel=xlabel), dpi=150)
+    fig = path_figure(path, xscale=1.0 / factor, xlabel=xlabel)
+    if path.param == "h" and factor == 1.0:  # h ∝ H: tick the field axes in mT
+        from ..viz.units import field_axis
+        for ax in fig.axes:
+            if ax.get_xlabel() == xlabel:
+                field_axis(ax.xaxis, units)
+    png = png_bytes(fig, dpi=150)
     return {"path.json": dumps_json(payload, indent=1) + "\n",
             "path.csv": csv_text(cols, rows, "units: tip x, y in rod lengths l; angles in rad; energy in "
                                              "B0/l; param in the units of --param; value_* in API units "

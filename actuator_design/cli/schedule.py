@@ -140,7 +140,7 @@ def _physical_lines(payload, table) -> list:
     """Waypoints and tips in the scene's length unit, fields in mT, the schedule's duration."""
     lines = []
     phys = payload.get("physical")
-    if phys:
+    if phys and phys["waypoints"]:
         u = phys["length_unit"]
         has_field = any("field_mT" in w for w in phys["waypoints"])
         lines.append(f"  {'wp':>3} {'target x':>10} {'target y':>10} {'tip x':>10} {'tip y':>10}  [{u}]"
