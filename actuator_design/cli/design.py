@@ -154,9 +154,15 @@ def _inputs(args):
         _check_settings(settings)
         changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
         options = dataclasses.replace(options, **changes)
-    rates = parse_rates(args.rate if args.rate is not None else study.get("rate"),
-                        args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
-    return scene, options, raw, target, vary, settings, stiffness, rates
+    return scene, options, raw, target, vary, settings, stiffness
+
+
+def _rates(args, raw):
+    """(field rate in A/m/s, rotation rate in rad/s), each None when not given: the flags, else
+    the study's ``rate`` and ``rotation_rate``."""
+    study = (raw or {}).get("study") or {}
+    return parse_rates(args.rate if args.rate is not None else study.get("rate"),
+                       args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
 
 
 def _parse_stiffness(value, scene):
@@ -332,7 +338,8 @@ def _columns(rows) -> list:
 
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
-    scene, options, raw, target, vary, settings, stiffness, rates = _inputs(args)
+    scene, options, raw, target, vary, settings, stiffness = _inputs(args)
+    rates = _rates(args, raw)
     from ..analysis.design import design
     from ..analysis.schedule import schedule_table
     from ..io import dumps_json
