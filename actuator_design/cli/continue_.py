@@ -162,10 +162,10 @@ def run(args: argparse.Namespace) -> int:
         print(dumps_json(payload))
     else:
         br = res.branch
-        print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g} to {br.lam[-1]:.6g} "
-              f"({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
         mT = (lambda v: f" ({units.field_mT(v if param == 'h' else max(v, 0) ** 0.5):.6g} mT)"
               if units is not None and units.has_field and param in ("h", "h2") else "")
+        print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g}{mT(br.lam[0])} to "
+              f"{br.lam[-1]:.6g}{mT(br.lam[-1])} ({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
         for cp in br.folds:
             print(f"  fold at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
                   f"(Morse index {cp.morse_before} -> {cp.morse_after})")

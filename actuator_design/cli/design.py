@@ -286,6 +286,8 @@ def _physical_payload(res, units, table) -> dict:
     if units is not None:
         phys = payload.setdefault("physical", {})
         phys["length_unit"] = units.length_unit
+        phys["units"] = {"target": units.length_unit, "tip": units.length_unit, "field_mT": "mT (mu0 H)",
+                         "field_A_per_m": "A/m", "angle_deg": "deg", "time_s": "s"}
         if res.target:
             phys["target"] = {"x": units.length(res.target[0]), "y": units.length(res.target[1])}
         if res.achieved:

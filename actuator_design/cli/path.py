@@ -248,7 +248,7 @@ def run(args: argparse.Namespace) -> int:
         print(dumps_json(data))
     else:
         print(path.summary() if factor == 1.0 else _summary_deg(path, data))
-        for line in _physical_lines(data):
+        for line in _physical_lines(data, units):
             print(line)
     if written is not None:
         print_written(written, args.json)
@@ -259,9 +259,13 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _physical_lines(data) -> list:
-    """The jumps and bifurcations of a field ramp in mT (physical scenes; empty otherwise)."""
+def _physical_lines(data, units=None) -> list:
+    """The final tip in the scene's length unit, the jumps and bifurcations of a field ramp in mT
+    (physical scenes; empty otherwise)."""
     lines = []
+    if units is not None and data["points"]:
+        tip = data["points"][-1]["tip"]
+        lines.append(f"  final tip [{units.length_unit}]: ({units.length(tip['x']):.6g}, {units.length(tip['y']):.6g})")
     for j in data["jumps"]:
         if "field_mT" in j:
             lines.append(f"  jump ({j['kind']}) at {data['param']} = {j['param']:.10g}: mu0 H = {j['field_mT']:.6g} mT "
