@@ -34,6 +34,7 @@ import argparse
 import csv
 import io as _io
 import math
+import re
 import sys
 from typing import Dict, Optional, Union
 
@@ -180,6 +181,9 @@ def _schedule(args, study, units=None):
     start = study.start if start is None else _value(start, key, units, "--from")
     to = study.to if to is None else _value(to, key, units, "--to")
     if text is not None:
+        if not all(re.match(r"^\s*[+-]?(\d|\.\d)", v) for v in text.split(",")):
+            raise InputError(f"--schedule: expected comma-separated numbers (or quantities such as "
+                             f"'2 mT'), got {text!r}")
         values = [_value(v.strip(), key, units, "--schedule") for v in text.split(",")]
     elif sched_study is not None:
         values = [float(v) for v in sched_study]
