@@ -10,6 +10,10 @@ mm or m (physical scenes only) in those units. The optional third value is the t
 taken modulo 360 (reported in [-180, 180]). The field acts on its axis: phi and phi + 180 deg are
 one field, and the text output says so where it prints one of them.
 
+A physical scene (`type: physical`) also speaks the user's units: target and tip in the length unit
+of the YAML, the field in mT (mu0 H) and A/m, every schedule step with field_A_per_m, field_mT and
+angle_deg, and with --rate 5mT/s and/or --rotation-rate 30deg/s the time of each step (time_s).
+
 Every design must hold over the lab's tolerance box (--tolerance, default field ±5 %, angle ±2 deg):
 the tool makes the target exact at the nominal field and minimises the worst-case tip error over
 the box, then follows the design's branch over the box and to the nearest snap and reports both.
