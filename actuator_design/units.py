@@ -57,6 +57,8 @@ DIMENSIONS = {
     "density": _Dimension("a density", "1100 kg/m^3", "kg/m^3"),
     "acceleration": _Dimension("an acceleration", "9.81 m/s^2", "m/s^2"),
     "angle": _Dimension("an angle", "30 deg", "rad"),
+    "field_rate": _Dimension("a rate of change of the field", "5 mT/s' or '4 kA/m/s", "A/m/s"),
+    "angular_rate": _Dimension("a rotation rate", "30 deg/s", "rad/s"),
     "dimensionless": _Dimension("a plain number", "0.25", ""),
 }
 """Supported dimensions: name → description, example and the SI unit returned."""
@@ -147,7 +149,8 @@ def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
         ``"bending_stiffness"`` (N m²), ``"force"`` (N), ``"moment"`` (N m),
         ``"force_per_length"`` (N/m), ``"magnetic_field"`` (A/m; a flux density in tesla is
         converted as H = B/μ0), ``"magnetic_moment"`` (A m²), ``"density"`` (kg/m³),
-        ``"acceleration"`` (m/s²), ``"angle"`` (rad), ``"dimensionless"``.
+        ``"acceleration"`` (m/s²), ``"angle"`` (rad), ``"field_rate"`` (A/m/s; T/s converted as
+        B/μ0), ``"angular_rate"`` (rad/s), ``"dimensionless"``.
     field_name : str
         Dotted name of the configuration field, used in error messages.
 
@@ -188,6 +191,12 @@ def _to_si(q, text: str, dimension: str, dim: _Dimension, field_name: str) -> fl
     """``q`` in the SI unit of ``dimension`` (may overflow to inf: "1e308 km"; checked by the caller)."""
     if dimension == "magnetic_field" and q.dimensionality == ureg.tesla.dimensionality:
         return float(q.to(ureg.tesla).magnitude) / MU0
+    if dimension == "field_rate" and q.dimensionality == (ureg.tesla / ureg.second).dimensionality:
+        return float(q.to(ureg.tesla / ureg.second).magnitude) / MU0
+    if dimension == "angular_rate":
+        if q.to_base_units().units not in (ureg.radian / ureg.second, 1 / ureg.second):
+            raise _wrong_dimension(text, q, dim, field_name)
+        return float(q.to(ureg.radian / ureg.second).magnitude)
     if dimension == "angle":
         if not (q.unitless or _is_angle_unit(q)):
             raise _wrong_dimension(text, q, dim, field_name)

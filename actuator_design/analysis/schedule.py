@@ -28,7 +28,12 @@ from .design import DesignSettings, design
 from .design_types import normalise_phi, tip_error
 from .design_nlp import DesignRequest, get_design_nlp, prepare_scene
 
-__all__ = ["field_schedule", "ScheduleResult", "nearest_axis_angle"]
+__all__ = ["field_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
+
+#: Columns of a schedule table: always, for physical scenes (THEORY §5: H = h / (dh/dH), B = μ0 H),
+#: and with a rate (the time at which each step is reached).
+SCHEDULE_COLUMNS = {"always": ("step", "h", "phi_rad"),
+                    "physical": ("field_A_per_m", "field_mT", "angle_deg"), "timed": ("time_s",)}
 
 
 @dataclass
@@ -166,3 +171,62 @@ def nearest_axis_angle(phi: float, reference: float) -> float:
     """The angle equivalent to ``phi`` modulo π (the same field axis) nearest ``reference`` (rad):
     ``reference + d`` with d ≡ phi − reference (mod π), d in (−π/2, π/2]."""
     return float(reference + normalise_phi(phi - reference))
+
+
+def schedule_table(schedule: Sequence[Dict[str, float]], units=None, field_rate: Optional[float] = None,
+                   rotation_rate: Optional[float] = None) -> List[Dict[str, float]]:
+    """One row per schedule step, in the user's units where the scene has them.
+
+    Parameters
+    ----------
+    schedule : sequence of {"h", "phi"}
+        The schedule (dimensionless h, φ in rad, continuous along the schedule).
+    units : actuator_design.user_units.UserUnits, optional
+        A physical scene's conversions: adds ``field_A_per_m`` (H = h / (dh/dH)), ``field_mT``
+        (μ0 H) and ``angle_deg``.
+    field_rate : float, optional
+        Largest rate of change of the field strength, A/m/s (needs ``units`` with a field).
+    rotation_rate : float, optional
+        Largest rotation rate of the field, rad/s.
+
+    Returns
+    -------
+    list of dict
+        ``step``, ``h``, ``phi_rad`` [, ``field_A_per_m``, ``field_mT``, ``angle_deg``]
+        [, ``time_s``]. With a rate, step k is reached at t_k = t_{k−1} + max(|ΔH| / field_rate,
+        |Δφ| / rotation_rate) (the slower of the two changes governs; a rate not given does not
+        limit); t_0 = 0.
+
+    Raises
+    ------
+    ValueError
+        A rate that is not a finite number > 0, or a field rate without a physical field scale.
+    """
+    for name, rate in (("--rate", field_rate), ("--rotation-rate", rotation_rate)):
+        if rate is not None and not (math.isfinite(rate) and rate > 0):
+            raise ValueError(f"{name}: must be a finite rate > 0, got {rate!r}")
+    physical = units is not None and units.has_field
+    if field_rate is not None and not physical:
+        raise ValueError("--rate: a field rate needs a physical scene (`type: physical` CONFIG with a "
+                         "magnetic group); give --rotation-rate only, or a physical CONFIG")
+    timed = field_rate is not None or rotation_rate is not None
+    rows: List[Dict[str, float]] = []
+    t = 0.0
+    for k, s in enumerate(schedule):
+        h, phi = float(s["h"]), float(s["phi"])
+        row = {"step": k, "h": h, "phi_rad": phi}
+        if physical:
+            row.update(field_A_per_m=units.field_A_per_m(h), field_mT=units.field_mT(h),
+                       angle_deg=math.degrees(phi))
+        if timed:
+            if k > 0:
+                prev = rows[-1]
+                dt = 0.0
+                if field_rate is not None:
+                    dt = max(dt, abs(units.field_A_per_m(h) - units.field_A_per_m(prev["h"])) / field_rate)
+                if rotation_rate is not None:
+                    dt = max(dt, abs(phi - prev["phi_rad"]) / rotation_rate)
+                t += dt
+            row["time_s"] = t
+        rows.append(row)
+    return rows

@@ -13,7 +13,8 @@ __all__ = [
     "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
     "UsageError", "InputError", "error_line", "package_version", "finite_float",
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
-    "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags",
+    "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags", "add_rate_args", "parse_rates",
+    "table_csv_text",
 ]
 
 PROG = "actuator-design"
@@ -85,6 +86,55 @@ def check_scene_flags(args: argparse.Namespace) -> None:
             if problem is not None:
                 flag = "--" + dest.replace("_", "-")
                 raise InputError(f"{flag}: invalid value {value:g}: {problem.split(', got')[0]}")
+
+
+# -- schedules in the user's units ----------------------------------------------------------------
+def add_rate_args(parser: argparse.ArgumentParser) -> None:
+    """--rate and --rotation-rate: the time column of a schedule."""
+    g = parser.add_argument_group("schedule timing (adds a time column to the schedule)")
+    g.add_argument("--rate", metavar="RATE",
+                   help="largest rate of change of the field, e.g. '5 mT/s' or '4 kA/m/s' (physical scenes)")
+    g.add_argument("--rotation-rate", metavar="RATE",
+                   help="largest rotation rate of the field, e.g. '30 deg/s'; with --rate the slower "
+                        "of the two changes governs each step")
+
+
+def parse_rates(field_rate, rotation_rate):
+    """``(field rate in A/m/s or None, rotation rate in rad/s or None)`` from flag or YAML values.
+
+    Raises
+    ------
+    InputError
+        One line naming the flag: not a rate of the right dimension, or not > 0.
+    """
+    from ..units import parse_quantity
+
+    out = []
+    for flag, value, dim in (("--rate", field_rate, "field_rate"),
+                             ("--rotation-rate", rotation_rate, "angular_rate")):
+        if value is None:
+            out.append(None)
+            continue
+        with bad_input():
+            v = parse_quantity(value, dim, flag)
+        if not v > 0:
+            raise InputError(f"{flag}: must be > 0, got {value!r}")
+        out.append(v)
+    return tuple(out)
+
+
+def table_csv_text(rows, columns=None) -> str:
+    """CSV text of a list of dicts (floats written exactly with repr, missing values empty)."""
+    import csv
+    import io
+
+    columns = list(columns or (rows[0] if rows else []))
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(columns)
+    for r in rows:
+        w.writerow([repr(float(r[c])) if isinstance(r.get(c), float) else r.get(c, "") for c in columns])
+    return buf.getvalue()
 
 
 # -- turning library errors into bad-input errors -------------------------------------------------

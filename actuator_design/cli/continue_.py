@@ -9,7 +9,10 @@ where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 s
 phi = 90 deg, p = 0); --switch also follows the branches that bifurcate there.
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
-angles in rad (the --phi-deg and --alpha-deg flags take degrees).
+angles in rad (the --phi-deg and --alpha-deg flags take degrees). --from/--to accept units for
+parameters with a physical meaning: angles ('30 deg') always; for a physical scene fields ('2 mT',
+'5 kA/m'; h = H dh/dH) and loads ('1 mN'). A physical scene's folds and branch points also carry
+field_mT and field_A_per_m (or value_N, ...) beside their value.
 
 With CONFIG, its `study:` section (type: continuation; keys param, from, to, ds, ds_max,
 max_points, switch, straight and the scene values h, phi_deg, p, alpha_deg) and then the flags
@@ -55,8 +58,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_scene_args(parser)
     c = parser.add_argument_group("continuation")
     c.add_argument("--param", choices=PARAM_NAMES, help="the continuation parameter")
-    c.add_argument("--from", dest="start", type=finite_float, metavar="A", help="start value")
-    c.add_argument("--to", dest="stop", type=finite_float, metavar="B", help="end value")
+    c.add_argument("--from", dest="start", metavar="A", help="start value (units allowed, e.g. '2 mT')")
+    c.add_argument("--to", dest="stop", metavar="B", help="end value (units allowed, e.g. '6 mT')")
     c.add_argument("--ds", type=finite_float, help="initial arclength step (> 0; default 0.05)")
     c.add_argument("--ds-max", type=finite_float, help="largest arclength step (> 0; default 0.5)")
     c.add_argument("--max-points", type=int, help="at most this many points per branch (default 2000)")
@@ -92,9 +95,18 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw, study = build_scene(args, ContinuationStudy, "continuation")
     param = _pick(args.param, study, "param")
-    start = _pick(args.start, study, "start")
-    stop = _pick(args.stop, study, "to")
-    for flag, v in (("--param", param), ("--from", start), ("--to", stop)):
+    if param is None:
+        raise InputError("--param: required (or give it in the config's study section)")
+    from ..parameters import parameter
+    from ..user_units import add_physical_values, parameter_from_text, user_units
+
+    units = user_units(scene, raw)
+    with bad_input():
+        start = (parameter_from_text(args.start, parameter(param), units, "--from") if args.start is not None
+                 else _pick(None, study, "start"))
+        stop = (parameter_from_text(args.stop, parameter(param), units, "--to") if args.stop is not None
+                else _pick(None, study, "to"))
+    for flag, v in (("--from", start), ("--to", stop)):
         if v is None:
             raise InputError(f"{flag}: required (or give it in the config's study section)")
     if start == stop:
@@ -133,26 +145,32 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as err:
             raise InputError(str(err)) from err
     payload = res.to_dict()
+    add_physical_values(payload["folds"] + payload["branch_points"], parameter(param), units)
     written = None
     if args.out is not None:
         from ..viz.landscape import plot_branches
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
-            files = {"branch.json": dumps_json({**res.to_dict(), "config": raw}, indent=1) + "\n",
+            if param == "h":  # h ∝ H: tick the parameter axis in mT
+                from ..viz.units import field_axis
+                field_axis(ax.xaxis, units)
+            files = {"branch.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
                      "branch.csv": _csv(res), "branch.png": png_bytes(ax, dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
         br = res.branch
-        print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g} to {br.lam[-1]:.6g} "
-              f"({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
+        mT = (lambda v: f" ({units.field_mT(v if param == 'h' else max(v, 0) ** 0.5):.6g} mT)"
+              if units is not None and units.has_field and param in ("h", "h2") else "")
+        print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g}{mT(br.lam[0])} to "
+              f"{br.lam[-1]:.6g}{mT(br.lam[-1])} ({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
         for cp in br.folds:
-            print(f"  fold at {param} = {cp.value:.12g}, tip angle {cp.tip['angle']:+.8f} rad "
+            print(f"  fold at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
                   f"(Morse index {cp.morse_before} -> {cp.morse_after})")
         for cp in br.branch_points:
-            print(f"  branch point at {param} = {cp.value:.12g}, tip angle {cp.tip['angle']:+.8f} rad "
+            print(f"  branch point at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
                   f"(Morse index {cp.morse_before} -> {cp.morse_after})")
         for s in res.secondary:
             print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}")

@@ -10,6 +10,10 @@ mm or m (physical scenes only) in those units. The optional third value is the t
 taken modulo 360 (reported in [-180, 180]). The field acts on its axis: phi and phi + 180 deg are
 one field, and the text output says so where it prints one of them.
 
+A physical scene (`type: physical`) also speaks the user's units: target and tip in the length unit
+of the YAML, the field in mT (mu0 H) and A/m, every schedule step with field_A_per_m, field_mT and
+angle_deg, and with --rate 5mT/s and/or --rotation-rate 30deg/s the time of each step (time_s).
+
 Every design must hold over the lab's tolerance box (--tolerance, default field ±5 %, angle ±2 deg):
 the tool makes the target exact at the nominal field and minimises the worst-case tip error over
 the box, then follows the design's branch over the box and to the nearest snap and reports both.
@@ -24,11 +28,10 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import io as _io
 import math
 
-from .common import (EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config,
-                     stdout_to_stderr)
+from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float,
+                     load_config, parse_rates, stdout_to_stderr, table_csv_text)
 from ..parameters import designable
 from .output import print_written, write_out
 
@@ -83,6 +86,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     s.add_argument("--degree", type=int, metavar="D", help="degree per element")
     s.add_argument("--no-verify", action="store_true",
                    help="skip the independent verification (the result is then never 'success')")
+    add_rate_args(parser)
     o = parser.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print exactly one JSON object (the design contract)")
     o.add_argument("--out", metavar="DIR", help="write design.json, schedule.csv, shape.csv and design.png")
@@ -120,7 +124,8 @@ def _inputs(args):
         if study and study.get("type") != "design":
             raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
     study.pop("type", None)
-    allowed = {"target", "targets", "target_units", "vary", "stiffness", *[f.name for f in dataclasses.fields(DesignSettings)]}
+    allowed = {"target", "targets", "target_units", "vary", "stiffness", "rate", "rotation_rate",
+               *[f.name for f in dataclasses.fields(DesignSettings)]}
     unknown = sorted(set(study) - allowed)
     if unknown:
         raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(sorted(allowed))})")
@@ -155,7 +160,8 @@ def _inputs(args):
         if bad or not vary:
             raise InputError(f"--vary: unknown design variable {bad[0] if bad else ''!r} "
                              f"(allowed: {', '.join(_VARIABLES)})")
-    settings_kw = {k: study[k] for k in study if k not in ("target", "targets", "target_units", "vary", "stiffness")}
+    settings_kw = {k: study[k] for k in study
+                   if k not in ("target", "targets", "target_units", "vary", "stiffness", "rate", "rotation_rate")}
     for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
                             ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
                             ("margin", "margin", float), ("time_limit", "time_limit", float)):
@@ -172,6 +178,14 @@ def _inputs(args):
         changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
         options = dataclasses.replace(options, **changes)
     return scene, options, raw, target, vary, settings, stiffness
+
+
+def _rates(args, raw):
+    """(field rate in A/m/s, rotation rate in rad/s), each None when not given: the flags, else
+    the study's ``rate`` and ``rotation_rate``."""
+    study = (raw or {}).get("study") or {}
+    return parse_rates(args.rate if args.rate is not None else study.get("rate"),
+                       args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
 
 
 def _parse_stiffness(value, scene):
@@ -207,7 +221,7 @@ def _check_settings(s) -> None:
         raise ValueError(f"time_limit must lie in (0, 86400] s, got {s.time_limit}")
 
 
-def _summary(res) -> str:
+def _summary(res, units=None, table=None) -> str:
     d = res.design
     lines = [
         "actuator-design: inverse design",
@@ -227,6 +241,7 @@ def _summary(res) -> str:
     phys = res.to_dict().get("physical")
     if phys:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
+    lines += _physical_lines(res, units, table)
     if res.achieved:
         lines.append(f"  achieved    : x = {res.achieved['x']:.10f}, y = {res.achieved['y']:.10f}, "
                      f"angle = {math.degrees(res.achieved['angle']):.6g} deg; error {res.error:.3e}")
@@ -255,6 +270,59 @@ def _summary(res) -> str:
     return "\n".join(lines)
 
 
+def _physical_lines(res, units, table) -> list:
+    """The target and tip in the scene's length unit, the stiffness in N/m and the schedule in mT
+    and seconds (physical scenes and timed schedules only)."""
+    lines = []
+    if units is not None:
+        u = units.length_unit
+        parts = []
+        if res.target:
+            parts.append(f"target ({units.length(res.target[0]):.6g}, {units.length(res.target[1]):.6g})")
+        if res.achieved:
+            parts.append(f"achieved ({units.length(res.achieved['x']):.6g}, "
+                         f"{units.length(res.achieved['y']):.6g})")
+        if parts:
+            lines.append(f"  tip [{u}]{' ' * max(0, 6 - len(u))}: {', '.join(parts)}")
+        if res.stiffness_target is not None:
+            k = res.achieved_stiffness
+            lines.append(f"  stiffness   : target {res.stiffness_target * units.stiffness_scale:.6g} N/m"
+                         + (f", achieved {k * units.stiffness_scale:.6g} N/m" if k is not None else ""))
+    if table:
+        last = table[-1]
+        text = f"  lab field   : {len(table)} steps"
+        if "field_mT" in last:
+            text += f" to {last['field_mT']:.6g} mT ({last['field_A_per_m']:.6g} A/m) at {last['angle_deg']:.6g} deg"
+        if "time_s" in last:
+            text += f", {last['time_s']:.4g} s at the given rates"
+        if text.endswith("steps"):
+            return lines
+        lines.append(text)
+    return lines
+
+
+def _physical_payload(res, units, table) -> dict:
+    """``res.to_dict()`` with the user's units added (never renamed): ``physical.length_unit``,
+    ``physical.target``/``tip`` in that unit, and the schedule's steps with ``field_A_per_m``,
+    ``field_mT``, ``angle_deg`` (physical scenes) and ``time_s`` (with a rate)."""
+    payload = res.to_dict()
+    if units is not None:
+        phys = payload.setdefault("physical", {})
+        phys["length_unit"] = units.length_unit
+        phys["units"] = {"target": units.length_unit, "tip": units.length_unit, "field_mT": "mT (mu0 H)",
+                         "field_A_per_m": "A/m", "angle_deg": "deg", "time_s": "s"}
+        if res.target:
+            phys["target"] = {"x": units.length(res.target[0]), "y": units.length(res.target[1])}
+        if res.achieved:
+            phys["tip"] = {"x": units.length(res.achieved["x"]), "y": units.length(res.achieved["y"])}
+        if res.stiffness_target is not None:
+            phys["target_stiffness_N_per_m"] = res.stiffness_target * units.stiffness_scale
+    if table and len(table) == len(payload["schedule"]):
+        extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
+        payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
+    return payload
+
+
 def _phi_text(res) -> str:
     """The field angle as the field is left at the end of the schedule, and, when the design's
     representative in (-90, 90] deg differs, the word that they are one field axis."""
@@ -266,29 +334,31 @@ def _phi_text(res) -> str:
     return text
 
 
-def _output_files(res, raw) -> dict:
+def _output_files(res, raw, payload, table, units=None) -> dict:
     """design.json, schedule.csv, design.png and (with a converged state) shape.csv, in memory."""
-    import csv
-
+    from ..analysis.schedule import schedule_table
     from ..io import dumps_json, scene_to_dict, shape_csv_text
     from ..viz.design import design_figure
     from ..viz.style import png_bytes
 
-    payload = res.to_dict()
+    payload = dict(payload)
     payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
     payload["config"] = raw
     text = dumps_json(payload, indent=1) + "\n"
-    sched = _io.StringIO()
-    w = csv.writer(sched)
-    w.writerow(["step", "h", "phi_rad"])
-    for k, s in enumerate(res.schedule):
-        w.writerow([k, repr(s["h"]), repr(s["phi"])])
+    rows = table if table is not None else schedule_table(res.schedule)
     state = res.path.final if res.path is not None else res.forward
-    files = {"design.json": text, "schedule.csv": sched.getvalue(),
-             "design.png": png_bytes(design_figure(res), dpi=100)}
+    files = {"design.json": text, "schedule.csv": table_csv_text(rows, _columns(rows)),
+             "design.png": png_bytes(design_figure(res, units=units), dpi=100)}
     if state is not None and state.success:
         files["shape.csv"] = shape_csv_text(state)
     return files
+
+
+def _columns(rows) -> list:
+    """The schedule table's columns (``SCHEDULE_COLUMNS`` in order, those present)."""
+    from ..analysis.schedule import SCHEDULE_COLUMNS
+
+    return [c for group in SCHEDULE_COLUMNS.values() for c in group if rows and c in rows[0]] or ["step", "h", "phi_rad"]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -300,16 +370,28 @@ def run(args: argparse.Namespace) -> int:
     if isinstance(target, list):
         from .design_poses import run_poses
         return run_poses(args, scene, options, raw, target, vary, settings)
+    rates = _rates(args, raw)
     from ..analysis.design import design
+    from ..analysis.schedule import schedule_table
     from ..io import dumps_json
+    from ..user_units import user_units
 
+    units = user_units(scene, raw)
+    if rates[0] is not None and not (units is not None and units.has_field):
+        raise InputError("--rate: a field rate needs a physical scene (`type: physical` CONFIG with a "
+                         "magnetic group); give --rotation-rate only, or a physical CONFIG")
     with stdout_to_stderr(args.json), bad_input():
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)
+    table = None
+    if res.schedule and (units is not None or rates != (None, None)):
+        with bad_input():
+            table = schedule_table(res.schedule, units, *rates)
+    payload = _physical_payload(res, units, table)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _output_files(res, raw), args.json)
-    print(dumps_json(res.to_dict()) if args.json else _summary(res))
+        written = write_out(args.out, _output_files(res, raw, payload, table, units), args.json)
+    print(dumps_json(payload) if args.json else _summary(res, units, table))
     if written is not None:
         print_written(written, args.json)
     if not res.reachable or (res.robustness is not None and not res.robustness.holds):

@@ -18,7 +18,10 @@ or  study: {type: path, schedule: [{h: 0, phi_deg: 60}, {h: 1.5, phi_deg: 60}, {
 
 Units: lengths (tip x, y) in rod lengths l, energies in B0/l, loads in B0/l^2 (moments B0/l),
 stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the command line and
-radians in the output.
+radians in the output. --from/--to/--schedule values may carry units where NAME has a physical
+meaning: angles ('30 deg'), and for a physical scene fields ('2 mT', '5 kA/m'; h = H dh/dH) and
+loads ('1 mN'); a physical scene's points and jumps then also carry field_mT and field_A_per_m
+(or value_N, ...) beside param.
 
 JSON (--json): one object with points (param, tip {x, y, angle}, energy, stable, min_eigenvalue,
 ...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops}.
@@ -31,6 +34,7 @@ import argparse
 import csv
 import io as _io
 import math
+import re
 import sys
 from typing import Dict, Optional, Union
 
@@ -112,8 +116,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, phi_deg, alpha_deg, "
                         "theta0_deg (degrees) or phi, alpha, theta0 (radians)")
     g.add_argument("--schedule", metavar="A,B,C,...", help="values of NAME in order (e.g. up and back down)")
-    g.add_argument("--from", dest="start", type=finite_float, metavar="A", help="first value of NAME")
-    g.add_argument("--to", type=finite_float, metavar="B", help="turning value of NAME")
+    g.add_argument("--from", dest="start", metavar="A", help="first value of NAME (units allowed, e.g. '2 mT')")
+    g.add_argument("--to", metavar="B", help="turning value of NAME (units allowed, e.g. '6 mT')")
     g.add_argument("--back", action="store_true", default=None, help="ramp back from B to A")
     g.add_argument("--steps", type=int, metavar="N",
                    help="at least N steps per ramp (default: adaptive, about 20 per path)")
@@ -123,7 +127,24 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     o.add_argument("--out", metavar="DIR", help="write path.json, path.csv and path.png into DIR")
 
 
-def _schedule(args, study):
+def _value(text, key: str, units, flag: str) -> float:
+    """A value of parameter ``key`` (a CLI name, ``phi_deg`` …) in its CLI unit; a quantity with a
+    unit is converted (angles to degrees for the *_deg names, fields through the scene's scales)."""
+    from ..parameters import parameter
+    from ..user_units import parameter_from_text
+
+    if key in _DEGREE_NAMES:
+        try:
+            return finite_float(str(text))
+        except Exception:
+            pass
+        with bad_input():
+            return math.degrees(parameter_from_text(text, parameter(_DEGREE_NAMES[key]), units, flag))
+    with bad_input():
+        return parameter_from_text(text, parameter(key), units, flag)
+
+
+def _schedule(args, study, units=None):
     """(schedule for the API, name as given, factor API → given units, max_step)."""
     from ..parameters import names as parameter_names
 
@@ -133,8 +154,7 @@ def _schedule(args, study):
     if steps is not None and steps < 1:
         raise InputError(f"--steps: must be >= 1, got {steps}")
     text = args.schedule
-    start = args.start if args.start is not None else study.start
-    to = args.to if args.to is not None else study.to
+    start, to = args.start, args.to
     back = args.back if args.back is not None else study.back
     sched_study = study.schedule if (text is None and args.start is None and args.to is None) else None
     max_step = study.max_step
@@ -159,11 +179,13 @@ def _schedule(args, study):
         raise InputError(f"--param: unknown parameter {name!r} (allowed: "
                          f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
     factor = math.pi / 180.0 if key in _DEGREE_NAMES else 1.0
+    start = study.start if start is None else _value(start, key, units, "--from")
+    to = study.to if to is None else _value(to, key, units, "--to")
     if text is not None:
-        try:
-            values = [float(v) for v in text.split(",")]
-        except ValueError:
-            raise InputError(f"--schedule: expected comma-separated numbers, got {text!r}") from None
+        if not all(re.match(r"^\s*[+-]?(\d|\.\d)", v) for v in text.split(",")):
+            raise InputError(f"--schedule: expected comma-separated numbers (or quantities such as "
+                             f"'2 mT'), got {text!r}")
+        values = [_value(v.strip(), key, units, "--schedule") for v in text.split(",")]
     elif sched_study is not None:
         values = [float(v) for v in sched_study]
     else:
@@ -208,7 +230,10 @@ def run(args: argparse.Namespace) -> int:
         loaded = load_config(args.config)
         study = study_settings(loaded[2], "path", _study_model())
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
-    schedule, name, factor, max_step = _schedule(args, study)
+    from ..user_units import add_physical_values, user_units
+
+    units = user_units(scene, raw)
+    schedule, name, factor, max_step = _schedule(args, study, units)
 
     from ..analysis.loading import follow_path
     from ..io import dumps_json
@@ -216,13 +241,20 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         path = follow_path(scene, options, schedule, max_step=max_step)
     data = _scaled_dict(path, factor, name)
+    if name is not None and factor == 1.0 and units is not None:
+        from ..parameters import parameter
+
+        p = parameter(name.replace("-", "_"))
+        add_physical_values(data["points"] + data["jumps"] + data["bifurcations"], p, units, key="param")
     written = None
     if args.out is not None:
-        written = write_out(args.out, _render(path, data, raw, factor), args.json)
+        written = write_out(args.out, _render(path, data, raw, factor, units), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(path.summary() if factor == 1.0 else _summary_deg(path, data))
+        for line in _physical_lines(data, units):
+            print(line)
     if written is not None:
         print_written(written, args.json)
     if not path.success:
@@ -230,6 +262,23 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _physical_lines(data, units=None) -> list:
+    """The final tip in the scene's length unit, the jumps and bifurcations of a field ramp in mT
+    (physical scenes; empty otherwise)."""
+    lines = []
+    if units is not None and data["points"]:
+        tip = data["points"][-1]["tip"]
+        lines.append(f"  final tip [{units.length_unit}]: ({units.length(tip['x']):.6g}, {units.length(tip['y']):.6g})")
+    for j in data["jumps"]:
+        if "field_mT" in j:
+            lines.append(f"  jump ({j['kind']}) at {data['param']} = {j['param']:.10g}: mu0 H = {j['field_mT']:.6g} mT "
+                         f"({j['field_A_per_m']:.6g} A/m)")
+    for b in data["bifurcations"]:
+        if "field_mT" in b:
+            lines.append(f"  continuous bifurcation at mu0 H = {b['field_mT']:.6g} mT")
+    return lines
 
 
 def _summary_deg(path, data) -> str:
@@ -248,7 +297,7 @@ def _summary_deg(path, data) -> str:
     return "\n".join(out + lines[2:])
 
 
-def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]]:
+def _render(path, data, raw, factor: float = 1.0, units=None) -> Dict[str, Union[str, bytes]]:
     """path.json, path.csv and path.png in memory."""
     from ..io import dumps_json
     from ..viz.loading import path_figure
@@ -262,7 +311,13 @@ def _render(path, data, raw, factor: float = 1.0) -> Dict[str, Union[str, bytes]
              p["stable"], p["min_eigenvalue"], p["morse_index"], p["branch"], p["direction"], p["kind"]]
             + [p["values"][n] for n in path.names] for p in data["points"]]
     xlabel = None if path.param is None else data["param"] + (" [deg]" if factor != 1.0 else "")
-    png = png_bytes(path_figure(path, xscale=1.0 / factor, xlabel=xlabel), dpi=150)
+    fig = path_figure(path, xscale=1.0 / factor, xlabel=xlabel)
+    if path.param == "h" and factor == 1.0:  # h ∝ H: tick the field axes in mT
+        from ..viz.units import field_axis
+        for ax in fig.axes:
+            if ax.get_xlabel() == xlabel:
+                field_axis(ax.xaxis, units)
+    png = png_bytes(fig, dpi=150)
     return {"path.json": dumps_json(payload, indent=1) + "\n",
             "path.csv": csv_text(cols, rows, "units: tip x, y in rod lengths l; angles in rad; energy in "
                                              "B0/l; param in the units of --param; value_* in API units "

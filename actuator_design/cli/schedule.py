@@ -7,6 +7,11 @@ waypoint reached). Waypoints are in rod lengths (clamp at the origin, rod initia
 
 Outputs with --out DIR: schedule.json, schedule.csv (every schedule point), waypoints.csv (one row
 per waypoint), schedule.png (the rod along the path) and schedule.gif (an animation).
+
+Physical scenes (`type: physical` CONFIG) speak the user's units too: every schedule step carries
+field_A_per_m, field_mT (mu0 H) and angle_deg, the text shows waypoints and tips in the length unit
+of the YAML and the field in mT, and --rate 5mT/s / --rotation-rate 30deg/s add the time of each
+step (the slower of the field change and the rotation governs).
 Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why).
 """
 from __future__ import annotations
@@ -17,7 +22,8 @@ import io as _io
 import math
 from pathlib import Path
 
-from .common import EXIT_OK, InputError, bad_input, check_out_dir, finite_float, load_config, stdout_to_stderr
+from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
+                     parse_rates, stdout_to_stderr, table_csv_text)
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -37,6 +43,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="weight of the field's rate of change against its magnitude (default 1)")
     parser.add_argument("--substeps", type=int, default=None,
                         help="schedule points between consecutive waypoints (default 8)")
+    add_rate_args(parser)
     parser.add_argument("--json", action="store_true", help="print exactly one JSON object")
     parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv")
 
@@ -78,31 +85,73 @@ def _read_path_csv(path: str):
     return _points(((f"row {i + 1}", r["x"], r["y"]) for i, r in enumerate(rows)), "--path-csv")
 
 
-def _output_files(res, raw) -> dict:
+def _payload(res, units, table) -> dict:
+    """``res.to_dict()`` with the user's units added (never renamed): each schedule step gains
+    ``field_A_per_m``, ``field_mT``, ``angle_deg`` (physical scenes) and ``time_s`` (with a rate);
+    ``physical`` holds the length unit and the waypoints and tips in it."""
+    payload = res.to_dict()
+    extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
+    if any(extra):
+        payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
+    if units is not None:
+        L = units.length
+        payload["physical"] = {
+            "length_unit": units.length_unit,
+            "waypoints": [{"waypoint": r["waypoint"], "target_x": L(r["target_x"]), "target_y": L(r["target_y"]),
+                           "x": L(r["x"]), "y": L(r["y"]), "error": L(r["error"]),
+                           **({"field_A_per_m": units.field_A_per_m(r["h"]), "field_mT": units.field_mT(r["h"])}
+                              if units.has_field else {})} for r in res.rows]}
+    return payload
+
+
+def _output_files(res, raw, payload, table, units=None) -> dict:
     """schedule.json, schedule.csv, waypoints.csv, schedule.png and (with states) schedule.gif,
     in memory."""
     from ..io import dumps_json
     from ..viz.design import schedule_figure, schedule_gif_bytes
     from ..viz.style import png_bytes
 
-    payload = dict(res.to_dict(), config=raw)
-    text = dumps_json(payload, indent=1) + "\n"
-    sched, rows = _io.StringIO(), _io.StringIO()
-    w = csv.writer(sched)
-    w.writerow(["step", "h", "phi_rad", "tip_x", "tip_y", "tip_angle_rad", "stable"])
-    for k, s in enumerate(res.schedule):
+    text = dumps_json(dict(payload, config=raw), indent=1) + "\n"
+    rows = _io.StringIO()
+    steps = []
+    for k, row in enumerate(table):
         st = res.states[k] if k < len(res.states) else None
-        w.writerow([k, repr(s["h"]), repr(s["phi"])] + ([repr(st.tip["x"]), repr(st.tip["y"]),
-                                                          repr(st.tip["angle"]), st.stable] if st else ["", "", "", ""]))
+        tip = {"tip_x": float(st.tip["x"]), "tip_y": float(st.tip["y"]), "tip_angle_rad": float(st.tip["angle"]),
+               "stable": st.stable} if st else {}
+        if st is not None and units is not None:
+            tip[f"tip_x_{units.length_unit}"] = units.length(st.tip["x"])
+            tip[f"tip_y_{units.length_unit}"] = units.length(st.tip["y"])
+        steps.append({**{c: row[c] for c in ("step", "h", "phi_rad")}, **tip,
+                      **{c: v for c, v in row.items() if c not in ("step", "h", "phi_rad")}})
+    columns = ["step", "h", "phi_rad", "tip_x", "tip_y", "tip_angle_rad", "stable"]
+    columns += [c for s in steps[:1] for c in s if c not in columns]
     if res.rows:
         wr = csv.DictWriter(rows, fieldnames=list(res.rows[0]))
         wr.writeheader()
         wr.writerows(res.rows)
-    files = {"schedule.json": text, "schedule.csv": sched.getvalue(), "waypoints.csv": rows.getvalue(),
-             "schedule.png": png_bytes(schedule_figure(res), dpi=130)}
+    files = {"schedule.json": text, "schedule.csv": table_csv_text(steps, columns), "waypoints.csv": rows.getvalue(),
+             "schedule.png": png_bytes(schedule_figure(res, units=units), dpi=130)}
     if res.states:
         files["schedule.gif"] = schedule_gif_bytes(res)
     return files
+
+
+def _physical_lines(payload, table) -> list:
+    """Waypoints and tips in the scene's length unit, fields in mT, the schedule's duration."""
+    lines = []
+    phys = payload.get("physical")
+    if phys and phys["waypoints"]:
+        u = phys["length_unit"]
+        has_field = any("field_mT" in w for w in phys["waypoints"])
+        lines.append(f"  {'wp':>3} {'target x':>10} {'target y':>10} {'tip x':>10} {'tip y':>10}  [{u}]"
+                     + (f" {'field/mT':>10} {'H/(A/m)':>11}" if has_field else ""))
+        for w in phys["waypoints"]:
+            lines.append(f"  {w['waypoint']:>3} {w['target_x']:>10.5g} {w['target_y']:>10.5g} {w['x']:>10.5g} "
+                         f"{w['y']:>10.5g}  {'':{len(u) + 2}}"
+                         + (f" {w['field_mT']:>10.5g} {w['field_A_per_m']:>11.5g}" if has_field else ""))
+    if table and "time_s" in table[-1]:
+        lines.append(f"  duration: {table[-1]['time_s']:.4g} s at the given rates (schedule.csv: time_s)")
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -119,9 +168,10 @@ def run(args: argparse.Namespace) -> int:
         if study and study.get("type") != "schedule":
             raise InputError(f"study.type: expected 'schedule' for this command, got {study.get('type')!r}")
         study.pop("type", None)
-        unknown = sorted(set(study) - {"waypoints", "rate_weight", "substeps"})
+        unknown = sorted(set(study) - {"waypoints", "rate_weight", "substeps", "rate", "rotation_rate"})
         if unknown:
-            raise InputError(f"study.{unknown[0]}: unknown key (allowed: waypoints, rate_weight, substeps)")
+            raise InputError(f"study.{unknown[0]}: unknown key (allowed: waypoints, rate_weight, substeps, "
+                             "rate, rotation_rate)")
     if args.waypoints and args.path_csv:
         raise InputError("--waypoints and --path-csv: give one of them, not both")
     if args.waypoints:
@@ -139,22 +189,33 @@ def run(args: argparse.Namespace) -> int:
     if not (1 <= sub <= 200):
         raise InputError(f"--substeps: must lie in [1, 200], got {sub}")
 
-    from ..analysis.schedule import field_schedule
+    from ..analysis.schedule import field_schedule, schedule_table
     from ..io import dumps_json
+    from ..user_units import user_units
 
+    rates = parse_rates(args.rate if args.rate is not None else study.get("rate"),
+                        args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
+    units = user_units(scene, raw)
+    with bad_input():
+        schedule_table([], units, *rates)  # a field rate needs a physical scene: say so before solving
     with stdout_to_stderr(args.json), bad_input():
         res = field_schedule(wps, scene=scene, options=options, rate_weight=rate, substeps=sub)
+    with bad_input():
+        table = schedule_table(res.schedule, units, *rates)
+    payload = _payload(res, units, table)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _output_files(res, raw), args.json)
+        written = write_out(args.out, _output_files(res, raw, payload, table, units), args.json)
     if args.json:
-        print(dumps_json(res.to_dict()))
+        print(dumps_json(payload))
     else:
         print("actuator-design: field schedule through tip waypoints")
         print(f"  {'wp':>3} {'target x':>10} {'target y':>10} {'h':>10} {'phi/deg':>9} {'error':>9} {'margin':>8}")
         for r in res.rows:
             print(f"  {r['waypoint']:>3} {r['target_x']:>10.6f} {r['target_y']:>10.6f} {r['h']:>10.6f} "
                   f"{math.degrees(r['phi']):>9.3f} {r['error']:>9.2e} {r['margin']:>8.4g}")
+        for line in _physical_lines(payload, table):
+            print(line)
         print(f"  schedule: {len(res.schedule)} points from zero field; {res.message}")
         print(f"  time: {res.timings.get('total', float('nan')):.2f} s")
     if written is not None:

@@ -70,7 +70,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="2x2 compliance of (x, y) under (fx, fy) only (default: 3x3 with the tip "
                         "angle and moment)")
     g.add_argument("--field-sweep", metavar="A,B",
-                   help="also compute the stiffness for h from A to B (dimensionless, >= 0)")
+                   help="also compute the stiffness for h from A to B (dimensionless, >= 0; for a "
+                        "physical scene also fields, e.g. '2 mT,6 mT')")
     g.add_argument("--n", type=int, metavar="N", help="points of the field sweep (>= 2, default 41)")
     add_scene_flags(parser, DEFAULTS)
     o = parser.add_argument_group("output")
@@ -79,13 +80,15 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="write stiffness.json (and stiffness_curve.csv, stiffness.png with a sweep)")
 
 
-def _sweep(args, study):
+def _sweep(args, study, units=None):
     text = args.field_sweep
     if text is not None:
-        try:
-            ab = [float(v) for v in text.split(",")]
-        except ValueError:
-            raise InputError(f"--field-sweep: expected A,B numbers, got {text!r}") from None
+        from ..parameters import parameter
+        from ..user_units import parameter_from_text
+
+        parts = text.split(",")
+        with bad_input():
+            ab = [parameter_from_text(v.strip(), parameter("h"), units, "--field-sweep") for v in parts]
         if len(ab) != 2:
             raise InputError(f"--field-sweep: expected two values A,B, got {text!r}")
     else:
@@ -111,7 +114,9 @@ def run(args: argparse.Namespace) -> int:
         loaded = load_config(args.config)
         study = study_settings(loaded[2], "stiffness", _study_model())
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
-    h_values = _sweep(args, study)
+    from ..user_units import user_units
+
+    h_values = _sweep(args, study, user_units(scene, raw))
     moment = study.moment if args.moment is None else args.moment
 
     from ..analysis.stiffness import stiffness_field_curve, tip_stiffness

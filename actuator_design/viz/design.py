@@ -14,12 +14,19 @@ import numpy as np
 
 from .shape import plot_shape
 from .style import gif_bytes, new_figure
+from .units import field_axis, length_axes
 
 __all__ = ["design_figure", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes"]
 
 
-def design_figure(result):
+def design_figure(result, units=None):
     """A figure with three panels: shape and target, α(s), field schedule (h and φ along the path).
+
+    Parameters
+    ----------
+    result : DesignResult
+    units : actuator_design.user_units.UserUnits, optional
+        A physical scene's units: lengths in its length unit, the field in mT.
 
     Returns
     -------
@@ -52,6 +59,8 @@ def design_figure(result):
             ax_shape.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none",
                           color="tab:blue", markersize=6, label="box corners")
         _spread_panel(axes[3], rob, result.target)
+        length_axes(axes[3], units)
+    length_axes(ax_shape, units)
     if ax_shape.get_legend_handles_labels()[0]:
         ax_shape.legend(loc="best", fontsize=8)
 
@@ -68,6 +77,7 @@ def design_figure(result):
         ax_sched.plot(k, [s["h"] for s in result.schedule], color="tab:green", label="h")
         ax_sched.set_xlabel("step of the verified schedule")
         ax_sched.set_ylabel("field group h", color="tab:green")
+        field_axis(ax_sched.yaxis, units)
         ax2 = ax_sched.twinx()
         ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange", label="φ")
         ax2.set_ylabel("field angle φ / deg", color="tab:orange")
@@ -159,8 +169,14 @@ def _rod_xy(state, n: int = 150):
     return d["x"], d["y"]
 
 
-def schedule_figure(result):
+def schedule_figure(result, units=None):
     """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule.
+
+    Parameters
+    ----------
+    result : ScheduleResult
+    units : actuator_design.user_units.UserUnits, optional
+        A physical scene's units: lengths in its length unit, the field in mT.
 
     Returns
     -------
@@ -183,12 +199,14 @@ def schedule_figure(result):
     ax.set_aspect("equal")
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
+    length_axes(ax, units)
     ax.set_title("rod at the waypoints — " + ("verified, snap-free" if result.success else "NOT verified"))
     ax.legend(fontsize=8, loc="best")
     k = np.arange(len(result.schedule))
     ax_s.plot(k, [s["h"] for s in result.schedule], color="tab:green")
     ax_s.set_xlabel("schedule step (from zero field)")
     ax_s.set_ylabel("field group h", color="tab:green")
+    field_axis(ax_s.yaxis, units)
     ax2 = ax_s.twinx()
     ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange")
     ax2.set_ylabel("field angle φ / deg", color="tab:orange")
