@@ -147,7 +147,8 @@ def test_design_schedule_csv_in_mT_with_time(config_file, tmp_path):
     """A physical design's schedule.csv: field_mT from each step's h by hand, and the time column
     re-summed from the rates; the JSON keeps its keys and adds the physical ones."""
     out = tmp_path / "d"
-    p = _cli("design", str(config_file), "--target-tip", "0.6,0.6", "--tolerance", "none",
+    # the config gives its fibres (0 deg): a design keeps them unless alpha is varied (issue 9 item 3)
+    p = _cli("design", str(config_file), "--target-tip", "0.6,0.6", "--tolerance", "none", "--vary", "h,phi,alpha",
              "--rate", "5mT/s", "--rotation-rate", "30deg/s", "--json", "--out", str(out))
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
