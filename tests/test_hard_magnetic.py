@@ -131,3 +131,40 @@ def test_dipole_field_gives_the_gradient_force():
 def test_shooting_scan_refuses_the_hard_term():
     with pytest.raises(ValueError, match="hard_magnetic"):
         find_equilibria(hard_scene(1.0, 0.5))
+
+
+# -- analyses that support the term -------------------------------------------------------------
+@pytest.mark.parametrize("h, h_r", [(0.0, 0.5), (0.0, 4.0), (0.7, 1.3)])
+def test_lowload_stiffness_with_an_axial_magnetisation(h, h_r):
+    """φ = 0, β = 0, p = 0: θ1'' − (2h² + h_r) θ1 + 1 = 0, so the stiffness is THEORY §6's s at
+    h_eff = √(h² + h_r/2) (closed form, independent of the solver)."""
+    from actuator_design.analysis.stiffness import tip_stiffness
+    from actuator_design.reference.closed_forms import lowload_stiffness
+
+    st = tip_stiffness(hard_scene(h_r, 0.0, h=h, p=0.0), DEFAULT)
+    assert st.vertical == pytest.approx(float(lowload_stiffness(math.sqrt(h * h + h_r / 2))), rel=1e-8)
+
+
+def test_stiffness_field_sweep_scales_h_r_with_the_field():
+    from actuator_design.analysis.stiffness import stiffness_field_curve
+    from actuator_design.reference.closed_forms import lowload_stiffness
+
+    sc = hard_scene(1.0, 0.0, h=0.5, p=0.0)  # h_r/h = 2 stays fixed along the sweep
+    curve = stiffness_field_curve(sc, DEFAULT, [0.5, 1.0, 2.0])
+    for h, k in zip(curve.h, curve.vertical):
+        assert k == pytest.approx(float(lowload_stiffness(math.sqrt(h * h + h))), rel=1e-8)
+    with pytest.raises(ValueError, match="h_values: the scene's h is 0"):
+        stiffness_field_curve(hard_scene(1.0, 0.0, p=0.0), DEFAULT, [0.5])
+
+
+def test_phase_first_integral_is_conserved_along_a_hard_magnetic_equilibrium():
+    """H = ½θ'² + h² cos²(θ+α−φ) + h_r cos(θ+β−φ) + p sin θ is constant along the solution of the
+    NLP (derived by hand from the Euler–Lagrange equation; the NLP knows nothing of H)."""
+    from actuator_design.analysis.phase import check_autonomous, phase_portrait
+
+    sc = hard_scene(3.0, 2.0, beta=0.4, h=0.6, alpha=0.2, p=0.3)
+    r = solve(sc, DEFAULT)
+    pp = phase_portrait(sc, [r])
+    assert pp.trajectories[0].spread < 1e-8
+    with pytest.raises(ValueError, match="^magnetization: "):
+        check_autonomous(hard_scene(1.0, 0.5, beta=expression_profile("0.3*s")))
