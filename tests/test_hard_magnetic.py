@@ -168,3 +168,20 @@ def test_phase_first_integral_is_conserved_along_a_hard_magnetic_equilibrium():
     assert pp.trajectories[0].spread < 1e-8
     with pytest.raises(ValueError, match="^magnetization: "):
         check_autonomous(hard_scene(1.0, 0.5, beta=expression_profile("0.3*s")))
+
+
+def test_design_with_the_hard_term_present_recovers_a_shooting_made_target():
+    """The target is the tip of the shooting solution at (h, φ) = (0.9, 1.3) with h_r = 2 fixed;
+    the design (varying h and φ, h_r held) recovers the field. Note: the design varies h as a
+    group of its own; it does not scale h_r with h (see the report of issue 12)."""
+    from actuator_design.analysis.design import design
+
+    ref = solve_shooting(ShootingParams(phi=1.3, h=0.9, h_r=2.0), 0.5)
+    assert ref.converged
+    base = Scene(field=UniformField(phi=0.0), h=0.5, tip_force=(0.0, 0.0), h_r=2.0,
+                 magnetization=constant_profile(0.0))
+    d = design((ref.tip[0], ref.tip[1]), scene=base, vary=("h", "phi"), options=DEFAULT, verify=False)
+    assert d.reachable and d.error < 1e-8
+    assert d.design_scene.h_r == 2.0
+    assert float(d.design["h"]) == pytest.approx(0.9, abs=1e-6)
+    assert float(d.design["phi"]) == pytest.approx(1.3, abs=1e-6)
