@@ -153,6 +153,7 @@ def test_stiffness_field_sweep_scales_h_r_with_the_field():
     curve = stiffness_field_curve(sc, DEFAULT, [0.5, 1.0, 2.0])
     for h, k in zip(curve.h, curve.vertical):
         assert k == pytest.approx(float(lowload_stiffness(math.sqrt(h * h + h))), rel=1e-8)
+    assert not curve.lowload_applies  # s(h) alone is not this rod's stiffness
     with pytest.raises(ValueError, match="h_values: the scene's h is 0"):
         stiffness_field_curve(hard_scene(1.0, 0.0, p=0.0), DEFAULT, [0.5])
 

@@ -341,13 +341,14 @@ class StiffnessCurve:
 
 def lowload_applies(scene: Scene) -> bool:
     """Whether THEORY §6's s(h) is the exact low-load stiffness of ``scene`` (φ = 0 uniform field,
-    p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0)."""
+    p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0, no remanent magnetisation)."""
     from ..scene import UniformField
     fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
     return (isinstance(scene.field, UniformField) and math.isclose(math.cos(2 * scene.phi), 1.0)
             and fx == 0 and fy == 0 and not scene.tip_moment and scene.distributed_load is None
             and scene.fibres.is_constant and scene.fibres.value == 0 and scene.stiffness.is_constant
-            and scene.stiffness.value == 1 and scene.theta0 == 0)
+            and scene.stiffness.value == 1 and scene.theta0 == 0
+            and (scene.magnetization is None or scene.h_r == 0))
 
 
 def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
