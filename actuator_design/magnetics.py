@@ -6,13 +6,17 @@ paramagnetic or soft-magnetic material, embedded dilutely in an elastic matrix. 
 * the demagnetising factors N∥, N⊥ of the spheroid,
 * the particle susceptibilities χ (orientational, anisotropic part) and χ̃ (isotropic part),
 * the effective composite susceptibilities χ̄ = ν χ and χ̂ = ν χ̃,
-* a check that warns (:class:`ModelAssumptionWarning`) when a scene leaves the model's assumptions.
+* a check that warns (:class:`ModelAssumptionWarning`) when a scene leaves the model's assumptions,
+* the body's own shape anisotropy (THEORY §10): the composite tensor combined with the demagnetisation
+  of the rod's cross-section, and the check of the magnetisation against saturation (THEORY §11).
 
 All susceptibilities and demagnetising factors are dimensionless (SI); fields are in A/m.
 """
 from __future__ import annotations
 
+import math
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,6 +26,11 @@ __all__ = [
     "effective_susceptibilities",
     "ModelAssumptionWarning",
     "check_assumptions",
+    "composite_tensor",
+    "transverse_demagnetizing_factor",
+    "BodySusceptibility",
+    "body_susceptibility",
+    "check_saturation",
 ]
 
 # Below this value of e² the sphere series is used, above it the closed form (THEORY §2).
@@ -218,3 +227,130 @@ def check_assumptions(volume_fraction=None, field=None, saturation_field=None, d
     for message in messages:
         warnings.warn(message, ModelAssumptionWarning, stacklevel=2)
     return messages
+
+
+# -- THEORY §10: the body's own shape anisotropy ------------------------------------------------------
+def composite_tensor(chi_par, chi_perp, axis_ratio, volume_fraction) -> np.ndarray:
+    """Composite susceptibility tensor in the fibre frame (THEORY §10), shape (2, 2).
+
+    χ_c = ν diag((1/χ∥ + N∥)⁻¹, (1/χ⊥ + N⊥)⁻¹) (along, across the particle axis), dimensionless:
+    diag(χ̄ + χ̂, χ̂) of :func:`effective_susceptibilities`.
+    """
+    chi_bar, chi_hat = effective_susceptibilities(chi_par, chi_perp, axis_ratio, volume_fraction)
+    return np.diag([float(chi_bar) + float(chi_hat), float(chi_hat)])
+
+
+def transverse_demagnetizing_factor(width: float, thickness: float) -> float:
+    """N_t = w/(w + t) of a rectangular section in the bending plane (THEORY §10).
+
+    Elliptic-cylinder approximation: ``width`` w out of the bending plane, ``thickness`` t in it
+    (both in m, > 0). A wide thin strip (w ≫ t) has N_t → 1.
+    """
+    w, t = float(width), float(thickness)
+    if not (w > 0 and t > 0 and math.isfinite(w) and math.isfinite(t)):
+        raise ValueError(f"width and thickness must be finite and > 0, got {width!r}, {thickness!r}")
+    return w / (w + t)
+
+
+@dataclass(frozen=True)
+class BodySusceptibility:
+    """The body's effective susceptibility χ_eff = χ_c (I + N χ_c)⁻¹ (THEORY §10).
+
+    Attributes
+    ----------
+    tensor : ndarray, shape (2, 2)
+        χ_eff in the rod frame (tangent, in-plane normal), symmetric, dimensionless.
+    chi_bar : float
+        λ_max − λ_min: the orientational susceptibility of THEORY §4.
+    chi_hat : float
+        λ_min: the isotropic part.
+    fibre_angle : float
+        Angle of the eigenvector of λ_max to the tangent, rad, in (−π/2, π/2] (the effective fibre
+        angle; the given fibre angle when χ_eff is isotropic).
+    demagnetizing_factor : float
+        N_t used (the axial factor is 0, a slender rod).
+    """
+
+    tensor: np.ndarray
+    chi_bar: float
+    chi_hat: float
+    fibre_angle: float
+    demagnetizing_factor: float
+
+    @property
+    def chi_max(self) -> float:
+        """λ_max = χ̄ + χ̂: the largest magnetisation per unit field, |M| ≤ λ_max |H|."""
+        return self.chi_bar + self.chi_hat
+
+
+def body_susceptibility(chi_fibre_frame, fibre_angle: float, demagnetizing_factor: float) -> BodySusceptibility:
+    """Combine the composite tensor with the demagnetisation of the body (THEORY §10).
+
+    Parameters
+    ----------
+    chi_fibre_frame : array_like, shape (2, 2)
+        χ_c in the fibre frame (:func:`composite_tensor`), dimensionless, symmetric positive
+        semi-definite.
+    fibre_angle : float
+        α, rad: the fibre frame is rotated by α from the rod frame.
+    demagnetizing_factor : float
+        N_t ∈ [0, 1] across the rod in the bending plane; N = diag(0, N_t).
+
+    Returns
+    -------
+    BodySusceptibility
+    """
+    n_t = float(demagnetizing_factor)
+    if not 0.0 <= n_t <= 1.0:
+        raise ValueError(f"demagnetizing_factor must be in [0, 1], got {demagnetizing_factor!r}")
+    c, s = math.cos(fibre_angle), math.sin(fibre_angle)
+    rot = np.array([[c, -s], [s, c]])
+    chi_c = rot @ np.asarray(chi_fibre_frame, float) @ rot.T
+    n = np.diag([0.0, n_t])
+    chi_eff = chi_c @ np.linalg.inv(np.eye(2) + n @ chi_c)
+    chi_eff = 0.5 * (chi_eff + chi_eff.T)  # symmetric in exact arithmetic: remove round-off
+    lam, vec = np.linalg.eigh(chi_eff)
+    lo, hi = float(lam[0]), float(lam[1])
+    if hi - lo <= 1e-14 * max(abs(hi), 1e-300):
+        angle = float(fibre_angle)
+    else:
+        v = vec[:, 1]
+        angle = math.atan2(v[1], v[0])
+        if angle <= -0.5 * math.pi:
+            angle += math.pi
+        elif angle > 0.5 * math.pi:
+            angle -= math.pi
+    return BodySusceptibility(chi_eff, max(hi - lo, 0.0), lo, angle, n_t)
+
+
+# -- THEORY §11: saturation ------------------------------------------------------------------------
+def check_saturation(chi_max: float, field: float, volume_fraction: float, saturation_magnetization: float,
+                     what: str = "filler"):
+    """Warn when the linear magnetisation |χ_eff H| ≤ χ_max H exceeds the saturation ν M_s.
+
+    Parameters
+    ----------
+    chi_max : float
+        Largest eigenvalue of χ_eff (dimensionless).
+    field : float
+        Largest applied field magnitude on the rod, A/m.
+    volume_fraction : float
+        ν, dimensionless.
+    saturation_magnetization : float
+        M_s of the filler, A/m.
+    what : str
+        Name of the filler for the message.
+
+    Returns
+    -------
+    str or None
+        The message (also issued as a :class:`ModelAssumptionWarning`), or None.
+    """
+    m_lin = float(chi_max) * float(field)
+    m_sat = float(volume_fraction) * float(saturation_magnetization)
+    if not m_lin > m_sat:
+        return None
+    msg = (f"magnetisation |chi_eff H| = {m_lin:.4g} A/m exceeds the saturation of the composite "
+           f"nu M_s = {m_sat:.4g} A/m ({what}): the linear law overestimates the coupling (THEORY §11)")
+    warnings.warn(msg, ModelAssumptionWarning, stacklevel=2)
+    return msg

@@ -173,6 +173,11 @@ class Scene:
     h_pos : float
         Positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for
         non-uniform fields (in a uniform field it is a constant).
+    h_r : float
+        Hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field.
+    magnetization : Profile or None
+        Angle β(s) of the remanent magnetisation to the tangent, rad; ``None`` builds no
+        hard-magnetic term (a present term with h_r = 0 is still built, like every term).
     fibres : Profile
         Fibre angle α(s), rad, s ∈ [0, 1].
     stiffness : Profile
@@ -210,6 +215,8 @@ class Scene:
     name: str = "dimensionless cantilever"
     extra_terms: Tuple[TermValues, ...] = ()
     fibres_given: bool = False
+    h_r: float = 0.0
+    magnetization: Optional[Profile] = None
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:
@@ -283,6 +290,8 @@ class Scene:
             out["tip_moment"] = self.tip_moment
         if self.distributed_load is not None:
             out["distributed_load"] = list(self.distributed_load)
+        if self.magnetization is not None:
+            out["h_r"] = self.h_r
         for t in self.extra_terms:
             out[t.name] = t.as_dict()
         return out

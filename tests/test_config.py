@@ -339,7 +339,10 @@ def test_particles_give_susceptibilities_and_warnings():
     particles = {**PARTICLES, "volume_fraction": 0.3, "saturation_field": "1 kA/m"}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        scene = load_config(physical(magnetics={"particles": particles})).to_scene()
+        # the particle-only values of THEORY §2: the body's own demagnetisation (§10, on by
+        # default since issue 12) is switched off here; tests/test_materials.py covers it
+        scene = load_config(physical(magnetics={"particles": particles,
+                                                "body_demagnetization": False})).to_scene()
     kinds = [w for w in caught if issubclass(w.category, ModelAssumptionWarning)]
     assert len(kinds) == 2  # dense particles, field above saturation
     chi_bar, chi_hat = effective_susceptibilities(10, 10, 3, 0.3)

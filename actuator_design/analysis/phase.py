@@ -9,7 +9,9 @@ is autonomous, and
 
     H(θ, θ') = ½ b θ'² + h² cos²(θ + α − φ) + fy sin θ + fx cos θ
 
-is constant along every solution (differentiate and use the equation). Its level lines are the
+is constant along every solution (differentiate and use the equation). A hard-magnetic rod (THEORY
+§9, constant magnetisation angle β) adds −h_r sin(θ + β − φ) to the equation and
+h_r cos(θ + β − φ) to H. Its level lines are the
 phase portrait; an equilibrium is the piece of a level line that starts on θ = θ0 (the clamp) and
 ends on b θ' = m (the free end, m the tip moment; θ' = 0 without one), run for unit arc length
 (paper §4, figures "phase diagram"). With p = fy, b = 1, α = 0 this is the brief's
@@ -36,7 +38,8 @@ from ..scene import Scene, UniformField
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
 
 #: Terms whose first integral :func:`first_integral` knows; scenes with others are refused.
-PHASE_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load")
+PHASE_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load",
+               "hard_magnetic")
 
 #: Points per trajectory.
 TRAJECTORY_POINTS = 401
@@ -52,6 +55,8 @@ def check_autonomous(scene: Scene) -> None:
         raise ValueError("stiffness: phase portraits need a constant bending stiffness b(s)")
     if not scene.fibres.is_constant:
         raise ValueError("fibres: phase portraits need a constant fibre angle alpha(s)")
+    if scene.magnetization is not None and not scene.magnetization.is_constant:
+        raise ValueError("magnetization: phase portraits need a constant magnetisation angle beta(s)")
     if scene.distributed_load is not None and any(q != 0 for q in scene.distributed_load):
         raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
                          "equation depend on s)")
@@ -76,11 +81,14 @@ def first_integral(scene: Scene) -> Callable[[np.ndarray, np.ndarray], np.ndarra
     h2 = scene.h ** 2 if scene.field is not None else 0.0
     shift = float(scene.fibres.value) - scene.phi
     fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
+    hard = scene.magnetization is not None and scene.field is not None
+    h_r = float(scene.h_r) if hard else 0.0
+    shift_r = (float(scene.magnetization.value) - scene.phi) if hard else 0.0
 
     def H(theta, dtheta):
         theta, dtheta = np.asarray(theta, float), np.asarray(dtheta, float)
         return (0.5 * b * dtheta ** 2 + h2 * np.cos(theta + shift) ** 2 + fy * np.sin(theta)
-                + fx * np.cos(theta))
+                + fx * np.cos(theta) + h_r * np.cos(theta + shift_r))
 
     return H
 

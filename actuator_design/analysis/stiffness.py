@@ -12,6 +12,11 @@ expressions, so the symmetry is a check, not an assumption. Its inverse is the s
 vertical stiffness dp/dv1 (fx, m_tip held fixed) is 1/C_yy; at φ = 0, p = 0, b ≡ 1, α ≡ 0 it is
 THEORY §6's s(h), and in SI units K = s · B0/ℓ³ (:attr:`Scales.stiffness`).
 
+A hard-magnetic rod (THEORY §9) needs nothing special: the derivatives are generic. At φ = 0 with
+an axial magnetisation (β = 0) the linearised equation is θ1'' − (2h² + h_r) θ1 + 1 = 0, i.e.
+§6's s(h) at h_eff² = h² + h_r/2. Sweeping the field (:func:`stiffness_field_curve`) scales h_r
+with H like h (the parameter lens' field rule).
+
 A scene without a tip-force (or tip-moment) term has no such parameter: a *companion scene* with
 the term added at value zero is used (a different NLP structure, same equilibrium), and the result
 says so in ``notes``.
@@ -30,6 +35,7 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
+from .. import parameters as lens
 from ..equilibrium import solve
 from ..options import SolverOptions
 from ..reduced.system import reduced_system
@@ -335,13 +341,14 @@ class StiffnessCurve:
 
 def lowload_applies(scene: Scene) -> bool:
     """Whether THEORY §6's s(h) is the exact low-load stiffness of ``scene`` (φ = 0 uniform field,
-    p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0)."""
+    p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0, no remanent magnetisation)."""
     from ..scene import UniformField
     fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
     return (isinstance(scene.field, UniformField) and math.isclose(math.cos(2 * scene.phi), 1.0)
             and fx == 0 and fy == 0 and not scene.tip_moment and scene.distributed_load is None
             and scene.fibres.is_constant and scene.fibres.value == 0 and scene.stiffness.is_constant
-            and scene.stiffness.value == 1 and scene.theta0 == 0)
+            and scene.stiffness.value == 1 and scene.theta0 == 0
+            and (scene.magnetization is None or scene.h_r == 0))
 
 
 def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
@@ -371,14 +378,22 @@ def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
     if h_values.ndim != 1 or h_values.size == 0 or np.any(~np.isfinite(h_values)) or np.any(h_values < 0):
         raise ValueError("h_values: need a non-empty list of finite h >= 0")
     options = options or SolverOptions()
-    comp, notes = companion_scene(scene.with_values(h=float(h_values[0])), moment)
+    hard = scene.magnetization is not None and scene.field is not None
+    if hard and scene.h <= 0:
+        raise ValueError("h_values: the scene's h is 0, so a field sweep in h cannot scale its h_r "
+                         "(THEORY §9: h_r ∝ H); give the scene h > 0 or continue in h_r instead")
+    comp, notes = companion_scene(scene if hard else scene.with_values(h=float(h_values[0])), moment)
+
+    def at_field(h: float) -> Scene:  # h and, for a hard rod, h_r ∝ H (the lens' field rule)
+        return lens.apply_values(comp, {"h": h}) if hard else comp.with_values(h=h)
+
     track = replace(options, method="newton", ensure_stable=False)
     solver = get_solver(comp, options)
     n = h_values.size
     vert, ang, stab, succ = (np.full(n, np.nan), np.full(n, np.nan), np.zeros(n, bool), np.zeros(n, bool))
     prev = None
     for i, h in enumerate(h_values):
-        sc = comp.with_values(h=float(h))
+        sc = at_field(float(h))
         eq = solve(sc, options if prev is None else track, initial=prev, solver=solver)
         if not eq.stable and eq.success and prev is not None:
             eq = solve(sc, replace(options, ensure_stable=True), initial=eq, solver=solver)

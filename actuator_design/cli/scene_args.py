@@ -12,7 +12,8 @@ from typing import Dict, Optional
 
 from .common import InputError, bad_input, finite_float, load_config, nonnegative_float
 
-__all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene"]
+__all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_hard_magnetic_args",
+           "apply_hard_magnetic_flags"]
 
 #: The dimensionless scene values a command line may set (angles in degrees).
 SCENE_KEYS = ("h", "phi_deg", "p", "alpha_deg")
@@ -33,6 +34,7 @@ def add_scene_args(parser: argparse.ArgumentParser, defaults: Dict[str, float], 
                    help=f"vertical dead tip load p, units of B0/l^2 (default without CONFIG {defaults['p']:g})")
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help=f"constant fibre angle, degrees (default without CONFIG {defaults['alpha_deg']:g})")
+    add_hard_magnetic_args(g)
     if resolution:
         s = parser.add_argument_group("solver (override CONFIG)")
         s.add_argument("--elements", type=int, metavar="N", help="number of elements (>= 1)")
@@ -91,6 +93,7 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
         scene, options, raw = loaded if loaded is not None else load_config(args.config)
         with bad_input("cannot apply the scene values to CONFIG: "):
             scene = scene.with_values(h=vals.get("h"), p=vals.get("p"), phi=rad("phi_deg"), alpha=rad("alpha_deg"))
+    scene = apply_hard_magnetic_flags(scene, args)
     changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k, None) is not None}
     with bad_input("solver options: "):
         options = replace(options, **changes)
@@ -102,3 +105,24 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     with bad_input():
         check_scene_and_options(scene, options)
     return scene, options, raw
+
+
+def add_hard_magnetic_args(group) -> None:
+    """--h-r and --magnetization-deg (THEORY §9) on an argument group."""
+    group.add_argument("--h-r", type=nonnegative_float, metavar="H_R",
+                       help="hard-magnetic group h_r >= 0 (THEORY §9; adds an axial remanent magnetisation)")
+    group.add_argument("--magnetization-deg", type=finite_float, metavar="DEG",
+                       help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)")
+
+
+def apply_hard_magnetic_flags(scene, args):
+    """``scene`` with --h-r and --magnetization-deg applied through the parameter lens (each adds
+    the hard-magnetic term when absent, THEORY §9)."""
+    from .. import parameters as lens
+
+    for name, flag, to_value in (("h_r", "h_r", float), ("beta", "magnetization_deg", math.radians)):
+        value = getattr(args, flag, None)
+        if value is not None:
+            with bad_input(f"--{flag.replace('_', '-')}: "):
+                scene = lens.set_value(scene, name, to_value(value))
+    return scene

@@ -33,7 +33,8 @@ from .field_specs import (DimensionlessField, DipoleSpec, ExpressionSpec, ForceX
                           PhysicalUniform, UniformSpec)
 from .limits import GROUP_RANGES, MAX_BANDED_ENTRIES, MAX_DENSE_UNKNOWNS
 from .model import Config, SceneSpec, SolverSpec, load_config, load_scene
-from .physical import Clamp, Loads, Magnetics, Particles, PhysicalScene, Rod, Weight, magnetic_group
+from .magnetic_specs import Magnetics, MagneticSummary, Particles
+from .physical import Clamp, Loads, PhysicalScene, Rod, Weight, magnetic_group, remanent_group
 from .profile_specs import (FibreConstant, FibreExpression, FibreProfile, FibreTable,
                             StiffnessConstant, StiffnessExpression, StiffnessProfile, StiffnessTable)
 

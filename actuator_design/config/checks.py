@@ -87,7 +87,8 @@ def check_profiles_at(profiles: Mapping[str, Tuple[object, bool]], options) -> N
 def check_profiles_on_mesh(scene, options, prefix: str = "") -> None:
     """:func:`check_profiles_at` for the fibre and stiffness profiles of a Scene."""
     check_profiles_at({f"{prefix}fibres.expression": (scene.fibres, False),
-                       f"{prefix}stiffness.expression": (scene.stiffness, True)}, options)
+                       f"{prefix}stiffness.expression": (scene.stiffness, True),
+                       f"{prefix}magnetization.expression": (scene.magnetization, False)}, options)
 
 
 def check_scene_and_options(scene, options, prefix: str = "") -> None:

@@ -1,7 +1,9 @@
 """The ``type: dimensionless`` scene: the groups of THEORY §5 given directly.
 
 Keys: ``h``, ``phi`` (or ``field``), ``p`` (or ``tip_force``), ``tip_moment``, ``distributed_load``,
-``h_pos``, ``fibres``, ``stiffness``, ``clamp_angle``. Lengths (positions) are in units of the rod
+``h_pos``, ``fibres``, ``stiffness``, ``clamp_angle``, and for a hard-magnetic rod (THEORY §9)
+``h_r`` with ``magnetization`` (the angle β(s) of the remanent magnetisation to the tangent, in
+every form ``fibres`` takes; default 0 when ``h_r`` is given). Lengths (positions) are in units of the rod
 length ℓ. Every group must lie in its range (:data:`~actuator_design.config.limits.GROUP_RANGES`).
 """
 from __future__ import annotations
@@ -16,7 +18,7 @@ from .base import Angle, Number, Q, StrictModel
 from .errors import error
 from .field_specs import DimensionlessField, NumberXY
 from .limits import group_problem
-from .profile_specs import FibreProfile, StiffnessProfile
+from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
 __all__ = ["DimensionlessScene"]
 
@@ -40,6 +42,8 @@ class DimensionlessScene(StrictModel):
     fibres: Optional[FibreProfile] = None
     stiffness: Optional[StiffnessProfile] = None
     clamp_angle: Angle = 0.0
+    h_r: Optional[Q("dimensionless", ge=0)] = None
+    magnetization: Optional[MagnetizationProfile] = None
 
     @model_validator(mode="after")
     def _check(self):
@@ -49,7 +53,8 @@ class DimensionlessScene(StrictModel):
             raise error("give either p or tip_force, not both", "p")
         tip, load = self.tip_force, self.distributed_load
         for group, value, field in (
-                ("h", self.h, "h"), ("h_pos", self.h_pos, "h_pos"), ("p", self.p, "p"),
+                ("h", self.h, "h"), ("h_pos", self.h_pos, "h_pos"), ("h_r", self.h_r, "h_r"),
+                ("p", self.p, "p"),
                 ("fx", tip and tip.x, "tip_force.x"), ("p", tip and tip.y, "tip_force.y"),
                 ("tip_moment", self.tip_moment, "tip_moment"),
                 ("qx", load and load.x, "distributed_load.x"),
@@ -62,7 +67,7 @@ class DimensionlessScene(StrictModel):
     def to_scene(self, name: Optional[str] = None) -> Scene:
         if self.field is not None:
             field = self.field.to_field()
-        elif self.h is not None or self.phi is not None:
+        elif self.h is not None or self.phi is not None or self.hard_magnetic:
             field = UniformField(phi=self.phi or 0.0)
         else:
             field = None
@@ -71,8 +76,14 @@ class DimensionlessScene(StrictModel):
                      fibres=_profile(self.fibres, 0.0), stiffness=_profile(self.stiffness, 1.0),
                      tip_force=tip, tip_moment=self.tip_moment,
                      distributed_load=_xy(self.distributed_load), theta0=self.clamp_angle,
-                     scales=None, name=name or "dimensionless cantilever",
-                     fibres_given=self.fibres is not None)
+                     scales=None, name=name or "dimensionless cantilever", h_r=self.h_r or 0.0,
+                     fibres_given=self.fibres is not None,
+                     magnetization=(_profile(self.magnetization, 0.0) if self.hard_magnetic else None))
+
+    @property
+    def hard_magnetic(self) -> bool:
+        """Whether the scene has a remanent magnetisation (``h_r`` or ``magnetization`` given)."""
+        return self.h_r is not None or self.magnetization is not None
 
 
 def _profile(spec, default: float):

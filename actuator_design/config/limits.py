@@ -7,6 +7,7 @@ against these ranges (README "Units and scenes"). The groups are those of THEORY
 group                      range                 why
 =========================  ====================  ==========================================
 h, h_pos                   [0, 1e4]              boundary layer of width ~1/h at the clamp
+h_r (hard-magnetic)        [0, 1e8]              as h²: layer of width ~1/√h_r
 p, fx, fy (tip force)      [-1e5, 1e5]           layer of width ~1/√|p|; residuals ~|p|
 tip moment m               [-1e5, 1e5]           curvature ~|m|
 distributed load qx, qy    [-1e5, 1e5]           as the tip force, integrated
@@ -67,6 +68,7 @@ _LOAD = 1e5
 GROUP_RANGES = {
     "h": GroupRange("h", 0.0, 1e4),
     "h_pos": GroupRange("h_pos", 0.0, 1e4),
+    "h_r": GroupRange("h_r", 0.0, 1e8),
     "fx": GroupRange("fx", -_LOAD, _LOAD),
     "p": GroupRange("p", -_LOAD, _LOAD),
     "tip_moment": GroupRange("tip_moment", -_LOAD, _LOAD),
@@ -87,6 +89,8 @@ def scene_group_values(scene) -> Iterable[Tuple[str, float]]:
     """``(group name, value)`` of every group a :class:`~actuator_design.scene.Scene` sets."""
     yield "h", scene.h
     yield "h_pos", scene.h_pos
+    if scene.magnetization is not None:
+        yield "h_r", scene.h_r
     if scene.tip_force is not None:
         yield "fx", scene.tip_force[0]
         yield "p", scene.tip_force[1]

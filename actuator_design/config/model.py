@@ -88,6 +88,8 @@ class Config(StrictModel):
         stiffness = scene.rod.stiffness_profile if isinstance(scene, PhysicalScene) else scene.stiffness
         profiles = {
             "scene.fibres.expression": (None if scene.fibres is None else scene.fibres.to_profile(), False),
+            "scene.magnetization.expression": (None if getattr(scene, "magnetization", None) is None
+                                               else scene.magnetization.to_profile(), False),
             ("scene.rod.stiffness_profile.expression" if isinstance(scene, PhysicalScene)
              else "scene.stiffness.expression"): (None if stiffness is None else stiffness.to_profile(), True),
         }

@@ -1,6 +1,8 @@
 """The ``type: physical`` scene: SI quantities non-dimensionalised with ℓ, B0 and H0 (THEORY §5).
 
-* h² = μ0 χ̄ H0² A ℓ² / (2 B0),  h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0);
+* h² = μ0 χ̄ H0² A ℓ² / (2 B0),  h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0), with χ̄, χ̂ from the
+  ``magnetics`` block (:mod:`.magnetic_specs`: particles, the body's shape anisotropy, THEORY §10);
+* hard-magnetic rods: h_r = μ0 M_r H0 A ℓ² / B0 (THEORY §9), the angle profile ``magnetization``;
 * tip force F ℓ²/B0, tip moment M ℓ/B0, distributed load q ℓ³/B0 (weight: q = ρ g A along gravity);
 * uniform field: H0 = magnitude; dipole of moment m: H0 = m/(4π ℓ³), positions /ℓ; expression
   field: H0 = ``scale``.
@@ -26,10 +28,11 @@ from .base import Angle, Positive, Q, StrictModel
 from .errors import ConfigError, error
 from .field_specs import ForceXY, LineLoadXY, PhysicalDipole, PhysicalField, max_shape_on_rod
 from .limits import GROUP_RANGES, group_problem
-from .profile_specs import FibreProfile, StiffnessProfile
+from .magnetic_specs import MagneticSummary, Magnetics, Particles
+from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
-           "magnetic_group"]
+           "magnetic_group", "remanent_group"]
 
 _HALF_PI = 0.5 * math.pi
 
@@ -107,44 +110,6 @@ class Rod(StrictModel):
                 if getattr(self, n) is not None]
 
 
-class Particles(StrictModel):
-    """Spheroidal particles (THEORY §2); fields in A/m (or T)."""
-
-    axis_ratio: Q("dimensionless", ge=1)
-    chi_par: Positive
-    chi_perp: Positive
-    volume_fraction: Q("dimensionless", gt=0, lt=1)
-    saturation_field: Optional[Q("magnetic_field", gt=0)] = None
-
-
-class Magnetics(StrictModel):
-    """Effective susceptibilities χ̄, χ̂ (dimensionless), given or computed from ``particles``."""
-
-    chi_bar: Optional[Q("dimensionless", ge=0)] = None
-    chi_hat: Optional[Q("dimensionless", ge=0)] = None
-    particles: Optional[Particles] = None
-
-    @model_validator(mode="after")
-    def _check(self):
-        if self.particles is not None and (self.chi_bar is not None or self.chi_hat is not None):
-            raise error("give either chi_bar/chi_hat or particles, not both", "particles")
-        if self.particles is None and self.chi_bar is None:
-            raise error("required (or give particles)", "chi_bar")
-        return self
-
-    def susceptibilities(self) -> Tuple[float, float]:
-        """(χ̄, χ̂), dimensionless."""
-        if self.particles is None:
-            return self.chi_bar, self.chi_hat or 0.0
-        from ..magnetics import effective_susceptibilities
-
-        p = self.particles
-        with np.errstate(all="ignore"):
-            chi_bar, chi_hat = effective_susceptibilities(p.chi_par, p.chi_perp, p.axis_ratio,
-                                                          p.volume_fraction)
-        return float(chi_bar), float(chi_hat)
-
-
 class Weight(StrictModel):
     """Self-weight q = ρ g A per unit length along the gravity direction ``gravity_angle``."""
 
@@ -197,6 +162,13 @@ def magnetic_group(chi: float, field: float, area: float, length: float, stiffne
                              * np.float64(length) ** 2 / (2.0 * stiffness)))
 
 
+def remanent_group(remanence: float, field: float, area: float, length: float, stiffness: float) -> float:
+    """h_r = μ0 M_r H0 A ℓ² / B0 (THEORY §9), SI inputs; float64 (an overflow gives inf)."""
+    with np.errstate(all="ignore"):
+        return float(np.float64(MU0) * remanence * np.float64(field) * area * np.float64(length) ** 2
+                     / stiffness)
+
+
 @dataclass
 class _Derived:
     """The dimensionless groups of a physical scene and the fields each comes from."""
@@ -205,6 +177,7 @@ class _Derived:
     sources: Dict[str, List[str]]
     h0: float
     h_per_field: float
+    magnetics: Optional[MagneticSummary] = None
 
 
 class PhysicalScene(StrictModel):
@@ -216,12 +189,17 @@ class PhysicalScene(StrictModel):
     field: Optional[PhysicalField] = None
     loads: Optional[Loads] = None
     fibres: Optional[FibreProfile] = None
+    magnetization: Optional[MagnetizationProfile] = None
     clamp: Optional[Clamp] = None
 
     @model_validator(mode="after")
     def _check(self):
         if self.field is not None and self.magnetics is None:
             raise error("required when a field is given", "magnetics")
+        if self.magnetization is not None and (self.magnetics is None
+                                               or self.magnetics.remanent_magnetization is None):
+            raise error("needs magnetics.remanence or magnetics.remanent_flux_density "
+                        "(a hard-magnetic rod, THEORY §9)", "magnetization")
         if isinstance(self.field, PhysicalDipole):  # the position check needs ℓ
             self.field.to_field(self.rod.length, where="field.position")
         derived = self._derived()
@@ -238,9 +216,11 @@ class PhysicalScene(StrictModel):
         length, area, b0 = rod.length, rod.cross_section_area, rod.clamp_stiffness
         values, sources = {}, {}
         h0 = h_per_field = 0.0
+        summary = None
         if self.field is not None:
             _, h0 = self.field.to_field(length)
-            chi_bar, chi_hat = self.magnetics.susceptibilities()
+            summary = self.magnetics_summary()
+            chi_bar, chi_hat = summary.chi_bar, summary.chi_hat
             field_src = [f"field.{k} = {getattr(self.field, k):g} {unit}" for k, unit in
                          (("magnitude", "A/m"), ("moment", "A m^2"), ("scale", "A/m"))
                          if hasattr(self.field, k)]
@@ -250,6 +230,10 @@ class PhysicalScene(StrictModel):
             values["h_pos"] = magnetic_group(chi_hat, h0, area, length, b0)
             sources["h"] = sources["h_pos"] = rod.sources() + mag_src + field_src
             h_per_field = magnetic_group(chi_bar, 1.0, area, length, b0)  # h is proportional to H0
+            if summary.remanence is not None:
+                values["h_r"] = remanent_group(summary.remanence, h0, area, length, b0)
+                sources["h_r"] = rod.sources() + field_src + [
+                    f"magnetics remanence M_r = {summary.remanence:g} A/m"]
         loads = self.loads or Loads()
         with np.errstate(all="ignore"):
             force = np.float64(length) ** 2 / b0
@@ -267,17 +251,31 @@ class PhysicalScene(StrictModel):
                 values["qx"], values["qy"] = float(q[0] * line), float(q[1] * line)
                 given = "loads.weight" if loads.weight is not None else "loads.distributed"
                 sources["qx"] = sources["qy"] = rod.sources() + [f"{given} = ({q[0]:g}, {q[1]:g}) N/m"]
-        return _Derived(values, sources, float(h0), float(h_per_field))
+        return _Derived(values, sources, float(h0), float(h_per_field), summary)
+
+    def magnetics_summary(self) -> Optional[MagneticSummary]:
+        """The magnetic numbers and their reasons (:meth:`.magnetic_specs.Magnetics.resolve`)."""
+        if self.magnetics is None:
+            return None
+        fib = self.fibres.to_profile() if self.fibres is not None else constant_profile(0.0)
+        return self.magnetics.resolve(self.rod.width, self.rod.thickness,
+                                      float(fib.value) if fib.is_constant else None)
 
     def to_scene(self, name: Optional[str] = None) -> Scene:
         length, b0 = self.rod.length, self.rod.clamp_stiffness
         d = self._derived()
         v = d.values
         field = None if self.field is None else self.field.to_field(length)[0]
-        self._check_assumptions(field, d.h0)
+        self._check_assumptions(field, d.h0, d.magnetics)
+        fibres = _profile(self.fibres, 0.0)
+        if d.magnetics is not None and d.magnetics.fibre_angle is not None:
+            fibres = constant_profile(d.magnetics.fibre_angle)  # THEORY §10: the effective angle
+        hard = field is not None and "h_r" in v
         return Scene(
             field=field, h=v.get("h", 0.0), h_pos=v.get("h_pos", 0.0),
-            fibres=_profile(self.fibres, 0.0), stiffness=_profile(self.rod.stiffness_profile, 1.0),
+            fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
+            h_r=v.get("h_r", 0.0) if hard else 0.0,
+            magnetization=_profile(self.magnetization, 0.0) if hard else None,
             tip_force=(v["fx"], v["p"]) if "p" in v else None,
             tip_moment=v.get("tip_moment"),
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
@@ -285,16 +283,20 @@ class PhysicalScene(StrictModel):
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field),
             name=name or "physical cantilever", fibres_given=self.fibres is not None)
 
-    def _check_assumptions(self, field, h0: float) -> None:
-        """Warn (ModelAssumptionWarning) about dense particles or a field above saturation."""
+    def _check_assumptions(self, field, h0: float, summary: Optional[MagneticSummary]) -> None:
+        """Warn (ModelAssumptionWarning) about dense particles, a field above the saturation field,
+        or a linear magnetisation above the composite's saturation ν M_s (THEORY §11)."""
         p = self.magnetics.particles if self.magnetics else None
         if p is None:
             return
-        from ..magnetics import check_assumptions
+        from ..magnetics import check_assumptions, check_saturation
 
         h_max = None if field is None else h0 * max_shape_on_rod(field)
         check_assumptions(volume_fraction=p.volume_fraction, field=h_max,
                           saturation_field=p.saturation_field)
+        if h_max is not None and summary is not None and p.m_s is not None:
+            check_saturation(summary.chi_max, h_max, p.volume_fraction, p.m_s,
+                             p.material or "saturation_magnetization")
 
 
 def _profile(spec, default: float):

@@ -21,7 +21,8 @@ from .base import Angle, Number, Positive, StrictModel, tagged
 from .errors import error
 
 __all__ = ["FibreConstant", "FibreTable", "FibreExpression", "StiffnessConstant", "StiffnessTable",
-           "StiffnessExpression", "FibreProfile", "StiffnessProfile", "GRID", "profile_problem"]
+           "StiffnessExpression", "FibreProfile", "StiffnessProfile", "MagnetizationProfile", "GRID",
+           "profile_problem"]
 
 #: Arc lengths at which expression profiles are checked, shape (201,).
 GRID = np.linspace(0.0, 1.0, 201)
@@ -151,5 +152,8 @@ def _constant(value):
 
 
 FibreProfile = tagged(("fibres",), FibreConstant, FibreTable, FibreExpression, bare=_constant)
+#: The remanent magnetisation angle β(s) (THEORY §9) takes every form the fibre angle takes.
+MagnetizationProfile = tagged(("magnetization",), FibreConstant, FibreTable, FibreExpression,
+                              bare=_constant)
 StiffnessProfile = tagged(("stiffness", "stiffness_profile"), StiffnessConstant, StiffnessTable,
                           StiffnessExpression, bare=_constant)

@@ -91,6 +91,7 @@ def registry_version() -> int:
 
 def _load_builtins() -> None:
     from . import terms  # noqa: F401  (registers the built-in terms on import)
+    from . import hard_magnetic  # noqa: F401  (THEORY §9, after the soft-magnetic terms)
 
 
 def unsupported_terms(scene, supported) -> List[str]:

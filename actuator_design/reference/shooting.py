@@ -13,6 +13,9 @@ forces / (B₀/ℓ²), distributed loads / (B₀/ℓ³), B₀ the reference bend
 
     Ê[θ] = ½∫₀¹ b θ'² ds − h² ∫₀¹ cos²(θ + α − φ) ds − f·r(1) − m θ(1) − ∫₀¹ q·r ds,     (E)
 
+plus, for a hard-magnetic rod (THEORY §9), −h_r ∫₀¹ cos(θ + β − φ) ds, which adds
+h_r sin(θ + β − φ) to M' in (EL) and h_r cos(θ + β − φ) to Q in (Q).
+
 with r(s) = ∫₀ˢ (cos θ, sin θ) dσ, θ(0) = θ0, f = (fx, fy) the dead tip force, m the tip moment,
 q = (qx, qy) a uniform dead distributed load.  Using ∫₀¹ q·r ds = ∫₀¹ (1 − s) q·r'(s) ds,
 
@@ -183,6 +186,8 @@ def energy_functional(theta, dtheta, params: ShootingParams, breakpoints=None, o
     nx = params.fx + params.qx * (1.0 - s)
     ny = params.fy + params.qy * (1.0 - s)
     integrand = 0.5 * bb * dth**2 - params.h**2 * cos_sq - (nx * np.cos(th) + ny * np.sin(th))
+    if params.h_r:  # THEORY §9: −h_r cos(θ + β − φ)
+        integrand = integrand - params.h_r * np.cos(th + _eval_profile(params.beta, s) - params.phi)
     return float(np.dot(w, integrand) - params.m * float(theta(1.0)))
 
 

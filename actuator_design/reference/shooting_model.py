@@ -68,6 +68,10 @@ class ShootingParams:
         Fibre angle α(s) [rad]; a float or a callable of s (e.g. a ``Profile``); default 0.
     b : float or callable
         Relative bending stiffness b(s) = B(s)/B₀ > 0; float or callable; default 1.
+    h_r : float
+        Hard-magnetic group h_r = μ0 M_r H A ℓ² / B₀ (THEORY §9); default 0.
+    beta : float or callable
+        Remanent magnetisation angle β(s) to the tangent [rad]; default 0.
     """
 
     h: float = 0.0
@@ -80,6 +84,8 @@ class ShootingParams:
     theta0: float = 0.0
     alpha: ProfileLike = 0.0
     b: ProfileLike = 1.0
+    h_r: float = 0.0
+    beta: ProfileLike = 0.0
 
     # -- derived quantities (not fields) ---------------------------------------------------
     @property
@@ -94,7 +100,8 @@ class ShootingParams:
 def jacobi_coefficient(theta, s, params: ShootingParams):
     """Coefficient Q(s) of the second variation / Jacobi equation, eq. (Q) of the module docstring.
 
-    Q = 2h² cos(2(θ + α − φ)) + n_x cos θ + n_y sin θ,  n(s) = f + q (1 − s)   (THEORY §7).
+    Q = 2h² cos(2(θ + α − φ)) + h_r cos(θ + β − φ) + n_x cos θ + n_y sin θ,
+    n(s) = f + q (1 − s)   (THEORY §7, §9).
 
     Parameters
     ----------
@@ -115,14 +122,16 @@ def jacobi_coefficient(theta, s, params: ShootingParams):
     cos2psi = np.cos(2.0 * ta) * c2 + np.sin(2.0 * ta) * s2  # cos(2(θ+α−φ))
     nx = params.fx + params.qx * (1.0 - s)
     ny = params.fy + params.qy * (1.0 - s)
-    return 2.0 * params.h**2 * cos2psi + nx * np.cos(theta) + ny * np.sin(theta)
+    hard = params.h_r * np.cos(theta + _eval_profile(params.beta, s) - params.phi)
+    return 2.0 * params.h**2 * cos2psi + hard + nx * np.cos(theta) + ny * np.sin(theta)
 
 
 def _make_rhs(params: ShootingParams, variational: bool):
     """Right-hand side of the first-order form of (EL) (+ its linearisation).
 
     State y = (θ, M, x, y[, η, P]) with M = b θ', P = b η':
-        θ' = M/b,  M' = h² sin(2(θ+α−φ)) − n_y cos θ + n_x sin θ,  x' = cos θ,  y' = sin θ,
+        θ' = M/b,  M' = h² sin(2(θ+α−φ)) + h_r sin(θ+β−φ) − n_y cos θ + n_x sin θ,
+        x' = cos θ,  y' = sin θ,
         η' = P/b,  P' = Q η                                        (EL), (Q)
     """
     h2 = float(params.h) ** 2
@@ -130,6 +139,8 @@ def _make_rhs(params: ShootingParams, variational: bool):
     fx, fy, qx, qy = (float(params.fx), float(params.fy), float(params.qx), float(params.qy))
     bfun, bconst = _as_scalar_fun(params.b)
     afun, aconst = _as_scalar_fun(params.alpha)
+    h_r, phi = float(params.h_r), float(params.phi)
+    bfun_r, bconst_r = _as_scalar_fun(params.beta)
     sin, cos = math.sin, math.cos
 
     def rhs(s, y):
@@ -142,9 +153,14 @@ def _make_rhs(params: ShootingParams, variational: bool):
         ct, st = cos(th), sin(th)
         # sin(2(θ+α−φ)) = sin 2(θ+α) cos 2φ − cos 2(θ+α) sin 2φ
         dM = h2 * (sn2 * c2 - cs2 * s2) - ny * ct + nx * st  # (EL)
+        if h_r:  # the remanent torque of THEORY §9
+            u = th + (bconst_r if bconst_r is not None else bfun_r(s)) - phi
+            dM += h_r * sin(u)
         if not variational:
             return [y[1] / b, dM, ct, st]
         Q = 2.0 * h2 * (cs2 * c2 + sn2 * s2) + nx * ct + ny * st  # (Q)
+        if h_r:
+            Q += h_r * cos(u)
         return [y[1] / b, dM, ct, st, y[5] / b, Q * y[4]]
 
     return rhs

@@ -1,0 +1,232 @@
+"""The ``magnetics:`` block of a physical scene: soft particles, the body's own shape anisotropy,
+saturation and the remanent magnetisation of hard-magnetic rods (THEORY §2, §9–§11).
+
+* ``chi_bar``/``chi_hat``: the composite's effective susceptibilities given directly, or
+* ``particles``: spheroids (``axis_ratio``, ``chi_par``, ``chi_perp``, ``volume_fraction``), or a
+  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.materials`)
+  that supplies the susceptibility and the saturation magnetisation;
+* ``body_demagnetization`` (default true): with particles and a rectangular cross-section the body's
+  demagnetisation is combined with the composite tensor (THEORY §10), N_t = w/(w + t) or
+  ``demagnetizing_factor``;
+* ``remanence: 50 kA/m`` (M_r of the composite) or ``remanent_flux_density: 0.1 T`` (= μ0 M_r):
+  a hard-magnetic rod (THEORY §9); its angle profile is the scene's ``magnetization``.
+
+:meth:`Magnetics.resolve` turns the block into the numbers the groups are made of, with the reasons
+(a zero coupling is explained, not silently accepted).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Annotated, List, Optional
+
+import numpy as np
+from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
+
+from ..units import MU0, QuantityError, parse_quantity, ureg
+from .base import Positive, Q, StrictModel
+from .errors import error
+
+__all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity"]
+
+
+def _flux_density(value):
+    """A flux density in tesla (plain numbers are T) → the magnetisation B/μ0 in A/m."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        b = float(value)
+    else:
+        try:  # parse_quantity first: it refuses hostile strings before pint sees them
+            m_r = parse_quantity(value, "magnetic_field", "remanent_flux_density")
+        except QuantityError as err:
+            raise error(err.detail) from None
+        if ureg(str(value)).dimensionality != ureg.tesla.dimensionality:
+            raise error(f"expected a flux density in tesla (e.g. '0.1 T'), got {value!r}; "
+                        "give a magnetisation in A/m as remanence")
+        if m_r < 0:
+            raise error(f"must be >= 0 T, got {value!r}")
+        return m_r
+    if not (math.isfinite(b) and b >= 0):
+        raise error(f"must be a finite flux density >= 0 T, got {value!r}")
+    return b / MU0
+
+
+#: A flux density (T; a plain number is in T), read as the magnetisation B/μ0 in A/m.
+FluxDensity = Annotated[float, BeforeValidator(_flux_density)]
+
+
+class Particles(StrictModel):
+    """Spheroidal particles (THEORY §2); fields in A/m (or T). ``material`` fills in the
+    susceptibility and the saturation magnetisation of a preset filler."""
+
+    material: Optional[StrictStr] = None
+    axis_ratio: Q("dimensionless", ge=1) = 1.0
+    chi_par: Optional[Positive] = None
+    chi_perp: Optional[Positive] = None
+    volume_fraction: Q("dimensionless", gt=0, lt=1)
+    saturation_field: Optional[Q("magnetic_field", gt=0)] = None
+    saturation_magnetization: Optional[Q("magnetic_field", gt=0)] = None
+
+    @field_validator("material")
+    @classmethod
+    def _known(cls, name):
+        from ..materials import material
+        try:
+            material(name)
+        except ValueError as err:
+            raise error(str(err)) from None
+        return name
+
+    @model_validator(mode="after")
+    def _fill(self):
+        if self.material is None:
+            for name in ("chi_par", "chi_perp"):
+                if getattr(self, name) is None:
+                    raise error("required (or give a material preset)", name)
+        return self
+
+    @property
+    def preset(self):
+        from ..materials import material
+        return None if self.material is None else material(self.material)
+
+    @property
+    def susceptibilities(self):
+        """(χ∥, χ⊥) of the particle material."""
+        chi = None if self.preset is None else self.preset.susceptibility
+        return (self.chi_par if self.chi_par is not None else chi,
+                self.chi_perp if self.chi_perp is not None else chi)
+
+    @property
+    def m_s(self) -> Optional[float]:
+        """Saturation magnetisation of the filler, A/m (given, or from the preset), or None."""
+        if self.saturation_magnetization is not None:
+            return self.saturation_magnetization
+        return None if self.preset is None else self.preset.saturation_magnetization
+
+
+@dataclass
+class MagneticSummary:
+    """The magnetic numbers of a physical scene and where they come from.
+
+    Attributes
+    ----------
+    chi_bar, chi_hat : float
+        Susceptibilities used for h and h_pos (dimensionless).
+    particle_chi_bar, particle_chi_hat : float or None
+        The particle-only values (THEORY §2) when particles are given.
+    fibre_angle : float or None
+        Effective fibre angle (rad) replacing a constant fibre angle, or None (fibres unchanged).
+    demagnetizing_factor : float or None
+        N_t used for the body's demagnetisation, or None when it was not applied.
+    chi_max : float
+        Largest eigenvalue of the susceptibility used: |M| ≤ chi_max |H|.
+    saturation : float or None
+        ν M_s of the composite, A/m, when the filler is known.
+    remanence : float or None
+        M_r of the composite, A/m (hard-magnetic rods).
+    notes : list of str
+        Why the body's demagnetisation was (not) applied, and why a coupling is zero.
+    """
+
+    chi_bar: float
+    chi_hat: float
+    particle_chi_bar: Optional[float] = None
+    particle_chi_hat: Optional[float] = None
+    fibre_angle: Optional[float] = None
+    demagnetizing_factor: Optional[float] = None
+    chi_max: float = 0.0
+    saturation: Optional[float] = None
+    remanence: Optional[float] = None
+    notes: List[str] = field(default_factory=list)
+
+
+class Magnetics(StrictModel):
+    """Soft (χ̄, χ̂ or particles) and hard (remanence) magnetics of a physical scene."""
+
+    chi_bar: Optional[Q("dimensionless", ge=0)] = None
+    chi_hat: Optional[Q("dimensionless", ge=0)] = None
+    particles: Optional[Particles] = None
+    body_demagnetization: StrictBool = True
+    demagnetizing_factor: Optional[Q("dimensionless", ge=0, le=1)] = None
+    remanence: Optional[Q("magnetic_field", ge=0)] = None
+    remanent_flux_density: Optional[FluxDensity] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.particles is not None and (self.chi_bar is not None or self.chi_hat is not None):
+            raise error("give either chi_bar/chi_hat or particles, not both", "particles")
+        if self.remanence is not None and self.remanent_flux_density is not None:
+            raise error("give either remanence or remanent_flux_density, not both", "remanent_flux_density")
+        if self.particles is None and self.chi_bar is None and self.remanent_magnetization is None:
+            raise error("required (or give particles, or remanence for a hard-magnetic rod)", "chi_bar")
+        return self
+
+    @property
+    def remanent_magnetization(self) -> Optional[float]:
+        """M_r of the composite, A/m, or None (no hard-magnetic term)."""
+        return self.remanence if self.remanence is not None else self.remanent_flux_density
+
+    def susceptibilities(self):
+        """(χ̄, χ̂) of the particles alone (THEORY §2) or as given, dimensionless."""
+        if self.particles is None:
+            return self.chi_bar or 0.0, self.chi_hat or 0.0
+        from ..magnetics import effective_susceptibilities
+
+        p = self.particles
+        chi_par, chi_perp = p.susceptibilities
+        with np.errstate(all="ignore"):
+            chi_bar, chi_hat = effective_susceptibilities(chi_par, chi_perp, p.axis_ratio, p.volume_fraction)
+        return float(chi_bar), float(chi_hat)
+
+    def resolve(self, width: Optional[float], thickness: Optional[float],
+                fibre_angle: Optional[float]) -> MagneticSummary:
+        """The susceptibilities the groups use, with the body's demagnetisation (THEORY §10).
+
+        Parameters
+        ----------
+        width, thickness : float or None
+            Rod cross-section, m (None when only an area is given).
+        fibre_angle : float or None
+            The constant fibre angle α (rad), or None when the fibre angle varies along the rod.
+        """
+        chi_bar, chi_hat = self.susceptibilities()
+        out = MagneticSummary(chi_bar, chi_hat, chi_max=chi_bar + chi_hat,
+                              remanence=self.remanent_magnetization)
+        p = self.particles
+        if p is None:
+            if self.chi_bar is not None and self.chi_bar == 0 and not self.remanent_magnetization:
+                out.notes.append("chi_bar = 0 as given: a uniform field exerts no torque on the rod")
+            return out
+        out.particle_chi_bar, out.particle_chi_hat = chi_bar, chi_hat
+        if p.m_s is not None:
+            out.saturation = p.volume_fraction * p.m_s
+        n_t = self.demagnetizing_factor
+        if n_t is None and width is not None and thickness is not None:
+            from ..magnetics import transverse_demagnetizing_factor
+            n_t = transverse_demagnetizing_factor(width, thickness)
+        isotropic = chi_bar == 0.0
+        if not self.body_demagnetization:
+            out.notes.append("body demagnetisation off (body_demagnetization: false)")
+        elif n_t is None:
+            out.notes.append("body demagnetisation not applied: no width and thickness "
+                             "(give them, or demagnetizing_factor)")
+        elif fibre_angle is None and not isotropic:
+            out.notes.append("body demagnetisation not applied: the fibre angle varies along the rod "
+                             "and chi_eff would vary with it (set body_demagnetization: false to "
+                             "silence this note)")
+        else:
+            from ..magnetics import body_susceptibility, composite_tensor
+
+            chi_par, chi_perp = p.susceptibilities
+            alpha = 0.0 if fibre_angle is None else fibre_angle
+            body = body_susceptibility(composite_tensor(chi_par, chi_perp, p.axis_ratio,
+                                                        p.volume_fraction), alpha, n_t)
+            out.chi_bar, out.chi_hat, out.chi_max = body.chi_bar, body.chi_hat, body.chi_max
+            out.demagnetizing_factor = n_t
+            if fibre_angle is not None:
+                out.fibre_angle = body.fibre_angle
+            out.notes.append(f"body demagnetisation applied (THEORY §10): N_t = {n_t:.6g}")
+        if out.chi_bar == 0.0 and not self.remanent_magnetization:
+            out.notes.append("chi_bar = 0: isotropic particles (THEORY §2) without the body's "
+                             "demagnetisation give no torque in a uniform field")
+        return out

@@ -1,0 +1,88 @@
+"""The hard-magnetic (remanent) energy term of THEORY §9.
+
+A remanent magnetisation of magnitude M_r, frozen in the material at angle β(s) to the tangent,
+rotates with the rod: m̂ = (cos(θ+β), sin(θ+β)). Its Zeeman energy per unit length, scaled as in
+THEORY §5, is
+
+    −h_r (m̂ · ĥ(r)),   h_r = μ0 M_r H0 A ℓ² / B0,
+
+which in a uniform field at angle φ is −h_r cos(θ + β − φ) (no positions needed); in a non-uniform
+field it also exerts the distributed gradient force through r(s), like the χ̂ term. h_r is linear in
+the field (``field_power = 1``), h² quadratic: a field ramp through the lens scales them apart.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import casadi as ca
+
+from ..parameters import Parameter
+from ..profiles import constant_profile
+from ..scene import Scene, UniformField
+from .fields import FieldModel, field_model
+from .registry import register_term
+from .terms import EnergyTerm
+
+__all__ = ["HardMagnetic", "with_hard_magnetic_term"]
+
+
+def with_hard_magnetic_term(scene: Scene) -> Scene:
+    """``scene`` containing the hard-magnetic term: an axial magnetisation (β = 0) and a uniform
+    field of zero strength are added when absent (h_r itself is left as it is)."""
+    if scene.field is None:
+        scene = replace(scene, field=UniformField(), h=0.0)
+    if scene.magnetization is None:
+        scene = replace(scene, magnetization=constant_profile(0.0))
+    return scene
+
+
+def _magnetization_angle(sc: Scene) -> float:
+    if sc.magnetization is None:
+        return 0.0
+    if not sc.magnetization.is_constant:
+        raise ValueError("beta: the scene's magnetisation angle is not constant; "
+                         "beta sets a constant magnetisation angle")
+    return float(sc.magnetization.value)
+
+
+@register_term
+class HardMagnetic(EnergyTerm):
+    """−h_r (m̂·ĥ(r)), m̂ = (cos(θ+β), sin(θ+β)) (THEORY §9)."""
+
+    name = "hard_magnetic"
+    node_fields = {"beta": lambda scene, s: scene.magnetization(s)}
+    parameters = (
+        Parameter("h_r", "hard-magnetic group h_r = mu0 M_r H A l^2 / B0", "1", "h_r",
+                  read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
+                  term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
+                  ensure=with_hard_magnetic_term),
+        Parameter("beta", "constant magnetisation angle beta", "rad", "beta",
+                  read=_magnetization_angle,
+                  write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
+                  term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term),
+    )
+
+    def __init__(self, field: FieldModel):
+        self.field = field
+        self.scalar_params = ("h_r",) + field.params
+
+    @classmethod
+    def present(cls, scene: Scene) -> bool:
+        return scene.magnetization is not None and scene.field is not None
+
+    @classmethod
+    def from_scene(cls, scene: Scene) -> "HardMagnetic":
+        return cls(field_model(scene.field))
+
+    def density(self, kin, P):
+        u = kin.theta + kin.fields["beta"]
+        if self.field.is_uniform:
+            return -P["h_r"] * ca.cos(u - P["phi"])
+        hx, hy = self.field.value(kin.x, kin.y, P)
+        return -P["h_r"] * (ca.cos(u) * hx + ca.sin(u) * hy)
+
+    def values(self, scene):
+        return {"h_r": scene.h_r, **self.field.parameter_values(scene.field)}
+
+    def structure(self):
+        return (self.name,) + self.field.structure()
