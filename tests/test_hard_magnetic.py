@@ -100,7 +100,7 @@ def test_a_field_ramp_scales_h_r_linearly_and_h2_quadratically():
 def test_lens_adds_the_term_and_checks_the_range():
     sc = lens.set_value(Scene(field=None, tip_force=None), "h_r", 1.5)
     assert sc.magnetization is not None and sc.field is not None and sc.h_r == 1.5
-    assert lens.get_value(sc, "beta") == 0.0
+    assert lens.get_value(sc, "magnetization") == 0.0
     with pytest.raises(ValueError, match="h_r: must be >= 0"):
         lens.set_value(sc, "h_r", -1.0)
 
@@ -186,3 +186,14 @@ def test_design_with_the_hard_term_present_recovers_a_shooting_made_target():
     assert d.design_scene.h_r == 2.0
     assert float(d.design["h"]) == pytest.approx(0.9, abs=1e-6)
     assert float(d.design["phi"]) == pytest.approx(1.3, abs=1e-6)
+
+
+def test_fit_refuses_a_remanent_scene_instead_of_holding_h_r_fixed():
+    """The fit maps its parameters to the soft-magnetic groups only: a hard-magnetic scene is refused
+    (one line naming the term), never fitted with h_r silently held fixed."""
+    from actuator_design.calibration import prepare_fit
+
+    cfg = {"scene": {"type": "dimensionless", "h": 1.0, "h_r": 0.5},
+           "study": {"type": "fit", "parameters": {"h": {}}}}
+    with pytest.raises(ValueError, match="fit: the scene contains the energy term 'hard_magnetic'"):
+        prepare_fit(cfg, "unused.csv")

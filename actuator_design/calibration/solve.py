@@ -59,6 +59,11 @@ def prepare_fit(config_source, data_source) -> FitProblem:
         raise ConfigError("study.type", f"a fit needs 'study: {{type: fit, parameters: ...}}', got "
                                         f"{study.get('type')!r}")
     spec = validate_spec(FitSpec, study)
+    # the fit maps parameters to the soft-magnetic groups only (THEORY §5): a remanent term would be
+    # held fixed while the field changes, silently; refuse it until M_r is a fit parameter
+    from ..physics.registry import refuse_unsupported, registered_terms
+    refuse_unsupported(config.to_scene(), [c.name for c in registered_terms() if c.name != "hard_magnetic"],
+                       "fit")
     if isinstance(data_source, MeasuredData):
         data = data_source
     else:

@@ -120,7 +120,7 @@ def apply_hard_magnetic_flags(scene, args):
     the hard-magnetic term when absent, THEORY §9)."""
     from .. import parameters as lens
 
-    for name, flag, to_value in (("h_r", "h_r", float), ("beta", "magnetization_deg", math.radians)):
+    for name, flag, to_value in (("h_r", "h_r", float), ("magnetization", "magnetization_deg", math.radians)):
         value = getattr(args, flag, None)
         if value is not None:
             with bad_input(f"--{flag.replace('_', '-')}: "):

@@ -40,8 +40,8 @@ def _magnetization_angle(sc: Scene) -> float:
     if sc.magnetization is None:
         return 0.0
     if not sc.magnetization.is_constant:
-        raise ValueError("beta: the scene's magnetisation angle is not constant; "
-                         "beta sets a constant magnetisation angle")
+        raise ValueError("magnetization: the scene's magnetisation angle is not constant; "
+                         "magnetization sets a constant magnetisation angle")
     return float(sc.magnetization.value)
 
 
@@ -56,7 +56,7 @@ class HardMagnetic(EnergyTerm):
                   read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
                   term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
                   ensure=with_hard_magnetic_term),
-        Parameter("beta", "constant magnetisation angle beta", "rad", "beta",
+        Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term),
