@@ -12,7 +12,7 @@ import io as _io
 import math
 
 from .common import EXIT_OK, bad_input, stdout_to_stderr
-from .output import print_written, write_out
+from .output import emit
 
 __all__ = ["run_poses", "summary"]
 
@@ -73,15 +73,11 @@ def _files(res, raw) -> dict:
 
 def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, settings) -> int:
     from ..analysis.design_poses import design_poses
-    from ..io import dumps_json
 
     with stdout_to_stderr(args.json), bad_input():
         res = design_poses(targets, scene=scene, vary=vary, options=options, settings=settings,
                            verify=not args.no_verify)
-    written = write_out(args.out, _files(res, raw), args.json) if args.out is not None else None
-    print(dumps_json(res.to_dict()) if args.json else summary(res))
-    if written is not None:
-        print_written(written, args.json)
+    emit(args, res, lambda: _files(res, raw), summary)
     if res.success:
         return EXIT_OK
     if not res.poses or not res.reachable or not res.robust:

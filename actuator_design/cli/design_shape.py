@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 
 from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
-from .output import print_written, write_out
+from .output import emit
 
 __all__ = ["run_shape", "read_points"]
 
@@ -78,16 +78,11 @@ def _files(res, raw) -> dict:
 
 def run_shape(args: argparse.Namespace, scene, options, raw, vary, settings) -> int:
     from ..analysis.design_shape import design_shape
-    from ..io import dumps_json
-
     pts = read_points(args.target_shape, args.target_units or "rod", scene)
     with stdout_to_stderr(args.json), bad_input():
         res = design_shape(pts, scene=scene, vary=vary, options=options, settings=settings,
                            verify=not args.no_verify)
-    written = write_out(args.out, _files(res, raw), args.json) if args.out is not None else None
-    print(dumps_json(res.to_dict()) if args.json else summary(res))
-    if written is not None:
-        print_written(written, args.json)
+    emit(args, res, lambda: _files(res, raw), summary)
     if res.success:
         return EXIT_OK
     if not res.verified:

@@ -13,7 +13,7 @@ from typing import List, Mapping, Sequence
 
 from .common import bad_input, stdout_to_stderr
 
-__all__ = ["write_out", "print_written"]
+__all__ = ["write_out", "print_written", "emit"]
 
 
 def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
@@ -44,3 +44,14 @@ def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
 def print_written(paths: Sequence[Path], json_mode: bool) -> None:
     """``wrote a, b, c`` on stdout (stderr with ``--json``, which keeps stdout one JSON object)."""
     print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if json_mode else sys.stdout)
+
+
+def emit(args, result, files, summary) -> None:
+    """The end of a command: ``files()`` written all or nothing (with ``--out``), then the JSON or
+    ``summary(result)`` on stdout, then the ``wrote ...`` line."""
+    from ..io import dumps_json
+
+    written = write_out(args.out, files(), args.json) if args.out is not None else None
+    print(dumps_json(result.to_dict()) if args.json else summary(result))
+    if written is not None:
+        print_written(written, args.json)
