@@ -138,8 +138,10 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         The scene; its values not named in the schedule stay fixed. Terms a scheduled parameter
         needs (a tip force for ``p``, a uniform field for ``h``/``phi``, …) are added at value zero.
     options : SolverOptions, optional
-        Transcription and resolution (default ``SolverOptions()``). Tracking steps use Newton
-        without ``ensure_stable``; the start and the snaps use IPOPT with ``ensure_stable``.
+        Transcription and resolution (default ``SolverOptions()``). The branch is continued by
+        the engine's Newton corrector (to ``tol`` × the solver's residual scale) and the states
+        at schedule points, folds and landings are solved with Newton without ``ensure_stable``;
+        the start and the snaps use IPOPT with ``ensure_stable``.
     schedule : list of dict, or dict of lists
         Parameter settings in order (names of the parameter lens, dimensionless, angles in rad),
         e.g. ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}]`` or ``{"p": [0.5, -2, 0.5]}``;
@@ -149,7 +151,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     max_step : float, optional
         Largest step, as a fraction of a schedule segment (0 < max_step ≤ 1). Default
         min(1, n_segments/20): about 20 steps over the whole path at least, and one per segment
-        for fine schedules (steps are further limited by ``max_dtheta`` and the step control).
+        for fine schedules (steps are further limited by ``max_dtheta`` and the engine's step control).
     max_dtheta : float
         Largest change of any nodal angle per step, rad (smaller steps draw smoother curves).
 

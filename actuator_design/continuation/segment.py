@@ -80,7 +80,7 @@ class LensSegment:
             m = self._pars[mags[0]]
             self._laws.append((mags[0], q.get(base) / m.get(base) ** (q.field_power / m.field_power),
                                q.field_power / m.field_power))
-        for lam in (0.0, 0.5, 1.0):  # the closed form is the lens' rule: check it
+        for lam in ((0.0, 0.5, 1.0) if self._laws else ()):  # the closed form is the lens' rule: check it
             got, sc = self.point(lam)[0], self.scene(lam)
             for name, value in zip(self.system_names, got):
                 ref = lens.parameter(name).get(sc)
