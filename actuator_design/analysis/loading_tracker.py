@@ -131,7 +131,10 @@ class Tracker:
     def _start_tangent(prob: SegmentProblem, x0: np.ndarray) -> np.ndarray:
         """(dz/dλ, 1) = (−H⁻¹ G_λ, 1) at a stable start (H regular), shape (n + 1,)."""
         _, H, gl = prob.ev(x0[:-1], x0[-1])
-        return np.append(-np.linalg.solve(H, gl), 1.0)
+        try:
+            return np.append(-np.linalg.solve(H, gl), 1.0)
+        except np.linalg.LinAlgError:  # a singular start: the engine's null vector instead
+            return None
 
     # -- one segment -----------------------------------------------------------------------------
     def run_segment(self, k: int, cur: EquilibriumResult) -> Tuple[Optional[EquilibriumResult], str]:
@@ -142,7 +145,9 @@ class Tracker:
         st = self._settings(prob)
         events = (Fold(stop=True), BranchPoint(stop=True))
         lam = 0.0
-        while lam < 1.0:
+        for _ in range(MAX_TRIALS):
+            if lam >= 1.0:
+                break
             x0 = np.append(cur.z[1:], lam)
             br = continuation(prob, PALC(), st, events, x0=x0, tangent=self._start_tangent(prob, x0))
             if br.status == "left_window" and br.lam[-1] == 1.0:
@@ -152,33 +157,40 @@ class Tracker:
                     return None, f"no equilibrium at the schedule point t = {k + 1}: {end.message}"
                 self.record(prob, k, 1.0, end, "schedule")
                 return end, ""
-            if br.status != "event":
-                self._record_branch(prob, k, br, len(br))
+            self._record_branch(prob, k, br, len(br))
+            stuck = br.status == "step_too_small"
+            if br.status != "event" and not stuck:
                 return None, (f"the stable branch could not be followed past t = {k + br.lam[-1]:.10g} "
                               f"(smallest eigenvalue {br.min_eig[-1]:.3g}): {br.message}")
-            self._record_branch(prob, k, br, len(br))
-            ev = br.events[-1]
-            if ev.kind == "fold":
-                out = self._fold(k, prob, ev, br)
+            # the steps shrank to nothing in front of a fold PALC could not turn: try the locator there
+            ev = br.events[-1] if not stuck else None
+            if stuck or ev.kind == "fold":
+                guess = br.x[-1] if stuck else ev.x
+                out = self._fold(k, prob, guess, float(br.lam[-1]))
                 if out is None:
+                    if stuck:
+                        return None, (f"the stable branch could not be followed past t = {k + br.lam[-1]:.10g} "
+                                      f"(smallest eigenvalue {br.min_eig[-1]:.3g}): {br.message}")
                     return None, f"no stable state to land on after the fold at t = {k + ev.lam:.10g}"
             else:
                 out = self._bifurcation(k, prob, ev)
                 if out is None:
                     return None, f"no stable state after the bifurcation at t = {k + ev.lam:.10g}"
             lam, cur = out
+        else:
+            return None, f"gave up after {MAX_TRIALS} critical points in segment {k} (t = {k + lam:.10g})"
         return cur, ""
 
     # -- critical points ------------------------------------------------------------------------
-    def _fold(self, k, prob: SegmentProblem, ev, br):
-        """Locate the fold by Moore–Spence from the engine's event, then jump (or stop on it when it
-        lies at the segment's end). Returns (λ, state) to continue from, or None."""
+    def _fold(self, k, prob: SegmentProblem, guess: np.ndarray, lam_last: float):
+        """Locate the fold by Moore–Spence from ``guess`` = (u, λ) (the engine's event), then jump (or
+        stop on it when it lies at the segment's end); ``lam_last`` is the last accepted λ.
+        Returns (λ, state) to continue from, or None."""
         tol = max(self.solver.options.tol, 1e-11)
         n = prob.n
-        _, H, _ = prob.ev(ev.x[:n], ev.lam)  # null-vector guess: the lowest mode (the one at zero)
+        _, H, _ = prob.ev(guess[:n], guess[n])  # null-vector guess: the lowest mode (the one at zero)
         v0 = lowest_eigenpairs_dense(np.array(H), 1.0 / prob.mass, 1)[1]
-        fp = locate_fold(self.system, prob.P, ev.x[:n], ev.lam, v0, path=prob.segment.point, tol=tol)
-        lam_last = float(br.lam[-1])
+        fp = locate_fold(self.system, prob.P, guess[:n], guess[n], v0, path=prob.segment.point, tol=tol)
         if not (fp.converged and lam_last - 1e-9 <= fp.lam <= 1.0 + 1e-9):
             return None
         lam_c = min(fp.lam, 1.0)

@@ -34,7 +34,8 @@ def followers(base: Scene, names: Sequence[str], rows: np.ndarray) -> List[str]:
     slots = {lens.parameter(n, _WHAT).slot for n in names}
     out = []
     for q in lens.parameters().values():
-        if q.slot in slots:  # scheduled, or another name of a scheduled slot (p and fy)
+        # only values the lens scales with the field can follow; not a scheduled slot (p and fy)
+        if not q.field_power or q.slot in slots:
             continue
         before = q.get(base)
         if any(q.get(sc) != before for sc in scenes):
