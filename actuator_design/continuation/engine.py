@@ -209,13 +209,15 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
     found: List[EventPoint] = []
     status, msg = "max_points", f"stopped after {st.max_steps} points"
     ds = st.ds
+    bounded = math.isfinite(st.max_du) or math.isfinite(st.max_dlam)
     while len(X) < st.max_steps:
         xp, s = algorithm.predict(x, t, ds)
-        shrink = min(1.0, st.max_dlam / max(abs(xp[n] - x[n]), 1e-300),
-                     st.max_du / max(float(np.max(np.abs(xp[:n] - x[:n]), initial=0.0)), 1e-300))
-        if shrink < 1.0:  # a shorter predictor respects the step bounds
-            ds *= shrink
-            xp, s = algorithm.predict(x, t, ds)
+        if bounded:
+            shrink = min(1.0, st.max_dlam / max(abs(xp[n] - x[n]), 1e-300),
+                         st.max_du / max(float(np.max(np.abs(xp[:n] - x[:n]), initial=0.0)), 1e-300))
+            if shrink < 1.0:  # a shorter predictor respects the step bounds
+                ds *= shrink
+                xp, s = algorithm.predict(x, t, ds)
         xn, ok, it = problem.correct(xp, algorithm.row(problem, t), st.tol, st.arc_tol,
                                      st.max_corrector_iter)
         if ok:
@@ -223,7 +225,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             tn, dn = problem.tangent(xn, t, evaluate=False)
             if st.min_cos_turn > -1.0 and float(tn @ (W * t)) < st.min_cos_turn and ds > 10 * st.ds_min:
                 ok = False
-            elif float(np.max(np.abs(xn[:n] - x[:n]), initial=0.0)) > st.max_du:
+            elif bounded and float(np.max(np.abs(xn[:n] - x[:n]), initial=0.0)) > st.max_du:
                 ok = False
         if not ok:
             ds *= 0.5
@@ -250,15 +252,16 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
                 ev = _locate(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
                              function=e.function)
                 step_events.append((ev, e.stop))
-        stop_here = [ev for ev, stop in step_events if stop]
-        if any(not lo <= ev.lam <= hi for ev in stop_here):
+        stop_here = [ev for ev, stop in step_events if stop] if step_events else step_events
+        if stop_here and any(not lo <= ev.lam <= hi for ev in stop_here):
             # a stopping event beyond the window: shorter steps reach the window's edge before it
             ds *= 0.5
             if ds < st.ds_min:
                 status, msg = "step_too_small", f"a stopping event lies just beyond the window ({ds:g})"
                 break
             continue
-        found.extend(ev for ev, _ in step_events if lo <= ev.lam <= hi)
+        if step_events:
+            found.extend(ev for ev, _ in step_events if lo <= ev.lam <= hi)
         if stop_here:
             status, msg = "event", f"stopped at the {stop_here[0].kind} at {problem.lens} = {stop_here[0].lam:.10g}"
             break
