@@ -4,19 +4,20 @@ A *schedule* is a list of parameter settings, e.g. ``[{"h": 0}, {"h": 2}, {"h": 
 field up and back down) or ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}, {"h": 1.5, "phi": 1.6}]``
 (a magnitude-and-angle field schedule). Between consecutive settings every named value changes
 linearly in a segment coordinate λ ∈ [0, 1]. The rod follows its stable equilibrium
-(THEORY §8): each step is a warm-started Newton solve of the one built NLP, predicted along the
-branch tangent dz/dλ = −H_r⁻¹ ∂g/∂λ, with the step halved when Newton fails, when the state moves
-too far, or when the smallest reduced-Hessian eigenvalue μ (THEORY §7) drops steeply towards zero.
+(THEORY §8) on the continuation engine (:mod:`actuator_design.continuation`): each segment is one
+continuation problem in λ — every scheduled NLP slot moves at once, values the lens ties to them
+follow (h_pos with h), G_λ is exact — continued by pseudo-arclength steps no longer than a segment
+fraction ``max_step`` nor moving any nodal angle more than ``max_dtheta``; the engine's fold and
+branch-point events stop the run where the branch loses stability (the smallest reduced-Hessian
+eigenvalue μ, THEORY §7, reaches zero):
 
-When μ reaches zero the state loses stability:
-
-* at a **fold** (saddle-node: the branch ends) the critical point is located by Newton's method on
-  the augmented system g(z, λ) = 0, μ_min(z, λ) = 0 (quadratic convergence; derivatives of μ by
-  Hellmann–Feynman from third derivatives of the energy), the rod is pushed just past it along the
-  null eigenvector in the direction in which the energy decreases (the sign of the cubic term) and
-  relaxed with IPOPT + ``ensure_stable``: a *jump* (snap-through) to the state it lands on;
+* at a **fold** (saddle-node: the branch ends) the critical point is located by the one fold
+  locator (Moore–Spence, :func:`actuator_design.reduced.fold.locate_fold`, along the segment),
+  the rod is pushed just past it along the null eigenvector in the direction in which the energy
+  decreases (the sign of the cubic term) and relaxed with IPOPT + ``ensure_stable``: a *jump*
+  (snap-through) to the state it lands on;
 * at a **bifurcation** (μ crosses zero while the branch continues, e.g. the pitchfork of the
-  symmetric transverse scene) the crossing is located by root-finding on μ along the branch and the
+  symmetric transverse scene) the crossing is the engine's located branch point and the
   unstable state is left along ± its eigenvector; if the landing state joins continuously
   (supercritical: the energy released vanishes) the event is recorded in ``bifurcations``, not as a
   jump; otherwise (subcritical) it is a jump.
@@ -44,7 +45,7 @@ from ..result import EquilibriumResult
 from ..scene import Scene
 from .registry import register
 from .loading_results import Bifurcation, Jump, LoadingPath, PathPoint
-from .loading_tracker import Segment as _Segment, Tracker as _Tracker
+from .loading_tracker import Tracker as _Tracker
 
 __all__ = ["apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
            "PathPoint", "Jump", "Bifurcation"]
@@ -137,8 +138,10 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         The scene; its values not named in the schedule stay fixed. Terms a scheduled parameter
         needs (a tip force for ``p``, a uniform field for ``h``/``phi``, …) are added at value zero.
     options : SolverOptions, optional
-        Transcription and resolution (default ``SolverOptions()``). Tracking steps use Newton
-        without ``ensure_stable``; the start and the snaps use IPOPT with ``ensure_stable``.
+        Transcription and resolution (default ``SolverOptions()``). The branch is continued by
+        the engine's Newton corrector (to ``tol`` × the solver's residual scale) and the states
+        at schedule points, folds and landings are solved with Newton without ``ensure_stable``;
+        the start and the snaps use IPOPT with ``ensure_stable``.
     schedule : list of dict, or dict of lists
         Parameter settings in order (names of the parameter lens, dimensionless, angles in rad),
         e.g. ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}]`` or ``{"p": [0.5, -2, 0.5]}``;
@@ -148,7 +151,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     max_step : float, optional
         Largest step, as a fraction of a schedule segment (0 < max_step ≤ 1). Default
         min(1, n_segments/20): about 20 steps over the whole path at least, and one per segment
-        for fine schedules (steps are further limited by ``max_dtheta`` and the step control).
+        for fine schedules (steps are further limited by ``max_dtheta`` and the engine's step control).
     max_dtheta : float
         Largest change of any nodal angle per step, rad (smaller steps draw smoother curves).
 
@@ -180,17 +183,17 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
             raise ValueError(f"schedule[{i}].{err}") from None
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
 
-    seg0 = _Segment(base, names, vals[0], vals[min(1, len(vals) - 1)], tr.solver)
-    first = solve(seg0.scene(0.0), replace(options, ensure_stable=True), initial=initial, solver=tr.solver)
-    tr._record(seg0, 0, 0.0, first, "start")
+    prob0 = tr.problem(0)
+    first = solve(prob0.segment.scene(0.0), replace(options, ensure_stable=True), initial=initial,
+                  solver=tr.solver)
+    tr.record(prob0, 0, 0.0, first, "start")
     tr.states.append(first)
     cur, msg, ok = first, "", bool(first.success and first.stable)
     if not ok:
         msg = f"no stable starting state: {first.message}"
     else:
         for k in range(len(vals) - 1):
-            seg = _Segment(base, names, vals[k], vals[k + 1], tr.solver)
-            nxt, msg = tr.run_segment(k, seg, cur)
+            nxt, msg = tr.run_segment(k, cur)
             if nxt is None:
                 ok = False
                 break

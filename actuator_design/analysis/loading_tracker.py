@@ -1,69 +1,68 @@
-"""The loading-path tracker: follow the stable equilibrium along one schedule segment, locate the
-critical point where it loses stability and land on the state it snaps to (THEORY §7–8).
+"""The loading-path tracker: follow the stable equilibrium along each schedule segment on the
+continuation engine, locate where it loses stability and land on the state it snaps to (THEORY §7–8).
 
-Used by :func:`~.loading.follow_path`; its numerics come from the reduced toolkit
-(:mod:`actuator_design.reduced`): lowest eigenpairs of (H, M), and Newton on the augmented system
-g = 0, μ_min = 0 for folds (derivatives of μ by Hellmann–Feynman from the reduced system's third
-derivatives).
+Used by :func:`~.loading.follow_path`. Each segment is a :class:`~actuator_design.continuation.SegmentProblem`
+(its parameter the segment coordinate λ, every scheduled and following NLP slot moving at once, exact
+G_λ) continued by pseudo-arclength steps (:func:`~actuator_design.continuation.continuation`) with the
+fold and branch-point events made to stop the run. A fold is then located by the one fold locator
+(:func:`~actuator_design.reduced.fold.locate_fold`, Moore–Spence along the segment); the jump lands
+by IPOPT + ``ensure_stable``. A branch point (the branch continues, e.g. the symmetric pitchfork)
+is left along ± the unstable eigenvector: continuous when the landing state joins (supercritical),
+a jump otherwise.
 """
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Dict, List
+from typing import List, Optional, Tuple
 
 import numpy as np
-from scipy.optimize import brentq
 
-from .. import parameters as lens
+from ..continuation import PALC, BranchPoint, ContinuationSettings, Fold, continuation
+from ..continuation.segment import LensSegment, SegmentProblem, followers
 from ..equilibrium import solve
+from ..reduced.fold import locate_fold
 from ..reduced.linalg import lowest_eigenpairs_dense
-from ..reduced.newton import newton
+from ..reduced.system import reduced_system
 from ..result import EquilibriumResult
-from ..scene import Scene
 from ..solver import get_solver
 from .loading_results import Bifurcation, Jump, PathPoint
-from .stiffness import sensitivities
 
-__all__ = ["MAX_TRIALS", "Segment", "Tracker"]
+__all__ = ["MAX_TRIALS", "Tracker"]
 
-#: Trial steps allowed per schedule segment before the path gives up (a safeguard).
+#: Continuation steps allowed per schedule segment before the path gives up (a safeguard).
 MAX_TRIALS = 20000
-
-
-# -- the tracker ---------------------------------------------------------------------------------
-class Segment:
-    """Parameter values and NLP parameter vectors along one schedule segment, λ ∈ [0, 1]."""
-
-    def __init__(self, base: Scene, names, va, vb, solver):
-        self.base, self.names, self.va, self.vb, self.solver = base, names, va, vb, solver
-
-    def values(self, lam: float) -> Dict[str, float]:
-        v = self.va + lam * (self.vb - self.va)
-        out = dict(zip(self.names, map(float, v)))
-        for n in out:  # a λ slightly past a segment end must not leave the parameter's range
-            par = lens.parameter(n)
-            out[n] = min(max(out[n], par.lower), par.upper)
-        return out
-
-    def scene(self, lam: float) -> Scene:
-        return lens.apply_values(self.base, self.values(lam), "path parameter")
-
-    def params(self, lam: float) -> np.ndarray:
-        return self.solver.parameter_vector(self.scene(lam))
-
-    def dparams(self, lam: float, d: float = 1e-6) -> np.ndarray:
-        """dP/dλ by central differences (exact for the parameters that enter P linearly)."""
-        return (self.params(lam + d) - self.params(lam - d)) / (2.0 * d)
+#: Past a fold the landing is sought this far along the segment (λ), as before.
+_PAST_FOLD = 1e-7
+#: Past a branch point the unstable state is left this far (far enough that the unstable
+#: eigenvalue is well resolved, near enough that a supercritical branch is still close: ~√d).
+_PAST_BRANCH_POINT = 1e-4
 
 
 class Tracker:
+    """State of one loading path: the built solver and reduced system, the points, jumps and
+    bifurcations found so far.
+
+    Parameters
+    ----------
+    base : Scene
+        The prepared scene (every term a scheduled parameter needs present).
+    options : SolverOptions
+    names : list of str
+        Scheduled parameter names.
+    vals : ndarray, shape (n_schedule, len(names))
+    max_step : float
+        Largest step (segment fraction, and arclength in the metric diag(M, 1)).
+    max_dtheta : float
+        Largest change of any nodal angle per step, rad.
+    """
+
     def __init__(self, base, options, names, vals, max_step, max_dtheta):
         self.base, self.names, self.vals = base, names, vals
         self.track_opts = replace(options, method="newton", ensure_stable=False)
         self.snap_opts = replace(options, method="ipopt", ensure_stable=True)
         self.solver = get_solver(base, self.track_opts)
-        self.sens = sensitivities(self.solver)
-        self.M = self.solver.transcription.mass[1:]
+        self.follow = followers(base, names, vals)
+        self.system = reduced_system(self.solver, list(names) + self.follow)
         self.max_step, self.max_dtheta = max_step, max_dtheta
         varying = [i for i in range(len(names)) if np.ptp(vals[:, i]) > 0]
         self.param_index = varying[0] if len(varying) == 1 else None
@@ -74,26 +73,45 @@ class Tracker:
         self.states: List[EquilibriumResult] = []
         self.branch = 0
 
-    # -- small helpers --------------------------------------------------------------------------
-    def _param_value(self, seg, k, lam):
+    # -- segments and records -------------------------------------------------------------------
+    def problem(self, k: int) -> SegmentProblem:
+        """The continuation problem of segment k (schedule point k to k + 1)."""
+        seg = LensSegment(self.base, self.names, self.vals[k], self.vals[min(k + 1, len(self.vals) - 1)],
+                          self.follow)
+        return SegmentProblem(self.system, self.solver.parameter_vector(seg.scene(0.0)), seg)
+
+    def _param_value(self, seg: LensSegment, k, lam):
         if self.param_index is None:
             return float(k + lam)
-        return float(seg.va[self.param_index] + lam * (seg.vb[self.param_index] - seg.va[self.param_index]))
+        i = self.param_index
+        return float(seg.va[i] + lam * (seg.vb[i] - seg.va[i]))
 
-    def _direction(self, seg):
+    def _direction(self, seg: LensSegment):
         if self.param_index is None:
             return 0
         return int(np.sign(seg.vb[self.param_index] - seg.va[self.param_index]))
 
-    def _record(self, seg, k, lam, r: EquilibriumResult, kind):
+    def _point(self, seg, k, lam, tip, energy, mu, index, kind):
         self.points.append(PathPoint(
             t=float(k + lam), param=self._param_value(seg, k, lam), values=seg.values(lam),
-            tip={kk: float(v) for kk, v in r.tip.items()}, energy=float(r.energy), stable=bool(r.stable),
-            min_eigenvalue=float(r.eigenvalues[0]), morse_index=int(r.morse_index), branch=self.branch,
+            tip=tip, energy=float(energy), stable=bool(mu > 1e-9 * max(1.0, abs(mu))),
+            min_eigenvalue=float(mu), morse_index=int(index), branch=self.branch,
             direction=self._direction(seg), kind=kind))
 
-    def _solve_track(self, seg, lam, z0):
-        return solve(seg.scene(lam), self.track_opts, initial=z0, solver=self.solver)
+    def record(self, prob: SegmentProblem, k, lam, r: EquilibriumResult, kind):
+        """Record a solved state (start, schedule point, critical state, landing)."""
+        self._point(prob.segment, k, lam, {kk: float(v) for kk, v in r.tip.items()}, r.energy,
+                    float(r.eigenvalues[0]), r.morse_index, kind)
+
+    def _record_branch(self, prob: SegmentProblem, k, br, last: int):
+        """Record the engine's points 1..last-1 of ``br`` (index and μ from the engine)."""
+        for x, idx, mu in zip(br.x[1:last], br.morse_index[1:last], br.min_eig[1:last]):
+            lam = float(x[-1])
+            energy, angle, tx, ty = self.solver.summary(prob.full(x[:-1], lam), prob.params(lam))
+            self._point(prob.segment, k, lam, {"x": tx, "y": ty, "angle": angle}, energy, mu, idx, "step")
+
+    def _solve_track(self, prob, lam, z0):
+        return solve(prob.segment.scene(lam), self.track_opts, initial=z0, solver=self.solver)
 
     def _usable(self, r: EquilibriumResult) -> bool:
         """Converged, or (next to a critical point, where the Hessian is nearly singular and Newton
@@ -101,102 +119,115 @@ class Tracker:
         return bool(r.success or (np.isfinite(r.stationarity)
                                   and r.stationarity <= 100.0 * self.solver.options.tol))
 
-    def _eig(self, zr, P):
-        """Smallest eigenvalue μ of (H_r, M_r), its eigenvector v (v = M^-1/2 u, |u| = 1), H, g."""
-        _, g, H = self.solver.f_grad_hess(zr, P)
-        H, g = np.asarray(H, float), np.asarray(g, float).ravel()
-        lam, v = lowest_eigenpairs_dense(H, 1.0 / self.M, 1)
-        return float(lam[0]), v, H, g
+    def _settings(self, prob: SegmentProblem) -> ContinuationSettings:
+        scale = max(self.solver.residual_scale(prob.params(0.0)), self.solver.residual_scale(prob.params(1.0)))
+        # steps bounded as λ ≤ max_step and max |Δθ| ≤ max_dtheta; the arclength bound never binds harder
+        ds = float(np.hypot(self.max_step, self.max_dtheta))
+        return ContinuationSettings(ds=ds, ds_min=1e-9, ds_max=ds, max_steps=MAX_TRIALS,
+                                    window=(-np.inf, 1.0), direction=1.0, tol=self.solver.options.tol * scale,
+                                    max_du=self.max_dtheta, max_dlam=self.max_step)
 
-    def _tangent(self, seg, lam, z):
-        """dz/dλ = −H⁻¹ ∂g/∂λ along the branch (free nodes; clamp node from dθ0/dλ)."""
-        P, dP = seg.params(lam), seg.dparams(lam)
-        _, g, H = self.solver.f_grad_hess(z[1:], P)
-        gl = np.asarray(self.sens.g_P(z[1:], P), float) @ dP
-        out = np.zeros_like(z)
+    @staticmethod
+    def _start_tangent(prob: SegmentProblem, x0: np.ndarray) -> np.ndarray:
+        """(dz/dλ, 1) = (−H⁻¹ G_λ, 1) at a stable start (H regular), shape (n + 1,)."""
+        _, H, gl = prob.ev(x0[:-1], x0[-1])
         try:
-            out[1:] = -np.linalg.solve(np.asarray(H, float), gl)
-        except np.linalg.LinAlgError:
-            return out
-        out[0] = dP[self.solver.layout.slices["theta0"]][0]
-        return out if np.all(np.isfinite(out)) else np.zeros_like(z)
+            return np.append(-np.linalg.solve(H, gl), 1.0)
+        except np.linalg.LinAlgError:  # a singular start: the engine's null vector instead
+            return None
+
+    # -- one segment -----------------------------------------------------------------------------
+    def run_segment(self, k: int, cur: EquilibriumResult) -> Tuple[Optional[EquilibriumResult], str]:
+        """Follow the stable state ``cur`` (at λ = 0 of segment k) to λ = 1.
+
+        Returns (state at λ = 1, "") or (None, why it stopped)."""
+        prob = self.problem(k)
+        st = self._settings(prob)
+        events = (Fold(stop=True), BranchPoint(stop=True))
+        lam = 0.0
+        for _ in range(MAX_TRIALS):
+            if lam >= 1.0:
+                break
+            x0 = np.append(cur.z[1:], lam)
+            br = continuation(prob, PALC(), st, events, x0=x0, tangent=self._start_tangent(prob, x0))
+            if br.status == "left_window" and br.lam[-1] == 1.0:
+                self._record_branch(prob, k, br, len(br) - 1)
+                end = self._solve_track(prob, 1.0, prob.full(br.x[-1, :-1], 1.0))
+                if not end.success:
+                    return None, f"no equilibrium at the schedule point t = {k + 1}: {end.message}"
+                self.record(prob, k, 1.0, end, "schedule")
+                return end, ""
+            self._record_branch(prob, k, br, len(br))
+            stuck = br.status == "step_too_small"
+            if br.status != "event" and not stuck:
+                return None, (f"the stable branch could not be followed past t = {k + br.lam[-1]:.10g} "
+                              f"(smallest eigenvalue {br.min_eig[-1]:.3g}): {br.message}")
+            # the steps shrank to nothing in front of a fold PALC could not turn: try the locator there
+            ev = br.events[-1] if not stuck else None
+            if stuck or ev.kind == "fold":
+                guess = br.x[-1] if stuck else ev.x
+                out = self._fold(k, prob, guess, float(br.lam[-1]))
+                if out is None:
+                    if stuck:
+                        return None, (f"the stable branch could not be followed past t = {k + br.lam[-1]:.10g} "
+                                      f"(smallest eigenvalue {br.min_eig[-1]:.3g}): {br.message}")
+                    return None, f"no stable state to land on after the fold at t = {k + ev.lam:.10g}"
+            else:
+                out = self._bifurcation(k, prob, ev)
+                if out is None:
+                    return None, f"no stable state after the bifurcation at t = {k + ev.lam:.10g}"
+            lam, cur = out
+        else:
+            return None, f"gave up after {MAX_TRIALS} critical points in segment {k} (t = {k + lam:.10g})"
+        return cur, ""
 
     # -- critical points ------------------------------------------------------------------------
-    def _fold_newton(self, seg, lam, z, lam_max, tol):
-        """Newton on (g = 0, μ_min = 0) in (z_free, λ) from (λ, z).
-
-        The Jacobian row of μ comes from Hellmann–Feynman: ∂μ = vᵀ ∂H v (v the M-normalised
-        eigenvector), i.e. third derivatives of the energy contracted twice with v.
-
-        Returns
-        -------
-        (λ_c, z_c, v, C, transversality) or None
-            z_c the critical state (full node vector), v the null eigenvector (max |v| = 1, positive
-            at the tip, 0 at the clamp), C = ∂³E[v, v, v] (its sign decides the snap direction),
-            transversality = |v·∂g/∂λ| / (|v| |∂g/∂λ|): O(1) at a fold, 0 at a symmetric
-            bifurcation.
-        """
-        m = self.M
-        n = m.size
-
-        def augmented(x):
-            zr, lam = x[:n], x[n]
-            P, dP = seg.params(lam), seg.dparams(lam)
-            mu, v, H, g = self._eig(zr, P)
-            gl = np.asarray(self.sens.g_P(zr, P), float) @ dP
-            mz, mP = (np.asarray(a, float).ravel() for a in self.sens.third(zr, P, v))
-            J = np.block([[H, gl[:, None]], [mz[None, :], np.array([[float(mP @ dP)]])]])
-            return np.concatenate([g, [mu]]), J
-
-        def left(x):
-            return not (-0.5 < x[n] < lam_max + 0.5) or np.max(np.abs(x[:n] - z[1:])) > 3.0
-
-        def small(F, dx):  # residual small at the last iterate and the step that left it tiny
-            return (max(np.max(np.abs(F[:n] / m)), abs(F[n])) <= tol and np.max(np.abs(dx[:n])) <= 1e-9
-                    and abs(dx[n]) <= 1e-12)
-
-        x, ok, _ = newton(augmented, np.append(z[1:], lam), lambda x_, F: False, 40,
-                          converged_after_step=small, reject=left)
-        if not ok:
+    def _fold(self, k, prob: SegmentProblem, guess: np.ndarray, lam_last: float):
+        """Locate the fold by Moore–Spence from ``guess`` = (u, λ) (the engine's event), then jump (or
+        stop on it when it lies at the segment's end); ``lam_last`` is the last accepted λ.
+        Returns (λ, state) to continue from, or None."""
+        tol = max(self.solver.options.tol, 1e-11)
+        n = prob.n
+        _, H, _ = prob.ev(guess[:n], guess[n])  # null-vector guess: the lowest mode (the one at zero)
+        v0 = lowest_eigenpairs_dense(np.array(H), 1.0 / prob.mass, 1)[1]
+        fp = locate_fold(self.system, prob.P, guess[:n], guess[n], v0, path=prob.segment.point, tol=tol)
+        if not (fp.converged and lam_last - 1e-9 <= fp.lam <= 1.0 + 1e-9):
             return None
-        zr, lam = x[:n], float(x[n])
-        P = seg.params(lam)
-        mu, v, H, g = self._eig(zr, P)
-        if max(np.max(np.abs(g / m)), abs(mu)) > 1e3 * tol:
+        lam_c = min(fp.lam, 1.0)
+        z_c = prob.full(fp.u, lam_c)
+        if lam_c >= 1.0 - 1e-12:  # the fold is the schedule point (within rounding): stop on it
+            r = self._solve_track(prob, 1.0, z_c)
+            if not r.success:
+                return None
+            self.record(prob, k, 1.0, r, "schedule")
+            return 1.0, r
+        p = prob.segment.point(lam_c)[0]
+        v = fp.v / np.max(np.abs(fp.v)) * (1.0 if fp.v[-1] >= 0 else -1.0)
+        _, J, _ = self.system.f_fold(fp.u, p, v, v, prob.P)
+        # C = ∂³Ê[v, v, v]: the energy along v is ~ t (v·g) + C t³/6 past the fold
+        C = float(v @ (np.asarray(J)[n:2 * n, :n] @ v))
+        from_state = self._solve_track(prob, lam_c, z_c)
+        s0 = -1 if C > 0 else 1
+        landing, _ = self._land(prob, min(lam_c + _PAST_FOLD, 1.0), z_c, np.concatenate([[0.0], v]), (s0, -s0))
+        if landing is None:
             return None
-        v = v / np.max(np.abs(v)) * (1.0 if v[-1] >= 0 else -1.0)
-        C = float(np.dot(np.asarray(self.sens.third(zr, P, v)[0], float).ravel(), v))
-        zc = np.concatenate([[P[self.solver.layout.slices["theta0"]][0]], zr])
-        vz = np.concatenate([[0.0], v])
-        dP = seg.dparams(lam)
-        gl = np.asarray(self.sens.g_P(zr, P), float) @ dP
-        transversality = abs(float(v @ gl)) / (np.linalg.norm(v) * max(np.linalg.norm(gl), 1e-300))
-        return lam, zc, vz, C, transversality
+        to_state = self._solve_track(prob, lam_c, landing.z)
+        if not (to_state.success and to_state.stable):
+            to_state = landing
+        self.record(prob, k, lam_c, from_state, "critical")
+        self.branch += 1
+        self.record(prob, k, lam_c, to_state, "landing")
+        seg = prob.segment
+        self.jumps.append(Jump(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
+                               values=seg.values(lam_c), direction=self._direction(seg), kind="fold",
+                               from_state=from_state, to_state=to_state,
+                               energy_released=float(from_state.energy - to_state.energy)))
+        return lam_c, to_state
 
-    def _bisect_mu(self, seg, lam_a, z_a, lam_b):
-        """Root of μ_min(λ) on the followed branch in [lam_a, lam_b] (μ > 0 at a, < 0 at b)."""
-        cache = {}
-        tangent = self._tangent(seg, lam_a, z_a)
-
-        def f(lam):
-            r = self._solve_track(seg, lam, z_a + (lam - lam_a) * tangent)
-            cache[lam] = r
-            return float(r.eigenvalues[0]) if self._usable(r) else np.nan
-
-        fa, fb = f(lam_a), f(lam_b)
-        if not (fa > 0 > fb):
-            return None
-        try:
-            lam_c = brentq(f, lam_a, lam_b, xtol=1e-13, rtol=1e-15, maxiter=100)
-        except (ValueError, RuntimeError):  # a NaN (failed solve) inside the bracket
-            return None
-        r = cache.get(lam_c) or self._solve_track(seg, lam_c, z_a)
-        return lam_c, r
-
-    def _land(self, seg, lam, z_from, v, signs):
+    def _land(self, prob, lam, z_from, v, signs):
         """Relax from z_from ± ε v with IPOPT + ensure_stable at λ; first stable landing that left
         z_from (max |Δθ| > 1e-3), trying the signs in order."""
-        sc = seg.scene(lam)
+        sc = prob.segment.scene(lam)
         for s in signs:
             for eps in (0.05, 0.2, 0.5):
                 r = solve(sc, self.snap_opts, initial=z_from + s * eps * v, solver=self.solver)
@@ -204,107 +235,26 @@ class Tracker:
                     return r, s
         return None, 0
 
-    # -- one segment -----------------------------------------------------------------------------
-    def run_segment(self, k, seg: Segment, cur: EquilibriumResult):
-        lam, step = 0.0, self.max_step
-        tol = self.solver.options.tol
-        min_step = 1e-10
-        for _ in range(MAX_TRIALS):
-            if lam >= 1.0:
-                break
-            step = min(step, 1.0 - lam)
-            trial = lam + step
-            tan = self._tangent(seg, lam, cur.z)
-            pred = cur.z + step * tan
-            r = self._solve_track(seg, trial, pred)
-            mu0 = float(cur.eigenvalues[0])
-            ok = (r.success and np.max(np.abs(r.z - cur.z)) <= self.max_dtheta
-                  and np.max(np.abs(r.z - pred)) <= 0.5 * self.max_dtheta)
-            if ok and r.stable and (float(r.eigenvalues[0]) >= 0.25 * mu0 or mu0 < 1e-6 * (1 + abs(mu0))
-                                    or step <= 1e-6):
-                lam, cur = trial, r
-                self._record(seg, k, lam, r, "schedule" if lam >= 1.0 else "step")
-                step = min(2.0 * step, self.max_step)
-                continue
-            if ok and r.stable:  # μ dropped steeply but is still positive: approach more slowly
-                step *= 0.5
-                continue
-            # the step failed, left the branch, or crossed μ = 0: is there a critical point ahead?
-            crit = None
-            if mu0 < 0.5 or step <= 1e-3 or (ok and not r.stable):
-                crit = self._fold_newton(seg, lam, cur.z, trial, max(tol, 1e-11))
-                if crit is not None and not (lam - 1e-9 <= crit[0] <= trial + 1e-9):
-                    crit = None
-            if crit is not None and crit[0] >= 1.0 - 1e-12:
-                # the fold lies at the segment end (within rounding): the schedule stops on it
-                r = self._solve_track(seg, 1.0, crit[1])
-                if r.success:
-                    lam, cur = 1.0, r
-                    self._record(seg, k, lam, r, "schedule")
-                    continue
-            if crit is not None and crit[4] > 1e-6:
-                cur = self._handle_fold(k, seg, crit, cur)
-                if cur is None:
-                    return None, f"no stable state to land on after the fold at t = {k + crit[0]:.10g}"
-                lam = min(max(crit[0], lam), 1.0)
-                step = min(self.max_step, max(step, 1e-3))
-                continue
-            if ok and not r.stable:
-                out = self._bisect_mu(seg, lam, cur.z, trial)
-                if out is not None:
-                    lam_c, rc = out
-                    res = self._handle_bifurcation(k, seg, lam_c, rc)
-                    if res is None:
-                        return None, f"no stable state after the bifurcation at t = {k + lam_c:.10g}"
-                    lam, cur = res
-                    step = min(self.max_step, max(step, 1e-3))
-                    continue
-            if step <= min_step:
-                return None, (f"the stable branch could not be followed past t = {k + lam:.10g} "
-                              f"(smallest eigenvalue {mu0:.3g}): {r.message}")
-            step *= 0.5
-        else:
-            return None, f"gave up after {MAX_TRIALS} trial steps in segment {k} (t = {k + lam:.10g})"
-        return cur, ""
-
-    def _handle_fold(self, k, seg, crit, cur):
-        lam_c, z_c, v, C, _ = crit
-        sc = seg.scene(lam_c)
-        from_state = solve(sc, self.track_opts, initial=z_c, solver=self.solver)
-        # push just past the fold; the energy along v is ~ t·(v·g) + C t³/6: descend where C t < 0
-        lam_s = min(lam_c + 1e-7, 1.0)
-        s0 = -1 if C > 0 else 1
-        landing, sign = self._land(seg, lam_s, z_c, v, (s0, -s0))
-        if landing is None:
-            return None
-        to_state = self._solve_track(seg, lam_c, landing.z)
-        if not (to_state.success and to_state.stable):
-            to_state = landing
-        self._record(seg, k, lam_c, from_state, "critical")
-        self.branch += 1
-        self._record(seg, k, lam_c, to_state, "landing")
-        self.jumps.append(Jump(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
-                               values=seg.values(lam_c), direction=self._direction(seg), kind="fold",
-                               from_state=from_state, to_state=to_state,
-                               energy_released=float(from_state.energy - to_state.energy)))
-        return to_state
-
-    def _handle_bifurcation(self, k, seg, lam_c, rc):
-        """Leave the branch just past a bifurcation at λ_c; continuous (supercritical) or a jump."""
-        # leave far enough that the unstable eigenvalue is well resolved, near enough that a
-        # supercritical branch is still close (amplitude ~ √d)
-        d = min(1e-4, 1.0 - lam_c)
+    def _bifurcation(self, k, prob: SegmentProblem, ev):
+        """Leave the branch just past a branch point at λ_c; continuous (supercritical) or a jump.
+        Returns (λ, state) to continue from, or None."""
+        n, seg = prob.n, prob.segment
+        lam_c = float(ev.lam)
+        rc = self._solve_track(prob, lam_c, prob.full(ev.x[:n], lam_c))
+        d = min(_PAST_BRANCH_POINT, 1.0 - lam_c)
         lam_s = lam_c + d
-        ru = self._solve_track(seg, lam_s, rc.z + d * self._tangent(seg, lam_c, rc.z))
+        t = ev.tangent
+        slope = t[:n] / t[n] if t is not None and abs(t[n]) > 1e-12 else np.zeros(n)
+        ru = self._solve_track(prob, lam_s, prob.full(ev.x[:n] + d * slope, lam_s))
         if not self._usable(ru):
             return None
-        P = seg.params(lam_s)
-        _, v, _, _ = self._eig(ru.z[1:], P)
+        _, H, _ = prob.ev(ru.z[1:], lam_s)
+        _, v = lowest_eigenpairs_dense(np.array(H), 1.0 / prob.mass, 1)
         v = np.concatenate([[0.0], v / np.max(np.abs(v))])
         v *= 1.0 if v[-1] >= 0 else -1.0
         cands = []
         for s in (1, -1):
-            r, _ = self._land(seg, lam_s, ru.z, v, (s,))
+            r, _ = self._land(prob, lam_s, ru.z, v, (s,))
             if r is not None:
                 cands.append((r.energy, -s, r, s))
         if not cands:
@@ -312,18 +262,18 @@ class Tracker:
         cands.sort(key=lambda c: (round(c[0], 10), c[1]))
         _, _, landing, sign = cands[0]
         released = float(ru.energy - landing.energy)
-        self._record(seg, k, lam_c, rc, "critical")
+        self.record(prob, k, lam_c, rc, "critical")
         if released <= 1e-6 * max(1.0, abs(ru.energy)):
             self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                          values=seg.values(lam_c), direction=self._direction(seg),
                                          state=rc, sign=sign))
-            self._record(seg, k, lam_s, landing, "landing")
+            self.record(prob, k, lam_s, landing, "landing")
             return lam_s, landing
-        to_state = self._solve_track(seg, lam_c, landing.z)
+        to_state = self._solve_track(prob, lam_c, landing.z)
         if not (to_state.success and to_state.stable):
             to_state = landing
         self.branch += 1
-        self._record(seg, k, lam_c, to_state, "landing")
+        self.record(prob, k, lam_c, to_state, "landing")
         self.jumps.append(Jump(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                values=seg.values(lam_c), direction=self._direction(seg),
                                kind="subcritical", from_state=rc, to_state=to_state,

@@ -1,6 +1,7 @@
 """Continuation in the shape of BifurcationKit.jl: ``continuation(problem, algorithm, settings, events)``.
 
 * :class:`BifurcationProblem` — the reduced system G(u, λ) = 0 in one lens parameter, a start;
+* :class:`SegmentProblem` — the same along a loading-schedule segment (several parameters move);
 * algorithms :class:`PALC` (pseudo-arclength, passes folds) and :class:`Natural` (steps in λ);
 * :class:`ContinuationSettings` — frozen, validates itself;
 * events :class:`Fold`, :class:`BranchPoint`, :class:`UserEvent` — located in one place.
@@ -11,7 +12,8 @@ from .engine import PALC, ContinuationBranch, Natural, continuation
 from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
 from .fold_problem import FoldCurveProblem
 from .problem import BifurcationProblem
+from .segment import LensSegment, SegmentProblem
 from .settings import ContinuationSettings
 
-__all__ = ["continuation", "BifurcationProblem", "FoldCurveProblem", "PALC", "Natural", "ContinuationSettings",
+__all__ = ["continuation", "BifurcationProblem", "FoldCurveProblem", "SegmentProblem", "LensSegment", "PALC", "Natural", "ContinuationSettings",
            "ContinuationBranch", "Fold", "BranchPoint", "UserEvent", "EventPoint", "BranchState"]

@@ -2,10 +2,12 @@
 
 Predictor x_p = x_k + s t_k, corrector Newton on [G(x); rowᵀ(x − x_p)] = 0 (row = W t_k for
 PALC, e_λ for natural continuation), new tangent from [G_x; t_kᵀW] t = e_{n+1}; step adapted to
-the number of Newton iterations (×1.5 for few, ×0.6 for many: settings) and halved when the corrector fails
-or the tangent turns too much. Along the branch: the Morse index and smallest eigenvalue of
-M^-1/2 H M^-1/2 at every point, and the events asked for (:mod:`.events`), located on the step
-where they are detected.
+the number of Newton iterations (×1.5 for few, ×0.6 for many: settings) and halved when the
+corrector fails, the tangent turns too much or an unknown moves more than ``settings.max_du``
+(the predictor is shortened to ``max_du`` and ``max_dlam``).
+Along the branch: the Morse index and smallest eigenvalue of M^-1/2 H M^-1/2 at every point, and
+the events asked for (:mod:`.events`), located on the step where they are detected; events made
+with ``stop=True`` end the run.
 """
 from __future__ import annotations
 
@@ -64,7 +66,8 @@ class ContinuationBranch:
         Smallest eigenvalue of M^-1/2 H M^-1/2.
     events : list of EventPoint
         In the order found.
-    status : {"left_window", "max_points", "closed_loop", "step_too_small"}
+    status : {"left_window", "max_points", "closed_loop", "step_too_small", "event"}
+        ``"event"``: stopped at an event made with ``stop=True`` (the last in ``events``).
     stats : dict
         ``points``, ``newton_evaluations``, ``time_s``.
     """
@@ -190,6 +193,8 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
     want_fold = any(isinstance(e, Fold) for e in events)
     want_bp = any(isinstance(e, BranchPoint) for e in events)
     users = [e for e in events if isinstance(e, UserEvent)]
+    stops = {"fold": any(isinstance(e, Fold) and e.stop for e in events),
+             "branch_point": any(isinstance(e, BranchPoint) and e.stop for e in events)}
     if tangent is None:
         t, dsign = problem.tangent(x)
         if t[n] * st.direction < 0 or (abs(t[n]) < 1e-12 and st.direction < 0):
@@ -204,14 +209,23 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
     found: List[EventPoint] = []
     status, msg = "max_points", f"stopped after {st.max_steps} points"
     ds = st.ds
+    bounded = math.isfinite(st.max_du) or math.isfinite(st.max_dlam)
     while len(X) < st.max_steps:
         xp, s = algorithm.predict(x, t, ds)
+        if bounded:
+            shrink = min(1.0, st.max_dlam / max(abs(xp[n] - x[n]), 1e-300),
+                         st.max_du / max(float(np.max(np.abs(xp[:n] - x[:n]), initial=0.0)), 1e-300))
+            if shrink < 1.0:  # a shorter predictor respects the step bounds
+                ds *= shrink
+                xp, s = algorithm.predict(x, t, ds)
         xn, ok, it = problem.correct(xp, algorithm.row(problem, t), st.tol, st.arc_tol,
                                      st.max_corrector_iter)
         if ok:
             idx, mu = problem.fast_inertia()
             tn, dn = problem.tangent(xn, t, evaluate=False)
             if st.min_cos_turn > -1.0 and float(tn @ (W * t)) < st.min_cos_turn and ds > 10 * st.ds_min:
+                ok = False
+            elif bounded and float(np.max(np.abs(xn[:n] - x[:n]), initial=0.0)) > st.max_du:
                 ok = False
         if not ok:
             ds *= 0.5
@@ -221,6 +235,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             continue
         # detections on the step x -> xn
         turned, crossed = tn[n] * t[n] < 0, dn * D[-1] < 0
+        step_events = []
         if (want_fold and turned) or (want_bp and crossed):
             # both at once: the branch passes through a branch point where it turns in λ
             # (the vertex of a pitchfork's bifurcating branch): a branch point, located by t_λ = 0
@@ -228,8 +243,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             if kind == "fold" or want_bp:
                 ev = _locate(problem, algorithm, st, x, t, s, kind, kind, IDX[-1], idx,
                              by_tangent=turned and crossed)
-                if lo <= ev.lam <= hi:
-                    found.append(ev)
+                step_events.append((ev, stops[kind]))
         u_new = []
         for e, fa in zip(users, U):
             fb = float(e.function(BranchState(problem, xn)))
@@ -237,8 +251,20 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             if fa * fb < 0:
                 ev = _locate(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
                              function=e.function)
-                if lo <= ev.lam <= hi:
-                    found.append(ev)
+                step_events.append((ev, e.stop))
+        stop_here = [ev for ev, stop in step_events if stop] if step_events else step_events
+        if stop_here and any(not lo <= ev.lam <= hi for ev in stop_here):
+            # a stopping event beyond the window: shorter steps reach the window's edge before it
+            ds *= 0.5
+            if ds < st.ds_min:
+                status, msg = "step_too_small", f"a stopping event lies just beyond the window ({ds:g})"
+                break
+            continue
+        if step_events:
+            found.extend(ev for ev, _ in step_events if lo <= ev.lam <= hi)
+        if stop_here:
+            status, msg = "event", f"stopped at the {stop_here[0].kind} at {problem.lens} = {stop_here[0].lam:.10g}"
+            break
         U = u_new
         if not problem.inside(xn):
             status, msg = "left_window", "left the problem's domain"

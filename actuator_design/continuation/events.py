@@ -7,7 +7,9 @@
   (:class:`BranchState`), e.g. "the tip crosses the wall x = c".
 
 All are located by one routine (``engine._locate``): ``brentq`` on the step's arclength σ, each
-evaluation a corrected point, so the event is accurate to the corrector tolerance.
+evaluation a corrected point, so the event is accurate to the corrector tolerance. An event made
+with ``stop=True`` ends the run where it is located inside the window (status ``"event"``; the
+branch ends on the last point before it): a loading path stops where its branch loses stability.
 """
 from __future__ import annotations
 
@@ -21,16 +23,19 @@ __all__ = ["Fold", "BranchPoint", "UserEvent", "EventPoint", "BranchState"]
 
 @dataclass(frozen=True)
 class Fold:
-    """Detect and locate folds (limit points in λ)."""
+    """Detect and locate folds (limit points in λ); ``stop``: end the run at the first one."""
 
     kind: str = "fold"
+    stop: bool = False
 
 
 @dataclass(frozen=True)
 class BranchPoint:
-    """Detect and locate branch points (an eigenvalue of H crossing zero where λ does not turn)."""
+    """Detect and locate branch points (an eigenvalue of H crossing zero where λ does not turn);
+    ``stop``: end the run at the first one."""
 
     kind: str = "branch_point"
+    stop: bool = False
 
 
 @dataclass(frozen=True)
@@ -42,11 +47,14 @@ class UserEvent:
     name : str
     function : callable
         :class:`BranchState` -> float, continuous along the branch.
+    stop : bool
+        End the run at the first sign change.
     """
 
     name: str
     function: Callable[["BranchState"], float]
     kind: str = "user"
+    stop: bool = False
 
 
 class BranchState:

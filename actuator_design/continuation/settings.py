@@ -36,6 +36,11 @@ class ContinuationSettings:
     grow_iterations, shrink_iterations : int
         After a corrector of ≤ ``grow_iterations`` Newton steps the step grows by 1.5 (up to
         ds_max); after ≥ ``shrink_iterations`` it shrinks by 0.6.
+    max_du, max_dlam : float
+        Largest change of any unknown, max_i |Δu_i| (rad), and of λ per step (``inf``: no bound):
+        the predictor is shortened to respect both, and a corrected step that moves an unknown
+        further than ``max_du`` is halved. Loading paths bound the nodal angle change and the
+        segment fraction per step this way.
 
     Raises
     ------
@@ -55,12 +60,18 @@ class ContinuationSettings:
     min_cos_turn: float = 0.95
     grow_iterations: int = 2
     shrink_iterations: int = 5
+    max_du: float = math.inf
+    max_dlam: float = math.inf
 
     def __post_init__(self):
         for name in ("ds", "ds_min", "ds_max", "tol", "arc_tol"):
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
                 raise ValueError(f"{name}: must be a finite number > 0, got {v!r}")
+        for name in ("max_du", "max_dlam"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or math.isnan(v) or v <= 0:
+                raise ValueError(f"{name}: must be a number > 0 (inf: no bound), got {v!r}")
         if self.ds_min > self.ds:
             raise ValueError(f"ds_min: must be <= ds = {self.ds:g}, got {self.ds_min:g}")
         if self.ds_min > self.ds_max:

@@ -8,11 +8,15 @@ singular with ψᵀG_λ ≠ 0. It solves the augmented system (2n + 1 equations 
 whose Jacobian [[H, G_λ, 0], [∂(Hv)/∂u, ∂(Hv)/∂λ, H], [0, 0, (Mc)ᵀ]] is regular at a quadratic
 fold (Moore & Spence 1980), so Newton converges quadratically; ∂(Hv)/∂u is the third derivative of
 the energy in the direction v.
+
+λ is either the system's first parameter (the others held fixed) or the coordinate of a curve
+λ ↦ (p_1(λ), …, p_k(λ)) through the system's parameters (a loading-path segment: several NLP
+slots moving at once); then ∂/∂λ = Σ_i p_i'(λ) ∂/∂p_i by the chain rule, exactly.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -53,7 +57,8 @@ def fold_converged(F: np.ndarray, mass: np.ndarray, tol: float) -> bool:
 
 def locate_fold(system: ReducedSystem, P: np.ndarray, u: np.ndarray, lam: float,
                 v: Optional[np.ndarray] = None, *, others: Sequence[float] = (), tol: float = 1e-10,
-                max_iter: int = 30) -> FoldPoint:
+                max_iter: int = 30,
+                path: Optional[Callable[[float], Tuple[np.ndarray, np.ndarray]]] = None) -> FoldPoint:
     """Newton on the Moore–Spence system from an approximate fold (u, λ).
 
     Parameters
@@ -73,25 +78,37 @@ def locate_fold(system: ReducedSystem, P: np.ndarray, u: np.ndarray, lam: float,
     tol : float
         Stationarity tolerance (max_i |g_i| / m_i).
     max_iter : int
+    path : callable, optional
+        λ -> (p (k,), dp/dλ (k,)): the values of all k system parameters along a curve and their
+        exact derivatives. Then λ is the curve's coordinate and ``others`` is ignored.
 
     Returns
     -------
     FoldPoint
     """
     n, mass = system.n, system.mass
-    lams = np.concatenate([[lam], np.asarray(others, float)])
+    if path is None:
+        fixed = np.concatenate([[lam], np.asarray(others, float)])
+
+        def path(lam_):
+            fixed[0] = lam_
+            return fixed, None  # λ is the first parameter itself
+
     u = np.asarray(u, float).copy()
     if v is None:
         ev = system.evaluator(P)
-        v = null_vector(ev(u, lams)[1].copy(), mass)
+        v = null_vector(ev(u, path(lam)[0])[1].copy(), mass)
     v = np.asarray(v, float)
     c = v / float(v @ (mass * v))
     fn = system.f_fold
 
     def evaluate(X):
-        lams[0] = X[n]
-        F, J, _ = fn(X[:n], lams, X[n + 1:], c, P)
-        return np.asarray(F).ravel(), np.asarray(J)
+        values, slope = path(X[n])
+        F, J, Fp = fn(X[:n], values, X[n + 1:], c, P)
+        J = np.array(J)
+        if slope is not None:  # chain rule: ∂F/∂λ = Σ_i p_i' ∂F/∂p_i
+            J[:, n] = J[:, n] * slope[0] + np.asarray(Fp).reshape(2 * n + 1, -1) @ slope[1:]
+        return np.asarray(F).ravel(), J
 
     X0 = np.concatenate([u, [lam], v])
     X, ok, it = newton(evaluate, X0, lambda X, F: fold_converged(F, mass, tol), max_iter)
