@@ -18,7 +18,7 @@ from typing import List
 import numpy as np
 
 from ..continuation import PALC, ContinuationBranch, ContinuationSettings
-from ..continuation.engine import _locate
+from ..continuation.engine import locate_event
 
 __all__ = ["insert_stability_changes"]
 
@@ -59,7 +59,7 @@ def insert_stability_changes(problem, settings: ContinuationSettings, res: Conti
         s = float((X[i + 1] - X[i]) @ (W * t))
         if not s > 0:
             continue
-        ev = _locate(problem, PALC(), settings, X[i], t, s, "branch_point", "branch_point",
+        ev = locate_event(problem, PALC(), settings, X[i], t, s, "branch_point", "branch_point",
                      idx[i], idx[i + 1])
         if ev.located:
             res.events.append(ev)

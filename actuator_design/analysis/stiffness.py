@@ -64,10 +64,6 @@ class Sensitivities:
         (z_free (n,), P (nP,)) → ∂g/∂P, shape (n, nP): sensitivity of the reduced gradient.
     tip_jac : casadi.Function
         (z_free, P) → ∂(x(1), y(1), θ(1))/∂z_free, shape (3, n).
-    third : casadi.Function
-        (z_free, P, v (n,)) → (∂(vᵀ H v)/∂z_free (n,), ∂(vᵀ H v)/∂P (nP,)): derivatives of the
-        Rayleigh quotient numerator, i.e. of a simple eigenvalue of H (Hellmann–Feynman), used to
-        locate folds by Newton's method on (g = 0, μ_min = 0).
     """
 
     def __init__(self, solver: EquilibriumSolver):
@@ -78,8 +74,7 @@ class Sensitivities:
     def system(self):
         return reduced_system(self.solver)
 
-    # each function is built on first use (the third derivatives of a position-dependent energy
-    # are expensive to build and only fold location needs them)
+    # each function is built on first use
     @cached_property
     def g_P(self) -> ca.Function:
         return self.system.f_g_P
@@ -87,10 +82,6 @@ class Sensitivities:
     @cached_property
     def tip_jac(self) -> ca.Function:
         return self.system.f_tip_jacobian_P
-
-    @cached_property
-    def third(self) -> ca.Function:
-        return self.system.f_curvature_derivatives
 
 
 def sensitivities(solver: EquilibriumSolver) -> Sensitivities:

@@ -23,7 +23,7 @@ from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
 from .problem import BifurcationProblem
 from .settings import ContinuationSettings
 
-__all__ = ["Natural", "PALC", "ContinuationBranch", "continuation"]
+__all__ = ["Natural", "PALC", "ContinuationBranch", "continuation", "locate_event"]
 
 
 @dataclass(frozen=True)
@@ -89,7 +89,7 @@ class ContinuationBranch:
         return self.x.shape[0]
 
 
-def _locate(problem, algorithm, settings, x, t, s, kind, name, idx_before, idx_after,
+def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, idx_after,
             function=None, by_tangent=False) -> EventPoint:
     """Locate an event inside the step x + σ t, σ ∈ [0, s]: brentq on σ of the event's test
     function at the corrected point (signed min |μ| of H for folds and branch points, t_λ for a
@@ -241,7 +241,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             # (the vertex of a pitchfork's bifurcating branch): a branch point, located by t_λ = 0
             kind = "branch_point" if crossed else "fold"
             if kind == "fold" or want_bp:
-                ev = _locate(problem, algorithm, st, x, t, s, kind, kind, IDX[-1], idx,
+                ev = locate_event(problem, algorithm, st, x, t, s, kind, kind, IDX[-1], idx,
                              by_tangent=turned and crossed)
                 step_events.append((ev, stops[kind]))
         u_new = []
@@ -249,7 +249,7 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             fb = float(e.function(BranchState(problem, xn)))
             u_new.append(fb)
             if fa * fb < 0:
-                ev = _locate(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
+                ev = locate_event(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
                              function=e.function)
                 step_events.append((ev, e.stop))
         stop_here = [ev for ev, stop in step_events if stop] if step_events else step_events

@@ -6,7 +6,7 @@
 * :class:`UserEvent` — a sign change of a scalar function of the point on the branch
   (:class:`BranchState`), e.g. "the tip crosses the wall x = c".
 
-All are located by one routine (``engine._locate``): ``brentq`` on the step's arclength σ, each
+All are located by one routine (``engine.locate_event``): ``brentq`` on the step's arclength σ, each
 evaluation a corrected point, so the event is accurate to the corrector tolerance. An event made
 with ``stop=True`` ends the run where it is located inside the window (status ``"event"``; the
 branch ends on the last point before it): a loading path stops where its branch loses stability.

@@ -147,14 +147,6 @@ class ReducedSystem:
         return ca.Function("g_P", [self.u, self.P], [ca.jacobian(self.g, self.P)])
 
     @cached_property
-    def f_curvature_derivatives(self) -> ca.Function:
-        """``(u, P, v) -> (∂(vᵀHv)/∂u (n,), ∂(vᵀHv)/∂P (n_P,))``: the derivatives of a simple
-        eigenvalue of H (Hellmann–Feynman), third derivatives of Ê contracted twice with v."""
-        v = ca.SX.sym("v", self.n)
-        q = ca.dot(v, ca.mtimes(self.H, v))
-        return ca.Function("third", [self.u, self.P, v], [ca.gradient(q, self.u), ca.gradient(q, self.P)])
-
-    @cached_property
     def f_tip_jacobian_P(self) -> ca.Function:
         """``(u, P) -> ∂(x(1), y(1), θ(1))/∂u`` (3, n) at the NLP parameters P."""
         z = ca.vertcat(self.P[self.solver.layout.slices["theta0"]], self.u)
