@@ -93,7 +93,9 @@ def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, 
             function=None, by_tangent=False) -> EventPoint:
     """Locate an event inside the step x + σ t, σ ∈ [0, s]: brentq on σ of the event's test
     function at the corrected point (signed min |μ| of H for folds and branch points, t_λ for a
-    fold where H does not change sign, the user function for user events)."""
+    fold where H does not change sign, the user function for user events); a fold is then finished
+    by the Moore–Spence locator of :mod:`actuator_design.reduced.fold` (the project's one fold
+    locator) where the problem offers it."""
     n = problem.n
     row = algorithm.row(problem, t)
     cache = {}
@@ -134,6 +136,11 @@ def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, 
             else:
                 sig, located = 0.5 * s, False
         xs, ok = point(sig)
+        if kind == "fold" and located and hasattr(problem, "polish_fold"):
+            # the bracketed root of the test function, finished by the one fold locator
+            polished = problem.polish_fold(xs)
+            if polished is not None:
+                xs = polished
     except (RuntimeError, ValueError):
         xs, ok, located = x + 0.5 * s * t, True, False
     tc, _ = problem.tangent(xs, t)

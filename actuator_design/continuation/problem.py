@@ -50,6 +50,19 @@ class BifurcationProblem:
         self.lam0 = lam0
         self.theta0 = float(theta0)
 
+    def polish_fold(self, x: np.ndarray):
+        """The fold near ``x`` = (u, λ) by the one fold locator (Moore–Spence, :mod:`..reduced.fold`),
+        or None when it does not converge close by (then the event's bracketed root stands)."""
+        if len(self.system.names) != 1:
+            return None
+        from ..reduced.fold import locate_fold
+        n = self.n
+        fp = locate_fold(self.system, self.P, x[:n], float(x[n]), tol=1e-12)
+        if not fp.converged or abs(fp.lam - x[n]) > 1e-6 * (1.0 + abs(x[n])) or \
+                np.max(np.abs(fp.u - x[:n])) > 1e-3:
+            return None
+        return np.append(fp.u, fp.lam)
+
     @property
     def evaluations(self) -> int:
         """Number of system evaluations so far."""
