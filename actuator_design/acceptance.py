@@ -130,7 +130,7 @@ def solve_checked(scene, options: SolverOptions, initial=None):
     from .solver import get_solver
 
     opts = graded_options(scene, options) if options.adapt else options
-    guess, problem, refinements = initial, None, 0
+    guess, problem, refinements, carried = initial, None, 0, {}
     while True:
         solver = get_solver(scene, opts)
         if guess is None:
@@ -144,12 +144,15 @@ def solve_checked(scene, options: SolverOptions, initial=None):
         if nxt is None or refinements >= MAX_REFINEMENTS:
             break
         guess, opts, refinements = result, nxt, refinements + 1
+        carried = {k: result.stats[k] for k in ("from_rest", "other_stable_states") if k in result.stats}
+    result.stats.update({k: v for k, v in carried.items() if k not in result.stats})
     result.stats["refinements"] = refinements
-    if problem is not None:
+    check_physical(result)  # not a physical state: said first, whatever its accuracy
+    if problem is not None and result.success:
         result.success = False
         result.status = "inaccurate"
         result.message += f"; accuracy: {problem}" + (f" after {refinements} refinement(s)" if refinements else "")
-    return check_physical(result)
+    return result
 
 
 def _solve_warm(scene, opts, solver, guess):

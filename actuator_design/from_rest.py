@@ -33,6 +33,8 @@ MAX_TURN = 0.5
 MIN_STEP = 1e-5
 #: size of the kick along the unstable mode (max-norm 1) after a branch point is crossed (rad)
 BRANCH_KICK = 0.05
+#: a loss of stability is located to within this fraction of the load before the kick
+BRANCH_STEP = 0.02
 #: most Newton solves along one path
 MAX_SOLVES = 400
 
@@ -114,10 +116,13 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None) -> RestPath:
         raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=15, tol=tol)
         solves += 1
         if raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN:
+            verdict = solver.stability(raw.z, load_fraction(solver, params, t))
+            if verdict.morse_index > 0 and t - lam > BRANCH_STEP * t:
+                dl = 0.5 * (t - lam)  # locate the loss of stability first
+                continue
             z_prev, lam_prev, z, lam = z, lam, raw.z, t
             steps += 1
             dl = min(2.0 * dl, 1.0)
-            verdict = solver.stability(z, load_fraction(solver, params, lam))
             if verdict.morse_index > 0:
                 # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
                 # real rod leaves along the unstable mode; follow the stable branch from here
