@@ -27,18 +27,37 @@ def _rhs(h, phi, p):
                                    np.cos(Y[0]), np.sin(Y[0])])
 
 
+def _jac(h, phi, p):
+    def jac(s, Y):
+        J = np.zeros((4, 4, s.size))
+        J[0, 1] = 1.0
+        J[1, 0] = 2 * h * h * np.cos(2 * (Y[0] - phi)) + p * np.sin(Y[0])
+        J[2, 0] = -np.sin(Y[0])
+        J[3, 0] = np.cos(Y[0])
+        return J
+    return jac
+
+
 def _bc(a, b):
     return np.array([a[0], b[1], a[2], a[3]])
 
 
-def bvp_from_rest(h, phi, p, steps=60):
+_BC_JAC = (np.array([[1.0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]),
+           np.array([[0.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0]]))
+
+
+def bvp_from_rest(h, phi, p, steps=30):
     """Tip (x, y) of θ'' = h² sin 2(θ − φ) − p cos θ, θ(0) = 0, θ'(1) = 0 (Y = θ, θ', x, y),
-    continued from rest with field and load ramped together: (λh, λp), λ from 1e-3 to 1."""
+    continued from rest with field and load ramped together: (λh, λp), λ from 1e-3 to 1
+    (analytic Jacobians; the last solve at tolerance 1e-10)."""
     s = np.linspace(0, 1, 201)
     Y = np.zeros((4, s.size))
     Y[2] = s
-    for lam in np.geomspace(1e-3, 1.0, steps):
-        sol = solve_bvp(_rhs(lam * h, phi, lam * p), _bc, s, Y, tol=1e-10, max_nodes=200000)
+    lams = np.geomspace(1e-3, 1.0, steps)
+    for lam in lams:
+        sol = solve_bvp(_rhs(lam * h, phi, lam * p), _bc, s, Y, fun_jac=_jac(lam * h, phi, lam * p),
+                        bc_jac=lambda a, b: _BC_JAC, tol=1e-10 if lam == lams[-1] else 1e-5,
+                        max_nodes=200000)
         assert sol.success, sol.message
         s, Y = sol.x, sol.y
     return Y[2, -1], Y[3, -1]
