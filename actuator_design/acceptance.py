@@ -11,7 +11,7 @@
    there is reported (``stats["other_stable_states"]`` and a note in ``message``).
 3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
    dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
-   be ≤ ``residual_tol`` × the moment scale max(1, max|θ'|, |clamp moment|, |clamp force|). If not,
+   be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|). If not,
    the elements are doubled (warm start from the previous solution) up to :data:`MAX_REFINEMENTS`
    times; a result that still fails is ``success=False``, ``status="inaccurate"``.
 4. **No self-intersection.** Contact is not modelled, so a shape crossing itself is not a physical
@@ -63,11 +63,10 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
 
 
 def moment_scale(result) -> float:
-    """max(1, max|θ'| over the nodes, |clamp moment|, |clamp force|): the size of the terms of the
-    moment balance (units of B0/ℓ)."""
-    dth = result.evaluate(result.s)["dtheta"]
-    return float(max(1.0, np.max(np.abs(dth)), abs(result.clamp_moment),
-                     float(np.max(np.abs(result.clamp_force)))))
+    """max(1, |clamp moment|, |clamp force|, |tip moment|): the size of the terms of the moment
+    balance (units of B0/ℓ); the bending moment θ'(s) is largest at the clamp or at a loaded tip."""
+    m_tip = result.scene.tip_moment or 0.0
+    return float(max(1.0, abs(result.clamp_moment), float(np.max(np.abs(result.clamp_force))), abs(m_tip)))
 
 
 def residual_limit(options: SolverOptions) -> float:

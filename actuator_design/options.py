@@ -66,7 +66,7 @@ class SolverOptions:
         Euler–Lagrange residual meets ``residual_tol``; otherwise the residual is only checked.
     residual_tol : float
         Accuracy asked for: the largest accepted Euler–Lagrange (moment balance) residual relative
-        to the moment scale max(1, max|θ'|, |clamp moment|, |clamp force|); a result above it is
+        to the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|); a result above it is
         ``success=False`` with ``status="inaccurate"``. Default 1e-6 for ``lgl``; the midpoint rule
         (second order) is held to max(residual_tol, 10/N).
     clamp_levels, tip_levels : int

@@ -75,7 +75,7 @@ def _interp_matrix(d: int, t: np.ndarray) -> np.ndarray:
     tau, _ = lgl_nodes_weights(d)
     lam = _bary_weights(d)
     diff = t[:, None] - tau[None, :]
-    exact = np.isclose(diff, 0.0, atol=1e-15)
+    exact = np.abs(diff) <= 1e-15
     diff[exact] = 1.0
     M = lam[None, :] / diff
     M /= M.sum(axis=1, keepdims=True)
