@@ -170,7 +170,7 @@ def _solve_from_start(scene, opts, solver):
     if opts.start != "rest":
         return solve_on(scene, opts, None, solver)
     t0 = time.perf_counter()
-    path = path_from_rest(solver, solver.parameter_vector(scene))
+    path = path_from_rest(solver, solver.parameter_vector(scene), follow_stable=opts.ensure_stable)
     path_time = time.perf_counter() - t0
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
             "snaps_at": path.snaps, "time_s": path_time}

@@ -84,7 +84,7 @@ def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
     return out
 
 
-def path_from_rest(solver, params: np.ndarray, tol: float = None) -> RestPath:
+def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True) -> RestPath:
     """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
 
     Parameters
@@ -94,6 +94,9 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None) -> RestPath:
         The full-load parameter vector.
     tol : float, optional
         Newton tolerance (default the solver's ``options.tol``).
+    follow_stable : bool
+        Check each state's stability and leave a branch that has lost it (``ensure_stable``);
+        False follows the stationary branch wherever it goes.
 
     Returns
     -------
@@ -116,14 +119,15 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None) -> RestPath:
         raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=15, tol=tol)
         solves += 1
         if raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN:
-            verdict = solver.stability(raw.z, load_fraction(solver, params, t))
-            if verdict.morse_index > 0 and t - lam > BRANCH_STEP * t:
+            verdict = solver.stability(raw.z, load_fraction(solver, params, t)) if follow_stable else None
+            unstable = verdict is not None and verdict.morse_index > 0
+            if unstable and t - lam > BRANCH_STEP * t:
                 dl = 0.5 * (t - lam)  # locate the loss of stability first
                 continue
             z_prev, lam_prev, z, lam = z, lam, raw.z, t
             steps += 1
             dl = min(2.0 * dl, 1.0)
-            if verdict.morse_index > 0:
+            if unstable:
                 # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
                 # real rod leaves along the unstable mode; follow the stable branch from here
                 v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
