@@ -11,9 +11,9 @@
    there is reported (``stats["other_stable_states"]`` and a note in ``message``).
 3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
    dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
-   be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|). If not,
-   the elements are doubled (warm start from the previous solution) up to :data:`MAX_REFINEMENTS`
-   times; a result that still fails is ``success=False``, ``status="inaccurate"``.
+   be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
+   a result that fails is ``success=False``, ``status="inaccurate"`` (``options.accuracy``, the
+   two-level estimate of :mod:`actuator_design.accuracy`, is the way to ask for refinement).
 4. **No self-intersection.** Contact is not modelled, so a shape crossing itself is not a physical
    equilibrium: ``success=False``, ``status="self_intersecting"``, unless
    ``options.keep_self_intersecting``.
@@ -29,11 +29,8 @@ import numpy as np
 
 from .options import SolverOptions
 
-__all__ = ["solve_checked", "graded_options", "residual_problem", "moment_scale", "check_physical",
-           "MAX_REFINEMENTS"]
+__all__ = ["solve_checked", "graded_options", "residual_problem", "moment_scale", "check_physical"]
 
-#: element doublings ``solve`` tries when the Euler–Lagrange residual is too large
-MAX_REFINEMENTS = 3
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
 
@@ -101,17 +98,6 @@ def check_physical(result):
     return result
 
 
-def _refined(options: SolverOptions) -> Optional[SolverOptions]:
-    """Twice the elements (every element halved, the grading kept), or None past the budget."""
-    from .config.limits import mesh_problem
-
-    new = replace(options, elements=2 * int(options.elements))
-    extra = new.extra_elements
-    if mesh_problem(new.transcription, int(new.elements) + extra, int(new.degree)) is not None:
-        return None
-    return new
-
-
 def solve_checked(scene, options: SolverOptions, initial=None):
     """:func:`~actuator_design.equilibrium.solve` without a solver: mesh, start, checks (module doc).
 
@@ -129,28 +115,18 @@ def solve_checked(scene, options: SolverOptions, initial=None):
     from .solver import get_solver
 
     opts = graded_options(scene, options) if options.adapt else options
-    guess, problem, refinements, carried = initial, None, 0, {}
-    while True:
-        solver = get_solver(scene, opts)
-        if guess is None:
-            result = _solve_from_start(scene, opts, solver)
-        else:
-            result = _solve_warm(scene, opts, solver, guess)
-        problem = residual_problem(result) if result.success else None
-        if problem is None or not options.adapt:
-            break
-        nxt = _refined(opts)
-        if nxt is None or refinements >= MAX_REFINEMENTS:
-            break
-        guess, opts, refinements = result, nxt, refinements + 1
-        carried = {k: result.stats[k] for k in ("from_rest", "other_stable_states") if k in result.stats}
-    result.stats.update({k: v for k, v in carried.items() if k not in result.stats})
-    result.stats["refinements"] = refinements
+    solver = get_solver(scene, opts)
+    if initial is None:
+        result = _solve_from_start(scene, opts, solver)
+    else:
+        result = _solve_warm(scene, opts, solver, initial)
+    problem = residual_problem(result) if result.success else None
     check_physical(result)  # not a physical state: said first, whatever its accuracy
     if problem is not None and result.success:
         result.success = False
         result.status = "inaccurate"
-        result.message += f"; accuracy: {problem}" + (f" after {refinements} refinement(s)" if refinements else "")
+        result.message += (f"; accuracy: {problem}; solve --accuracy TOL (SolverOptions.accuracy) "
+                           "refines until a tip tolerance is met")
     return result
 
 
@@ -182,6 +158,10 @@ def _solve_from_start(scene, opts, solver):
         return result
     result = solve_on(scene, opts, path.z, solver)
     result.stats["from_rest"] = info
+    if path.branch_points:  # the path stopped at a state turned unstable and left it along its mode
+        result.escaped_saddle = True
+        result.message += (f"; from rest the rod left an unstable equilibrium along its unstable mode at "
+                           f"{', '.join(f'{v:.4g}' for v in path.branch_points)} of the load")
     if path.snaps:
         result.message += (f"; from rest the rod snaps at {', '.join(f'{v:.4g}' for v in path.snaps)} "
                            "of the load")

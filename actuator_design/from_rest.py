@@ -103,8 +103,9 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     RestPath
     """
     z = solver.initial_guess(params)
+    newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
     solves = 0
-    rest = solver.solve_fast(z, load_fraction(solver, params, 0.0), tol=tol)
+    rest = solver.solve_fast(z, load_fraction(solver, params, 0.0), max_iter=newton_iter, tol=tol)
     solves += 1
     if not rest.converged:
         rest = solver.solve_newton(z, load_fraction(solver, params, 0.0), tol=tol)
@@ -116,7 +117,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     while lam < 1.0 and solves < MAX_SOLVES:
         t = min(1.0, lam + dl)
         guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
-        raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=15, tol=tol)
+        raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=newton_iter, tol=tol)
         solves += 1
         if raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN:
             verdict = solver.stability(raw.z, load_fraction(solver, params, t)) if follow_stable else None

@@ -62,12 +62,12 @@ class SolverOptions:
         when it reaches another stable state. ``"straight"``: the straight rod at the clamp angle.
     adapt : bool
         Let ``solve`` (no solver given) grade the mesh towards the clamp from the scene's boundary
-        layer width (``clamp_levels``/``tip_levels`` raised as needed) and refine until the
-        Euler–Lagrange residual meets ``residual_tol``; otherwise the residual is only checked.
+        layer width (``clamp_levels``/``tip_levels`` raised as needed); the Euler–Lagrange
+        residual is checked against ``residual_tol`` either way.
     residual_tol : float
         Accuracy asked for: the largest accepted Euler–Lagrange (moment balance) residual relative
         to the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|); a result above it is
-        ``success=False`` with ``status="inaccurate"``. Default 1e-6 for ``lgl``; the midpoint rule
+        ``success=False`` with ``status="inaccurate"``. Default 1e-4 for ``lgl``; the midpoint rule
         (second order) is held to max(residual_tol, 10/N).
     clamp_levels, tip_levels : int
         Geometric grading of the ``lgl`` mesh towards the clamp/tip (see
@@ -95,7 +95,7 @@ class SolverOptions:
     accuracy: Optional[float] = None
     start: str = "rest"
     adapt: bool = True
-    residual_tol: float = 1e-6
+    residual_tol: float = 1e-4
     clamp_levels: int = 0
     tip_levels: int = 0
     keep_self_intersecting: bool = False
