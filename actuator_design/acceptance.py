@@ -7,8 +7,9 @@
    (and at a loaded tip). The LGL mesh is graded geometrically towards them until the end element
    is ≤ 1/k long (:func:`graded_options`): ~log2(k/E) extra elements instead of ~k/3 uniform ones.
 2. **The physical branch.** From no guess, the state reached from rest (:mod:`actuator_design.from_rest`);
-   when that path was not one step, the straight-rod start is solved too, and another stable state
-   there is reported (``stats["other_stable_states"]`` and a note in ``message``).
+   the straight-rod start is solved too: when it reaches the same state its result is returned
+   (bit for bit the answer of earlier releases), otherwise the state from rest is, and another
+   stable state from the straight rod is reported (``stats["other_stable_states"]``, ``message``).
 3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
    dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
    be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
@@ -133,8 +134,12 @@ def solve_checked(scene, options: SolverOptions, initial=None):
 def _solve_warm(scene, opts, solver, guess):
     from .equilibrium import solve_on
 
-    z0 = guess.evaluate(solver.transcription.nodes)["theta"] if hasattr(guess, "evaluate") else guess
-    return solve_on(scene, opts, z0, solver)
+    nodes = solver.transcription.nodes
+    z0 = guess
+    if hasattr(guess, "evaluate"):  # a result: its own nodes when they are these, else interpolated
+        same = guess.z is not None and guess.s.shape == nodes.shape and np.array_equal(guess.s, nodes)
+        z0 = guess.z if same else guess.evaluate(nodes)["theta"]
+    return solve_on(scene, opts, z0, solver, strict=True)
 
 
 def _solve_from_start(scene, opts, solver):
@@ -144,19 +149,24 @@ def _solve_from_start(scene, opts, solver):
     from .from_rest import path_from_rest
 
     if opts.start != "rest":
-        return solve_on(scene, opts, None, solver)
+        return solve_on(scene, opts, None, solver, strict=True)
     t0 = time.perf_counter()
-    path = path_from_rest(solver, solver.parameter_vector(scene), follow_stable=opts.ensure_stable)
+    params = solver.parameter_vector(scene)
+    path = path_from_rest(solver, params, follow_stable=opts.ensure_stable)
     path_time = time.perf_counter() - t0
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
-            "snaps_at": path.snaps, "time_s": path_time}
+            "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
+    straight = solve_on(scene, opts, None, solver, strict=True)
+    straight.stats["from_rest"] = info
     if not path.reached:
-        result = solve_on(scene, opts, None, solver)
-        result.message += (f"; the loading path from rest stopped at {path.lam:.3g} of the load, "
-                           "so this is the straight-rod start")
-        result.stats["from_rest"] = info
-        return result
-    result = solve_on(scene, opts, path.z, solver)
+        straight.message += (f"; the loading path from rest stopped at {path.lam:.3g} of the load, "
+                             "so this is the straight-rod start")
+        return straight
+    _, th1, x1, y1 = solver.summary(path.z, params)
+    if straight.success and max(abs(straight.tip["x"] - x1), abs(straight.tip["y"] - y1),
+                                abs(straight.tip["angle"] - th1)) <= DISTINCT:
+        return straight  # the straight-rod start reaches the state reached from rest
+    result = solve_on(scene, opts, path.z, solver, strict=True)
     result.stats["from_rest"] = info
     if path.branch_points:  # the path stopped at a state turned unstable and left it along its mode
         result.escaped_saddle = True
@@ -165,9 +175,8 @@ def _solve_from_start(scene, opts, solver):
     if path.snaps:
         result.message += (f"; from rest the rod snaps at {', '.join(f'{v:.4g}' for v in path.snaps)} "
                            "of the load")
-    if path.one_step or not result.success:
+    if not result.success:
         return result
-    straight = solve_on(scene, opts, None, solver)
     if (straight.success and straight.stable and tip_difference(straight, result) > DISTINCT
             and (opts.keep_self_intersecting or not straight.self_intersecting)):
         tip = straight.tip

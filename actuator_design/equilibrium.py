@@ -62,10 +62,12 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
 
 
 def solve_on(scene: Scene, options: SolverOptions, initial=None,
-             solver: Optional[EquilibriumSolver] = None) -> EquilibriumResult:
+             solver: Optional[EquilibriumSolver] = None, strict: bool = False) -> EquilibriumResult:
     """One solve from ``initial`` (default the straight rod) on ``solver``'s mesh (default the
     cached solver of ``options``), with the stability verdict and saddle escapes; no mesh choice
-    and no acceptance checks (see :func:`solve`)."""
+    and no acceptance checks (see :func:`solve`). ``strict``: every IPOPT failure status is a
+    failure, even when Newton from IPOPT's last iterate converges (the public ``solve``);
+    otherwise such a Newton point is accepted (the analyses' warm re-solves)."""
     if solver is None:
         solver = get_solver(scene, options)
     else:
@@ -77,7 +79,7 @@ def solve_on(scene: Scene, options: SolverOptions, initial=None,
     z0 = solver.initial_guess(params, initial)
 
     method = options.method
-    raw = _solve_once(solver, z0, params, method)
+    raw = _solve_once(solver, z0, params, method, strict)
     verdict = solver.stability(raw.z, params) if raw.converged else None
     escaped = False
     notes = []
@@ -85,7 +87,7 @@ def solve_on(scene: Scene, options: SolverOptions, initial=None,
         if not (options.ensure_stable and raw.converged and verdict.morse_index > 0):
             break
         v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
-        trial = _solve_once(solver, raw.z + 0.2 * v, params, "ipopt")
+        trial = _solve_once(solver, raw.z + 0.2 * v, params, "ipopt", strict)
         if not trial.converged:
             notes.append("a saddle escape did not converge")
             break
@@ -95,7 +97,7 @@ def solve_on(scene: Scene, options: SolverOptions, initial=None,
     return _make_result(scene, options, solver, params, raw, verdict, escaped, notes, solve_time)
 
 
-def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSolution:
+def _solve_once(solver: EquilibriumSolver, z0, params, method: str, strict: bool = False) -> RawSolution:
     """One solve with the requested method, a Newton polish, and an IPOPT fallback for Newton.
 
     ``"fast"``: full Newton steps (:meth:`EquilibriumSolver.solve_fast`); when a safeguard stops it,
@@ -105,7 +107,7 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSoluti
         raw = solver.solve_fast(z0, params)
         if raw.converged:
             return raw
-        fallback = _solve_once(solver, z0, params, "newton")
+        fallback = _solve_once(solver, z0, params, "newton", strict)
         fallback.message = f"{raw.message}; fell back to {fallback.message}"
         return fallback
     if method == "newton":
@@ -121,7 +123,7 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSoluti
         # confirm a converged IPOPT point (up to 30 cheap steps); from a failed one try briefly
         polish = solver.solve_newton(raw.z, params, max_iter=30 if raw.converged else 4,
                                      tol=solver.options.tol)
-        if polish.converged and not raw.converged:
+        if polish.converged and not raw.converged and strict:
             # every IPOPT failure status is a failure: Newton found a stationary point near
             # IPOPT's last iterate, but the minimisation did not finish (issue 10)
             polish.iterations += raw.iterations

@@ -72,7 +72,7 @@ class RestPath:
 
     @property
     def one_step(self) -> bool:
-        """True when the full load was reached in one step from rest (the straight-rod start)."""
+        """True when the full load was reached in one Newton step from rest."""
         return self.reached and self.steps == 1 and not self.snaps and not self.branch_points
 
 

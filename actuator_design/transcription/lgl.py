@@ -110,11 +110,18 @@ class LGL(Transcription):
         self.E = self._bp.size - 1
         tau, w = lgl_nodes_weights(self.d)
         self._tau, self._w = tau, w
-        starts = self._bp[:-1]
-        self._J = 0.5 * np.diff(self._bp)  # ds/dτ per element, shape (E,)
-        self.J = float(self._J[0]) if np.allclose(self._J, self._J[0]) else self._J
+        self.uniform = not any(self.levels)
+        if self.uniform:  # the equal-element formulas, bit for bit (warm-started analyses rely on it)
+            self.J = 0.5 / self.E
+            self._J = np.full(self.E, self.J)
+            starts = np.arange(self.E) / self.E
+            self._wq = np.tile(self.J * w, self.E)
+        else:
+            self._J = 0.5 * np.diff(self._bp)  # ds/dτ per element, shape (E,)
+            self.J = self._J
+            starts = self._bp[:-1]
+            self._wq = (self._J[:, None] * w[None, :]).ravel()
         self._sq = (starts[:, None] + self._J[:, None] * (tau[None, :] + 1.0)).ravel()
-        self._wq = (self._J[:, None] * w[None, :]).ravel()
         self._nodes = np.append((starts[:, None] + self._J[:, None] * (tau[None, :-1] + 1.0)).ravel(), 1.0)
         # global node index of each quadrature point
         self._gidx = (np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]).ravel()
@@ -132,16 +139,18 @@ class LGL(Transcription):
     def point_values(self, z):
         theta_q = z[self._gidx.tolist()]
         D = differentiation_matrix(self.d)
-        kappa = [ca.mtimes(ca.DM(D / self._J[e]), z[e * self.d:(e + 1) * self.d + 1]) for e in range(self.E)]
+        Ds = [ca.DM(D / self.J)] * self.E if self.uniform else [ca.DM(D / j) for j in self._J]
+        kappa = [ca.mtimes(Ds[e], z[e * self.d:(e + 1) * self.d + 1]) for e in range(self.E)]
         return theta_q, ca.vertcat(*kappa)
 
     def point_positions(self, theta_q):
         S0 = integration_matrix(self.d)
+        Ss = [ca.DM(S0 * self.J)] * self.E if self.uniform else [ca.DM(S0 * j) for j in self._J]
         n = self.d + 1
         xs, ys = [], []
         x0 = y0 = 0
         for e in range(self.E):
-            S = ca.DM(S0 * self._J[e])
+            S = Ss[e]
             th = theta_q[e * n:(e + 1) * n]
             xe = x0 + ca.mtimes(S, ca.cos(th))
             ye = y0 + ca.mtimes(S, ca.sin(th))
@@ -152,8 +161,12 @@ class LGL(Transcription):
 
     def theta_dense(self, z, s):
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
-        e = np.clip(np.searchsorted(self._bp, s, side="right") - 1, 0, self.E - 1)
-        t = (s - self._bp[e]) / self._J[e] - 1.0
+        if self.uniform:
+            e = np.minimum((s * self.E).astype(int), self.E - 1)
+            t = (s - e / self.E) / self.J - 1.0
+        else:
+            e = np.clip(np.searchsorted(self._bp, s, side="right") - 1, 0, self.E - 1)
+            t = (s - self._bp[e]) / self._J[e] - 1.0
         theta = np.empty_like(s)
         dtheta = np.empty_like(s)
         D = differentiation_matrix(self.d)
@@ -162,7 +175,7 @@ class LGL(Transcription):
             ze = np.asarray(z)[k * self.d:(k + 1) * self.d + 1]
             M = _interp_matrix(self.d, t[sel])
             theta[sel] = M @ ze
-            dtheta[sel] = M @ (D @ ze) / self._J[k]
+            dtheta[sel] = M @ ((D / self._J[k]) @ ze)
         return theta, dtheta
 
 
