@@ -121,3 +121,14 @@ def test_other_stable_state_at_the_same_scene_is_reported():
         assert jacobi_morse_index(ref, prm).index == 0
     near_straight = solve_shooting(prm, gamma_guess=0.0)
     assert near_straight.converged and jacobi_morse_index(near_straight, prm).index == 1
+
+
+def test_yaml_solver_section_takes_the_new_keys(tmp_path):
+    from actuator_design.config import load_config
+
+    f = tmp_path / "c.yaml"
+    f.write_text("scene:\n  type: dimensionless\n  h: 1.0\n  phi: 45 deg\n  p: 1000\n"
+                 "solver:\n  start: straight\n  adapt: false\n  residual_tol: 1e-3\n"
+                 "  keep_self_intersecting: true\n")
+    opts = load_config(f).solver.to_options()
+    assert (opts.start, opts.adapt, opts.residual_tol, opts.keep_self_intersecting) == ("straight", False, 1e-3, True)
