@@ -58,8 +58,8 @@ class SolverOptions:
         Where :func:`~actuator_design.equilibrium.solve` starts when given no initial guess and no
         solver. ``"rest"`` (default): the state reached from rest, i.e. loads and field ramped
         together from zero with warm-started Newton steps (:mod:`actuator_design.from_rest`); the
-        straight-rod start is solved as well when the path was not one step, and the result says
-        when it reaches another stable state. ``"straight"``: the straight rod at the clamp angle.
+        straight-rod start is solved as well (returned when it reaches the same state), and the
+        result says when it reaches another stable state. ``"straight"``: the straight rod at the clamp angle.
     adapt : bool
         Let ``solve`` (no solver given) grade the mesh towards the clamp from the scene's boundary
         layer width (``clamp_levels``/``tip_levels`` raised as needed); the Euler–Lagrange
