@@ -113,7 +113,8 @@ def solve_to_tolerance(scene: Scene, tol: float, options: Optional[SolverOptions
         Base options (method, ensure_stable, …); resolution fields are overridden.
     initial : callable, EquilibriumResult or array_like, optional
         Warm start for the first coarse solve: θ(s) as a callable of arc length (array in, array
-        out), a result to interpolate, or θ at the coarse nodes.
+        out), a result to interpolate, or θ at the coarse nodes. Default: the state reached from
+        rest (:mod:`actuator_design.from_rest`; ``options.start="straight"``: the straight rod).
     max_refinements : int
 
     Returns
@@ -135,6 +136,13 @@ def solve_to_tolerance(scene: Scene, tol: float, options: Optional[SolverOptions
     estimate = math.inf
     for _ in range(max_refinements + 1):
         coarse_solver = get_solver(scene, opts)
+        if guess is None and not levels and opts.start == "rest":
+            # the state reached from rest (loads and field ramped from zero), as plain solve does
+            from .from_rest import path_from_rest
+
+            path = path_from_rest(coarse_solver, coarse_solver.parameter_vector(scene),
+                                  follow_stable=opts.ensure_stable)
+            guess = path.z if path.reached else None
         if isinstance(guess, EquilibriumResult):
             guess = guess.evaluate(coarse_solver.transcription.nodes)["theta"]
         elif callable(guess):

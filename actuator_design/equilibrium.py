@@ -11,7 +11,7 @@ from .result import EquilibriumResult
 from .scene import Scene
 from .solver import EquilibriumSolver, RawSolution, get_solver
 
-__all__ = ["solve"]
+__all__ = ["solve", "solve_on"]
 
 _GL_T, _GL_W = np.polynomial.legendre.leggauss(12)
 
@@ -20,6 +20,13 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
           initial: Union[None, np.ndarray, EquilibriumResult] = None,
           solver: Optional[EquilibriumSolver] = None) -> EquilibriumResult:
     """Compute an equilibrium of ``scene`` by minimising its discrete energy.
+
+    Without a ``solver`` (and without a node-array ``initial``) ``solve`` chooses the mesh from the
+    scene and checks the answer (:mod:`actuator_design.acceptance`): the state reached from rest
+    (``options.start``), the mesh graded towards boundary layers and refined until the
+    Euler–Lagrange residual meets ``options.residual_tol``; an inaccurate or self-intersecting
+    result is ``success=False`` with ``status`` ``"inaccurate"`` or ``"self_intersecting"``.
+    With a ``solver`` it is one warm-started solve on that solver's mesh (the analyses' path).
 
     Parameters
     ----------
@@ -30,7 +37,8 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         ``options.accuracy`` set (and no ``solver``), the resolution is chosen for that tip error
         and the result carries ``error_estimate`` (:func:`actuator_design.accuracy.solve_to_tolerance`).
     initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
-        Warm start (θ at the nodes). Default: the straight rod at the clamp angle.
+        Warm start (θ at the nodes). Default: the state reached from rest, or with
+        ``options.start="straight"`` (or a ``solver`` given) the straight rod at the clamp angle.
     solver : EquilibriumSolver, optional
         A solver built for this scene's structure (default: the cached one).
 
@@ -43,9 +51,23 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     if options.accuracy is not None and solver is None:
         from dataclasses import replace
 
+        from .acceptance import check_physical
         from .accuracy import solve_to_tolerance
-        return solve_to_tolerance(scene, options.accuracy, options=replace(options, accuracy=None),
-                                  initial=initial)
+        return check_physical(solve_to_tolerance(scene, options.accuracy,
+                                                 options=replace(options, accuracy=None), initial=initial))
+    if solver is None and not isinstance(initial, np.ndarray):
+        from .acceptance import solve_checked
+        return solve_checked(scene, options, initial)
+    return solve_on(scene, options, initial, solver)
+
+
+def solve_on(scene: Scene, options: SolverOptions, initial=None,
+             solver: Optional[EquilibriumSolver] = None, strict: bool = False) -> EquilibriumResult:
+    """One solve from ``initial`` (default the straight rod) on ``solver``'s mesh (default the
+    cached solver of ``options``), with the stability verdict and saddle escapes; no mesh choice
+    and no acceptance checks (see :func:`solve`). ``strict``: every IPOPT failure status is a
+    failure, even when Newton from IPOPT's last iterate converges (the public ``solve``);
+    otherwise such a Newton point is accepted (the analyses' warm re-solves)."""
     if solver is None:
         solver = get_solver(scene, options)
     else:
@@ -57,7 +79,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     z0 = solver.initial_guess(params, initial)
 
     method = options.method
-    raw = _solve_once(solver, z0, params, method)
+    raw = _solve_once(solver, z0, params, method, strict)
     verdict = solver.stability(raw.z, params) if raw.converged else None
     escaped = False
     notes = []
@@ -65,7 +87,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         if not (options.ensure_stable and raw.converged and verdict.morse_index > 0):
             break
         v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
-        trial = _solve_once(solver, raw.z + 0.2 * v, params, "ipopt")
+        trial = _solve_once(solver, raw.z + 0.2 * v, params, "ipopt", strict)
         if not trial.converged:
             notes.append("a saddle escape did not converge")
             break
@@ -75,7 +97,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     return _make_result(scene, options, solver, params, raw, verdict, escaped, notes, solve_time)
 
 
-def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSolution:
+def _solve_once(solver: EquilibriumSolver, z0, params, method: str, strict: bool = False) -> RawSolution:
     """One solve with the requested method, a Newton polish, and an IPOPT fallback for Newton.
 
     ``"fast"``: full Newton steps (:meth:`EquilibriumSolver.solve_fast`); when a safeguard stops it,
@@ -85,7 +107,7 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSoluti
         raw = solver.solve_fast(z0, params)
         if raw.converged:
             return raw
-        fallback = _solve_once(solver, z0, params, "newton")
+        fallback = _solve_once(solver, z0, params, "newton", strict)
         fallback.message = f"{raw.message}; fell back to {fallback.message}"
         return fallback
     if method == "newton":
@@ -101,7 +123,15 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str) -> RawSoluti
         # confirm a converged IPOPT point (up to 30 cheap steps); from a failed one try briefly
         polish = solver.solve_newton(raw.z, params, max_iter=30 if raw.converged else 4,
                                      tol=solver.options.tol)
-        if polish.converged:  # a small gradient and a small Newton step: the equilibrium located
+        if polish.converged and not raw.converged and strict:
+            # every IPOPT failure status is a failure: Newton found a stationary point near
+            # IPOPT's last iterate, but the minimisation did not finish (issue 10)
+            polish.iterations += raw.iterations
+            polish.converged, polish.status = False, raw.status
+            polish.message = (raw.message + "; Newton from its last iterate found a stationary point, "
+                              "but IPOPT's failure stands")
+            raw = polish
+        elif polish.converged:  # a small gradient and a small Newton step: the equilibrium located
             polish.iterations += raw.iterations
             polish.message = raw.message + " (+ Newton polish)"
             raw = polish

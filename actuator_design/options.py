@@ -4,13 +4,17 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Optional
 
-__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE"]
+__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE", "STARTS", "MAX_LEVELS"]
 
 TRANSCRIPTIONS = ("lgl", "midpoint")
 METHODS = ("ipopt", "newton", "fast")
 #: Highest LGL degree (as in a config's ``solver.degree``): beyond it the nodes and the
 #: differentiation matrix lose accuracy and one element's dense block dominates the Hessian.
 MAX_DEGREE = 60
+#: Starts of ``solve`` without an initial guess: the state reached from rest, or the straight rod.
+STARTS = ("rest", "straight")
+#: Most grading levels towards one end (element length 2^-40/E: far below any layer of h ≤ 1e4).
+MAX_LEVELS = 40
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,28 @@ class SolverOptions:
         (CasADi JIT; about 1 s more build time, several times faster evaluation). Falls back to
         CasADi's virtual machine, with a note in the result, when no compiler works.
 
+    start : {"rest", "straight"}
+        Where :func:`~actuator_design.equilibrium.solve` starts when given no initial guess and no
+        solver. ``"rest"`` (default): the state reached from rest, i.e. loads and field ramped
+        together from zero with warm-started Newton steps (:mod:`actuator_design.from_rest`); the
+        straight-rod start is solved as well (returned when it reaches the same state), and the
+        result says when it reaches another stable state. ``"straight"``: the straight rod at the clamp angle.
+    adapt : bool
+        Let ``solve`` (no solver given) grade the mesh towards the clamp from the scene's boundary
+        layer width (``clamp_levels``/``tip_levels`` raised as needed); the Euler–Lagrange
+        residual is checked against ``residual_tol`` either way.
+    residual_tol : float
+        Accuracy asked for: the largest accepted Euler–Lagrange (moment balance) residual relative
+        to the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|); a result above it is
+        ``success=False`` with ``status="inaccurate"``. Default 1e-4 for ``lgl``; the midpoint rule
+        (second order) is held to max(residual_tol, 10/N).
+    clamp_levels, tip_levels : int
+        Geometric grading of the ``lgl`` mesh towards the clamp/tip (see
+        :class:`~actuator_design.transcription.lgl.LGL`), in [0, 40].
+    keep_self_intersecting : bool
+        Accept a self-intersecting shape as a result (contact is not modelled); by default it is
+        ``success=False`` with ``status="self_intersecting"``.
+
     Notes
     -----
     ``method="fast"``: full Newton steps on the stationarity equations with the exact Hessian,
@@ -67,6 +93,12 @@ class SolverOptions:
     ensure_stable: bool = True
     jit: bool = False
     accuracy: Optional[float] = None
+    start: str = "rest"
+    adapt: bool = True
+    residual_tol: float = 1e-4
+    clamp_levels: int = 0
+    tip_levels: int = 0
+    keep_self_intersecting: bool = False
 
     def __post_init__(self):
         if self.transcription not in TRANSCRIPTIONS:
@@ -77,16 +109,29 @@ class SolverOptions:
             raise ValueError(f"elements must be >= 1, got {self.elements}")
         if self.transcription == "lgl" and not 2 <= int(self.degree) <= MAX_DEGREE:
             raise ValueError(f"degree must be in [2, {MAX_DEGREE}] for lgl, got {self.degree}")
+        if self.start not in STARTS:
+            raise ValueError(f"start must be one of {STARTS}, got {self.start!r}")
+        if not (0 < self.residual_tol < 1):
+            raise ValueError(f"residual_tol must lie in (0, 1), got {self.residual_tol}")
+        for name in ("clamp_levels", "tip_levels"):
+            if not 0 <= int(getattr(self, name)) <= MAX_LEVELS:
+                raise ValueError(f"{name} must lie in [0, {MAX_LEVELS}], got {getattr(self, name)}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
         if self.accuracy is None:
             from .config.limits import mesh_problem  # the memory budget (README "Units and scenes")
 
-            problem = mesh_problem(self.transcription, int(self.elements), int(self.degree))
+            problem = mesh_problem(self.transcription, int(self.elements) + self.extra_elements,
+                                   int(self.degree))
             if problem is not None:
                 raise ValueError(problem)
         if self.accuracy is not None and not (0 < self.accuracy < 1):
             raise ValueError(f"accuracy must lie in (0, 1) (a tip error in rod lengths/rad), got {self.accuracy}")
+
+    @property
+    def extra_elements(self) -> int:
+        """Elements added by grading (``lgl`` only)."""
+        return int(self.clamp_levels) + int(self.tip_levels) if self.transcription == "lgl" else 0
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -113,6 +113,12 @@ class EquilibriumResult:
 
     @cached_property
     def self_intersecting(self) -> bool:
+        """Whether the centre line crosses itself. A curve whose tangent angles span less than π
+        is a graph over the direction of their mean, hence cannot (checked first, from the nodes,
+        with a margin for the interpolant between them)."""
+        th = np.asarray(self.theta, float)
+        if th.size and np.all(np.isfinite(th)) and np.ptp(th) < np.pi - 0.05:
+            return False
         return bool(self._intersects(self.x, self.y))
 
     # -- dense evaluation ----------------------------------------------------------------------

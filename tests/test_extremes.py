@@ -23,6 +23,7 @@ from actuator_design.reference.closed_forms import (critical_field_transverse, l
 from actuator_design.reference.shooting import solve_shooting, sturm_morse_index
 from actuator_design.scene import Scene, default_scene
 from actuator_design.solver import get_solver
+from physical_references import bvp_from_rest, layer_tip
 
 HC1 = critical_field_transverse(1)
 
@@ -219,3 +220,32 @@ def test_physical_scenes_from_micro_to_metre(config):
         assert _meets_or_says_so(r, ref.tip, model_err=1e-9)
     phys = r.physical()
     assert phys["tip_x_m"] == pytest.approx(r.tip["x"] * scene.scales.length, rel=1e-15)
+
+
+# -- strong fields and large loads at the default settings (issue 10) ------------------------------
+@pytest.mark.parametrize("h,phi_deg", [(300.0, 45.0), (300.0, 90.0), (1e3, 10.0), (1e3, 45.0), (1e3, 90.0)])
+def test_strong_fields_resolve_the_clamp_layer_at_default_settings(h, phi_deg):
+    """The default ``solve`` grades the mesh towards the clamp layer (width 1/(√2 h)) and returns
+    the aligned rod of the closed form (THEORY §6 pendulum integral), or says it did not."""
+    r = solve(default_scene(h=h, phi=math.radians(phi_deg)))
+    assert r.success and r.stable and not r.self_intersecting, r.message
+    x, y = layer_tip(h, math.radians(phi_deg))
+    assert max(abs(r.tip["x"] - x), abs(r.tip["y"] - y)) < 1e-8, (r.tip, x, y)
+
+
+@pytest.mark.parametrize("h,phi_deg,p", [(1.0, 45.0, 1e3), (1.0, 0.0, 1e4), (30.0, 60.0, 1e4)])
+def test_large_loads_from_rest_match_bvp_continuation(h, phi_deg, p):
+    """|p| up to 1e4 (layer width 1/√|p|): the state reached from rest, against scipy solve_bvp
+    continued from rest with field and load ramped together."""
+    r = solve(default_scene(h=h, phi=math.radians(phi_deg), p=p))
+    assert r.success and r.stable and not r.self_intersecting, r.message
+    x, y = bvp_from_rest(h, math.radians(phi_deg), p)
+    assert max(abs(r.tip["x"] - x), abs(r.tip["y"] - y)) < 1e-8, (r.tip, x, y)
+
+
+def test_largest_load_without_field_is_the_elastica_mode_1():
+    """p = −1e4, no field: from rest the elliptic-integral elastica (THEORY §6), mirrored."""
+    r = solve(Scene(field=None, tip_force=(0.0, -1e4)))
+    assert r.success and r.stable and not r.self_intersecting, r.message
+    x, y, angle = elastica_tip(1e4)
+    assert max(abs(r.tip["x"] - x), abs(r.tip["y"] + y), abs(r.tip["angle"] + angle)) < 1e-8

@@ -29,7 +29,9 @@ DEFAULTS = {"h": 1.0, "phi_deg": 45.0, "p": 0.0, "alpha_deg": 0.0}
 
 #: Solver flags and the SolverOptions field each overrides.
 _SOLVER_FLAGS = {"transcription": "--transcription", "elements": "--elements",
-                 "degree": "--degree", "method": "--method", "tol": "--tol", "accuracy": "--accuracy"}
+                 "degree": "--degree", "method": "--method", "tol": "--tol", "accuracy": "--accuracy",
+                 "start": "--start", "residual_tol": "--residual-tol",
+                 "keep_self_intersecting": "--keep-self-intersecting", "adapt": "--no-adapt"}
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -67,6 +69,18 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "that meets it and reports the estimated error (overrides --elements/--degree)")
     s.add_argument("--tol", type=finite_float, metavar="TOL",
                    help=f"tolerance on the stationarity residual, dimensionless, in (0, 1) (default {d.tol:g})")
+    s.add_argument("--start", choices=("rest", "straight"),
+                   help="rest: the state reached from rest (loads and field ramped from zero; says when "
+                        "the straight-rod start reaches another stable state); straight: the straight "
+                        f"rod (default {d.start})")
+    s.add_argument("--residual-tol", type=finite_float, metavar="TOL",
+                   help="accuracy asked for: largest Euler-Lagrange residual relative to the moment "
+                        f"scale, in (0, 1) (default {d.residual_tol:g}); a result above it exits 3")
+    s.add_argument("--no-adapt", dest="adapt", action="store_false", default=None,
+                   help="keep the mesh as given (no grading towards the clamp, no refinement); the "
+                        "residual is still checked")
+    s.add_argument("--keep-self-intersecting", action="store_true", default=None,
+                   help="accept a self-intersecting shape (contact is not modelled; default: exit 3)")
     s.add_argument("--no-ensure-stable", dest="ensure_stable", action="store_false", default=None,
                    help="do not leave an unstable equilibrium along its unstable mode")
     o = parser.add_argument_group("output")
@@ -144,7 +158,10 @@ def run(args: argparse.Namespace) -> int:
     if written is not None:
         print_written(written, args.json)
     if not result.success:
-        print(f"actuator-design: warning: the solver did not converge ({result.status}): "
+        what = {"inaccurate": "the result misses the accuracy asked for",
+                "self_intersecting": "the shape intersects itself"}.get(result.status,
+                                                                       "the solver did not converge")
+        print(f"actuator-design: warning: {what} ({result.status}): "
               f"{' '.join(result.message.split())}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK

@@ -42,6 +42,12 @@ class SolverSpec(StrictModel):
     #: target tip accuracy (rod lengths): the cheapest resolution that meets it is chosen from an
     #: a-posteriori estimate with two resolutions (``actuator_design.accuracy``)
     accuracy: Optional[Q("dimensionless", gt=0, lt=1)] = None
+    #: issue 10: the state reached from rest or the straight rod; the Euler–Lagrange residual asked
+    #: for; mesh chosen from the scene; whether a self-intersecting shape is accepted
+    start: Literal["rest", "straight"] = _DEFAULTS.start
+    residual_tol: Q("dimensionless", gt=0, lt=1) = _DEFAULTS.residual_tol
+    adapt: StrictBool = _DEFAULTS.adapt
+    keep_self_intersecting: StrictBool = _DEFAULTS.keep_self_intersecting
 
     @model_validator(mode="after")
     def _check_mesh(self):

@@ -16,7 +16,7 @@ from numpy.polynomial import legendre as L
 
 from .base import Transcription
 
-__all__ = ["LGL", "lgl_nodes_weights", "differentiation_matrix", "integration_matrix"]
+__all__ = ["LGL", "graded_breakpoints", "lgl_nodes_weights", "differentiation_matrix", "integration_matrix"]
 
 
 @lru_cache(maxsize=None)
@@ -75,7 +75,7 @@ def _interp_matrix(d: int, t: np.ndarray) -> np.ndarray:
     tau, _ = lgl_nodes_weights(d)
     lam = _bary_weights(d)
     diff = t[:, None] - tau[None, :]
-    exact = np.isclose(diff, 0.0, atol=1e-15)
+    exact = np.abs(diff) <= 1e-15
     diff[exact] = 1.0
     M = lam[None, :] / diff
     M /= M.sum(axis=1, keepdims=True)
@@ -85,20 +85,44 @@ def _interp_matrix(d: int, t: np.ndarray) -> np.ndarray:
 
 
 class LGL(Transcription):
-    """Spectral elements of polynomial ``degree`` d on ``elements`` equal elements of [0, 1]."""
+    """Spectral elements of polynomial ``degree`` d on ``elements`` elements of [0, 1].
+
+    Parameters
+    ----------
+    elements : int
+        Number of base elements (equal lengths 1/E).
+    degree : int
+        Polynomial degree per element.
+    clamp_levels, tip_levels : int
+        Geometric grading: the first (last) base element is split at 2^-j/E (1 − 2^-j/E),
+        j = 1..levels, so the element next to the clamp (tip) has length 2^-levels/E. Boundary
+        layers of width ~1/k (THEORY §5: k = √2 h at the clamp in strong fields, √|p| under large
+        loads) are resolved with levels ≈ log2(k/E) extra elements instead of k/3 uniform ones.
+    """
 
     name = "lgl"
     order_description = "spectral in the degree; O(E^-2d) in the energy"
 
-    def __init__(self, elements: int = 4, degree: int = 10):
-        self.E, self.d = int(elements), int(degree)
+    def __init__(self, elements: int = 4, degree: int = 10, clamp_levels: int = 0, tip_levels: int = 0):
+        self.d = int(degree)
+        self.levels = (int(clamp_levels), int(tip_levels))
+        self._bp = graded_breakpoints(int(elements), *self.levels)
+        self.E = self._bp.size - 1
         tau, w = lgl_nodes_weights(self.d)
         self._tau, self._w = tau, w
-        self.J = 0.5 / self.E  # ds/dτ
-        starts = np.arange(self.E) / self.E
-        self._sq = (starts[:, None] + self.J * (tau[None, :] + 1.0)).ravel()
-        self._wq = np.tile(self.J * w, self.E)
-        self._nodes = np.append((starts[:, None] + self.J * (tau[None, :-1] + 1.0)).ravel(), 1.0)
+        self.uniform = not any(self.levels)
+        if self.uniform:  # the equal-element formulas, bit for bit (warm-started analyses rely on it)
+            self.J = 0.5 / self.E
+            self._J = np.full(self.E, self.J)
+            starts = np.arange(self.E) / self.E
+            self._wq = np.tile(self.J * w, self.E)
+        else:
+            self._J = 0.5 * np.diff(self._bp)  # ds/dτ per element, shape (E,)
+            self.J = self._J
+            starts = self._bp[:-1]
+            self._wq = (self._J[:, None] * w[None, :]).ravel()
+        self._sq = (starts[:, None] + self._J[:, None] * (tau[None, :] + 1.0)).ravel()
+        self._nodes = np.append((starts[:, None] + self._J[:, None] * (tau[None, :-1] + 1.0)).ravel(), 1.0)
         # global node index of each quadrature point
         self._gidx = (np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]).ravel()
         mass = np.zeros(self._nodes.size)
@@ -107,23 +131,26 @@ class LGL(Transcription):
 
     @property
     def breakpoints(self):
-        return np.linspace(0.0, 1.0, self.E + 1)
+        return self._bp.copy()
 
     def structure(self):
-        return (self.name, self.E, self.d)
+        return (self.name, self.E, self.d) + ((self.levels,) if any(self.levels) else ())
 
     def point_values(self, z):
         theta_q = z[self._gidx.tolist()]
-        D = ca.DM(differentiation_matrix(self.d) / self.J)
-        kappa = [ca.mtimes(D, z[e * self.d:(e + 1) * self.d + 1]) for e in range(self.E)]
+        D = differentiation_matrix(self.d)
+        Ds = [ca.DM(D / self.J)] * self.E if self.uniform else [ca.DM(D / j) for j in self._J]
+        kappa = [ca.mtimes(Ds[e], z[e * self.d:(e + 1) * self.d + 1]) for e in range(self.E)]
         return theta_q, ca.vertcat(*kappa)
 
     def point_positions(self, theta_q):
-        S = ca.DM(integration_matrix(self.d) * self.J)
+        S0 = integration_matrix(self.d)
+        Ss = [ca.DM(S0 * self.J)] * self.E if self.uniform else [ca.DM(S0 * j) for j in self._J]
         n = self.d + 1
         xs, ys = [], []
         x0 = y0 = 0
         for e in range(self.E):
+            S = Ss[e]
             th = theta_q[e * n:(e + 1) * n]
             xe = x0 + ca.mtimes(S, ca.cos(th))
             ye = y0 + ca.mtimes(S, ca.sin(th))
@@ -134,15 +161,32 @@ class LGL(Transcription):
 
     def theta_dense(self, z, s):
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
-        e = np.minimum((s * self.E).astype(int), self.E - 1)
-        t = (s - e / self.E) / self.J - 1.0
+        if self.uniform:
+            e = np.minimum((s * self.E).astype(int), self.E - 1)
+            t = (s - e / self.E) / self.J - 1.0
+        else:
+            e = np.clip(np.searchsorted(self._bp, s, side="right") - 1, 0, self.E - 1)
+            t = (s - self._bp[e]) / self._J[e] - 1.0
         theta = np.empty_like(s)
         dtheta = np.empty_like(s)
-        D = differentiation_matrix(self.d) / self.J
+        D = differentiation_matrix(self.d)
         for k in np.unique(e):
             sel = e == k
             ze = np.asarray(z)[k * self.d:(k + 1) * self.d + 1]
             M = _interp_matrix(self.d, t[sel])
             theta[sel] = M @ ze
-            dtheta[sel] = M @ (D @ ze)
+            dtheta[sel] = M @ ((D / self._J[k]) @ ze)
         return theta, dtheta
+
+
+def graded_breakpoints(elements: int, clamp_levels: int = 0, tip_levels: int = 0) -> np.ndarray:
+    """Element boundaries on [0, 1]: E equal elements, the first split geometrically towards the
+    clamp (boundaries 2^-j/E, j = 1..clamp_levels) and the last towards the tip, shape (E + levels + 1,)."""
+    E = int(elements)
+    bp = np.linspace(0.0, 1.0, E + 1)
+    first = 1.0 / E
+    if E == 1 and clamp_levels and tip_levels:  # both splits inside one element: halve it first
+        bp, first = np.array([0.0, 0.5, 1.0]), 0.5
+    clamp = 2.0 ** -np.arange(int(clamp_levels), 0, -1) * first
+    tip = 1.0 - 2.0 ** -np.arange(1, int(tip_levels) + 1) * first
+    return np.unique(np.concatenate((bp, clamp, tip)))

@@ -1,0 +1,156 @@
+"""The state reached from rest: loads and field ramped together from zero, warm-started Newton steps.
+
+A dead load or a field switched on slowly moves the rod through a continuous family of stable
+states; what it reaches at full load is the physical answer of ``solve`` (issue 10: from the
+straight rod, IPOPT may descend into a coiled or self-intersecting minimum that no loading history
+reaches). The homotopy scales every slot that sizes the stationarity residual — the loads and field
+strengths each energy term declares (``EnergyTerm.residual_scale``: h, h_pos, p, tip moment,
+distributed loads, …) — by λ ∈ [0, 1]; geometry (φ, fibre angles, stiffness) is not scaled. At
+λ = 0 the rod is at rest: the straight rod at the clamp angle (a term with natural curvature makes
+the rest state curved; it is solved for).
+
+Natural-parameter continuation with a secant predictor and the fast Newton of
+:mod:`actuator_design.reduced.newton`; a step is accepted when Newton converges and no node angle
+moves more than :data:`MAX_TURN` rad, otherwise it is halved. Each accepted state's stability is
+checked (THEORY §7): past a branch point the path leaves along the unstable mode onto the stable
+branch, as an imperfect real rod would. When the step falls below
+:data:`MIN_STEP` the path has reached a fold of the loading history (a snap-through): the state
+there is released by minimising the energy (IPOPT) from the last state, as the physical rod would
+snap, and the path goes on from the new state.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import List
+
+import numpy as np
+
+__all__ = ["RestPath", "path_from_rest", "MAX_TURN", "MIN_STEP"]
+
+#: largest change of any node angle in one accepted step (rad)
+MAX_TURN = 0.5
+#: smallest load step before the path is declared at a fold (fraction of the full load)
+MIN_STEP = 1e-5
+#: size of the kick along the unstable mode (max-norm 1) after a branch point is crossed (rad)
+BRANCH_KICK = 0.05
+#: a loss of stability is located to within this fraction of the load before the kick
+BRANCH_STEP = 0.02
+#: most Newton solves along one path
+MAX_SOLVES = 400
+
+
+@dataclass
+class RestPath:
+    """The end of the loading path from rest.
+
+    Attributes
+    ----------
+    z : ndarray, shape (n_nodes,)
+        θ at the nodes at full load (λ = 1) when ``reached``, else at ``lam``.
+    reached : bool
+        Whether λ = 1 was reached with a converged state.
+    lam : float
+        Last load fraction reached.
+    steps : int
+        Accepted steps.
+    solves : int
+        Newton solves tried (accepted and rejected).
+    snaps : list of float
+        Load fractions at which the path met a fold and the state snapped.
+    branch_points : list of float
+        Load fractions after which the state had become unstable (a branch point crossed) and
+        was moved onto the stable branch along its unstable mode.
+    """
+
+    z: np.ndarray
+    reached: bool
+    lam: float
+    steps: int
+    solves: int
+    snaps: List[float] = field(default_factory=list)
+    branch_points: List[float] = field(default_factory=list)
+
+    @property
+    def one_step(self) -> bool:
+        """True when the full load was reached in one Newton step from rest."""
+        return self.reached and self.steps == 1 and not self.snaps and not self.branch_points
+
+
+def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
+    """The parameter vector with every load/field slot scaled by ``lam`` (shape as ``params``)."""
+    out = np.array(params, float)
+    for i in list(solver._scale_lin) + list(solver._scale_sq):
+        out[i] *= lam
+    return out
+
+
+def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True) -> RestPath:
+    """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
+
+    Parameters
+    ----------
+    solver : EquilibriumSolver
+    params : ndarray, shape (n_params,)
+        The full-load parameter vector.
+    tol : float, optional
+        Newton tolerance (default the solver's ``options.tol``).
+    follow_stable : bool
+        Check each state's stability and leave a branch that has lost it (``ensure_stable``);
+        False follows the stationary branch wherever it goes.
+
+    Returns
+    -------
+    RestPath
+    """
+    z = solver.initial_guess(params)
+    newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
+    solves = 0
+    rest = solver.solve_fast(z, load_fraction(solver, params, 0.0), max_iter=newton_iter, tol=tol)
+    solves += 1
+    if not rest.converged:
+        rest = solver.solve_newton(z, load_fraction(solver, params, 0.0), tol=tol)
+        solves += 1
+    if not rest.converged:
+        return RestPath(z, False, 0.0, 0, solves)
+    z, z_prev, lam, lam_prev = rest.z, None, 0.0, None
+    dl, steps, snaps, branch_points = 1.0, 0, [], []
+    while lam < 1.0 and solves < MAX_SOLVES:
+        t = min(1.0, lam + dl)
+        guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
+        raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=newton_iter, tol=tol)
+        solves += 1
+        if raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN:
+            verdict = solver.stability(raw.z, load_fraction(solver, params, t)) if follow_stable else None
+            unstable = verdict is not None and verdict.morse_index > 0
+            if unstable and t - lam > BRANCH_STEP * t:
+                dl = 0.5 * (t - lam)  # locate the loss of stability first
+                continue
+            z_prev, lam_prev, z, lam = z, lam, raw.z, t
+            steps += 1
+            dl = min(2.0 * dl, 1.0)
+            if unstable:
+                # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
+                # real rod leaves along the unstable mode; follow the stable branch from here
+                v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
+                left = solver.solve_ipopt(z + BRANCH_KICK * v, load_fraction(solver, params, lam))
+                solves += 1
+                if not left.converged:
+                    return RestPath(z, False, lam, steps, solves, snaps, branch_points)
+                branch_points.append(lam)
+                z_prev, lam_prev, z = None, None, left.z
+                dl = min(dl, 0.05)
+            continue
+        dl *= 0.5
+        if dl >= MIN_STEP:
+            continue
+        # a fold of the loading path: the rod snaps; minimise from the last state just past it
+        t = min(1.0, lam + 2 * MIN_STEP)
+        snap = solver.solve_ipopt(z, load_fraction(solver, params, t))
+        solves += 1
+        if not snap.converged:
+            return RestPath(z, False, lam, steps, solves, snaps, branch_points)
+        snaps.append(t)
+        z_prev, lam_prev, z, lam = None, None, snap.z, t
+        steps += 1
+        dl = 1e-3
+    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points)
