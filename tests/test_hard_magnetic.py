@@ -128,9 +128,13 @@ def test_dipole_field_gives_the_gradient_force():
     assert abs(a.clamp_force[0]) + abs(a.clamp_force[1]) > 1e-3  # the gradient pulls the rod
 
 
-def test_shooting_scan_refuses_the_hard_term():
-    with pytest.raises(ValueError, match="hard_magnetic"):
-        find_equilibria(hard_scene(1.0, 0.5))
+def test_shooting_scan_refuses_the_hard_term_in_a_non_uniform_field():
+    """The scan integrates the uniform-field torque only (issue 12 made it support the term there;
+    tests/test_hard_magnetic_scan.py checks it): the dipole's gradient force is refused."""
+    sc = Scene(field=DipoleField(x0=0.5, y0=-0.6, moment_angle=0.0), h=0.0, tip_force=None,
+               h_r=0.3, magnetization=constant_profile(0.0))
+    with pytest.raises(ValueError, match="only uniform fields"):
+        find_equilibria(sc)
 
 
 # -- analyses that support the term -------------------------------------------------------------

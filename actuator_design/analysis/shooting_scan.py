@@ -1,27 +1,30 @@
-"""The shooting scan behind :func:`~.equilibria.find_equilibria` and the multiplicity maps (THEORY §5, §7).
+"""The shooting scan behind :func:`~.equilibria.find_equilibria` and the multiplicity maps (THEORY §5, §7, §9).
 
 Method A of :mod:`.equilibria`: a complete scan of the shooting parameter
 γ = θ'(0). For a uniform field (or none) the Euler–Lagrange equation of any scene of
 :class:`~actuator_design.scene.Scene` (fibre layout α(s), stiffness b(s), tip force f, tip moment
-m, uniform distributed dead load q) reads
+m, uniform distributed dead load q, hard-magnetic group h_r with magnetisation angle β(s)) reads
 
-    (b θ')' − h² sin(2(θ + α − φ)) + n_y cos θ − n_x sin θ = 0,   n(s) = f + q (1 − s),
-    θ(0) = θ0,   b(1) θ'(1) = m,                                                        (EL)
+    (b θ')' − h² sin(2(θ + α − φ)) − h_r sin(θ + β − φ) + n_y cos θ − n_x sin θ = 0,
+    n(s) = f + q (1 − s),   θ(0) = θ0,   b(1) θ'(1) = m,                                   (EL)
 
 an initial-value problem in s once γ is chosen: the moment M = b θ' obeys M' = h² sin 2ψ
-− n_y cos θ + n_x sin θ (ψ = θ + α − φ) and θ' = M/b. Every equilibrium is a root of the free-end
-residual r(γ) = M(1; γ) − m, and every root lies in a window known a priori:
++ h_r sin(θ + β − φ) − n_y cos θ + n_x sin θ (ψ = θ + α − φ) and θ' = M/b. In a uniform field the
+remanent torque (THEORY §9) is that of an internal force: −h_r cos(θ + β − φ) = −n_r·(cos θ, sin θ)
+with n_r(s) = h_r (cos(β − φ), −sin(β − φ)), so the integration simply adds n_r to n (and to
+the Jacobi coefficient Q, where it gives h_r cos(θ + β − φ)). Every equilibrium is a root of the
+free-end residual r(γ) = M(1; γ) − m, and every root lies in a window known a priori:
 
 * **integral bound** (any scene): integrating (EL) over [0, 1],
-  b(1)θ'(1) − b(0)θ'(0) = ∫₀¹ (h² sin 2ψ − n_y cos θ + n_x sin θ) ds, so
+  b(1)θ'(1) − b(0)θ'(0) = ∫₀¹ (h² sin 2ψ + h_r sin(θ + β − φ) − n_y cos θ + n_x sin θ) ds, so
 
-      |γ| ≤ (|m| + h² + ∫₀¹ |n(s)| ds) / b(0),   ∫₀¹ |n| ds ≤ |f| + |q|/2,
+      |γ| ≤ (|m| + h² + h_r + ∫₀¹ |n(s)| ds) / b(0),   ∫₀¹ |n| ds ≤ |f| + |q|/2,
 
-  which for THEORY §5's scene is |θ'(0)| ≤ h² + |p|;
-* **first-integral bound** (b and α constant, q = 0: the equation is autonomous):
-  E₁ = ½ b θ'² + V(θ), V(θ) = ½ h² cos 2ψ + n_y sin θ + n_x cos θ, is constant along s, so
-  ½ b γ² = ½ m²/b + V(θ(1)) − V(θ0) ≤ ½ m²/b + ½ h² + |n| − V(θ0)   (for φ = 0, θ0 = 0, m = 0:
-  |γ| ≤ √(2|p|)).
+  which for THEORY §5's scene is |θ'(0)| ≤ h² + |p| (+ h_r for a hard-magnetic rod);
+* **first-integral bound** (b, α and β constant, q = 0: the equation is autonomous):
+  E₁ = ½ b θ'² + V(θ), V(θ) = ½ h² cos 2ψ + h_r cos(θ + β − φ) + n_y sin θ + n_x cos θ, is
+  constant along s, so ½ b γ² = ½ m²/b + V(θ(1)) − V(θ0) ≤ ½ m²/b + ½ h² + h_r + |n| − V(θ0)
+  (for φ = 0, θ0 = 0, m = 0, h_r = 0: |γ| ≤ √(2|p|)).
 
 The scan uses the smaller bound, widened by :data:`SAFETY` (5 % + 1e-3). r(γ) is evaluated on a
 uniform γ grid for all γ at once (a fixed-step classical Runge–Kutta integration in numpy over the
@@ -46,7 +49,7 @@ from ..scene import Scene, UniformField
 __all__ = ["ShootingProblem", "gamma_bound", "curvature_bound", "steps_for", "brackets",
            "SHOOTING_TERMS", "SAFETY", "MAX_REFINE", "require_uniform", "growth_exponent",
            "scan_validity", "TRUST_LIMIT", "MAX_STEPS", "min_gamma_points",
-           "MAX_GAMMA_POINTS"]
+           "MAX_GAMMA_POINTS", "remanent_group", "remanent_force"]
 
 #: Relative widening of the a-priori γ bound (and an absolute 1e-3).
 SAFETY = 0.05
@@ -63,7 +66,8 @@ def _snap(v):
 
 #: The energy terms whose Euler–Lagrange equation (EL) the shooting scan integrates (module
 #: docstring); a scene with any other term is refused, never silently scanned without it.
-SHOOTING_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load")
+SHOOTING_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load",
+                  "hard_magnetic")
 
 
 def _require_uniform_field(scene: Scene) -> None:
@@ -76,6 +80,42 @@ def require_uniform(scene: Scene) -> None:
     """The shooting scan's requirements: a uniform field (or none) and only :data:`SHOOTING_TERMS`."""
     _require_uniform_field(scene)
     refuse_unsupported(scene, SHOOTING_TERMS, "equilibria (shooting scan)")
+
+
+def remanent_group(scene: Scene) -> float:
+    """h_r of ``scene`` when it contains the hard-magnetic term (THEORY §9), else 0."""
+    return float(scene.h_r) if scene.magnetization is not None and scene.field is not None else 0.0
+
+
+def remanent_force(scene: Scene, s: np.ndarray):
+    """The hard-magnetic torque of a uniform field as an internal force (module docstring).
+
+    Parameters
+    ----------
+    scene : Scene
+        Uniform field (or none).
+    s : ndarray, shape (S,)
+        Arc-length points (units of ℓ).
+
+    Returns
+    -------
+    (n_rx, n_ry) : ndarrays, shape (S,)
+        n_r(s) = h_r (cos(β − φ), −sin(β − φ)) in units of B0/ℓ²; zeros without the term.
+    """
+    s = np.asarray(s, float)
+    h_r = remanent_group(scene)
+    if h_r == 0.0:
+        return np.zeros_like(s), np.zeros_like(s)
+    u = np.broadcast_to(np.asarray(scene.magnetization(s), float), s.shape) - scene.phi
+    return h_r * _snap(np.cos(u)), -h_r * _snap(np.sin(u))
+
+
+def _autonomous(scene: Scene) -> bool:
+    """b, α and β constant and no distributed load: (EL) does not depend on s explicitly."""
+    q = scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0)
+    beta_const = scene.magnetization is None or scene.magnetization.is_constant
+    return bool(scene.stiffness.is_constant and scene.fibres.is_constant and beta_const
+                and not np.any(q))
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:
@@ -96,12 +136,15 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
     t = np.linspace(0.0, 1.0, 2001)
     n_abs = np.hypot(f[0] + q[0] * t, f[1] + q[1] * t)
     int_n = min(float(np.linalg.norm(f) + 0.5 * np.linalg.norm(q)), float(n_abs.max()))
-    integral = (abs(m) + h2 + int_n) / b0
+    h_r = remanent_group(scene)
+    integral = (abs(m) + h2 + h_r + int_n) / b0
     first = None
-    if scene.stiffness.is_constant and scene.fibres.is_constant and not np.any(q):
+    if _autonomous(scene):
         b, a, th0 = float(scene.stiffness.value), float(scene.fibres.value), float(scene.theta0)
         V0 = 0.5 * h2 * math.cos(2 * (th0 + a - scene.phi)) + f[1] * math.sin(th0) + f[0] * math.cos(th0)
-        val = (m * m / b + h2 + 2 * float(np.linalg.norm(f)) - 2 * V0) / b
+        if h_r:
+            V0 += h_r * math.cos(th0 + float(scene.magnetization.value) - scene.phi)
+        val = (m * m / b + h2 + 2 * h_r + 2 * float(np.linalg.norm(f)) - 2 * V0) / b
         first = math.sqrt(max(val, 0.0))
     bound = integral if first is None else min(integral, first)
     return {"integral": integral, "first_integral": first, "bound": bound,
@@ -113,10 +156,11 @@ class ShootingProblem:
 
     Integrated with classical RK4 in ``n_steps`` equal steps, in the variables (c, s, M) =
     (cos θ, sin θ, b θ'): c' = −s M/b, s' = c M/b, M' = h² sin 2ψ − n_y c + n_x s, which needs no
-    trigonometric function per stage (sin 2ψ = 2sc·cos 2(α−φ) + (c² − s²)·sin 2(α−φ)). The
-    coefficients are precomputed at the 2·n_steps + 1 half-step points with shape (S, B, 1) (S = 1
-    when every scene of the batch is autonomous: α, b constant, q = 0), so a (B, G) array of γ
-    values is integrated at once with in-place numpy operations.
+    trigonometric function per stage (sin 2ψ = 2sc·cos 2(α−φ) + (c² − s²)·sin 2(α−φ)); n includes
+    the hard-magnetic force n_r (:func:`remanent_force`). The coefficients are precomputed at the
+    2·n_steps + 1 half-step points with shape (S, B, 1) (S = 1 when every scene of the batch is
+    autonomous: α, β, b constant, q = 0), so a (B, G) array of γ values is integrated at once with
+    in-place numpy operations.
 
     Parameters
     ----------
@@ -141,10 +185,10 @@ class ShootingProblem:
         self.invb = col([1.0 / sc.stiffness(s) for sc in scenes])
         f = [sc.tip_force if sc.tip_force is not None else (0.0, 0.0) for sc in scenes]
         q = [sc.distributed_load if sc.distributed_load is not None else (0.0, 0.0) for sc in scenes]
-        self.nx = col([fx + qx * (1 - s) for (fx, _), (qx, _) in zip(f, q)])
-        self.ny = col([fy + qy * (1 - s) for (_, fy), (_, qy) in zip(f, q)])
-        self.autonomous = all(sc.fibres.is_constant and sc.stiffness.is_constant and
-                              not np.any(q_) for sc, q_ in zip(scenes, q))
+        nr = [remanent_force(sc, s) for sc in scenes]
+        self.nx = col([fx + qx * (1 - s) + rx for (fx, _), (qx, _), (rx, _) in zip(f, q, nr)])
+        self.ny = col([fy + qy * (1 - s) + ry for (_, fy), (_, qy), (_, ry) in zip(f, q, nr)])
+        self.autonomous = all(_autonomous(sc) for sc in scenes)
         if self.autonomous:
             for name in ("C", "S", "invb", "nx", "ny"):
                 setattr(self, name, getattr(self, name)[:1].copy())
@@ -162,7 +206,8 @@ class ShootingProblem:
         """r(γ) = b(1)θ'(1) − m for γ of shape (B, G) (or (G,) for B = 1) → same shape.
 
         With ``jacobi=True`` also integrates the Jacobi field η = ∂θ/∂γ (η(0) = 0, bη'(0) = b(0);
-        (bη')' = Q η with Q = 2h² cos 2ψ + n_x cos θ + n_y sin θ, THEORY §7) and returns
+        (bη')' = Q η with Q = 2h² cos 2ψ + n_x cos θ + n_y sin θ, n including n_r, so that Q
+        contains h_r cos(θ + β − φ), THEORY §7, §9) and returns
         (r, zeros, eta1): the number of sign changes of η over the step points in (0, 1] and η(1).
         By Sturm theory the Morse index of an equilibrium is zeros + [η(1)·bη'(1) < 0], with
         bη'(1) = r'(γ) (cf. :func:`actuator_design.reference.shooting.sturm_morse_index`).
@@ -300,16 +345,17 @@ class ShootingProblem:
 def curvature_bound(scene: Scene, window: float) -> float:
     """A bound on max_s |θ'(s)| over the shots with |γ| ≤ ``window``.
 
-    Autonomous scenes (b, α constant, q = 0): the first integral ½bθ'² + V(θ) = const with
-    max V − min V ≤ h² + 2|f| gives θ'² ≤ γ² + 2(h² + 2|f|)/b. Otherwise the integral bound on
-    [0, s]: |bθ'(s)| ≤ b(0)|γ| + |m| + h² + ∫|n|, divided by min b.
+    Autonomous scenes (b, α, β constant, q = 0): the first integral ½bθ'² + V(θ) = const with
+    max V − min V ≤ h² + 2|f| + 2h_r gives θ'² ≤ γ² + 2(h² + 2|f| + 2h_r)/b. Otherwise the
+    integral bound on [0, s]: |bθ'(s)| ≤ b(0)|γ| + |m| + h² + h_r + ∫|n|, divided by min b.
     """
     gb = gamma_bound(scene)
     h2 = scene.h**2 if scene.field is not None else 0.0
     f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
     if gb["first_integral"] is not None:
         b = float(scene.stiffness.value)
-        return math.sqrt(window**2 + (2 * h2 + 4 * float(np.linalg.norm(f))) / b)
+        spread = h2 + 2 * float(np.linalg.norm(f)) + 2 * remanent_group(scene)
+        return math.sqrt(window**2 + 2 * spread / b)
     bmin = float(np.min(scene.stiffness(np.linspace(0, 1, 201))))
     b0 = float(scene.stiffness(0.0))
     return (b0 * window + gb["integral"] * b0) / bmin
@@ -352,7 +398,8 @@ def growth_exponent(scene: Scene) -> float:
     """L such that the shooting IVP amplifies any perturbation by at most e^L over s ∈ [0, 1].
 
     The Jacobi field (η, P = bη') obeys η' = P/b, P' = Qη with
-    |Q| = |2h² cos 2ψ + n_x cos θ + n_y sin θ| ≤ Q̄ = 2h² + max_s |n(s)| (THEORY §7). In the scaled
+    |Q| = |2h² cos 2ψ + h_r cos(θ + β − φ) + n_x cos θ + n_y sin θ| ≤ Q̄ = 2h² + h_r + max_s |n(s)|
+    (THEORY §7, §9). In the scaled
     variables (κη, P), κ = √(Q̄ b_min), the system matrix is antidiagonal with entries of size at
     most √(Q̄ / b_min), so by Gronwall every solution grows at most like e^{L s}, L = √(Q̄ / b_min).
     The same bound holds for the difference of two shots (rounding, RK4 truncation, γ to γ + δ).
@@ -364,7 +411,7 @@ def growth_exponent(scene: Scene) -> float:
     t = np.linspace(0.0, 1.0, 201)
     n_max = float(np.max(np.hypot(f[0] + q[0] * (1 - t), f[1] + q[1] * (1 - t))))
     b_min = float(np.min(scene.stiffness(t)))
-    return math.sqrt((2 * h2 + n_max) / b_min)
+    return math.sqrt((2 * h2 + remanent_group(scene) + n_max) / b_min)
 
 
 def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1) -> Dict[str, object]:
