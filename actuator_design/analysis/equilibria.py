@@ -18,7 +18,9 @@ stationarity system from many initial shapes θ = θ0 + c s + d s² and the shap
 transverse modes; each new root is deflated (Farrell, Birkisson & Funke 2015) so that Newton
 cannot return to it.
 
-Non-uniform fields are not supported (the field force depends on the rod's position).
+Every term of :data:`~.shooting_scan.SHOOTING_TERMS` is supported, the hard-magnetic torque of
+THEORY §9 included; a scene with any other term is refused. Non-uniform fields are not supported
+(the field force depends on the rod's position).
 """
 from __future__ import annotations
 
@@ -163,7 +165,8 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
     Parameters
     ----------
     scene : Scene
-        Uniform field or none; any φ, tip force, tip moment, α(s), b(s), distributed load, θ0.
+        Uniform field or none; any φ, tip force, tip moment, α(s), b(s), distributed load, θ0,
+        hard-magnetic h_r with β(s) (THEORY §9).
     options : SolverOptions, optional
         Collocation used to confirm each root (``method`` and ``ensure_stable`` are overridden by
         Newton without saddle escape).

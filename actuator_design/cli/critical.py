@@ -6,7 +6,9 @@ points are followed too, and the critical points are located accurately (root of
 Hessian's eigenvalue along the branch) and deduplicated. Each is reported with the parameter value,
 the tip angle (rad) and the number of equilibria just below and above it (shooting counts between
 consecutive critical values). Parameters (--param) as for `continue`: h, h2, phi, p, fx, fy,
-m_tip, qx, qy, alpha, theta0 (angles in rad).
+m_tip, qx, qy, alpha, h_pos, h_r, magnetization, theta0 (angles in rad). E.g. an axial remanent
+magnetisation in an anti-parallel field (--h 0 --phi-deg 180 --h-r 0 --param h_r --window 0,5)
+buckles at h_r = pi^2/4 (THEORY §9).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --window accepts units for

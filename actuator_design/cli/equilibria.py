@@ -1,7 +1,7 @@
 """Find every equilibrium of a uniform-field cantilever, with its stability.
 
 The shooting parameter gamma = theta'(0) is bounded a priori (|gamma| <= h^2 + |p| for THEORY §5's
-scene; see actuator_design.analysis.equilibria); it is scanned on a grid that is refined until the
+scene, + h_r for a hard-magnetic rod, THEORY §9; see actuator_design.analysis.shooting_scan); it is scanned on a grid that is refined until the
 number of sign changes of the free-end residual is stable, each root is refined and confirmed by
 the collocation NLP. Each equilibrium is reported with its tip (x, y in rod lengths, angle in rad),
 energy (B0/l), Morse index, stable flag, gamma (1/l) and whether the shape intersects itself.

@@ -8,6 +8,8 @@ x parameter and drawn over the map (skip with --no-curves). map.png shows the nu
 beside the number of stable ones, with bistable regions (two or more stable states) hatched; a
 grid point where the scan cannot be trusted (large h) is counted -1 (unknown) and drawn grey. Defaults: the paper's phase diagram,
 phi = 0, x = h2 in [0, 20], y = p in [0, 60].
+A hard-magnetic rod (--h-r, --magnetization-deg; THEORY §9) is counted with its remanent torque;
+h_r and magnetization are grid parameters like the others (e.g. --x-param h_r --y-param phi).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees).
