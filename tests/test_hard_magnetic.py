@@ -201,3 +201,18 @@ def test_fit_refuses_a_remanent_scene_instead_of_holding_h_r_fixed():
            "study": {"type": "fit", "parameters": {"h": {}}}}
     with pytest.raises(ValueError, match="fit: the scene contains the energy term 'hard_magnetic'"):
         prepare_fit(cfg, "unused.csv")
+
+
+@pytest.mark.parametrize("h_r, index", [(1.0, 0), (5.0, 1), (30.0, 2), (70.0, 3)])
+def test_jacobi_index_of_the_straight_rod_counts_euler_modes(h_r, index):
+    """Axial magnetisation, field anti-parallel: the straight rod's Morse index by the independent
+    Jacobi test is the number of Euler modes below h_r, ((2k − 1)π/2)² < h_r (THEORY §9)."""
+    import math as _m
+
+    from actuator_design.reference.shooting import ShootingParams, shoot
+    from actuator_design.reference.jacobi import jacobi_morse_index
+
+    sol = shoot(0.0, ShootingParams(h_r=h_r, phi=_m.pi, beta=0.0))
+    assert abs(sol.residual) < 1e-12  # the straight rod is an equilibrium
+    assert index == sum(((2 * k - 1) * _m.pi / 2) ** 2 < h_r for k in range(1, 10))
+    assert jacobi_morse_index(sol).index == index

@@ -164,13 +164,16 @@ def jacobi_morse_index(solution: ShootingSolution, params: Optional[ShootingPara
     h2 = float(params.h) ** 2
     c2, s2 = params.cos2phi, params.sin2phi
     afun, aconst = _as_scalar_fun(params.alpha)
+    bfun, bconst = _as_scalar_fun(getattr(params, "beta", 0.0))
+    h_r = float(getattr(params, "h_r", 0.0))
 
-    def Q(s: float) -> float:  # eq. (Q), scalar version of jacobi_coefficient
+    def Q(s: float) -> float:  # eq. (Q), scalar version of jacobi_coefficient (THEORY §7, §9)
         th = float(solution.theta(s))
         ta = th + (aconst if aconst is not None else afun(s))
         cos2psi = math.cos(2.0 * ta) * c2 + math.sin(2.0 * ta) * s2
         nx = params.fx + params.qx * (1.0 - s)
         ny = params.fy + params.qy * (1.0 - s)
-        return 2.0 * h2 * cos2psi + nx * math.cos(th) + ny * math.sin(th)
+        hard = h_r * math.cos(th + (bconst if bconst is not None else bfun(s)) - params.phi) if h_r else 0.0
+        return 2.0 * h2 * cos2psi + hard + nx * math.cos(th) + ny * math.sin(th)
 
     return sturm_morse_index(Q, params.b, tol=tol)
