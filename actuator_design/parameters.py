@@ -16,12 +16,12 @@ a profile α(s)); angles (unit ``rad``) also answer to ``<name>_deg`` on the CLI
 (:func:`degree_aliases`).
 
 The lens also holds the unit-carrying *physical* parameters (:class:`PhysicalParameter`,
-:func:`physical_parameters`): material values (χ̄, E, B0), the groups themselves seen as
+:func:`physical_parameters`): material values (χ̄, E, B0, the remanence M_r), the groups themselves seen as
 measured quantities (``h``, the clamp angle) and the measurement model of a calibration (a factor
 and an offset on the measured field, an offset on its angle). Each knows its dimension (for pint),
 its scale (positive values are fitted in log scale), the scene types that have it and how the
-dimensionless groups of THEORY §5 scale with it (h² ∝ χ̄ H²/B, loads ∝ 1/B). Calibration fits
-exactly these.
+dimensionless groups of THEORY §5 and §9 scale with it (h² ∝ χ̄ H²/B, h_r ∝ M_r H/B, loads ∝
+1/B). Calibration fits exactly these.
 """
 from __future__ import annotations
 
@@ -299,7 +299,7 @@ class PhysicalParameter:
         The scene types that have it.
     groups : tuple of (str, float)
         (NLP slot, exponent e): with every other input fixed, the dimensionless group in that slot
-        is ∝ value^e (THEORY §5: h ∝ χ̄^½ B^-½ H, loads ∝ 1/B).
+        is ∝ value^e (THEORY §5: h ∝ χ̄^½ B^-½ H, loads ∝ 1/B; §9: h_r ∝ M_r B^-1 H).
     through_field : bool
         It acts on the applied field H (a measurement-model parameter), not on the rod.
     shifts : str or None
@@ -307,7 +307,8 @@ class PhysicalParameter:
     same_as : str or None
         The lens parameter whose value it is (``h``; ``clamp_angle`` is ``theta0``).
     term : str or None
-        The energy term it needs (the field term for χ̄, h and the field's measurement model).
+        The energy term it needs (the field term for χ̄, h and the field's measurement model; the
+        hard-magnetic term for M_r).
     """
 
     name: str
@@ -332,10 +333,11 @@ class PhysicalParameter:
 
 
 _FIELD = "field_orientation"
+_HARD = "hard_magnetic"
 _BOTH = ("physical", "dimensionless")
-#: B0 = E I: the field groups h, h_pos ∝ B^-½ and the loads ∝ 1/B (THEORY §5)
+#: B0 = E I: the field groups h, h_pos ∝ B^-½, the loads and h_r ∝ 1/B (THEORY §5, §9)
 _STIFFNESS_GROUPS = (("h", -0.5), ("h_pos", -0.5), ("fx", -1.0), ("fy", -1.0), ("m_tip", -1.0),
-                     ("qx", -1.0), ("qy", -1.0))
+                     ("qx", -1.0), ("qy", -1.0), ("h_r", -1.0))
 _PHYSICAL = (
     PhysicalParameter("chi_bar", "orientational susceptibility χ̄", "dimensionless", True,
                       ("physical",), groups=(("h", 0.5),), term=_FIELD),
@@ -343,11 +345,14 @@ _PHYSICAL = (
                       ("physical",), groups=_STIFFNESS_GROUPS),
     PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,
                       ("physical",), groups=_STIFFNESS_GROUPS),
+    PhysicalParameter("remanence", "remanent magnetisation M_r of the composite", "magnetic_field",
+                      True, ("physical",), groups=(("h_r", 1.0),), term=_HARD),
     PhysicalParameter("h", "field group h (THEORY §5)", "dimensionless", True, ("dimensionless",),
                       groups=(("h", 1.0),), same_as="h", term=_FIELD),
     PhysicalParameter("clamp_angle", "clamp angle θ0", "angle", False, _BOTH, same_as="theta0"),
     PhysicalParameter("field_scale", "factor on the measured field", "dimensionless", True, _BOTH,
-                      groups=(("h", 1.0), ("h_pos", 1.0)), through_field=True, term=_FIELD),
+                      groups=(("h", 1.0), ("h_pos", 1.0), ("h_r", 1.0)), through_field=True,
+                      term=_FIELD),
     PhysicalParameter("field_offset", "offset added to the measured field", "magnetic_field", False,
                       _BOTH, through_field=True, shifts="field", term=_FIELD),
     PhysicalParameter("field_angle_offset", "offset added to the field angle", "angle", False,

@@ -26,8 +26,15 @@ E = 1 MPa. Noise σ = 0.05 mm.
 position under fields of 5–20 mT at 30°, 60° and 120°, χ̄ = 0.5, clamp angle 2°. Noise σ = 0.05 mm
 on each coordinate.
 
+``synthetic_hard_magnetic.csv``: ``field [mT], tip_angle [deg]``. A hard-magnetic strip (the
+rod of ``configs/hard_magnetic_cantilever.yaml``: ℓ = 20 mm, w = 5 mm, t = 1 mm, E = 1 MPa)
+magnetised along its axis (β = 0) with M_r = 0.1 T/μ0 ≈ 79.6 kA/m, in a field across it (φ = 90°)
+of 0–10 mT: h_r = c_r·H with c_r = μ0 M_r A ℓ²/B (THEORY §9), the shooting solver with its
+remanent torque. Noise σ = 0.5 deg.
+
 Usage: ``python problems/make_synthetic_data.py [OUT_DIR]`` (default: problems/data beside this
-script). Re-running reproduces the files exactly.
+script). Re-running reproduces the files exactly (each data set draws its noise after the ones
+listed before it, so a set added at the end leaves the earlier files unchanged).
 """
 from __future__ import annotations
 
@@ -51,7 +58,11 @@ TRUE = {
     "load_deflection": {"chi_bar": 0.5, "youngs_modulus": 1.0e6, "noise_mm": 0.05},
     "tip_position": {"chi_bar": 0.5, "youngs_modulus": 1.0e6, "clamp_angle": math.radians(2.0),
                      "noise_mm": 0.05},
+    "hard_magnetic": {"remanence": 0.1 / MU0, "youngs_modulus": 1.0e6, "magnetization": 0.0,
+                      "noise_deg": 0.5},
 }
+#: The hard-magnetic strip (configs/hard_magnetic_cantilever.yaml): twice as thick.
+HARD_ROD = {"length": 20e-3, "width": 5e-3, "thickness": 1e-3}
 
 
 def bending_stiffness(E: float) -> float:
@@ -135,13 +146,35 @@ def tip_position(rng) -> str:
     return "\n".join(lines) + "\n"
 
 
+def remanent_coefficient(remanence: float, E: float) -> float:
+    """c_r in h_r = c_r·H (m/A): μ0 M_r A ℓ²/B with B = E w t³/12 of :data:`HARD_ROD` (THEORY §9)."""
+    w, t, L = HARD_ROD["width"], HARD_ROD["thickness"], HARD_ROD["length"]
+    return MU0 * remanence * w * t * L**2 / (E * w * t**3 / 12.0)
+
+
+def hard_magnetic(rng) -> str:
+    t = TRUE["hard_magnetic"]
+    c_r = remanent_coefficient(t["remanence"], t["youngs_modulus"])
+    Bs = np.linspace(0.0, 10.0, 21)  # mT
+    sols = _track([ShootingParams(phi=math.pi / 2, h_r=c_r * b * 1e-3 / MU0,
+                                  beta=t["magnetization"]) for b in Bs])
+    noisy = np.degrees([s.tip_angle for s in sols]) + rng.normal(0.0, t["noise_deg"], Bs.size)
+    lines = _header("hard-magnetic strip (t = 1 mm, M_r along the rod) in a field across it", t,
+                    "gaussian, sigma = 0.5 deg on tip_angle")
+    lines[2] = lines[2].replace("t = 0.5 mm", "t = 1 mm")
+    lines.append("field [mT], tip_angle [deg]")
+    lines += [f"{b:.2f}, {a:.3f}" for b, a in zip(Bs, noisy)]
+    return "\n".join(lines) + "\n"
+
+
 def main(out_dir=None) -> None:
     out = Path(out_dir) if out_dir else Path(__file__).resolve().parent / "data"
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(SEED)
     for name, make in (("synthetic_transverse_buckling.csv", transverse_buckling),
                        ("synthetic_load_deflection.csv", load_deflection),
-                       ("synthetic_tip_position.csv", tip_position)):
+                       ("synthetic_tip_position.csv", tip_position),
+                       ("synthetic_hard_magnetic.csv", hard_magnetic)):
         (out / name).write_text(make(rng))
         print(f"wrote {out / name}")
 

@@ -192,15 +192,22 @@ def test_design_with_the_hard_term_present_recovers_a_shooting_made_target():
     assert float(d.design["phi"]) == pytest.approx(1.3, abs=1e-6)
 
 
-def test_fit_refuses_a_remanent_scene_instead_of_holding_h_r_fixed():
-    """The fit maps its parameters to the soft-magnetic groups only: a hard-magnetic scene is refused
-    (one line naming the term), never fitted with h_r silently held fixed."""
+def test_fit_scales_h_r_with_the_field_instead_of_holding_it_fixed(tmp_path):
+    """A hard-magnetic scene is fitted (issue 12: M_r is a fit parameter), and h_r is never held
+    fixed while the field changes: it follows the measured field linearly, h_r(H) = h_r H/H_ref
+    (THEORY §9), where h follows it too (h² ∝ H²). More in tests/test_fit_hard_magnetic.py."""
+    import numpy as np
+
     from actuator_design.calibration import prepare_fit
 
+    data = tmp_path / "d.csv"
+    data.write_text("field [kA/m], tip_angle [deg]\n1, 1\n2, 2\n3, 3\n")
     cfg = {"scene": {"type": "dimensionless", "h": 1.0, "h_r": 0.5},
-           "study": {"type": "fit", "parameters": {"h": {}}}}
-    with pytest.raises(ValueError, match="fit: the scene contains the energy term 'hard_magnetic'"):
-        prepare_fit(cfg, "unused.csv")
+           "study": {"type": "fit", "reference_field": "10 kA/m", "parameters": {"h": {}}}}
+    prob = prepare_fit(cfg, data)
+    q = np.asarray(prob.f_map(np.array([1.0]), np.array([20e3, 0.0, 0.0, 0.0]))[0]).ravel()
+    assert q[prob.slots.index("h_r")] == pytest.approx(1.0, rel=1e-15)
+    assert q[prob.slots.index("h")] == pytest.approx(2.0, rel=1e-15)
 
 
 @pytest.mark.parametrize("h_r, index", [(1.0, 0), (5.0, 1), (30.0, 2), (70.0, 3)])

@@ -206,3 +206,13 @@ def test_main_job_json_contract(main_job):
     assert rob["stable_over_box"] and rob["holds"] and rob["worst_tip_error"] > 0
     assert set(rob["fold_distance"]) >= {"h_rel", "phi_deg"}
     assert main_job.success and "holds over the box" in main_job.robustness.sentence()
+
+
+def test_perturbation_scales_the_remanent_group_linearly():
+    """h_r = μ0 M_r H A ℓ² / B (THEORY §9): linear in the field, inverse in E, independent of χ̄."""
+    from dataclasses import replace as _replace
+    sc = _replace(default_scene(h=1.0, phi=0.3), h_r=2.0)
+    tol = Tolerances(field_rel=0.1, angle=0.0, youngs_rel=0.2, chi_rel=0.3)
+    out = perturb(sc, tol, {"field_rel": 1, "youngs_rel": 1, "chi_rel": -1})
+    assert out.h_r == pytest.approx(2.0 * 1.1 / 1.2, rel=1e-15)
+    assert out.h == pytest.approx(1.1 * math.sqrt(0.7 / 1.2), rel=1e-15)

@@ -25,7 +25,7 @@ a design holds is known when the full box fails.
 
 P_kc(d) maps the design vector and the corner's offsets (NLP parameters, so the box can change
 without a rebuild) to the forward NLP's parameter vector, with the scalings of :mod:`.tolerances`:
-h × k_h, loads × k_p, φ, α and θ0 shifted.
+h × k_h, h_r × k_r (∝ H/E, THEORY §9), loads × k_p, φ, α and θ0 shifted.
 """
 from __future__ import annotations
 
@@ -46,7 +46,8 @@ __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "
            "pose_designs"]
 
 #: load slots (∝ 1/E, THEORY §5: the lens's groups of youngs_modulus): fx, fy, m_tip, qx, qy
-_LOADS = tuple(s for s, e in lens.physical_parameter("youngs_modulus").groups if e == -1.0)
+#: dead loads: ∝ 1/E (the remanent group h_r ∝ H/E is scaled on its own, by k_r)
+_LOADS = tuple(s for s, e in lens.physical_parameter("youngs_modulus").groups if e == -1.0 and s != "h_r")
 _PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set per pose
 
 
@@ -68,14 +69,14 @@ class ScenarioPoint:
 
 
 def _corner_offsets(tol: Tolerances, scale: float) -> List[Dict[str, float]]:
-    """Per corner: k_h (factor on h), k_p (factor on loads), dphi, dalpha, dtheta0."""
+    """Per corner: k_h (factor on h), k_p (factor on loads), dphi, dalpha, dtheta0, k_r (on h_r)."""
     out = []
     for c in tol.corners():
         g = {a: c.get(a, 0.0) * getattr(tol, a) * scale for a in
              ("field_rel", "angle", "youngs_rel", "chi_rel", "fibre_angle", "clamp_angle")}
         out.append({"k_h": (1 + g["field_rel"]) * math.sqrt((1 + g["chi_rel"]) / (1 + g["youngs_rel"])),
                     "k_p": 1.0 / (1 + g["youngs_rel"]), "dphi": g["angle"], "dalpha": g["fibre_angle"],
-                    "dtheta0": g["clamp_angle"]})
+                    "dtheta0": g["clamp_angle"], "k_r": (1 + g["field_rel"]) / (1 + g["youngs_rel"])})
     return out
 
 
@@ -103,7 +104,7 @@ class ScenarioDesignNLP:
         self.nd = self.n_alpha + K * len(self.per_pose)
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)
-        offs = ca.SX.sym("offsets", 5 * max(C, 1))
+        offs = ca.SX.sym("offsets", 6 * max(C, 1))
         target = ca.SX.sym("target", 3 * K)
         w_ang, margin, w_eff = ca.SX.sym("w_ang"), ca.SX.sym("margin"), ca.SX.sym("w_eff")
         t = ca.SX.sym("t", K)
@@ -124,7 +125,7 @@ class ScenarioDesignNLP:
         def scenario(P, c):
             if c == 0:
                 return P
-            k_h, k_p, dphi, dal, dth = (offs[5 * (c - 1) + i] for i in range(5))
+            k_h, k_p, dphi, dal, dth, k_r = (offs[6 * (c - 1) + i] for i in range(6))
             Pc = ca.SX(P)
             for name in ("h", "h_pos"):
                 if name in sl:
@@ -132,6 +133,8 @@ class ScenarioDesignNLP:
             for name in _LOADS:
                 if name in sl:
                     Pc[sl[name]] = P[sl[name]] * k_p
+            if "h_r" in sl:
+                Pc[sl["h_r"]] = P[sl["h_r"]] * k_r
             if "phi" in sl:
                 Pc[sl["phi"]] = P[sl["phi"]] + dphi
             if "alpha" in sl:
@@ -225,8 +228,8 @@ class ScenarioDesignNLP:
         sv, K, C, n = self.base.solver, self.K, self.C, self.n
         P0 = sv.parameter_vector(base_scene)
         offs = _corner_offsets(tol, scale) if C else []
-        ov = (np.array([[o["k_h"], o["k_p"], o["dphi"], o["dalpha"], o["dtheta0"]] for o in offs]).ravel()
-              if C else np.array([1.0, 1.0, 0.0, 0.0, 0.0]))
+        ov = (np.array([[o["k_h"], o["k_p"], o["dphi"], o["dalpha"], o["dtheta0"], o["k_r"]] for o in offs]).ravel()
+              if C else np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0]))
         use_angle = any(len(tg) > 2 for tg in targets)
         tgt = np.concatenate([[tg[0], tg[1], tg[2] if len(tg) > 2 else 0.0] for tg in targets])
         p = np.concatenate([P0, ov, tgt, [1.0 if use_angle else 0.0, margin, w_eff]])

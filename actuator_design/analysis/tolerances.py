@@ -5,9 +5,9 @@ batch. A :class:`Tolerances` box holds the half-widths, :meth:`Tolerances.corner
 corners as signed offsets, and :func:`perturb` turns a nominal scene and one offset into the scene
 the lab may really have. How each tolerance enters the dimensionless groups (THEORY §5):
 
-* field magnitude H → h ∝ H (and h_pos ∝ H);
+* field magnitude H → h ∝ H (and h_pos ∝ H), h_r ∝ H;
 * susceptibility χ̄ → h ∝ √χ̄;
-* Young's modulus E (B = E I) → h ∝ E^(-1/2), and every dead load p, f, m, q ∝ 1/E;
+* Young's modulus E (B = E I) → h ∝ E^(-1/2), h_r ∝ 1/E, and every dead load p, f, m, q ∝ 1/E;
 * field angle φ, fibre angle α(s) and clamp angle θ0 → additive offsets.
 
 The field-magnitude tolerance also stands for the scatter of χ̄/E when the others are not given
@@ -193,6 +193,8 @@ def apply_deltas(scene: Scene, deltas: Mapping[str, float]) -> Scene:
     h_factor = (1.0 + g["field_rel"]) * math.sqrt((1.0 + g["chi_rel"]) / (1.0 + g["youngs_rel"]))
     load_factor = 1.0 / (1.0 + g["youngs_rel"])
     out = replace(scene, h=scene.h * h_factor, h_pos=scene.h_pos * h_factor)
+    if getattr(scene, "h_r", 0.0):  # the remanent group h_r ∝ H / E (THEORY §9), untouched by χ̄
+        out = replace(out, h_r=scene.h_r * (1.0 + g["field_rel"]) / (1.0 + g["youngs_rel"]))
     if g["angle"] != 0.0:
         if not isinstance(scene.field, UniformField):
             raise ValueError("tolerance angle: the field angle can only be perturbed for a uniform field")

@@ -2,7 +2,8 @@
 
 When the column-normalised weighted Jacobian J has a singular value below ``identifiability_tol``
 times the largest, a combination of parameters is not determined by the data (e.g. a field-only
-data set determines χ̄ and E only through h² ∝ χ̄/E, THEORY §5). The fit then holds the parameter
+data set determines χ̄ and E only through h² ∝ χ̄/E, THEORY §5; a hard-magnetic rod's M_r and E only
+through h_r ∝ M_r/E, THEORY §9). The fit then holds the parameter
 the null direction leans on most at its initial value, fits the others, and reports the
 identifiable combination (e.g. ``chi_bar * youngs_modulus^-1``): for log-scale parameters p_i, p_j and null
 direction v (in log coordinates), p_i · p_j^(−v_i/v_j) is constant along v.
@@ -24,6 +25,10 @@ __all__ = ["null_direction", "choose_held", "identifiability_message", "combinat
 #: of the parameter moves the residuals by less than this many σ. Rounding noise of an exactly
 #: zero sensitivity (e.g. a straight rod in a transverse field, THEORY §6) is far below it.
 ZERO_SENSITIVITY = 1e-9
+
+
+#: The field groups a null direction may run along, and how they read in a message (THEORY §5, §9).
+_GROUP_TEXT = (("h", "h² ∝ χ̄ H²/B"), ("h_r", "h_r ∝ M_r H/B"))
 
 
 def null_direction(J: np.ndarray, tol: float):
@@ -75,8 +80,10 @@ def identifiability_message(names, free, vec, j, rel, is_log, problem,
     else:
         what = (f"{' and '.join(involved)} are not identifiable separately from these data "
                 f"(relative singular value {rel:.1e}")
-        if all(PARAMETERS[n].exponent("h") for n in involved):  # power laws on h (lens groups)
-            what += "; they enter only through the field group h² ∝ χ̄ H²/B"
+        for slot, text in _GROUP_TEXT:  # power laws on one field group (lens exponents)
+            if all(PARAMETERS[n].exponent(slot) for n in involved):
+                what += f"; they enter only through the field group {text}"
+                break
         what += ")"
     held = f"{names[j]} is held at {problem.initial[names[j]]:g} {unit_of(names[j])}".rstrip()
     if not combined:

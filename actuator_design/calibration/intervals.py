@@ -14,7 +14,7 @@ import numpy as np
 
 from ..units import MU0
 from .identifiability import combination_value
-from .parameters import PARAMETERS, field_coefficient_exponent, unit_of
+from .parameters import PARAMETERS, field_coefficient_exponent, group_exponent, unit_of
 
 __all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
            "derived_quantities"]
@@ -79,8 +79,17 @@ def natural_covariance(cov_x: np.ndarray, theta_free: np.ndarray, is_log_free: n
     return cov, np.where(np.isfinite(corr), corr, 0.0)
 
 
+def _log_interval(value: float, exponents: np.ndarray, cov_x: np.ndarray, tq: float) -> dict:
+    """value, std and t-interval of a power law of the fitted parameters with the given log
+    exponents (first order in the log coordinates of the free parameters)."""
+    sd = float(math.sqrt(max(exponents @ cov_x @ exponents, 0.0))) if exponents.size else 0.0
+    return {"value": value, "std": value * sd,
+            "ci": [value * safe_exp(-tq * sd), value * safe_exp(tq * sd)]}
+
+
 def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
-    """Physical scenes: the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) with its interval."""
+    """Physical scenes: the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) with its interval, and
+    for a hard-magnetic rod c_r = h_r/H = μ0 M_r A ℓ²/B (THEORY §9)."""
     if problem.kind != "physical" or problem.scene.field is None:
         return {}
     names, c = problem.names, problem.const
@@ -92,10 +101,22 @@ def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
     # d log c / d log χ̄ = 1/2, d log c / d log E (or B) = −1/2
     g = np.array([field_coefficient_exponent(names[i]) for i in free])
     sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0
-    out = {"h_per_field": {"value": coef, "unit": "m/A", "std": coef * sd,
-                           "ci": [coef * safe_exp(-tq * sd), coef * safe_exp(tq * sd)],
-                           "description": "h = c·H, c = sqrt(mu0 chi_bar A l^2 / (2 B))"}}
-    if abs(math.cos(problem.scene.phi)) < 1e-9:
+    hard = problem.scene.magnetization is not None
+    out = {}
+    if not (hard and chi == 0.0):  # a purely remanent rod has no soft-magnetic coefficient
+        out["h_per_field"] = {"value": coef, "unit": "m/A", "std": coef * sd,
+                              "ci": [coef * safe_exp(-tq * sd), coef * safe_exp(tq * sd)],
+                              "description": "h = c·H, c = sqrt(mu0 chi_bar A l^2 / (2 B))"}
+    if hard:
+        m_r = val.get("remanence", c["Mr0"])
+        coef_r = MU0 * m_r * c["A"] * c["L"] ** 2 / B
+        # d log c_r / d log M_r = 1, d log c_r / d log E (or B) = −1
+        g_r = np.array([group_exponent(names[i], "h_r") for i in free])
+        out["h_r_per_field"] = {**_log_interval(coef_r, g_r, cov_x, tq), "unit": "m/A",
+                                "description": "h_r = c_r·H, c_r = mu0 M_r A l^2 / B (THEORY §9)"}
+    # the transverse buckling threshold of THEORY §6 exists for the soft-magnetic rod only (a
+    # remanent torque bends the rod at any field)
+    if abs(math.cos(problem.scene.phi)) < 1e-9 and coef > 0 and not hard:
         hc = math.pi / (2.0 * math.sqrt(2.0))  # THEORY §6, transverse buckling threshold
         out["transverse_critical_field"] = {
             "value": hc / coef, "unit": "A/m", "std": hc / coef * sd,

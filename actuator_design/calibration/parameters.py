@@ -12,13 +12,19 @@ from typing import Dict, Tuple
 
 from ..parameters import PhysicalParameter, physical_parameters
 
-__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "unit_of", "field_coefficient_exponent"]
+__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "FIT_TERMS", "unit_of",
+           "field_coefficient_exponent", "group_exponent"]
 
 #: A fittable parameter is a physical parameter of the lens.
 FitParameter = PhysicalParameter
 
 #: Fittable parameters: the lens's physical parameters (the same mapping, not a copy).
 PARAMETERS: Dict[str, PhysicalParameter] = physical_parameters()
+
+#: The energy terms whose groups the fit map sets (THEORY §5, §9; the positional term h_pos is a
+#: constant in the uniform fields a fit allows): a scene with any other term is refused.
+FIT_TERMS: Tuple[str, ...] = ("bending", "field_orientation", "field_position", "tip_force",
+                              "tip_moment", "distributed_load", "hard_magnetic")
 
 #: Measured output column → (component of the tip vector (θ(1), x(1), y(1)), is a length).
 OUTPUT_COMPONENT: Dict[str, Tuple[int, bool]] = {
@@ -33,5 +39,12 @@ def unit_of(name: str) -> str:
 def field_coefficient_exponent(name: str) -> float:
     """e in c ∝ value^e for the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) (THEORY §5):
     ½ for χ̄, −½ for E or B0, 0 for the field's own measurement model and the clamp angle."""
+    return group_exponent(name, "h")
+
+
+def group_exponent(name: str, slot: str) -> float:
+    """e in (slot group)/H ∝ value^e: the lens exponent of a rod parameter, 0 for the field's own
+    measurement model (it changes H, not the coefficient). h_r/H = μ0 M_r A ℓ²/B: 1 for M_r, −1 for
+    E or B0 (THEORY §9)."""
     p = PARAMETERS[name]
-    return 0.0 if p.through_field else p.exponent("h")
+    return 0.0 if p.through_field else p.exponent(slot)

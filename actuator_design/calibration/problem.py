@@ -2,7 +2,8 @@
 
 For each distinct condition c (field H, field angle, load of a data row) and fitted parameters θ,
 the dimensionless groups of THEORY §5 (h² = μ0 χ̄ H² A ℓ²/(2B), p = P ℓ²/B, …) fill the slots q of
-the NLP parameter vector of the solver built once for the scene structure. The equilibrium z_c is
+the NLP parameter vector of the solver built once for the scene structure; a hard-magnetic rod adds
+h_r = μ0 M_r H A ℓ²/B (THEORY §9), linear in the field and in 1/B. The equilibrium z_c is
 found by damped Newton, warm-started from the condition's previous solution (or, the first time,
 along the conditions sorted by their inputs), on the stable branch closest to the measurements
 (:mod:`.branches`). Rows that share a condition share one forward solve and one sensitivity: the
@@ -122,6 +123,11 @@ class FitProblem:
             if "bending_stiffness" in self.names and rod.bending_stiffness is None:
                 raise ConfigError("study.parameters.bending_stiffness",
                                   "the scene gives rod.youngs_modulus: fit youngs_modulus")
+            mag = self.config.scene.magnetics
+            if "remanence" in self.names and (mag is None or mag.remanent_magnetization is None):
+                raise ConfigError("study.parameters.remanence",
+                                  "the scene has no remanent magnetisation: give "
+                                  "scene.magnetics.remanence (a starting value) to fit it")
         if ("field_scale" in self.names or "field_offset" in self.names) and "field" not in cols:
             name = "field_scale" if "field_scale" in self.names else "field_offset"
             raise DataError(f"{src}: column 'field' missing: study.parameters.{name} needs measured "
@@ -165,9 +171,10 @@ class FitProblem:
             c["E0"] = rod.youngs_modulus
             mag = self.config.scene.magnetics
             c["chi0"] = mag.susceptibilities()[0] if mag is not None else 0.0
+            c["Mr0"] = (mag.remanent_magnetization or 0.0) if mag is not None else 0.0
             c["H0"] = sc.scales.field
         else:
-            c["L"], c["B0"], c["h0"] = 1.0, 1.0, sc.h
+            c["L"], c["B0"], c["h0"], c["h_r0"] = 1.0, 1.0, sc.h, sc.h_r
             c["Href"] = (parse_quantity(self.spec.reference_field, "magnetic_field",
                                         "reference_field")
                          if self.spec.reference_field is not None else None)
@@ -203,7 +210,8 @@ class FitProblem:
             return get_value(self.scene, same_as)
         c = self.const
         return {"chi_bar": lambda: c["chi0"], "youngs_modulus": lambda: c["E0"],
-                "bending_stiffness": lambda: c["B0"], "field_scale": lambda: 1.0,
+                "bending_stiffness": lambda: c["B0"], "remanence": lambda: c["Mr0"],
+                "field_scale": lambda: 1.0,
                 "field_offset": lambda: 0.0, "field_angle_offset": lambda: 0.0}[name]()
 
     # -- symbolic map θ, inputs → NLP slots, and the sensitivity functions ----------------------
@@ -230,10 +238,13 @@ class FitProblem:
                 B = get("bending_stiffness", c["B0"])
             chi = get("chi_bar", c["chi0"])
             h = ca.sqrt(MU0 * chi * c["A"] * c["L"] ** 2 / (2.0 * B)) * H
+            # THEORY §9: linear in M_r, in H and in 1/B (h² is quadratic in H)
+            h_r = MU0 * get("remanence", c["Mr0"]) * c["A"] * c["L"] ** 2 / B * H
         else:
             B = c["B0"]
             hh = get("h", c["h0"])
             h = hh * H / c["Href"] if H is not None else hh
+            h_r = c["h_r0"] * H / c["Href"] if H is not None else c["h_r0"]
         ratio = c["B0"] / B  # dimensionless loads scale with 1/B
         scale_F = c["L"] ** 2 / B if self.kind == "physical" else 1.0
         fx = u[2] * scale_F if "load_x" in cols else c["f0"][0] * ratio
@@ -241,7 +252,7 @@ class FitProblem:
         phi = (u[1] if "field_angle" in cols else c["phi0"]) + get("field_angle_offset", 0.0)
         # the NLP slots a fit may change (lens slots; others keep the scene's value)
         slot_expr = {
-            "h": h, "phi": phi, "fx": fx, "fy": fy, "qx": c["q0"][0] * ratio,
+            "h": h, "h_r": h_r, "phi": phi, "fx": fx, "fy": fy, "qx": c["q0"][0] * ratio,
             "qy": c["q0"][1] * ratio, "m_tip": c["m0"] * ratio,
             "theta0": get("clamp_angle", c["theta00"]),
         }

@@ -4,7 +4,7 @@ A configuration gives the scene (what is known) and a ``study:`` section of ``ty
 the parameters to fit (:mod:`.spec`); a CSV file (:mod:`.data`) holds the measurements.
 
 Fittable parameters (:data:`.parameters.PARAMETERS`): ``chi_bar`` (χ̄), ``youngs_modulus`` (E) or
-``bending_stiffness`` (B0) — physical scenes; ``h`` (the group at ``reference_field``, or the
+``bending_stiffness`` (B0), ``remanence`` (M_r of a hard-magnetic rod, THEORY §9) — physical scenes; ``h`` (the group at ``reference_field``, or the
 scene's h when the data have no field column) — dimensionless scenes; ``clamp_angle`` (θ0), ``field_scale``
 (measured field × scale), ``field_offset`` (added to the measured field) and ``field_angle_offset``
 (added to the field angle) — both.
@@ -35,7 +35,7 @@ from .data import MeasuredData, read_data
 from .identifiability import choose_held, combinations, identifiability_message, null_direction
 from .intervals import (combination_intervals, derived_quantities, natural_covariance,
                         parameter_entries)
-from .parameters import PARAMETERS
+from .parameters import FIT_TERMS, PARAMETERS
 from .problem import FitProblem
 from .result import FitResult
 from .spec import FitSpec
@@ -59,11 +59,10 @@ def prepare_fit(config_source, data_source) -> FitProblem:
         raise ConfigError("study.type", f"a fit needs 'study: {{type: fit, parameters: ...}}', got "
                                         f"{study.get('type')!r}")
     spec = validate_spec(FitSpec, study)
-    # the fit maps parameters to the soft-magnetic groups only (THEORY §5): a remanent term would be
-    # held fixed while the field changes, silently; refuse it until M_r is a fit parameter
-    from ..physics.registry import refuse_unsupported, registered_terms
-    refuse_unsupported(config.to_scene(), [c.name for c in registered_terms() if c.name != "hard_magnetic"],
-                       "fit")
+    # the fit map (problem.FitProblem._build_map) knows the groups of these terms only: another
+    # term's values would be held fixed while the field or the stiffness changes, silently
+    from ..physics.registry import refuse_unsupported
+    refuse_unsupported(config.to_scene(), list(FIT_TERMS), "fit")
     if isinstance(data_source, MeasuredData):
         data = data_source
     else:

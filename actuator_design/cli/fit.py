@@ -1,14 +1,14 @@
 """Fit scene parameters to measured equilibria and report them with confidence intervals.
 
 CONFIG gives the scene (what is known) and a 'study:' section of 'type: fit' naming the
-parameters to fit (chi_bar, youngs_modulus or bending_stiffness, h, clamp_angle, field_scale,
-field_offset, field_angle_offset) with initial values and bounds in units. DATA is a CSV file whose
-header names the columns with their units, e.g. 'field [kA/m], tip_angle [deg]' or
-'field [kA/m], load [mN], tip_deflection [mm]' or 'field [mT], field_angle [deg], tip_x [mm],
-tip_y [mm]'. Each row's equilibrium is solved on the branch the measurement lies on; the
-least-squares fit uses exact sensitivities (implicit function theorem); intervals come from
-s^2 (J^T J)^-1. Parameters the data cannot separate (e.g. chi_bar and E from field data alone) are
-reported, one is held and the identifiable combination is fitted.
+parameters to fit (chi_bar, youngs_modulus or bending_stiffness, remanence of a hard-magnetic rod,
+h, clamp_angle, field_scale, field_offset, field_angle_offset) with initial values and bounds in
+units. DATA is a CSV file whose header names the columns with their units, e.g. 'field [kA/m],
+tip_angle [deg]' or 'field [kA/m], load [mN], tip_deflection [mm]' or 'field [mT], field_angle
+[deg], tip_x [mm], tip_y [mm]'. Each row's equilibrium is solved on the branch the measurement lies
+on; the least-squares fit uses exact sensitivities (implicit function theorem); intervals come from
+s^2 (J^T J)^-1. Parameters the data cannot separate (e.g. chi_bar and E, or remanence and E, from
+field data alone) are reported, one is held and the identifiable combination is fitted.
 
 Units: every value carries its unit (the CSV header, '2 MPa' in the config); results are in SI
 (rad, m, Pa, A/m). In a dimensionless scene lengths are in rod lengths l and loads in B0/l^2.
