@@ -19,10 +19,10 @@ The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-
 is the remanent magnetisation angle β(s) = Σ b_k P_k(2s − 1) of a hard-magnetic rod (THEORY §9: the
 shape-programming problem), with the same number of terms and the same smoothness effort.
 
-Field scaling (THEORY §5, §9): h ∝ H and h_r ∝ H. When ``h`` is designed on a scene with both a
-soft-magnetic h > 0 and a hard-magnetic term, the designed h is the field magnitude and h_r follows
-it, h_r = h_r,scene · h / h_scene (the lens's rule, :func:`~actuator_design.parameters.apply_values`);
-on a scene with h = 0 (a purely hard-magnetic rod) h_r is kept as given.
+Field scaling (THEORY §5, §9): h ∝ H and h_r ∝ H. The design varies h as a group of its own and
+holds h_r at the scene's value (the remanent coupling at the design field; h_r itself is not a design
+variable); the verification's loading path ramps the field H from 0 to the design's, so both groups
+grow linearly along it, h = t·h_d and h_r = t·h_r (:mod:`.design_verify`).
 """
 from __future__ import annotations
 
@@ -134,10 +134,6 @@ class DesignNLP:
         for v in self.vary:  # h, phi, p: their NLP slots from the parameter lens
             if v in _LENS_VARIABLES:
                 P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
-        if "h" in self.vary and "h_r" in lay.slices and "h" in lay.slices:
-            # h_r ∝ H like h (module docstring): the designed h scales h_r unless the scene's h is 0
-            h0, hr0 = P0[lay.slices["h"]], P0[lay.slices["h_r"]]
-            P[lay.slices["h_r"]] = ca.if_else(h0 > 0, hr0 * d[self.dslices["h"]] / (h0 + (h0 <= 0)), hr0)
         self.vandermonde = None
         if self.profiles:
             V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
@@ -259,13 +255,11 @@ class DesignNLP:
 
     def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
         """The forward scene of a design vector (fibres and magnetisation as exact Legendre
-        profiles; a designed h scales h_r as in the NLP, see the module docstring)."""
+        profiles; h_r stays the base scene's, see the module docstring)."""
         sc = base
         for v in self.vary:  # h, phi, p written through the parameter lens
             if v in _LENS_VARIABLES:
                 sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
-        if "h" in self.vary and sc.magnetization is not None and base.h > 0:
-            sc = replace(sc, h_r=base.h_r * float(d[self.dslices["h"]][0]) / base.h)
         if "alpha" in self.vary:
             sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
         if "magnetization" in self.vary:

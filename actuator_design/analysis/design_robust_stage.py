@@ -106,7 +106,9 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
                                           else pt.coefficients),
                             p=float(d[nlp.dslices["p"]][0]) if "p" in nlp.vary else pt.p,
                             z=z, tip=np.array([x, y, th]), converged=True, status=out.point.status,
-                            stage="robust")
+                            stage="robust",
+                            magnetization=(np.asarray(d[nlp.dslices["magnetization"]])
+                                           if "magnetization" in nlp.vary else pt.magnetization))
         if tip_error(moved.tip, target) <= s.reach_tol:
             rob = evaluate_robustness(scene, z, target, tol, options)
             if rob.holds or not nominal.holds:

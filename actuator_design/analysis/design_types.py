@@ -20,7 +20,7 @@ from .design_nlp import DesignNLP, DesignPoint
 from .tolerances import Tolerances
 
 __all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
-           "Choice", "Verification", "normalise_phi", "normalise_tip_angle", "tip_error", "target_error",
+           "Choice", "Verification", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error", "target_error",
            "effort", "rank"]
 
 
@@ -225,9 +225,17 @@ class Verification:
 
 
 # -- target geometry ---------------------------------------------------------------------------------
-def normalise_phi(phi: float) -> float:
-    """The energy is π-periodic in φ (the field acts on its axis): the representative in (−π/2, π/2]."""
-    return float(phi - math.pi * math.ceil((phi - math.pi / 2) / math.pi))
+def normalise_phi(phi: float, period: float = math.pi) -> float:
+    """φ's representative in (−period/2, period/2]: the soft-magnetic energy is π-periodic in φ (the
+    field acts on its axis); with a hard-magnetic term the period is 2π (:func:`phi_period`)."""
+    return float(phi - period * math.ceil((phi - period / 2) / period))
+
+
+def phi_period(scene) -> float:
+    """The period of the energy in the field angle φ: π, or 2π with a hard-magnetic term of h_r ≠ 0
+    (−h_r cos(θ + β − φ) changes sign under H → −H, THEORY §9)."""
+    hard = getattr(scene, "magnetization", None) is not None and getattr(scene, "h_r", 0.0) != 0.0
+    return 2 * math.pi if hard else math.pi
 
 
 def normalise_tip_angle(angle: float) -> float:
