@@ -410,8 +410,9 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
         the magnetisation does nothing).
     """
     if "magnetization" in vary and not scene.h_r > 0:
-        raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence (h_r > 0, or "
-                         "magnetics.remanence / remanent_flux_density) to design the magnetisation profile")
+        raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
+                         "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
+                         "magnetisation profile")
     if ("h" in vary or "phi" in vary) and scene.field is None:
         scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
     try:

@@ -125,7 +125,9 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
     report = RobustReport(best_rob, largest, nominal, out.attempts)
     if not report.holds:
         best_choice.notes.append(report.sentence())
-    elif best_choice is not choice:
+    elif best_choice is not choice and np.max(np.abs(design_vector(nlp, best_choice.point)
+                                                     - design_vector(nlp, pt)), initial=0.0) > 1e-9:
+        # (a determined design, e.g. as many design values as pinned tip values, cannot move)
         best_choice.notes.append(f"moved off the least-effort design to one that holds over the tolerance "
                                  f"box ({tol.describe()}; see robustness)")
     return best_choice, report
