@@ -11,7 +11,7 @@ import numpy as np
 from ..equilibrium import solve
 from ..scene import Scene
 from .design_nlp import DesignNLP, DesignPoint
-from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart
+from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart, phi_period
 
 __all__ = ["screen", "start_grid", "unpack"]
 
@@ -80,7 +80,7 @@ def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np
     hs = (1.5, 3.0, 5.0) if with_alpha else (0.8, 1.4, 2.2, 3.5, 5.5)
     hs = [h for h in hs if h <= settings.h_max] or [settings.h_max]
     n_phi = 8 if with_alpha else 12
-    period = 2 * math.pi if base.magnetization is not None and base.h_r > 0 else math.pi
+    period = phi_period(base)
     phis = np.linspace(-period / 2, period / 2, n_phi + 1)[1:] if "phi" in nlp.vary else [base.phi]
     slopes = [0.0]
     if with_alpha:
