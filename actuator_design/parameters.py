@@ -11,8 +11,8 @@ clamp angle ``theta0`` belongs to the transcription. The registry below collects
 the terms are registered, so a plug-in term's parameters are continued, designed and ramped like
 the built-in ones. Continuation, loading paths, critical values, maps, design and the CLI all look
 names up here: :func:`parameter` is the single source of truth. Entries flagged ``designable`` are
-the inverse design's variables (:func:`designable`; ``alpha``, a per-point profile, is designed as
-a profile α(s)); angles (unit ``rad``) also answer to ``<name>_deg`` on the CLI
+the inverse design's variables (:func:`designable`; the per-point ``alpha`` and ``magnetization``
+are designed as profiles α(s), β(s)); angles (unit ``rad``) also answer to ``<name>_deg`` on the CLI
 (:func:`degree_aliases`).
 
 The lens also holds the unit-carrying *physical* parameters (:class:`PhysicalParameter`,
@@ -204,7 +204,7 @@ def parameter(name: str, what: str = "parameter") -> Parameter:
 
 def designable() -> Dict[str, Parameter]:
     """The inverse design's variables, name -> :class:`Parameter`, in registration order
-    (a ``per_point`` entry such as ``alpha`` is designed as a profile α(s))."""
+    (a ``per_point`` entry such as ``alpha`` or ``magnetization`` is designed as a profile)."""
     return {n: p for n, p in parameters().items() if p.designable}
 
 

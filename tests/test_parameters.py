@@ -132,7 +132,7 @@ def test_the_accepted_lists_are_the_lens_lists_themselves():
 
     designable = lens.designable()
     assert list(DESIGN_VARIABLES) == list(cli_design._VARIABLES) == list(designable) \
-        == ["h", "phi", "alpha", "p"]
+        == ["h", "phi", "alpha", "p", "magnetization"]  # issue 12: β(s) designable too
     assert _LENS_VARIABLES == ("h", "phi", "p") and designable["alpha"].per_point  # α: a profile
     assert FIT_PARAMETERS is lens.physical_parameters()
     assert path._DEGREE_NAMES == {f"{n}_deg": n for n, p in lens.parameters().items() if p.unit == "rad"}

@@ -35,12 +35,12 @@ import numpy as np
 from ..options import SolverOptions
 from ..scene import Scene, default_scene
 from .design_choose import choose
-from .design_nlp import DESIGN_VARIABLES
+from .design_nlp import DESIGN_VARIABLES, prepare_scene
 from .design_optimise import candidate, optimise
 from .design_robust_stage import RobustReport, robust_stage
 from .design_screen import screen
 from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,
-                           normalise_phi, normalise_tip_angle, tip_error)
+                           normalise_phi, normalise_tip_angle, phi_period, tip_error)
 from .design_verify import stiffness_by_differences, verify as verify_stage
 from .registry import register
 
@@ -69,9 +69,11 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
         angle in rad (taken modulo 2π).
     scene : Scene, optional
         Base scene (default: THEORY §5's cantilever with zero field, p = 0, α = 0).
-    vary : sequence of {"h", "phi", "alpha", "p"}, optional
+    vary : sequence of {"h", "phi", "alpha", "p", "magnetization"}, optional
         Design variables; default: (h, φ), adding α(s) if needed (see :data:`AUTO_VARIABLE_SETS`);
-        for a stiffness target alone, h.
+        for a stiffness target alone, h. ``magnetization`` designs the remanent magnetisation
+        angle β(s) of a hard-magnetic rod (THEORY §9; the scene must give h_r > 0), reported as
+        ``design["magnetization"]`` like ``design["alpha"]``.
     options : SolverOptions, optional
         Forward transcription the design satisfies.
     settings : DesignSettings, optional
@@ -127,6 +129,11 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         if unknown or not vary:
             raise ValueError(f"--vary: unknown design variable(s) {unknown} (allowed: {', '.join(DESIGN_VARIABLES)})")
         sets = (tuple(vary),)
+        if "magnetization" in vary:
+            prepare_scene(base, vary)  # one clear error up front when the remanence is missing
+            if not (0 < settings.magnetization_max <= math.pi + 1e-12):
+                raise ValueError(f"magnetization_max must lie in (0, 180] deg, got "
+                                 f"{math.degrees(settings.magnetization_max):g} deg")
     elif not target:
         sets = (("h",),)
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
@@ -183,9 +190,14 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
         success=False, reachable=choice.reachable, verified=False, stable=False, snap_free=False, target=target,
         achieved={"x": best.tip[0], "y": best.tip[1], "angle": best.tip[2]},
         error=tip_error(best.tip, target) if target else 0.0,
-        design={"h": best.h, "phi": normalise_phi(best.phi) if "phi" in vary else best.phi, "p": best.p,
+        design={"h": best.h, "phi": normalise_phi(best.phi, phi_period(choice.scene)) if "phi" in vary
+                else best.phi, "p": best.p,
                 "alpha": {"s": s_dense.tolist(), "value": choice.scene.fibres(s_dense).tolist(),
-                          "legendre_coefficients": [float(c) for c in best.coefficients]}},
+                          "legendre_coefficients": [float(c) for c in best.coefficients]},
+                # the remanent magnetisation angle β(s), rad, when it is designed (THEORY §9)
+                **({"magnetization": {"s": s_dense.tolist(), "value": choice.scene.magnetization(s_dense).tolist(),
+                                      "legendre_coefficients": [float(c) for c in best.magnetization]},
+                    "h_r": float(choice.scene.h_r)} if "magnetization" in vary else {})},
         vary=vary, schedule=[], message="", scene=problem.base, design_scene=choice.scene, optima=choice.optima,
         alternatives=choice.alternatives, timings=timings, stiffness_target=stiffness,
         achieved_stiffness=getattr(best, "stiffness", None),
@@ -224,10 +236,12 @@ def _take_verified(result: DesignResult, problem: DesignProblem, v: Verification
     result.stable = bool(final.stable)
     result.snap_free = bool(v.path.snap_free)
     result.stability_margin = float(final.eigenvalues[0])
-    # one shift by a multiple of π for the whole schedule keeps a rotating field continuous
-    # (the energy is π-periodic in φ, so the end angle is equivalent to the design's φ)
-    shift = normalise_phi(float(v.schedule[0]["phi"])) - float(v.schedule[0]["phi"])
+    # one shift by a multiple of the period for the whole schedule keeps a rotating field continuous
+    # (the energy is π-periodic in φ, 2π with a hard-magnetic term: the end angle is equivalent)
+    phi0 = float(v.schedule[0]["phi"])
+    shift = normalise_phi(phi0, phi_period(result.design_scene)) - phi0
     result.schedule = [{"h": float(s["h"]), "phi": float(s["phi"]) + shift,
+                        **({"h_r": float(s["h_r"])} if "h_r" in s else {}),
                         **({"p": float(s["p"])} if "p" in s else {})} for s in v.schedule]
     result.verified = True
     notes.append(f"verified by a loading path from zero field: {v.label}")
@@ -246,7 +260,9 @@ def _no_design(problem: DesignProblem, timings: Dict[str, float]) -> DesignResul
     """The result when no variable set produced a stable optimum within the bounds."""
     b, last = problem.settings.bounds(), problem.variable_sets[-1]
     limits = ", ".join([f"h <= {b['h_max']:g}"] + ([f"|p| <= {b['p_max']:g}"] if "p" in last else [])
-                       + ([f"|alpha| <= {math.degrees(b['alpha_max']):g} deg"] if "alpha" in last else []))
+                       + ([f"|alpha| <= {math.degrees(b['alpha_max']):g} deg"] if "alpha" in last else [])
+                       + ([f"|magnetization| <= {math.degrees(b['magnetization_max']):g} deg"]
+                          if "magnetization" in last else []))
     hint = (" (in an axial field the straight rod only stiffens: its stiffness is at least s(0) = 3 "
             "B0/l^3, THEORY §6)" if problem.stiffness is not None and not problem.target else "")
     return DesignResult(success=False, reachable=False, verified=False, stable=False, snap_free=False,
@@ -269,5 +285,5 @@ def run_design(scene, options, target=None, vary=None, stiffness=None, **setting
     res = design(target, scene=scene, vary=vary, options=options, settings=DesignSettings(**settings),
                  stiffness=stiffness)
     out = res.to_dict()
-    out["design"] = {k: v for k, v in out["design"].items() if k != "alpha"}
+    out["design"] = {k: v for k, v in out["design"].items() if k not in ("alpha", "magnetization")}
     return out

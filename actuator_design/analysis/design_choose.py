@@ -9,7 +9,7 @@ from typing import Dict, List, Optional
 from .design_nlp import DesignPoint, DesignRequest
 from .design_optimise import candidate, design_vector, optimise
 from .design_screen import screen
-from .design_types import Choice, DesignProblem, Optimised, normalise_phi, target_error, tip_error
+from .design_types import Choice, DesignProblem, Optimised, normalise_phi, phi_period, target_error, tip_error
 
 __all__ = ["choose", "optimum_dict"]
 
@@ -67,7 +67,8 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
             alternatives = _try_alternative(problem, cand.vary)
             if alternatives.get("with_fibre_layout"):
                 notes.append(f"adding the fibre layout would reach it: --vary {','.join(cand.vary)},alpha")
-    optima = [optimum_dict(opt.candidate.vary, pt, target) for opt in searched for pt in opt.optima]
+    optima = [optimum_dict(opt.candidate.vary, pt, target, phi_period(opt.candidate.base))
+              for opt in searched for pt in opt.optima]
     return Choice(point=best, candidate=cand, scene=cand.nlp.scene_for(cand.base, design_vector(cand.nlp, best)),
                   reachable=reachable, notes=notes, alternatives=alternatives, optima=optima)
 
@@ -79,10 +80,13 @@ def _try_alternative(problem: DesignProblem, vary) -> Dict[str, bool]:
     return {"with_fibre_layout": opt.reaches(problem)}
 
 
-def optimum_dict(vary, pt: DesignPoint, target) -> Dict[str, object]:
-    """One entry of the ``optima`` list of the JSON contract (φ reported in (−π/2, π/2])."""
-    out = {"vary": list(vary), "h": pt.h, "phi": normalise_phi(pt.phi), "p": pt.p,
+def optimum_dict(vary, pt: DesignPoint, target, period: float = math.pi) -> Dict[str, object]:
+    """One entry of the ``optima`` list of the JSON contract (φ reported in (−period/2, period/2];
+    ``magnetization_coefficients`` only when the magnetisation profile is designed)."""
+    out = {"vary": list(vary), "h": pt.h, "phi": normalise_phi(pt.phi, period), "p": pt.p,
            "alpha_coefficients": [float(c) for c in pt.coefficients],
+           **({"magnetization_coefficients": [float(c) for c in pt.magnetization]}
+              if "magnetization" in vary else {}),
            "tip": {"x": float(pt.tip[0]), "y": float(pt.tip[1]), "angle": float(pt.tip[2])},
            "error": tip_error(pt.tip, target) if target else 0.0, "stage": pt.stage}
     if getattr(pt, "stiffness", None) is not None:

@@ -2,23 +2,32 @@
 
 One CasADi NLP per (scene structure, design variables, fibre-series length):
 
-    variables   x = (θ_1 … θ_n, d)         θ at the free nodes; d = (h, φ, c_0 … c_K, p) as chosen
+    variables   x = (θ_1 … θ_n, d)         θ at the free nodes; d = (h, φ, c_0 … c_K, p, b_0 … b_K)
+                                            as chosen (c: fibre layout α, b: magnetisation β)
     equilibrium ∇Ê(θ; P(d)) / m = 0         the forward transcription's stationarity (THEORY §4–5)
     stability   pivots of M^-½ H_r M^-½ − μ I ≥ 0
                                             an LDLᵀ certificate that λ_min(H_r, M) ≥ μ (THEORY §7)
     tip         tip(θ) − target ∈ [lo, hi]  free in stage A, pinned in stage B
-    bounds      0 ≤ h ≤ h_max, |α(s_q)| ≤ α_max at the quadrature points, |p| ≤ p_max
+    bounds      0 ≤ h ≤ h_max, |α(s_q)| ≤ α_max and |β(s_q)| ≤ β_max at the quadrature points,
+                |p| ≤ p_max
     objective   w_tip·½|W (tip − target)|² + w_eff·effort
 
 Stage A (w_tip = 1, tiny w_eff, tip free) finds the nearest reachable pose; stage B (w_tip = 0,
 w_eff = 1, tip pinned) finds the least-effort design that reaches it. The numbers (target, weights,
 margin, bounds) are NLP parameters or bounds, so every multi-start and both stages share one build.
-The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-parameter layout).
+The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-parameter layout); so
+is the remanent magnetisation angle β(s) = Σ b_k P_k(2s − 1) of a hard-magnetic rod (THEORY §9: the
+shape-programming problem), with the same number of terms and the same smoothness effort.
+
+Field scaling (THEORY §5, §9): h ∝ H and h_r ∝ H. The design varies h as a group of its own and
+holds h_r at the scene's value (the remanent coupling at the design field; h_r itself is not a design
+variable); the verification's loading path ramps the field H from 0 to the design's, so both groups
+grow linearly along it, h = t·h_d and h_r = t·h_r (:mod:`.design_verify`).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import casadi as ca
@@ -30,14 +39,17 @@ from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 
-__all__ = ["DESIGN_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
+__all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
 #: Design variables a user may vary (the lens entries flagged designable, in registration order:
-#: h, phi, alpha, p) and what each means; a per-point entry (alpha) is designed as a profile α(s),
-#: a Legendre series, the others are scalars written into their NLP slots.
+#: h, phi, alpha, p, magnetization) and what each means; a per-point entry (alpha, magnetization)
+#: is designed as a profile, a Legendre series, the others are scalars written into their NLP slots.
 DESIGN_VARIABLES = {n: (f"{n}(s), a Legendre series" if p.per_point else p.description) + f" ({p.unit})"
                     for n, p in lens.designable().items()}
 _LENS_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
+#: The designed profiles (per-point lens entries) and their bound's key in ``DesignRequest.bounds``.
+PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point)
+PROFILE_BOUNDS = {"alpha": "alpha_max", "magnetization": "magnetization_max"}
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
 _LBFGS_CERTIFIED = True
@@ -56,6 +68,8 @@ class DesignPoint:
     converged: bool
     status: str
     stage: str
+    #: Legendre coefficients of β(s) (rad); empty when the magnetisation is not designed
+    magnetization: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def _ldl_pivots(A: ca.SX, bandwidth: int) -> List[ca.SX]:
@@ -90,13 +104,15 @@ class DesignNLP:
     options : SolverOptions
         Forward transcription (the design satisfies exactly its equilibrium equations).
     alpha_terms : int
-        Number of Legendre coefficients of α(s) when ``"alpha"`` is varied.
+        Number of Legendre coefficients of α(s) when ``"alpha"`` is varied, and of β(s) when
+        ``"magnetization"`` is varied.
     """
 
     def __init__(self, scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int = 4):
         t0 = time.perf_counter()
         self.vary = tuple(v for v in DESIGN_VARIABLES if v in vary)
-        self.alpha_terms = int(alpha_terms) if "alpha" in self.vary else 0
+        self.profiles = tuple(v for v in self.vary if v in PROFILE_VARIABLES)
+        self.alpha_terms = int(alpha_terms) if self.profiles else 0
         self.options = options
         self.solver: EquilibriumSolver = get_solver(scene, options)
         sv = self.solver
@@ -119,10 +135,11 @@ class DesignNLP:
             if v in _LENS_VARIABLES:
                 P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
         self.vandermonde = None
-        if "alpha" in self.vary:
+        if self.profiles:
             V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
             self.vandermonde = V
-            P[lay.slices["alpha"]] = ca.mtimes(ca.DM(V), d[self.dslices["alpha"]])
+        for v in self.profiles:  # α → slot "alpha", β → slot "beta"
+            P[lay.slices[lens.parameter(v).slot]] = ca.mtimes(ca.DM(V), d[self.dslices[v]])
 
         E, g, H = sv.f_grad_hess(zr, P)
         m = tr.mass[1:]
@@ -137,8 +154,8 @@ class DesignNLP:
             effort += d[self.dslices["h"]] ** 2
         if "p" in self.vary:
             effort += d[self.dslices["p"]] ** 2
-        if "alpha" in self.vary:
-            c = d[self.dslices["alpha"]]
+        for v in self.profiles:
+            c = d[self.dslices[v]]
             k = np.arange(self.alpha_terms, dtype=float)
             # smoothness: ∫ α'² ds grows like k² c_k²; penalise variation, not the mean angle
             effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
@@ -161,10 +178,10 @@ class DesignNLP:
             stiffness_target = ca.SX.sym("stiffness_target")
             sens_rows = (ca.mtimes(H, w_sens) + dg_dfy) / ca.DM(m)
 
-        alpha_rows = []
-        if "alpha" in self.vary:
-            alpha_rows = [ca.mtimes(ca.DM(self.vandermonde), d[self.dslices["alpha"]])]
-        self.n_alpha_rows = self.vandermonde.shape[0] if alpha_rows else 0
+        # profile bound rows: α at the quadrature points, then β (in the order of self.profiles)
+        alpha_rows = [ca.mtimes(ca.DM(self.vandermonde), d[self.dslices[v]]) for v in self.profiles]
+        self.n_profile_rows = self.vandermonde.shape[0] if alpha_rows else 0
+        self.n_alpha_rows = self.n_profile_rows * len(alpha_rows)
         self._parts = dict(x=ca.vertcat(zr, d),
                            p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
                            eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows),
@@ -214,27 +231,39 @@ class DesignNLP:
         return self._nlp[key]
 
     # -- helpers --------------------------------------------------------------------------------
-    def design_vector(self, h=None, phi=None, coefficients=None, p=None) -> np.ndarray:
+    def design_vector(self, h=None, phi=None, coefficients=None, p=None, magnetization=None) -> np.ndarray:
+        """The design vector, shape (nd,), from the design values (``coefficients``: α's Legendre
+        coefficients, ``magnetization``: β's; missing trailing coefficients are 0)."""
         d = np.zeros(self.nd)
         for name, val in (("h", h), ("phi", phi), ("p", p)):
             if name in self.vary:
                 d[self.dslices[name]] = val
-        if "alpha" in self.vary:
-            c = np.zeros(self.alpha_terms)
-            if coefficients is not None:
-                cc = np.asarray(coefficients, float)[: self.alpha_terms]
-                c[: cc.size] = cc
-            d[self.dslices["alpha"]] = c
+        for name, coeffs in (("alpha", coefficients), ("magnetization", magnetization)):
+            if name in self.vary:
+                c = np.zeros(self.alpha_terms)
+                if coeffs is not None:
+                    cc = np.asarray(coeffs, float).ravel()[: self.alpha_terms]
+                    c[: cc.size] = cc
+                d[self.dslices[name]] = c
         return d
 
+    def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
+        lim = np.concatenate([np.full(self.n_profile_rows, bounds.get(PROFILE_BOUNDS[v], np.inf))
+                              for v in self.profiles] or [np.zeros(0)])
+        return -lim, lim
+
     def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
-        """The forward scene of a design vector (fibres as an exact Legendre profile)."""
+        """The forward scene of a design vector (fibres and magnetisation as exact Legendre
+        profiles; h_r stays the base scene's, see the module docstring)."""
         sc = base
         for v in self.vary:  # h, phi, p written through the parameter lens
             if v in _LENS_VARIABLES:
                 sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
         if "alpha" in self.vary:
             sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
+        if "magnetization" in self.vary:
+            sc = replace(sc, magnetization=legendre_profile(d[self.dslices["magnetization"]]))
         return sc
 
     def solve(self, base: Scene, x0_theta: np.ndarray, d0: np.ndarray, req: "DesignRequest",
@@ -271,7 +300,8 @@ class DesignNLP:
         return 1.0 / compliance if compliance != 0.0 else float("inf")
 
     def _dvec(self, pt: DesignPoint) -> np.ndarray:
-        return self.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p)
+        return self.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
+                                  magnetization=pt.magnetization)
 
     def _solve(self, base, x0_theta, d0, req: "DesignRequest", certified: bool) -> DesignPoint:
         sv = self.solver
@@ -301,11 +331,9 @@ class DesignNLP:
             ubx[self.n + self.dslices["p"].start] = b["p_max"]
         n_piv = self.n if certified else 0
         n_sens = self.n + 1 if stiff else 0
-        a_max = b.get("alpha_max", np.inf)
-        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf),
-                              np.full(self.n_alpha_rows, -a_max)])
-        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf),
-                              np.full(self.n_alpha_rows, a_max)])
+        lo_prof, hi_prof = self.profile_bounds(b)
+        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf), lo_prof])
+        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf), hi_prof])
         if req.stage == "B" and req.target is not None:
             k = self.n + n_sens + n_piv
             lbg[k:k + 2] = ubg[k:k + 2] = 0.0
@@ -320,12 +348,14 @@ class DesignNLP:
         theta0 = P0[sv.layout.slices["theta0"]][0]
         tip = np.asarray(self.f_tip(zr, d, P0), float).ravel()
         coeffs = d[self.dslices["alpha"]] if "alpha" in self.vary else np.zeros(0)
+        beta = d[self.dslices["magnetization"]] if "magnetization" in self.vary else np.zeros(0)
         get = lambda name, default: float(d[self.dslices[name]][0]) if name in self.vary else default
         status = str(st.get("return_status"))
         return DesignPoint(h=get("h", base.h), phi=get("phi", base.phi), coefficients=coeffs,
                            p=get("p", base.p), z=np.concatenate([[theta0], zr]), tip=tip,
                            converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
-                           status=status, stage=req.stage + ("+certificate" if certified else ""))
+                           status=status, stage=req.stage + ("+certificate" if certified else ""),
+                           magnetization=beta)
 
 
 @dataclass
@@ -335,7 +365,7 @@ class DesignRequest:
     target : (x, y) or (x, y, angle) or None (no pose target, e.g. stiffness only)
     stage : "A" (nearest pose: least squares) or "B" (least effort with the target pinned)
     margin : stability margin μ (λ_min(H_r, M) ≥ μ)
-    bounds : h_max, p_max, alpha_max
+    bounds : h_max, p_max, alpha_max, magnetization_max (|β(s)| bound, rad)
     d_prev, w_rate : previous design and weight of the rate term w_rate·|d − d_prev|²
     stiffness : target tip stiffness dp/dv1 (units of B0/ℓ³), or None
     """
@@ -361,7 +391,7 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
     from ..physics.terms import build_terms, structure_key
 
     key = (structure_key(build_terms(scene)), tuple(sorted(vary)), options.transcription, options.elements,
-           options.degree, alpha_terms if "alpha" in vary else 0)
+           options.degree, alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
     if key not in _CACHE:
         _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms)
     return _CACHE[key]
@@ -369,8 +399,20 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
 
 def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
     """Make sure the scene contains the terms the design varies (through the parameter lens: a
-    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``) and a fibre
-    profile the Legendre series can replace for ``alpha``."""
+    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``, the
+    hard-magnetic term for ``magnetization``) and a profile the Legendre series can replace for
+    ``alpha`` and ``magnetization``.
+
+    Raises
+    ------
+    ValueError
+        ``magnetization`` varied on a scene with h_r = 0 (the remanence must be given: without it
+        the magnetisation does nothing).
+    """
+    if "magnetization" in vary and not scene.h_r > 0:
+        raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
+                         "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
+                         "magnetisation profile")
     if ("h" in vary or "phi" in vary) and scene.field is None:
         scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
     try:
@@ -379,4 +421,6 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
         raise ValueError(f"--vary {err}") from None
     if "alpha" in vary and scene.fibres.kind not in ("constant", "legendre"):
         scene = replace(scene, fibres=constant_profile(0.0))
+    if "magnetization" in vary and scene.magnetization.kind not in ("constant", "legendre"):
+        scene = replace(scene, magnetization=constant_profile(0.0))
     return scene

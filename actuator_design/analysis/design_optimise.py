@@ -10,7 +10,7 @@ from typing import List
 import numpy as np
 
 from .design_nlp import DesignNLP, DesignPoint, DesignRequest, get_design_nlp, prepare_scene
-from .design_types import Candidate, DesignProblem, Optimised, ScreenedStart, normalise_phi, tip_error
+from .design_types import Candidate, DesignProblem, Optimised, ScreenedStart, normalise_phi, phi_period, tip_error
 
 __all__ = ["candidate", "optimise", "design_vector"]
 
@@ -70,19 +70,24 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
             if stiffness is not None:
                 best.stiffness = nlp.stiffness(base, best)
             optima.append(best)
-    return Optimised(cand, sorted(_distinct(nlp, optima), key=problem.rank), out_of_time)
+    return Optimised(cand, sorted(_distinct(nlp, base, optima), key=problem.rank), out_of_time)
 
 
 def design_vector(nlp: DesignNLP, pt: DesignPoint) -> np.ndarray:
     """The design vector, shape (nlp.nd,), of a design point."""
-    return nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p)
+    return nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
+                             magnetization=pt.magnetization)
 
 
-def _distinct(nlp: DesignNLP, optima: List[DesignPoint]) -> List[DesignPoint]:
-    """Drop repeats: same shape and same design, with φ compared modulo π (the energy's period)."""
+def _distinct(nlp: DesignNLP, base, optima: List[DesignPoint]) -> List[DesignPoint]:
+    """Drop repeats: same shape and same design, with φ compared modulo the energy's period (π, or
+    2π with a hard-magnetic term)."""
     def key(pt):
-        return nlp.design_vector(h=pt.h, phi=normalise_phi(pt.phi), coefficients=pt.coefficients, p=pt.p)
+        phi = normalise_phi(pt.phi, period)  # φ compared modulo the energy's period
+        return nlp.design_vector(h=pt.h, phi=phi, coefficients=pt.coefficients, p=pt.p,
+                                 magnetization=pt.magnetization)
 
+    period = phi_period(base)
     out: List[DesignPoint] = []
     for pt in optima:
         if all(np.max(np.abs(key(pt) - key(q))) > 1e-4 or np.max(np.abs(pt.z - q.z)) > 1e-4 for q in out):

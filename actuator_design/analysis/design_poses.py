@@ -29,10 +29,10 @@ from ..options import SolverOptions
 from ..scene import Scene
 from .design import design_problem, search
 from .design_choose import choose
-from .design_nlp import DesignPoint
+from .design_nlp import PROFILE_VARIABLES, DesignPoint
 from .design_optimise import design_vector
 from .design_robust import pose_designs, robustify
-from .design_types import Choice, DesignSettings, normalise_phi, tip_error
+from .design_types import Choice, DesignSettings, normalise_phi, phi_period, tip_error
 from .design_verify import verify as verify_stage
 from .robustness import Robustness, evaluate_robustness
 from .tolerances import Tolerances
@@ -73,7 +73,8 @@ class PoseResult:
 class MultiPoseResult:
     """Outcome of :func:`design_poses`; :meth:`to_dict` is the ``design --json`` contract for several
     poses: ``poses`` (each with ``target``, ``achieved``, ``design`` {h, phi, p}, ``robustness``) and
-    the shared ``design.alpha``."""
+    the shared ``design.alpha`` (and ``design.magnetization`` when the magnetisation profile β(s)
+    is designed: one remanent profile shared by every pose, THEORY §9)."""
 
     success: bool
     poses: List[PoseResult]
@@ -86,6 +87,7 @@ class MultiPoseResult:
     tolerances: Optional[Tolerances]
     scenes: List[Scene] = field(default_factory=list)
     timings: Dict[str, float] = field(default_factory=dict)
+    magnetization: Optional[Dict[str, object]] = None
 
     @property
     def reachable(self) -> bool:
@@ -97,7 +99,8 @@ class MultiPoseResult:
 
     def to_dict(self) -> dict:
         return {"success": bool(self.success), "reachable": self.reachable, "robust": self.robust,
-                "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha},
+                "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha, **({"magnetization": self.magnetization}
+                                                               if self.magnetization is not None else {})},
                 "vary": list(self.vary), "schedule": self.schedule, "transitions": self.transitions,
                 "message": self.message,
                 "tolerances": None if self.tolerances is None else self.tolerances.to_dict(),
@@ -122,7 +125,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     scene : Scene, optional
         Base scene (default: THEORY §5's cantilever). A fibre layout given in it is kept unless
         ``vary`` includes ``alpha``.
-    vary : sequence of {"h", "phi", "alpha", "p"}, optional
+    vary : sequence of {"h", "phi", "alpha", "p", "magnetization"}, optional
         Default (h, φ, α) — (h, φ) when the scene's fibres are fixed; α is shared by all poses, the
         others are one per pose.
     options, settings : as for :func:`~.design.design` (``settings.tolerances``: the box every pose
@@ -154,17 +157,17 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
         return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
                      tol, timings)
     nlp, base = ch1.candidate.nlp, ch1.candidate.base
-    coeffs = ch1.point.coefficients
+    coeffs, beta = ch1.point.coefficients, ch1.point.magnetization
     d_list, z_list = [design_vector(nlp, ch1.point)], [ch1.point.z]
-    fixed = replace(base, fibres=ch1.scene.fibres)
-    per_pose = tuple(v for v in vset if v != "alpha")
+    fixed = replace(base, fibres=ch1.scene.fibres, magnetization=ch1.scene.magnetization)
+    per_pose = tuple(v for v in vset if v not in PROFILE_VARIABLES)  # the profiles are shared
     for k, tgt in enumerate(targets[1:], start=2):
         pk = design_problem(tgt, fixed, per_pose, options, replace(settings, tolerances=no_box), None, t0)
         ck = choose(pk, search(pk, timings))
         if ck is None:
             return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings)
         pt = ck.point
-        d_list.append(nlp.design_vector(h=pt.h, phi=pt.phi, p=pt.p, coefficients=coeffs))
+        d_list.append(nlp.design_vector(h=pt.h, phi=pt.phi, p=pt.p, coefficients=coeffs, magnetization=beta))
         z_list.append(pt.z)
     timings["single_poses"] = time.perf_counter() - t0
     s = settings
@@ -203,12 +206,16 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     s_dense = np.linspace(0.0, 1.0, 201)
     alpha = {"s": s_dense.tolist(), "value": scenes[0].fibres(s_dense).tolist(),
              "legendre_coefficients": [float(c) for c in (point.d[:snlp.n_alpha] if snlp.n_alpha else coeffs)]}
+    magnetization = None
+    if "magnetization" in vset:
+        magnetization = {"s": s_dense.tolist(), "value": scenes[0].magnetization(s_dense).tolist(),
+                         "legendre_coefficients": [float(c) for c in point.d[snlp.n_alpha:snlp.n_shared]]}
     timings["total"] = time.perf_counter() - t0
     head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok
             else "NOT a success")
     return MultiPoseResult(ok, poses, alpha, vset, schedule, transitions, "; ".join([head] + notes), first.base,
                            tol if tol.active else None, scenes=scenes,
-                           timings=timings)
+                           timings=timings, magnetization=magnetization)
 
 
 def _joint_nominal(nlp, base, d_list, z_list, targets, settings, fractions=(0.25, 0.5, 0.75, 1.0)):
@@ -245,7 +252,9 @@ def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, t
         dp = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi),
                          coefficients=np.asarray(dv[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else
                          np.zeros(0), p=get("p", sc.p), z=z, tip=np.array([x, y, th]), converged=True,
-                         status="joint", stage="poses")
+                         status="joint", stage="poses",
+                         magnetization=(np.asarray(dv[nlp.dslices["magnetization"]])
+                                        if "magnetization" in nlp.vary else np.zeros(0)))
         rob = evaluate_robustness(sc, z, tgt, tol, problem.options) if tol.active else None
         verified, stable, snap_free, label, sched, ach = False, False, False, "not verified (skipped)", [], \
             {"x": x, "y": y, "angle": th}
@@ -261,10 +270,10 @@ def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, t
                 state = final
                 verified, stable, snap_free = True, bool(final.stable), bool(v.path.snap_free)
                 ach = {"x": final.tip["x"], "y": final.tip["y"], "angle": final.tip["angle"]}
-                sched = [{"h": float(q["h"]), "phi": float(q["phi"]), **({"p": float(q["p"])} if "p" in q else {})}
-                         for q in v.schedule]
+                sched = [{"h": float(q["h"]), "phi": float(q["phi"]),
+                          **{k_: float(q[k_]) for k_ in ("h_r", "p") if k_ in q}} for q in v.schedule]
         out.append(PoseResult(tgt, ach, tip_error((ach["x"], ach["y"], ach["angle"]), tgt),
-                              {"h": dp.h, "phi": normalise_phi(dp.phi), "p": dp.p}, rob, verified, stable,
+                              {"h": dp.h, "phi": normalise_phi(dp.phi, phi_period(sc)), "p": dp.p}, rob, verified, stable,
                               snap_free, sched, label, z, state))
     return out
 
@@ -274,7 +283,6 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
     that lands on the next pose's state; falls back to ramping the field down and the next pose's
     verified schedule from rest."""
     from .loading import follow_path
-    from .schedule import nearest_axis_angle
 
     tv = time.perf_counter()
     sched = [dict(q, pose=1) for q in poses[0].schedule]
@@ -282,9 +290,15 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
     for k in range(1, len(poses)):
         prev, nxt = sched[-1], poses[k]
         # the rod at pose k, as the previous leg left it, in pose k's scene (same rod, its field)
-        phi_next = nearest_axis_angle(nxt.design["phi"], prev["phi"])
-        leg = [{"h": prev["h"], "phi": prev["phi"]}, {"h": nxt.design["h"], "phi": phi_next}]
+        # the same field modulo the energy's period in φ (π; 2π with a hard-magnetic term) nearest
+        # the previous angle; h_r (∝ H, THEORY §9) moves with the field like h
+        phi_next = prev["phi"] + normalise_phi(nxt.design["phi"] - prev["phi"], phi_period(scenes[k]))
+        hard = "h_r" in prev
+        leg = [{"h": prev["h"], "phi": prev["phi"], **({"h_r": prev["h_r"]} if hard else {})},
+               {"h": nxt.design["h"], "phi": phi_next, **({"h_r": float(scenes[k].h_r)} if hard else {})}]
         start_scene = scenes[k - 1].with_values(h=prev["h"], phi=prev["phi"])
+        if hard:
+            start_scene = replace(start_scene, h_r=prev["h_r"])
         path = follow_path(start_scene, problem.options, leg, initial=poses[k - 1].z, max_dtheta=0.3)
         tip = path.final.tip if path.final is not None and path.final.success else None
         first = path.points[0].tip if path.points else None
@@ -296,7 +310,8 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
             labels.append(f"pose {k + 1}: straight from pose {k}'s field, rotating "
                           f"{math.degrees(phi_next - prev['phi']):+.3g} deg")
             continue
-        down = [{"h": prev["h"] * t, "phi": prev["phi"], "pose": k} for t in np.linspace(1, 0, 6)[1:]]
+        down = [{"h": prev["h"] * t, "phi": prev["phi"], **({"h_r": prev["h_r"] * t} if hard else {}), "pose": k}
+                for t in np.linspace(1, 0, 6)[1:]]
         sched += down + [dict(q, pose=k + 1) for q in nxt.schedule]
         labels.append(f"pose {k + 1}: field down to zero, then its own schedule from rest ({nxt.label})")
     timings["transitions"] = time.perf_counter() - tv

@@ -25,37 +25,39 @@ a design holds is known when the full box fails.
 
 P_kc(d) maps the design vector and the corner's offsets (NLP parameters, so the box can change
 without a rebuild) to the forward NLP's parameter vector, with the scalings of :mod:`.tolerances`:
-h × k_h, h_r × k_r (∝ H/E, THEORY §9), loads × k_p, φ, α and θ0 shifted.
+h × k_h, h_r × k_hr (∝ H/E, THEORY §9), loads × k_p, φ, α and θ0 shifted.
 """
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, List, Optional, Sequence
 
 import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
-from ..scene import Scene
+from ..profiles import constant_profile
+from ..scene import Scene, default_scene
 from .design_nlp import _LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots
-from .tolerances import Tolerances, perturb
+from .tolerances import Tolerances, apply_deltas, perturb
 
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
            "pose_designs"]
 
 #: load slots (∝ 1/E, THEORY §5: the lens's groups of youngs_modulus): fx, fy, m_tip, qx, qy
-#: dead loads: ∝ 1/E (the remanent group h_r ∝ H/E is scaled on its own, by k_r)
+#: dead loads: ∝ 1/E (the remanent group h_r ∝ H/E is scaled on its own, by k_hr)
 _LOADS = tuple(s for s, e in lens.physical_parameter("youngs_modulus").groups if e == -1.0 and s != "h_r")
 _PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set per pose
+_N_OFFSETS = 6  # numbers per corner scenario (see _corner_offsets)
 
 
 @dataclass
 class ScenarioPoint:
     """One solve of the scenario NLP.
 
-    d : the full design vector (shared α coefficients, then h, φ, p of each pose as varied).
+    d : the full design vector (shared α, then β coefficients, then h, φ, p of each pose as varied).
     z : θ at all nodes per pose and scenario, z[k][c] (c = 0 nominal, then the corners).
     worst_error : per pose, max over corners of |tip − target| (units of ℓ), from the NLP's states.
     """
@@ -69,19 +71,28 @@ class ScenarioPoint:
 
 
 def _corner_offsets(tol: Tolerances, scale: float) -> List[Dict[str, float]]:
-    """Per corner: k_h (factor on h), k_p (factor on loads), dphi, dalpha, dtheta0, k_r (on h_r)."""
+    """Per corner: k_h (factor on h), k_p (factor on loads), dphi, dalpha, dtheta0, k_hr (factor on
+    h_r = μ0 M_r H A ℓ²/B0 ∝ H/E, THEORY §9)."""
     out = []
     for c in tol.corners():
         g = {a: c.get(a, 0.0) * getattr(tol, a) * scale for a in
              ("field_rel", "angle", "youngs_rel", "chi_rel", "fibre_angle", "clamp_angle")}
         out.append({"k_h": (1 + g["field_rel"]) * math.sqrt((1 + g["chi_rel"]) / (1 + g["youngs_rel"])),
                     "k_p": 1.0 / (1 + g["youngs_rel"]), "dphi": g["angle"], "dalpha": g["fibre_angle"],
-                    "dtheta0": g["clamp_angle"], "k_r": (1 + g["field_rel"]) / (1 + g["youngs_rel"])})
+                    "dtheta0": g["clamp_angle"], "k_hr": _h_r_factor(g)})
     return out
 
 
+def _h_r_factor(deltas: Dict[str, float]) -> float:
+    """The factor on h_r of a corner, read off the forward check's own perturbation
+    (:func:`~.tolerances.apply_deltas`) so that the scenario NLP and the branch-following check of
+    :mod:`.robustness` see the same corner scenes (physically h_r ∝ H/E, THEORY §9)."""
+    probe = replace(default_scene(h=1.0), h_r=1.0, magnetization=constant_profile(0.0))
+    return float(apply_deltas(probe, {a: v for a, v in deltas.items() if a not in ("angle", "fibre_angle")}).h_r)
+
+
 class ScenarioDesignNLP:
-    """The multi-scenario design NLP: K poses sharing α(s), C corners each.
+    """The multi-scenario design NLP: K poses sharing α(s) (and β(s) when designed), C corners each.
 
     Parameters
     ----------
@@ -101,10 +112,12 @@ class ScenarioDesignNLP:
         self.n = n
         self.per_pose = tuple(v for v in _PER_POSE if v in base.vary)
         self.n_alpha = base.alpha_terms if "alpha" in base.vary else 0
-        self.nd = self.n_alpha + K * len(self.per_pose)
+        self.n_beta = base.alpha_terms if "magnetization" in base.vary else 0
+        self.n_shared = self.n_alpha + self.n_beta  # the shared profiles: α, then β coefficients
+        self.nd = self.n_shared + K * len(self.per_pose)
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)
-        offs = ca.SX.sym("offsets", 6 * max(C, 1))
+        offs = ca.SX.sym("offsets", _N_OFFSETS * max(C, 1))
         target = ca.SX.sym("target", 3 * K)
         w_ang, margin, w_eff = ca.SX.sym("w_ang"), ca.SX.sym("margin"), ca.SX.sym("w_eff")
         t = ca.SX.sym("t", K)
@@ -112,6 +125,7 @@ class ScenarioDesignNLP:
         Ms = ca.DM(1.0 / np.sqrt(m))
         bw = _bandwidth(sv, n)
         alpha = (ca.mtimes(ca.DM(base.vandermonde), d[:self.n_alpha]) if self.n_alpha else None)
+        beta = (ca.mtimes(ca.DM(base.vandermonde), d[self.n_alpha:self.n_shared]) if self.n_beta else None)
 
         def pose_params(k):
             P = ca.SX(P0)
@@ -120,21 +134,23 @@ class ScenarioDesignNLP:
                 P[sl[lens.parameter(v).slot]] = val
             if alpha is not None:
                 P[sl["alpha"]] = alpha
+            if beta is not None:
+                P[sl["beta"]] = beta
             return P
 
         def scenario(P, c):
             if c == 0:
                 return P
-            k_h, k_p, dphi, dal, dth, k_r = (offs[6 * (c - 1) + i] for i in range(6))
+            k_h, k_p, dphi, dal, dth, k_hr = (offs[_N_OFFSETS * (c - 1) + i] for i in range(_N_OFFSETS))
             Pc = ca.SX(P)
+            if "h_r" in sl:
+                Pc[sl["h_r"]] = P[sl["h_r"]] * k_hr
             for name in ("h", "h_pos"):
                 if name in sl:
                     Pc[sl[name]] = P[sl[name]] * k_h
             for name in _LOADS:
                 if name in sl:
                     Pc[sl[name]] = P[sl[name]] * k_p
-            if "h_r" in sl:
-                Pc[sl["h_r"]] = P[sl["h_r"]] * k_r
             if "phi" in sl:
                 Pc[sl["phi"]] = P[sl["phi"]] + dphi
             if "alpha" in sl:
@@ -168,11 +184,13 @@ class ScenarioDesignNLP:
             for v in ("h", "p"):
                 if v in self.per_pose:
                     effort += d[self.pose_index(k, v)] ** 2
-        if self.n_alpha:
-            kk = np.arange(self.n_alpha, dtype=float)
-            effort += ca.dot(ca.DM(kk**2 * (kk + 1) ** 2 / 4.0), d[:self.n_alpha] ** 2)
-        alpha_rows = [alpha] if alpha is not None else []
-        self.n_alpha_rows = base.vandermonde.shape[0] if alpha_rows else 0
+        if self.n_shared:
+            kk = np.arange(base.alpha_terms, dtype=float)
+            smooth = ca.DM(kk**2 * (kk + 1) ** 2 / 4.0)
+            for lo in range(0, self.n_shared, base.alpha_terms):  # α, then β: the same smoothness
+                effort += ca.dot(smooth, d[lo:lo + base.alpha_terms] ** 2)
+        alpha_rows = [r for r in (alpha, beta) if r is not None]
+        self.n_alpha_rows = base.vandermonde.shape[0] * len(alpha_rows) if alpha_rows else 0
         x = ca.vertcat(*zs, d, t)
         p = ca.vertcat(P0, offs, target, w_ang, margin, w_eff)
         # the worst case, regularised by the mean square (a pure minimax has degenerate multipliers
@@ -187,25 +205,35 @@ class ScenarioDesignNLP:
     # -- layout of the design vector ------------------------------------------------------------
     def pose_index(self, k: int, name: str) -> int:
         """Index of pose k's value ``name`` (h, phi or p) in the design vector."""
-        return self.n_alpha + k * len(self.per_pose) + self.per_pose.index(name)
+        return self.n_shared + k * len(self.per_pose) + self.per_pose.index(name)
 
     def pose_vector(self, d: np.ndarray, k: int) -> np.ndarray:
         """The single-pose design vector (of :class:`DesignNLP`) of pose k."""
         b = self.base
         vals = {v: float(d[self.pose_index(k, v)]) for v in self.per_pose}
         return b.design_vector(h=vals.get("h"), phi=vals.get("phi"), p=vals.get("p"),
-                               coefficients=d[:self.n_alpha] if self.n_alpha else None)
+                               coefficients=d[:self.n_alpha] if self.n_alpha else None,
+                               magnetization=d[self.n_alpha:self.n_shared] if self.n_beta else None)
 
     def join(self, pose_vectors: Sequence[np.ndarray]) -> np.ndarray:
-        """The scenario design vector from single-pose vectors (α taken from the first)."""
+        """The scenario design vector from single-pose vectors (α and β taken from the first)."""
         b = self.base
         d = np.zeros(self.nd)
         if self.n_alpha:
             d[:self.n_alpha] = np.asarray(pose_vectors[0])[b.dslices["alpha"]]
+        if self.n_beta:
+            d[self.n_alpha:self.n_shared] = np.asarray(pose_vectors[0])[b.dslices["magnetization"]]
         for k, dv in enumerate(pose_vectors):
             for v in self.per_pose:
                 d[self.pose_index(k, v)] = float(np.asarray(dv)[b.dslices[v]][0])
         return d
+
+    def _profile_bounds(self, bounds: Dict[str, float]):
+        """Bounds of the profile rows: |α(s_q)| ≤ alpha_max, then |β(s_q)| ≤ magnetization_max."""
+        rows = self.base.n_profile_rows
+        lim = np.concatenate([np.full(rows if n else 0, bounds.get(key, np.inf)) for n, key in
+                              ((self.n_alpha, "alpha_max"), (self.n_beta, "magnetization_max"))])
+        return -lim, lim
 
     def nlpsol(self, certified: bool):
         """Without the stability rows: exact Hessian; with them: quasi-Newton (built on first use)."""
@@ -228,8 +256,8 @@ class ScenarioDesignNLP:
         sv, K, C, n = self.base.solver, self.K, self.C, self.n
         P0 = sv.parameter_vector(base_scene)
         offs = _corner_offsets(tol, scale) if C else []
-        ov = (np.array([[o["k_h"], o["k_p"], o["dphi"], o["dalpha"], o["dtheta0"], o["k_r"]] for o in offs]).ravel()
-              if C else np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0]))
+        ov = (np.array([[o["k_h"], o["k_p"], o["dphi"], o["dalpha"], o["dtheta0"], o["k_hr"]]
+                        for o in offs]).ravel() if C else np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0]))
         use_angle = any(len(tg) > 2 for tg in targets)
         tgt = np.concatenate([[tg[0], tg[1], tg[2] if len(tg) > 2 else 0.0] for tg in targets])
         p = np.concatenate([P0, ov, tgt, [1.0 if use_angle else 0.0, margin, w_eff]])
@@ -243,14 +271,12 @@ class ScenarioDesignNLP:
                           "p": (-bounds.get("p_max", np.inf), bounds.get("p_max", np.inf))}[v]
                 lbx[i], ubx[i] = lo, hi
         lbx[nz + self.nd:] = 0.0
-        a_max = bounds.get("alpha_max", np.inf)
+        lo_prof, hi_prof = self._profile_bounds(bounds)
         n_eq, n_piv = K * (C + 1) * n, (K * (C + 1) * n if certified else 0)
         nom_lb = np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K)
         nom_ub = np.tile([0.0, 0.0, 0.0 if use_angle else np.inf], K)
-        lbg = np.concatenate([np.zeros(n_eq), np.zeros(n_piv), nom_lb, np.full(K * C, -np.inf),
-                              np.full(self.n_alpha_rows, -a_max)])
-        ubg = np.concatenate([np.zeros(n_eq), np.full(n_piv, np.inf), nom_ub, np.zeros(K * C),
-                              np.full(self.n_alpha_rows, a_max)])
+        lbg = np.concatenate([np.zeros(n_eq), np.zeros(n_piv), nom_lb, np.full(K * C, -np.inf), lo_prof])
+        ubg = np.concatenate([np.zeros(n_eq), np.full(n_piv, np.inf), nom_ub, np.zeros(K * C), hi_prof])
         zs = [np.asarray(zc, float)[1:] for zk in z0 for zc in zk]
         tips0 = np.asarray(self.f_tips(np.concatenate(zs + [d0, np.zeros(K)]), p), float)
         t0 = [self._worst(tips0, tgt, k) ** 2 + 1e-12 for k in range(K)]

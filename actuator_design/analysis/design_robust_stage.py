@@ -106,7 +106,9 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
                                           else pt.coefficients),
                             p=float(d[nlp.dslices["p"]][0]) if "p" in nlp.vary else pt.p,
                             z=z, tip=np.array([x, y, th]), converged=True, status=out.point.status,
-                            stage="robust")
+                            stage="robust",
+                            magnetization=(np.asarray(d[nlp.dslices["magnetization"]])
+                                           if "magnetization" in nlp.vary else pt.magnetization))
         if tip_error(moved.tip, target) <= s.reach_tol:
             rob = evaluate_robustness(scene, z, target, tol, options)
             if rob.holds or not nominal.holds:
@@ -123,7 +125,9 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
     report = RobustReport(best_rob, largest, nominal, out.attempts)
     if not report.holds:
         best_choice.notes.append(report.sentence())
-    elif best_choice is not choice:
+    elif best_choice is not choice and np.max(np.abs(design_vector(nlp, best_choice.point)
+                                                     - design_vector(nlp, pt)), initial=0.0) > 1e-9:
+        # (a determined design, e.g. as many design values as pinned tip values, cannot move)
         best_choice.notes.append(f"moved off the least-effort design to one that holds over the tolerance "
                                  f"box ({tol.describe()}; see robustness)")
     return best_choice, report

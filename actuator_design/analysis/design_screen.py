@@ -11,7 +11,7 @@ import numpy as np
 from ..equilibrium import solve
 from ..scene import Scene
 from .design_nlp import DesignNLP, DesignPoint
-from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart
+from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart, phi_period
 
 __all__ = ["screen", "start_grid", "unpack"]
 
@@ -52,8 +52,9 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
         if stiffness is not None:
             h, phi, p = unpack(nlp, d, base)
             coefficients = d[nlp.dslices["alpha"]] if "alpha" in nlp.vary else np.zeros(0)
+            beta = d[nlp.dslices["magnetization"]] if "magnetization" in nlp.vary else np.zeros(0)
             pt = DesignPoint(h=h, phi=phi, coefficients=coefficients, p=p, z=r.z, tip=np.zeros(3),
-                             converged=True, status="", stage="screen")
+                             converged=True, status="", stage="screen", magnetization=beta)
             k = nlp.stiffness(base, pt)
             dist += abs(math.log(k / stiffness)) if (math.isfinite(k) and k > 0) else 1e3
         scored.append(ScreenedStart(dist, d, r.z))
@@ -69,23 +70,35 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
 
 def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np.ndarray]:
     """Starting design vectors: field magnitudes × angles over one period of φ (× fibre slopes ×
-    loads), each of shape (nlp.nd,)."""
+    loads × magnetisation profiles), each of shape (nlp.nd,).
+
+    The period of φ is π for the soft-magnetic energy alone and 2π with a hard-magnetic term (its
+    energy −h_r cos(θ + β − φ) is not symmetric under H → −H, THEORY §9). A designed magnetisation
+    starts from constant angles β = 0, ±90°, 180° and two linear profiles β = ±(1 rad)·P_1(2s − 1).
+    """
     with_alpha = "alpha" in nlp.vary
     hs = (1.5, 3.0, 5.0) if with_alpha else (0.8, 1.4, 2.2, 3.5, 5.5)
     hs = [h for h in hs if h <= settings.h_max] or [settings.h_max]
     n_phi = 8 if with_alpha else 12
-    phis = np.linspace(-math.pi / 2, math.pi / 2, n_phi + 1)[1:] if "phi" in nlp.vary else [base.phi]
+    period = phi_period(base)
+    phis = np.linspace(-period / 2, period / 2, n_phi + 1)[1:] if "phi" in nlp.vary else [base.phi]
     slopes = [0.0]
     if with_alpha:
         slopes = [s for s in (-1.2, -0.6, 0.6, 1.2) if abs(s) <= settings.alpha_max]
     ps = [base.p] if "p" not in nlp.vary else [-2.0, 0.0, 2.0]
+    betas = [None]
+    if "magnetization" in nlp.vary:
+        b_max = settings.magnetization_max
+        betas = [[b, 0.0] for b in (0.0, math.pi / 2, -math.pi / 2, math.pi) if abs(b) <= b_max]
+        betas += [[0.0, s] for s in (-1.0, 1.0) if abs(s) <= b_max]
     out = []
-    for slope in slopes:
-        for p in ps:
-            for h in (hs if "h" in nlp.vary else [base.h]):
-                for phi in phis:
-                    c = [base.fibres.value if base.fibres.kind == "constant" else 0.0, slope]
-                    out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p))
+    for beta in betas:
+        for slope in slopes:
+            for p in ps:
+                for h in (hs if "h" in nlp.vary else [base.h]):
+                    for phi in phis:
+                        c = [base.fibres.value if base.fibres.kind == "constant" else 0.0, slope]
+                        out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p, magnetization=beta))
     return out
 
 

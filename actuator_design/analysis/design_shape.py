@@ -19,13 +19,14 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
+from .. import parameters as lens
 from ..options import SolverOptions
 from ..scene import Scene
 from .design import design_problem, search
 from .design_choose import choose
 from .design_nlp import DesignNLP, DesignPoint, _bandwidth, _ldl_pivots
 from .design_optimise import design_vector
-from .design_types import Choice, DesignSettings, normalise_phi
+from .design_types import Choice, DesignSettings, normalise_phi, phi_period
 from .design_verify import verify as verify_stage
 from .robustness import Robustness, evaluate_robustness
 
@@ -95,8 +96,8 @@ class ShapeDesignNLP:
         for v, slot in (("h", "h"), ("phi", "phi"), ("p", "fy")):
             if v in base.vary:
                 P[sl[slot]] = d[base.dslices[v]]
-        if "alpha" in base.vary:
-            P[sl["alpha"]] = ca.mtimes(ca.DM(base.vandermonde), d[base.dslices["alpha"]])
+        for v in base.profiles:  # α → slot "alpha", β (magnetization) → slot "beta"
+            P[sl[lens.parameter(v).slot]] = ca.mtimes(ca.DM(base.vandermonde), d[base.dslices[v]])
         th = ca.mtimes(ca.DM(L), ca.vertcat(P0[sl["theta0"]], zr))
         xs, ys = ca.mtimes(ca.DM(W), ca.cos(th)), ca.mtimes(ca.DM(W), ca.sin(th))
         tx, ty = ca.SX.sym("tx", len(s_points)), ca.SX.sym("ty", len(s_points))
@@ -106,17 +107,17 @@ class ShapeDesignNLP:
         for v in ("h", "p"):
             if v in base.vary:
                 effort += d[base.dslices[v]] ** 2
-        if "alpha" in base.vary:
-            c = d[base.dslices["alpha"]]
+        for v in base.profiles:
+            c = d[base.dslices[v]]
             k = np.arange(base.alpha_terms, dtype=float)
             effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
-        alpha_rows = ([ca.mtimes(ca.DM(base.vandermonde), d[base.dslices["alpha"]])] if "alpha" in base.vary else [])
+        alpha_rows = [ca.mtimes(ca.DM(base.vandermonde), d[base.dslices[v]]) for v in base.profiles]
         Ms = ca.DM(1.0 / np.sqrt(m))
         piv = ca.vertcat(*_ldl_pivots(ca.diag(Ms) @ H @ ca.diag(Ms) - margin * ca.SX.eye(n), _bandwidth(sv, n)))
         self.base, self.n, self.k = base, n, len(s_points)
-        self.n_alpha_rows = base.vandermonde.shape[0] if alpha_rows else 0
+        self.n_alpha_rows = base.n_alpha_rows  # the profile rows: α, then β (as in DesignNLP)
         self._x, self._p = ca.vertcat(zr, d), ca.vertcat(P0, tx, ty, w_eff, margin)
         self._f, self._rows = f, (g / ca.DM(m), piv, ca.vertcat(*alpha_rows))
         self._nlps: Dict[bool, object] = {}
@@ -146,10 +147,10 @@ class ShapeDesignNLP:
                             ("p", (-bounds["p_max"], bounds["p_max"]))):
             if v in b.vary:
                 lbx[n + b.dslices[v].start], ubx[n + b.dslices[v].start] = lo, hi
-        a_max = bounds.get("alpha_max", np.inf)
+        lo_prof, hi_prof = b.profile_bounds(bounds)
         n_piv = n if certified else 0
-        lbg = np.concatenate([np.zeros(n), np.zeros(n_piv), np.full(self.n_alpha_rows, -a_max)])
-        ubg = np.concatenate([np.zeros(n), np.full(n_piv, np.inf), np.full(self.n_alpha_rows, a_max)])
+        lbg = np.concatenate([np.zeros(n), np.zeros(n_piv), lo_prof])
+        ubg = np.concatenate([np.zeros(n), np.full(n_piv, np.inf), hi_prof])
         nlp = self.nlpsol(certified)
         sol = nlp(x0=np.concatenate([np.asarray(z0, float)[1:], d0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = nlp.stats()
@@ -238,7 +239,9 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
     get = lambda v, default: float(d[nlp.dslices[v]][0]) if v in nlp.vary else default
     pt = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi), p=get("p", sc.p),
                      coefficients=np.asarray(d[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else np.zeros(0),
-                     z=z, tip=np.array([x, y, th]), converged=True, status=status, stage="shape")
+                     z=z, tip=np.array([x, y, th]), converged=True, status=status, stage="shape",
+                     magnetization=(np.asarray(d[nlp.dslices["magnetization"]]) if "magnetization" in nlp.vary
+                                    else np.zeros(0)))
     xs, ys = (np.asarray(v, float).ravel() for v in shape_nlp.f_points(z[1:], sv.parameter_vector(sc)))
     tol = settings.tolerances
     rob = evaluate_robustness(sc, z, None, tol, problem.options) if tol.active else None
@@ -251,7 +254,8 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
         if v.path is not None:
             state = v.path.final
             verified, stable, snap_free = True, bool(state.stable), bool(v.path.snap_free)
-            schedule = [{"h": float(q["h"]), "phi": float(q["phi"])} for q in v.schedule]
+            schedule = [{"h": float(q["h"]), "phi": float(q["phi"]), **({"h_r": float(q["h_r"])} if "h_r" in q else {})}
+                        for q in v.schedule]
             ev = state.evaluate(pts[:, 0])
             xs, ys = np.asarray(ev["x"], float), np.asarray(ev["y"], float)
     err = np.hypot(xs - pts[:, 1], ys - pts[:, 2])
@@ -266,9 +270,12 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
         notes.append(("holds" if rob.holds else "does NOT hold") + f" over the box: the tip moves by at most "
                      f"{rob.worst_tip_error:.3g}; {rob.fold_distance.sentence()}")
     s_dense = np.linspace(0.0, 1.0, 201)
-    design = {"h": pt.h, "phi": normalise_phi(pt.phi), "p": pt.p,
+    design = {"h": pt.h, "phi": normalise_phi(pt.phi, phi_period(sc)), "p": pt.p,
               "alpha": {"s": s_dense.tolist(), "value": sc.fibres(s_dense).tolist(),
                         "legendre_coefficients": [float(c) for c in pt.coefficients]}}
+    if "magnetization" in vset:  # the designed remanent magnetisation profile β(s), rad (THEORY §9)
+        design["magnetization"] = {"s": s_dense.tolist(), "value": sc.magnetization(s_dense).tolist(),
+                                   "legendre_coefficients": [float(c) for c in pt.magnetization]}
     timings["total"] = time.perf_counter() - t0
     return ShapeResult(ok, pts, np.column_stack([xs, ys]), rms, mx, design, vset, verified, stable, snap_free,
                        schedule, rob, "; ".join(notes), problem.base, sc, state, timings)

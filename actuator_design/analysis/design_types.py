@@ -20,7 +20,7 @@ from .design_nlp import DesignNLP, DesignPoint
 from .tolerances import Tolerances
 
 __all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
-           "Choice", "Verification", "normalise_phi", "normalise_tip_angle", "tip_error", "target_error",
+           "Choice", "Verification", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error", "target_error",
            "effort", "rank"]
 
 
@@ -31,7 +31,9 @@ class DesignSettings:
     h_max : largest field group h allowed.
     p_max : largest |p| allowed when the tip load is designed.
     alpha_max : largest |α(s)| (rad), a fabrication limit on the fibre angle.
-    alpha_terms : Legendre coefficients of α(s) (smooth layouts with few parameters).
+    alpha_terms : Legendre coefficients of α(s) (smooth layouts with few parameters), and of the
+        remanent magnetisation angle β(s) when it is designed.
+    magnetization_max : largest |β(s)| (rad) of a designed magnetisation profile (THEORY §9).
     margin : required stability margin μ: λ_min(H_r, M) ≥ μ.
     reach_tol : a target is reachable when the nearest pose is within this distance (units of ℓ).
     accept_tol : the verified achieved tip must be within this distance of the target.
@@ -48,6 +50,7 @@ class DesignSettings:
     p_max: float = 20.0
     alpha_max: float = math.pi / 2
     alpha_terms: int = 4
+    magnetization_max: float = math.pi
     margin: float = 1e-2
     reach_tol: float = 1e-6
     accept_tol: float = 1e-3
@@ -56,7 +59,8 @@ class DesignSettings:
     tolerances: Tolerances = field(default_factory=Tolerances)
 
     def bounds(self) -> Dict[str, float]:
-        return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max}
+        return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max,
+                "magnetization_max": self.magnetization_max}
 
 
 @dataclass
@@ -221,9 +225,17 @@ class Verification:
 
 
 # -- target geometry ---------------------------------------------------------------------------------
-def normalise_phi(phi: float) -> float:
-    """The energy is π-periodic in φ (the field acts on its axis): the representative in (−π/2, π/2]."""
-    return float(phi - math.pi * math.ceil((phi - math.pi / 2) / math.pi))
+def normalise_phi(phi: float, period: float = math.pi) -> float:
+    """φ's representative in (−period/2, period/2]: the soft-magnetic energy is π-periodic in φ (the
+    field acts on its axis); with a hard-magnetic term the period is 2π (:func:`phi_period`)."""
+    return float(phi - period * math.ceil((phi - period / 2) / period))
+
+
+def phi_period(scene) -> float:
+    """The period of the energy in the field angle φ: π, or 2π with a hard-magnetic term of h_r ≠ 0
+    (−h_r cos(θ + β − φ) changes sign under H → −H, THEORY §9)."""
+    hard = getattr(scene, "magnetization", None) is not None and getattr(scene, "h_r", 0.0) != 0.0
+    return 2 * math.pi if hard else math.pi
 
 
 def normalise_tip_angle(angle: float) -> float:
@@ -249,9 +261,13 @@ def target_error(pt: DesignPoint, target, stiffness: Optional[float]) -> float:
 
 
 def effort(pt: DesignPoint) -> float:
-    """The stage-B objective: h² + p² + the smoothness of α (Σ k²(k+1)²/4 c_k², cf. ∫α'²)."""
-    k = np.arange(len(pt.coefficients), dtype=float)
-    return float(pt.h**2 + pt.p**2 + np.sum(k**2 * (k + 1) ** 2 / 4.0 * np.asarray(pt.coefficients) ** 2))
+    """The stage-B objective: h² + p² + the smoothness of α and β (Σ k²(k+1)²/4 c_k², cf. ∫α'²)."""
+    def smoothness(c) -> float:
+        k = np.arange(len(c), dtype=float)
+        return float(np.sum(k**2 * (k + 1) ** 2 / 4.0 * np.asarray(c, float) ** 2))
+
+    return float(pt.h**2 + pt.p**2 + smoothness(pt.coefficients)
+                 + smoothness(getattr(pt, "magnetization", np.zeros(0))))
 
 
 def rank(pt: DesignPoint, target, settings: DesignSettings, stiffness: Optional[float] = None):

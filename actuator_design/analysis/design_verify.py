@@ -1,12 +1,18 @@
 """Stage 4 of :func:`~.design.design`, **verify**, independently of the design NLP's own state: a
 fresh forward solve, and a quasi-static loading path from zero field that must reach the design
 without a snap and end stable (a magnitude ramp at the designed angle or, where that lands on
-another branch, a ramp at another angle followed by a rotation of the field)."""
+another branch, a ramp at another angle followed by a rotation of the field).
+
+The ramp is one of the applied field's magnitude H, from 0 to the design's H_d: at the fraction
+t = H/H_d every field group is at its design value times t^field_power (the lens's
+``Parameter.field_power``, THEORY §5, §9): h = t·h_d and, with a hard-magnetic term, h_r = t·h_r,d
+(both linear in H; h² ∝ H²). A rotation keeps the magnitude, so h and h_r stay at their design
+values."""
 from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Dict, List
+from typing import Dict, List, Optional
 
 import numpy as np
 
@@ -14,7 +20,7 @@ from ..equilibrium import solve
 from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene
-from .design_types import Choice, DesignProblem, Verification, normalise_phi
+from .design_types import Choice, DesignProblem, Verification, normalise_phi, phi_period
 
 __all__ = ["verify", "stiffness_by_differences"]
 
@@ -45,6 +51,9 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     design_p = "p" in choice.candidate.vary
     forward = solve(choice.scene, options)  # a fresh forward NLP from the straight rod
     start = replace(choice.scene, h=0.0)
+    hard = _hard_magnetic_group(choice.scene)  # h_r,d when the scene has the hard-magnetic term
+    if hard is not None:
+        start = replace(start, h_r=0.0)
     if design_p:
         start = start.with_values(p=0.0)
     steps = problem.settings.ramp_steps
@@ -57,7 +66,7 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
                       abs(final.tip["angle"] - pt.tip[2])) <= 1e-6)
         return ok, path
 
-    ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p)
+    ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p, hard)
     ok, path = attempt(ramp)
     if ok:
         return Verification(forward, path, "magnitude ramp at the designed angle", ramp)
@@ -66,25 +75,40 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     for sign in (wind, -wind):
         for delta_deg in (90, 45, 135):
             phi_a = pt.phi - sign * math.radians(delta_deg)
-            schedule = _ramp_then_rotate(pt.h, phi_a, pt.phi, pt.p, steps, design_p)
+            schedule = _ramp_then_rotate(pt.h, phi_a, pt.phi, pt.p, steps, design_p, hard)
             ok, path = attempt(schedule)
             if ok:
-                return Verification(forward, path, f"ramp at {math.degrees(normalise_phi(phi_a)):.0f} deg, then "
+                phi_label = normalise_phi(phi_a, phi_period(choice.scene))
+                return Verification(forward, path, f"ramp at {math.degrees(phi_label):.0f} deg, then "
                                     f"rotate the field {'counter-' if sign > 0 else ''}clockwise by {delta_deg} "
                                     f"deg to the designed angle", schedule)
     return Verification(forward, None, "no snap-free path from zero field reaches the design", [])
 
 
-def _ramp(h: float, phi: float, p: float, steps: int, design_p: bool) -> List[Dict[str, float]]:
-    """``steps`` points from zero field (and load) to (h, φ[, p]) at the fixed angle φ."""
-    return [{"h": h * t, "phi": phi, **({"p": p * t} if design_p else {})} for t in np.linspace(0, 1, steps)]
+def _hard_magnetic_group(scene: Scene) -> Optional[float]:
+    """The scene's h_r when it has the hard-magnetic term (THEORY §9), else None."""
+    from ..physics.hard_magnetic import HardMagnetic
+
+    return float(scene.h_r) if HardMagnetic.present(scene) else None
 
 
-def _ramp_then_rotate(h, phi_a, phi, p, steps, design_p) -> List[Dict[str, float]]:
+def _field_groups(h: float, h_r: Optional[float], t: float) -> Dict[str, float]:
+    """The field groups at the fraction t = H/H_d of the design field: h·t and h_r·t (both ∝ H)."""
+    return {"h": h * t, **({"h_r": h_r * t} if h_r is not None else {})}
+
+
+def _ramp(h: float, phi: float, p: float, steps: int, design_p: bool,
+          h_r: Optional[float] = None) -> List[Dict[str, float]]:
+    """``steps`` points from zero field (and load) to (h[, h_r], φ[, p]) at the fixed angle φ."""
+    return [{**_field_groups(h, h_r, t), "phi": phi, **({"p": p * t} if design_p else {})}
+            for t in np.linspace(0, 1, steps)]
+
+
+def _ramp_then_rotate(h, phi_a, phi, p, steps, design_p, h_r=None) -> List[Dict[str, float]]:
     """A ramp at φ_a, then a rotation of the field from φ_a to φ at full magnitude."""
-    turn = [{"h": h, "phi": phi_a + (phi - phi_a) * t, **({"p": p} if design_p else {})}
+    turn = [{**_field_groups(h, h_r, 1.0), "phi": phi_a + (phi - phi_a) * t, **({"p": p} if design_p else {})}
             for t in np.linspace(0, 1, steps)[1:]]
-    return _ramp(h, phi_a, p, steps, design_p) + turn
+    return _ramp(h, phi_a, p, steps, design_p, h_r) + turn
 
 
 def stiffness_by_differences(scene: Scene, options: SolverOptions, state: EquilibriumResult,

@@ -40,7 +40,7 @@ __all__ = ["HELP", "add_args", "run"]
 HELP = "inverse design: the field (and fibres, load) that puts the tip at a target, verified"
 
 EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
-_VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p
+_VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p, magnetization
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -64,14 +64,17 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "quantity such as '1.2 N/m' for a physical scene; alone or with --target-tip")
     parser.add_argument("--vary", metavar="LIST",
                         help="design variables, comma separated from: h (field magnitude), phi (field "
-                             "angle), alpha (fibre layout), p (tip load); default: h,phi, adding alpha "
+                             "angle), alpha (fibre layout), p (tip load), magnetization (remanent "
+                             "magnetisation profile beta(s) of a hard-magnetic rod, a Legendre series of "
+                             "--alpha-terms terms; needs h_r > 0); default: h,phi, adding alpha "
                              "automatically when needed")
     g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
     g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
     g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")
     g.add_argument("--alpha-max-deg", type=finite_float,
                    help=f"largest |fibre angle|, degrees (default {math.degrees(d.alpha_max):g})")
-    g.add_argument("--alpha-terms", type=int, help=f"Legendre terms of alpha(s) (default {d.alpha_terms})")
+    g.add_argument("--alpha-terms", type=int, help=f"Legendre terms of alpha(s), and of the magnetisation "
+                   f"beta(s) when designed (default {d.alpha_terms})")
     g.add_argument("--margin", type=finite_float,
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
     g.add_argument("--tolerance", metavar="SPEC",

@@ -59,7 +59,8 @@ class HardMagnetic(EnergyTerm):
         Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
-                  term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term),
+                  term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
+                  designable=True),  # designed as a profile β(s) (analysis/design_nlp.py)
     )
 
     def __init__(self, field: FieldModel):
