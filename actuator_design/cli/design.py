@@ -241,6 +241,11 @@ def _summary(res, units=None, table=None) -> str:
         lines.append(f"  fibres      : alpha(s) from {math.degrees(a[0]):.3g} deg (clamp) to "
                      f"{math.degrees(a[-1]):.3g} deg (tip), Legendre coefficients "
                      f"{', '.join(f'{c:.4g}' for c in d['alpha']['legendre_coefficients'])} rad")
+    if "magnetization" in res.vary and "magnetization" in d:
+        b = d["magnetization"]["value"]
+        lines.append(f"  magnetised  : beta(s) from {math.degrees(b[0]):.3g} deg (clamp) to "
+                     f"{math.degrees(b[-1]):.3g} deg (tip), Legendre coefficients "
+                     f"{', '.join(f'{c:.4g}' for c in d['magnetization']['legendre_coefficients'])} rad")
     phys = res.to_dict().get("physical")
     if phys:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
