@@ -64,27 +64,10 @@ def design_figure(result, units=None):
     if ax_shape.get_legend_handles_labels()[0]:
         ax_shape.legend(loc="best", fontsize=8)
 
-    alpha = result.design.get("alpha", {})
-    if alpha:
-        ax_alpha.plot(alpha["s"], np.degrees(alpha["value"]), color="tab:purple")
-    ax_alpha.set_xlabel("s = X1 / l")
-    ax_alpha.set_ylabel("fibre angle α(s) / deg")
-    ax_alpha.set_title("fibre layout" + (" (designed)" if "alpha" in result.vary else " (given)"))
-    ax_alpha.grid(alpha=0.3)
-
-    if result.schedule:
-        k = np.arange(len(result.schedule))
-        ax_sched.plot(k, [s["h"] for s in result.schedule], color="tab:green", label="h")
-        ax_sched.set_xlabel("step of the verified schedule")
-        ax_sched.set_ylabel("field group h", color="tab:green")
-        field_axis(ax_sched.yaxis, units)
-        ax2 = ax_sched.twinx()
-        ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange", label="φ")
-        ax2.set_ylabel("field angle φ / deg", color="tab:orange")
-        ax_sched.set_title("field schedule from zero field")
-    else:
-        ax_sched.text(0.5, 0.5, "no verified schedule", ha="center", va="center", transform=ax_sched.transAxes)
-        ax_sched.set_axis_off()
+    _alpha_panel(ax_alpha, result.design.get("alpha", {}),
+                 "fibre layout" + (" (designed)" if "alpha" in result.vary else " (given)"))
+    _schedule_panel(ax_sched, result.schedule, "step of the verified schedule", "field schedule from zero field",
+                    units)
     return fig
 
 
@@ -116,24 +99,36 @@ def poses_figure(result):
     ax_shape.grid(alpha=0.3)
     ax_shape.legend(loc="best", fontsize=8)
     ax_shape.set_title("one actuator, " + ("every pose verified" if result.success else "NOT a success"))
-    if result.alpha:
-        ax_alpha.plot(result.alpha["s"], np.degrees(result.alpha["value"]), color="tab:purple")
-    ax_alpha.set_xlabel("s = X1 / l")
-    ax_alpha.set_ylabel("fibre angle α(s) / deg")
-    ax_alpha.set_title("shared fibre layout")
-    ax_alpha.grid(alpha=0.3)
-    if result.schedule:
-        k = np.arange(len(result.schedule))
-        ax_sched.plot(k, [s["h"] for s in result.schedule], color="tab:green")
-        ax_sched.set_xlabel("step of the schedule")
-        ax_sched.set_ylabel("field group h", color="tab:green")
-        ax2 = ax_sched.twinx()
-        ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange")
-        ax2.set_ylabel("field angle φ / deg", color="tab:orange")
-        ax_sched.set_title("field schedule through the poses")
-    else:
-        ax_sched.set_axis_off()
+    _alpha_panel(ax_alpha, result.alpha, "shared fibre layout")
+    _schedule_panel(ax_sched, result.schedule, "step of the schedule", "field schedule through the poses")
     return fig
+
+
+def _alpha_panel(ax, alpha, title: str) -> None:
+    """The fibre angle α(s) in degrees (``alpha``: {"s", "value"} or empty)."""
+    if alpha:
+        ax.plot(alpha["s"], np.degrees(alpha["value"]), color="tab:purple")
+    ax.set_xlabel("s = X1 / l")
+    ax.set_ylabel("fibre angle α(s) / deg")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+
+
+def _schedule_panel(ax, schedule, xlabel: str, title: str, units=None) -> None:
+    """h (left axis, mT ticks for a physical scene) and φ in degrees (right axis) along a schedule."""
+    if not schedule:
+        ax.text(0.5, 0.5, "no verified schedule", ha="center", va="center", transform=ax.transAxes)
+        ax.set_axis_off()
+        return
+    k = np.arange(len(schedule))
+    ax.plot(k, [s["h"] for s in schedule], color="tab:green", label="h")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("field group h", color="tab:green")
+    field_axis(ax.yaxis, units)
+    ax2 = ax.twinx()
+    ax2.plot(k, np.degrees([s["phi"] for s in schedule]), color="tab:orange", label="φ")
+    ax2.set_ylabel("field angle φ / deg", color="tab:orange")
+    ax.set_title(title)
 
 
 def _spread_panel(ax, report, target) -> None:
