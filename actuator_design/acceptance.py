@@ -30,7 +30,7 @@ import numpy as np
 
 from .options import SolverOptions
 
-__all__ = ["solve_checked", "graded_options", "residual_problem", "moment_scale", "check_physical"]
+__all__ = ["solve_checked", "accept", "graded_options", "residual_problem", "moment_scale", "check_physical"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
@@ -121,6 +121,12 @@ def solve_checked(scene, options: SolverOptions, initial=None):
         result = _solve_from_start(scene, opts, solver)
     else:
         result = _solve_warm(scene, opts, solver, initial)
+    return accept(result)
+
+
+def accept(result):
+    """Checks 3 and 4 of the module doc on a solved ``result`` (in place): a self-intersecting
+    shape is ``"self_intersecting"``, one whose residual misses the limit ``"inaccurate"``."""
     problem = residual_problem(result) if result.success else None
     check_physical(result)  # not a physical state: said first, whatever its accuracy
     if problem is not None and result.success:

@@ -6,6 +6,7 @@ from typing import Optional, Union
 
 import numpy as np
 
+from .balance import balance
 from .options import SolverOptions
 from .result import EquilibriumResult
 from .scene import Scene
@@ -185,58 +186,6 @@ def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
     return dense
 
 
-def _balance(solver: EquilibriumSolver, params, dense, scene: Scene, z):
-    """Clamp reaction and the integrated Euler–Lagrange residual (THEORY §4).
-
-    With τ = −∂V/∂θ and F = −∂V/∂r the distributed torque and force, f and m the tip force and
-    moment, n(s) = f + ∫_s^1 F the internal force, the moment balance of the free part [s, 1]
-    about the origin reads  R(s) = M(s) − m − r(1)×f − ∫_s^1 (τ + r×F) dσ + r(s)×n(s) = 0,
-    M = ∂V/∂θ' the internal moment of all densities V (bθ' for bending); every term enters
-    through the solver's pointwise functions, so a plug-in term is checked like a built-in one.
-    Its derivative is the Euler–Lagrange equation (bθ')' + τ + r'×n = 0 and R(1) = 0 is the free
-    end condition. Evaluated on 8 sub-intervals per element with 12-point Gauss quadrature.
-    """
-    tr = solver.transcription
-    bp = tr.breakpoints
-    sub = 2 if tr.name == "midpoint" else 8
-    edges = np.unique(np.concatenate([np.linspace(bp[i], bp[i + 1], sub + 1) for i in range(len(bp) - 1)]))
-    a, b = edges[:-1], edges[1:]
-    sg = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]).ravel()
-    wg = (0.5 * (b - a)[:, None] * _GL_W[None, :]).ravel()
-    th, dth, x, y = dense(sg)
-    dens_f, tip_f = solver._pointwise
-    row = lambda v: np.asarray(v, float).reshape(1, -1)  # CasADi evaluates row inputs pointwise
-
-    def loads(th_, dth_, x_, y_, s_):  # (τ, Fx, Fy, M) of every term at arc lengths s_
-        fields = [row(fn(scene, s_)) for fn in solver._node_fields.values()]
-        return [np.asarray(v, float).ravel()
-                for v in dens_f(row(th_), row(x_), row(y_), row(dth_), *fields, params)]
-
-    tau, Fx, Fy, _ = loads(th, dth, x, y, sg)
-    tip_theta, tip_x, tip_y = (float(v) for v in solver.f_tip(z, params))
-    m, fx, fy = (float(v) for v in tip_f(tip_theta, tip_x, tip_y, params))
-
-    def tail(values):  # ∫_{edge_k}^1 values, for every edge k
-        per = (wg * values).reshape(a.size, -1).sum(1)
-        return np.concatenate((np.cumsum(per[::-1])[::-1], [0.0]))
-
-    I_tau, I_Fx, I_Fy, I_rF = tail(tau), tail(Fx), tail(Fy), tail(x * Fy - y * Fx)
-    r1xf = tip_x * fy - tip_y * fx
-    clamp_force = -np.array([fx + I_Fx[0], fy + I_Fy[0]])
-    clamp_moment = -(m + r1xf + I_tau[0] + I_rF[0])
-
-    # residual at the edges where θ' is defined (not on element boundaries, where it may jump)
-    keep = ~np.isin(edges, bp[1:-1])
-    if tr.name == "midpoint":
-        keep = ~np.isin(edges, bp)
-    se = edges[keep]
-    th_e, dth_e, xe, ye = dense(se)
-    moment = loads(th_e, dth_e, xe, ye, se)[3]  # the internal moment ∂V/∂θ' (= bθ' for bending)
-    nx, ny = fx + I_Fx[keep], fy + I_Fy[keep]
-    R = moment - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
-    return clamp_force, float(clamp_moment), float(np.max(np.abs(R)))
-
-
 def _self_intersecting(x: np.ndarray, y: np.ndarray) -> bool:
     """Whether the polyline through the nodes crosses itself (non-adjacent segments)."""
     p = np.stack([x, y], 1)
@@ -286,4 +235,5 @@ def _make_result(scene, options, solver, params, raw: RawSolution, verdict, esca
         energy=energy, stationarity=raw.stationarity,
         eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
         marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
-        _balance=lambda: _balance(solver, params, dense, scene, z), _intersects=_self_intersecting)
+        _balance=lambda: balance(solver, params, dense, scene, z), _intersects=_self_intersecting,
+        _theta_dense=lambda s: solver.transcription.theta_dense(z, s))

@@ -13,19 +13,25 @@ Natural-parameter continuation with a secant predictor and the fast Newton of
 :mod:`actuator_design.reduced.newton`; a step is accepted when Newton converges and no node angle
 moves more than :data:`MAX_TURN` rad, otherwise it is halved. Each accepted state's stability is
 checked (THEORY §7): past a branch point the path leaves along the unstable mode onto the stable
-branch, as an imperfect real rod would. When the step falls below
+branch, as an imperfect real rod would, and stays on that side of the unstable state (a Newton
+step that lands on the mirror branch is refused and the step halved), so that neighbouring loads
+end on the same branch. When the step falls below
 :data:`MIN_STEP` the path has reached a fold of the loading history (a snap-through): the state
 there is released by minimising the energy (IPOPT) from the last state, as the physical rod would
 snap, and the path goes on from the new state.
+
+A path can also land on *stations* λ_1 < … < λ_m = 1 on its way (:func:`path_from_rest` with
+``stations``): the states at the points of a ray of loads {λ P} are those reached from rest at each
+of them, so a study whose grid points lie on such a ray walks it once (:mod:`actuator_design.study.walk`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import List
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["RestPath", "path_from_rest", "MAX_TURN", "MIN_STEP"]
+__all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
 
 #: largest change of any node angle in one accepted step (rad)
 MAX_TURN = 0.5
@@ -37,6 +43,29 @@ BRANCH_KICK = 0.05
 BRANCH_STEP = 0.02
 #: most Newton solves along one path
 MAX_SOLVES = 400
+
+
+@dataclass
+class StationState:
+    """The state on the path at one station.
+
+    Attributes
+    ----------
+    z : ndarray, shape (n_nodes,)
+        θ at the nodes.
+    raw : RawSolution
+        The solve that produced it (iterations, stationarity, message).
+    snaps, branch_points : tuple of float
+        Load fractions (of the path's full load) of the snaps and branch points met before it.
+    verdict : StabilityVerdict or None
+        Its stability, when the path checked it there (not after a snap or a branch-point kick).
+    """
+
+    z: np.ndarray
+    raw: object
+    snaps: Tuple[float, ...] = ()
+    branch_points: Tuple[float, ...] = ()
+    verdict: object = None
 
 
 @dataclass
@@ -60,6 +89,9 @@ class RestPath:
     branch_points : list of float
         Load fractions after which the state had become unstable (a branch point crossed) and
         was moved onto the stable branch along its unstable mode.
+    visits : list of StationState
+        With ``stations``: the state at each station reached, in order (shorter than the stations
+        when the path stopped early).
     """
 
     z: np.ndarray
@@ -69,6 +101,7 @@ class RestPath:
     solves: int
     snaps: List[float] = field(default_factory=list)
     branch_points: List[float] = field(default_factory=list)
+    visits: List[StationState] = field(default_factory=list)
 
     @property
     def one_step(self) -> bool:
@@ -84,7 +117,8 @@ def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
     return out
 
 
-def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True) -> RestPath:
+def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,
+                   stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None) -> RestPath:
     """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
 
     Parameters
@@ -97,30 +131,55 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     follow_stable : bool
         Check each state's stability and leave a branch that has lost it (``ensure_stable``);
         False follows the stationary branch wherever it goes.
+    stations : sequence of (float, ndarray), optional
+        Load fractions 0 ≤ λ_1 < … < λ_m = 1, each with its parameter vector (λ_k ``params`` up to
+        rounding: the scene of a grid point on the ray): the path lands on each, solving there
+        with that vector, and records the state (``RestPath.visits``).
 
     Returns
     -------
     RestPath
     """
+    targets = [1.0] if stations is None else [float(lam) for lam, _ in stations]
+    exact = {} if stations is None else {float(lam): np.asarray(p, float) for lam, p in stations}
+    if any(b <= a for a, b in zip(targets, targets[1:])) or targets[-1] != 1.0 or targets[0] < 0.0:
+        raise ValueError("stations must be ascending load fractions in [0, 1] ending at 1")
+
+    def at(t):
+        return exact[t] if t in exact else load_fraction(solver, params, t)
+
     z = solver.initial_guess(params)
     newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
+    budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
     solves = 0
-    rest = solver.solve_fast(z, load_fraction(solver, params, 0.0), max_iter=newton_iter, tol=tol)
+    rest = solver.solve_fast(z, at(0.0), max_iter=newton_iter, tol=tol)
     solves += 1
     if not rest.converged:
-        rest = solver.solve_newton(z, load_fraction(solver, params, 0.0), tol=tol)
+        rest = solver.solve_newton(z, at(0.0), tol=tol)
         solves += 1
     if not rest.converged:
         return RestPath(z, False, 0.0, 0, solves)
     z, z_prev, lam, lam_prev = rest.z, None, 0.0, None
-    dl, steps, snaps, branch_points = 1.0, 0, [], []
-    while lam < 1.0 and solves < MAX_SOLVES:
-        t = min(1.0, lam + dl)
+    dl, steps, snaps, branch_points, visits = 1.0, 0, [], [], []
+    side = None  # (unstable state, mode) of the last branch point left: its branch's side
+    k = 0  # next station
+
+    def visit(raw, verdict=None):
+        nonlocal k
+        while k < len(targets) and targets[k] == lam:
+            visits.append(StationState(raw.z.copy(), raw, tuple(snaps), tuple(branch_points), verdict))
+            k += 1
+
+    if stations is not None:
+        visit(rest)
+    while lam < 1.0 and solves < budget:
+        t = min(targets[k], lam + dl)
         guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
-        raw = solver.solve_fast(guess, load_fraction(solver, params, t), max_iter=newton_iter, tol=tol)
+        raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol)
         solves += 1
-        if raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN:
-            verdict = solver.stability(raw.z, load_fraction(solver, params, t)) if follow_stable else None
+        if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
+                and (side is None or float(np.dot(raw.z - side[0], side[1])) > 0.0)):
+            verdict = solver.stability(raw.z, at(t)) if follow_stable else None
             unstable = verdict is not None and verdict.morse_index > 0
             if unstable and t - lam > BRANCH_STEP * t:
                 dl = 0.5 * (t - lam)  # locate the loss of stability first
@@ -132,25 +191,31 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
                 # real rod leaves along the unstable mode; follow the stable branch from here
                 v = verdict.eigenvector * (1.0 if verdict.eigenvector[-1] >= 0 else -1.0)
-                left = solver.solve_ipopt(z + BRANCH_KICK * v, load_fraction(solver, params, lam))
+                left = solver.solve_ipopt(z + BRANCH_KICK * v, at(lam))
                 solves += 1
                 if not left.converged:
-                    return RestPath(z, False, lam, steps, solves, snaps, branch_points)
+                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
                 branch_points.append(lam)
+                side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
                 z_prev, lam_prev, z = None, None, left.z
                 dl = min(dl, 0.05)
+                visit(left)
+            else:
+                visit(raw, verdict)
             continue
         dl *= 0.5
         if dl >= MIN_STEP:
             continue
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
-        t = min(1.0, lam + 2 * MIN_STEP)
-        snap = solver.solve_ipopt(z, load_fraction(solver, params, t))
+        t = min(targets[k], lam + 2 * MIN_STEP)
+        snap = solver.solve_ipopt(z, at(t))
         solves += 1
         if not snap.converged:
-            return RestPath(z, False, lam, steps, solves, snaps, branch_points)
+            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
         snaps.append(t)
+        side = None
         z_prev, lam_prev, z, lam = None, None, snap.z, t
         steps += 1
         dl = 1e-3
-    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points)
+        visit(snap)
+    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits)

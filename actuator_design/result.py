@@ -80,6 +80,8 @@ class EquilibriumResult:
     _dense: Optional[Callable] = field(default=None, repr=False)
     _balance: Optional[Callable] = field(default=None, repr=False)
     _intersects: Optional[Callable] = field(default=None, repr=False)
+    #: s -> (θ, θ') of the transcription's interpolant, when the solver gave it
+    _theta_dense: Optional[Callable] = field(default=None, repr=False)
 
     # -- lazily evaluated diagnostics ------------------------------------------------------------
     @cached_property
@@ -130,6 +132,8 @@ class EquilibriumResult:
     @property
     def gamma(self) -> float:
         """θ'(0), the clamp curvature (units of 1/ℓ)."""
+        if self._theta_dense is not None:  # no positions needed
+            return float(self._theta_dense(np.array([0.0]))[1][0])
         return float(self.evaluate(np.array([0.0]))["dtheta"][0])
 
     # -- conversions -----------------------------------------------------------------------------
@@ -148,38 +152,53 @@ class EquilibriumResult:
             "field_A_per_m": sc.field,
         }
 
-    def to_dict(self) -> Dict[str, object]:
-        """The JSON contract of ``actuator-design solve --json`` (keys are stable; more may be added)."""
-        phys = self.physical()
-        return {
-            "success": bool(self.success),
-            "status": self.status,
-            "message": self.message,
-            "stable": bool(self.stable),
-            "morse_index": int(self.morse_index),
-            "marginal": bool(self.marginal),
-            "escaped_saddle": bool(self.escaped_saddle),
-            "self_intersecting": bool(self.self_intersecting),
-            "tip": {k: float(v) for k, v in self.tip.items()},
-            "energy": float(self.energy),
-            "h": float(self.scene.h),
-            "phi": float(self.scene.phi),
-            "p": float(self.scene.p),
-            "gamma": self.gamma,
-            "clamp_reaction": {"force": [float(v) for v in self.clamp_force], "moment": float(self.clamp_moment)},
-            "el_residual": float(self.el_residual),
-            "error_estimate": None if self.error_estimate is None else float(self.error_estimate),
-            "stationarity": float(self.stationarity),
-            "eigenvalues": [float(v) for v in self.eigenvalues],
-            "shape": {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
-                      "theta": self.theta.tolist()},
-            "groups": self.scene.describe_groups(),
-            "scales": None if self.scene.scales is None else self.scene.scales.as_dict(),
-            "physical": phys,
-            "units": {"length": "rod length", "energy": "B0/l", "force": "B0/l^2", "moment": "B0/l",
-                      "angle": "rad"},
-            "solver": {**self.options.as_dict(), **{k: v for k, v in self.stats.items()}},
+    #: the top-level keys of :meth:`to_dict`, in order
+    DICT_KEYS = ("success", "status", "message", "stable", "morse_index", "marginal", "escaped_saddle",
+                 "self_intersecting", "tip", "energy", "h", "phi", "p", "gamma", "clamp_reaction",
+                 "el_residual", "error_estimate", "stationarity", "eigenvalues", "shape", "groups",
+                 "scales", "physical", "units", "solver")
+
+    def to_dict(self, include=None) -> Dict[str, object]:
+        """The JSON contract of ``actuator-design solve --json`` (keys are stable; more may be added).
+
+        Parameters
+        ----------
+        include : iterable of str, optional
+            Only these top-level keys (of :attr:`DICT_KEYS`), in contract order: the diagnostics
+            behind the others (shape, reactions, physical values) are not evaluated. Default all.
+        """
+        makers = {
+            "success": lambda: bool(self.success),
+            "status": lambda: self.status,
+            "message": lambda: self.message,
+            "stable": lambda: bool(self.stable),
+            "morse_index": lambda: int(self.morse_index),
+            "marginal": lambda: bool(self.marginal),
+            "escaped_saddle": lambda: bool(self.escaped_saddle),
+            "self_intersecting": lambda: bool(self.self_intersecting),
+            "tip": lambda: {k: float(v) for k, v in self.tip.items()},
+            "energy": lambda: float(self.energy),
+            "h": lambda: float(self.scene.h),
+            "phi": lambda: float(self.scene.phi),
+            "p": lambda: float(self.scene.p),
+            "gamma": lambda: self.gamma,
+            "clamp_reaction": lambda: {"force": [float(v) for v in self.clamp_force],
+                                       "moment": float(self.clamp_moment)},
+            "el_residual": lambda: float(self.el_residual),
+            "error_estimate": lambda: None if self.error_estimate is None else float(self.error_estimate),
+            "stationarity": lambda: float(self.stationarity),
+            "eigenvalues": lambda: [float(v) for v in self.eigenvalues],
+            "shape": lambda: {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
+                              "theta": self.theta.tolist()},
+            "groups": lambda: self.scene.describe_groups(),
+            "scales": lambda: None if self.scene.scales is None else self.scene.scales.as_dict(),
+            "physical": self.physical,
+            "units": lambda: {"length": "rod length", "energy": "B0/l", "force": "B0/l^2",
+                              "moment": "B0/l", "angle": "rad"},
+            "solver": lambda: {**self.options.as_dict(), **{k: v for k, v in self.stats.items()}},
         }
+        wanted = set(self.DICT_KEYS if include is None else include)
+        return {k: makers[k]() for k in self.DICT_KEYS if k in wanted}
 
     def summary(self) -> str:
         """A readable multi-line summary."""

@@ -37,9 +37,13 @@ class StopRequest:
 
 
 def serial(tasks, stop: StopRequest) -> Iterator[List[dict]]:
-    """Points in this process, one at a time (journaled per point)."""
+    """Points in this process, one at a time (journaled per point), or a walked chunk at a time."""
     from .worker import run_chunk
     for t in tasks:
+        if t.get("walk"):  # a walked chunk is one path from rest: journaled when it is done
+            stop.check()
+            yield run_chunk(t)
+            continue
         for item in t["points"]:
             stop.check()
             yield run_chunk({**t, "points": [item]})

@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
 from ..io import atomic_write
-from . import backends
+from . import backends, walk
 from .errors import StudyError, StudyInterrupted, StudyWarning
 from .journal import JOURNAL_NAME, Journal
 from .lock import FolderLock
@@ -166,10 +166,19 @@ def run_study(plan, out_dir=None, *, workers: Optional[int] = None, scheduler=No
 
 
 def _tasks(plan: StudyPlan, todo: List[int], chunk: int) -> List[dict]:
+    """Chunks of points for the workers. A plain ``solve`` study walks chunks fixed by the grid
+    (:mod:`~actuator_design.study.walk`: a chunk with a point to do is walked whole, its points
+    not done are emitted); other studies take the points to do ``chunk`` at a time."""
     axes_d = [a.to_dict() for a in plan.axes]
-    return [{"raw": plan.raw, "axes": axes_d, "analyses": plan.analyses,
-             "outputs": plan.spec.outputs,
-             "points": [(i, tuple(plan.indices[i])) for i in todo[k:k + chunk]]}
+    base = {"raw": plan.raw, "axes": axes_d, "analyses": plan.analyses, "outputs": plan.spec.outputs}
+    if walk.walkable(plan.analyses):
+        pending = set(todo)
+        chunks = walk.plan_chunks(plan.raw, plan.axes, plan.indices, plan.spec.grid,
+                                  plan.spec.chunk_size)
+        return [{**base, "walk": True, "emit": [i for i in c if i in pending],
+                 "points": [(i, tuple(plan.indices[i])) for i in c]}
+                for c in chunks if pending.intersection(c)]
+    return [{**base, "points": [(i, tuple(plan.indices[i])) for i in todo[k:k + chunk]]}
             for k in range(0, len(todo), chunk)]
 
 
@@ -203,6 +212,9 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
         backend = "serial" if n_workers == 1 or len(todo) <= 1 else "processes"
     chunk = plan.spec.chunk_size or _default_chunk(len(todo), n_workers)
     tasks = _tasks(plan, todo, chunk)
+    walked = bool(tasks) and bool(tasks[0].get("walk"))
+    if walked:
+        chunk = max(len(t["points"]) for t in tasks)
 
     previous = previous_manifest(out) if plan.resume else None
     runs = list(previous.get("runs", [])) if previous else []
@@ -212,6 +224,7 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
     run_info = {"started": started, "finished": None, "status": "running", "backend": backend,
                 "workers": n_workers, "scheduler": scheduler if isinstance(scheduler, str) else
                 (None if scheduler is None else "client"), "chunk_size": chunk,
+                "walk": walked, "chunks": len(tasks),
                 "computed": 0, "reused": len(records), "rejected_records": len(found.rejected),
                 "elapsed_s": 0.0, "throughput_points_per_s": None,
                 "pid": os.getpid(), "host": socket.gethostname()}

@@ -22,7 +22,7 @@ import time
 import warnings
 from typing import Any, Dict, List
 
-__all__ = ["run_chunk", "flatten", "init_worker", "MAX_LIST"]
+__all__ = ["run_chunk", "one_point", "flatten", "init_worker", "MAX_LIST"]
 
 #: Lists of at most this many scalars become columns ``key.0``, ``key.1``, …; longer ones are
 #: left out of the table (e.g. a shape).
@@ -50,7 +50,8 @@ def flatten(obj: Any, prefix: str, out: Dict[str, Any] = None) -> Dict[str, Any]
     return out
 
 
-def _one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[str, Any]:
+def one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[str, Any]:
+    """One point's record: its configuration validated, every analysis run on its scene."""
     from ..analysis import registry
     from ..config import ConfigError, load_config
     from .grid import point_values, substitute
@@ -110,9 +111,12 @@ def run_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
     """
     from .grid import Axis
 
-    axes = [Axis.from_dict(a) for a in task["axes"]]
     with _LOCK:
-        return [_one_point(task["raw"], axes, task["analyses"], i, idx, task.get("outputs"))
+        if task.get("walk"):
+            from .walk import run_walk_chunk
+            return run_walk_chunk(task)
+        axes = [Axis.from_dict(a) for a in task["axes"]]
+        return [one_point(task["raw"], axes, task["analyses"], i, idx, task.get("outputs"))
                 for i, idx in task["points"]]
 
 

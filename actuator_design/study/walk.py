@@ -1,0 +1,327 @@
+"""Solve sweeps that walk the grid: the points of one load ray share one path from rest.
+
+``solve`` answers with the state reached from rest: the loads and the field ramped together from
+zero, λ P for λ ∈ [0, 1] (:mod:`actuator_design.from_rest`). Grid points whose parameter vectors
+lie on one ray {λ P_ref} — a line of the grid along the field magnitude (or a load) with every
+other load zero — lie on each other's loading paths: one path from rest that lands on each of them
+in turn (:func:`~actuator_design.from_rest.path_from_rest` with ``stations``) yields every point's
+answer, each a warm-started Newton step on the fast path (IPOPT only where the rod snaps or leaves
+a branch point), with the same stable-state selection as a solve of that point alone.
+
+Chunks are fixed by the grid, never by the number of workers: :func:`plan_chunks` splits each
+grid line along the *walk axis* (chosen here from the scene: the first swept key whose line is a
+ray) into its two rays (values ≥ 0 and < 0, by |value|) and those into segments of at most
+:data:`WALK_CHUNK` points, each walked from rest. A point's result therefore does not depend on
+the workers, the backend, or a resume (an interrupted chunk is walked again whole; only its
+missing points are recorded). A chunk whose points do not form a ray (another load swept too, a
+swept solver setting) is solved point by point, each from rest on its own.
+
+Only the result columns the study keeps are evaluated (:meth:`EquilibriumResult.to_dict` with
+``include``); the accuracy checks behind ``success`` (Euler–Lagrange residual, self-intersection,
+:func:`actuator_design.acceptance.accept`) always run. Unlike a lone ``solve``, a study point is
+not also solved from the straight rod to look for another stable state (the ``equilibria``
+analysis lists them all); its ``solver.from_rest.walk`` is true.
+"""
+from __future__ import annotations
+
+import fnmatch
+import functools
+import time
+import warnings
+from typing import Any, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+__all__ = ["WALK_CHUNK", "walkable", "plan_chunks", "run_walk_chunk", "wanted_keys"]
+
+#: most points of one walked chunk (a segment of a ray; each segment starts from rest)
+WALK_CHUNK = 256
+#: relative tolerance of the ray test on parameter vectors
+_RAY_RTOL = 1e-12
+
+
+def walkable(analyses: Sequence[dict]) -> bool:
+    """Whether a study's analysis list is the plain ``solve`` the walk computes."""
+    return [dict(a) for a in analyses] == [{"type": "solve"}]
+
+
+def wanted_keys(outputs: Optional[Sequence[str]]) -> Optional[List[str]]:
+    """Top-level result keys whose columns a study keeps (``solve.<key>…``), or None for all.
+
+    A pattern keeps a key when the pattern's literal prefix (up to its first wildcard) and
+    ``solve.<key>`` agree as far as both go (conservative: a key is never dropped wrongly).
+    """
+    from ..result import EquilibriumResult
+
+    if outputs is None:
+        return None
+    keys = []
+    for k in EquilibriumResult.DICT_KEYS:
+        col = f"solve.{k}"
+        for pat in outputs:
+            cut = min([pat.index(c) for c in "*?[" if c in pat] + [len(pat)])
+            prefix = pat[:cut]
+            if (fnmatch.fnmatchcase(col, pat) or col.startswith(prefix) or prefix.startswith(col + ".")
+                    or (cut < len(pat) and prefix.startswith(col))):
+                keys.append(k)
+                break
+    return keys
+
+
+# -- planning (in the study process) ---------------------------------------------------------------
+def _scene_point(raw, axes, idx):
+    from ..config import load_config
+    from .grid import substitute
+
+    config = load_config(substitute(raw, axes, idx))
+    return config.to_scene(), config.solver_options()
+
+
+def _is_ray(vectors: Sequence[np.ndarray], load_slots: Sequence[int]) -> Optional[np.ndarray]:
+    """Load fractions c_j with P_j = c_j P_ref on the load slots and P_j = P_ref elsewhere
+    (P_ref the vector with the largest loads), shape (m,); None when the points are not on one ray."""
+    P = np.asarray(vectors, float)
+    L = np.zeros(P.shape[1], bool)
+    L[list(load_slots)] = True
+    loads, rest = P[:, L], P[:, ~L]
+    ref = int(np.argmax(np.linalg.norm(loads, axis=1)))
+    norm = float(np.linalg.norm(loads[ref]))
+    if norm == 0.0:
+        return None
+    scale = np.maximum(1.0, np.abs(rest[ref]))
+    if np.any(np.abs(rest - rest[ref]) > _RAY_RTOL * scale):
+        return None
+    c = loads @ loads[ref] / norm ** 2
+    if np.any(np.abs(loads - c[:, None] * loads[ref]) > _RAY_RTOL * norm) or np.any(c < -_RAY_RTOL):
+        return None
+    return np.clip(c, 0.0, 1.0)
+
+
+def walk_axis(raw, axes, indices) -> Optional[int]:
+    """The first numeric swept key along which the grid's first line is a load ray, or None.
+
+    Three points of the line (first, middle, largest value) are built as scenes and their
+    parameter vectors tested (:func:`_is_ray`); the solver built for it is cached for the workers
+    that fork from this process.
+    """
+    from ..config import ConfigError
+    from ..solver import get_solver
+
+    for a, axis in enumerate(axes):
+        n = len(axis.values)
+        if n < 3 or not axis.numeric:
+            continue
+        mags = [abs(v) for v in axis.numbers]
+        picks = sorted({0, n // 2, int(np.argmax(mags))})
+        base = list(indices[0])
+        try:
+            pts = [_scene_point(raw, axes, base[:a] + [j] + base[a + 1:]) for j in picks]
+        except ConfigError:
+            continue
+        if any(o != pts[0][1] for _, o in pts):
+            continue
+        solver = get_solver(pts[-1][0], pts[-1][1])
+        try:
+            vecs = [solver.parameter_vector(s) for s, _ in pts]
+        except (KeyError, ValueError):
+            continue
+        if _is_ray(vecs, list(solver._scale_lin) + list(solver._scale_sq)) is not None:
+            return a
+    return None
+
+
+def plan_chunks(raw, axes, indices, grid: str, chunk: Optional[int] = None) -> List[List[int]]:
+    """The grid's points in walk order, cut into chunks fixed by the grid (module doc).
+
+    Returns
+    -------
+    list of list of int
+        Point indices of each chunk, in the order they are walked.
+    """
+    size = int(chunk or WALK_CHUNK)
+    a = walk_axis(raw, axes, indices) if grid == "cartesian" else None
+    if a is None:
+        order = list(range(len(indices)))
+        return [order[k:k + size] for k in range(0, len(order), size)]
+    lines: Dict[Tuple[int, ...], List[int]] = {}
+    for i, idx in enumerate(indices):
+        lines.setdefault(tuple(idx[:a]) + tuple(idx[a + 1:]), []).append(i)
+    numbers = axes[a].numbers
+    chunks = []
+    for members in lines.values():
+        for side in (lambda v: v >= 0, lambda v: v < 0):
+            ray = sorted((i for i in members if side(numbers[indices[i][a]])),
+                         key=lambda i: (abs(numbers[indices[i][a]]), i))
+            chunks += [ray[k:k + size] for k in range(0, len(ray), size)]
+    return chunks
+
+
+# -- computing (in a worker) -----------------------------------------------------------------------
+def _record(index, values) -> Dict[str, Any]:
+    return {"index": int(index), "values": values, "status": "ok", "message": "", "results": {}}
+
+
+@functools.lru_cache(maxsize=4096)
+def _kept(column: str, outputs: Tuple[str, ...]) -> bool:
+    return any(fnmatch.fnmatchcase(column, p) for p in outputs)
+
+
+def _finish(rec, result, include, outputs, notes) -> Dict[str, Any]:
+    from .worker import flatten
+
+    out = result.to_dict(include=include)
+    out.pop("shape", None)
+    flatten(out, "solve", rec["results"])
+    if not result.success:
+        rec["status"] = "not_converged"
+        notes.append(f"solve: {' '.join(str(result.message).split())}")
+    if outputs is not None:
+        rec["results"] = {k: v for k, v in rec["results"].items() if _kept(k, tuple(outputs))}
+    if notes:
+        rec["message"] = "; ".join(notes)
+    return rec
+
+
+def _station_result(scene, opts, solver, params, st, lam, walked, elapsed):
+    """The :class:`EquilibriumResult` of one station, checked like a lone ``solve``."""
+    from ..acceptance import accept
+    from ..equilibrium import _make_result
+
+    verdict = st.verdict if st.verdict is not None else solver.stability(st.z, params)
+    notes = []
+    if st.branch_points:
+        notes.append("from rest the rod left an unstable equilibrium along its unstable mode at "
+                     + ", ".join(f"{v / lam:.4g}" for v in st.branch_points) + " of the load")
+    if st.snaps:
+        notes.append("from rest the rod snaps at " + ", ".join(f"{v / lam:.4g}" for v in st.snaps)
+                     + " of the load")
+    result = _make_result(scene, opts, solver, params, st.raw, verdict, bool(st.branch_points),
+                          notes, elapsed)
+    result.stats["method"] = "fast"
+    result.stats["from_rest"] = {"reached": True, "walk": walked,
+                                 "snaps_at": [v / lam for v in st.snaps],
+                                 "branch_points_at": [v / lam for v in st.branch_points]}
+    return accept(result)
+
+
+def _points(task):
+    """Each point's record, scene and options (None where the configuration is invalid)."""
+    from ..config import ConfigError
+    from .grid import Axis, point_values
+
+    axes = [Axis.from_dict(a) for a in task["axes"]]
+    out = []
+    for i, idx in task["points"]:
+        rec = _record(i, point_values(axes, idx))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                scene, opts = _scene_point(task["raw"], axes, idx)
+            except ConfigError as err:
+                rec.update(status="invalid", message=str(err))
+                scene = opts = None
+        notes = [f"warning: {' '.join(str(w.message).split())}" for w in caught]
+        out.append((rec, scene, opts, notes))
+    return out
+
+
+def run_walk_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
+    """Compute one walked chunk: ``task`` as :func:`actuator_design.study.worker.run_chunk` (its
+    ``points`` in walk order) plus ``emit``, the point indices to return (all by default).
+
+    Returns
+    -------
+    list of dict
+        One journal record per emitted point (the worker's record format).
+    """
+    from ..acceptance import graded_options
+    from ..from_rest import path_from_rest
+    from ..solver import get_solver
+
+    t0 = time.perf_counter()
+    emit = set(task.get("emit") or [i for i, _ in task["points"]])
+    outputs = task.get("outputs")
+    include = wanted_keys(outputs)
+    if include is not None:
+        include = sorted(set(include) | {"success"})
+    points = _points(task)
+    good = [(rec, s, o, n) for rec, s, o, n in points if s is not None]
+    records: Dict[int, dict] = {rec["index"]: rec for rec, s, _, _ in points if s is None}
+    _walk(good, include, outputs, records, graded_options, get_solver, path_from_rest)
+    for (i, idx), (rec, scene, opts, notes) in zip(task["points"], points):
+        if i not in records:  # off the ray or past a failed path: alone, from rest
+            _alone(rec, scene, opts, notes, include, outputs, records, graded_options, get_solver,
+                   path_from_rest, lambda i=i, idx=idx: _lone_solve(task, i, idx))
+    share = (time.perf_counter() - t0) / max(1, len(points))
+    out = []
+    for rec, _, _, _ in points:
+        if rec["index"] in emit:
+            r = records[rec["index"]]
+            r.setdefault("time_s", share)
+            out.append(r)
+    return out
+
+
+def _walk(good, include, outputs, records, graded_options, get_solver, path_from_rest) -> bool:
+    """Walk the chunk's points as one ray when they are one (records filled in); False otherwise."""
+    if len(good) < 2 or any(o != good[0][2] for _, _, o, _ in good):
+        return False
+    opts0 = good[0][2]
+    if opts0.accuracy is not None or opts0.start != "rest":
+        return False
+    probe = get_solver(good[-1][1], opts0)
+    vecs = [probe.parameter_vector(s) for _, s, _, _ in good]
+    c = _is_ray(vecs, list(probe._scale_lin) + list(probe._scale_sq))
+    if c is None:
+        return False
+    ref = int(np.argmax(c))
+    opts = graded_options(good[ref][1], opts0) if opts0.adapt else opts0
+    solver = get_solver(good[ref][1], opts)
+    vecs = [solver.parameter_vector(s) for _, s, _, _ in good]
+    order = sorted(range(len(good)), key=lambda j: (c[j], j))
+    stations, at = [], {}
+    for j in order:
+        lam = float(c[j])
+        if not stations or lam > stations[-1][0]:
+            stations.append((lam, vecs[j]))
+        at[j] = len(stations) - 1
+    if stations[-1][0] != 1.0:
+        return False
+    t0 = time.perf_counter()
+    path = path_from_rest(solver, vecs[ref], follow_stable=opts.ensure_stable, stations=stations)
+    elapsed = (time.perf_counter() - t0) / max(1, len(stations))
+    for j in order:
+        if at[j] >= len(path.visits):
+            break  # the path stopped: these points are solved alone
+        rec, scene, _, notes = good[j]
+        lam = max(stations[at[j]][0], 1e-300)
+        result = _station_result(scene, opts, solver, vecs[j], path.visits[at[j]], lam, True, elapsed)
+        records[rec["index"]] = _finish(rec, result, include, outputs, list(notes))
+    return True
+
+
+def _lone_solve(task, index, idx) -> Dict[str, Any]:
+    """The point's record by the lone ``solve`` (mesh choice, from rest, straight-rod start)."""
+    from .grid import Axis
+    from .worker import one_point
+
+    axes = [Axis.from_dict(a) for a in task["axes"]]
+    return one_point(task["raw"], axes, [{"type": "solve"}], index, idx, task.get("outputs"))
+
+
+def _alone(rec, scene, opts0, notes, include, outputs, records, graded_options, get_solver,
+           path_from_rest, lone) -> None:
+    """One point from rest on its own mesh; the lone ``solve`` when its path does not arrive."""
+
+    if opts0.accuracy is None and opts0.start == "rest":
+        opts = graded_options(scene, opts0) if opts0.adapt else opts0
+        solver = get_solver(scene, opts)
+        params = solver.parameter_vector(scene)
+        t0 = time.perf_counter()
+        path = path_from_rest(solver, params, follow_stable=opts.ensure_stable, stations=[(1.0, params)])
+        if path.visits:
+            result = _station_result(scene, opts, solver, params, path.visits[0], 1.0, False,
+                                     time.perf_counter() - t0)
+            records[rec["index"]] = _finish(rec, result, include, outputs, list(notes))
+            return
+    records[rec["index"]] = lone()
