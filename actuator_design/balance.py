@@ -20,7 +20,7 @@ from typing import Tuple
 
 import numpy as np
 
-__all__ = ["BalanceOperator", "balance", "GAUSS_T", "GAUSS_W"]
+__all__ = ["BalanceOperator", "balance", "balance_many", "GAUSS_T", "GAUSS_W"]
 
 GAUSS_T, GAUSS_W = np.polynomial.legendre.leggauss(12)
 
@@ -68,23 +68,30 @@ class BalanceOperator:
         if not stored:
             return
         self.A0, self.A1 = _unit_maps(tr, np.concatenate((sg, self.se)))
+        self.clamp_curvature_row = _unit_maps(tr, np.array([0.0]))[1][0]  # θ'(0) = row · z
         # x, y at the Gauss points from the interpolant of (cos θ, sin θ) through the Gauss
         # points of their sub-interval, integrated exactly from its left edge
         self.S = 0.5 * (b - a)[:, None, None] * _gauss_integration_matrix()[None, :, :]
 
     def dense(self, z: np.ndarray):
-        """θ, θ', x, y at the quadrature points ``sg`` and at the residual edges ``se``."""
+        """θ, θ', x, y at the quadrature points ``sg`` and at the residual edges ``se``.
+
+        ``z`` of shape (n_nodes,) gives arrays of shape (n_points,); of shape (n_nodes, m), the
+        values of m states at once, shape (n_points, m).
+        """
         th = self.A0 @ z
         dth = self.A1 @ z
         m = self.sg.size
         th_g, th_e, dth_g, dth_e = th[:m], th[m:], dth[:m], dth[m:]
         if self.lgl:
-            c, s = np.cos(th_g).reshape(self.n_sub, -1), np.sin(th_g).reshape(self.n_sub, -1)
-            w = self.wg.reshape(self.n_sub, -1)
-            x_edge = np.concatenate(([0.0], np.cumsum((w * c).sum(1))))
-            y_edge = np.concatenate(([0.0], np.cumsum((w * s).sum(1))))
-            x_g = (x_edge[:-1, None] + np.einsum("kij,kj->ki", self.S, c)).ravel()
-            y_g = (y_edge[:-1, None] + np.einsum("kij,kj->ki", self.S, s)).ravel()
+            tail = th_g.shape[1:]  # () or (m,)
+            c = np.cos(th_g).reshape(self.n_sub, -1, *tail)
+            s = np.sin(th_g).reshape(self.n_sub, -1, *tail)
+            w = self.wg.reshape(self.n_sub, -1, *(1,) * len(tail))
+            x_edge = np.concatenate((np.zeros((1, *tail)), np.cumsum((w * c).sum(1), axis=0)))
+            y_edge = np.concatenate((np.zeros((1, *tail)), np.cumsum((w * s).sum(1), axis=0)))
+            x_g = (x_edge[:-1, None] + np.einsum("kij,kj...->ki...", self.S, c)).reshape(th_g.shape)
+            y_g = (y_edge[:-1, None] + np.einsum("kij,kj...->ki...", self.S, s)).reshape(th_g.shape)
             xy = [(x_g, y_g), (x_edge[self.keep], y_edge[self.keep])]
         else:  # the midpoint rod is the polygon through its nodes
             tr = self.tr
@@ -139,7 +146,42 @@ def balance(solver, params, dense, scene, z):
         g, e = dense(op.sg), dense(op.se)
     else:
         g, e = op.dense(np.asarray(z, float))
-    return _reactions(solver, params, scene, z, op, g, e)
+    loads = _loads_function(solver, scene, params)
+    col = lambda v: np.asarray(v, float)[:, None]
+    tip = np.array([solver.summary(z, params)[1:]])
+    force, moment, R = _moment_balance(solver, op, [col(v) for v in g], [col(v) for v in e],
+                                       loads, tip, np.atleast_2d(params))
+    return force[0], float(moment[0]), float(R[0])
+
+
+def balance_many(solver, params: np.ndarray, Z: np.ndarray, scene):
+    """:func:`balance` of m states on one mesh at once, or None when the mesh has no stored
+    operator, the loads are not vectorisable, or a per-point field is a load (scaled with λ).
+
+    Parameters
+    ----------
+    params : ndarray, shape (m, n_params)
+    Z : ndarray, shape (m, n_nodes)
+    scene : Scene
+        The scene whose per-point fields (fibre angle, stiffness: geometry, the same at every
+        state of a load ray) all states share.
+
+    Returns
+    -------
+    (ndarray (m, 2), ndarray (m,), ndarray (m,)) or None
+        Clamp forces, clamp moments, max |R|.
+    """
+    op = operator_for(solver)
+    loads = set(solver._scale_lin) | set(solver._scale_sq)
+    slices = solver.layout.slices
+    if (op is None or not op.lgl or _vectorised(solver) is None
+            or any(loads.intersection(range(slices[n].start, slices[n].stop))
+                   for n in solver._node_fields if n in slices)):
+        return None
+    P, Z = np.atleast_2d(params), np.atleast_2d(Z)
+    g, e = op.dense(Z.T)
+    tip = np.array([solver.summary(z, p)[1:] for z, p in zip(Z, P)])
+    return _moment_balance(solver, op, g, e, _loads_function(solver, scene, P), tip, P)
 
 
 def _vectorised(solver):
@@ -148,46 +190,58 @@ def _vectorised(solver):
     from .pointwise import NotVectorisable, VectorisedSX
 
     if solver not in _VECTORISED:
-        dens_f = solver._pointwise[0]
+        dens_f, tip_f = solver._pointwise
         try:
-            _VECTORISED[solver] = VectorisedSX(dens_f, shared=[dens_f.n_in() - 1])
+            _VECTORISED[solver] = (VectorisedSX(dens_f, shared=[dens_f.n_in() - 1]),
+                                   VectorisedSX(tip_f, shared=[tip_f.n_in() - 1]))
         except NotVectorisable:
             _VECTORISED[solver] = None
     return _VECTORISED[solver]
 
 
-def _reactions(solver, params, scene, z, op, g, e):
-    dens_f, tip_f = solver._pointwise
+def _loads_function(solver, scene, params):
+    """(θ, θ', x, y, s) arrays of shape (k, m) -> (τ, Fx, Fy, M) of every term, each (k, m)."""
+    dens_f = solver._pointwise[0]
     fast = _vectorised(solver)
-    row = lambda v: np.asarray(v, float).reshape(1, -1)  # CasADi evaluates row inputs pointwise
 
-    def loads(th_, dth_, x_, y_, s_):  # (τ, Fx, Fy, M) of every term at arc lengths s_
-        fields = [fn(scene, s_) for fn in solver._node_fields.values()]
+    def loads(th, dth, x, y, s):
+        fields = [np.asarray(fn(scene, s), float) for fn in solver._node_fields.values()]
         if fast is not None:
-            return fast(th_, x_, y_, dth_, *[np.broadcast_to(f, np.shape(s_)) for f in fields], params)
-        return [np.asarray(v, float).ravel()
-                for v in dens_f(row(th_), row(x_), row(y_), row(dth_), *map(row, fields), params)]
+            return fast[0](th, x, y, dth, *[np.broadcast_to(f.reshape(-1, *(1,) * (th.ndim - 1)),
+                                                            th.shape) for f in fields], params)
+        row = lambda v: np.asarray(v, float).reshape(1, -1)  # CasADi evaluates rows pointwise
+        return [np.asarray(v, float).reshape(th.shape)
+                for v in dens_f(row(th), row(x), row(y), row(dth), *map(row, fields), params[0])]
+    return loads
 
-    x, y = g[2], g[3]
-    xe, ye = e[2], e[3]
-    n_g = x.size  # one CasADi call for the quadrature points and the residual edges
+
+def _moment_balance(solver, op, g, e, loads, tip, P):
+    """The clamp reaction and max |R| of m states (module doc). ``g``, ``e``: (θ, θ', x, y) at the
+    quadrature points and the residual edges, each (k, m); ``tip``: (θ(1), x(1), y(1)) per state,
+    shape (m, 3); ``P``: parameters, shape (m, n_params)."""
+    fast = _vectorised(solver)
+    x, y, xe, ye = g[2], g[3], e[2], e[3]
+    n_g = x.shape[0]  # one evaluation for the quadrature points and the residual edges
     tau, Fx, Fy, moment = loads(*(np.concatenate((u, v)) for u, v in zip(g, e)),
                                 np.concatenate((op.sg, op.se)))
     tau, Fx, Fy, moment = tau[:n_g], Fx[:n_g], Fy[:n_g], moment[n_g:]
-    _, tip_theta, tip_x, tip_y = solver.summary(z, params)
-    m, fx, fy = (float(v) for v in tip_f(tip_theta, tip_x, tip_y, params))
-    wg = op.wg
+    tip_theta, tip_x, tip_y = tip.T
+    if fast is not None:
+        m, fx, fy = fast[1](tip_theta, tip_x, tip_y, P)
+    else:
+        m, fx, fy = (np.array([float(v)]) for v in solver._pointwise[1](*tip[0], P[0]))
+    wg = op.wg[:, None]
 
-    def tail(values):  # ∫_{edge_k}^1 values, for every edge k
-        per = (wg * values).reshape(op.n_sub, -1).sum(1)
-        return np.concatenate((np.cumsum(per[::-1])[::-1], [0.0]))
+    def tail(values):  # ∫_{edge_k}^1 values, for every edge k, shape (n_edges, m)
+        per = (wg * values).reshape(op.n_sub, -1, values.shape[1]).sum(1)
+        return np.concatenate((np.cumsum(per[::-1], axis=0)[::-1], np.zeros((1, per.shape[1]))))
 
     I_tau, I_Fx, I_Fy, I_rF = tail(tau), tail(Fx), tail(Fy), tail(x * Fy - y * Fx)
     r1xf = tip_x * fy - tip_y * fx
-    clamp_force = -np.array([fx + I_Fx[0], fy + I_Fy[0]])
+    clamp_force = -np.stack([fx + I_Fx[0], fy + I_Fy[0]], axis=1)
     clamp_moment = -(m + r1xf + I_tau[0] + I_rF[0])
     # residual at the edges where θ' is defined (not on element boundaries, where it may jump)
     keep = op.keep  # moment: the internal moment ∂V/∂θ' (= bθ' for bending) at the edges
     nx, ny = fx + I_Fx[keep], fy + I_Fy[keep]
     R = moment - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
-    return clamp_force, float(clamp_moment), float(np.max(np.abs(R)))
+    return clamp_force, clamp_moment, np.max(np.abs(R), axis=0)

@@ -236,4 +236,4 @@ def _make_result(scene, options, solver, params, raw: RawSolution, verdict, esca
         eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
         marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
         _balance=lambda: balance(solver, params, dense, scene, z), _intersects=_self_intersecting,
-        _theta_dense=lambda s: solver.transcription.theta_dense(z, s))
+        _clamp_curvature=lambda: solver.transcription.theta_dense(z, np.array([0.0]))[1][0])

@@ -99,13 +99,14 @@ class VectorisedSX:
         self.program = program
 
     def __call__(self, *args) -> List[np.ndarray]:
-        """The outputs at every point, each of shape (n_points,).
+        """The outputs at every point, each of the points' common (broadcast) shape.
 
-        ``args``: one entry per input, a 1-D array of the points' values (all of one length) or,
-        for a shared input, its vector of values.
+        ``args``: one entry per input: an array of the points' values, or, for a shared input,
+        its vector of values (shape (n_shared,)) or one vector per column of the points
+        (shape (m, n_shared) against points of shape (k, m)).
         """
-        n = max(np.size(a) for i, a in enumerate(args) if i not in self.shared)
-        inputs = [np.asarray(a, float).ravel() for a in args]
+        inputs = [np.asarray(a, float) for a in args]
+        shape = np.broadcast_shapes(*(a.shape for i, a in enumerate(inputs) if i not in self.shared))
         w: List = [0.0] * self.n_work
         out: List = [None] * self.n_out
         with np.errstate(all="ignore"):  # as CasADi: inf/nan propagate, the caller checks
@@ -115,10 +116,10 @@ class VectorisedSX:
                     w[step[1]] = step[2](*(w[j] for j in step[3]))
                 elif kind == "in":
                     x = inputs[step[2]]
-                    w[step[1]] = x[step[3]] if step[2] in self.shared else x
+                    w[step[1]] = x[..., step[3]] if step[2] in self.shared else x
                 elif kind == "const":
                     w[step[1]] = step[2]
                 else:
                     out[step[2]] = w[step[1]]
-        return [np.broadcast_to(np.asarray(o, float), (n,)).copy() if o is not None
-                else np.zeros(n) for o in out]
+        return [np.broadcast_to(np.asarray(o, float), shape).copy() if o is not None
+                else np.zeros(shape) for o in out]

@@ -80,8 +80,8 @@ class EquilibriumResult:
     _dense: Optional[Callable] = field(default=None, repr=False)
     _balance: Optional[Callable] = field(default=None, repr=False)
     _intersects: Optional[Callable] = field(default=None, repr=False)
-    #: s -> (θ, θ') of the transcription's interpolant, when the solver gave it
-    _theta_dense: Optional[Callable] = field(default=None, repr=False)
+    #: () -> θ'(0) from the transcription's interpolant, when the solver gave it
+    _clamp_curvature: Optional[Callable] = field(default=None, repr=False)
 
     # -- lazily evaluated diagnostics ------------------------------------------------------------
     @cached_property
@@ -132,8 +132,8 @@ class EquilibriumResult:
     @property
     def gamma(self) -> float:
         """θ'(0), the clamp curvature (units of 1/ℓ)."""
-        if self._theta_dense is not None:  # no positions needed
-            return float(self._theta_dense(np.array([0.0]))[1][0])
+        if self._clamp_curvature is not None:  # no positions needed
+            return float(self._clamp_curvature())
         return float(self.evaluate(np.array([0.0]))["dtheta"][0])
 
     # -- conversions -----------------------------------------------------------------------------

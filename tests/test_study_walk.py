@@ -215,3 +215,12 @@ def test_vectorised_sx_replays_casadi():
         VectorisedSX(ca.Function("m", [a], [a * 2]))
     with pytest.raises(NotVectorisable):
         VectorisedSX(ca.Function("v", [b], [b[0]]))
+
+
+def test_every_builtin_analysis_name_is_registered_by_its_module():
+    """The registry lists built-in names without importing them; each module registers its name."""
+    from actuator_design.analysis import registry
+
+    for name in registry.BUILTIN:
+        assert callable(registry.get(name))
+    assert set(registry.BUILTIN) <= set(registry.names())

@@ -22,26 +22,29 @@ def register(name: str):
     return wrap
 
 
-def _load_builtin():
-    # Importing the analysis modules registers them; a module that is not there yet is skipped.
+#: the built-in analyses and the modules that register them (imported only when one is used:
+#: a study of ``solve`` does not pay for importing the design stages)
+BUILTIN: Dict[str, str] = {"solve": "solve", "equilibria": "equilibria", "continuation": "continuation",
+                           "critical": "critical", "map": "multiplicity", "path": "loading",
+                           "stiffness": "stiffness", "design": "design"}
+
+
+def _load_builtin(name=None):
     import importlib
 
-    for mod in ("solve", "equilibria", "continuation", "critical", "multiplicity", "loading",
-                "stiffness", "design"):
-        try:
+    for key, mod in BUILTIN.items():
+        if name is None or key == name:
             importlib.import_module(f"{__package__}.{mod}")
-        except ModuleNotFoundError as err:
-            if err.name != f"{__package__}.{mod}":
-                raise
 
 
 def get(name: str) -> Callable[..., dict]:
-    _load_builtin()
     if name not in _ANALYSES:
-        raise ValueError(f"unknown analysis {name!r} (allowed: {', '.join(sorted(_ANALYSES))})")
+        _load_builtin(name)
+    if name not in _ANALYSES:
+        raise ValueError(f"unknown analysis {name!r} (allowed: {', '.join(names())})")
     return _ANALYSES[name]
 
 
 def names():
-    _load_builtin()
-    return sorted(_ANALYSES)
+    """Every analysis name: the built-in ones and any registered since."""
+    return sorted(set(BUILTIN) | set(_ANALYSES))

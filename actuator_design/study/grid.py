@@ -239,19 +239,25 @@ def substitute(raw: dict, axes: Sequence[Axis], idx: Sequence[int]) -> dict:
     ConfigError
         ``study.sweep.<key>``: the path runs through a value that is not a mapping.
     """
+    # only the mappings on the swept paths are copied; the rest is shared with ``raw``, which
+    # load_config reads and never changes
     out = {k: v for k, v in raw.items() if k != "study"}
     for sec in {a.section for a in axes}:
-        out[sec] = copy.deepcopy(raw.get(sec) or {})
+        out[sec] = dict(raw.get(sec) or {})
+    copied = {id(out[sec]) for sec in {a.section for a in axes}}
     for a, i in zip(axes, idx):
         node = out[a.section]
         for j, part in enumerate(a.path[:-1]):
             nxt = node.get(part)
             if nxt is None:
-                nxt = node[part] = {}
+                nxt = {}
             if not isinstance(nxt, dict):
                 where = ".".join((a.section,) + a.path[:j + 1])
                 raise ConfigError(f"study.sweep.{a.key}", f"{where} is {nxt!r}, not a mapping: "
                                                           "cannot set a key inside it")
+            if id(nxt) not in copied:
+                nxt = node[part] = dict(nxt)
+                copied.add(id(nxt))
             node = nxt
         node[a.path[-1]] = copy.deepcopy(a.values[i])
     return out

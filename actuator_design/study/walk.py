@@ -32,6 +32,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..balance import balance_many, operator_for
+
 __all__ = ["WALK_CHUNK", "walkable", "plan_chunks", "run_walk_chunk", "wanted_keys"]
 
 #: most points of one walked chunk (a segment of a ray; each segment starts from rest)
@@ -182,12 +184,14 @@ def _finish(rec, result, include, outputs, notes) -> Dict[str, Any]:
     return rec
 
 
-def _station_result(scene, opts, solver, params, st, lam, walked, elapsed):
-    """The :class:`EquilibriumResult` of one station, checked like a lone ``solve``."""
+def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check=None):
+    """The :class:`EquilibriumResult` of one station, checked like a lone ``solve`` (``check``:
+    its clamp force, clamp moment and residual when computed already, :func:`balance_many`)."""
     from ..acceptance import accept
     from ..equilibrium import _make_result
+    from ..from_rest import eigenvalue_verdict
 
-    verdict = st.verdict if st.verdict is not None else solver.stability(st.z, params)
+    verdict = eigenvalue_verdict(solver, st.z, params, eigenvalues=st.eigenvalues)
     notes = []
     if st.branch_points:
         notes.append("from rest the rod left an unstable equilibrium along its unstable mode at "
@@ -197,6 +201,12 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed):
                      + " of the load")
     result = _make_result(scene, opts, solver, params, st.raw, verdict, bool(st.branch_points),
                           notes, elapsed)
+    if check is not None:
+        force, moment, residual = check
+        result._balance = lambda: (np.asarray(force, float), float(moment), float(residual))
+    op = operator_for(solver)
+    if op is not None:
+        result._clamp_curvature = lambda: float(op.clamp_curvature_row @ st.z)
     result.stats["method"] = "fast"
     result.stats["from_rest"] = {"reached": True, "walk": walked,
                                  "snaps_at": [v / lam for v in st.snaps],
@@ -290,12 +300,16 @@ def _walk(good, include, outputs, records, graded_options, get_solver, path_from
     t0 = time.perf_counter()
     path = path_from_rest(solver, vecs[ref], follow_stable=opts.ensure_stable, stations=stations)
     elapsed = (time.perf_counter() - t0) / max(1, len(stations))
-    for j in order:
-        if at[j] >= len(path.visits):
-            break  # the path stopped: these points are solved alone
+    reached = [j for j in order if at[j] < len(path.visits)]  # the others are solved alone
+    # the accuracy check of every state at once (one evaluation of the loads for the chunk)
+    checks = balance_many(solver, np.array([vecs[j] for j in reached]),
+                          np.array([path.visits[at[j]].z for j in reached]),
+                          good[ref][1]) if reached else None
+    for n, j in enumerate(reached):
         rec, scene, _, notes = good[j]
         lam = max(stations[at[j]][0], 1e-300)
-        result = _station_result(scene, opts, solver, vecs[j], path.visits[at[j]], lam, True, elapsed)
+        result = _station_result(scene, opts, solver, vecs[j], path.visits[at[j]], lam, True, elapsed,
+                                 None if checks is None else tuple(c[n] for c in checks))
         records[rec["index"]] = _finish(rec, result, include, outputs, list(notes))
     return True
 
