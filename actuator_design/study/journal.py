@@ -1,4 +1,4 @@
-"""The journal of a study: one JSON line per finished point, appended and flushed per point.
+"""The journal of a study: one JSON line per finished point, appended in blocks as chunks finish.
 
 The first line is a header ``{"journal": "actuator-design study", "study_id": …, "n_points": …}``;
 every other line is a point record (:mod:`actuator_design.study.worker`). A line is either
@@ -144,11 +144,13 @@ class Journal:
         return self
 
     def append(self, records: Iterable[dict]) -> None:
-        """Write records, one line each, flushed per line; fsync once per call."""
-        for rec in records:
-            self._fh.write(dumps_json(rec) + "\n")
+        """Write a block of records, one line each, in one write; flush and fsync once per block
+        (a crash mid-block leaves whole lines and at most one partial last line)."""
+        block = "".join(dumps_json(rec) + "\n" for rec in records)
+        if block:
+            self._fh.write(block)
             self._fh.flush()
-        os.fsync(self._fh.fileno())
+            os.fsync(self._fh.fileno())
 
     def close(self) -> None:
         if self._fh is not None:

@@ -15,7 +15,8 @@ die with this process) or on a Dask cluster (``scheduler=``; Dask is imported on
     warnings (journal records rejected); :func:`read_manifest` reports a dead run's ``running``
     as ``interrupted`` (:mod:`~actuator_design.study.manifest`);
 ``journal.jsonl``
-    one JSON line per finished point, flushed per point (:mod:`actuator_design.study.journal`);
+    one JSON line per finished point, written in blocks as chunks finish
+    (:mod:`actuator_design.study.journal`);
 ``results.csv`` (and ``results.parquet`` when pyarrow is installed)
     the tidy table (:mod:`actuator_design.study.outputs`);
 ``figures/*.png``
@@ -244,6 +245,8 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
         gen = backends.processes(tasks, n_workers)
     else:
         gen = backends.serial(tasks, stop)
+    if backend != "serial":  # the workers compute: load the plotting code meanwhile
+        threading.Thread(target=_import_figure_code, daemon=True).start()
 
     class _Bar(tqdm):
         monitor_interval = 0  # no monitor thread (worker processes may be forked later)
@@ -295,6 +298,18 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
                        reused=run_info["reused"], elapsed_s=run_info["elapsed_s"],
                        throughput=run_info["throughput_points_per_s"] or 0.0, backend=backend,
                        workers=run_info["workers"] or 0, files=files)
+
+
+def _import_figure_code() -> None:
+    """Import matplotlib and the study figures (≈0.5 s) while the workers compute."""
+    try:
+        from ..viz.study import study_figures  # noqa: F401
+        from ..viz.style import _use_agg
+        _use_agg()
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
+    except Exception:  # noqa: BLE001 - the outputs import it again and report any error there
+        pass
 
 
 def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:

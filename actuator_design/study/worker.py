@@ -5,8 +5,10 @@
 validated again (:func:`actuator_design.config.load_config`) and every analysis in the list is run
 on its scene; the solver built for a scene structure is cached per process by
 :func:`actuator_design.solver.get_solver`, and chunks hold consecutive grid points, so a worker
-builds it once. Points are computed independently of each other (no warm start across points),
-so a study's results do not depend on the number of workers, the chunking or a resume.
+builds it once. A study of ``solve`` alone walks chunks fixed by the grid, one path from rest
+per load ray (:mod:`actuator_design.study.walk`); any other study computes its points
+independently of each other. Either way a study's results do not depend on the number of
+workers, the backend or a resume.
 
 A record (one JSON line of the journal) is
 ``{"index", "values": {key: value}, "status", "message", "results": {column: value}, "time_s"}``
