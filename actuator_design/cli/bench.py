@@ -45,6 +45,13 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="print one JSON object {rows, targets, problems} on stdout")
     parser.add_argument("--out", metavar="DIR",
                         help="write bench.json, bench.csv and bench_pareto.png into DIR")
+    s = parser.add_argument_group("study section (whole commands against a solve_bvp walk)")
+    s.add_argument("--study", action="store_true",
+                   help="time a solve sweep and a multiplicity map as whole commands beside scipy's "
+                        "solve_bvp walking the same grid, instead of the per-solve table")
+    s.add_argument("--points", type=int, default=8000, metavar="N",
+                   help="sweep points (h x 4 field angles; default 8000)")
+    s.add_argument("--map-n", type=int, default=200, metavar="N", help="map grid N x N (default 200)")
 
 
 def _csv_text(rows) -> str:
@@ -67,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"{name:17s} {p.description}  [reference: {p.reference_note}]")
         return EXIT_OK
     check_out_dir(args.out)
+    if args.study:
+        return _run_study_section(args)
     names = list(PROBLEMS)
     if args.problems:
         names = [n.strip() for n in args.problems.split(",") if n.strip()]
@@ -105,6 +114,32 @@ def run(args: argparse.Namespace) -> int:
         print(format_table(rows))
         print()
         print(format_targets(targets))
+    if written is not None:
+        print_written(written, args.json)
+    return EXIT_OK
+
+
+def _run_study_section(args: argparse.Namespace) -> int:
+    """``bench --study``: :mod:`actuator_design.benchmarks.study_bench`."""
+    import sys
+
+    from ..benchmarks.study_bench import format_study_bench, run_study_bench
+    from ..io import dumps_json
+
+    if args.points < 8 or args.points > 1_000_000:
+        raise InputError(f"--points: must be in [8, 1000000], got {args.points}")
+    if args.map_n < 2 or args.map_n > 2000:
+        raise InputError(f"--map-n: must be in [2, 2000], got {args.map_n}")
+    repeats = args.repeats if args.repeats is not None else (1 if args.quick else 3)
+    if repeats < 1:
+        raise InputError(f"--repeats: must be >= 1, got {repeats}")
+    res = run_study_bench(points=args.points, map_n=args.map_n, repeats=repeats,
+                          workers=0 if args.workers == 1 else args.workers,
+                          progress=lambda m: print(m, file=sys.stderr))
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, {"bench_study.json": dumps_json(res, indent=1)}, args.json)
+    print(dumps_json(res) if args.json else format_study_bench(res))
     if written is not None:
         print_written(written, args.json)
     return EXIT_OK
