@@ -116,3 +116,24 @@ def test_map_parallel_keeps_order_on_several_processes():
     from actuator_design.parallel import map_parallel
     assert map_parallel(_square, range(7), workers=2, progress=False) == [x * x for x in range(7)]
     assert map_parallel(_square, [], workers=2) == []
+
+
+def test_bench_study_section_runs_both_commands_and_the_tips_agree(capsys):
+    """``bench --study`` on a tiny grid (no timing assertion): the study's tips agree with the
+    independent solve_bvp walk of the same grid where both follow one branch (φ ≠ 90°)."""
+    code = main(["bench", "--study", "--points", "40", "--map-n", "4", "--repeats", "1", "--json"])
+    out, _ = capsys.readouterr()
+    assert code == 0
+    res = json.loads(out)
+    assert res["sweep"]["points"] == 40 and res["map"]["points"] == 16
+    for part in ("sweep", "map"):
+        r = res[part]
+        assert r["median_s"] > 0 and r["peer_median_s"] > 0
+        assert r["speedup_per_point"] == pytest.approx(
+            (r["points"] / r["median_s"]) / (r["peer_points"] / r["peer_median_s"]))
+    assert res["sweep"]["max_tip_difference"] < 1e-7
+
+
+def test_bench_study_rejects_bad_sizes(capsys):
+    assert main(["bench", "--study", "--points", "3"]) == 2
+    assert "--points" in capsys.readouterr().err
