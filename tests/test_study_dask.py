@@ -1,7 +1,8 @@
 """The same study on a Dask distributed cluster (a LocalCluster in this process).
 
 Checked against THEORY §6's closed form (transverse buckling angle) and against the local run:
-points are computed independently, so the cluster must give the same table.
+chunks are fixed by the grid (each walked from rest, :mod:`actuator_design.study.walk`), so the
+cluster must give the same table.
 """
 import copy
 import csv
