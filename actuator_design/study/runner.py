@@ -304,10 +304,8 @@ def _import_figure_code() -> None:
     """Import matplotlib and the study figures (≈0.5 s) while the workers compute."""
     try:
         from ..viz.study import study_figures  # noqa: F401
-        from ..viz.style import _use_agg
-        _use_agg()
-        import matplotlib.backends.backend_agg  # noqa: F401
-        import matplotlib.figure  # noqa: F401
+        from ..viz.style import preload
+        preload()
     except Exception:  # noqa: BLE001 - the outputs import it again and report any error there
         pass
 

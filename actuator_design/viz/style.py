@@ -16,7 +16,7 @@ import sys
 import tempfile
 from typing import Tuple
 
-__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes"]
+__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes", "preload"]
 
 
 def _use_agg() -> None:
@@ -24,6 +24,14 @@ def _use_agg() -> None:
     import matplotlib
     if "matplotlib.pyplot" not in sys.modules:
         matplotlib.use("Agg")
+
+
+def preload() -> None:
+    """Import matplotlib's figure and Agg canvas now (≈0.5 s), e.g. in a thread while workers
+    compute, so that drawing later does not wait for it."""
+    _use_agg()
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
 
 
 def new_figure(figsize: Tuple[float, float] = (6.4, 4.8)):
