@@ -7,7 +7,10 @@ from .registry import register
 
 @register("solve")
 def run_solve(scene, options, **settings) -> dict:
-    """One equilibrium: the ``solve --json`` contract without the shape (keeps study tables flat)."""
+    """One equilibrium: the ``solve --json`` contract without the shape (keeps study tables flat).
+
+    A study whose only analysis is ``solve`` does not call this per point: it walks the grid's
+    load rays (:mod:`actuator_design.study.walk`), with the same answer at each point."""
     if settings:
         raise ValueError(f"solve takes no settings, got {sorted(settings)}")
     out = solve(scene, options).to_dict()

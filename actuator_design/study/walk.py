@@ -242,7 +242,8 @@ def run_walk_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
     Returns
     -------
     list of dict
-        One journal record per emitted point (the worker's record format).
+        One journal record per emitted point (the worker's record format; ``time_s`` is the
+        chunk's wall time divided by its points, except for points solved alone).
     """
     from ..acceptance import graded_options
     from ..from_rest import path_from_rest
