@@ -18,6 +18,8 @@ A sweep study::
         - {x: field.magnitude, y: solve.tip.angle, hue: field.angle}
       max_points: 2000000        # optional; a larger grid is refused before any work
                                  # (default 1 000 000; --max-points overrides)
+      chunk_size: 256            # optional: points per task; a solve study walks rays in
+                                 # segments of this many points, each from rest (default 256)
 """
 from __future__ import annotations
 
