@@ -11,7 +11,10 @@ that the unit has the expected dimension. Conventions:
   tesla (``"10 mT"``); the latter is converted as H = B/μ0 with μ0 = 4π·10⁻⁷ H/m (the field in
   vacuum/air, which is how a magnet or coil field is usually quoted).
 
-The unit registry is created once, at import.
+The pint unit registry is created on first use (:func:`registry`, also reachable as ``ureg``):
+importing pint and building the registry costs ~0.5 s, and the common units of configuration
+files (``deg``, ``mm``, ``mT``, ``kA/m``, ``MPa``, … :data:`COMMON_UNITS`) are read without it,
+with the factors pint gives (checked against pint in the tests).
 """
 from __future__ import annotations
 
@@ -20,11 +23,27 @@ import math
 import re
 from dataclasses import dataclass
 
-import pint
+__all__ = ["ureg", "registry", "MU0", "DIMENSIONS", "QuantityError", "parse_quantity",
+           "COMMON_UNITS"]
 
-__all__ = ["ureg", "MU0", "DIMENSIONS", "QuantityError", "parse_quantity"]
+_REGISTRY = None
 
-ureg = pint.UnitRegistry()
+
+def registry():
+    """The pint ``UnitRegistry`` (created on first use)."""
+    global _REGISTRY
+    if _REGISTRY is None:
+        import pint
+        _REGISTRY = pint.UnitRegistry()
+    return _REGISTRY
+
+
+def __getattr__(name):  # ``units.ureg``: the registry, created when first asked for
+    if name == "ureg":
+        return registry()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 MU0 = 4.0e-7 * math.pi
 """Vacuum permeability μ0 = 4π·10⁻⁷ H/m (THEORY §1)."""
 
@@ -99,6 +118,42 @@ def _check_finite(x: float, value, field_name: str) -> float:
     return x
 
 
+def _undefined_unit():
+    import pint
+    return pint.UndefinedUnitError
+
+
+#: unit → (kind, factor to SI): read without pint (the values pint gives; tests check them)
+COMMON_UNITS = {
+    "rad": ("angle", 1.0), "deg": ("angle", math.pi / 180.0),
+    "m": ("length", 1.0), "cm": ("length", 1e-2), "mm": ("length", 1e-3), "um": ("length", 1e-6),
+    "µm": ("length", 1e-6),
+    "Pa": ("pressure", 1.0), "kPa": ("pressure", 1e3), "MPa": ("pressure", 1e6), "GPa": ("pressure", 1e9),
+    "N": ("force", 1.0), "mN": ("force", 1e-3), "uN": ("force", 1e-6), "µN": ("force", 1e-6),
+    "A/m": ("magnetic_field", 1.0), "kA/m": ("magnetic_field", 1e3), "MA/m": ("magnetic_field", 1e6),
+    "T": ("flux_density", 1.0), "mT": ("flux_density", 1e-3), "uT": ("flux_density", 1e-6),
+    "µT": ("flux_density", 1e-6),
+}
+_COMMON = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(°|[A-Za-zµ/]+)\s*$")
+
+
+def _common_unit_value(text: str, dimension: str):
+    """The SI value of ``"<number> <common unit>"`` in ``dimension``, or None (pint decides)."""
+    m = _COMMON.match(text)
+    if not m:
+        return None
+    unit = "deg" if m.group(2) == "°" else m.group(2)
+    kind, factor = COMMON_UNITS.get(unit, (None, None))
+    if kind is None:
+        return None
+    value = float(m.group(1)) * factor
+    if kind == dimension:
+        return value
+    if kind == "flux_density" and dimension == "magnetic_field":  # H = B/μ0 (module doc)
+        return value / MU0
+    return None
+
+
 def _parse_string(text: str, dim: _Dimension, field_name: str):
     if len(text) > _MAX_LENGTH:
         raise QuantityError(field_name, f"value too long ({len(text)} characters)")
@@ -112,14 +167,14 @@ def _parse_string(text: str, dim: _Dimension, field_name: str):
         raise QuantityError(
             field_name, f"expected a number with a unit, e.g. '{dim.example}', got '{text}'")
     try:
-        q = ureg.Quantity(text.replace("°", " deg"))
-    except pint.UndefinedUnitError as err:
+        q = registry().Quantity(text.replace("°", " deg"))
+    except _undefined_unit() as err:
         raise QuantityError(field_name, f"unknown unit in '{text}': {err}") from None
     except Exception as err:  # pint's tokenizer/evaluator: syntax errors, overflow, ...
         raise QuantityError(field_name, f"cannot read '{text}' as {dim.description}: {err}") from None
     try:
-        if not isinstance(q, ureg.Quantity):  # e.g. a bare number expression
-            q = ureg.Quantity(float(q))
+        if not isinstance(q, registry().Quantity):  # e.g. a bare number expression
+            q = registry().Quantity(float(q))
         magnitude = float(q.magnitude)
     except (OverflowError, TypeError, ValueError) as err:
         raise QuantityError(field_name, f"cannot read '{text}' as {dim.description}: {err}") from None
@@ -134,7 +189,7 @@ def _wrong_dimension(text: str, q, dim: _Dimension, field_name: str) -> Quantity
 
 
 def _is_angle_unit(q) -> bool:
-    return q.to_base_units().units == ureg.radian
+    return q.to_base_units().units == registry().radian
 
 
 def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
@@ -191,27 +246,32 @@ def _text_to_si(text: str, dimension: str, field_name: str) -> float:
     """:func:`parse_quantity` of a string (memoised: a study validates the same "30 deg" at every
     point, and pint's parser costs ~0.2 ms; errors are raised, never cached)."""
     dim = DIMENSIONS[dimension]
+    if len(text) <= _MAX_LENGTH:
+        common = _common_unit_value(text, dimension)
+        if common is not None:
+            return _check_finite(common, text, field_name)
     q = _parse_string(text, dim, field_name)
     return _check_finite(_to_si(q, text, dimension, dim, field_name), text, field_name)
 
 
 def _to_si(q, text: str, dimension: str, dim: _Dimension, field_name: str) -> float:
     """``q`` in the SI unit of ``dimension`` (may overflow to inf: "1e308 km"; checked by the caller)."""
-    if dimension == "magnetic_field" and q.dimensionality == ureg.tesla.dimensionality:
-        return float(q.to(ureg.tesla).magnitude) / MU0
-    if dimension == "field_rate" and q.dimensionality == (ureg.tesla / ureg.second).dimensionality:
-        return float(q.to(ureg.tesla / ureg.second).magnitude) / MU0
+    u = registry()
+    if dimension == "magnetic_field" and q.dimensionality == u.tesla.dimensionality:
+        return float(q.to(u.tesla).magnitude) / MU0
+    if dimension == "field_rate" and q.dimensionality == (u.tesla / u.second).dimensionality:
+        return float(q.to(u.tesla / u.second).magnitude) / MU0
     if dimension == "angular_rate":
-        if q.to_base_units().units not in (ureg.radian / ureg.second, 1 / ureg.second):
+        if q.to_base_units().units not in (u.radian / u.second, 1 / u.second):
             raise _wrong_dimension(text, q, dim, field_name)
-        return float(q.to(ureg.radian / ureg.second).magnitude)
+        return float(q.to(u.radian / u.second).magnitude)
     if dimension == "angle":
         if not (q.unitless or _is_angle_unit(q)):
             raise _wrong_dimension(text, q, dim, field_name)
-        return float(q.to(ureg.radian).magnitude)
+        return float(q.to(u.radian).magnitude)
     if dimension == "dimensionless" and _is_angle_unit(q):
         raise _wrong_dimension(text, q, dim, field_name)
-    target = ureg.Unit(dim.unit) if dim.unit else ureg.dimensionless
+    target = u.Unit(dim.unit) if dim.unit else u.dimensionless
     if q.dimensionality != target.dimensionality:
         raise _wrong_dimension(text, q, dim, field_name)
     return float(q.to(target).magnitude)

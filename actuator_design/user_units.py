@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass
 from typing import Optional
 
-from .units import MU0, parse_quantity, ureg
+from .units import MU0, parse_quantity, registry
 
 __all__ = ["UserUnits", "user_units", "length_unit_of", "parameter_from_text",
            "parameter_physical", "parameter_unit_label", "physical_value_keys", "add_physical_values",
@@ -101,6 +101,7 @@ def length_unit_of(raw: Optional[dict]) -> tuple:
         return "m", 1.0
     try:
         parse_quantity(text, "length", "scene.rod.length")  # the same checks as the config
+        ureg = registry()
         q = ureg.Quantity(text)
         unit = ureg.Quantity(1.0, q.units)
         return f"{q.units:~}".replace(" ", ""), float(unit.to("m").magnitude)

@@ -14,7 +14,7 @@ from typing import List
 
 import numpy as np
 
-from ..units import ureg
+from ..units import registry
 from .parameters import PARAMETERS, unit_of
 
 __all__ = ["null_direction", "choose_held", "identifiability_message", "combinations",
@@ -112,6 +112,7 @@ def combinations(names, free, vec, j, is_log, theta) -> List[dict]:
 def combined_unit(u1: str, u2: str, e: float) -> str:
     """Unit of u1 · u2^e, for display."""
     try:
+        ureg = registry()
         u = ureg.Unit(u1 or "dimensionless") * ureg.Unit(u2 or "dimensionless") ** e
         return "" if u.dimensionless else f"{u:~P}"
     except Exception:  # noqa: BLE001 - a unit string for display only

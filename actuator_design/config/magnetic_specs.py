@@ -23,7 +23,7 @@ from typing import Annotated, List, Optional
 import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
 
-from ..units import MU0, QuantityError, parse_quantity, ureg
+from ..units import MU0, QuantityError, parse_quantity, registry
 from .base import Positive, Q, StrictModel
 from .errors import error
 
@@ -39,6 +39,7 @@ def _flux_density(value):
             m_r = parse_quantity(value, "magnetic_field", "remanent_flux_density")
         except QuantityError as err:
             raise error(err.detail) from None
+        ureg = registry()
         if ureg(str(value)).dimensionality != ureg.tesla.dimensionality:
             raise error(f"expected a flux density in tesla (e.g. '0.1 T'), got {value!r}; "
                         "give a magnetisation in A/m as remanence")

@@ -98,7 +98,8 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
     if not unit or not target:
         raise ConfigError(where, f"mixes plain numbers and values with units ({shown!r}): write "
                                  "every value of a key with its unit")
-    from ..units import MU0, ureg
+    from ..units import MU0, registry
+    ureg = registry()
     try:
         q, t = ureg.Quantity(mag, unit), ureg.Unit(target)
         flux, field = ureg.tesla.dimensionality, (ureg.ampere / ureg.meter).dimensionality
@@ -116,9 +117,11 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
 def _check_unit(unit: str, where: str, shown) -> None:
     if not unit:
         return
-    from ..units import ureg
+    from ..units import COMMON_UNITS, registry
+    if unit in COMMON_UNITS:  # known without pint
+        return
     try:
-        ureg.Unit(unit)
+        registry().Unit(unit)
     except Exception as err:  # noqa: BLE001
         raise ConfigError(where, f"unknown unit in {shown!r}: {' '.join(str(err).split())}") from None
 
