@@ -35,6 +35,7 @@ from .physics.terms import (build_terms, node_field_sources, residual_slots, sca
                             structure_key)
 from .reduced.kernel import FastKernel
 from .reduced.newton import RawSolution, damped_newton, fast_newton
+from .reduced.positional import positional_hessian
 from .scene import Scene
 from .transcription import make_transcription
 
@@ -102,8 +103,8 @@ class EquilibriumSolver:
         theta0 = P[self.layout.slices["theta0"]]
         Er = ca.substitute(E, z, ca.vertcat(theta0, zr))
         gr = ca.gradient(Er, zr)
-        Hr = ca.jacobian(gr, zr, {"symmetric": True})  # = ca.hessian, faster to build when large
-        self._sym = (z, zr, P, E, Er, gr, Hr)
+        self._sym = (z, zr, P, E, Er, gr)
+        self._Hr = None
         self._f_energy = self._f_grad_hess = self._f_tip = None
         self._node_fields = node_field_sources(self.terms)
         self._pointwise = self._pointwise_functions(de)
@@ -113,7 +114,7 @@ class EquilibriumSolver:
         self._scale_lin = [sl[k].start for k, how in scales.items() if how == "linear" and k in sl]
         self._scale_sq = [sl[k].start for k, how in scales.items() if how == "squared" and k in sl]
         self.jit_note = ""
-        self.kernel = self._build_kernel(zr, P, gr, Hr, options.jit)
+        self.kernel = self._build_kernel(zr, P, gr, options.jit)
         summary = ca.Function("summary", [z, P], [ca.vertcat(E, *de.tip)])
         self._summary_in = (np.zeros(z.numel()), np.zeros(self.layout.size))
         self._summary_out = np.zeros(4)
@@ -131,7 +132,7 @@ class EquilibriumSolver:
     def f_energy(self) -> ca.Function:
         """``[z (n_nodes,), params] -> Ê``."""
         if self._f_energy is None:
-            z, _, P, E, _, _, _ = self._sym
+            z, _, P, E, _, _ = self._sym
             self._f_energy = ca.Function("energy", [z, P], [E])
         return self._f_energy
 
@@ -139,15 +140,15 @@ class EquilibriumSolver:
     def f_grad_hess(self) -> ca.Function:
         """``[θ_free (n,), params] -> [Ê, ∇Ê (n,), ∇²Ê (n, n)]`` with θ_0 = θ0 eliminated."""
         if self._f_grad_hess is None:
-            _, zr, P, _, Er, gr, Hr = self._sym
-            self._f_grad_hess = ca.Function("grad_hess", [zr, P], [Er, gr, Hr])
+            _, zr, P, _, Er, gr = self._sym
+            self._f_grad_hess = ca.Function("grad_hess", [zr, P], [Er, gr, self._hessian_expr()])
         return self._f_grad_hess
 
     @property
     def f_tip(self) -> ca.Function:
         """``[z, params] -> [θ(1), x(1), y(1)]``."""
         if self._f_tip is None:
-            z, _, P, _, _, _, _ = self._sym
+            z, _, P, _, _, _ = self._sym
             self._f_tip = ca.Function("tip", [z, P], list(self.discrete.tip))
         return self._f_tip
 
@@ -168,9 +169,27 @@ class EquilibriumSolver:
             self.build_time += time.perf_counter() - t0
         return self._nlpsol
 
-    def _build_kernel(self, zr, P, g, H, jit: bool) -> FastKernel:
+    def _hessian_expr(self) -> ca.SX:
+        """∇²Ê in the free unknowns, symbolic (built on first use: O(n³) for positional terms)."""
+        if self._Hr is None:
+            _, zr, _, _, _, gr = self._sym
+            self._Hr = ca.jacobian(gr, zr, {"symmetric": True})  # = ca.hessian, faster to build
+        return self._Hr
+
+    def _build_kernel(self, zr, P, g, jit: bool) -> FastKernel:
         # the residual max_i |g_i|/m_i is computed inside the function (no numpy work per call)
         r = ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
+        if self.discrete.uses_positions and not jit:
+            # dense Hessian of a positional energy: assembled from its structure (Φᵀ K Φ)
+            de = self.discrete
+            structured = positional_hessian(self.transcription, self.terms, self.layout, P,
+                                            ca.Function("energy", [de.z, P], [de.energy]))
+            if structured is not None:
+                f_g = ca.Function("grad_fast", [zr, P], [g, r])
+                if f_g.n_instructions() <= 20000:
+                    f_g = ca.Function("grad_fast", [zr, P], [g, r], {"cse": True})
+                return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
+        H = self._hessian_expr()
         fs = None
         if jit:
             try:

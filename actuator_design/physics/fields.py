@@ -84,10 +84,10 @@ class DipoleFieldModel(FieldModel):
     def value(self, x, y, P):
         rx, ry = x - P["dipole_x0"], y - P["dipole_y0"]
         mx, my = ca.cos(P["dipole_angle"]), ca.sin(P["dipole_angle"])
-        r2 = rx**2 + ry**2
-        r = ca.sqrt(r2)
-        mdotr = (mx * rx + my * ry) / r
-        return (3 * mdotr * rx / r - mx) / (r2 * r), (3 * mdotr * ry / r - my) / (r2 * r)
+        q = 1 / (rx * rx + ry * ry)  # 1/|ρ|²: the fewest operations, for the Newton kernels' sake
+        k = q * ca.sqrt(q)  # 1/|ρ|³
+        t = 3 * (mx * rx + my * ry) * q  # 3 (m̂·ρ̂)/|ρ|
+        return (t * rx - mx) * k, (t * ry - my) * k
 
     def parameter_values(self, field):
         return {"dipole_x0": field.x0, "dipole_y0": field.y0, "dipole_angle": field.moment_angle}
