@@ -185,9 +185,11 @@ class EquilibriumSolver:
             structured = positional_hessian(self.transcription, self.terms, self.layout, P,
                                             ca.Function("energy", [de.z, P], [de.energy]))
             if structured is not None:
-                f_g = ca.Function("grad_fast", [zr, P], [g, r])
+                u, g = structured.u, structured.gradient  # ∇Ê through the field's jet
+                r = ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
+                f_g = ca.Function("grad_fast", [u, P], [g, r])
                 if f_g.n_instructions() <= 20000:
-                    f_g = ca.Function("grad_fast", [zr, P], [g, r], {"cse": True})
+                    f_g = ca.Function("grad_fast", [u, P], [g, r], {"cse": True})
                 return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
         H = self._hessian_expr()
         fs = None

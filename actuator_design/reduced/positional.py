@@ -18,46 +18,103 @@ where ∇²_v F is block diagonal (one 4 × 4 block per point, 3 × 3 at the tip
 of the positions in θ weighted by the force ∂F/∂r — is diagonal for the spectral and midpoint
 rules. Φ's rows for θ_q, κ_q, θ(1) are constant; only its position rows change with u. One CasADi
 call evaluates K's nonzeros and Φ's position rows (O(n_q) + O(n n_q) operations instead of O(n³));
-two small dense products (BLAS) assemble the Hessian.
+a sparse and a dense product assemble the Hessian.
 """
 from __future__ import annotations
 
+import copy
 from typing import Dict, Optional, Tuple
 
 import casadi as ca
 import numpy as np
+from scipy import sparse
 
+from ..physics.fields import FieldModel
 from ..physics.kinematics import PlanarKinematics, PlanarTip
 from ..physics.terms import node_field_sources
 
 __all__ = ["PositionalHessian", "positional_hessian"]
 
 
+class _FieldAtPoint(FieldModel):
+    """A field model whose value at the point is the given symbols ĥ = (h[0], h[1]): the terms'
+    densities as functions of (θ, κ, x, y, ĥ), for the chain rule through the field's jet."""
+
+    def __init__(self, h: ca.SX):
+        self.h = h
+
+    def value(self, x, y, P):
+        return self.h[0], self.h[1]
+
+
+def _density(terms, kin, Pd):
+    V = 0
+    for t in terms:
+        d = t.density(kin, Pd)
+        V = V if d is None else V + d
+    return ca.SX(V)
+
+
 def _point_functions(terms, layout, P):
-    """The density V of all terms at one point and the tip energy T, as CasADi functions.
+    """The density V of all terms at one point and its derivatives, and the tip energy T.
+
+    The field enters V through its jet (:meth:`~actuator_design.physics.fields.FieldModel.jet`):
+    with p = (θ, κ, x, y), ĥ = ĥ(x, y), E = ∂ĥ/∂p = [0 0 J],
+
+        ∇_p V = V_p + Eᵀ V_ĥ,
+        ∇²_p V = V_pp + V_pĥ E + Eᵀ V_ĥp + Eᵀ V_ĥĥ E + Σ_i V_ĥi T_i  (T_i in the (x, y) block),
+
+    so closed-form field derivatives replace the automatic differentiation of the field.
 
     Returns
     -------
     density : Function (θ, κ, x, y, *fields, P) -> V, fields in ``node_field_sources`` order
+    derivatives : Function (p (4,), *fields, P) -> (∇_p V (4,), ∇²_p V nonzeros)
+    hess_sparsity : Sparsity of ∇²_p V (4 × 4)
     tip : Function (θ(1), x(1), y(1), P) -> T
     names : list of str
         The per-point field names.
     """
-    th, kap, x, y = (ca.SX.sym(s) for s in ("theta", "kappa", "x", "y"))
+    p = ca.SX.sym("p", 4)
+    th, kap, x, y = ca.vertsplit(p)
     names = list(node_field_sources(terms))
     fsyms = {name: ca.SX.sym(name) for name in names}
     Pd = {**layout.symbols(P), **fsyms}
     kin = PlanarKinematics(th, kap, fsyms, positions=(x, y))
+    V = _density(terms, kin, Pd)
+    density = ca.Function("density", [th, kap, x, y, *fsyms.values(), P], [V])
+    readers = [t for t in terms if isinstance(getattr(t, "field", None), FieldModel)
+               and not t.field.is_uniform]
+    if readers and len({t.field.structure() for t in readers}) == 1:
+        hv = ca.SX.sym("h", 2)
+        proxy = _FieldAtPoint(hv)
+        with_proxy = []
+        for t in terms:
+            if t in readers:
+                t = copy.copy(t)
+                t.field = proxy
+            with_proxy.append(t)
+        Vh_ = _density(with_proxy, PlanarKinematics(th, kap, fsyms, positions=(x, y)), Pd)
+        h, J, T = readers[0].field.jet(x, y, Pd)
+        Vp, Vh = ca.gradient(Vh_, p), ca.gradient(Vh_, hv)
+        Vpp, Vph, Vhh = ca.hessian(Vh_, p)[0], ca.jacobian(Vp, hv), ca.hessian(Vh_, hv)[0]
+        E = ca.horzcat(ca.SX(2, 2), J)
+        VphE = ca.mtimes(Vph, E)
+        grad = Vp + ca.mtimes(E.T, Vh)
+        hess = (Vpp + VphE + VphE.T + ca.mtimes(E.T, ca.mtimes(Vhh, E))
+                + ca.diagcat(ca.SX(2, 2), Vh[0] * T[0] + Vh[1] * T[1]))
+        grad, hess = ca.substitute([grad, hess], [hv], [h])
+    else:
+        grad, hess = ca.gradient(V, p), ca.hessian(V, p)[0]
+    derivatives = ca.Function("point_derivatives", [p, *fsyms.values(), P],
+                              [grad, ca.vertcat(*hess.nonzeros())], {"cse": True})
     tip_kin = PlanarTip(theta=th, x=x, y=y)
-    V = T = 0
+    T_tip = 0
     for t in terms:
-        d = t.density(kin, Pd)
-        V = V if d is None else V + d
         e = t.tip(tip_kin, Pd)
-        T = T if e is None else T + e
-    density = ca.Function("density", [th, kap, x, y, *fsyms.values(), P], [ca.SX(V)])
-    tip = ca.Function("tip_energy", [th, x, y, P], [ca.SX(T)])
-    return density, tip, names
+        T_tip = T_tip if e is None else T_tip + e
+    tip = ca.Function("tip_energy", [th, x, y, P], [ca.SX(T_tip)])
+    return density, derivatives, hess.sparsity(), tip, names
 
 
 def _hessian_entries(expr: ca.SX, wrt: ca.SX) -> Tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
@@ -108,7 +165,7 @@ class PositionalHessian:
 
         pos = positions(thq)
         xq, yq, xt, yt = pos[:nq], pos[nq:2 * nq], pos[2 * nq], pos[2 * nq + 1]
-        density, tip, names = _point_functions(terms, layout, P)
+        density, point, hess_sp, tip, names = _point_functions(terms, layout, P)
         fields = [P[layout.slices[name]] for name in names]
         w = np.asarray(tr.quadrature_weights, float)
 
@@ -123,16 +180,14 @@ class PositionalHessian:
                 key = (int(r), int(c))
                 entries[key] = entries.get(key, 0) + scale * values[k]
 
-        pv = ca.SX.sym("pv", 4)
-        pf = [ca.SX.sym(f"f{i}") for i in range(len(names))]
-        gV, hV, rV, cV = _hessian_entries(density(pv[0], pv[1], pv[2], pv[3], *pf, P), pv)
-        point = ca.Function("point_derivatives", [pv, *pf, P], [gV, hV], {"cse": True})
-        force = []  # μ = ∂F/∂(x_q, y_q), then ∂F/∂(x(1), y(1))
-        fx, fy = [], []
+        rV, cV = (np.asarray(a, np.intp) for a in hess_sp.get_triplet())
+        fth, fk, fx, fy = [], [], [], []  # w_q ∂V/∂(θ, κ, x, y) at each point
         F = 0
         for q in range(nq):
             g_q, h_q = point(ca.vertcat(thq[q], kq[q], xq[q], yq[q]), *[f[q] for f in fields], P)
             add(point_index(q), ca.vertsplit(h_q), rV, cV, w[q])
+            fth.append(w[q] * g_q[0])
+            fk.append(w[q] * g_q[1])
             fx.append(w[q] * g_q[2])
             fy.append(w[q] * g_q[3])
             F = F + w[q] * density(thq[q], kq[q], xq[q], yq[q], *[f[q] for f in fields], P)
@@ -141,8 +196,12 @@ class PositionalHessian:
         g_t, h_t = ca.Function("tip_derivatives", [pt, P], [gT, hT], {"cse": True})(
             ca.vertcat(z[-1], xt, yt), P)
         add(tip_index, ca.vertsplit(h_t), rT, cT)
-        force = ca.vertcat(*fx, *fy, g_t[1], g_t[2])
+        force = ca.vertcat(*fx, *fy, g_t[1], g_t[2])  # μ = ∂F/∂(x_q, y_q, x(1), y(1))
         F = F + tip(z[-1], xt, yt, P)
+        # ∇Ê = Φᵀ ∇F, the products by Φᵀ in reverse mode
+        self.u = u
+        self.gradient = (ca.jtimes(lin, u, ca.vertcat(*fth, *fk, g_t[0]), True)
+                         + ca.jtimes(pos, u, force, True))
         # S: the positions' curvature in θ_q weighted by the force μ
         th_s, mu_s = ca.SX.sym("th", nq), ca.SX.sym("mu", 2 * nq + 2)
         S = ca.hessian(ca.dot(mu_s, positions(th_s)), th_s)[0]
@@ -150,9 +209,9 @@ class PositionalHessian:
         rS, cS = S.sparsity().get_triplet()
         add(np.arange(nq), S.nonzeros(), np.asarray(rS, np.intp), np.asarray(cS, np.intp))
 
-        keys = list(entries)
-        self._k_rows = np.array([k[0] for k in keys], np.intp)
-        self._k_cols = np.array([k[1] for k in keys], np.intp)
+        keys = sorted(entries)  # row-major: K's nonzeros are the data of a CSR matrix
+        rows = np.array([k[0] for k in keys], np.intp)
+        cols = np.array([k[1] for k in keys], np.intp)
         k_nz = ca.vertcat(*[entries[k] for k in keys])
         phi_pos_T = ca.densify(ca.jacobian(pos, u)).T  # (n, n_pos): C order (n_pos, n) in memory
         self.function = ca.Function("positional_hessian", [u, P], [k_nz, phi_pos_T], {"cse": True})
@@ -160,14 +219,15 @@ class PositionalHessian:
             self._check_pointwise(ca.Function("pointwise_energy", [u, P], [F]), energy, P.numel(),
                                   layout.slices["theta0"].start)
 
-        self._k_nz = np.zeros(len(keys))
-        self._K = np.zeros((m, m))
+        indptr = np.searchsorted(rows, np.arange(m + 1))
+        # K sparse (per-point blocks); the CasADi call writes its nonzeros into the CSR data
+        self._K = sparse.csr_matrix((np.zeros(len(keys)), cols, indptr), shape=(m, m))
+        self._k_nz = self._K.data
         n_lin = lin.numel()
         self._phi = np.zeros((m, n))  # C order: its position rows are one contiguous block
         P0 = ca.DM.zeros(P.numel())
         self._phi[:n_lin] = np.asarray(ca.evalf(ca.densify(ca.substitute(phi_lin, P, P0))))
         self._phi_pos = self._phi[n_lin:]
-        self._k_phi = np.zeros((m, n))
 
     def _check_pointwise(self, pointwise: ca.Function, energy: ca.Function, n_p: int,
                          i_theta0: int) -> None:
@@ -192,14 +252,11 @@ class PositionalHessian:
         buf.set_arg(1, memoryview(p))
         buf.set_res(0, memoryview(self._k_nz))
         buf.set_res(1, memoryview(self._phi_pos))
-        K, phi, k_phi = self._K, self._phi, self._k_phi
-        rows, cols, knz, phi_T = self._k_rows, self._k_cols, self._k_nz, self._phi.T
+        K, phi, phi_T = self._K, self._phi, self._phi.T
 
         def evaluate():
             ev()
-            K[rows, cols] = knz
-            np.dot(K, phi, out=k_phi)
-            np.dot(phi_T, k_phi, out=hessian_out)
+            np.dot(phi_T, K @ phi, out=hessian_out)
 
         evaluate.owner = (self, buf)  # the function and the buffer must outlive the evaluator
         return evaluate
