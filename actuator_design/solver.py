@@ -11,7 +11,10 @@ the fibre angles at the quadrature points, …) in the NLP parameter vector, and
   C), and the Newton system is factorised by LAPACK directly — dense (``getrf``) for the small
   spectral systems, tridiagonal (``gttrf``) or banded
   (``gbtrf``) when no term needs positions (midpoint, multi-element LGL), so N = 2000 costs O(N)
-  per iteration; stability uses the banded eigensolver there.
+  per iteration; stability uses the banded eigensolver there. When a term reads positions (a
+  dipole field, a distributed load) the Hessian is dense and is assembled from its structure
+  Φᵀ K Φ (:mod:`.reduced.positional`: per-point second derivatives, the field through its jet)
+  instead of being differentiated symbolically as a whole (O(n³) operations).
 
 IPOPT and the classic CasADi functions (``f_grad_hess``, ``f_energy``, ``f_tip``) are built on
 first use. Newton convergence needs a small gradient *and* a small Newton step (near bifurcations
@@ -176,21 +179,31 @@ class EquilibriumSolver:
             self._Hr = ca.jacobian(gr, zr, {"symmetric": True})  # = ca.hessian, faster to build
         return self._Hr
 
+    def _residual(self, g):
+        """max_i |g_i|/m_i, computed inside the kernel's functions (no numpy work per call)."""
+        return ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
+
+    def _positional_kernel(self, P) -> Optional[FastKernel]:
+        """The kernel of an energy that reads positions: the dense Hessian assembled as Φᵀ K Φ and
+        the gradient as Φᵀ ∇F, the field through its jet (:mod:`.reduced.positional`); ``None``
+        when the energy does not have that structure."""
+        de = self.discrete
+        structured = positional_hessian(self.transcription, self.terms, self.layout, P,
+                                        ca.Function("energy", [de.z, P], [de.energy]))
+        if structured is None:
+            return None
+        u, g = structured.u, structured.gradient
+        f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)])
+        if f_g.n_instructions() <= 20000:
+            f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], {"cse": True})
+        return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
+
     def _build_kernel(self, zr, P, g, jit: bool) -> FastKernel:
-        # the residual max_i |g_i|/m_i is computed inside the function (no numpy work per call)
-        r = ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
-        if self.discrete.uses_positions and not jit:
-            # dense Hessian of a positional energy: assembled from its structure (Φᵀ K Φ)
-            de = self.discrete
-            structured = positional_hessian(self.transcription, self.terms, self.layout, P,
-                                            ca.Function("energy", [de.z, P], [de.energy]))
-            if structured is not None:
-                u, g = structured.u, structured.gradient  # ∇Ê through the field's jet
-                r = ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
-                f_g = ca.Function("grad_fast", [u, P], [g, r])
-                if f_g.n_instructions() <= 20000:
-                    f_g = ca.Function("grad_fast", [u, P], [g, r], {"cse": True})
-                return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
+        if self.discrete.uses_positions and not jit:  # JIT: the whole symbolic Hessian, compiled
+            kernel = self._positional_kernel(P)
+            if kernel is not None:
+                return kernel
+        r = self._residual(g)
         H = self._hessian_expr()
         fs = None
         if jit:

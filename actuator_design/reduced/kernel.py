@@ -50,13 +50,13 @@ class FastKernel:
         self.p = np.zeros(int(f_g.nnz_in(1)))
         self.g = np.zeros(n)
         self.r = np.zeros(1)
-        self._structured = hessian is not None
+        self.structured = hessian is not None
         self._g_current = False  # the gradient in self.g belongs to (self.z, self.p)
-        sp = ca.Sparsity.dense(n, n) if self._structured else f_gh.sparsity_out(2)
+        sp = ca.Sparsity.dense(n, n) if self.structured else f_gh.sparsity_out(2)
         self.hnz = np.zeros(sp.nnz())
         self._buf_g, self._eval_g = f_g.buffer()
         bufs = [self._buf_g]
-        if self._structured:
+        if self.structured:
             # the (symmetric) Hessian is written in C order into the column-major nonzeros
             self._hessian = hessian  # owns the CasADi function the evaluator's buffer points into
             self._eval_h = hessian.bind(self.z, self.p, self.hnz.reshape((n, n)))
@@ -99,7 +99,7 @@ class FastKernel:
 
     def evaluate(self, zr: np.ndarray, hessian: bool = True) -> float:
         """Evaluate ∇Ê (and ∇²Ê) at ``zr`` (free unknowns); returns max_i |g_i|/m_i."""
-        if self._structured:
+        if self.structured:
             if not (hessian and self._g_current and (self.z == zr).all()):
                 self.z[:] = zr
                 self._eval_g()
