@@ -183,7 +183,7 @@ class EquilibriumSolver:
         """max_i |g_i|/m_i, computed inside the kernel's functions (no numpy work per call)."""
         return ca.mmax(ca.fabs(g * ca.DM(1.0 / self.transcription.mass[1:])))
 
-    def _positional_kernel(self, P) -> Optional[FastKernel]:
+    def _positional_kernel(self, P, jit: bool) -> Optional[FastKernel]:
         """The kernel of an energy that reads positions: the dense Hessian assembled as Φᵀ K Φ and
         the gradient as Φᵀ ∇F, the field through its jet (:mod:`.reduced.positional`); ``None``
         when the energy does not have that structure."""
@@ -193,14 +193,24 @@ class EquilibriumSolver:
         if structured is None:
             return None
         u, g = structured.u, structured.gradient
-        f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)])
-        if f_g.n_instructions() <= 20000:
-            f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], {"cse": True})
+        f_g = None
+        if jit:
+            try:
+                f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], _jit_options())
+                structured.compile(_jit_options())
+                self.jit_note = "JIT-compiled"
+            except Exception as exc:  # no compiler, or it failed: the VM gives the same numbers
+                f_g = None
+                self.jit_note = f"JIT compilation failed ({type(exc).__name__}); CasADi VM used"
+        if f_g is None:
+            f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)])
+            if f_g.n_instructions() <= 20000:
+                f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], {"cse": True})
         return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
 
     def _build_kernel(self, zr, P, g, jit: bool) -> FastKernel:
-        if self.discrete.uses_positions and not jit:  # JIT: the whole symbolic Hessian, compiled
-            kernel = self._positional_kernel(P)
+        if self.discrete.uses_positions:
+            kernel = self._positional_kernel(P, jit)
             if kernel is not None:
                 return kernel
         r = self._residual(g)

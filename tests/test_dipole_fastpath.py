@@ -9,6 +9,7 @@ automatic differentiation of the dipole field against its closed-form jet, and q
 convergence of Newton's method (only the exact Hessian gives it). No timings here.
 """
 import math
+import shutil
 
 import casadi as ca
 import numpy as np
@@ -141,3 +142,21 @@ def test_newton_with_the_structured_hessian_converges_quadratically():
     # r_{k+1}/r_k² stays bounded (≈ 0.15 here) while r falls from 1e-2 to 1e-10; an approximate
     # Hessian (linear convergence, r_{k+1} ≈ c r_k) would make it grow like c/r_k (> 100)
     assert max(res[k + 1] / res[k] ** 2 for k in (1, 2)) < 1.0
+
+
+@pytest.mark.slow  # compiles C code (seconds)
+@pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None, reason="no C compiler")
+def test_jit_positional_kernel_gives_the_same_numbers():
+    sc = SCENES["dipole with loads"]
+    vm = get_solver(sc, SolverOptions(elements=1, degree=8))
+    jit = get_solver(sc, SolverOptions(elements=1, degree=8, jit=True))
+    if not jit.jit_note.startswith("JIT-compiled"):
+        pytest.skip(jit.jit_note)
+    assert jit.kernel.structured
+    P = vm.parameter_vector(sc)
+    z = 0.2 * vm.transcription.nodes
+    for s in (vm, jit):
+        s.kernel.set_params(P)
+        s.kernel.evaluate(z[1:])
+    np.testing.assert_allclose(jit.kernel.g, vm.kernel.g, rtol=1e-13, atol=1e-14)
+    np.testing.assert_allclose(jit.kernel.hnz, vm.kernel.hnz, rtol=1e-13, atol=1e-13)

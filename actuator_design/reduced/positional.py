@@ -240,6 +240,7 @@ class PositionalHessian:
         cols = np.array([k[1] for k in keys], np.intp)
         k_nz = ca.vertcat(*[entries[k] for k in keys])
         phi_pos_T = ca.densify(ca.jacobian(pos, u)).T  # (n, n_pos): C order (n_pos, n) in memory
+        self._outputs = (u, P, k_nz, phi_pos_T)
         self.function = ca.Function("positional_hessian", [u, P], [k_nz, phi_pos_T], {"cse": True})
         if energy is not None:
             self._check_pointwise(ca.Function("pointwise_energy", [u, P], [F]), energy, P.numel(),
@@ -254,6 +255,12 @@ class PositionalHessian:
         P0 = ca.DM.zeros(P.numel())
         self._phi[:n_lin] = np.asarray(ca.evalf(ca.densify(ca.substitute(phi_lin, P, P0))))
         self._phi_pos = self._phi[n_lin:]
+
+    def compile(self, options: dict) -> None:
+        """Rebuild :attr:`function` with CasADi ``options`` (e.g. JIT compilation); call before
+        :meth:`bind`. Raises what CasADi raises (no compiler)."""
+        u, P, k_nz, phi_pos_T = self._outputs
+        self.function = ca.Function("positional_hessian", [u, P], [k_nz, phi_pos_T], options)
 
     def _check_pointwise(self, pointwise: ca.Function, energy: ca.Function, n_p: int,
                          i_theta0: int) -> None:
