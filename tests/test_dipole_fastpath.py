@@ -19,9 +19,12 @@ from actuator_design.benchmarks.problems import PROBLEMS, _dipole_reference
 from actuator_design.equilibrium import solve
 from actuator_design.options import SolverOptions
 from actuator_design.physics.fields import DipoleFieldModel, FieldModel
+from actuator_design.physics.terms import EnergyTerm, build_terms
 from actuator_design.profiles import constant_profile, expression_profile
+from actuator_design.reduced.positional import positional_hessian
 from actuator_design.scene import DipoleField, Scene, UniformField
 from actuator_design.solver import get_solver
+from actuator_design.transcription import make_transcription
 
 FAST = SolverOptions(elements=1, degree=12, method="fast")
 DIPOLE = DipoleField(x0=0.5, y0=0.8, moment_angle=0.5 * math.pi)
@@ -160,3 +163,60 @@ def test_jit_positional_kernel_gives_the_same_numbers():
         s.kernel.evaluate(z[1:])
     np.testing.assert_allclose(jit.kernel.g, vm.kernel.g, rtol=1e-13, atol=1e-14)
     np.testing.assert_allclose(jit.kernel.hnz, vm.kernel.hnz, rtol=1e-13, atol=1e-13)
+
+
+class _ShiftedFieldTerm(EnergyTerm):
+    """A test term that reads the dipole field 0.1 beside the rod (not at the point itself)."""
+
+    name = "test_shifted_field"
+
+    def __init__(self, field):
+        self.field = field
+        self.scalar_params = ("h",) + field.params
+
+    def density(self, kin, P):
+        hx, hy = self.field.value(kin.x + 0.1, kin.y, P)
+        return -0.3 * (hx * ca.cos(kin.theta) + hy * ca.sin(kin.theta)) ** 2
+
+
+class _CoupledTerm(EnergyTerm):
+    """A test term whose density at a point reads every point (not a pointwise density)."""
+
+    name = "test_coupled"
+
+    def density(self, kin, P):
+        return 0.1 * kin.y * ca.sum1(kin.x)
+
+
+def _structured_against_symbolic(terms, opts):
+    tr = make_transcription(opts)
+    de = tr.transcribe(terms)
+    P = de.params
+    ph = positional_hessian(tr, terms, de.layout, P, ca.Function("E", [de.z, P], [de.energy]))
+    if ph is None:
+        return None
+    n = tr.nodes.size - 1
+    u, p = 0.3 * np.sin(2.0 * tr.nodes[1:]), np.zeros(de.layout.size)
+    sc = SCENES["dipole with loads"]
+    for name, sl in de.layout.slices.items():
+        p[sl] = {"h": sc.h, "h_pos": sc.h_pos, "dipole_x0": DIPOLE.x0, "dipole_y0": DIPOLE.y0,
+                 "dipole_angle": DIPOLE.moment_angle, "b": 1.0}.get(name, 0.1)
+    H = np.zeros((n, n))
+    ph.bind(u.copy(), p, H)()
+    zr = ca.SX.sym("u", n)
+    Er = ca.substitute(de.energy, de.z, ca.vertcat(P[de.layout.slices["theta0"]], zr))
+    H_ref = np.asarray(ca.Function("H", [zr, P], [ca.hessian(Er, zr)[0]])(u, p))
+    return H, H_ref
+
+
+def test_a_term_reading_the_field_elsewhere_is_differentiated_automatically():
+    sc = SCENES["dipole with loads"]
+    terms = build_terms(sc)
+    terms.append(_ShiftedFieldTerm(DipoleFieldModel()))
+    H, H_ref = _structured_against_symbolic(terms, RESOLUTIONS["lgl 1x8"])
+    np.testing.assert_allclose(H, H_ref, rtol=0, atol=1e-13 * np.abs(H_ref).max())
+
+
+def test_a_density_that_couples_points_is_refused():
+    terms = build_terms(SCENES["dipole with loads"]) + [_CoupledTerm()]
+    assert _structured_against_symbolic(terms, RESOLUTIONS["lgl 1x8"]) is None
