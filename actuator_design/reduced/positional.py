@@ -255,6 +255,7 @@ class PositionalHessian:
         indptr = np.searchsorted(rows, np.arange(m + 1))
         # K sparse (per-point blocks); the CasADi call writes its nonzeros into the CSR data
         self._K = sparse.csr_matrix((np.zeros(len(keys)), cols, indptr), shape=(m, m))
+        assert self._K.has_canonical_format  # sorted, no duplicates: scipy never rewrites its data
         self._k_nz = self._K.data
         n_lin = lin.numel()
         self._phi = np.zeros((m, n))  # C order: its position rows are one contiguous block
@@ -320,8 +321,12 @@ class PositionalHessian:
         buf.set_res(1, memoryview(self._phi_pos))
         K, phi, phi_T = self._K, self._phi, self._phi.T
 
+        knz = self._k_nz
+
         def evaluate():
             ev()
+            if K.data is not knz:  # the CasADi buffer writes into this very array
+                raise RuntimeError("the sparse K matrix was rebuilt behind the evaluator")
             np.dot(phi_T, K @ phi, out=hessian_out)
 
         evaluate.owner = (self, buf)  # the function and the buffer must outlive the evaluator
