@@ -18,7 +18,12 @@ where ∇²_v F is block diagonal (one 4 × 4 block per point, 3 × 3 at the tip
 of the positions in θ weighted by the force ∂F/∂r — is diagonal for the spectral and midpoint
 rules. Φ's rows for θ_q, κ_q, θ(1) are constant; only its position rows change with u. One CasADi
 call evaluates K's nonzeros and Φ's position rows (O(n_q) + O(n n_q) operations instead of O(n³));
-a sparse and a dense product assemble the Hessian.
+a sparse and a dense product assemble the Hessian. The gradient is Φᵀ ∇F, the products by Φᵀ in
+reverse mode (:meth:`PositionalHessian.gradient_function`: a matrix graph whose dense products run
+as C loops). A field enters the per-point derivatives through its jet (ĥ, ∂ĥ/∂r, ∂²ĥ/∂r²), in
+closed form for the point dipole. The structure is verified when built (pointwise densities, a
+field read at the point itself); otherwise :func:`positional_hessian` returns ``None`` and the
+solver differentiates the whole energy as before.
 """
 from __future__ import annotations
 
