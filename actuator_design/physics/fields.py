@@ -43,6 +43,29 @@ class FieldModel:
     def parameter_values(self, field) -> Dict[str, float]:
         return {}
 
+    def jet(self, x, y, P: Dict[str, ca.SX]):
+        """ĥ and its first and second derivatives at one point (scalar SX ``x``, ``y``).
+
+        Returns
+        -------
+        h : SX (2,)
+            (ĥ_x, ĥ_y).
+        J : SX (2, 2)
+            J[i, j] = ∂ĥ_i/∂r_j (units of 1/ℓ).
+        T : list of two SX (2, 2)
+            T[i][j, k] = ∂²ĥ_i/∂r_j∂r_k (units of 1/ℓ²).
+
+        By automatic differentiation of :meth:`value`; fields with closed forms override it
+        (the Newton kernels evaluate it at every quadrature point).
+        """
+        r = ca.SX.sym("r", 2)
+        hx, hy = self.value(r[0], r[1], P)
+        h = ca.vertcat(hx, hy)
+        J = ca.jacobian(h, r)
+        T = [ca.hessian(hx, r)[0], ca.hessian(hy, r)[0]]
+        at = lambda e: ca.substitute(e, r, ca.vertcat(x, y))
+        return at(h), at(J), [at(t) for t in T]
+
     def structure(self) -> tuple:
         """Hashable description of what is built symbolically (not the numbers)."""
         return (type(self).__name__,)
@@ -84,13 +107,44 @@ class DipoleFieldModel(FieldModel):
     def value(self, x, y, P):
         rx, ry = x - P["dipole_x0"], y - P["dipole_y0"]
         mx, my = ca.cos(P["dipole_angle"]), ca.sin(P["dipole_angle"])
-        r2 = rx**2 + ry**2
-        r = ca.sqrt(r2)
-        mdotr = (mx * rx + my * ry) / r
-        return (3 * mdotr * rx / r - mx) / (r2 * r), (3 * mdotr * ry / r - my) / (r2 * r)
+        q = 1 / (rx * rx + ry * ry)  # 1/|ρ|²: the fewest operations, for the Newton kernels' sake
+        k = q * ca.sqrt(q)  # 1/|ρ|³
+        t = 3 * (mx * rx + my * ry) * q  # 3 (m̂·ρ̂)/|ρ|
+        return (t * rx - mx) * k, (t * ry - my) * k
 
     def parameter_values(self, field):
         return {"dipole_x0": field.x0, "dipole_y0": field.y0, "dipole_angle": field.moment_angle}
+
+    def jet(self, x, y, P):
+        """Closed forms: ĥ = −∇ψ with ψ = (m̂·ρ)/|ρ|³, so that J = −∇∇ψ and T = −∇∇∇ψ are fully
+        symmetric (q = 1/|ρ|², k_n = |ρ|⁻ⁿ, μ = m̂·ρ):
+
+            ĥ_i    = 3 μ ρ_i k5 − m_i k3
+            J_ij   = 3 (m_i ρ_j + m_j ρ_i + μ δ_ij) k5 − 15 μ ρ_i ρ_j k7
+            T_ijk  = 3 (m_i δ_jk + m_j δ_ik + m_k δ_ij) k5
+                     − 15 (m_i ρ_j ρ_k + m_j ρ_i ρ_k + m_k ρ_i ρ_j + μ (δ_ij ρ_k + δ_ik ρ_j + δ_jk ρ_i)) k7
+                     + 105 μ ρ_i ρ_j ρ_k k9
+        """
+        X, Y = x - P["dipole_x0"], y - P["dipole_y0"]
+        mx, my = ca.cos(P["dipole_angle"]), ca.sin(P["dipole_angle"])
+        q = 1 / (X * X + Y * Y)
+        k3 = q * ca.sqrt(q)
+        k5 = k3 * q
+        mu = mx * X + my * Y
+        a, b = 3 * k5, 15 * k5 * q  # 3 k5, 15 k7
+        A, B = mu * a, mu * b  # 3 μ k5, 15 μ k7
+        C = 7 * B * q  # 105 μ k9
+        XX, XY, YY = X * X, X * Y, Y * Y
+        h = ca.vertcat(A * X - mx * k3, A * Y - my * k3)
+        jxy = a * (mx * Y + my * X) - B * XY
+        J = ca.blockcat([[2 * a * mx * X + A - B * XX, jxy], [jxy, 2 * a * my * Y + A - B * YY]])
+        # the four distinct entries of the fully symmetric T
+        txxx = 3 * (a * mx - b * mx * XX - B * X) + C * XX * X
+        tyyy = 3 * (a * my - b * my * YY - B * Y) + C * YY * Y
+        txxy = a * my - b * (2 * mx * XY + my * XX) - B * Y + C * XX * Y
+        txyy = a * mx - b * (2 * my * XY + mx * YY) - B * X + C * XY * Y
+        T = [ca.blockcat([[txxx, txxy], [txxy, txyy]]), ca.blockcat([[txxy, txyy], [txyy, tyyy]])]
+        return h, J, T
 
 
 class ExpressionFieldModel(FieldModel):

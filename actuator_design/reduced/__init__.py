@@ -3,6 +3,7 @@
 * :mod:`.system` — :class:`ReducedSystem`: gradient, Hessian, parameter derivatives, directional
   third derivatives, the tip map and its Jacobians, cached per (structure, transcription, names);
 * :mod:`.kernel` — :class:`FastKernel`: buffered gradient/Hessian evaluation, LAPACK Newton steps;
+* :mod:`.positional` — the dense Hessian of an energy that reads positions, assembled as Φᵀ K Φ;
 * :mod:`.newton` — the equilibrium Newtons (damped, fast) and Newton on augmented systems;
 * :mod:`.linalg` — bordered solve, inertia, lowest eigenpairs (banded or dense storage);
 * :mod:`.fold` — the fold locator (Moore–Spence).

@@ -36,24 +36,39 @@ class FastKernel:
         r = max_i |g_i| / m_i.
     mass : ndarray, shape (n,)
         Lumped mass of the free nodes: the residual is max_i |g_i| / m_i.
+    hessian : PositionalHessian, optional
+        The structured Hessian of an energy that reads positions
+        (:class:`~actuator_design.reduced.positional.PositionalHessian`); ``f_gh`` may then be
+        ``None``. The Hessian is dense and evaluated by it, the gradient by ``f_g`` — once per
+        point: a Hessian requested at the point of the last gradient reuses that gradient.
     """
 
-    def __init__(self, f_g: ca.Function, f_gh: ca.Function, mass: np.ndarray):
-        self.n = n = int(f_gh.size1_in(0))
+    def __init__(self, f_g: ca.Function, f_gh: Optional[ca.Function], mass: np.ndarray,
+                 hessian=None):
+        self.n = n = int(f_g.size1_in(0))
         self.z = np.zeros(n)
-        self.p = np.zeros(int(f_gh.nnz_in(1)))
+        self.p = np.zeros(int(f_g.nnz_in(1)))
         self.g = np.zeros(n)
-        sp = f_gh.sparsity_out(2)
-        self.hnz = np.zeros(sp.nnz())
         self.r = np.zeros(1)
+        self.structured = hessian is not None
+        self._g_current = False  # the gradient in self.g belongs to (self.z, self.p)
+        sp = ca.Sparsity.dense(n, n) if self.structured else f_gh.sparsity_out(2)
+        self.hnz = np.zeros(sp.nnz())
         self._buf_g, self._eval_g = f_g.buffer()
-        self._buf_gh, self._eval_gh = f_gh.buffer()
-        for buf in (self._buf_g, self._buf_gh):
+        bufs = [self._buf_g]
+        if self.structured:
+            # the (symmetric) Hessian is written in C order into the column-major nonzeros
+            self._hessian = hessian  # owns the CasADi function the evaluator's buffer points into
+            self._eval_h = hessian.bind(self.z, self.p, self.hnz.reshape((n, n)))
+        else:
+            self._buf_gh, self._eval_gh = f_gh.buffer()
+            bufs.append(self._buf_gh)
+            self._buf_gh.set_res(2, memoryview(self.hnz))
+        for buf in bufs:
             buf.set_arg(0, memoryview(self.z))
             buf.set_arg(1, memoryview(self.p))
             buf.set_res(0, memoryview(self.g))
             buf.set_res(1, memoryview(self.r))
-        self._buf_gh.set_res(2, memoryview(self.hnz))
         rows, cols = (np.asarray(v, dtype=np.intp) for v in sp.get_triplet())
         self.rows, self.cols = rows, cols
         self.inv_mass = 1.0 / np.asarray(mass, float)
@@ -80,9 +95,18 @@ class FastKernel:
     # -- evaluation ---------------------------------------------------------------------------
     def set_params(self, params: np.ndarray) -> None:
         self.p[:] = params
+        self._g_current = False
 
     def evaluate(self, zr: np.ndarray, hessian: bool = True) -> float:
         """Evaluate ∇Ê (and ∇²Ê) at ``zr`` (free unknowns); returns max_i |g_i|/m_i."""
+        if self.structured:
+            if not (hessian and self._g_current and (self.z == zr).all()):
+                self.z[:] = zr
+                self._eval_g()
+                self._g_current = True
+            if hessian:
+                self._eval_h()
+            return float(self.r[0])
         self.z[:] = zr
         if hessian:
             self._eval_gh()
