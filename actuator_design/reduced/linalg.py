@@ -22,10 +22,11 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import lapack
 
-__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "inertia", "signed_distance_to_singularity", "bordered_solve",
+__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
            "lu_det_sign", "mass_scaled", "null_vector"]
 
-_dsytrf, _dsyevr = lapack.dsytrf, lapack.dsyevr
+_dsytrf, _dsyevr, _dsysv, _dpotrf = lapack.dsytrf, lapack.dsyevr, lapack.dsysv, lapack.dpotrf
+_EPS = float(np.finfo(float).eps)
 
 
 def mass_scaled(H: np.ndarray, inv_sqrt_mass: np.ndarray) -> np.ndarray:
@@ -97,42 +98,117 @@ def lowest_eigenpairs_dense(H: np.ndarray, inv_mass: np.ndarray, k: int = 1):
     return lam, np.sqrt(inv_mass) * u
 
 
+def ldl_negatives(A: np.ndarray) -> int:
+    """Number of negative eigenvalues of a symmetric dense A from the inertia of its
+    Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia)."""
+    ldu, ipiv, info = _dsytrf(A)
+    d = np.diagonal(ldu)
+    one = ipiv > 0
+    neg = int(np.count_nonzero(d[one] < 0))
+    if not one.all():
+        # upper storage: a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do
+        # not interleave, so the sorted negative entries pair up two by two
+        ks = np.flatnonzero(~one)
+        a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
+        det = a * c - b * b
+        neg += int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
+    return neg
+
+
 def inertia(A: np.ndarray) -> Tuple[int, float]:
     """(Morse index, smallest eigenvalue) of a symmetric dense A, cheaply: the index from the
     inertia of a Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia), the smallest
     eigenvalue alone by LAPACK ``dsyevr``."""
-    ldu, ipiv, info = _dsytrf(A)
-    d, off = np.diag(ldu), np.diag(ldu, 1)
-    neg, k = 0, A.shape[0] - 1
-    while k >= 0:  # upper storage: a 2×2 block sits at (k−1, k) when ipiv[k] = ipiv[k−1] < 0
-        if ipiv[k] > 0 or k == 0:
-            neg += d[k] < 0
-            k -= 1
-        else:
-            a, b, c = d[k - 1], off[k - 1], d[k]
-            det = a * c - b * b
-            neg += 1 if det < 0 else (2 if a + c < 0 else 0)
-            k -= 2
+    neg = ldl_negatives(A)
     w = _dsyevr(A, compute_v=0, range="I", il=1, iu=1)[0]
-    return int(neg), float(w[0])
+    return neg, float(w[0])
+
+
+def lowest_eigenpair(A: np.ndarray, start: Optional[np.ndarray] = None,
+                     max_solves: int = 3) -> Tuple[float, np.ndarray, bool]:
+    """The smallest eigenvalue μ_0 of a symmetric dense A (n, n), its unit eigenvector (n,) and
+    whether A is certified positive definite.
+
+    With a ``start`` vector close to the eigenvector (the previous point's, along a branch),
+    Rayleigh-quotient iteration (cubic convergence; a few LDLᵀ solves of A − σI) to a residual
+    ‖Av − σv‖ ≤ 1e-12 ‖A‖_F, certified smallest by a Cholesky factorisation of A − (σ − τ) I
+    (it succeeds only if every eigenvalue exceeds σ − τ, τ ≈ 32 n ε ‖A‖_F: Sylvester). When that
+    fails (no start, the iteration found a higher eigenvalue after two eigenvalues crossed, no
+    convergence) the smallest pair comes from LAPACK ``dsyevr`` instead.
+
+    Returns
+    -------
+    (mu0, v, positive_definite)
+        ``positive_definite`` is True only when certified (μ_0 − τ > 0 and the Cholesky test
+        passed); False says nothing.
+    """
+    n = A.shape[0]
+    if start is not None and n > 1:
+        fro = math.sqrt(float(np.einsum("ij,ij->", A, A)))
+        # Cholesky of A − (μ_0 − τ) I succeeds in floating point when μ_0 is the smallest
+        # eigenvalue: its backward error is ≲ n ε ‖A‖
+        tau, res_tol = 32.0 * n * _EPS * fro, 1e-12 * fro
+        diag = np.arange(n) * (n + 1)
+        v = start / np.linalg.norm(start)
+        Av = A @ v
+        sig = float(v @ Av)
+        for solve in range(max_solves + 1):
+            r = Av - sig * v
+            if float(np.sqrt(r @ r)) <= res_tol:
+                S = A.copy()
+                S.flat[diag] -= sig - tau
+                if _dpotrf(S, lower=0, clean=0, overwrite_a=1)[1] == 0:
+                    return sig, v, sig - tau > 0
+                break
+            if solve == max_solves:
+                break
+            S = A.copy()
+            S.flat[diag] -= sig
+            w, info = _dsysv(S, v, overwrite_a=1)[2:]
+            nw = float(np.sqrt(w @ w))
+            if info != 0 or not 0.0 < nw < math.inf:  # σ is an eigenvalue to machine precision, or a breakdown
+                break
+            v = w / nw
+            Av = A @ v
+            sig = float(v @ Av)
+    w, V = _dsyevr(A, compute_v=1, range="I", il=1, iu=1)[:2]
+    return float(w[0]), V[:, 0].copy(), False
 
 
 def signed_distance_to_singularity(A: np.ndarray) -> Tuple[int, float, float]:
     """(Morse index, smallest eigenvalue, (−1)^#(μ<0) · min|μ|) of a symmetric dense A.
 
     The last is continuous along a path and vanishes exactly where an eigenvalue crosses zero;
-    the index counts μ < −1e-9 max(1, |μ_0|) only (a marginal eigenvalue is not a direction of
-    descent)."""
-    mu = np.linalg.eigvalsh(A)
+    the index counts μ < −1e-9 max(1, |μ0|) only (a marginal eigenvalue is not a direction of
+    descent). Only the #(μ<0) + 1 smallest eigenvalues are computed (``dsyevr``), #(μ<0) from
+    the LDLᵀ inertia; should the two disagree (an eigenvalue at rounding distance from zero) the
+    full spectrum decides."""
+    n = A.shape[0]
+    neg = ldl_negatives(A)
+    mu = _dsyevr(A, compute_v=0, range="I", il=1, iu=min(n, neg + 1))[0][:min(n, neg + 1)]
+    if not (np.all(mu[:neg] < 0) and (neg == n or mu[neg] >= 0)):
+        mu = np.linalg.eigvalsh(A)
+        neg = int(np.sum(mu < 0))
     scale = 1e-9 * max(1.0, abs(mu[0]))
     idx = int(np.sum(mu < -scale))
-    return idx, float(mu[0]), float((-1) ** int(np.sum(mu < 0)) * np.min(np.abs(mu)))
+    return idx, float(mu[0]), float((-1) ** neg * np.min(np.abs(mu[max(neg - 1, 0):neg + 1])))
 
 
 def null_vector(H: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """Eigenvector of (H, M) whose eigenvalue is closest to zero, M-normalised (vᵀMv = 1), (n,)."""
+    """Eigenvector of (H, M) whose eigenvalue is closest to zero, M-normalised (vᵀMv = 1), (n,).
+
+    The eigenvalue closest to zero is the largest negative or the smallest non-negative one;
+    LDLᵀ inertia says which indices they have, and ``dsyevr`` computes those two pairs only (the
+    full spectrum when the inertia and the eigenvalues disagree at rounding level)."""
     ms = 1.0 / np.sqrt(mass)
-    w, V = np.linalg.eigh(mass_scaled(H, ms))
+    A = mass_scaled(H, ms)
+    n = A.shape[0]
+    neg = ldl_negatives(A)
+    il, iu = max(1, neg), min(n, neg + 1)
+    w, V = _dsyevr(A, compute_v=1, range="I", il=il, iu=iu)[:2]
+    w, V = w[:iu - il + 1], V[:, :iu - il + 1]
+    if not ((neg == 0 or w[0] < 0) and (neg == n or w[-1] >= 0)):
+        w, V = np.linalg.eigh(A)
     v = ms * V[:, int(np.argmin(np.abs(w)))]
     return v / math.sqrt(float(v @ (mass * v)))
 
