@@ -112,9 +112,10 @@ class BifurcationProblem:
 
         return newton(evaluate, u, lambda u_, g: self.residual(g) <= tol, max_iter, clip_at=1.0)
 
-    def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8):
-        """Newton on [G(x); rowᵀ(x − x_p)] = 0 from x_p (PALC: row = W t; natural: row = e_λ).
-        Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
+    def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8,
+                start: Optional[np.ndarray] = None):
+        """Newton on [G(x); rowᵀ(x − x_p)] = 0 from ``start`` (default x_p; PALC: row = W t;
+        natural: row = e_λ). Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
 
         The loop of :func:`~actuator_design.reduced.newton.newton` (same tests, same order) with
         the bordered Jacobian assembled in one Fortran buffer and solved by LAPACK ``dgesv``
@@ -123,7 +124,7 @@ class BifurcationProblem:
         Jb, F = self._Jb, self._F
         row = np.asarray(row, float)
         xp = np.asarray(xp, float)
-        x = xp.copy()
+        x = xp.copy() if start is None else np.array(start, float)
         for it in range(max_iter + 1):
             g, H, gl = ev(x[:n], x[n])
             F[:n] = g
