@@ -152,6 +152,11 @@ def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, 
                       (float(min(x[n], xe[n]) - s), float(max(x[n], xe[n]) + s)))
 
 
+def _w_norm2(d: np.ndarray, W: np.ndarray) -> float:
+    """dᵀ W d (W the metric's diagonal)."""
+    return float(d @ (W * d))
+
+
 def _to_edge(problem, settings, x, xn, edge):
     """The branch point at λ = edge between x and xn (Newton at fixed λ from interpolation)."""
     n = problem.n
@@ -302,12 +307,11 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
             status, msg = "left_window", f"reached {problem.lens} = {edge:g}"
             break
         X.append(xn), T.append(tn), IDX.append(idx), MU.append(mu), D.append(dn)
-        h = math.sqrt(float((xn - x) @ (W * (xn - x))))
+        h = math.sqrt(_w_norm2(xn - x, W))
         curvature = (tn - t) / h if h > 0 else None
         x, t = xn, tn
         problem.accept(x)
-        if len(X) > 10 and math.sqrt(float((x - X[0]) @ (W * (x - X[0])))) < 0.5 * ds \
-                and float(t @ (W * T[0])) > 0.9:
+        if len(X) > 10 and _w_norm2(x - X[0], W) < 0.25 * ds * ds and float(t @ (W * T[0])) > 0.9:
             status, msg = "closed_loop", "the branch closed on itself (an isola or a loop)"
             break
         ds = (min(ds * 1.5, st.ds_max) if it <= st.grow_iterations

@@ -57,6 +57,7 @@ class BifurcationProblem:
         self._F = np.empty(n + 1)
         self._e_last = np.zeros(n + 1)
         self._e_last[n] = 1.0
+        self._scale = self.Ms[:, None] * self.Ms[None, :]  # (M^{-1/2})_i (M^{-1/2})_j
         self._v_low = None  # eigenvector of the smallest eigenvalue at the last fast_inertia
 
     def polish_fold(self, x: np.ndarray):
@@ -127,19 +128,21 @@ class BifurcationProblem:
         x = xp.copy() if start is None else np.array(start, float)
         for it in range(max_iter + 1):
             g, H, gl = ev(x[:n], x[n])
-            F[:n] = g
-            F[n] = float(row @ (x - xp))
-            if not np.isfinite(F).all():
+            res = float(np.max(np.abs(g / mass)))  # NaN or inf when g is not finite
+            arc = float(row @ (x - xp))
+            if not (res < math.inf and abs(arc) < math.inf):
                 return x, False, it
-            if float(np.max(np.abs(g / mass))) <= tol and abs(F[n]) <= arc_tol:
+            if res <= tol and abs(arc) <= arc_tol:
                 return x, True, it
             if it == max_iter:
                 break
+            np.negative(g, out=F[:n])
+            F[n] = -arc
             Jb[:n, :n] = H
             Jb[:n, n] = gl
             Jb[n] = row
-            dx, info = _dgesv(Jb, -F, overwrite_a=1, overwrite_b=1)[2:]
-            if info != 0 or not np.isfinite(dx).all() or float(np.max(np.abs(dx))) > 2.0:
+            dx, info = _dgesv(Jb, F, overwrite_a=1)[2:]
+            if info != 0 or not float(np.max(np.abs(dx))) <= 2.0:  # also NaN
                 return x, False, it
             x = x + dx
         return x, False, max_iter
@@ -174,8 +177,11 @@ class BifurcationProblem:
         return t, lu_det_sign(lu, piv)
 
     def _scaled_hessian(self, H):
-        A = self.Ms[:, None] * H * self.Ms[None, :]
-        return 0.5 * (A + A.T)
+        """Symmetrised M^{-1/2} H M^{-1/2}, shape (n, n)."""
+        A = H * self._scale
+        A += A.T.copy()
+        A *= 0.5
+        return A
 
     def inertia(self, x, evaluate: bool = True) -> Tuple[int, float, float]:
         """(Morse index, smallest eigenvalue, (−1)^index · min|μ|) of M^{-1/2} H M^{-1/2} at x

@@ -98,21 +98,27 @@ def lowest_eigenpairs_dense(H: np.ndarray, inv_mass: np.ndarray, k: int = 1):
     return lam, np.sqrt(inv_mass) * u
 
 
+def _ldl_inertia(ldu: np.ndarray, ipiv: np.ndarray) -> int:
+    """Number of negative eigenvalues of D in a Bunch–Kaufman LDLᵀ = A (``dsytrf``/``dsysv``
+    output, upper storage): that of A by Sylvester's law of inertia."""
+    d = np.diagonal(ldu)
+    one = ipiv > 0
+    if one.all():  # 1×1 pivots only: the signs of D's diagonal
+        return int(np.count_nonzero(d < 0))
+    neg = int(np.count_nonzero(d[one] < 0))
+    # a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do not interleave, so
+    # the sorted negative entries pair up two by two
+    ks = np.flatnonzero(~one)
+    a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
+    det = a * c - b * b
+    return neg + int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
+
+
 def ldl_negatives(A: np.ndarray) -> int:
     """Number of negative eigenvalues of a symmetric dense A from the inertia of its
     Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia)."""
-    ldu, ipiv, info = _dsytrf(A)
-    d = np.diagonal(ldu)
-    one = ipiv > 0
-    neg = int(np.count_nonzero(d[one] < 0))
-    if not one.all():
-        # upper storage: a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do
-        # not interleave, so the sorted negative entries pair up two by two
-        ks = np.flatnonzero(~one)
-        a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
-        det = a * c - b * b
-        neg += int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
-    return neg
+    ldu, ipiv, _ = _dsytrf(A)
+    return _ldl_inertia(ldu, ipiv)
 
 
 def inertia(A: np.ndarray) -> Tuple[int, float]:
@@ -131,42 +137,50 @@ def lowest_eigenpair(A: np.ndarray, start: Optional[np.ndarray] = None,
 
     With a ``start`` vector close to the eigenvector (the previous point's, along a branch),
     Rayleigh-quotient iteration (cubic convergence; a few LDLᵀ solves of A − σI) to a residual
-    ‖Av − σv‖ ≤ 1e-12 ‖A‖_F, certified smallest by a Cholesky factorisation of A − (σ − τ) I
-    (it succeeds only if every eigenvalue exceeds σ − τ, τ ≈ 32 n ε ‖A‖_F: Sylvester). When that
-    fails (no start, the iteration found a higher eigenvalue after two eigenvalues crossed, no
-    convergence) the smallest pair comes from LAPACK ``dsyevr`` instead.
+    r = ‖Av − σv‖ ≤ 1e-12 ‖A‖_F, so that σ is within r of an eigenvalue. That it is the smallest
+    is certified by Sylvester's law of inertia, up to τ = 32 n ε ‖A‖_F (the backward error of
+    the factorisations): from the LDLᵀ inertia of the first solve's A − σ_1 I (σ_1 the start's
+    Rayleigh quotient: no eigenvalue below σ_1, or exactly one and σ + r < σ_1 − τ), otherwise by a
+    Cholesky factorisation of A − (σ − τ) I (it succeeds only when no eigenvalue lies below
+    σ − τ). When neither certifies (no start, the iteration found a higher eigenvalue after two
+    eigenvalues crossed, no convergence) the smallest pair comes from LAPACK ``dsyevr``.
 
     Returns
     -------
     (mu0, v, positive_definite)
-        ``positive_definite`` is True only when certified (μ_0 − τ > 0 and the Cholesky test
-        passed); False says nothing.
+        ``positive_definite`` is True only when certified (σ > 2(τ + r)); False says nothing.
     """
     n = A.shape[0]
     if start is not None and n > 1:
         fro = math.sqrt(float(np.einsum("ij,ij->", A, A)))
-        # Cholesky of A − (μ_0 − τ) I succeeds in floating point when μ_0 is the smallest
-        # eigenvalue: its backward error is ≲ n ε ‖A‖
         tau, res_tol = 32.0 * n * _EPS * fro, 1e-12 * fro
         diag = np.arange(n) * (n + 1)
-        v = start / np.linalg.norm(start)
+        v = start / math.sqrt(float(start @ start))
         Av = A @ v
         sig = float(v @ Av)
+        sig1 = below1 = None  # first shift and the number of eigenvalues below it
         for solve in range(max_solves + 1):
             r = Av - sig * v
-            if float(np.sqrt(r @ r)) <= res_tol:
+            rn = float(np.sqrt(r @ r))
+            if rn <= res_tol:
+                # smallest to within 2(τ + r): no eigenvalue below σ_1 − τ and σ ≤ σ_1 + τ, or
+                # one and σ (± r) below σ_1 − τ, or none below σ − τ
+                if below1 == 0 and sig <= sig1 + tau or below1 == 1 and sig + rn + tau < sig1:
+                    return sig, v, sig > 2.0 * (tau + rn)
                 S = A.copy()
                 S.flat[diag] -= sig - tau
                 if _dpotrf(S, lower=0, clean=0, overwrite_a=1)[1] == 0:
-                    return sig, v, sig - tau > 0
+                    return sig, v, sig > 2.0 * (tau + rn)
                 break
             if solve == max_solves:
                 break
             S = A.copy()
             S.flat[diag] -= sig
-            w, info = _dsysv(S, v, overwrite_a=1)[2:]
+            ldu, ipiv, w, info = _dsysv(S, v, overwrite_a=1)
+            if sig1 is None:
+                sig1, below1 = sig, _ldl_inertia(ldu, ipiv)
             nw = float(np.sqrt(w @ w))
-            if info != 0 or not 0.0 < nw < math.inf:  # σ is an eigenvalue to machine precision, or a breakdown
+            if info != 0 or not 0.0 < nw < math.inf:  # σ is an eigenvalue to machine precision
                 break
             v = w / nw
             Av = A @ v
@@ -215,9 +229,11 @@ def null_vector(H: np.ndarray, mass: np.ndarray) -> np.ndarray:
 
 def lu_det_sign(lu: np.ndarray, piv: np.ndarray) -> float:
     """Sign of det A from ``scipy.linalg.lu_factor``'s (lu, piv)."""
-    d = np.sign(np.diag(lu)).prod()
-    swaps = np.count_nonzero(piv != np.arange(piv.size))
-    return float(d * (-1.0) ** swaps)
+    d = np.diagonal(lu)
+    if not d.all():
+        return 0.0
+    odd = (np.count_nonzero(d < 0) + np.count_nonzero(piv != np.arange(piv.size))) % 2
+    return -1.0 if odd else 1.0
 
 
 def bordered_solve(A, B: np.ndarray, C: np.ndarray, D: np.ndarray, r: np.ndarray,
