@@ -136,19 +136,21 @@ def lowest_eigenpair(A: np.ndarray, start: Optional[np.ndarray] = None,
     whether A is certified positive definite.
 
     With a ``start`` vector close to the eigenvector (the previous point's, along a branch),
-    Rayleigh-quotient iteration (cubic convergence; a few LDLᵀ solves of A − σI) to a residual
-    r = ‖Av − σv‖ ≤ 1e-12 ‖A‖_F, so that σ is within r of an eigenvalue. That it is the smallest
-    is certified by Sylvester's law of inertia, up to τ = 32 n ε ‖A‖_F (the backward error of
-    the factorisations): from the LDLᵀ inertia of the first solve's A − σ_1 I (σ_1 the start's
-    Rayleigh quotient: no eigenvalue below σ_1, or exactly one and σ + r < σ_1 − τ), otherwise by a
-    Cholesky factorisation of A − (σ − τ) I (it succeeds only when no eigenvalue lies below
-    σ − τ). When neither certifies (no start, the iteration found a higher eigenvalue after two
-    eigenvalues crossed, no convergence) the smallest pair comes from LAPACK ``dsyevr``.
+    Rayleigh-quotient iteration (cubic convergence; a few LDLᵀ solves of A − σI; the first shift
+    is the start's Rayleigh quotient lowered by 4τ) to a residual r = ‖Av − σv‖ ≤ 1e-12 ‖A‖_F,
+    so that σ is within r of an eigenvalue. That it is the smallest (to within 6τ + 2r) is
+    certified by Sylvester's law of inertia up to τ = 32 n ε ‖A‖_F, the backward error of the
+    factorisations: by the LDLᵀ inertia of the first solve's A − s_1 I (no eigenvalue below s_1
+    and σ ≤ s_1 + 5τ + r — a Rayleigh quotient is never below μ_0 —, or exactly one and
+    σ + r < s_1 − τ), otherwise by a Cholesky factorisation of A − (σ − τ) I (it succeeds only when
+    no eigenvalue lies below σ − τ). When neither certifies (no start, the iteration found a
+    higher eigenvalue after two eigenvalues crossed, no convergence) the smallest pair comes from
+    LAPACK ``dsyevr``.
 
     Returns
     -------
     (mu0, v, positive_definite)
-        ``positive_definite`` is True only when certified (σ > 2(τ + r)); False says nothing.
+        ``positive_definite`` is True only when certified (σ > 6τ + 2r); False says nothing.
     """
     n = A.shape[0]
     if start is not None and n > 1:
@@ -158,27 +160,26 @@ def lowest_eigenpair(A: np.ndarray, start: Optional[np.ndarray] = None,
         v = start / math.sqrt(float(start @ start))
         Av = A @ v
         sig = float(v @ Av)
-        sig1 = below1 = None  # first shift and the number of eigenvalues below it
+        s1 = below1 = None  # first shift and the number of eigenvalues below it
         for solve in range(max_solves + 1):
             r = Av - sig * v
             rn = float(np.sqrt(r @ r))
             if rn <= res_tol:
-                # smallest to within 2(τ + r): no eigenvalue below σ_1 − τ and σ ≤ σ_1 + τ, or
-                # one and σ (± r) below σ_1 − τ, or none below σ − τ
-                if below1 == 0 and sig <= sig1 + tau or below1 == 1 and sig + rn + tau < sig1:
-                    return sig, v, sig > 2.0 * (tau + rn)
+                if below1 == 0 and sig <= s1 + 5.0 * tau + rn or below1 == 1 and sig + rn + tau < s1:
+                    return sig, v, sig > 6.0 * tau + 2.0 * rn
                 S = A.copy()
                 S.flat[diag] -= sig - tau
                 if _dpotrf(S, lower=0, clean=0, overwrite_a=1)[1] == 0:
-                    return sig, v, sig > 2.0 * (tau + rn)
+                    return sig, v, sig > 6.0 * tau + 2.0 * rn
                 break
             if solve == max_solves:
                 break
+            shift = sig - 4.0 * tau if s1 is None else sig
             S = A.copy()
-            S.flat[diag] -= sig
+            S.flat[diag] -= shift
             ldu, ipiv, w, info = _dsysv(S, v, overwrite_a=1)
-            if sig1 is None:
-                sig1, below1 = sig, _ldl_inertia(ldu, ipiv)
+            if s1 is None:
+                s1, below1 = shift, _ldl_inertia(ldu, ipiv)
             nw = float(np.sqrt(w @ w))
             if info != 0 or not 0.0 < nw < math.inf:  # σ is an eigenvalue to machine precision
                 break
