@@ -1,7 +1,8 @@
 """The continuation engine (actuator_design.continuation) against independent references.
 
-References: the pitchfork h_crit^(1) = π/(2√2) of the straight rod in a transverse field and the
-elliptic first mode (THEORY §6, ``reference.closed_forms``); a user event "the tip crosses the wall
+References: the pitchforks h_crit^(m) = (2m−1)π/(2√2) of the straight rod in a transverse field and
+the elliptic first mode (THEORY §6, ``reference.closed_forms``); numpy's dense eigendecomposition
+for the stability recorded along a branch; a user event "the tip crosses the wall
 x = c" against a plain bisection of independent forward solves (``equilibrium.solve``); the fold
 load p_crit^(1) of the elastica by the shooting solver.
 """
@@ -38,6 +39,43 @@ def test_transverse_pitchfork_is_a_branch_point_not_a_fold():
     assert bp.located and bp.lam == pytest.approx(critical_field_transverse(1), abs=1e-8)
     assert bp.lam == pytest.approx(math.pi / (2 * math.sqrt(2)), abs=1e-8)
     assert (bp.index_before, bp.index_after) == (0, 1)
+
+
+def test_straight_rod_meets_five_pitchforks_at_the_closed_form_fields():
+    """Straight rod, φ = π/2, h ∈ [0, 12]: a branch point at each h_crit^(m) = (2m−1)π/(2√2),
+    m = 1..5, and no fold; the Morse index rises by one at each (Sturm: index = #modes below h).
+    The test function is the signed smallest |μ| from a partial spectrum (LDLᵀ inertia + dsyevr)."""
+    prob = problem_for(default_scene(h=0.0, phi=math.pi / 2), "h", 0.0)
+    br = continuation(prob, PALC(), ContinuationSettings(ds_max=0.05, window=(0.0, 12.0)),
+                      (Fold(), BranchPoint()))
+    assert br.status == "left_window" and [e.kind for e in br.events] == ["branch_point"] * 5
+    for m, e in enumerate(br.events, start=1):
+        assert e.located and e.lam == pytest.approx((2 * m - 1) * math.pi / (2 * math.sqrt(2)), abs=1e-8)
+        assert (e.index_before, e.index_after) == (m - 1, m)
+    assert br.morse_index[-1] == 5
+
+
+def test_fixed_step_palc_points_lie_on_the_elliptic_mode_with_their_true_spectrum():
+    """300 PALC steps of exactly ds on the first transverse mode, each corrector started from the
+    predictor plus the curvature term: every point has the closed-form tip angle β(h), lies at
+    arclength ds along the previous tangent (the PALC constraint: the start does not move the
+    point), and its recorded Morse index and smallest eigenvalue are those of numpy's dense
+    eigendecomposition of the mass-scaled Hessian there."""
+    prob = problem_for(default_scene(h=1.5, phi=math.pi / 2), "h", 1.5)
+    ds = 0.01
+    br = continuation(prob, PALC(), ContinuationSettings(ds=ds, ds_max=ds, max_steps=300),
+                      (Fold(), BranchPoint()))
+    assert len(br) == 300 and br.status == "max_points" and not br.events
+    n = prob.n
+    scale = 1.0 / np.sqrt(np.outer(prob.mass, prob.mass))
+    for x, index, lowest in zip(br.x, br.morse_index, br.min_eig):
+        assert abs(abs(prob.tip(x)[0]) - transverse_mode(x[n], 1).beta) < 1e-8
+        A = prob.ev(x[:n], x[n])[1] * scale
+        w = np.linalg.eigvalsh(0.5 * (A + A.T))
+        assert index == int(np.sum(w < 0)) == 0
+        assert lowest == pytest.approx(w[0], rel=1e-10)
+    arc = np.einsum("ij,j,ij->i", br.tangents[:-1], prob.W, np.diff(br.x, axis=0))
+    assert np.max(np.abs(arc - ds)) < 1e-9
 
 
 def test_user_event_tip_crosses_a_wall_matches_bisection_of_forward_solves():
