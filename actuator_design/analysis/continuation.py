@@ -227,7 +227,7 @@ class Continuation:
         return br
 
     def _decorate(self, br: Branch) -> None:
-        """Tip, energy and θ'(0) at every point (one mapped CasADi call each)."""
+        """Tip, energy and θ'(0) at every point (buffered CasADi calls, :func:`_pointwise`)."""
         N = len(br)
         Ps = np.column_stack([self.params(l) for l in br.lam]) if N < 50 else self._params_matrix(br.lam)
         br.tips = _pointwise(self.solver.f_tip, br.z, Ps.T)

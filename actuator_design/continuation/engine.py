@@ -1,13 +1,12 @@
 """``continuation(problem, algorithm, settings, events)``: one engine for every branch in the package.
 
 Predictor x_p = x_k + s t_k, corrector Newton on [G(x); rowᵀ(x − x_p)] = 0 (row = W t_k for
-PALC, e_λ for natural continuation) started from x_p (at the largest step from x_p + ½ s² κ, κ
+PALC, e_λ for natural continuation) started from x_p — at the largest step from x_p + ½ s² κ, κ
 the curvature from the last two tangents, kept when Newton converges there well below the
-shrinking count),
-new tangent from [G_x; t_kᵀW] t = e_{n+1}; step adapted to
-the number of Newton iterations (×1.5 for few, ×0.6 for many: settings) and halved when the
-corrector fails, the tangent turns too much or an unknown moves more than ``settings.max_du``
-(the predictor is shortened to ``max_du`` and ``max_dlam``).
+shrinking count —, new tangent from [G_x; t_kᵀW] t = e_{n+1}; step adapted to the number of
+Newton iterations (×1.5 for few, ×0.6 for many: settings) and halved when the corrector fails,
+the tangent turns too much or an unknown moves more than ``settings.max_du`` (the predictor is
+shortened to ``max_du`` and ``max_dlam``).
 Along the branch: the Morse index and smallest eigenvalue of M^-1/2 H M^-1/2 at every point, and
 the events asked for (:mod:`.events`), located on the step where they are detected; events made
 with ``stop=True`` end the run.
