@@ -14,7 +14,8 @@ from scipy.optimize import fsolve
 from actuator_design.options import SolverOptions
 from actuator_design.reduced import (bordered_solve, inertia, locate_fold, lowest_eigenpairs,
                                      null_vector, reduced_system, signed_distance_to_singularity)
-from actuator_design.reduced.linalg import ldl_negatives, lowest_eigenpair
+from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
+                                            lowest_eigenpair_banded)
 from actuator_design.reference.shooting import ShootingParams, shoot
 from actuator_design.scene import default_scene
 from actuator_design.solver import get_solver
@@ -168,3 +169,24 @@ def test_certified_smallest_eigenpair_is_not_fooled_by_a_higher_eigenvector():
     mu, v, _ = lowest_eigenpair(A, V[:, 1])
     assert mu == pytest.approx(w[0], abs=1e-11 * np.abs(w).max())
     assert abs(v @ V[:, 0]) == pytest.approx(1.0, abs=1e-8)
+
+
+def test_banded_smallest_eigenpair_and_negative_count_agree_with_eigh():
+    """The band-storage smallest eigenpair (warm, cold and from the second eigenvector) and the
+    count of negative eigenvalues against numpy's full ``eigh`` (n = 64..150, bandwidth < n/4)."""
+    rng = np.random.default_rng(11)
+    for trial in range(20):
+        n = int(rng.integers(64, 150))
+        bw = int(rng.integers(1, n // 4))
+        A = _random_band(rng, n, bw, rng.uniform(-4.0, 6.0))
+        a = np.zeros((bw + 1, n))
+        for k in range(bw + 1):  # LAPACK upper band storage a[bw + i − j, j] = A_ij
+            a[bw - k, k:] = np.diagonal(A, k)
+        w, V = np.linalg.eigh(A)
+        scale = float(np.abs(w).max())
+        for start in (V[:, 0] + 0.05 * rng.standard_normal(n), None, V[:, 1]):
+            mu, v, definite = lowest_eigenpair_banded(a, start)
+            assert mu == pytest.approx(w[0], abs=1e-10 * scale)
+            assert np.linalg.norm(A @ v - mu * v) < 1e-8 * scale
+            assert not definite or w[0] > 0
+        assert banded_negatives(a) == int(np.sum(w < 0))

@@ -13,10 +13,11 @@ from typing import Optional, Tuple
 import numpy as np
 from scipy.linalg import lapack
 
-from ..reduced.linalg import (ldl_negatives, lowest_eigenpair, lu_det_sign,
-                              signed_distance_to_singularity)
+from ..reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
+                              lowest_eigenpair_banded, lu_det_sign, signed_distance_to_singularity)
 from ..reduced.newton import newton
 from ..reduced.system import ReducedSystem
+from .banded import BandedBordered, use_band
 
 __all__ = ["BifurcationProblem"]
 
@@ -59,6 +60,9 @@ class BifurcationProblem:
         self._e_last[n] = 1.0
         self._scale = self.Ms[:, None] * self.Ms[None, :]  # (M^{-1/2})_i (M^{-1/2})_j
         self._v_low = None  # eigenvector of the smallest eigenvalue at the last fast_inertia
+        # long band Hessians (fine meshes): corrector, tangent and stability in band storage
+        self._band = (BandedBordered(n, system.bandwidth, self.Ms)
+                      if use_band(n, system.bandwidth) else None)
 
     def polish_fold(self, x: np.ndarray):
         """The fold near ``x`` = (u, λ) by the one fold locator (Moore–Spence, :mod:`..reduced.fold`),
@@ -138,10 +142,14 @@ class BifurcationProblem:
                 break
             np.negative(g, out=F[:n])
             F[n] = -arc
-            Jb[:n, :n] = H
-            Jb[:n, n] = gl
-            Jb[n] = row
-            dx, info = _dgesv(Jb, F, overwrite_a=1)[2:]
+            banded = self._band and self._band.bordered(H, gl, row[:n], float(row[n]), F)
+            if banded:
+                dx, info = banded[0], 0
+            else:
+                Jb[:n, :n] = H
+                Jb[:n, n] = gl
+                Jb[n] = row
+                dx, info = _dgesv(Jb, F, overwrite_a=1)[2:]
             if info != 0 or not float(np.max(np.abs(dx))) <= 2.0:  # also NaN
                 return x, False, it
             x = x + dx
@@ -168,7 +176,12 @@ class BifurcationProblem:
         # [G_x; t_prevᵀW] t = e_{n+1}. det[G_x; cᵀ] = κ (c·t) for any row c (the row space of
         # G_x is t^⊥), so det[G_x; t_prevᵀW] and det[G_x; tᵀW] share the sign of κ: t_prevᵀW t
         # = 1 > 0 and tᵀW t > 0.
-        J[n] = t_prev * self.W
+        c = t_prev * self.W
+        banded = self._band and self._band.bordered(H, gl, c[:n], float(c[n]), self._e_last)
+        if banded:
+            t, sign = banded
+            return t / math.sqrt(float(t @ (self.W * t))), sign
+        J[n] = c
         lu, piv, info = _dgetrf(J, overwrite_a=1)
         if info < 0:
             raise ValueError(f"dgetrf: illegal argument {-info}")
@@ -194,6 +207,10 @@ class BifurcationProblem:
         Rayleigh-quotient iteration from the previous point's eigenvector, certified
         (:func:`~actuator_design.reduced.linalg.lowest_eigenpair`); the index is 0 when that
         certifies positive definiteness, else the LDLᵀ inertia."""
+        if self._band:
+            a = self._band.scaled_band(self.ev.H)
+            mu, self._v_low, definite = lowest_eigenpair_banded(a, self._v_low)
+            return (0 if definite else banded_negatives(a)), mu
         A = self._scaled_hessian(self.ev.H)
         mu, self._v_low, definite = lowest_eigenpair(A, self._v_low)
         return (0 if definite else ldl_negatives(A)), mu
