@@ -1,4 +1,4 @@
-"""Band algebra of the continuation problem for long band Hessians (fine meshes; THEORY §7).
+"""Band algebra of the continuation problem for long band Hessians (fine meshes).
 
 For n ≥ 64 unknowns and a bandwidth bw < n/4 the reduced Hessian H is a band matrix, and the
 bordered systems of the corrector and the tangent,
@@ -100,15 +100,15 @@ class BandedBordered:
         if not (S != 0.0 and math.isfinite(S)):
             return None
 
-        def eliminate(rhs_u, z, rhs_l):
+        def eliminate(z, rhs_l):  # z = H⁻¹ rhs_u
             xl = (rhs_l - float(c @ z)) / S
             return z - y * xl, xl
 
-        xu, xl = eliminate(r[:n], Y[:, 1], float(r[n]))
+        xu, xl = eliminate(Y[:, 1], float(r[n]))
         # one step of iterative refinement on the bordered residual
         res_u = r[:n] - self.matvec(xu) - b * xl
         res_l = float(r[n] - c @ xu - d * xl)
-        du, dl = eliminate(res_u, self.solve(res_u), res_l)
+        du, dl = eliminate(self.solve(res_u), res_l)
         x = np.append(xu + du, xl + dl)
         if not np.isfinite(x).all():
             return None
