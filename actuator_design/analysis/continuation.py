@@ -161,7 +161,8 @@ class Continuation:
         return self.problem.inertia(x, evaluate)
 
     def fast_inertia(self) -> Tuple[int, float]:
-        """(Morse index, smallest eigenvalue) at the last evaluation (LDLᵀ inertia)."""
+        """(Morse index, smallest eigenvalue) at the last evaluation (certified warm eigenpair,
+        :meth:`BifurcationProblem.fast_inertia`)."""
         return self.problem.fast_inertia()
 
     # -- starting -----------------------------------------------------------------------------

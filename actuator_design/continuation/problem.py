@@ -90,7 +90,7 @@ class BifurcationProblem:
         return True
 
     def stability(self, x: np.ndarray) -> Tuple[int, float]:
-        """(Morse index, smallest eigenvalue) at x, by LDLᵀ inertia."""
+        """(Morse index, smallest eigenvalue) at x (:meth:`fast_inertia` after an evaluation)."""
         self.ev(x[:self.n], x[self.n])
         return self.fast_inertia()
 
@@ -205,8 +205,9 @@ class BifurcationProblem:
     def fast_inertia(self) -> Tuple[int, float]:
         """(Morse index, smallest eigenvalue) at the last evaluation: the smallest eigenpair by
         Rayleigh-quotient iteration from the previous point's eigenvector, certified
-        (:func:`~actuator_design.reduced.linalg.lowest_eigenpair`); the index is 0 when that
-        certifies positive definiteness, else the LDLᵀ inertia."""
+        (:func:`~actuator_design.reduced.linalg.lowest_eigenpair`; its band-storage twin on the
+        band path); the index is 0 when that certifies positive definiteness, else the LDLᵀ
+        inertia (the count of the banded eigensolver on the band path)."""
         if self._band:
             a = self._band.scaled_band(self.ev.H)
             mu, self._v_low, definite = lowest_eigenpair_banded(a, self._v_low)
