@@ -1,9 +1,10 @@
-"""Benchmark: a 1000-point pseudo-arclength continuation of one branch (target: ≤ 1 s).
+"""Benchmark: a 1000-point pseudo-arclength continuation of one branch (target: ≤ 0.3 s, issue 13).
 
 Two branches, each continued for exactly 1000 points (fixed arclength step, so the count does
 not depend on step adaptation): the field-free cantilever elastica in the tip load p from p = 0
-(mode 1), and the first transverse mode in h from its pitchfork. Stability (full eigenvalues of the
-reduced Hessian), fold and branch-point detection are on. The one-off CasADi build is reported
+(mode 1), and the first transverse mode in h from its pitchfork. Stability (Morse index and
+smallest eigenvalue of the reduced Hessian at every point), fold and branch-point detection are
+on; the time includes the tips and energies of every point. The one-off CasADi build is reported
 separately. Run: ``python problems/bench_continuation.py [--repeat N]``.
 """
 from __future__ import annotations
@@ -15,6 +16,8 @@ import time
 
 from actuator_design.analysis.continuation import Continuation
 from actuator_design.scene import default_scene
+
+TARGET_S = 0.3  # seconds for the whole 1000 points (best of wall and CPU time)
 
 
 def bench(scene, name, lam0, ds, repeat):
@@ -41,13 +44,13 @@ def main(argv=None):
     for label, scene, name, lam0, ds in cases:
         build, br, times, cpus = bench(scene, name, lam0, ds, args.repeat)
         best = min(times)
-        ok &= min(best, min(cpus)) <= 1.0 and len(br) == 1000
+        ok &= min(best, min(cpus)) <= TARGET_S and len(br) == 1000
         print(f"{label}: {len(br)} points, {name} from {br.lam[0]:.4g} to {br.lam[-1]:.4g}, "
               f"{br.stats['newton_evaluations']} Newton evaluations; build + start {build:.3f} s; "
               f"run best {best:.3f} s (all: {', '.join(f'{t:.3f}' for t in times)}) -> "
               f"{len(br) / best:.0f} points/s; CPU time best {min(cpus):.3f} s; folds {len(br.folds)}, "
               f"branch points {len(br.branch_points)}")
-    print("target (1000 points in <= 1 s, judged on the best of wall and CPU time: the machine may "
+    print(f"target (1000 points in <= {TARGET_S:g} s, judged on the best of wall and CPU time: the machine may "
           f"be shared, load average {os.getloadavg()[0]:.1f}):", "met" if ok else "NOT met")
     return 0 if ok else 1
 

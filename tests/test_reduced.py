@@ -13,7 +13,9 @@ from scipy.optimize import fsolve
 
 from actuator_design.options import SolverOptions
 from actuator_design.reduced import (bordered_solve, inertia, locate_fold, lowest_eigenpairs,
-                                     reduced_system)
+                                     null_vector, reduced_system, signed_distance_to_singularity)
+from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
+                                            lowest_eigenpair_banded)
 from actuator_design.reference.shooting import ShootingParams, shoot
 from actuator_design.scene import default_scene
 from actuator_design.solver import get_solver
@@ -114,3 +116,77 @@ def test_lowest_eigenpairs_banded_and_dense_agree_with_eigh_and_inertia_counts()
     w = np.linalg.eigvalsh(H - 0.2 * np.eye(n))
     assert neg == int(np.sum(w < 0)) and lowest == pytest.approx(w[0], abs=1e-12)
     assert neg > 0
+
+
+def _random_band(rng, n, bw, shift):
+    """A random symmetric band matrix (bandwidth bw) plus shift·I: SPD or indefinite."""
+    A = shift * np.eye(n)
+    for k in range(bw + 1):
+        d = rng.standard_normal(n - k)
+        A += np.diag(d, k) + (np.diag(d, -k) if k else 0.0)
+    return A
+
+
+def test_partial_spectra_agree_with_the_full_eigendecomposition():
+    """LDLᵀ inertia, the warm-started certified smallest eigenpair (from a perturbed, a random and
+    no start), the signed distance to singularity and the null vector of (H, M), each against
+    numpy's full ``eigh`` on random banded SPD and indefinite matrices."""
+    rng = np.random.default_rng(7)
+    for trial in range(120):
+        n = int(rng.integers(2, 70))
+        A = _random_band(rng, n, int(rng.integers(1, n)), rng.uniform(-4.0, 6.0))
+        w, V = np.linalg.eigh(A)
+        scale = max(1.0, float(np.abs(w).max()))
+        assert ldl_negatives(A) == int(np.sum(w < 0))
+        for start in (V[:, 0] + 0.1 * rng.standard_normal(n), rng.standard_normal(n), None):
+            mu, v, definite = lowest_eigenpair(A, start)
+            assert mu == pytest.approx(w[0], abs=1e-11 * scale)
+            assert np.linalg.norm(A @ v - mu * v) < 1e-9 * scale and abs(np.linalg.norm(v) - 1) < 1e-12
+            assert not definite or w[0] > 0
+        idx, lowest, signed = signed_distance_to_singularity(A)
+        assert idx == int(np.sum(w < -1e-9 * max(1.0, abs(w[0]))))
+        assert lowest == pytest.approx(w[0], abs=1e-11 * scale)
+        assert signed == pytest.approx((-1) ** int(np.sum(w < 0)) * np.min(np.abs(w)), abs=1e-11 * scale)
+        m = rng.uniform(0.2, 2.0, n)
+        s = 1 / np.sqrt(m)
+        wm, Vm = np.linalg.eigh(s[:, None] * A * s[None, :])
+        k = int(np.argmin(np.abs(wm)))
+        if n > 1 and np.sort(np.abs(wm))[1] - abs(wm[k]) < 1e-6:
+            continue  # two eigenvalues equally close to zero: the null vector is not unique
+        ref = s * Vm[:, k]
+        v = null_vector(A, m)
+        assert v @ (m * v) == pytest.approx(1.0, abs=1e-12)
+        assert abs(v @ (m * ref)) / np.sqrt(ref @ (m * ref)) == pytest.approx(1.0, abs=1e-8)
+
+
+def test_certified_smallest_eigenpair_is_not_fooled_by_a_higher_eigenvector():
+    """Started on the eigenvector of the second eigenvalue (as after two eigenvalues cross along a
+    branch), Rayleigh-quotient iteration stays there; the Cholesky certificate rejects it and the
+    smallest pair is returned."""
+    rng = np.random.default_rng(3)
+    A = _random_band(rng, 30, 4, 1.0)
+    w, V = np.linalg.eigh(A)
+    mu, v, _ = lowest_eigenpair(A, V[:, 1])
+    assert mu == pytest.approx(w[0], abs=1e-11 * np.abs(w).max())
+    assert abs(v @ V[:, 0]) == pytest.approx(1.0, abs=1e-8)
+
+
+def test_banded_smallest_eigenpair_and_negative_count_agree_with_eigh():
+    """The band-storage smallest eigenpair (warm, cold and from the second eigenvector) and the
+    count of negative eigenvalues against numpy's full ``eigh`` (n = 64..150, bandwidth < n/4)."""
+    rng = np.random.default_rng(11)
+    for trial in range(20):
+        n = int(rng.integers(64, 150))
+        bw = int(rng.integers(1, n // 4))
+        A = _random_band(rng, n, bw, rng.uniform(-4.0, 6.0))
+        a = np.zeros((bw + 1, n))
+        for k in range(bw + 1):  # LAPACK upper band storage a[bw + i − j, j] = A_ij
+            a[bw - k, k:] = np.diagonal(A, k)
+        w, V = np.linalg.eigh(A)
+        scale = float(np.abs(w).max())
+        for start in (V[:, 0] + 0.05 * rng.standard_normal(n), None, V[:, 1]):
+            mu, v, definite = lowest_eigenpair_banded(a, start)
+            assert mu == pytest.approx(w[0], abs=1e-10 * scale)
+            assert np.linalg.norm(A @ v - mu * v) < 1e-8 * scale
+            assert not definite or w[0] > 0
+        assert banded_negatives(a) == int(np.sum(w < 0))

@@ -75,6 +75,27 @@ def system_function(solver: EquilibriumSolver, name: str) -> ca.Function:
     return reduced_system(solver, [name]).f_system
 
 
+def _pointwise(fn: ca.Function, Z: np.ndarray, Ps: np.ndarray) -> np.ndarray:
+    """``fn(z_k, P_k)`` for every row k, its scalar outputs side by side, shape (N, n_out).
+
+    Through CasADi's buffer interface, one call per point: about 5× cheaper than ``fn.map(N)``
+    on numpy inputs (whose conversion to DM dominates for a few thousand points)."""
+    N = Z.shape[0]
+    buf, call = fn.buffer()
+    z, P = np.zeros(Z.shape[1]), np.zeros(Ps.shape[1])
+    res = np.zeros(fn.n_out())
+    buf.set_arg(0, memoryview(z))
+    buf.set_arg(1, memoryview(P))
+    for i in range(fn.n_out()):
+        buf.set_res(i, memoryview(res[i:i + 1]))
+    out = np.empty((N, fn.n_out()))
+    for k in range(N):
+        z[:], P[:] = Z[k], Ps[k]
+        call()
+        out[k] = res
+    return out
+
+
 class Continuation:
     """Pseudo-arclength continuation in parameter ``name`` for one scene structure.
 
@@ -140,7 +161,8 @@ class Continuation:
         return self.problem.inertia(x, evaluate)
 
     def fast_inertia(self) -> Tuple[int, float]:
-        """(Morse index, smallest eigenvalue) at the last evaluation (LDLᵀ inertia)."""
+        """(Morse index, smallest eigenvalue) at the last evaluation (certified warm eigenpair,
+        :meth:`BifurcationProblem.fast_inertia`)."""
         return self.problem.fast_inertia()
 
     # -- starting -----------------------------------------------------------------------------
@@ -206,13 +228,11 @@ class Continuation:
         return br
 
     def _decorate(self, br: Branch) -> None:
-        """Tip, energy and θ'(0) at every point (one mapped CasADi call each)."""
+        """Tip, energy and θ'(0) at every point (buffered CasADi calls, :func:`_pointwise`)."""
         N = len(br)
-        Z = br.z.T
         Ps = np.column_stack([self.params(l) for l in br.lam]) if N < 50 else self._params_matrix(br.lam)
-        tip = self.solver.f_tip.map(N)(Z, Ps)
-        br.tips = np.column_stack([np.asarray(v, float).ravel() for v in tip])
-        br.energy = np.asarray(self.solver.f_energy.map(N)(Z, Ps), float).ravel()
+        br.tips = _pointwise(self.solver.f_tip, br.z, Ps.T)
+        br.energy = _pointwise(self.solver.f_energy, br.z, Ps.T)[:, 0]
         br.gamma = br.z @ self._gamma_row()
         for cp in br.folds + br.branch_points:
             P = self.params(cp.value)

@@ -67,8 +67,10 @@ class FoldCurveProblem:
         self._J = np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
         return np.asarray(F).ravel(), self._J
 
-    def correct(self, xp, row, tol: float, arc_tol: float = 1e-10, max_iter: int = 9):
-        """Newton on [F(x); rowᵀ(x − x_p)] = 0. Returns (x, converged, iterations)."""
+    def correct(self, xp, row, tol: float, arc_tol: float = 1e-10, max_iter: int = 9,
+                start=None):
+        """Newton on [F(x); rowᵀ(x − x_p)] = 0 from ``start`` (default x_p). Returns
+        (x, converged, iterations)."""
         xp = np.asarray(xp, float)
 
         def bordered(x):
@@ -78,7 +80,7 @@ class FoldCurveProblem:
         def converged(x, Fa):
             return fold_converged(Fa[:-1], self.mass, tol) and abs(Fa[-1]) <= arc_tol
 
-        return newton(bordered, xp, converged, max_iter, reject_above=2.0,
+        return newton(bordered, xp if start is None else start, converged, max_iter, reject_above=2.0,
                       reject_slice=slice(0, self.m + 1))
 
     def correct_fixed(self, y, mu, tol: float, max_iter: int = 20):

@@ -11,13 +11,17 @@ import math
 from typing import Optional, Tuple
 
 import numpy as np
-import scipy.linalg
+from scipy.linalg import lapack
 
-from ..reduced.linalg import inertia, lu_det_sign, signed_distance_to_singularity
+from ..reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
+                              lowest_eigenpair_banded, lu_det_sign, signed_distance_to_singularity)
 from ..reduced.newton import newton
 from ..reduced.system import ReducedSystem
+from .banded import BandedBordered, use_band
 
 __all__ = ["BifurcationProblem"]
+
+_dgesv, _dgetrf, _dgetrs = lapack.dgesv, lapack.dgetrf, lapack.dgetrs
 
 
 class BifurcationProblem:
@@ -49,6 +53,16 @@ class BifurcationProblem:
         self.u0 = None if u0 is None else np.asarray(u0, float)
         self.lam0 = lam0
         self.theta0 = float(theta0)
+        n = self.n
+        self._Jb = np.empty((n + 1, n + 1), order="F")  # bordered Jacobian, LAPACK's layout
+        self._F = np.empty(n + 1)
+        self._e_last = np.zeros(n + 1)
+        self._e_last[n] = 1.0
+        self._scale = self.Ms[:, None] * self.Ms[None, :]  # (M^{-1/2})_i (M^{-1/2})_j
+        self._v_low = None  # eigenvector of the smallest eigenvalue at the last fast_inertia
+        # long band Hessians (fine meshes): corrector, tangent and stability in band storage
+        self._band = (BandedBordered(n, system.bandwidth, self.Ms)
+                      if use_band(n, system.bandwidth) else None)
 
     def polish_fold(self, x: np.ndarray):
         """The fold near ``x`` = (u, λ) by the one fold locator (Moore–Spence, :mod:`..reduced.fold`),
@@ -76,7 +90,7 @@ class BifurcationProblem:
         return True
 
     def stability(self, x: np.ndarray) -> Tuple[int, float]:
-        """(Morse index, smallest eigenvalue) at x, by LDLᵀ inertia."""
+        """(Morse index, smallest eigenvalue) at x (:meth:`fast_inertia` after an evaluation)."""
         self.ev(x[:self.n], x[self.n])
         return self.fast_inertia()
 
@@ -103,25 +117,43 @@ class BifurcationProblem:
 
         return newton(evaluate, u, lambda u_, g: self.residual(g) <= tol, max_iter, clip_at=1.0)
 
-    def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8):
-        """Newton on [G(x); rowᵀ(x − x_p)] = 0 from x_p (PALC: row = W t; natural: row = e_λ).
-        Steps larger than 2 (rad) fail. Returns (x, converged, iterations)."""
-        n = self.n
-        Jb = np.empty((n + 1, n + 1))
-        Jb[n] = row
-        F = np.empty(n + 1)
+    def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8,
+                start: Optional[np.ndarray] = None):
+        """Newton on [G(x); rowᵀ(x − x_p)] = 0 from ``start`` (default x_p; PALC: row = W t;
+        natural: row = e_λ). Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
+
+        The loop of :func:`~actuator_design.reduced.newton.newton` (same tests, same order) with
+        the bordered Jacobian assembled in one Fortran buffer and solved by LAPACK ``dgesv``
+        directly: the per-step overhead matters on a 1000-point branch."""
+        n, ev, mass = self.n, self.ev, self.mass
+        Jb, F = self._Jb, self._F
+        row = np.asarray(row, float)
         xp = np.asarray(xp, float)
-
-        def evaluate(x):
-            g, H, gl = self.ev(x[:n], x[n])
-            F[:n] = g
-            F[n] = float(row @ (x - xp))
-            Jb[:n, :n] = H
-            Jb[:n, n] = gl
-            return F, Jb
-
-        return newton(evaluate, xp, lambda x, F_: self.residual(F_[:n]) <= tol and abs(F_[n]) <= arc_tol,
-                      max_iter, reject_above=2.0)
+        x = xp.copy() if start is None else np.array(start, float)
+        for it in range(max_iter + 1):
+            g, H, gl = ev(x[:n], x[n])
+            res = float(np.max(np.abs(g / mass)))  # NaN or inf when g is not finite
+            arc = float(row @ (x - xp))
+            if not (res < math.inf and abs(arc) < math.inf):
+                return x, False, it
+            if res <= tol and abs(arc) <= arc_tol:
+                return x, True, it
+            if it == max_iter:
+                break
+            np.negative(g, out=F[:n])
+            F[n] = -arc
+            banded = self._band and self._band.bordered(H, gl, row[:n], float(row[n]), F)
+            if banded:
+                dx, info = banded[0], 0
+            else:
+                Jb[:n, :n] = H
+                Jb[:n, n] = gl
+                Jb[n] = row
+                dx, info = _dgesv(Jb, F, overwrite_a=1)[2:]
+            if info != 0 or not float(np.max(np.abs(dx))) <= 2.0:  # also NaN
+                return x, False, it
+            x = x + dx
+        return x, False, max_iter
 
     # -- tangent and inertia --------------------------------------------------------------------
     def tangent(self, x, t_prev=None, evaluate: bool = True) -> Tuple[np.ndarray, float]:
@@ -129,7 +161,7 @@ class BifurcationProblem:
         det [G_x; tᵀW]. ``evaluate=False`` reuses the last evaluation (which must be at x)."""
         n = self.n
         g, H, gl = self.ev(x[:n], x[n]) if evaluate else (self.ev.g, self.ev.H, self.ev.gl)
-        J = np.empty((n + 1, n + 1))
+        J = self._Jb
         J[:n, :n], J[:n, n] = H, gl
         if t_prev is None:
             # null vector of [H gl] by SVD (robust also at a singular H)
@@ -137,25 +169,32 @@ class BifurcationProblem:
             t = Vt[-1] / np.sqrt(self.W)
             if t[n] < 0:
                 t = -t
-        else:
-            # [G_x; t_prevᵀW] t = e_{n+1}. det[G_x; cᵀ] = κ (c·t) for any row c (the row space of
-            # G_x is t^⊥), so det[G_x; t_prevᵀW] and det[G_x; tᵀW] share the sign of κ: t_prevᵀW t
-            # = 1 > 0 and tᵀW t > 0.
-            J[n] = t_prev * self.W
-            lu, piv = scipy.linalg.lu_factor(J, check_finite=False)
-            e = np.zeros(n + 1)
-            e[n] = 1.0
-            t = scipy.linalg.lu_solve((lu, piv), e, check_finite=False)
             t /= math.sqrt(float(t @ (self.W * t)))
+            J[n] = t * self.W
+            lu, piv, _ = _dgetrf(J, overwrite_a=1)
             return t, lu_det_sign(lu, piv)
+        # [G_x; t_prevᵀW] t = e_{n+1}. det[G_x; cᵀ] = κ (c·t) for any row c (the row space of
+        # G_x is t^⊥), so det[G_x; t_prevᵀW] and det[G_x; tᵀW] share the sign of κ: t_prevᵀW t
+        # = 1 > 0 and tᵀW t > 0.
+        c = t_prev * self.W
+        banded = self._band and self._band.bordered(H, gl, c[:n], float(c[n]), self._e_last)
+        if banded:
+            t, sign = banded
+            return t / math.sqrt(float(t @ (self.W * t))), sign
+        J[n] = c
+        lu, piv, info = _dgetrf(J, overwrite_a=1)
+        if info < 0:
+            raise ValueError(f"dgetrf: illegal argument {-info}")
+        t = _dgetrs(lu, piv, self._e_last)[0]  # a singular J gives inf/nan, as lu_solve did
         t /= math.sqrt(float(t @ (self.W * t)))
-        J[n] = t * self.W
-        lu, piv = scipy.linalg.lu_factor(J, check_finite=False)
         return t, lu_det_sign(lu, piv)
 
     def _scaled_hessian(self, H):
-        A = self.Ms[:, None] * H * self.Ms[None, :]
-        return 0.5 * (A + A.T)
+        """Symmetrised M^{-1/2} H M^{-1/2}, shape (n, n)."""
+        A = H * self._scale
+        A += A.T.copy()
+        A *= 0.5
+        return A
 
     def inertia(self, x, evaluate: bool = True) -> Tuple[int, float, float]:
         """(Morse index, smallest eigenvalue, (−1)^index · min|μ|) of M^{-1/2} H M^{-1/2} at x
@@ -164,8 +203,18 @@ class BifurcationProblem:
         return signed_distance_to_singularity(self._scaled_hessian(H))
 
     def fast_inertia(self) -> Tuple[int, float]:
-        """(Morse index, smallest eigenvalue) at the last evaluation, by LDLᵀ inertia."""
-        return inertia(self._scaled_hessian(self.ev.H))
+        """(Morse index, smallest eigenvalue) at the last evaluation: the smallest eigenpair by
+        Rayleigh-quotient iteration from the previous point's eigenvector, certified
+        (:func:`~actuator_design.reduced.linalg.lowest_eigenpair`; its band-storage twin on the
+        band path); the index is 0 when that certifies positive definiteness, else the LDLᵀ
+        inertia (the count of the banded eigensolver on the band path)."""
+        if self._band:
+            a = self._band.scaled_band(self.ev.H)
+            mu, self._v_low, definite = lowest_eigenpair_banded(a, self._v_low)
+            return (0 if definite else banded_negatives(a)), mu
+        A = self._scaled_hessian(self.ev.H)
+        mu, self._v_low, definite = lowest_eigenpair(A, self._v_low)
+        return (0 if definite else ldl_negatives(A)), mu
 
     def null_directions(self, x) -> np.ndarray:
         """The two right singular vectors of [G_u G_λ] (W-scaled) with the smallest singular

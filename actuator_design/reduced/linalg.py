@@ -20,12 +20,15 @@ from typing import Optional, Tuple
 
 import numpy as np
 import scipy.linalg
-from scipy.linalg import lapack
+from scipy.linalg import blas, lapack
 
-__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "inertia", "signed_distance_to_singularity", "bordered_solve",
+__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
+           "banded_negatives", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
            "lu_det_sign", "mass_scaled", "null_vector"]
 
-_dsytrf, _dsyevr = lapack.dsytrf, lapack.dsyevr
+_dsytrf, _dsyevr, _dsysv, _dpotrf = lapack.dsytrf, lapack.dsyevr, lapack.dsysv, lapack.dpotrf
+_dgbsv, _dpbtrf, _dsbmv = lapack.dgbsv, lapack.dpbtrf, blas.dsbmv
+_EPS = float(np.finfo(float).eps)
 
 
 def mass_scaled(H: np.ndarray, inv_sqrt_mass: np.ndarray) -> np.ndarray:
@@ -97,51 +100,207 @@ def lowest_eigenpairs_dense(H: np.ndarray, inv_mass: np.ndarray, k: int = 1):
     return lam, np.sqrt(inv_mass) * u
 
 
+def _ldl_inertia(ldu: np.ndarray, ipiv: np.ndarray) -> int:
+    """Number of negative eigenvalues of D in a Bunch–Kaufman LDLᵀ = A (``dsytrf``/``dsysv``
+    output, upper storage): that of A by Sylvester's law of inertia."""
+    d = np.diagonal(ldu)
+    one = ipiv > 0
+    if one.all():  # 1×1 pivots only: the signs of D's diagonal
+        return int(np.count_nonzero(d < 0))
+    neg = int(np.count_nonzero(d[one] < 0))
+    # a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do not interleave, so
+    # the sorted negative entries pair up two by two
+    ks = np.flatnonzero(~one)
+    a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
+    det = a * c - b * b
+    return neg + int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
+
+
+def ldl_negatives(A: np.ndarray) -> int:
+    """Number of negative eigenvalues of a symmetric dense A from the inertia of its
+    Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia)."""
+    ldu, ipiv, _ = _dsytrf(A)
+    return _ldl_inertia(ldu, ipiv)
+
+
 def inertia(A: np.ndarray) -> Tuple[int, float]:
     """(Morse index, smallest eigenvalue) of a symmetric dense A, cheaply: the index from the
     inertia of a Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia), the smallest
     eigenvalue alone by LAPACK ``dsyevr``."""
-    ldu, ipiv, info = _dsytrf(A)
-    d, off = np.diag(ldu), np.diag(ldu, 1)
-    neg, k = 0, A.shape[0] - 1
-    while k >= 0:  # upper storage: a 2×2 block sits at (k−1, k) when ipiv[k] = ipiv[k−1] < 0
-        if ipiv[k] > 0 or k == 0:
-            neg += d[k] < 0
-            k -= 1
-        else:
-            a, b, c = d[k - 1], off[k - 1], d[k]
-            det = a * c - b * b
-            neg += 1 if det < 0 else (2 if a + c < 0 else 0)
-            k -= 2
+    neg = ldl_negatives(A)
     w = _dsyevr(A, compute_v=0, range="I", il=1, iu=1)[0]
-    return int(neg), float(w[0])
+    return neg, float(w[0])
+
+
+def lowest_eigenpair(A: np.ndarray, start: Optional[np.ndarray] = None,
+                     max_solves: int = 3) -> Tuple[float, np.ndarray, bool]:
+    """The smallest eigenvalue μ_0 of a symmetric dense A (n, n), its unit eigenvector (n,) and
+    whether A is certified positive definite.
+
+    With a ``start`` vector close to the eigenvector (the previous point's, along a branch),
+    Rayleigh-quotient iteration (cubic convergence; a few LDLᵀ solves of A − σI; the first shift
+    is the start's Rayleigh quotient lowered by 4τ) to a residual r = ‖Av − σv‖ ≤ 1e-12 ‖A‖_F,
+    so that σ is within r of an eigenvalue. That it is the smallest (to within 6τ + 2r) is
+    certified by Sylvester's law of inertia up to τ = 32 n ε ‖A‖_F, the backward error of the
+    factorisations: by the LDLᵀ inertia of the first solve's A − s_1 I (no eigenvalue below s_1
+    and σ ≤ s_1 + 5τ + r — a Rayleigh quotient is never below μ_0 —, or exactly one and
+    σ + r < s_1 − τ), otherwise by a Cholesky factorisation of A − (σ − τ) I (it succeeds only when
+    no eigenvalue lies below σ − τ). When neither certifies (no start, the iteration found a
+    higher eigenvalue after two eigenvalues crossed, no convergence) the smallest pair comes from
+    LAPACK ``dsyevr``.
+
+    Returns
+    -------
+    (mu0, v, positive_definite)
+        ``positive_definite`` is True only when certified (σ > 6τ + 2r); False says nothing.
+    """
+    n = A.shape[0]
+    if start is not None and n > 1:
+        fro = math.sqrt(float(np.einsum("ij,ij->", A, A)))
+        tau, res_tol = 32.0 * n * _EPS * fro, 1e-12 * fro
+        diag = np.arange(n) * (n + 1)
+        v = start / math.sqrt(float(start @ start))
+        Av = A @ v
+        sig = float(v @ Av)
+        s1 = below1 = None  # first shift and the number of eigenvalues below it
+        for solve in range(max_solves + 1):
+            r = Av - sig * v
+            rn = float(np.sqrt(r @ r))
+            if rn <= res_tol:
+                if below1 == 0 and sig <= s1 + 5.0 * tau + rn or below1 == 1 and sig + rn + tau < s1:
+                    return sig, v, sig > 6.0 * tau + 2.0 * rn
+                S = A.copy()
+                S.flat[diag] -= sig - tau
+                if _dpotrf(S, lower=0, clean=0, overwrite_a=1)[1] == 0:
+                    return sig, v, sig > 6.0 * tau + 2.0 * rn
+                break
+            if solve == max_solves:
+                break
+            shift = sig - 4.0 * tau if s1 is None else sig
+            S = A.copy()
+            S.flat[diag] -= shift
+            ldu, ipiv, w, info = _dsysv(S, v, overwrite_a=1)
+            if s1 is None:
+                s1, below1 = shift, _ldl_inertia(ldu, ipiv)
+            nw = float(np.sqrt(w @ w))
+            if info != 0 or not 0.0 < nw < math.inf:  # σ is an eigenvalue to machine precision
+                break
+            v = w / nw
+            Av = A @ v
+            sig = float(v @ Av)
+    w, V = _dsyevr(A, compute_v=1, range="I", il=1, iu=1)[:2]
+    return float(w[0]), V[:, 0].copy(), False
+
+
+def _band_general(a: np.ndarray, shift: float) -> np.ndarray:
+    """a − shift·I from upper symmetric band storage (bw + 1, n) to LAPACK ``gbsv`` storage
+    (3 bw + 1, n), rows bw..3 bw holding the band."""
+    bw, n = a.shape[0] - 1, a.shape[1]
+    ab = np.zeros((3 * bw + 1, n), order="F")
+    ab[bw:2 * bw + 1] = a  # the upper triangle: ab[2bw + i − j, j] = a[bw + i − j, j]
+    ab[2 * bw] -= shift
+    for k in range(1, bw + 1):  # the lower triangle by symmetry: A[j + k, j] = A[j, j + k]
+        ab[2 * bw + k, :n - k] = a[bw - k, k:]
+    return ab
+
+
+def lowest_eigenpair_banded(a: np.ndarray, start: Optional[np.ndarray] = None,
+                            max_solves: int = 3) -> Tuple[float, np.ndarray, bool]:
+    """:func:`lowest_eigenpair` for a symmetric band matrix in LAPACK's upper band storage
+    a[bw + i − j, j] = A_ij (i ≤ j), shape (bw + 1, n); everything O(n·bw²).
+
+    Rayleigh-quotient iteration from ``start`` with banded LU solves (``gbsv``), certified by a
+    banded Cholesky factorisation (``pbtrf``) of A − (σ − τ) I; otherwise the smallest pair of
+    LAPACK's banded eigensolver (``sbevx`` through ``scipy.linalg.eig_banded``).
+
+    Returns
+    -------
+    (mu0, v, positive_definite)
+        As :func:`lowest_eigenpair`.
+    """
+    bw, n = a.shape[0] - 1, a.shape[1]
+    if start is not None and n > 1:
+        fro = math.sqrt(float(np.sum(a[bw] ** 2) + 2.0 * np.sum(a[:bw] ** 2)))
+        tau, res_tol = 32.0 * n * _EPS * fro, 1e-12 * fro
+        v = start / math.sqrt(float(start @ start))
+        Av = _dsbmv(bw, 1.0, a, v)
+        sig = float(v @ Av)
+        for solve in range(max_solves + 1):
+            r = Av - sig * v
+            rn = float(np.sqrt(r @ r))
+            if rn <= res_tol:
+                c = a.copy(order="F")
+                c[bw] -= sig - tau
+                if _dpbtrf(c, lower=0, overwrite_ab=1)[1] == 0:
+                    return sig, v, sig > 6.0 * tau + 2.0 * rn
+                break
+            if solve == max_solves:
+                break
+            w, info = _dgbsv(bw, bw, _band_general(a, sig), v)[2:]
+            nw = float(np.sqrt(w @ w))
+            if info != 0 or not 0.0 < nw < math.inf:
+                break
+            v = w / nw
+            Av = _dsbmv(bw, 1.0, a, v)
+            sig = float(v @ Av)
+    w, V = scipy.linalg.eig_banded(a, lower=False, select="i", select_range=(0, 0),
+                                   check_finite=False)
+    return float(w[0]), V[:, 0].copy(), False
+
+
+def banded_negatives(a: np.ndarray) -> int:
+    """Number of negative eigenvalues of a symmetric band matrix in upper band storage
+    (bw + 1, n), by LAPACK's banded eigensolver restricted to (−∞, −tiny]."""
+    w = scipy.linalg.eig_banded(a, lower=False, eigvals_only=True, select="v",
+                                select_range=(-np.inf, -np.finfo(float).tiny), check_finite=False)
+    return int(w.size)
 
 
 def signed_distance_to_singularity(A: np.ndarray) -> Tuple[int, float, float]:
     """(Morse index, smallest eigenvalue, (−1)^#(μ<0) · min|μ|) of a symmetric dense A.
 
     The last is continuous along a path and vanishes exactly where an eigenvalue crosses zero;
-    the index counts μ < −1e-9 max(1, |μ_0|) only (a marginal eigenvalue is not a direction of
-    descent)."""
-    mu = np.linalg.eigvalsh(A)
+    the index counts μ < −1e-9 max(1, |μ0|) only (a marginal eigenvalue is not a direction of
+    descent). Only the #(μ<0) + 1 smallest eigenvalues are computed (``dsyevr``), #(μ<0) from
+    the LDLᵀ inertia; should the two disagree (an eigenvalue at rounding distance from zero) the
+    full spectrum decides."""
+    n = A.shape[0]
+    neg = ldl_negatives(A)
+    mu = _dsyevr(A, compute_v=0, range="I", il=1, iu=min(n, neg + 1))[0][:min(n, neg + 1)]
+    if not (np.all(mu[:neg] < 0) and (neg == n or mu[neg] >= 0)):
+        mu = np.linalg.eigvalsh(A)
+        neg = int(np.sum(mu < 0))
     scale = 1e-9 * max(1.0, abs(mu[0]))
     idx = int(np.sum(mu < -scale))
-    return idx, float(mu[0]), float((-1) ** int(np.sum(mu < 0)) * np.min(np.abs(mu)))
+    return idx, float(mu[0]), float((-1) ** neg * np.min(np.abs(mu[max(neg - 1, 0):neg + 1])))
 
 
 def null_vector(H: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """Eigenvector of (H, M) whose eigenvalue is closest to zero, M-normalised (vᵀMv = 1), (n,)."""
+    """Eigenvector of (H, M) whose eigenvalue is closest to zero, M-normalised (vᵀMv = 1), (n,).
+
+    The eigenvalue closest to zero is the largest negative or the smallest non-negative one;
+    LDLᵀ inertia says which indices they have, and ``dsyevr`` computes those two pairs only (the
+    full spectrum when the inertia and the eigenvalues disagree at rounding level)."""
     ms = 1.0 / np.sqrt(mass)
-    w, V = np.linalg.eigh(mass_scaled(H, ms))
+    A = mass_scaled(H, ms)
+    n = A.shape[0]
+    neg = ldl_negatives(A)
+    il, iu = max(1, neg), min(n, neg + 1)
+    w, V = _dsyevr(A, compute_v=1, range="I", il=il, iu=iu)[:2]
+    w, V = w[:iu - il + 1], V[:, :iu - il + 1]
+    if not ((neg == 0 or w[0] < 0) and (neg == n or w[-1] >= 0)):
+        w, V = np.linalg.eigh(A)
     v = ms * V[:, int(np.argmin(np.abs(w)))]
     return v / math.sqrt(float(v @ (mass * v)))
 
 
 def lu_det_sign(lu: np.ndarray, piv: np.ndarray) -> float:
     """Sign of det A from ``scipy.linalg.lu_factor``'s (lu, piv)."""
-    d = np.sign(np.diag(lu)).prod()
-    swaps = np.count_nonzero(piv != np.arange(piv.size))
-    return float(d * (-1.0) ** swaps)
+    d = np.diagonal(lu)
+    if not d.all():
+        return 0.0
+    odd = (np.count_nonzero(d < 0) + np.count_nonzero(piv != np.arange(piv.size))) % 2
+    return -1.0 if odd else 1.0
 
 
 def bordered_solve(A, B: np.ndarray, C: np.ndarray, D: np.ndarray, r: np.ndarray,
