@@ -110,3 +110,16 @@ def test_on_the_axial_field_without_load_the_straight_rod_is_the_only_equilibriu
     m = multiplicity_map(default_scene(h=0.0, p=0.0), "h2", np.linspace(0, 60, 25), "p", [0.0, 1e-9],
                          workers=1, progress=False)
     assert np.all(m.counts == 1) and np.all(m.stable == 1)
+
+
+@pytest.mark.parametrize("phi, p, hs", [(np.pi / 2, 0.9310344827586206, np.linspace(0, 9, 60)[20:]),
+                                        (np.pi / 4, -1.206896551724138, np.linspace(0, 11, 60)[:40])])
+def test_coarse_to_fine_counts_equal_the_full_scan_where_the_ivp_amplifies(phi, p, hs):
+    """Transverse and oblique fields up to h ≈ 9: shots near the aligned state make r(γ) jump within
+    a fine step (close root pairs); the coarse scan must still find every root the full scan finds
+    (these rows once lost a pair to a test that looked only at the tangent pointing to zero)."""
+    scenes = [default_scene(h=float(h), p=p, phi=phi) for h in hs]
+    counts, stable = count_row(scenes)
+    ref_counts, ref_stable = _full_scan(scenes)
+    assert np.array_equal(counts, ref_counts) and np.array_equal(stable, ref_stable)
+    assert ref_counts.max() >= 7

@@ -1,17 +1,21 @@
 """Multiplicity maps: the number of equilibria (and of stable ones) over a 2-D parameter grid.
 
 The engine is the vectorised shooting scan of :mod:`.equilibria` (THEORY §5, §7): for every grid
-point, the free-end residual r(γ) = b(1)θ'(1) − m is evaluated on ``n_gamma`` values of γ = θ'(0)
-spread over that point's a-priori window (which contains every equilibrium), for a whole row of
-the grid at once, and its sign changes are counted. With ``stability=True`` the Jacobi field
-η = ∂θ/∂γ is integrated alongside and each root's Morse index is Sturm's count
-Z(η) + [η(1)·r'(γ) < 0] (THEORY §7), so stable equilibria are counted too. Rows are distributed
-over processes (``concurrent.futures.ProcessPoolExecutor``) with a ``tqdm`` progress bar on stderr.
+point, the sign changes of the free-end residual r(γ) = b(1)θ'(1) − m are counted on a fine grid of
+at least ``n_gamma`` values of γ = θ'(0) spread over that point's a-priori window (which contains
+every equilibrium). With ``stability=True`` each root's Morse index is Sturm's count
+Z(η) + [η(1)·r'(γ) < 0] of the Jacobi field η = ∂θ/∂γ (THEORY §7), so stable equilibria are
+counted too. The fine grid is visited coarse to fine (:mod:`.multiplicity_scan`): r and its slope
+r'(γ) (from the Jacobi field) on every 16th fine sample, then bisection only where r may vanish,
+for all the points of a task at once (each with its own RK4 step count). Tasks of whole grid rows
+are distributed over processes (``concurrent.futures.ProcessPoolExecutor``) with a ``tqdm``
+progress bar on stderr; the counts depend neither on the tasks nor on the workers.
 
-Resolution: roots closer together than the γ step (grid points within about that distance of a
-fold curve) may be missed; the counts are exact elsewhere up to the RK4 error (``rad_per_step``).
-The γ samples are raised to :func:`~.shooting_scan.min_gamma_points` where the IVP amplifies
-strongly, and a grid point where the scan cannot be trusted (:func:`~.shooting_scan.scan_validity`)
+Resolution: roots closer together than the fine γ step (grid points within about that distance of
+a fold curve) may be missed; the counts are exact elsewhere up to the RK4 error (``rad_per_step``).
+The fine γ samples are raised to :func:`~.shooting_scan.min_gamma_points` where the IVP amplifies
+strongly (each point takes the finest step and γ grid any of the :data:`BATCH` neighbours of its row
+needs), and a grid point where the scan cannot be trusted (:func:`~.shooting_scan.scan_validity`)
 is counted −1 (unknown), never 0. ``bistable`` marks the points with two or more stable equilibria.
 """
 from __future__ import annotations
@@ -231,9 +235,9 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
     workers : int, optional
         Processes (default: all cores; 1 runs in this process).
     rows_per_task : int, optional
-        Grid rows counted together in one task (default: about :data:`POINTS_PER_TASK` points, the
-        bigger the block of points integrated at once the smaller the overhead per point). The
-        counts do not depend on it, nor on ``workers``.
+        Grid rows counted together in one task (default: about :data:`POINTS_PER_TASK` points; the
+        bigger the block of points integrated at once, the smaller the overhead per point). A grid
+        of one task is counted in this process. The counts depend neither on it nor on ``workers``.
     progress : bool, optional
         tqdm bar on stderr (default: only when stderr is a terminal).
 
@@ -257,28 +261,29 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
     counts = np.zeros((ys.size, xs.size), int)
     stable = np.zeros((ys.size, xs.size), int)
     if rows_per_task is None:
-        rows_per_task = max(1, min(POINTS_PER_TASK // xs.size, -(-ys.size // (4 * workers))))
-    chunks = [list(range(i, min(i + rows_per_task, ys.size))) for i in range(0, ys.size, rows_per_task)]
+        rows_per_task = max(1, POINTS_PER_TASK // xs.size)
+    # task t counts rows t, t + T, t + 2T, ... (T tasks): every task gets a share of each part of
+    # the grid, so that the tasks cost about the same and the workers finish together
+    n_tasks = -(-ys.size // int(rows_per_task))
+    chunks = [list(range(t, ys.size, n_tasks)) for t in range(n_tasks)]
     samples = {"samples": 0, "fine_samples": 0}
     bar = tqdm(total=ys.size, disable=not progress, file=sys.stderr, desc="multiplicity map", unit="row")
     args = (n_gamma, rad_per_step, stability)
-    if workers == 1:
+
+    def collect(rows, result):
+        counts[rows], stable[rows] = result[0], result[1]
+        for k in samples:
+            samples[k] += result[2][k]
+        bar.update(len(rows))
+
+    if workers == 1 or len(chunks) == 1:
         for rows in chunks:
-            c, s, st = _rows(scene, x_param, xs, y_param, ys[rows], *args)
-            counts[rows], stable[rows] = c, s
-            for k in samples:
-                samples[k] += st[k]
-            bar.update(len(rows))
+            collect(rows, _rows(scene, x_param, xs, y_param, ys[rows], *args))
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(chunks))) as pool:
             futs = {pool.submit(_rows, scene, x_param, xs, y_param, ys[rows], *args): rows for rows in chunks}
             for fut in as_completed(futs):
-                rows = futs[fut]
-                c, s, st = fut.result()
-                counts[rows], stable[rows] = c, s
-                for k in samples:
-                    samples[k] += st[k]
-                bar.update(len(rows))
+                collect(futs[fut], fut.result())
     bar.close()
     return MultiplicityMap(x_param, y_param, xs, ys, counts, stable,
                            {"n_gamma": int(n_gamma) | 1, "rad_per_step": rad_per_step,

@@ -10,21 +10,29 @@ sample for the price of two more equations. So the fine grid is visited coarse t
 1. r and r' on every ``k``-th fine sample (``k`` = :data:`COARSE_STEP` fine steps, fewer when the
    window has under :data:`MIN_COARSE_INTERVALS` such steps), for all the scenes of a block at once;
 2. an interval between two evaluated samples is *refined* (its middle fine sample evaluated, and the
-   two halves examined in turn) while it is longer than one fine step and r may vanish in it: r has
-   opposite signs or a zero at its ends, or the tangent at an end, pointing towards zero, reaches
-   zero within :data:`TANGENT_REACH` interval lengths (|r| < β·H·|r'|);
-3. an interval left unrefined has r of one sign at both ends and both tangents pointing away from
-   zero or too shallow to reach it: r would have to bend by more than a factor β in slope inside
-   it to cross zero twice, and is assumed not to. The sign changes of the fine grid are then those
-   between consecutive evaluated samples, and each root's bracket is one fine step wide, as in a
-   full scan.
+   two halves examined in turn) while it is longer than one fine step and r may vanish in it:
+   r has opposite signs or a zero at its ends; or r is *steep* there, min(|r_a|, |r_b|) <
+   β·H·max(|r'_a|, |r'_b|) (a line with the steeper end slope, drawn from the end nearer to zero,
+   would reach zero within β = :data:`TANGENT_REACH` interval lengths H); or |r| *dips*: the slope
+   at a, the secant and the slope at b say that |r| falls and later rises, so |r| has a minimum
+   inside;
+3. an interval left unrefined has r of one sign at both ends, |r| large against β·H times the
+   steeper slope, and no sign of a minimum of |r| inside: r is assumed not to vanish in it. The sign
+   changes of the fine grid are then those between consecutive evaluated samples, and each root's
+   bracket is one fine step wide, as in a full scan.
+
+The steep test catches the narrow excursions of r near shots that pass close to a hyperbolic state
+of the IVP (THEORY §7; the close root pairs of :func:`~.shooting_scan.min_gamma_points`), whose
+slopes are orders of magnitude above |r|/H; the dip test catches a minimum of |r| between two ends
+that both look harmless.
 
 The residual at an evaluated sample is the very number a full fine scan computes (same problem,
 same arithmetic per element, :func:`residual_at`), so the counts
-equal the full scan's wherever assumption 3 holds. On THEORY §5's (h², p) map (200 × 200 points,
-``problems/bench_multiplicity.py``) they equal it at every point, and they still do with a margin
-cut to β = 0.25, or with a coarse step of 64 fine steps (checked when these constants were chosen). The Morse index of each root is Sturm's
-count from the end of its one-step bracket with the smaller |r|, as in the full scan (THEORY §7).
+equal the full scan's wherever assumption 3 holds. They equal it at every point of THEORY §5's
+(h², p) map (200 × 200 points, ``problems/bench_multiplicity.py``) and of (h, p) maps at φ = π/4
+(h ≤ 11) and φ = π/2 (h ≤ 9), of a hard-magnetic rod and of graded fibres (checked when these
+constants were chosen; MARGINS). The Morse index of each root is Sturm's count from the end of its
+one-step bracket with the smaller |r|, as in the full scan (THEORY §7).
 """
 from __future__ import annotations
 
@@ -128,11 +136,16 @@ class _Samples:
 
 
 def _may_vanish(ra, rb, da, db, length):
-    """bool per interval: r may vanish inside (rule 2 of the module docstring)."""
+    """bool per interval: r may vanish inside (rule 2 of the module docstring).
+
+    ``ra``, ``rb``: r at the ends; ``da``, ``db``: r' there; ``length``: the interval's γ length.
+    """
     sign = np.sign(ra)
-    toward_a = (sign * da < 0) & (np.abs(ra) < TANGENT_REACH * length * np.abs(da))
-    toward_b = (sign * db > 0) & (np.abs(rb) < TANGENT_REACH * length * np.abs(db))
-    return (ra * rb <= 0) | toward_a | toward_b
+    steep = np.minimum(np.abs(ra), np.abs(rb)) < TANGENT_REACH * length * np.maximum(np.abs(da), np.abs(db))
+    # |r| falls before it rises (the slope at a, the secant, the slope at b, in this order)
+    down_a, secant, up_b = sign * da < 0, sign * (rb - ra), sign * db > 0
+    dip = (down_a & ((secant > 0) | up_b)) | ((secant < 0) & up_b)
+    return (ra * rb <= 0) | steep | dip
 
 
 def count_roots(prob: ShootingProblem, window: np.ndarray, n_fine: np.ndarray,

@@ -115,7 +115,7 @@ def is_autonomous(scene: Scene) -> bool:
     q = scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0)
     beta_const = scene.magnetization is None or scene.magnetization.is_constant
     return bool(scene.stiffness.is_constant and scene.fibres.is_constant and beta_const
-                and not np.any(q))
+                and not (q[0] or q[1]))
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:
@@ -133,9 +133,11 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
     q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
     m = float(scene.tip_moment or 0.0)
     b0 = float(scene.stiffness(0.0))
-    t = np.linspace(0.0, 1.0, 2001) if np.any(q) else np.zeros(1)  # q = 0: n is constant
+    loaded = bool(q[0] or q[1])
+    t = np.linspace(0.0, 1.0, 2001) if loaded else np.zeros(1)  # q = 0: n is constant
     n_abs = np.hypot(f[0] + q[0] * t, f[1] + q[1] * t)
-    int_n = min(float(np.linalg.norm(f) + 0.5 * np.linalg.norm(q)), float(n_abs.max()))
+    norm_f = float(np.linalg.norm(f))
+    int_n = min(norm_f + 0.5 * float(np.linalg.norm(q)) if loaded else norm_f, float(n_abs.max()))
     h_r = remanent_group(scene)
     integral = (abs(m) + h2 + h_r + int_n) / b0
     first = None
@@ -144,7 +146,7 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
         V0 = 0.5 * h2 * math.cos(2 * (th0 + a - scene.phi)) + f[1] * math.sin(th0) + f[0] * math.cos(th0)
         if h_r:
             V0 += h_r * math.cos(th0 + float(scene.magnetization.value) - scene.phi)
-        val = (m * m / b + h2 + 2 * h_r + 2 * float(np.linalg.norm(f)) - 2 * V0) / b
+        val = (m * m / b + h2 + 2 * h_r + 2 * norm_f - 2 * V0) / b
         first = math.sqrt(max(val, 0.0))
     bound = integral if first is None else min(integral, first)
     return {"integral": integral, "first_integral": first, "bound": bound,
@@ -444,8 +446,9 @@ def growth_exponent(scene: Scene) -> float:
     h2 = scene.h**2 if scene.field is not None else 0.0
     f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
     q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
-    t = np.linspace(0.0, 1.0, 201)
-    tq = t if np.any(q) else t[:1]  # q = 0: n is constant (the same numbers, fewer of them)
+    # q = 0 or b constant: the same numbers at one point instead of 201
+    t = np.linspace(0.0, 1.0, 201) if q[0] or q[1] or not scene.stiffness.is_constant else np.zeros(1)
+    tq = t if q[0] or q[1] else t[:1]
     n_max = float(np.max(np.hypot(f[0] + q[0] * (1 - tq), f[1] + q[1] * (1 - tq))))
     b_min = float(np.min(scene.stiffness(t[:1] if scene.stiffness.is_constant else t)))
     return math.sqrt((2 * h2 + remanent_group(scene) + n_max) / b_min)
