@@ -30,8 +30,9 @@ The residual at an evaluated sample is the very number a full fine scan computes
 same arithmetic per element, :func:`residual_at`), so the counts
 equal the full scan's wherever assumption 3 holds. They equal it at every point of THEORY §5's
 (h², p) map (200 × 200 points, ``problems/bench_multiplicity.py``) and of (h, p) maps at φ = π/4
-(h ≤ 11) and φ = π/2 (h ≤ 9), of a hard-magnetic rod and of graded fibres (checked when these
-constants were chosen; MARGINS). The Morse index of each root is Sturm's count from the end of its
+(h ≤ 11) and φ = π/2 (h ≤ 9), of a hard-magnetic rod and of graded fibres (8 000 points; checked
+when these constants were chosen). They still do with β = 1, not with β = 0.5 (one point of the
+graded-fibre map): β = 2 keeps a factor 2 to 4. The Morse index of each root is Sturm's count from the end of its
 one-step bracket with the smaller |r|, as in the full scan (THEORY §7).
 """
 from __future__ import annotations
@@ -49,7 +50,7 @@ __all__ = ["COARSE_STEP", "MIN_COARSE_INTERVALS", "TANGENT_REACH", "CHUNK", "cou
 COARSE_STEP = 16
 #: The coarse grid keeps at least this many intervals over the window (else a smaller power of two).
 MIN_COARSE_INTERVALS = 10
-#: β: an end's tangent reaching zero within β interval lengths marks the interval for refinement.
+#: β: r steeper than |r| / (β H) at either end of an interval marks it for refinement (rule 2).
 TANGENT_REACH = 2.0
 #: Samples integrated together (arrays of this size stay in the CPU cache).
 CHUNK = 32768
