@@ -32,7 +32,6 @@ import numpy as np
 
 from ..scene import Scene
 from .. import parameters as lens
-from .continuation import set_param
 from .multiplicity_scan import count_roots
 from .shooting_scan import (ShootingProblem, curvature_bound, gamma_bound, growth_exponent, is_autonomous,
                             min_gamma_points, scan_validity, steps_for)
@@ -96,6 +95,12 @@ class MultiplicityMap:
             for j, xv in enumerate(self.x):
                 buf.write(f"{float(xv)!r},{float(yv)!r},{int(self.counts[i, j])},{int(self.stable[i, j])}\n")
         return buf.getvalue()
+
+
+def set_param(scene: Scene, name: str, value: float) -> Scene:
+    """A copy of ``scene`` with the lens parameter ``name`` set to ``value``
+    (:func:`actuator_design.parameters.set_value`; without importing the continuation engine)."""
+    return lens.set_value(scene, name, value, "map parameter")
 
 
 #: Points of a grid row that share one resolution: each takes the finest RK4 step and γ grid any of
