@@ -79,7 +79,14 @@ def test_map_json_and_files(capsys, tmp_path):
     assert all(c == 1 for row in d["counts"] for c in row)  # p < p_crit^(1)(h²) ≥ 6.1 everywhere here
     names = sorted(p.name for p in (tmp_path / "m").iterdir())
     assert names == ["map.csv", "map.json", "map.png"]
-    assert (tmp_path / "m" / "map.csv").read_text().count("\n") == 2 + 20
+    text = (tmp_path / "m" / "map.csv").read_text()
+    assert text.count("\n") == 2 + 20
+    # one comment line, the header, then each grid point once with the counts of the JSON
+    lines = text.splitlines()
+    assert lines[0].startswith("# ") and lines[1] == "h2,p,equilibria,stable"
+    rows = [tuple(float(v) for v in line.split(",")) for line in lines[2:]]
+    assert len({r[:2] for r in rows}) == 20
+    assert [int(r[2]) for r in rows] == [c for row in d["counts"] for c in row]
 
 
 def test_study_configs_load_and_one_runs(capsys):

@@ -1,17 +1,21 @@
 """Multiplicity maps: the number of equilibria (and of stable ones) over a 2-D parameter grid.
 
 The engine is the vectorised shooting scan of :mod:`.equilibria` (THEORY §5, §7): for every grid
-point, the free-end residual r(γ) = b(1)θ'(1) − m is evaluated on ``n_gamma`` values of γ = θ'(0)
-spread over that point's a-priori window (which contains every equilibrium), for a whole row of
-the grid at once, and its sign changes are counted. With ``stability=True`` the Jacobi field
-η = ∂θ/∂γ is integrated alongside and each root's Morse index is Sturm's count
-Z(η) + [η(1)·r'(γ) < 0] (THEORY §7), so stable equilibria are counted too. Rows are distributed
-over processes (``concurrent.futures.ProcessPoolExecutor``) with a ``tqdm`` progress bar on stderr.
+point, the sign changes of the free-end residual r(γ) = b(1)θ'(1) − m are counted on a fine grid of
+at least ``n_gamma`` values of γ = θ'(0) spread over that point's a-priori window (which contains
+every equilibrium). With ``stability=True`` each root's Morse index is Sturm's count
+Z(η) + [η(1)·r'(γ) < 0] of the Jacobi field η = ∂θ/∂γ (THEORY §7), so stable equilibria are
+counted too. The fine grid is visited coarse to fine (:mod:`.multiplicity_scan`): r and its slope
+r'(γ) (from the Jacobi field) on every 16th fine sample, then bisection only where r may vanish,
+for all the points of a task at once (each with its own RK4 step count). Tasks of whole grid rows
+are distributed over processes (``concurrent.futures.ProcessPoolExecutor``) with a ``tqdm``
+progress bar on stderr; the counts depend neither on the tasks nor on the workers.
 
-Resolution: roots closer together than the γ step (grid points within about that distance of a
-fold curve) may be missed; the counts are exact elsewhere up to the RK4 error (``rad_per_step``).
-The γ samples are raised to :func:`~.shooting_scan.min_gamma_points` where the IVP amplifies
-strongly, and a grid point where the scan cannot be trusted (:func:`~.shooting_scan.scan_validity`)
+Resolution: roots closer together than the fine γ step (grid points within about that distance of
+a fold curve) may be missed; the counts are exact elsewhere up to the RK4 error (``rad_per_step``).
+The fine γ samples are raised to :func:`~.shooting_scan.min_gamma_points` where the IVP amplifies
+strongly (each point takes the finest step and γ grid any of the :data:`BATCH` neighbours of its row
+needs), and a grid point where the scan cannot be trusted (:func:`~.shooting_scan.scan_validity`)
 is counted −1 (unknown), never 0. ``bistable`` marks the points with two or more stable equilibria.
 """
 from __future__ import annotations
@@ -28,11 +32,12 @@ import numpy as np
 
 from ..scene import Scene
 from .. import parameters as lens
-from .continuation import set_param
-from .shooting_scan import ShootingProblem, gamma_bound, min_gamma_points, scan_validity, steps_for
+from .multiplicity_scan import count_roots
+from .shooting_scan import (ShootingProblem, curvature_bound, gamma_bound, growth_exponent, is_autonomous,
+                            min_gamma_points, scan_validity, steps_for)
 from .registry import register
 
-__all__ = ["MultiplicityMap", "multiplicity_map", "count_row"]
+__all__ = ["MultiplicityMap", "multiplicity_map", "count_row", "count_rows"]
 
 
 @dataclass
@@ -92,8 +97,94 @@ class MultiplicityMap:
         return buf.getvalue()
 
 
-#: Scenes integrated together: B × n_gamma arrays of a few 10⁴ numbers stay in the CPU cache.
+def set_param(scene: Scene, name: str, value: float) -> Scene:
+    """A copy of ``scene`` with the lens parameter ``name`` set to ``value``
+    (:func:`actuator_design.parameters.set_value`; without importing the continuation engine)."""
+    return lens.set_value(scene, name, value, "map parameter")
+
+
+#: Points of a grid row that share one resolution: each takes the finest RK4 step and γ grid any of
+#: the :data:`BATCH` consecutive trusted points of its row needs (the rule of the row-batched scan
+#: the maps were first computed with, so that the counts are those of that scan, sample for sample).
 BATCH = 40
+#: Grid points per task of :func:`multiplicity_map` by default (rows are not split).
+POINTS_PER_TASK = 5000
+
+
+def _plan(scenes: Sequence[Scene], n_gamma: int, rad_per_step: float):
+    """Window W, trust, RK4 steps N and fine γ samples G of each scene of one grid row (:data:`BATCH`).
+
+    Returns
+    -------
+    window : ndarray, shape (B,)
+    valid : ndarray of bool, shape (B,)
+        :func:`~.shooting_scan.scan_validity`; N and G are 0 where False.
+    steps, n_fine : ndarray of int, shape (B,)
+    """
+    B = len(scenes)
+    window, steps, n_fine = np.zeros(B), np.zeros(B, int), np.zeros(B, int)
+    valid = np.zeros(B, bool)
+    for i, sc in enumerate(scenes):
+        gb = gamma_bound(sc)
+        w = window[i] = gb["window"]
+        L = growth_exponent(sc)
+        kappa = curvature_bound(sc, w, bound=gb)
+        valid[i] = scan_validity(sc, w, rad_per_step, exponent=L, kappa=kappa)["valid"]
+        steps[i] = steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step, kappa=kappa)
+        n_fine[i] = min_gamma_points(sc, w, exponent=L)
+    for b in range(0, B, BATCH):
+        ok = np.flatnonzero(valid[b:b + BATCH]) + b
+        if ok.size:
+            steps[ok] = steps[ok].max()
+            n_fine[ok] = max(int(n_gamma), int(n_fine[ok].max())) | 1
+    steps[~valid], n_fine[~valid] = 0, 0
+    return window, valid, steps, n_fine
+
+
+def count_rows(rows: Sequence[Sequence[Scene]], n_gamma: int = 161, rad_per_step: float = 0.3,
+               stability: bool = True):
+    """Counts for several grid rows of uniform-field scenes, integrated together.
+
+    All the trusted points whose equation does not depend on s (constant b, α, β and no distributed
+    load) form one block, scanned coarse to fine at once (:func:`~.multiplicity_scan.count_roots`),
+    each with its own number of RK4 steps; the others form one block per number of steps.
+
+    Parameters
+    ----------
+    rows : sequence of sequences of Scene
+        R rows of B scenes each (the rows may differ in length).
+    n_gamma, rad_per_step, stability
+        As in :func:`count_row`.
+
+    Returns
+    -------
+    counts, stable : list of ndarray of int, shapes (B,) per row
+        −1 where the scan cannot be trusted (and ``stable`` −1 everywhere without ``stability``).
+    stats : dict
+        γ samples evaluated and those of a full fine scan.
+    """
+    rows = [list(r) for r in rows]
+    plans = [_plan(r, n_gamma, rad_per_step) for r in rows]
+    flat = [sc for r in rows for sc in r]
+    window, valid, steps, n_fine = (np.concatenate([p[v] for p in plans]) for v in range(4))
+    counts, stable = np.full(len(flat), -1), np.full(len(flat), -1)
+    stats = {"samples": 0, "fine_samples": 0}
+    autonomous = np.array([is_autonomous(sc) for sc in flat], bool)
+    blocks = [(np.flatnonzero(valid & autonomous), True)]
+    blocks += [(np.flatnonzero(valid & ~autonomous & (steps == N)), False)
+               for N in np.unique(steps[valid & ~autonomous])]
+    for members, own_steps in blocks:
+        if not members.size:
+            continue
+        prob = ShootingProblem([flat[i] for i in members], int(steps[members].max()))
+        c, s, st = count_roots(prob, window[members], n_fine[members], stability,
+                               steps[members] if own_steps else None)
+        counts[members], stable[members] = c, s
+        for k in stats:
+            stats[k] += st[k]
+    ends = np.cumsum([0] + [len(r) for r in rows])
+    return ([counts[a:b] for a, b in zip(ends[:-1], ends[1:])],
+            [stable[a:b] for a, b in zip(ends[:-1], ends[1:])], stats)
 
 
 def count_row(scenes: Sequence[Scene], n_gamma: int = 161, rad_per_step: float = 0.3,
@@ -116,58 +207,22 @@ def count_row(scenes: Sequence[Scene], n_gamma: int = 161, rad_per_step: float =
         ``stable`` is −1 when ``stability`` is False; both are −1 for a scene whose scan cannot be
         trusted (:func:`~.shooting_scan.scan_validity`).
     """
-    scenes = list(scenes)
-    if len(scenes) > BATCH:
-        parts = [count_row(scenes[i:i + BATCH], n_gamma, rad_per_step, stability)
-                 for i in range(0, len(scenes), BATCH)]
-        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-    W = np.array([gamma_bound(sc)["window"] for sc in scenes])
-    valid = np.array([scan_validity(sc, w, rad_per_step)["valid"] for sc, w in zip(scenes, W)])
-    if not np.all(valid):  # count the trusted scenes only; the others are unknown (-1)
-        counts, stable = np.full(len(scenes), -1), np.full(len(scenes), -1)
-        if np.any(valid):
-            ok = np.flatnonzero(valid)
-            counts[ok], stable[ok] = count_row([scenes[i] for i in ok], n_gamma, rad_per_step, stability)
-        return counts, stable
-    N = max(steps_for(sc, w, min_steps=16, rad_per_step=rad_per_step) for sc, w in zip(scenes, W))
-    G = max(int(n_gamma), max(min_gamma_points(sc, w) for sc, w in zip(scenes, W))) | 1
-    g = W[:, None] * np.linspace(-1.0, 1.0, G)[None, :]
-    prob = ShootingProblem(scenes, N)
-    if stability:
-        r, Z, eta1 = prob.residual(g, jacobi=True)
-    else:
-        r = prob.residual(g)
-    sc_mask = r[:, :-1] * r[:, 1:] < 0.0
-    zero = r == 0.0
-    counts = sc_mask.sum(1) + zero.sum(1)
-    if not stability:
-        return counts, np.full_like(counts, -1)
-    # Morse index at each root from the end of its bracket with the smaller |r|
-    left = np.abs(r[:, :-1]) <= np.abs(r[:, 1:])
-    Zb = np.where(left, Z[:, :-1], Z[:, 1:])
-    eb = np.where(left, eta1[:, :-1], eta1[:, 1:])
-    dr = r[:, 1:] - r[:, :-1]
-    stable_b = sc_mask & (Zb == 0) & (eb * dr > 0)
-    # exact zeros: slope from the neighbours
-    dz = np.zeros_like(r)
-    dz[:, 1:-1] = r[:, 2:] - r[:, :-2]
-    stable_z = zero & (Z == 0) & (eta1 * dz > 0)
-    return counts, stable_b.sum(1) + stable_z.sum(1)
+    counts, stable, _ = count_rows([scenes], n_gamma, rad_per_step, stability)
+    return counts[0], stable[0]
 
 
 def _rows(scene, x_param, xs, y_param, ys, n_gamma, rad_per_step, stability):
-    out_c, out_s = [], []
+    grid = []
     for yv in ys:
         base = set_param(scene, y_param, yv)
-        c, s = count_row([set_param(base, x_param, xv) for xv in xs], n_gamma, rad_per_step, stability)
-        out_c.append(c)
-        out_s.append(s)
-    return np.array(out_c), np.array(out_s)
+        grid.append([set_param(base, x_param, xv) for xv in xs])
+    counts, stable, stats = count_rows(grid, n_gamma, rad_per_step, stability)
+    return np.array(counts), np.array(stable), stats
 
 
 def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_values, *,
                      n_gamma: int = 161, rad_per_step: float = 0.3, stability: bool = True,
-                     workers: Optional[int] = None, rows_per_task: int = 2,
+                     workers: Optional[int] = None, rows_per_task: Optional[int] = None,
                      progress: Optional[bool] = None) -> MultiplicityMap:
     """Number of equilibria (and stable ones) at every (x, y) of a grid.
 
@@ -184,6 +239,10 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
         RK4 resolution: the tangent turns by at most this per step (rad).
     workers : int, optional
         Processes (default: all cores; 1 runs in this process).
+    rows_per_task : int, optional
+        Grid rows counted together in one task (default: about :data:`POINTS_PER_TASK` points; the
+        bigger the block of points integrated at once, the smaller the overhead per point). A grid
+        of one task is counted in this process. The counts depend neither on it nor on ``workers``.
     progress : bool, optional
         tqdm bar on stderr (default: only when stderr is a terminal).
 
@@ -206,27 +265,37 @@ def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_value
         progress = sys.stderr.isatty()
     counts = np.zeros((ys.size, xs.size), int)
     stable = np.zeros((ys.size, xs.size), int)
-    chunks = [list(range(i, min(i + rows_per_task, ys.size))) for i in range(0, ys.size, rows_per_task)]
+    if rows_per_task is None:
+        rows_per_task = max(1, POINTS_PER_TASK // xs.size)
+    # task t counts rows t, t + T, t + 2T, ... (T tasks): every task gets a share of each part of
+    # the grid, so that the tasks cost about the same and the workers finish together
+    n_tasks = -(-ys.size // int(rows_per_task))
+    chunks = [list(range(t, ys.size, n_tasks)) for t in range(n_tasks)]
+    samples = {"samples": 0, "fine_samples": 0}
     bar = tqdm(total=ys.size, disable=not progress, file=sys.stderr, desc="multiplicity map", unit="row")
     args = (n_gamma, rad_per_step, stability)
-    if workers == 1:
+
+    def collect(rows, result):
+        counts[rows], stable[rows] = result[0], result[1]
+        for k in samples:
+            samples[k] += result[2][k]
+        bar.update(len(rows))
+
+    if workers == 1 or len(chunks) == 1:
         for rows in chunks:
-            c, s = _rows(scene, x_param, xs, y_param, ys[rows], *args)
-            counts[rows], stable[rows] = c, s
-            bar.update(len(rows))
+            collect(rows, _rows(scene, x_param, xs, y_param, ys[rows], *args))
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(chunks))) as pool:
             futs = {pool.submit(_rows, scene, x_param, xs, y_param, ys[rows], *args): rows for rows in chunks}
             for fut in as_completed(futs):
-                rows = futs[fut]
-                c, s = fut.result()
-                counts[rows], stable[rows] = c, s
-                bar.update(len(rows))
+                collect(futs[fut], fut.result())
     bar.close()
     return MultiplicityMap(x_param, y_param, xs, ys, counts, stable,
                            {"n_gamma": int(n_gamma) | 1, "rad_per_step": rad_per_step,
                             "stability": stability, "workers": workers},
-                           {"time_s": time.perf_counter() - t0, "grid": [int(ys.size), int(xs.size)]})
+                           {"time_s": time.perf_counter() - t0, "grid": [int(ys.size), int(xs.size)],
+                            "gamma_samples": samples["samples"],
+                            "gamma_samples_full_scan": samples["fine_samples"]})
 
 
 @register("map")

@@ -39,7 +39,7 @@ about that distance of a fold) can still be missed: this is stated in the result
 from __future__ import annotations
 
 import math
-from typing import Dict
+from typing import Dict, Optional
 
 import numpy as np
 
@@ -49,7 +49,7 @@ from ..scene import Scene, UniformField
 __all__ = ["ShootingProblem", "gamma_bound", "curvature_bound", "steps_for", "brackets",
            "SHOOTING_TERMS", "SAFETY", "MAX_REFINE", "require_uniform", "growth_exponent",
            "scan_validity", "TRUST_LIMIT", "MAX_STEPS", "min_gamma_points",
-           "MAX_GAMMA_POINTS", "remanent_group", "remanent_force"]
+           "MAX_GAMMA_POINTS", "remanent_group", "remanent_force", "is_autonomous"]
 
 #: Relative widening of the a-priori γ bound (and an absolute 1e-3).
 SAFETY = 0.05
@@ -110,12 +110,12 @@ def remanent_force(scene: Scene, s: np.ndarray):
     return h_r * _snap(np.cos(u)), -h_r * _snap(np.sin(u))
 
 
-def _autonomous(scene: Scene) -> bool:
+def is_autonomous(scene: Scene) -> bool:
     """b, α and β constant and no distributed load: (EL) does not depend on s explicitly."""
     q = scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0)
     beta_const = scene.magnetization is None or scene.magnetization.is_constant
     return bool(scene.stiffness.is_constant and scene.fibres.is_constant and beta_const
-                and not np.any(q))
+                and not (q[0] or q[1]))
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:
@@ -133,18 +133,20 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
     q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
     m = float(scene.tip_moment or 0.0)
     b0 = float(scene.stiffness(0.0))
-    t = np.linspace(0.0, 1.0, 2001)
+    loaded = bool(q[0] or q[1])
+    t = np.linspace(0.0, 1.0, 2001) if loaded else np.zeros(1)  # q = 0: n is constant
     n_abs = np.hypot(f[0] + q[0] * t, f[1] + q[1] * t)
-    int_n = min(float(np.linalg.norm(f) + 0.5 * np.linalg.norm(q)), float(n_abs.max()))
+    norm_f = float(np.linalg.norm(f))
+    int_n = min(norm_f + 0.5 * float(np.linalg.norm(q)) if loaded else norm_f, float(n_abs.max()))
     h_r = remanent_group(scene)
     integral = (abs(m) + h2 + h_r + int_n) / b0
     first = None
-    if _autonomous(scene):
+    if is_autonomous(scene):
         b, a, th0 = float(scene.stiffness.value), float(scene.fibres.value), float(scene.theta0)
         V0 = 0.5 * h2 * math.cos(2 * (th0 + a - scene.phi)) + f[1] * math.sin(th0) + f[0] * math.cos(th0)
         if h_r:
             V0 += h_r * math.cos(th0 + float(scene.magnetization.value) - scene.phi)
-        val = (m * m / b + h2 + 2 * h_r + 2 * float(np.linalg.norm(f)) - 2 * V0) / b
+        val = (m * m / b + h2 + 2 * h_r + 2 * norm_f - 2 * V0) / b
         first = math.sqrt(max(val, 0.0))
     bound = integral if first is None else min(integral, first)
     return {"integral": integral, "first_integral": first, "bound": bound,
@@ -177,6 +179,9 @@ class ShootingProblem:
         self.scenes, self.N = scenes, int(n_steps)
         s = np.linspace(0.0, 1.0, 2 * self.N + 1)
         self.s = s
+        self.autonomous = all(is_autonomous(sc) for sc in scenes)
+        if self.autonomous:
+            s = s[:1]  # the coefficients do not depend on s: evaluate them once
         col = lambda vals: np.asarray(vals, float).T[:, :, None]  # (B, S) -> (S, B, 1)
         h2 = np.array([sc.h**2 if sc.field is not None else 0.0 for sc in scenes], float)
         self.h2 = h2[None, :, None]
@@ -188,10 +193,6 @@ class ShootingProblem:
         nr = [remanent_force(sc, s) for sc in scenes]
         self.nx = col([fx + qx * (1 - s) + rx for (fx, _), (qx, _), (rx, _) in zip(f, q, nr)])
         self.ny = col([fy + qy * (1 - s) + ry for (_, fy), (_, qy), (_, ry) in zip(f, q, nr)])
-        self.autonomous = all(_autonomous(sc) for sc in scenes)
-        if self.autonomous:
-            for name in ("C", "S", "invb", "nx", "ny"):
-                setattr(self, name, getattr(self, name)[:1].copy())
         # derived stage coefficients of M' = s·(A c − Bs s + nx) + D − ny c
         self.A = 2 * self.h2 * self.C
         self.Bs = 2 * self.h2 * self.S
@@ -215,18 +216,41 @@ class ShootingProblem:
         g = np.asarray(gammas, float)
         squeeze = g.ndim == 1
         g = np.atleast_2d(g)
-        shape = g.shape
-        y = [np.broadcast_to(np.cos(self.theta0), shape).copy(),
-             np.broadcast_to(np.sin(self.theta0), shape).copy(), g * self.b0]
+        coef = {name: getattr(self, name) for name in ("A", "Bs", "D", "nx", "ny", "invb")}
+        out = self.integrate(g, coef, self.theta0, self.m, self.b0, jacobi)
         if jacobi:
-            y += [np.zeros(shape), np.broadcast_to(self.b0, shape).copy()]
+            out = out[:3]
+            return tuple(o[0] for o in out) if squeeze else out
+        return out[0] if squeeze else out
+
+    def integrate(self, g, coef, theta0, m, b0, jacobi, steps=None):
+        """RK4 over s ∈ [0, 1] for γ = ``g`` (shape (B, G) or (K,); rad per rod length), the kernel
+        of :meth:`residual`. ``coef``: the stage coefficients ``A``, ``Bs``, ``D``, ``nx``, ``ny``,
+        ``invb`` (class docstring) indexed [half-step point], shapes (S, B, 1) or (S, K); ``theta0``,
+        ``m``, ``b0`` broadcast against ``g``; ``steps`` (shape (K,), ascending; autonomous scenes
+        only): RK4 steps per element, done elements dropping out of the loop
+        (:func:`~.multiplicity_scan.residual_at`). Returns r, or with ``jacobi`` (r, zeros, η(1),
+        bη'(1) = r'(γ)), shaped like ``g``.
+        """
+        shape = g.shape
+        A, Bs, D, nx, ny, invb = (coef[k] for k in ("A", "Bs", "D", "nx", "ny", "invb"))
+        y = [np.broadcast_to(np.cos(theta0), shape).copy(),
+             np.broadcast_to(np.sin(theta0), shape).copy(), g * b0]
+        if jacobi:
+            y += [np.zeros(shape), np.broadcast_to(b0, shape).copy()]
             zeros = np.zeros(shape, int)
         nv = len(y)
         k = [[np.empty(shape) for _ in range(nv)] for _ in range(4)]
         ys = [np.empty(shape) for _ in range(nv)]
         tmp, tmp2, eta_prev = np.empty(shape), np.empty(shape), np.empty(shape)
-        S1 = self.C.shape[0]
+        S1 = A.shape[0]
         ds = 1.0 / self.N
+        n_loop = self.N
+        if steps is not None:
+            full = dict(y=y, k=k, ys=ys, t=(tmp, tmp2, eta_prev, zeros), A=A, Bs=Bs, D=D, nx=nx,
+                        ny=ny, invb=invb, ds=1.0 / steps)
+            n_loop, start = int(steps[-1]), -1
+        half, sixth = 0.5 * ds, ds / 6.0
 
         def rhs(idx, st, out):
             i = idx if S1 > 1 else 0
@@ -236,7 +260,7 @@ class ShootingProblem:
                 kap = M
             else:
                 kap = T1
-                np.multiply(M, self.invb[i], out=kap)
+                np.multiply(M, invb[i], out=kap)
             np.multiply(s_, kap, out=out[0])
             np.negative(out[0], out=out[0])
             np.multiply(c, kap, out=out[1])
@@ -244,44 +268,54 @@ class ShootingProblem:
                 if self.unit_b:
                     np.copyto(out[3], st[4])
                 else:
-                    np.multiply(st[4], self.invb[i], out=out[3])
+                    np.multiply(st[4], invb[i], out=out[3])
             # M' = s (A c − Bs s + nx) + D − ny c, written straight into out[2]
             dM = out[2]
-            np.multiply(self.A[i], c, out=dM)
+            np.multiply(A[i], c, out=dM)
             if not self.no_S:
-                np.multiply(self.Bs[i], s_, out=T2)
+                np.multiply(Bs[i], s_, out=T2)
                 dM -= T2
-            dM += self.nx[i]
+            dM += nx[i]
             dM *= s_
-            np.multiply(self.ny[i], c, out=T2)
+            np.multiply(ny[i], c, out=T2)
             dM -= T2
             if not self.no_S:
-                dM += self.D[i]
+                dM += D[i]
             if jacobi:
                 # Q = 2h²[(c² − s²) C − 2 s c S] + nx c + ny s ;  P' = Q η
                 q = out[4]
                 np.multiply(c, c, out=q)
                 np.multiply(s_, s_, out=T2)
                 q -= T2
-                q *= self.A[i]
+                q *= A[i]
                 if not self.no_S:
                     np.multiply(s_, c, out=T2)
-                    T2 *= 2 * self.Bs[i]
+                    T2 *= 2 * Bs[i]
                     q -= T2
-                np.multiply(self.nx[i], c, out=T2)
+                np.multiply(nx[i], c, out=T2)
                 q += T2
-                np.multiply(self.ny[i], s_, out=T2)
+                np.multiply(ny[i], s_, out=T2)
                 q += T2
                 q *= st[3]
 
-        for j in range(self.N):
+        for j in range(n_loop):
+            if steps is not None and (start < 0 or steps[start] <= j):
+                # the elements with more than j steps: a suffix (views, so the work lands in place)
+                start = int(np.searchsorted(steps, j, side="right"))
+                cut = lambda a: a[start:]
+                y, ys = [cut(a) for a in full["y"]], [cut(a) for a in full["ys"]]
+                k = [[cut(a) for a in kv] for kv in full["k"]]
+                tmp, tmp2, eta_prev, zeros = (cut(a) for a in full["t"])
+                A, Bs, D, nx, ny, invb = (a[:, start:] for a in (full[n] for n in ("A", "Bs", "D", "nx", "ny", "invb")))
+                ds = cut(full["ds"])
+                half, sixth = 0.5 * ds, ds / 6.0
             kk = 2 * j
             rhs(kk, y, k[0])
             for v in range(nv):
-                np.multiply(k[0][v], 0.5 * ds, out=ys[v]); ys[v] += y[v]
+                np.multiply(k[0][v], half, out=ys[v]); ys[v] += y[v]
             rhs(kk + 1, ys, k[1])
             for v in range(nv):
-                np.multiply(k[1][v], 0.5 * ds, out=ys[v]); ys[v] += y[v]
+                np.multiply(k[1][v], half, out=ys[v]); ys[v] += y[v]
             rhs(kk + 1, ys, k[2])
             for v in range(nv):
                 np.multiply(k[2][v], ds, out=ys[v]); ys[v] += y[v]
@@ -293,16 +327,15 @@ class ShootingProblem:
                 k[1][v] *= 2.0
                 k[1][v] += k[0][v]
                 k[1][v] += k[3][v]
-                k[1][v] *= ds / 6.0
+                k[1][v] *= sixth
                 y[v] += k[1][v]
             if jacobi:
                 if j > 0:
                     zeros += (eta_prev * y[3] < 0)
-        r = y[2] - self.m
-        if jacobi:
-            out = (r, zeros, y[3])
-            return tuple(o[0] for o in out) if squeeze else out
-        return r[0] if squeeze else r
+        if steps is not None:
+            y, zeros = full["y"], full["t"][3]
+        r = y[2] - m
+        return (r, zeros, y[3], y[4]) if jacobi else r
 
     def scalar(self, i: int = 0):
         """A scalar RK4 shot for batch item ``i``: ``f(gamma, record=False)`` returning the
@@ -342,14 +375,15 @@ class ShootingProblem:
         return shot
 
 
-def curvature_bound(scene: Scene, window: float) -> float:
+def curvature_bound(scene: Scene, window: float, bound: Optional[dict] = None) -> float:
     """A bound on max_s |θ'(s)| over the shots with |γ| ≤ ``window``.
 
     Autonomous scenes (b, α, β constant, q = 0): the first integral ½bθ'² + V(θ) = const with
     max V − min V ≤ h² + 2|f| + 2h_r gives θ'² ≤ γ² + 2(h² + 2|f| + 2h_r)/b. Otherwise the
     integral bound on [0, s]: |bθ'(s)| ≤ b(0)|γ| + |m| + h² + h_r + ∫|n|, divided by min b.
+    ``bound``: :func:`gamma_bound` of ``scene`` when already known.
     """
-    gb = gamma_bound(scene)
+    gb = gamma_bound(scene) if bound is None else bound
     h2 = scene.h**2 if scene.field is not None else 0.0
     f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
     if gb["first_integral"] is not None:
@@ -361,9 +395,11 @@ def curvature_bound(scene: Scene, window: float) -> float:
     return (b0 * window + gb["integral"] * b0) / bmin
 
 
-def steps_for(scene: Scene, window: float, min_steps: int = 64, rad_per_step: float = 0.1) -> int:
-    """RK4 steps so that the tangent turns by at most ``rad_per_step`` per step."""
-    kappa = curvature_bound(scene, window)
+def steps_for(scene: Scene, window: float, min_steps: int = 64, rad_per_step: float = 0.1,
+              kappa: Optional[float] = None) -> int:
+    """RK4 steps so that the tangent turns by at most ``rad_per_step`` per step (``kappa``: the
+    :func:`curvature_bound` when already known)."""
+    kappa = curvature_bound(scene, window) if kappa is None else kappa
     return int(min(max(min_steps, math.ceil(kappa / rad_per_step)), MAX_STEPS))
 
 
@@ -382,16 +418,18 @@ MAX_STEPS = 4000
 MAX_GAMMA_POINTS = 20001
 
 
-def min_gamma_points(scene: Scene, window: float) -> int:
+def min_gamma_points(scene: Scene, window: float, exponent: Optional[float] = None) -> int:
     """γ samples over [−W, W] needed to separate the closest pairs of roots, 8 e^{L/2} + 1.
 
     Shots that pass close to a hyperbolic state of the IVP (the rod aligned with the field, where
     the Jacobi field grows like e^{Ls}) come in pairs that leave it on either side; such a pair is
     about W e^{−L/2} apart in γ (measured for THEORY §5's scene at φ = 45°: 0.19 at h = 6, 0.038 at
     h = 8). The step 2W/(n − 1) is kept below a quarter of that, so that halving it (the bracket
-    count check) sees them rather than stepping over both.
+    count check) sees them rather than stepping over both. ``exponent``: :func:`growth_exponent`
+    of ``scene`` when already known.
     """
-    return int(8.0 * math.exp(0.5 * growth_exponent(scene))) + 1
+    L = growth_exponent(scene) if exponent is None else exponent
+    return int(8.0 * math.exp(0.5 * L)) + 1
 
 
 def growth_exponent(scene: Scene) -> float:
@@ -408,13 +446,16 @@ def growth_exponent(scene: Scene) -> float:
     h2 = scene.h**2 if scene.field is not None else 0.0
     f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
     q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
-    t = np.linspace(0.0, 1.0, 201)
-    n_max = float(np.max(np.hypot(f[0] + q[0] * (1 - t), f[1] + q[1] * (1 - t))))
-    b_min = float(np.min(scene.stiffness(t)))
+    # q = 0 or b constant: the same numbers at one point instead of 201
+    t = np.linspace(0.0, 1.0, 201) if q[0] or q[1] or not scene.stiffness.is_constant else np.zeros(1)
+    tq = t if q[0] or q[1] else t[:1]
+    n_max = float(np.max(np.hypot(f[0] + q[0] * (1 - tq), f[1] + q[1] * (1 - tq))))
+    b_min = float(np.min(scene.stiffness(t[:1] if scene.stiffness.is_constant else t)))
     return math.sqrt((2 * h2 + remanent_group(scene) + n_max) / b_min)
 
 
-def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1) -> Dict[str, object]:
+def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1,
+                  exponent: Optional[float] = None, kappa: Optional[float] = None) -> Dict[str, object]:
     """Whether the shooting scan of ``scene`` over |γ| ≤ ``window`` can be trusted.
 
     A change of γ by one rounding unit (ε|γ| ≤ ε W), or a rounding error of the integration, moves
@@ -424,15 +465,18 @@ def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1) -> Dic
     closer together than ε|γ|) and whenever the scan would need more than :data:`MAX_STEPS` RK4
     steps, the scan cannot certify a complete set. For h = 1e4 the IVP overflows outright.
 
+    ``exponent`` and ``kappa``: :func:`growth_exponent` and :func:`curvature_bound` when already
+    known.
+
     Returns
     -------
     dict
         ``valid`` (bool), ``growth_exponent`` L, ``log10_amplification`` (L / ln 10),
         ``reason`` (None when valid, else one sentence).
     """
-    L = growth_exponent(scene)
+    L = growth_exponent(scene) if exponent is None else exponent
     limit = math.log(TRUST_LIMIT / (_EPS * max(1.0, float(window))))
-    kappa = curvature_bound(scene, window)
+    kappa = curvature_bound(scene, window) if kappa is None else kappa
     reason = None
     if L > limit:
         reason = (f"the shooting scan is not trustworthy here: the initial-value problem amplifies "
@@ -440,7 +484,7 @@ def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1) -> Dic
                   f"roots closer together than the rounding of theta'(0) cannot be told apart "
                   f"(trusted while L <= {limit:.4g}; for the straight rod in a field, h up to about "
                   f"{limit / math.sqrt(2):.3g})")
-    elif min_gamma_points(scene, window) > MAX_GAMMA_POINTS:
+    elif min_gamma_points(scene, window, L) > MAX_GAMMA_POINTS:
         reason = (f"the shooting scan is not trustworthy here: its closest pairs of roots lie about "
                   f"e^(-L/2) = {math.exp(-0.5 * L):.3g} window widths apart (growth exponent "
                   f"L = {L:.4g}), finer than {MAX_GAMMA_POINTS} samples of theta'(0) resolve")
