@@ -26,17 +26,14 @@ of them, so a study whose grid points lie on such a ray walks it once (:mod:`act
 """
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
-from scipy.linalg import lapack
 
-__all__ = ["RestPath", "StationState", "path_from_rest", "is_unstable", "eigenvalue_verdict",
-           "MAX_TURN", "MIN_STEP"]
+from .stability_check import is_unstable
 
-_dsyevr = lapack.dsyevr
+__all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
 
 #: largest change of any node angle in one accepted step (rad)
 MAX_TURN = 0.5
@@ -62,15 +59,15 @@ class StationState:
         The solve that produced it (iterations, stationarity, message).
     snaps, branch_points : tuple of float
         Load fractions (of the path's full load) of the snaps and branch points met before it.
-    eigenvalues : ndarray or None
-        The 3 lowest eigenvalues there (THEORY §7), when the path computed them.
+    check : StabilityCheck or None
+        What the path learnt of its stability there (:mod:`actuator_design.stability_check`).
     """
 
     z: np.ndarray
     raw: object
     snaps: Tuple[float, ...] = ()
     branch_points: Tuple[float, ...] = ()
-    eigenvalues: Optional[np.ndarray] = None
+    check: Optional[object] = None
 
 
 @dataclass
@@ -122,55 +119,6 @@ def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
     return out
 
 
-#: reduced systems up to this size get their lowest eigenvalues by dense LAPACK without vectors
-_DENSE_EIG_MAX = 200
-#: per kernel: the flat indices of its Hessian's nonzeros in a dense matrix, and their mass scaling
-_SCALED_PATTERN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
-def _lowest_eigenvalues(solver, z: np.ndarray, params: np.ndarray, k: int):
-    """The k smallest eigenvalues of M^-1/2 H M^-1/2 at ``z`` (THEORY §7), no eigenvectors:
-    one LAPACK ``dsyevr`` call, or None for big systems."""
-    ker = solver.kernel
-    if ker.n > _DENSE_EIG_MAX:
-        return None
-    ker.set_params(params)
-    ker.evaluate(np.asarray(z, float)[1:])
-    flat, scale = _SCALED_PATTERN.get(ker, (None, None))
-    if flat is None:  # where the nonzeros go in the dense matrix, and their mass scaling
-        ms = np.sqrt(ker.inv_mass)
-        flat, scale = ker.rows * ker.n + ker.cols, ms[ker.rows] * ms[ker.cols]
-        _SCALED_PATTERN[ker] = (flat, scale)
-    A = np.zeros((ker.n, ker.n))
-    A.flat[flat] = ker.hnz * scale
-    return _dsyevr(A, compute_v=0, range="I", il=1, iu=min(k, ker.n))[0][:k]
-
-
-def is_unstable(solver, z: np.ndarray, params: np.ndarray, tol: float = 1e-9, out=None) -> bool:
-    """``solver.stability(z, params).morse_index > 0`` without the eigenvector: λ0 < −tol·max(1, |λ0|).
-    ``out``: a list that receives the 3 lowest eigenvalues (when computed here)."""
-    lam = _lowest_eigenvalues(solver, z, params, 3)
-    if lam is None:
-        return solver.stability(z, params, tol=tol).morse_index > 0
-    if out is not None:
-        out.append(lam)
-    return bool(lam[0] < -tol * max(1.0, abs(lam[0])))
-
-
-def eigenvalue_verdict(solver, z: np.ndarray, params: np.ndarray, k: int = 3, tol: float = 1e-9,
-                       eigenvalues=None):
-    """``solver.stability`` (the same eigenvalues, index and flags) without the eigenvector
-    (``eigenvector`` is None); ``eigenvalues``: the k lowest, when known already."""
-    lam = _lowest_eigenvalues(solver, z, params, k) if eigenvalues is None else eigenvalues
-    if lam is None:
-        return solver.stability(z, params, k=k, tol=tol)
-    from .solver import StabilityVerdict
-
-    scale = tol * max(1.0, abs(lam[0]))
-    return StabilityVerdict(eigenvalues=lam, eigenvector=None, morse_index=int(np.sum(lam < -scale)),
-                            stable=bool(lam[0] > scale), marginal=bool(abs(lam[0]) <= scale))
-
-
 def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,
                    stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None) -> RestPath:
     """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
@@ -218,11 +166,11 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     side = None  # (unstable state, mode) of the last branch point left: its branch's side
     k = 0  # next station
 
-    def visit(raw, eigenvalues=None):
+    def visit(raw, check=None):
         nonlocal k
         while k < len(targets) and targets[k] == lam:
             visits.append(StationState(raw.z.copy(), raw, tuple(snaps), tuple(branch_points),
-                                       eigenvalues))
+                                       check))
             k += 1
 
     if stations is not None:

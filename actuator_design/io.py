@@ -63,8 +63,15 @@ def jsonable(obj):
 
 
 def dumps_json(obj, indent: Optional[int] = None) -> str:
-    """Strict JSON text of ``obj`` (after :func:`jsonable`; never emits NaN)."""
-    return json.dumps(jsonable(obj), indent=indent, allow_nan=False, ensure_ascii=False)
+    """Strict JSON text of ``obj`` (after :func:`jsonable`; never emits NaN).
+
+    Data made of JSON types already (a study's records) is encoded directly; anything the strict
+    encoder refuses (numpy types, NaN, paths, dataclasses) goes through :func:`jsonable` first.
+    """
+    try:
+        return json.dumps(obj, indent=indent, allow_nan=False, ensure_ascii=False)
+    except (TypeError, ValueError):
+        return json.dumps(jsonable(obj), indent=indent, allow_nan=False, ensure_ascii=False)
 
 
 def scene_to_dict(scene) -> Dict[str, object]:

@@ -111,6 +111,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         parser = build_parser(only=_command_of(argv))
         args = parser.parse_args(argv)
         check_scene_flags(args)
+        from ..parallel import single_threaded_blas
+        single_threaded_blas()  # small matrices: BLAS threads only contend with worker processes
         return int(args._run(args))
     except (UsageError, InputError) as exc:
         print(error_line(exc), file=sys.stderr)

@@ -162,7 +162,7 @@ def load_config(source: Union[str, Path, dict]) -> Config:
         config = Config.model_validate(data)
     except ValidationError as err:
         raise translate(err) from None
-    config._raw = copy.deepcopy(data)
+    config._raw = data  # a private copy already (copied from the dict given, or parsed here)
     return config
 
 

@@ -113,7 +113,8 @@ def on_dask(tasks, client) -> Iterator[List[dict]]:
 
     futures = []
     try:
-        futures = client.map(run_chunk, tasks, pure=False)
+        futures = client.map(run_chunk, [{**t, "single_threaded_blas": True} for t in tasks],
+                             pure=False)
         for f in as_completed(futures):
             yield f.result()
     finally:

@@ -184,14 +184,16 @@ def _finish(rec, result, include, outputs, notes) -> Dict[str, Any]:
     return rec
 
 
-def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check=None):
+def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check=None,
+                    need_eigenvalues=True):
     """The :class:`EquilibriumResult` of one station, checked like a lone ``solve`` (``check``:
-    its clamp force, clamp moment and residual when computed already, :func:`balance_many`)."""
+    its clamp force, clamp moment and residual when computed already, :func:`balance_many`;
+    ``need_eigenvalues``: the result's eigenvalues are asked for)."""
     from ..acceptance import accept
     from ..equilibrium import _make_result
-    from ..from_rest import eigenvalue_verdict
+    from ..stability_check import verdict_of
 
-    verdict = eigenvalue_verdict(solver, st.z, params, eigenvalues=st.eigenvalues)
+    verdict = verdict_of(solver, st.z, params, st.check, need_eigenvalues)
     notes = []
     if st.branch_points:
         notes.append("from rest the rod left an unstable equilibrium along its unstable mode at "
@@ -310,7 +312,8 @@ def _walk(good, include, outputs, records, graded_options, get_solver, path_from
         rec, scene, _, notes = good[j]
         lam = max(stations[at[j]][0], 1e-300)
         result = _station_result(scene, opts, solver, vecs[j], path.visits[at[j]], lam, True, elapsed,
-                                 None if checks is None else tuple(c[n] for c in checks))
+                                 None if checks is None else tuple(c[n] for c in checks),
+                                 include is None or "eigenvalues" in include)
         records[rec["index"]] = _finish(rec, result, include, outputs, list(notes))
     return True
 

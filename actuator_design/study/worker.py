@@ -33,6 +33,7 @@ MAX_LIST = 8
 # Analyses share per-process caches (solvers, CasADi functions): chunks of one process run one at
 # a time even on a threaded Dask worker.
 _LOCK = threading.Lock()
+_BLAS_SET = False
 
 
 def flatten(obj: Any, prefix: str, out: Dict[str, Any] = None) -> Dict[str, Any]:
@@ -113,6 +114,12 @@ def run_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
     """
     from .grid import Axis
 
+    if task.get("single_threaded_blas"):  # a Dask worker: set once per process
+        global _BLAS_SET
+        if not _BLAS_SET:
+            from ..parallel import single_threaded_blas
+            single_threaded_blas()
+            _BLAS_SET = True
     with _LOCK:
         if task.get("walk"):
             from .walk import run_walk_chunk
@@ -133,3 +140,5 @@ def init_worker(parent_pid: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     close_inherited()
     die_with_parent(parent_pid)
+    from ..parallel import single_threaded_blas
+    single_threaded_blas()
