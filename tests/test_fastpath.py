@@ -19,6 +19,7 @@ from actuator_design.reference.closed_forms import transverse_mode
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
 from actuator_design.scene import Scene, default_scene
 from actuator_design.solver import get_solver
+from jit_check import jit_matches_vm
 
 FAST = SolverOptions(elements=1, degree=12, method="fast")
 
@@ -137,15 +138,4 @@ def test_numpy_floor_solves_the_same_system():
 @pytest.mark.slow  # compiles C code (seconds)
 @pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None, reason="no C compiler")
 def test_jit_kernel_gives_the_same_numbers():
-    sc = default_scene(h=1.2, phi=0.4, p=0.3)
-    vm = get_solver(sc, SolverOptions(elements=1, degree=8))
-    jit = get_solver(sc, SolverOptions(elements=1, degree=8, jit=True))
-    if not jit.jit_note.startswith("JIT-compiled"):
-        pytest.skip(jit.jit_note)
-    P = vm.parameter_vector(sc)
-    z = 0.2 * vm.transcription.nodes
-    for s in (vm, jit):
-        s.kernel.set_params(P)
-        s.kernel.evaluate(z[1:])
-    np.testing.assert_allclose(jit.kernel.g, vm.kernel.g, rtol=1e-13, atol=1e-14)
-    np.testing.assert_allclose(jit.kernel.hnz, vm.kernel.hnz, rtol=1e-13, atol=1e-14)
+    jit_matches_vm(default_scene(h=1.2, phi=0.4, p=0.3))
