@@ -224,3 +224,24 @@ def test_every_builtin_analysis_name_is_registered_by_its_module():
     for name in registry.BUILTIN:
         assert callable(registry.get(name))
     assert set(registry.BUILTIN) <= set(registry.names())
+
+
+def test_mixed_sign_load_sweep_walks_both_rays_and_mirrors(tmp_path):
+    """p from −300 to 300 at h = 0: both rays are walked (the walk axis is found on the side of
+    the largest load), each point equals a lone solve, and p ↦ −p mirrors the tip (y, θ ↦ −y, −θ)."""
+    loads = [-300.0, -30.0, -3.0, 0.0, 3.0, 30.0, 300.0]
+    cfg = {"scene": {"type": "dimensionless", "h": 0.0, "phi": "0 deg", "p": 0},
+           "study": {"type": "sweep", "sweep": {"p": loads}, "analyses": ["solve"],
+                     "outputs": ["solve.tip.*", "solve.success", "solve.solver.from_rest.walk"]}}
+    _run(cfg, tmp_path / "s", workers=1)
+    rows = {float(r["p"]): r for r in _rows(tmp_path / "s").values()}
+    plan = plan_study(cfg, tmp_path / "x")
+    for i, p in enumerate(loads):
+        r = rows[p]
+        assert r["solve.success"] == "true" and r["solve.solver.from_rest.walk"] == "true"
+        config = load_config(substitute(plan.raw, plan.axes, plan.indices[i]))
+        alone = solve(config.to_scene(), config.solver_options())
+        assert max(abs(alone.tip[k] - float(r[f"solve.tip.{k}"])) for k in ("x", "y", "angle")) < 1e-8
+        m = rows[-p]
+        assert abs(float(r["solve.tip.x"]) - float(m["solve.tip.x"])) < 1e-9
+        assert abs(float(r["solve.tip.y"]) + float(m["solve.tip.y"])) < 1e-9

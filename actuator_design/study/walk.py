@@ -114,7 +114,12 @@ def walk_axis(raw, axes, indices) -> Optional[int]:
         if n < 3 or not axis.numeric:
             continue
         mags = [abs(v) for v in axis.numbers]
-        picks = sorted({0, n // 2, int(np.argmax(mags))})
+        top = int(np.argmax(mags))  # three points on the side of the largest value (a ray)
+        side = sorted((j for j in range(n) if (axis.numbers[j] >= 0) == (axis.numbers[top] >= 0)),
+                      key=lambda j: mags[j])
+        if len(side) < 2:
+            continue
+        picks = sorted({side[0], side[len(side) // 2], top})
         base = list(indices[0])
         try:
             pts = [_scene_point(raw, axes, base[:a] + [j] + base[a + 1:]) for j in picks]
