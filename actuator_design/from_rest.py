@@ -61,6 +61,9 @@ class StationState:
         Load fractions (of the path's full load) of the snaps and branch points met before it.
     check : StabilityCheck or None
         What the path learnt of its stability there (:mod:`actuator_design.stability_check`).
+    newton : bool
+        A converged Newton point of the path; False for IPOPT's answer after a branch-point kick
+        or a snap, which is not polished (a caller that reports it polishes it first).
     """
 
     z: np.ndarray
@@ -68,6 +71,7 @@ class StationState:
     snaps: Tuple[float, ...] = ()
     branch_points: Tuple[float, ...] = ()
     check: Optional[object] = None
+    newton: bool = True
 
 
 @dataclass
@@ -166,11 +170,11 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     side = None  # (unstable state, mode) of the last branch point left: its branch's side
     k = 0  # next station
 
-    def visit(raw, check=None):
+    def visit(raw, check=None, newton=True):
         nonlocal k
         while k < len(targets) and targets[k] == lam:
             visits.append(StationState(raw.z.copy(), raw, tuple(snaps), tuple(branch_points),
-                                       check))
+                                       check, newton))
             k += 1
 
     if stations is not None:
@@ -203,7 +207,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
                 z_prev, lam_prev, z = None, None, left.z
                 dl = min(dl, 0.05)
-                visit(left)
+                visit(left, newton=False)
             else:
                 visit(raw, lowest[0] if lowest else None)
             continue
@@ -221,5 +225,5 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         z_prev, lam_prev, z, lam = None, None, snap.z, t
         steps += 1
         dl = 1e-3
-        visit(snap)
+        visit(snap, newton=False)
     return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits)

@@ -25,7 +25,9 @@ from .spec import SweepSpec, analysis_list, validate_spec
 
 __all__ = ["StudyPlan", "plan_study", "journal_records"]
 
-#: ``study`` keys that do not change a study's results (left out of its identity).
+#: ``study`` keys that do not change a study's results (left out of its identity): the chunk size
+#: changes which points a walked path lands on, not the states (they agree to the solver's
+#: tolerance, each point on the mesh a lone solve chooses).
 _RUN_SETTINGS = ("chunk_size", "max_points")
 
 

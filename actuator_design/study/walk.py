@@ -6,7 +6,10 @@ lie on one ray {λ P_ref} — a line of the grid along the field magnitude (or a
 other load zero — lie on each other's loading paths: one path from rest that lands on each of them
 in turn (:func:`~actuator_design.from_rest.path_from_rest` with ``stations``) yields every point's
 answer, each a warm-started Newton step on the fast path (IPOPT only where the rod snaps or leaves
-a branch point), with the same stable-state selection as a solve of that point alone.
+a branch point, whose answer is then polished as a lone solve's is), with the same stable-state
+selection as a solve of that point alone, on the mesh a lone solve chooses for it (points whose
+boundary layers need another grading share another path). A study with ``ensure_stable: false``
+solves every point alone: without stability checks a path's branch depends on its steps.
 
 Chunks are fixed by the grid, never by the number of workers: :func:`plan_chunks` splits each
 grid line along the *walk axis* (chosen here from the scene: the first swept key whose line is a
@@ -198,6 +201,8 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     from ..equilibrium import _make_result
     from ..stability_check import verdict_of
 
+    if not st.newton:  # IPOPT's answer after a kick or a snap: polished as a lone solve does
+        return _polished_result(scene, opts, solver, st, lam, walked)
     verdict = verdict_of(solver, st.z, params, st.check, need_eigenvalues)
     notes = []
     if st.branch_points:
@@ -215,6 +220,26 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     if op is not None:
         result._clamp_curvature = lambda: float(op.clamp_curvature_row @ st.z)
     result.stats["method"] = "fast"
+    result.stats["from_rest"] = {"reached": True, "walk": walked,
+                                 "snaps_at": [v / lam for v in st.snaps],
+                                 "branch_points_at": [v / lam for v in st.branch_points]}
+    return accept(result)
+
+
+def _polished_result(scene, opts, solver, st, lam, walked):
+    """The lone ``solve``'s last step from a state of the path: a strict solve on this mesh from
+    it (IPOPT, Newton polish, saddle escapes), then the acceptance checks."""
+    from ..acceptance import accept
+    from ..equilibrium import solve_on
+
+    result = solve_on(scene, opts, st.z, solver, strict=True)
+    if st.branch_points:
+        result.escaped_saddle = True
+        result.message += ("; from rest the rod left an unstable equilibrium along its unstable mode "
+                           "at " + ", ".join(f"{v / lam:.4g}" for v in st.branch_points) + " of the load")
+    if st.snaps:
+        result.message += ("; from rest the rod snaps at " + ", ".join(f"{v / lam:.4g}" for v in st.snaps)
+                           + " of the load")
     result.stats["from_rest"] = {"reached": True, "walk": walked,
                                  "snaps_at": [v / lam for v in st.snaps],
                                  "branch_points_at": [v / lam for v in st.branch_points]}
@@ -281,46 +306,62 @@ def run_walk_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
 
 
 def _walk(good, include, outputs, records, graded_options, get_solver, path_from_rest) -> bool:
-    """Walk the chunk's points as one ray when they are one (records filled in); False otherwise."""
+    """Walk the chunk's points as one ray when they are one (records filled in); False otherwise.
+
+    Each point is solved on the mesh a lone ``solve`` chooses for it (grading towards boundary
+    layers grows with the load): the points of one mesh share one path from rest.
+    """
     if len(good) < 2 or any(o != good[0][2] for _, _, o, _ in good):
         return False
     opts0 = good[0][2]
-    if opts0.accuracy is not None or opts0.start != "rest":
-        return False
+    if opts0.accuracy is not None or opts0.start != "rest" or not opts0.ensure_stable:
+        return False  # without stability checks a path's branch depends on its steps: alone
     probe = get_solver(good[-1][1], opts0)
     vecs = [probe.parameter_vector(s) for _, s, _, _ in good]
     c = _is_ray(vecs, list(probe._scale_lin) + list(probe._scale_sq))
     if c is None:
         return False
-    ref = int(np.argmax(c))
-    opts = graded_options(good[ref][1], opts0) if opts0.adapt else opts0
+    meshes: Dict[Any, List[int]] = {}
+    for j, (_, scene, _, _) in enumerate(good):
+        meshes.setdefault(graded_options(scene, opts0) if opts0.adapt else opts0, []).append(j)
+    for opts, members in meshes.items():
+        _walk_mesh(good, c, members, opts, include, outputs, records, get_solver, path_from_rest)
+    return True
+
+
+def _walk_mesh(good, c, members, opts, include, outputs, records, get_solver, path_from_rest):
+    """One path from rest on one mesh through the chunk's points ``members`` (load fractions ``c``)."""
+    ref = max(members, key=lambda j: (c[j], j))
+    if c[ref] <= 0.0:
+        return  # only rest states: solved alone
     solver = get_solver(good[ref][1], opts)
-    vecs = [solver.parameter_vector(s) for _, s, _, _ in good]
-    order = sorted(range(len(good)), key=lambda j: (c[j], j))
+    vecs = {j: solver.parameter_vector(good[j][1]) for j in members}
+    order = sorted(members, key=lambda j: (c[j], j))
     stations, at = [], {}
     for j in order:
-        lam = float(c[j])
+        lam = float(c[j] / c[ref])
         if not stations or lam > stations[-1][0]:
             stations.append((lam, vecs[j]))
         at[j] = len(stations) - 1
-    if stations[-1][0] != 1.0:
-        return False
+    stations[-1] = (1.0, stations[-1][1])
     t0 = time.perf_counter()
     path = path_from_rest(solver, vecs[ref], follow_stable=opts.ensure_stable, stations=stations)
     elapsed = (time.perf_counter() - t0) / max(1, len(stations))
     reached = [j for j in order if at[j] < len(path.visits)]  # the others are solved alone
-    # the accuracy check of every state at once (one evaluation of the loads for the chunk)
-    checks = balance_many(solver, np.array([vecs[j] for j in reached]),
-                          np.array([path.visits[at[j]].z for j in reached]),
-                          good[ref][1]) if reached else None
-    for n, j in enumerate(reached):
+    plain = [j for j in reached if path.visits[at[j]].newton]
+    # the accuracy check of the Newton points at once (one evaluation of the loads)
+    checks = balance_many(solver, np.array([vecs[j] for j in plain]),
+                          np.array([path.visits[at[j]].z for j in plain]),
+                          good[ref][1]) if plain else None
+    row = {j: n for n, j in enumerate(plain)}
+    for j in reached:
         rec, scene, _, notes = good[j]
         lam = max(stations[at[j]][0], 1e-300)
-        result = _station_result(scene, opts, solver, vecs[j], path.visits[at[j]], lam, True, elapsed,
-                                 None if checks is None else tuple(c[n] for c in checks),
+        st = path.visits[at[j]]
+        check = None if checks is None or j not in row else tuple(v[row[j]] for v in checks)
+        result = _station_result(scene, opts, solver, vecs[j], st, lam, True, elapsed, check,
                                  include is None or "eigenvalues" in include)
         records[rec["index"]] = _finish(rec, result, include, outputs, list(notes))
-    return True
 
 
 def _lone_solve(task, index, idx) -> Dict[str, Any]:
