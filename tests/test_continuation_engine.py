@@ -164,18 +164,9 @@ def test_palc_passes_the_elastica_fold_natural_stops_there():
     """Through the fold p_crit^(1) ≈ 10.3252 (shooting value in the suite): PALC turns round it
     and locates it; natural continuation cannot pass it and ends with a small step."""
     from actuator_design.reduced import locate_fold
-    from actuator_design.reference.shooting import ShootingParams, shoot
-    from scipy.optimize import fsolve
+    from fold_problems import elastica_fold_problem
 
-    def F(x):
-        s = shoot(x[0], ShootingParams(fy=x[1]), variational=True)
-        return [s.residual, s.dresidual]
-    g1, p1 = fsolve(F, [-2.8, 10.3], xtol=1e-13)
-    scene = default_scene(h=0.0, p=p1 + 1.0)
-    solver = get_solver(scene, SolverOptions())
-    guess = shoot(g1 + 0.2, ShootingParams(fy=p1 + 1.0))
-    u0 = np.array([guess.theta(s) for s in solver.transcription.nodes[1:]])
-    prob = BifurcationProblem(reduced_system(solver, ["p"]), solver.parameter_vector(scene), u0, p1 + 1.0)
+    prob, p1 = elastica_fold_problem()
     st = ContinuationSettings(ds=0.05, ds_max=0.2, window=(p1 - 1.0, p1 + 2.0), max_steps=400,
                               direction=-1.0)
     br = continuation(prob, PALC(), st, (Fold(), BranchPoint()))

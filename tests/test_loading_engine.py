@@ -24,6 +24,7 @@ from actuator_design.reduced import locate_fold, reduced_system
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
 from actuator_design.scene import DipoleField, default_scene
 from actuator_design.solver import get_solver
+from fold_problems import elastica_fold_problem
 
 HALF_PI = 0.5 * math.pi
 
@@ -124,20 +125,6 @@ def test_jump_on_a_segment_where_field_and_load_move_at_once_is_the_shooting_fol
                          jump.to_state.gamma)
     assert ref.converged and ref.tip_angle == pytest.approx(jump.to_state.tip["angle"], abs=1e-9)
     assert jump.to_state.stable and jump.from_state.tip["angle"] * jump.to_state.tip["angle"] < 0
-
-
-def elastica_fold_problem():
-    def F(x):
-        s = shoot(x[0], ShootingParams(fy=x[1]), variational=True)
-        return [s.residual, s.dresidual]
-
-    g1, p1 = fsolve(F, [-2.8, 10.3], xtol=1e-13)
-    scene = default_scene(h=0.0, p=p1 + 1.0)
-    solver = get_solver(scene, SolverOptions())
-    guess = shoot(g1 + 0.2, ShootingParams(fy=p1 + 1.0))
-    u0 = np.array([guess.theta(s) for s in solver.transcription.nodes[1:]])
-    prob = BifurcationProblem(reduced_system(solver, ["p"]), solver.parameter_vector(scene), u0, p1 + 1.0)
-    return prob, p1
 
 
 def test_a_stop_event_ends_the_run_on_the_near_side_of_the_fold():
