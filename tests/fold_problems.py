@@ -1,4 +1,4 @@
-"""Shared set-up of continuation tests: the field-free elastica near its first fold in p."""
+"""Shared set-up of fold tests: shooting folds, and the field-free elastica near its first fold."""
 import numpy as np
 from scipy.optimize import fsolve
 
@@ -10,14 +10,20 @@ from actuator_design.scene import default_scene
 from actuator_design.solver import get_solver
 
 
+def reference_fold(p_guess, gamma_guess, h=0.0):
+    """(p, γ) of a fold of the shooting reference: r = ∂r/∂γ = 0 (THEORY §7), by fsolve."""
+    def F(x):
+        s = shoot(x[0], ShootingParams(h=h, fy=x[1]), variational=True)
+        return [s.residual, s.dresidual]
+    sol, _, ier, msg = fsolve(F, [gamma_guess, p_guess], xtol=1e-13, full_output=True)
+    assert ier == 1, msg
+    return sol[1], sol[0]
+
+
 def elastica_fold_problem():
     """(problem, p1): continuation in p started at p1 + 1 on the first mode, p1 the fold load
-    located independently by shooting (r = ∂r/∂γ = 0)."""
-    def F(x):
-        s = shoot(x[0], ShootingParams(fy=x[1]), variational=True)
-        return [s.residual, s.dresidual]
-
-    g1, p1 = fsolve(F, [-2.8, 10.3], xtol=1e-13)
+    located independently by shooting (:func:`reference_fold`)."""
+    p1, g1 = reference_fold(10.3, -2.8)
     scene = default_scene(h=0.0, p=p1 + 1.0)
     solver = get_solver(scene, SolverOptions())
     guess = shoot(g1 + 0.2, ShootingParams(fy=p1 + 1.0))

@@ -8,23 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import fsolve
 
 from actuator_design.analysis import registry
 from actuator_design.analysis.continuation import Continuation
 from actuator_design.analysis.critical import critical_points, fold_curve, locate_fold
 from actuator_design.reference.closed_forms import critical_field_transverse
-from actuator_design.reference.shooting import ShootingParams, shoot
 from actuator_design.scene import default_scene
-
-
-def reference_fold(p_guess, gamma_guess, h=0.0):
-    def F(x):
-        s = shoot(x[0], ShootingParams(h=h, fy=x[1]), variational=True)
-        return [s.residual, s.dresidual]
-    sol, _, ier, msg = fsolve(F, [gamma_guess, p_guess], xtol=1e-13, full_output=True)
-    assert ier == 1, msg
-    return sol[1], sol[0]
+from fold_problems import reference_fold
 
 
 @pytest.fixture(scope="module")

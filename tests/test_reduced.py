@@ -9,7 +9,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import fsolve
 
 from actuator_design.options import SolverOptions
 from actuator_design.reduced import (bordered_solve, inertia, locate_fold, lowest_eigenpairs,
@@ -19,15 +18,7 @@ from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, low
 from actuator_design.reference.shooting import ShootingParams, shoot
 from actuator_design.scene import default_scene
 from actuator_design.solver import get_solver
-
-
-def reference_fold(p_guess, gamma_guess, h=0.0):
-    def F(x):
-        s = shoot(x[0], ShootingParams(h=h, fy=x[1]), variational=True)
-        return [s.residual, s.dresidual]
-    sol, _, ier, msg = fsolve(F, [gamma_guess, p_guess], xtol=1e-13, full_output=True)
-    assert ier == 1, msg
-    return sol[1], sol[0]
+from fold_problems import reference_fold
 
 
 @pytest.fixture(scope="module")
