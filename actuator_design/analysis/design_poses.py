@@ -218,23 +218,36 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
                            timings=timings, magnetization=magnetization)
 
 
-def _joint_nominal(nlp, base, d_list, z_list, targets, settings, fractions=(0.25, 0.5, 0.75, 1.0)):
+def _joint_nominal(nlp, base, d_list, z_list, targets, settings, first_step=0.25, min_step=1.0 / 128):
     """Every pose exact with one shared layout, by homotopy in the targets: each pose's target moves
-    from the tip its start reaches to the real target in steps, each solve warm-started from the last
-    (a direct solve from starts far from the targets is often declared locally infeasible)."""
+    from the tip its start reaches to the real target, each solve warm-started from the last (a
+    direct solve from starts far from the targets is often declared locally infeasible).
+
+    The step is adaptive: a step that fails (no convergence, or a pose left without a stable state)
+    is halved and retried from the last point that worked, down to ``min_step``; a step that works
+    grows by half. So the outcome does not hang on one solve's iteration limit (a start on the
+    stability margin, which the least-effort single-pose design sits on, needs short first steps
+    on some BLAS kernels and not on others); "no design" means the homotopy stalled at a fraction
+    below ``min_step`` of the way, which the message states."""
     sv = nlp.solver
     no_box = Tolerances(field_rel=0.0, angle=0.0)
     start_tips = []
     for d, z in zip(d_list, z_list):
         _, th, x, y = sv.summary(z, sv.parameter_vector(nlp.scene_for(base, d)))
         start_tips.append(np.array([x, y, th]))
-    out = None
-    for frac in fractions:
+    done, step, out = 0.0, first_step, None
+    while done < 1.0:
+        frac = min(1.0, done + step)
         tg = [tuple(t0[:len(t)] + frac * (np.asarray(t) - t0[:len(t)])) for t0, t in zip(start_tips, targets)]
-        out = robustify(nlp, base, d_list, z_list, tg, no_box, margin=settings.margin, bounds=settings.bounds())
-        if out.point is None:
-            out.attempts.insert(0, f"targets {100 * frac:g} % of the way from the single-pose designs")
-            return out
+        trial = robustify(nlp, base, d_list, z_list, tg, no_box, margin=settings.margin, bounds=settings.bounds())
+        if trial.point is None:
+            step *= 0.5
+            if step < min_step:
+                trial.attempts.insert(0, f"the homotopy from the single-pose designs stalled "
+                                         f"{100 * done:.3g} % of the way to the targets")
+                return trial
+            continue
+        out, done, step = trial, frac, min(1.0, 1.5 * step)
         d_list = [out.nlp.pose_vector(out.point.d, k) for k in range(len(targets))]
         z_list = [out.point.z[k][0] for k in range(len(targets))]
     return out
