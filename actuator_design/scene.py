@@ -197,6 +197,10 @@ class Scene:
     fibres_given : bool
         The fibre layout was given by the user (a config's ``fibres``): it is fabricated, so inverse
         design keeps it unless asked to vary it (``--vary ...,alpha``).
+    fibres_physical : bool
+        The fibre layout is a property of the actuator that changes its response (True), or not
+        (False: isotropic particles, whose easy axis is set by the body, the rod's tangent, THEORY
+        §10): inverse design then never designs α(s).
     extra_terms : tuple of TermValues
         Plug-in energy terms present in the scene, with their values (the extension point: which
         terms are listed is structural, their values are not).
@@ -217,6 +221,7 @@ class Scene:
     fibres_given: bool = False
     h_r: float = 0.0
     magnetization: Optional[Profile] = None
+    fibres_physical: bool = True
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:

@@ -120,12 +120,17 @@ def test_schedule_fields_and_time_column_by_hand(physical):
         assert row["field_A_per_m"] == pytest.approx(s["h"] / h_per_A_per_m(), rel=1e-12)
         assert row["angle_deg"] == pytest.approx(math.degrees(s["phi"]))
     assert [r["time_s"] for r in rows] == pytest.approx([0.0, 2.0, 3.0, 5.0])
-    # only one rate: the other change is not limited
-    assert [r["time_s"] for r in schedule_table(sched, units, field_rate=5e-3 / MU0)] == pytest.approx(
-        [0.0, 2.0, 2.0, 2.2])
-    # a dimensionless scene keeps today's columns, gains time only from a rotation rate
+    # only one rate: a change without its rate is an error naming the missing flag, never 0 s
+    with pytest.raises(ValueError, match=r"^--rotation-rate: the schedule rotates the field \(step 2, by 30 deg\)"):
+        schedule_table(sched, units, field_rate=5e-3 / MU0)
+    with pytest.raises(ValueError, match=r"^--rate: the schedule changes the field magnitude \(step 1\)"):
+        schedule_table(sched, units, rotation_rate=math.radians(30))
+    # a dimensionless scene keeps today's columns; a pure rotation is timed by the rotation rate
     assert list(schedule_table(sched)[0]) == ["step", "h", "phi_rad"]
-    assert schedule_table(sched, None, rotation_rate=math.radians(30))[-1]["time_s"] == pytest.approx(3.0)
+    turn = [{"h": 1.0, "phi": 0.0}, {"h": 1.0, "phi": math.radians(90)}]
+    assert schedule_table(turn, None, rotation_rate=math.radians(30))[-1]["time_s"] == pytest.approx(3.0)
+    with pytest.raises(ValueError, match="^--rate: the schedule changes the field magnitude"):
+        schedule_table(sched, None, rotation_rate=math.radians(30))
     with pytest.raises(ValueError, match="^--rate: a field rate needs a physical scene"):
         schedule_table(sched, None, field_rate=1.0)
 
@@ -219,3 +224,41 @@ def test_schedule_command_files_carry_the_physical_columns(physical):
     assert [float(r["field_mT"]) for r in rows] == pytest.approx([mT_of_h(s["h"]) for s in sched], rel=1e-12)
     assert [float(r["time_s"]) for r in rows] == pytest.approx([0.0, 4.0, 4.5])
     assert json.loads(files["schedule.json"])["schedule"][2]["angle_deg"] == pytest.approx(math.degrees(0.3) + 15)
+
+
+def test_a_rate_without_the_other_is_refused_before_any_solve(config_file):
+    """A design schedule ramps and rotates: one rate alone would time the other change as 0 s."""
+    p = _cli("design", str(config_file), "--target-tip", "0.3,0.5", "--rate", "5mT/s")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and p.stderr.startswith("actuator-design: error: --rotation-rate")
+    p = _cli("design", str(config_file), "--target-tip", "0.3,0.5;0.6,0.2", "--rotation-rate", "30deg/s")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1 and p.stderr.startswith("actuator-design: error: --rate")
+
+
+def test_multi_pose_design_in_the_scenes_units(config_file, tmp_path):
+    """Several poses on a physical scene: per pose the target and tip in mm and the field in mT by
+    hand; the schedule in mT and degrees with time_s re-summed from the rates, in JSON and CSV."""
+    out = tmp_path / "poses"
+    p = _cli("design", str(config_file), "--target-tip", "6,10;12,4", "--target-units", "mm",
+             "--vary", "h,phi,alpha", "--rate", "5mT/s", "--rotation-rate", "30deg/s", "--json",
+             "--out", str(out), timeout=600)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    phys = d["physical"]
+    assert phys["length_unit"] == "mm" and len(phys["poses"]) == 2
+    for q, pose, want in zip(phys["poses"], d["poses"], [(6.0, 10.0), (12.0, 4.0)]):
+        assert (q["target"]["x"], q["target"]["y"]) == pytest.approx(want, rel=1e-12)
+        assert q["tip"]["x"] == pytest.approx(pose["achieved"]["x"] * 20.0, rel=1e-12)
+        assert q["field_mT"] == pytest.approx(mT_of_h(pose["design"]["h"]), rel=1e-12)
+        assert q["angle_deg"] == pytest.approx(math.degrees(pose["design"]["phi"]))
+    rows = list(csv.DictReader(io.StringIO((out / "schedule.csv").read_text())))
+    assert len(rows) == len(d["schedule"]) >= 2
+    t = 0.0
+    for k, (row, s) in enumerate(zip(rows, d["schedule"])):
+        assert float(row["field_mT"]) == pytest.approx(mT_of_h(float(row["h"])), rel=1e-12, abs=1e-12)
+        assert s["time_s"] == pytest.approx(float(row["time_s"]), rel=1e-12, abs=1e-12)
+        if k:
+            prev = rows[k - 1]
+            t += max(abs(float(row["field_mT"]) - float(prev["field_mT"])) / 5.0,
+                     abs(float(row["angle_deg"]) - float(prev["angle_deg"])) / 30.0)
+        assert float(row["time_s"]) == pytest.approx(t, rel=1e-9, abs=1e-12)
+    assert t > 0

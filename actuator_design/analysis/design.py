@@ -128,6 +128,9 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         unknown = [v for v in vary if v not in DESIGN_VARIABLES]
         if unknown or not vary:
             raise ValueError(f"--vary: unknown design variable(s) {unknown} (allowed: {', '.join(DESIGN_VARIABLES)})")
+        if "alpha" in vary and not base.fibres_physical:
+            raise ValueError("--vary alpha: the fibre layout has no effect on this actuator (isotropic "
+                             "particles: the easy axis is the rod's tangent, THEORY §10); vary h, phi, p")
         sets = (tuple(vary),)
         if "magnetization" in vary:
             prepare_scene(base, vary)  # one clear error up front when the remanence is missing
@@ -138,10 +141,12 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         sets = (("h",),)
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
         # actuator is the user's)
-        sets = (AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) else AUTO_VARIABLE_SETS
+        sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
+                else AUTO_VARIABLE_SETS)
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
-                         deadline=t0 + settings.time_limit, fibres_fixed=fibres_fixed(base))
+                         deadline=t0 + settings.time_limit,
+                         fibres_fixed=fibres_fixed(base) and base.fibres_physical)
 
 
 def fibres_fixed(scene: Scene) -> bool:

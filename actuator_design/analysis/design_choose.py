@@ -42,6 +42,9 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
                      f"used {', '.join(cand.vary)} (the fibre layout: the scene leaves it free)")
     if problem.fibres_fixed and not problem.user_vary and "alpha" not in cand.vary:
         notes.append("the scene's fibre layout is kept as given (add alpha to --vary to design it)")
+    if not problem.base.fibres_physical and not problem.user_vary:
+        notes.append("no fibre layout designed: it has no effect on this actuator (isotropic particles, "
+                     "THEORY §10)")
     if any(opt.out_of_time for opt in searched):
         notes.append(f"time limit of {problem.settings.time_limit:g} s reached: not every starting design "
                      "was optimised")
@@ -62,7 +65,8 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
                      f"misses by {target_error(best, target, stiffness):.3g} (reported as 'achieved')")
         if target and math.hypot(target[0], target[1]) > 1.0:
             notes.append("the target lies beyond the rod's length from the clamp (|r| > 1)")
-        elif (problem.user_vary or problem.fibres_fixed) and "alpha" not in cand.vary and target \
+        elif (problem.user_vary or problem.fibres_fixed) and problem.base.fibres_physical \
+                and "alpha" not in cand.vary and target \
                 and stiffness is None:
             alternatives = _try_alternative(problem, cand.vary)
             if alternatives.get("with_fibre_layout"):

@@ -59,6 +59,7 @@ class PoseResult:
     label: str
     z: Optional[np.ndarray] = field(default=None, repr=False)  # the pose's state (θ at the nodes)
     state: object = field(default=None, repr=False)  # the verified EquilibriumResult (figures)
+    at_bound: str = ""  # the design bound the pose's field sits on ("" when none)
 
     def to_dict(self) -> dict:
         tgt = {"x": self.target[0], "y": self.target[1], **({"angle": self.target[2]} if len(self.target) > 2 else {})}
@@ -66,7 +67,7 @@ class PoseResult:
                 "error": float(self.error), "design": {k: float(v) for k, v in self.design.items()},
                 "robustness": None if self.robustness is None else self.robustness.to_dict(),
                 "verified": bool(self.verified), "stable": bool(self.stable), "snap_free": bool(self.snap_free),
-                "verification": self.label}
+                "verification": self.label, "at_bound": self.at_bound}
 
 
 @dataclass
@@ -192,6 +193,10 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     timings["joint"] = time.perf_counter() - tj
     scenes = pose_designs(snlp, base, point.d)
     poses = _check_poses(snlp, nlp, scenes, point, targets, tol, first, ch1, verify, timings)
+    for k, p in enumerate(poses, start=1):
+        p.at_bound = _at_bound(p.design, s.bounds())
+        if p.at_bound:
+            notes.append(f"pose {k} is on a design bound ({p.at_bound})")
     schedule, transitions = (_visit_in_order(poses, scenes, first, timings) if verify and all(p.verified for p in poses)
                              else ([], []))
     ok = (all(p.verified and p.stable and p.snap_free and p.error <= s.accept_tol for p in poses)
@@ -216,6 +221,17 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     return MultiPoseResult(ok, poses, alpha, vset, schedule, transitions, "; ".join([head] + notes), first.base,
                            tol if tol.active else None, scenes=scenes,
                            timings=timings, magnetization=magnetization)
+
+
+def _at_bound(design: Dict[str, float], bounds: Dict[str, float], rel: float = 1e-6) -> str:
+    """Which bound a pose's field sits on: h at h_max or |p| at p_max (within ``rel``), or ""."""
+    out = []
+    if design.get("h", 0.0) >= bounds["h_max"] * (1 - rel):
+        out.append(f"h = h_max = {bounds['h_max']:g}")
+    p_max = bounds.get("p_max", math.inf)
+    if math.isfinite(p_max) and abs(design.get("p", 0.0)) >= p_max * (1 - rel):
+        out.append(f"|p| = p_max = {p_max:g}")
+    return ", ".join(out)
 
 
 def _joint_nominal(nlp, base, d_list, z_list, targets, settings, first_step=0.25, min_step=1.0 / 128):

@@ -194,13 +194,15 @@ def schedule_table(schedule: Sequence[Dict[str, float]], units=None, field_rate:
     list of dict
         ``step``, ``h``, ``phi_rad`` [, ``field_A_per_m``, ``field_mT``, ``angle_deg``]
         [, ``time_s``]. With a rate, step k is reached at t_k = t_{k−1} + max(|ΔH| / field_rate,
-        |Δφ| / rotation_rate) (the slower of the two changes governs; a rate not given does not
-        limit); t_0 = 0.
+        |Δφ| / rotation_rate) (the slower of the two changes governs); t_0 = 0. A change whose
+        rate is not given is never taken as instantaneous: it is an error (below).
 
     Raises
     ------
     ValueError
-        A rate that is not a finite number > 0, or a field rate without a physical field scale.
+        A rate that is not a finite number > 0, a field rate without a physical field scale, or a
+        timed schedule with a step that rotates the field without a rotation rate or changes its
+        magnitude without a field rate (one line naming the missing flag).
     """
     for name, rate in (("--rate", field_rate), ("--rotation-rate", rotation_rate)):
         if rate is not None and not (math.isfinite(rate) and rate > 0):
@@ -222,10 +224,19 @@ def schedule_table(schedule: Sequence[Dict[str, float]], units=None, field_rate:
             if k > 0:
                 prev = rows[-1]
                 dt = 0.0
+                turn, ramp = abs(phi - prev["phi_rad"]), h != prev["h"]
+                if turn > 0.0 and rotation_rate is None:
+                    raise ValueError(f"--rotation-rate: the schedule rotates the field (step {k}, by "
+                                     f"{math.degrees(turn):.3g} deg) and no rotation rate was given; give "
+                                     "--rotation-rate (e.g. 30deg/s) with --rate")
+                if ramp and field_rate is None:
+                    raise ValueError("--rate: the schedule changes the field magnitude (step "
+                                     f"{k}) and no field rate was given; give --rate (e.g. 5mT/s, "
+                                     "a physical scene) with --rotation-rate")
                 if field_rate is not None:
                     dt = max(dt, abs(units.field_A_per_m(h) - units.field_A_per_m(prev["h"])) / field_rate)
                 if rotation_rate is not None:
-                    dt = max(dt, abs(phi - prev["phi_rad"]) / rotation_rate)
+                    dt = max(dt, turn / rotation_rate)
                 t += dt
             row["time_s"] = t
         rows.append(row)

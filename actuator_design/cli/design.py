@@ -191,6 +191,29 @@ def _rates(args, raw):
                        args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
 
 
+def check_rates(rates, units) -> None:
+    """Up front, before any solve: a design schedule ramps the field from zero and rotates it, so
+    timing it needs both rates (a change without its rate is never taken as instantaneous), and a
+    field rate needs a physical scene.
+
+    Raises
+    ------
+    InputError
+        One line naming the flag that is missing or cannot be used.
+    """
+    field_rate, rotation_rate = rates
+    if field_rate is not None and not (units is not None and units.has_field):
+        raise InputError("--rate: a field rate needs a physical scene (`type: physical` CONFIG with a "
+                         "magnetic group)")
+    if field_rate is not None and rotation_rate is None:
+        raise InputError("--rotation-rate: a design schedule rotates the field as well as ramping it; give "
+                         "--rotation-rate (e.g. 30deg/s) with --rate (a rotation is never taken as "
+                         "instantaneous)")
+    if rotation_rate is not None and field_rate is None:
+        raise InputError("--rate: a design schedule ramps the field from zero as well as rotating it; give "
+                         "--rate (e.g. 5mT/s, a physical scene) with --rotation-rate")
+
+
 def _parse_stiffness(value, scene):
     """A dimensionless stiffness (units of B0/l^3) or a quantity in N/m (physical scenes)."""
     if value is None:
@@ -375,19 +398,17 @@ def run(args: argparse.Namespace) -> int:
     if args.target_shape is not None:
         from .design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)
+    from ..user_units import user_units
+
+    rates = _rates(args, raw)
+    units = user_units(scene, raw)
+    check_rates(rates, units)
     if isinstance(target, list):
         from .design_poses import run_poses
-        return run_poses(args, scene, options, raw, target, vary, settings)
-    rates = _rates(args, raw)
+        return run_poses(args, scene, options, raw, target, vary, settings, units, rates)
     from ..analysis.design import design
     from ..analysis.schedule import schedule_table
     from ..io import dumps_json
-    from ..user_units import user_units
-
-    units = user_units(scene, raw)
-    if rates[0] is not None and not (units is not None and units.has_field):
-        raise InputError("--rate: a field rate needs a physical scene (`type: physical` CONFIG with a "
-                         "magnetic group); give --rotation-rate only, or a physical CONFIG")
     with stdout_to_stderr(args.json), bad_input():
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)

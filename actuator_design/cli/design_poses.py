@@ -19,8 +19,9 @@ __all__ = ["run_poses", "summary"]
 EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
-def summary(res) -> str:
-    """The text report: the shared layout, then one block of lines per pose."""
+def summary(res, units=None, table=None) -> str:
+    """The text report: the shared layout, then one block of lines per pose (targets, tips and
+    fields also in the scene's units when it is physical)."""
     lines = ["actuator-design: inverse design, one actuator for several poses",
              f"  variables   : {', '.join(res.vary)} (alpha shared, the others one per pose)"]
     a = res.alpha
@@ -30,19 +31,28 @@ def summary(res) -> str:
                      f"{', '.join(f'{c:.4g}' for c in a['legendre_coefficients'])} rad")
     for k, p in enumerate(res.poses, start=1):
         t = p.target
+        lab = (f" = ({units.length(t[0]):.6g}, {units.length(t[1]):.6g}) {units.length_unit}"
+               if units is not None else "")
         lines.append(f"  pose {k:<6} : target x = {t[0]:.6g}, y = {t[1]:.6g}"
-                     + (f", angle = {math.degrees(t[2]):.4g} deg" if len(t) > 2 else "") + "  [rod lengths]")
-        lines.append(f"    field     : h = {p.design['h']:.8g}, phi = {math.degrees(p.design['phi']):.6g} deg "
+                     + (f", angle = {math.degrees(t[2]):.4g} deg" if len(t) > 2 else "") + f"  [rod lengths]{lab}")
+        field = (f" ({units.field_mT(p.design['h']):.6g} mT)" if units is not None and units.has_field else "")
+        lines.append(f"    field     : h = {p.design['h']:.8g}{field}, phi = {math.degrees(p.design['phi']):.6g} deg "
                      f"(field axis), p = {p.design['p']:.6g}")
-        lines.append(f"    achieved  : x = {p.achieved['x']:.10f}, y = {p.achieved['y']:.10f}; error {p.error:.3e}; "
+        tip = (f" = ({units.length(p.achieved['x']):.6g}, {units.length(p.achieved['y']):.6g}) {units.length_unit}"
+               if units is not None else "")
+        lines.append(f"    achieved  : x = {p.achieved['x']:.10f}, y = {p.achieved['y']:.10f}{tip}; error {p.error:.3e}; "
                      f"verified {p.verified}, stable {p.stable}, snap-free {p.snap_free}")
+        if p.at_bound:
+            lines.append(f"    bound     : {p.at_bound}")
         if p.robustness is not None:
             r = p.robustness
             lines.append(f"    robustness: {'holds' if r.holds else 'does NOT hold'} over the box "
                          f"({r.tolerances.describe()}): worst tip error {r.worst_tip_error:.3g}; "
                          f"{r.fold_distance.sentence()}")
     if res.transitions:
-        lines.append("  schedule    : " + f"{len(res.schedule)} steps from zero field through the poses in order")
+        timed = (f", {table[-1]['time_s']:.4g} s at the given rates" if table and "time_s" in table[-1] else "")
+        lines.append("  schedule    : " + f"{len(res.schedule)} steps from zero field through the poses in order"
+                     + timed)
         lines += [f"    {t}" for t in res.transitions]
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     lines.append(f"  note        : {res.message}")
@@ -51,18 +61,44 @@ def summary(res) -> str:
     return "\n".join(lines)
 
 
-def _files(res, raw) -> dict:
+def payload_of(res, units=None, table=None) -> dict:
+    """``res.to_dict()`` with the user's units added (never renamed), as for one pose: ``physical``
+    (length unit; per pose the target, tip in it and the field in mT and A/m) and the schedule's
+    steps with ``field_A_per_m``, ``field_mT``, ``angle_deg`` and ``time_s`` (with rates)."""
+    payload = res.to_dict()
+    if units is not None:
+        poses = []
+        for p in res.poses:
+            q = {"target": {"x": units.length(p.target[0]), "y": units.length(p.target[1])},
+                 "tip": {"x": units.length(p.achieved["x"]), "y": units.length(p.achieved["y"])}}
+            if units.has_field:
+                q.update(field_mT=units.field_mT(p.design["h"]), field_A_per_m=units.field_A_per_m(p.design["h"]),
+                         angle_deg=math.degrees(p.design["phi"]))
+            poses.append(q)
+        payload["physical"] = {"length_unit": units.length_unit, "poses": poses,
+                               "units": {"target": units.length_unit, "tip": units.length_unit,
+                                         "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m", "angle_deg": "deg",
+                                         "time_s": "s"}}
+    if table and len(table) == len(payload["schedule"]):
+        extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
+        payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
+    return payload
+
+
+def _files(res, raw, payload, table=None) -> dict:
     from ..io import dumps_json, scene_to_dict, shape_csv_text
     from ..viz.design import poses_figure
 
-    payload = res.to_dict()
+    payload = dict(payload)
     payload["scene"] = scene_to_dict(res.scene)
     payload["config"] = raw
     sched = _io.StringIO()
     w = csv.writer(sched)
-    w.writerow(["step", "pose", "h", "phi_rad"])
+    extra = [c for c in ("field_A_per_m", "field_mT", "angle_deg", "time_s") if table and c in table[0]]
+    w.writerow(["step", "pose", "h", "phi_rad"] + extra)
     for k, s in enumerate(res.schedule):
-        w.writerow([k, s.get("pose", ""), repr(float(s["h"])), repr(float(s["phi"]))])
+        w.writerow([k, s.get("pose", ""), repr(float(s["h"])), repr(float(s["phi"]))]
+                   + [repr(float(table[k][c])) for c in extra])
     files = {"design.json": dumps_json(payload, indent=1) + "\n", "schedule.csv": sched.getvalue(),
              "design.png": poses_figure(res)}
     for k, p in enumerate(res.poses, start=1):
@@ -71,13 +107,21 @@ def _files(res, raw) -> dict:
     return files
 
 
-def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, settings) -> int:
+def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, settings, units=None,
+              rates=(None, None)) -> int:
     from ..analysis.design_poses import design_poses
+    from ..analysis.schedule import schedule_table
 
     with stdout_to_stderr(args.json), bad_input():
         res = design_poses(targets, scene=scene, vary=vary, options=options, settings=settings,
                            verify=not args.no_verify)
-    emit(args, res, lambda: _files(res, raw), summary)
+    table = None
+    if res.schedule and (units is not None or rates != (None, None)):
+        with bad_input():
+            table = schedule_table(res.schedule, units, *rates)
+    payload = payload_of(res, units, table)
+    emit(args, res, lambda: _files(res, raw, payload, table), lambda r: summary(r, units, table),
+         payload=payload)
     if res.success:
         return EXIT_OK
     if not res.poses or not res.reachable or not res.robust:

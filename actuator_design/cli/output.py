@@ -46,12 +46,13 @@ def print_written(paths: Sequence[Path], json_mode: bool) -> None:
     print("wrote " + ", ".join(str(p) for p in paths), file=sys.stderr if json_mode else sys.stdout)
 
 
-def emit(args, result, files, summary) -> None:
-    """The end of a command: ``files()`` written all or nothing (with ``--out``), then the JSON or
-    ``summary(result)`` on stdout, then the ``wrote ...`` line."""
+def emit(args, result, files, summary, payload=None) -> None:
+    """The end of a command: ``files()`` written all or nothing (with ``--out``), then the JSON
+    (``payload``, default ``result.to_dict()``) or ``summary(result)`` on stdout, then the
+    ``wrote ...`` line."""
     from ..io import dumps_json
 
     written = write_out(args.out, files(), args.json) if args.out is not None else None
-    print(dumps_json(result.to_dict()) if args.json else summary(result))
+    print(dumps_json(result.to_dict() if payload is None else payload) if args.json else summary(result))
     if written is not None:
         print_written(written, args.json)

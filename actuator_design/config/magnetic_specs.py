@@ -224,9 +224,14 @@ class Magnetics(StrictModel):
                                                         p.volume_fraction), alpha, n_t)
             out.chi_bar, out.chi_hat, out.chi_max = body.chi_bar, body.chi_hat, body.chi_max
             out.demagnetizing_factor = n_t
-            if fibre_angle is not None:
+            if fibre_angle is not None or isotropic:
+                # isotropic particles: the easy axis is the body's (the tangent) whatever the
+                # layout, a varying one included (THEORY §10)
                 out.fibre_angle = body.fibre_angle
             out.notes.append(f"body demagnetisation applied (THEORY §10): N_t = {n_t:.6g}")
+        if isotropic:
+            out.notes.append("isotropic particles: a fibre layout has no effect (the easy axis is the "
+                             "rod's tangent, THEORY §10); inverse design does not design one")
         if out.chi_bar == 0.0 and not self.remanent_magnetization:
             out.notes.append("chi_bar = 0: isotropic particles (THEORY §2) without the body's "
                              "demagnetisation give no torque in a uniform field")

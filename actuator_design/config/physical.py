@@ -281,7 +281,14 @@ class PhysicalScene(StrictModel):
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field),
-            name=name or "physical cantilever", fibres_given=self.fibres is not None)
+            name=name or "physical cantilever", fibres_given=self.fibres is not None,
+            fibres_physical=not self._isotropic_particles())
+
+    def _isotropic_particles(self) -> bool:
+        """Spherical (or otherwise isotropic) particles: χ̄ = 0 of the particles alone (THEORY §2),
+        so the only anisotropy is the body's and a fibre layout has no effect (THEORY §10)."""
+        m = self.magnetics
+        return bool(m is not None and m.particles is not None and m.susceptibilities()[0] == 0.0)
 
     def _check_assumptions(self, field, h0: float, summary: Optional[MagneticSummary]) -> None:
         """Warn (ModelAssumptionWarning) about dense particles, a field above the saturation field,
