@@ -79,18 +79,23 @@ def test_magnetisation_profile_design_recovers_a_shooting_made_target():
 
 def test_field_and_uniform_magnetisation_design_recovers_a_combined_target():
     """Soft + hard rod: h, φ and a uniform β (one Legendre term) from a tip pose made by shooting at
-    (h, φ, β) = (0.8, 1.2, 0.5) with h_r = 1.5 held: determined, recovered to 1e-6."""
-    h_true, phi_true, beta_true, h_r = 0.8, 1.2, 0.5, 1.5
+    (h, φ, β) = (0.8, 1.2, 0.5): determined, recovered to 1e-6. The field is one field (issue 17):
+    the scene's h = 0.5, h_r = 1.5 give h_r = 3 h at every field, so the target is made at
+    h_r = 2.4 and h_r comes back with h."""
+    h_true, phi_true, beta_true = 0.8, 1.2, 0.5
+    h_r = 3.0 * h_true
     target = shooting_tip([beta_true], h_r, phi_true, h=h_true)
-    res = design(tuple(target), scene=hard_scene(h_r, 0.0, h=0.5), vary=("h", "phi", "magnetization"),
+    res = design(tuple(target), scene=hard_scene(1.5, 0.0, h=0.5), vary=("h", "phi", "magnetization"),
                  options=DEFAULT, settings=DesignSettings(alpha_terms=1))
     assert res.reachable and res.verified and res.stable, res.message
     assert res.design["h"] == pytest.approx(h_true, abs=1e-6)
+    assert res.design["h_r"] == pytest.approx(3.0 * res.design["h"], rel=1e-12)
     # φ is reported modulo 2π with a hard-magnetic term (the energy's period), not modulo π
     assert res.design["phi"] == pytest.approx(normalise_phi(phi_true, 2 * math.pi), abs=1e-6)
     assert res.design["magnetization"]["legendre_coefficients"][0] == pytest.approx(beta_true, abs=1e-6)
-    np.testing.assert_allclose(shooting_tip([res.design["magnetization"]["legendre_coefficients"][0]], h_r,
-                                            res.design["phi"], h=res.design["h"]), target, atol=1e-7)
+    np.testing.assert_allclose(shooting_tip([res.design["magnetization"]["legendre_coefficients"][0]],
+                                            res.design["h_r"], res.design["phi"], h=res.design["h"]),
+                               target, atol=1e-7)
 
 
 def test_the_verification_ramp_scales_h_r_with_the_field_like_h():

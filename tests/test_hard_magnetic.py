@@ -176,19 +176,20 @@ def test_phase_first_integral_is_conserved_along_a_hard_magnetic_equilibrium():
 
 
 def test_design_with_the_hard_term_present_recovers_a_shooting_made_target():
-    """The target is the tip of the shooting solution at (h, φ) = (0.9, 1.3) with h_r = 2 fixed;
-    the design (varying h and φ, h_r held) recovers the field. Note: the design varies h as a
-    group of its own; it does not scale h_r with h (see the report of issue 12)."""
+    """The target is the tip of the shooting solution at (h, φ) = (0.9, 1.3) with h_r = 1.8; the
+    design (varying h and φ) recovers the field. The field is one field (issue 17): the base scene's
+    h = 0.5, h_r = 1.0 fix h_r = 2 h at every field, so h_r comes back with h (THEORY §9)."""
     from actuator_design.analysis.design import design
 
-    ref = solve_shooting(ShootingParams(phi=1.3, h=0.9, h_r=2.0), 0.5)
+    ref = solve_shooting(ShootingParams(phi=1.3, h=0.9, h_r=1.8), 0.5)
     assert ref.converged
-    base = Scene(field=UniformField(phi=0.0), h=0.5, tip_force=(0.0, 0.0), h_r=2.0,
+    base = Scene(field=UniformField(phi=0.0), h=0.5, tip_force=(0.0, 0.0), h_r=1.0,
                  magnetization=constant_profile(0.0))
     d = design((ref.tip[0], ref.tip[1]), scene=base, vary=("h", "phi"), options=DEFAULT, verify=False)
     assert d.reachable and d.error < 1e-8
-    assert d.design_scene.h_r == 2.0
     assert float(d.design["h"]) == pytest.approx(0.9, abs=1e-6)
+    assert d.design_scene.h_r == pytest.approx(2.0 * d.design_scene.h, rel=1e-12)
+    assert d.design["h_r"] == d.design_scene.h_r
     assert float(d.design["phi"]) == pytest.approx(1.3, abs=1e-6)
 
 

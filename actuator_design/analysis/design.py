@@ -35,6 +35,7 @@ import numpy as np
 from ..options import SolverOptions
 from ..scene import Scene, default_scene
 from .design_choose import choose
+from .design_mirror import mirror_choice, mirrored_problem
 from .design_nlp import DESIGN_VARIABLES, prepare_scene
 from .design_optimise import candidate, optimise
 from .design_robust_stage import RobustReport, robust_stage
@@ -89,8 +90,11 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
     t0 = time.perf_counter()
     problem = design_problem(target, scene, vary, options, settings, stiffness, t0)
     timings: Dict[str, float] = {}
-    searched = search(problem, timings)
-    choice = choose(problem, searched)
+    mirror = mirrored_problem(problem)  # a target below the axis is searched as its mirror
+    searched = search(mirror or problem, timings)
+    choice = choose(mirror or problem, searched)
+    if choice is not None and mirror is not None:
+        choice = mirror_choice(choice, phi_period(problem.base))
     if choice is None:
         timings["total"] = time.perf_counter() - t0
         return _no_design(problem, timings)
@@ -122,6 +126,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     if not (settings.time_limit > 0):
         raise ValueError(f"time_limit: must be > 0 s, got {settings.time_limit}")
     base = scene or default_scene(h=0.0)
+    settings = _field_bound(settings, base)
     if stiffness is not None and base.tip_force is None:
         base = replace(base, tip_force=(0.0, 0.0))  # the stiffness is dp/dv1: p must be a term
     if vary is not None:
@@ -137,6 +142,11 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
             if not (0 < settings.magnetization_max <= math.pi + 1e-12):
                 raise ValueError(f"magnetization_max must lie in (0, 180] deg, got "
                                  f"{math.degrees(settings.magnetization_max):g} deg")
+    elif base.h_r > 0 and target:  # a hard-magnetic rod designs with its own physics: the field,
+        # then the magnetisation profile β(s) (THEORY §9), never a fibre layout; without soft
+        # coupling (h = 0) the field magnitude is the scene's and only its angle is designed
+        field = ("h", "phi") if base.h > 0 else ("phi",)
+        sets = (field, field + ("magnetization",))
     elif not target:
         sets = (("h",),)
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
@@ -147,6 +157,15 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
                          deadline=t0 + settings.time_limit,
                          fibres_fixed=fibres_fixed(base) and base.fibres_physical)
+
+
+def _field_bound(settings: DesignSettings, base: Scene) -> DesignSettings:
+    """The bound on h for a rod with remanence: h_r moves with h (h_r = h·h_r0/h0, THEORY §9) and
+    enters the equations as h² does (θ'' ~ h_r against θ'' ~ h²), so the field is bounded where
+    either reaches its limit: h ≤ h_max and h_r ≤ h_max², i.e. h ≤ min(h_max, h_max²·h0/h_r0)."""
+    if base.h_r > 0 and base.h > 0:
+        return replace(settings, h_max=min(settings.h_max, settings.h_max ** 2 * base.h / base.h_r))
+    return settings
 
 
 def fibres_fixed(scene: Scene) -> bool:
@@ -201,8 +220,10 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
                           "legendre_coefficients": [float(c) for c in best.coefficients]},
                 # the remanent magnetisation angle β(s), rad, when it is designed (THEORY §9)
                 **({"magnetization": {"s": s_dense.tolist(), "value": choice.scene.magnetization(s_dense).tolist(),
-                                      "legendre_coefficients": [float(c) for c in best.magnetization]},
-                    "h_r": float(choice.scene.h_r)} if "magnetization" in vary else {})},
+                                      "legendre_coefficients": [float(c) for c in best.magnetization]}}
+                   if "magnetization" in vary else {}),
+                # h_r at the design field (∝ H like h, THEORY §9) whenever the rod has remanence
+                **({"h_r": float(choice.scene.h_r)} if choice.scene.h_r > 0 else {})},
         vary=vary, schedule=[], message="", scene=problem.base, design_scene=choice.scene, optima=choice.optima,
         alternatives=choice.alternatives, timings=timings, stiffness_target=stiffness,
         achieved_stiffness=getattr(best, "stiffness", None),

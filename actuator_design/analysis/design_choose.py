@@ -38,8 +38,12 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
     notes: List[str] = []
     reachable = problem.rank(best)[0] == 0
     if reachable and not problem.user_vary and cand.vary != problem.variable_sets[0]:
-        notes.append(f"field magnitude and angle alone cannot reach the target; "
-                     f"used {', '.join(cand.vary)} (the fibre layout: the scene leaves it free)")
+        added = ("the magnetisation profile: a hard-magnetic rod" if "magnetization" in cand.vary
+                 else "the fibre layout: the scene leaves it free")
+        first = {("h", "phi"): "field magnitude and angle", ("phi",): "the field angle"}.get(
+            tuple(problem.variable_sets[0]), ", ".join(problem.variable_sets[0]))
+        notes.append(f"{first} alone cannot reach the target; "
+                     f"used {', '.join(cand.vary)} ({added})")
     if problem.fibres_fixed and not problem.user_vary and "alpha" not in cand.vary:
         notes.append("the scene's fibre layout is kept as given (add alpha to --vary to design it)")
     if not problem.base.fibres_physical and not problem.user_vary:

@@ -19,10 +19,12 @@ The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-
 is the remanent magnetisation angle β(s) = Σ b_k P_k(2s − 1) of a hard-magnetic rod (THEORY §9: the
 shape-programming problem), with the same number of terms and the same smoothness effort.
 
-Field scaling (THEORY §5, §9): h ∝ H and h_r ∝ H. The design varies h as a group of its own and
-holds h_r at the scene's value (the remanent coupling at the design field; h_r itself is not a design
-variable); the verification's loading path ramps the field H from 0 to the design's, so both groups
-grow linearly along it, h = t·h_d and h_r = t·h_r (:mod:`.design_verify`).
+Field scaling (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H. The field is one physical field: the
+design varies h, and every other group it drives moves with it, h_r = h·(h_r0/h0) and
+h_pos = h·(h_pos0/h0) with the base scene's ratios (:func:`couple_field_groups`; a rod without soft
+coupling, h0 = 0, has no h to vary: :func:`prepare_scene` says so). The verification's loading path
+ramps the field H from 0 to the design's, so all groups grow linearly along it, h = t·h_d and
+h_r = t·h_r,d (:mod:`.design_verify`).
 """
 from __future__ import annotations
 
@@ -53,6 +55,29 @@ PROFILE_BOUNDS = {"alpha": "alpha_max", "magnetization": "magnetization_max"}
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
 _LBFGS_CERTIFIED = True
+
+
+#: the groups driven by the field besides h, each ∝ H (THEORY §5, §9)
+_FIELD_DRIVEN = ("h_r", "h_pos")
+
+
+def couple_field_groups(P, P0, h, slices) -> None:
+    """Write the groups the field drives besides h into the NLP parameter vector ``P`` (CasADi SX,
+    in place): g = h·g0/h0 for g in (h_r, h_pos), with g0, h0 the base scene's values in ``P0``
+    (unchanged where h0 = 0)."""
+    h0 = P0[slices["h"]]
+    for g in _FIELD_DRIVEN:
+        if g in slices:
+            P[slices[g]] = ca.if_else(h0 > 0, h * P0[slices[g]] / h0, P0[slices[g]])
+
+
+def coupled_scene(base: Scene, sc: Scene) -> Scene:
+    """``sc`` (``base`` with a designed h) with h_r and h_pos moved with h like the field they share,
+    as :func:`couple_field_groups` does in the NLP."""
+    if not base.h > 0:
+        return sc
+    k = sc.h / base.h
+    return replace(sc, h_r=base.h_r * k, h_pos=base.h_pos * k)
 
 
 @dataclass
@@ -134,6 +159,8 @@ class DesignNLP:
         for v in self.vary:  # h, phi, p: their NLP slots from the parameter lens
             if v in _LENS_VARIABLES:
                 P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
+        if "h" in self.vary:
+            couple_field_groups(P, P0, d[self.dslices["h"]], lay.slices)
         self.vandermonde = None
         if self.profiles:
             V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
@@ -255,11 +282,13 @@ class DesignNLP:
 
     def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
         """The forward scene of a design vector (fibres and magnetisation as exact Legendre
-        profiles; h_r stays the base scene's, see the module docstring)."""
+        profiles; h_r and h_pos moved with h, see the module docstring)."""
         sc = base
         for v in self.vary:  # h, phi, p written through the parameter lens
             if v in _LENS_VARIABLES:
                 sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
+        if "h" in self.vary:
+            sc = coupled_scene(base, sc)
         if "alpha" in self.vary:
             sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
         if "magnetization" in self.vary:
@@ -413,6 +442,10 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
         raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
                          "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
                          "magnetisation profile")
+    if "h" in vary and scene.h_r > 0 and not scene.h > 0:
+        raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
+                         "through its remanence alone (h_r); design phi and/or magnetization at the "
+                         "scene's field magnitude")
     if ("h" in vary or "phi" in vary) and scene.field is None:
         scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
     try:

@@ -40,7 +40,7 @@ import numpy as np
 from .. import parameters as lens
 from ..profiles import constant_profile
 from ..scene import Scene, default_scene
-from .design_nlp import _LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots
+from .design_nlp import _LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots, couple_field_groups
 from .tolerances import Tolerances, apply_deltas, perturb
 
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
@@ -132,6 +132,8 @@ class ScenarioDesignNLP:
             for j, v in enumerate(self.per_pose):
                 val = d[self.pose_index(k, v)]
                 P[sl[lens.parameter(v).slot]] = val
+            if "h" in self.per_pose:  # the groups the field drives move with h (THEORY §9)
+                couple_field_groups(P, P0, d[self.pose_index(k, "h")], sl)
             if alpha is not None:
                 P[sl["alpha"]] = alpha
             if beta is not None:

@@ -125,9 +125,13 @@ class DesignResult:
             out["tolerances"] = self.tolerances.to_dict()
         out["robustness"] = None if self.robustness is None else self.robustness.to_dict()
         sc = self.scene.scales
+        H = None
         if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):
-            # h ∝ H0: the designed field scale in A/m and as μ0H in mT
-            H = self.design["h"] / sc.h_per_field
+            H = self.design["h"] / sc.h_per_field  # h ∝ H0: the designed field scale in A/m
+        elif sc is not None and "h" not in self.vary and sc.field > 0:
+            H = sc.field  # the field magnitude is the scene's (a rod without soft coupling)
+        if H is not None:
+            # the designed field scale in A/m and as μ0H in mT
             out["physical"] = {"field_A_per_m": H, "stiffness_scale_N_per_m": sc.stiffness,
                                "field_mT": H * 4e-7 * math.pi * 1e3,
                                "tip_x_m": self.achieved.get("x", float("nan")) * sc.length,

@@ -257,7 +257,7 @@ def _summary(res, units=None, table=None) -> str:
         + (f"; stiffness {res.stiffness_target:.8g} [B0/l^3]" if res.stiffness_target is not None else ""),
         f"  variables   : {', '.join(res.vary)}",
         f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {_phi_text(res)}, "
-        f"p = {d.get('p', float('nan')):.6g}",
+        f"p = {d.get('p', float('nan')):.6g}" + (f", h_r = {d['h_r']:.8g}" if "h_r" in d else ""),
     ]
     if "alpha" in res.vary and "alpha" in d:
         a = d["alpha"]["value"]
@@ -286,8 +286,10 @@ def _summary(res, units=None, table=None) -> str:
     elif res.tolerances is None:
         lines.append("  robustness  : not evaluated (no tolerance box: --tolerance none)")
     if res.schedule:
-        lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {res.schedule[-1]['h']:.6g} "
-                     f"at phi = {math.degrees(res.schedule[-1]['phi']):.6g} deg")
+        last = res.schedule[-1]
+        lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
+                     + (f", h_r = {last['h_r']:.6g}" if "h_r" in last else "")
+                     + f" at phi = {math.degrees(last['phi']):.6g} deg")
     lines.append(f"  optima      : {len(res.optima)} distinct local optima (see --json 'optima')")
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     if res.message:

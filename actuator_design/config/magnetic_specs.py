@@ -164,8 +164,17 @@ class Magnetics(StrictModel):
 
     @property
     def remanent_magnetization(self) -> Optional[float]:
-        """M_r of the composite, A/m, or None (no hard-magnetic term)."""
-        return self.remanence if self.remanence is not None else self.remanent_flux_density
+        """M_r of the composite, A/m, or None (no hard-magnetic term): as given, else from a hard
+        filler's preset, ν M_r of the particles (a dilute composite magnetised to remanence,
+        THEORY §9; ``remanence: 0 A/m`` makes the rod soft)."""
+        if self.remanence is not None:
+            return self.remanence
+        if self.remanent_flux_density is not None:
+            return self.remanent_flux_density
+        preset = None if self.particles is None else self.particles.preset
+        if preset is not None and preset.remanence:
+            return self.particles.volume_fraction * preset.remanence
+        return None
 
     def susceptibilities(self):
         """(χ̄, χ̂) of the particles alone (THEORY §2) or as given, dimensionless."""

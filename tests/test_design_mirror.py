@@ -1,0 +1,55 @@
+"""Symmetry of the search (issue 17 item 3): the planar rod is invariant under the reflection
+y → −y (θ, φ, α, β, θ0, p, q_y, m → their negatives), so a target and its mirror get mirror designs,
+and a target whose mirror is designed is designed.
+
+References: the reflection itself is checked against the forward solver (a mirrored scene's
+equilibrium is the mirror image of the scene's, a symmetry of the model); designs are compared
+mirror to mirror and re-checked by independent forward solves."""
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from actuator_design.analysis.design import design
+from actuator_design.analysis.design_mirror import mirror_scene
+from actuator_design.equilibrium import solve
+from actuator_design.options import SolverOptions
+from actuator_design.profiles import expression_profile
+from actuator_design.scene import Scene, UniformField, default_scene
+
+
+def test_the_reflection_of_a_scene_is_the_reflection_of_its_equilibrium():
+    sc = Scene(field=UniformField(phi=1.1), h=1.7, fibres=expression_profile("0.3 + 0.4*s"),
+               tip_force=(0.2, -0.7), tip_moment=0.3, distributed_load=(0.1, 0.4), theta0=0.2)
+    m = mirror_scene(sc)
+    back = mirror_scene(m)  # an involution: the same scene (the expression is -(-(...)))
+    s_ = np.linspace(0, 1, 11)
+    np.testing.assert_array_equal(back.fibres(s_), sc.fibres(s_))
+    assert replace(back, fibres=sc.fibres) == sc
+    a, b = solve(sc, SolverOptions()), solve(m, SolverOptions())
+    assert a.success and b.success
+    np.testing.assert_allclose(b.theta, -a.theta, atol=1e-9)
+    assert (b.tip["x"], b.tip["y"]) == pytest.approx((a.tip["x"], -a.tip["y"]), abs=1e-10)
+
+
+def test_a_non_uniform_field_has_no_mirror_here():
+    from actuator_design.scene import DipoleField
+    assert mirror_scene(Scene(field=DipoleField(), h=1.0)) is None
+
+
+def test_mirror_targets_get_mirror_designs():
+    """The issue's pair: (0.5, 0.5) was designed, (0.5, −0.5) was not (exit 3)."""
+    up, down = design((0.5, 0.5)), design((0.5, -0.5))
+    assert up.success, up.message
+    assert down.success, down.message
+    assert "found by symmetry" in down.message and "found by symmetry" not in up.message
+    assert down.design["h"] == pytest.approx(up.design["h"], rel=1e-8)
+    assert down.design["phi"] == pytest.approx(-up.design["phi"], abs=1e-8)
+    np.testing.assert_allclose(down.design["alpha"]["legendre_coefficients"],
+                               -np.asarray(up.design["alpha"]["legendre_coefficients"]), atol=1e-8)
+    # the user's own problem was verified: its reported state is an equilibrium at its target
+    assert (down.achieved["x"], down.achieved["y"]) == pytest.approx((0.5, -0.5), abs=1e-9)
+    assert down.robustness.robustness.worst_tip_error == pytest.approx(up.robustness.robustness.worst_tip_error, rel=1e-6)
+    assert down.schedule[-1]["h"] == pytest.approx(up.schedule[-1]["h"], rel=1e-8)
+    assert all(math.isfinite(q["phi"]) for q in down.schedule)
