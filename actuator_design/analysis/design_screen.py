@@ -43,6 +43,9 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
             r = solve(nlp.scene_for(base, d), problem.options)
         if not (r.success and r.stable):
             continue
+        r = _on_design_mesh(r, nlp, nlp.scene_for(base, d), problem.options)
+        if r is None:
+            continue
         prev = r
         dist = 0.0
         if target:
@@ -66,6 +69,18 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
         if len(chosen) == keep:
             break
     return chosen
+
+
+def _on_design_mesh(r, nlp: DesignNLP, scene: Scene, options):
+    """The start ``r`` on the design NLP's mesh: a forward solve may refine its mesh (boundary
+    layers at strong fields), the design NLP has one; the state is carried over by interpolation
+    and re-converged there (None if it is not a stable equilibrium on that mesh)."""
+    nodes = nlp.solver.transcription.nodes
+    if r.z is not None and r.z.size == nodes.size:
+        return r
+    from ..equilibrium import solve as solve_on
+    again = solve_on(scene, options, initial=np.interp(nodes, r.s, r.theta), solver=nlp.solver)
+    return again if again.success and again.stable else None
 
 
 def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np.ndarray]:

@@ -1,0 +1,197 @@
+"""Design benchmark (issue 17 item 6): the main job over the default scene's workspace and on
+physical strips, every success re-checked by the independent shooting reference.
+
+    python problems/bench_design.py [--quick] [--json FILE]
+
+Cases
+-----
+* a grid of tip targets over the default scene's workspace (radius × angle, each with its mirror
+  target (x, −y), so mirror pairs can be compared);
+* physical strips: iron spheres (isotropic: field only), elongated carbonyl iron (fibres), NdFeB
+  (hard-magnetic: field, then magnetisation), each at targets made from their own forward states;
+* 2- and 3-pose sets on the default scene;
+* a stiffness target (h, φ varied).
+
+Checks of every success, by ``actuator_design.reference`` (scipy's DOP853 shooting, its own
+right-hand side; Jacobi's conjugate-point test for the Morse index), at the reported design:
+the equilibrium reaches the reported tip (to 1e-6), and its Morse index is 0 (soft rods). Mirror
+pairs must both succeed or both fail. Not re-checked here (the design's own report covers them,
+by branch following and loading paths): the box corners, the fold distance and the schedule
+replayed from rest.
+
+Prints one line per case, then the success rate, the failures by cause, the failed checks and the
+time per design; exits 1 when a success fails a check or a mirror pair disagrees.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from collections import Counter
+
+import numpy as np
+
+from actuator_design.analysis.design import design
+from actuator_design.analysis.design_poses import design_poses
+from actuator_design.config.model import load_config
+from actuator_design.equilibrium import solve
+from actuator_design.reference.jacobi import jacobi_morse_index
+from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
+
+ROD = {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"}
+STRIPS = {
+    "iron spheres": {"particles": {"material": "carbonyl_iron", "volume_fraction": 0.1}},
+    "iron fibres": {"particles": {"material": "carbonyl_iron", "volume_fraction": 0.1, "axis_ratio": 5},
+                    "body_demagnetization": False},
+    "NdFeB": {"particles": {"material": "ndfeb", "volume_fraction": 0.1}},
+}
+
+
+def strip_scene(name):
+    extra = {"magnetization": "0 deg"} if name == "NdFeB" else {}
+    cfg = {"scene": {"type": "physical", "rod": ROD, "magnetics": STRIPS[name], **extra,
+                     "field": {"type": "uniform", "magnitude": "20 mT", "angle": "70 deg"}}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_config(cfg).to_scene()
+
+
+def workspace_targets(quick):
+    radii = (0.6, 0.85) if quick else (0.55, 0.7, 0.85, 0.95)
+    angles = (20, 60, 100) if quick else (15, 40, 65, 90, 115)
+    out = []
+    for r in radii:
+        for a in angles:
+            x, y = r * math.cos(math.radians(a)), r * math.sin(math.radians(a))
+            out += [(round(x, 6), round(y, 6)), (round(x, 6), -round(y, 6))]
+    return out
+
+
+def _profile(p):
+    return 0.0 if p is None else p  # a Profile is a vectorised callable of s
+
+
+def reference_check(scene, state, tip):
+    """Shooting at the designed scene from the design state's clamp curvature: (tip error, Morse
+    index or None)."""
+    gamma = float(state._clamp_curvature())  # θ'(0) of the design's state
+    params = ShootingParams(h=scene.h, phi=scene.phi, fx=0.0 if scene.tip_force is None else scene.tip_force[0],
+                            fy=scene.p, m=scene.tip_moment or 0.0, theta0=scene.theta0,
+                            alpha=_profile(scene.fibres), b=_profile(scene.stiffness), h_r=scene.h_r,
+                            beta=_profile(scene.magnetization))
+    # the root of the free-end residual nearest the design's clamp curvature (there may be several
+    # equilibria, THEORY §8: a Newton start can jump to another): a sign change on a fine grid
+    # (there may be several equilibria, THEORY §8): every sign change of the free-end residual on a
+    # fine grid around it is solved, and the equilibrium whose tip is nearest the reported one is
+    # the reference
+    grid = gamma + np.linspace(-0.5, 0.5, 81) * max(1.0, abs(gamma))
+    r = np.array([shoot(g, params).residual for g in grid])
+    brackets = [(grid[i], grid[i + 1]) for i in range(len(grid) - 1) if r[i] * r[i + 1] <= 0]
+    roots = [solve_shooting(params, gamma, bracket=b) for b in brackets] or [solve_shooting(params, gamma)]
+    roots = [q for q in roots if q.converged]
+    if not roots:
+        return math.inf, None
+    ref = min(roots, key=lambda q: math.hypot(q.tip[0] - tip[0], q.tip[1] - tip[1]))
+    if not ref.converged:
+        return math.inf, None
+    err = math.hypot(ref.tip[0] - tip[0], ref.tip[1] - tip[1])
+    morse = None if scene.h_r > 0 else jacobi_morse_index(ref, params).index
+    return err, morse
+
+
+def run_single(label, target, scene=None, **kw):
+    t0 = time.perf_counter()
+    res = design(target, scene=scene, **kw)
+    dt = time.perf_counter() - t0
+    row = {"case": label, "target": list(target), "success": bool(res.success), "time_s": dt,
+           "cause": None if res.success else ("unreachable" if not res.reachable else
+                                              "not robust" if res.robustness is not None and not res.robustness.holds
+                                              else "not verified"),
+           "checks": [], "by_symmetry": "found by symmetry" in res.message}
+    if res.success:
+        err, morse = reference_check(res.design_scene, res.path.final,
+                                     (res.achieved["x"], res.achieved["y"]))
+        if not err <= 1e-6:
+            row["checks"].append(f"shooting tip differs by {err:.3g}")
+        if morse not in (None, 0):
+            row["checks"].append(f"Morse index {morse} by Jacobi")
+        row["design"] = {"h": res.design["h"], "phi": res.design["phi"]}
+    return row
+
+
+def run_poses(label, targets):
+    t0 = time.perf_counter()
+    res = design_poses(targets)
+    row = {"case": label, "target": [list(t) for t in targets], "success": bool(res.success),
+           "time_s": time.perf_counter() - t0, "cause": None if res.success else "poses", "checks": [],
+           "by_symmetry": False}
+    if res.success:
+        for k, (p, sc) in enumerate(zip(res.poses, res.scenes), start=1):
+            err, morse = reference_check(sc, p.state, (p.achieved["x"], p.achieved["y"]))
+            if not err <= 1e-6:
+                row["checks"].append(f"pose {k}: shooting tip differs by {err:.3g}")
+            if morse not in (None, 0):
+                row["checks"].append(f"pose {k}: Morse index {morse}")
+    return row
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a 12-target grid and one strip target each")
+    ap.add_argument("--json", help="write the rows and the summary to this file")
+    args = ap.parse_args(argv)
+    rows = []
+    t_all = time.perf_counter()
+    for t in workspace_targets(args.quick):
+        rows.append(run_single("default scene", t))
+        print(_line(rows[-1]), flush=True)
+    for name in STRIPS:
+        sc = strip_scene(name)
+        fields = ((1.0, 70.0),) if args.quick else ((1.0, 70.0), (2.0, 100.0))
+        for k, deg in fields:
+            start = sc.with_values(h=sc.h * k, phi=math.radians(deg))
+            if sc.h_r > 0:
+                start = type(sc)(**{**start.__dict__, "h_r": sc.h_r * k})
+            r = solve(start)
+            if not r.success:
+                continue
+            rows.append(run_single(f"strip: {name}", (float(r.tip["x"]), float(r.tip["y"])), scene=sc))
+            print(_line(rows[-1]), flush=True)
+    for targets in ([(0.3, 0.5), (0.6, 0.2)], [(0.3, 0.5), (0.6, 0.2), (0.8, 0.4)]):
+        rows.append(run_poses(f"{len(targets)} poses", targets))
+        print(_line(rows[-1]), flush=True)
+    rows.append(run_single("stiffness 1.5 (h, phi)", (), stiffness=1.5, vary=("h", "phi")))
+    print(_line(rows[-1]), flush=True)
+    summary = _summary(rows, time.perf_counter() - t_all)
+    print(json.dumps(summary, indent=1))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"rows": rows, "summary": summary}, fh, indent=1)
+    return 1 if summary["failed_checks"] or summary["mirror_mismatches"] else 0
+
+
+def _line(row):
+    t = row["target"]
+    ok = "SUCCESS" if row["success"] else f"no ({row['cause']})"
+    checks = "; ".join(row["checks"]) or ("checks passed" if row["success"] else "")
+    return f"{row['case']:<24} {str(t):<40} {ok:<22} {row['time_s']:6.2f} s  {checks}"
+
+
+def _summary(rows, total):
+    grid = {tuple(r["target"]): r for r in rows if r["case"] == "default scene"}
+    mism = [list(t) for t, r in grid.items() if t[1] > 0 and (t[0], -t[1]) in grid
+            and grid[(t[0], -t[1])]["success"] != r["success"]]
+    times = [r["time_s"] for r in rows]
+    return {"cases": len(rows), "successes": sum(r["success"] for r in rows),
+            "success_rate": sum(r["success"] for r in rows) / len(rows),
+            "failures_by_cause": dict(Counter(r["cause"] for r in rows if not r["success"])),
+            "failed_checks": [f"{r['case']} {r['target']}: {c}" for r in rows for c in r["checks"]],
+            "mirror_mismatches": mism, "grid_time_s": sum(r["time_s"] for r in grid.values()),
+            "median_time_per_design_s": float(np.median(times)), "total_time_s": total}
+
+
+if __name__ == "__main__":
+    sys.exit(main())

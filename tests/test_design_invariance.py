@@ -1,0 +1,56 @@
+"""A design is a function of the problem, not of round-off (issue 17 item 1): the same request gives
+the same design, to the stated tolerance (1e-6), when the target moves by one ulp and when it is
+given in mm instead of rod lengths. The target is a state of the strip itself (the tip of a forward
+solve at its own field), so it is reachable by construction."""
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from actuator_design.analysis.design import design
+from actuator_design.cli.main import main
+from actuator_design.config.model import load_config
+from actuator_design.equilibrium import solve
+
+STRIP = {"scene": {"type": "physical",
+                   "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"},
+                   "magnetics": {"particles": {"material": "carbonyl_iron", "volume_fraction": 0.1}},
+                   "field": {"type": "uniform", "magnitude": "40 mT", "angle": "60 deg"}}}
+
+
+@pytest.fixture(scope="module")
+def problem():
+    scene = load_config(STRIP).to_scene()
+    r = solve(scene)
+    assert r.success and r.stable
+    return scene, (float(r.tip["x"]), float(r.tip["y"]))
+
+
+def _key(d):
+    return np.array([d["h"], d["phi"]])
+
+
+def test_one_ulp_of_the_target_does_not_change_the_design(problem):
+    scene, (x, y) = problem
+    a = design((x, y), scene=scene)
+    b = design((float(np.nextafter(x, 1.0)), y), scene=scene)
+    c = design((x, float(np.nextafter(y, -1.0))), scene=scene)
+    assert a.success, a.message
+    assert a.success == b.success == c.success
+    np.testing.assert_allclose(_key(b.design), _key(a.design), atol=1e-6)
+    np.testing.assert_allclose(_key(c.design), _key(a.design), atol=1e-6)
+    assert b.stability_margin == pytest.approx(a.stability_margin, abs=1e-6)
+
+
+def test_the_target_in_mm_gives_the_design_in_rod_lengths(problem, tmp_path, capsys):
+    _, (x, y) = problem
+    cfg = tmp_path / "strip.yaml"
+    cfg.write_text(yaml.safe_dump(STRIP))
+    assert main(["design", str(cfg), "--target-tip", f"{x!r},{y!r}", "--json"]) == 0
+    rod = json.loads(capsys.readouterr().out)
+    assert main(["design", str(cfg), "--target-tip", f"{20 * x!r},{20 * y!r}", "--target-units", "mm",
+                 "--json"]) == 0
+    mm = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(_key(mm["design"]), _key(rod["design"]), atol=1e-6)
+    assert mm["physical"]["field_mT"] == pytest.approx(rod["physical"]["field_mT"], rel=1e-6)
