@@ -38,9 +38,11 @@ def test_a_non_uniform_field_has_no_mirror_here():
     assert mirror_scene(Scene(field=DipoleField(), h=1.0)) is None
 
 
-def test_mirror_targets_get_mirror_designs():
-    """The issue's pair: (0.5, 0.5) was designed, (0.5, −0.5) was not (exit 3)."""
-    up, down = design((0.5, 0.5)), design((0.5, -0.5))
+@pytest.mark.parametrize("target", [(0.5, 0.5), (0.295833, 0.634415)])
+def test_mirror_targets_get_mirror_designs(target):
+    """The issue's pair: (0.5, 0.5) was designed, (0.5, −0.5) was not (exit 3); the second pair's
+    robust designs differed before the robust stage ran on the mirror problem too."""
+    up, down = design(target), design((target[0], -target[1]))
     assert up.success, up.message
     assert down.success, down.message
     assert "found by symmetry" in down.message and "found by symmetry" not in up.message
@@ -49,7 +51,7 @@ def test_mirror_targets_get_mirror_designs():
     np.testing.assert_allclose(down.design["alpha"]["legendre_coefficients"],
                                -np.asarray(up.design["alpha"]["legendre_coefficients"]), atol=1e-8)
     # the user's own problem was verified: its reported state is an equilibrium at its target
-    assert (down.achieved["x"], down.achieved["y"]) == pytest.approx((0.5, -0.5), abs=1e-9)
+    assert (down.achieved["x"], down.achieved["y"]) == pytest.approx((target[0], -target[1]), abs=1e-9)
     assert down.robustness.robustness.worst_tip_error == pytest.approx(up.robustness.robustness.worst_tip_error, rel=1e-6)
     assert down.schedule[-1]["h"] == pytest.approx(up.schedule[-1]["h"], rel=1e-8)
     assert all(math.isfinite(q["phi"]) for q in down.schedule)

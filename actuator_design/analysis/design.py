@@ -35,7 +35,7 @@ import numpy as np
 from ..options import SolverOptions
 from ..scene import Scene, default_scene
 from .design_choose import choose
-from .design_mirror import mirror_choice, mirrored_problem
+from .design_mirror import mirrored_problem, robust_by_mirror
 from .design_nlp import DESIGN_VARIABLES, prepare_scene
 from .design_optimise import candidate, optimise
 from .design_robust_stage import RobustReport, robust_stage
@@ -93,13 +93,14 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
     mirror = mirrored_problem(problem)  # a target below the axis is searched as its mirror
     searched = search(mirror or problem, timings)
     choice = choose(mirror or problem, searched)
-    if choice is not None and mirror is not None:
-        choice = mirror_choice(choice, phi_period(problem.base))
     if choice is None:
         timings["total"] = time.perf_counter() - t0
         return _no_design(problem, timings)
     tr = time.perf_counter()
-    choice, robust = robust_stage(problem, choice)
+    if mirror is None:
+        choice, robust = robust_stage(problem, choice)
+    else:  # the robust design of the mirror problem, reflected; its report made on the user's problem
+        choice, robust = robust_by_mirror(problem, mirror, choice)
     timings["robustness"] = time.perf_counter() - tr
     verification = None
     if verify:

@@ -20,9 +20,9 @@ from ..profiles import Profile
 from ..scene import Scene, UniformField
 from .design_nlp import DesignPoint
 from .design_optimise import design_vector
-from .design_types import Candidate, Choice, DesignProblem, normalise_phi, normalise_tip_angle
+from .design_types import Candidate, Choice, DesignProblem, normalise_phi, normalise_tip_angle, phi_period
 
-__all__ = ["mirror_scene", "mirrored_problem", "mirror_choice", "MIRROR_NOTE"]
+__all__ = ["mirror_scene", "mirrored_problem", "mirror_choice", "robust_by_mirror", "MIRROR_NOTE"]
 
 MIRROR_NOTE = ("found by symmetry: the target lies below the rod's axis, so it was designed as its mirror "
                "(x, -y) and mirrored back (phi, alpha, beta, p -> -phi, -alpha, -beta, -p)")
@@ -100,3 +100,32 @@ def mirror_choice(choice: Choice, period: float) -> Choice:
                   reachable=choice.reachable, notes=[MIRROR_NOTE] + list(choice.notes),
                   alternatives=dict(choice.alternatives),
                   optima=[_mirror_optimum(o, period) for o in choice.optima])
+
+
+def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choice):
+    """The robust stage run on the mirror problem (whose box corners are the user's, reflected), its
+    design reflected back, and the robustness report made again on the user's own problem by
+    branch following (:func:`~.robustness.evaluate_robustness`): the report's corners and fold
+    directions are the user's, and a design that held only in the mirror would say so.
+
+    Returns
+    -------
+    (Choice, RobustReport or None)
+    """
+    from .design_robust_stage import RobustReport, robust_stage
+    from .robustness import evaluate_robustness
+
+    period = phi_period(problem.base)
+    moved, report = robust_stage(mirror, choice)
+    out = mirror_choice(moved, period)
+    if report is None:
+        return out, None
+    tol, options = problem.settings.tolerances, problem.options
+    rob = evaluate_robustness(out.scene, out.point.z, problem.target, tol, options)
+    nominal = None
+    if report.nominal is not None:
+        before = mirror_choice(choice, period)
+        nominal = evaluate_robustness(before.scene, before.point.z, problem.target, tol, options,
+                                      fold_search=False)
+    largest = report.largest_box if rob.holds or report.largest_box < 1.0 else 0.0
+    return out, RobustReport(rob, largest, nominal, list(report.attempts))

@@ -380,6 +380,11 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
     text = dumps_json(payload, indent=1) + "\n"
     rows = table if table is not None else schedule_table(res.schedule)
     state = res.path.final if res.path is not None else res.forward
+    if state is not None and state.success and res.achieved and res.path is None:
+        # shape.csv is the state the text reports, or absent: an unverified design reports the
+        # design NLP's state, and the fresh forward solve may have landed on another equilibrium
+        if max(abs(state.tip["x"] - res.achieved["x"]), abs(state.tip["y"] - res.achieved["y"])) > 1e-6:
+            state = None
     files = {"design.json": text, "schedule.csv": table_csv_text(rows, _columns(rows)),
              "design.png": png_bytes(design_figure(res, units=units), dpi=100)}
     if state is not None and state.success:

@@ -36,8 +36,8 @@ def summary(res, units=None, table=None) -> str:
         lines.append(f"  pose {k:<6} : target x = {t[0]:.6g}, y = {t[1]:.6g}"
                      + (f", angle = {math.degrees(t[2]):.4g} deg" if len(t) > 2 else "") + f"  [rod lengths]{lab}")
         field = (f" ({units.field_mT(p.design['h']):.6g} mT)" if units is not None and units.has_field else "")
-        lines.append(f"    field     : h = {p.design['h']:.8g}{field}, phi = {math.degrees(p.design['phi']):.6g} deg "
-                     f"(field axis), p = {p.design['p']:.6g}")
+        lines.append(f"    field     : h = {p.design['h']:.8g}{field}, phi = {_phi_text(res, k, p.design['phi'])}, "
+                     f"p = {p.design['p']:.6g}")
         tip = (f" = ({units.length(p.achieved['x']):.6g}, {units.length(p.achieved['y']):.6g}) {units.length_unit}"
                if units is not None else "")
         lines.append(f"    achieved  : x = {p.achieved['x']:.10f}, y = {p.achieved['y']:.10f}{tip}; error {p.error:.3e}; "
@@ -59,6 +59,17 @@ def summary(res, units=None, table=None) -> str:
     lines.append("  RESULT      : " + ("SUCCESS — every pose verified, stable, snap-free and holding over the box"
                                       if res.success else "NOT a success (see note)"))
     return "\n".join(lines)
+
+
+def _phi_text(res, k: int, phi: float) -> str:
+    """Pose k's field angle as the schedule (and its figure) leaves the field there, and the design's
+    representative in (-90, 90] deg when they differ (one field axis), as for one pose."""
+    ends = [q["phi"] for q in res.schedule if q.get("pose") == k]
+    end = ends[-1] if ends else phi
+    text = f"{math.degrees(end):.6g} deg"
+    if abs(end - phi) > 1e-9:
+        text += f" (field axis, the same as {math.degrees(phi):.6g} deg)"
+    return text
 
 
 def payload_of(res, units=None, table=None) -> dict:
