@@ -181,3 +181,16 @@ def test_target_angle_is_taken_modulo_two_pi():
     assert res.success and res.design["h"] == pytest.approx(1.3, abs=1e-6)
     assert res.design["phi"] == pytest.approx(1.1, abs=1e-6)
     assert not design_contradictions(res.to_dict())
+
+
+def test_a_stiffness_below_the_axial_fields_is_found_with_the_field_angle():
+    """Issue 17: --target-stiffness 1.5 exited 4 though h and φ are promised. In a transverse field
+    the straight rod is an equilibrium for every h (p = 0) and its stiffness falls below s(0) = 3;
+    the design's stiffness is measured independently (central differences of forward solves) and
+    the straight rod checked by the tip (1, 0)."""
+    res = design(None, scene=default_scene(h=0.0, phi=0.0), stiffness=1.5)
+    assert res.success, res.message
+    assert res.vary == ("h", "phi") and "the field magnitude alone cannot reach" in res.message
+    assert res.achieved_stiffness == pytest.approx(1.5, rel=1e-7)
+    assert abs(math.cos(res.design["phi"])) < 1e-6  # transverse
+    assert (res.achieved["x"], res.achieved["y"]) == pytest.approx((1.0, 0.0), abs=1e-9)

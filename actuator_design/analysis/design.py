@@ -148,8 +148,9 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # coupling (h = 0) the field magnitude is the scene's and only its angle is designed
         field = ("h", "phi") if base.h > 0 else ("phi",)
         sets = (field, field + ("magnetization",))
-    elif not target:
-        sets = (("h",),)
+    elif not target:  # a stiffness alone: the field magnitude, then its angle too (a transverse
+        # field softens the straight rod below the axial field's s(0) = 3, THEORY §6)
+        sets = ((("h",), ("h", "phi")) if not (base.h_r > 0 and not base.h > 0) else (("phi",),))
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical

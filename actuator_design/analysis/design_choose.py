@@ -38,10 +38,13 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
     notes: List[str] = []
     reachable = problem.rank(best)[0] == 0
     if reachable and not problem.user_vary and cand.vary != problem.variable_sets[0]:
-        added = ("the magnetisation profile: a hard-magnetic rod" if "magnetization" in cand.vary
-                 else "the fibre layout: the scene leaves it free")
-        first = {("h", "phi"): "field magnitude and angle", ("phi",): "the field angle"}.get(
-            tuple(problem.variable_sets[0]), ", ".join(problem.variable_sets[0]))
+        extra = [v for v in cand.vary if v not in problem.variable_sets[0]]
+        added = ("the magnetisation profile: a hard-magnetic rod" if "magnetization" in extra
+                 else "the fibre layout: the scene leaves it free" if "alpha" in extra
+                 else "the field angle too")
+        first = {("h", "phi"): "field magnitude and angle", ("phi",): "the field angle",
+                 ("h",): "the field magnitude"}.get(tuple(problem.variable_sets[0]),
+                                                    ", ".join(problem.variable_sets[0]))
         notes.append(f"{first} alone cannot reach the target; "
                      f"used {', '.join(cand.vary)} ({added})")
     if problem.fibres_fixed and not problem.user_vary and "alpha" not in cand.vary:

@@ -110,7 +110,9 @@ class MultiPoseResult:
                           "p": "B0/l^2"}}
 
 
-def _fail(message, scene, vary, tol, timings) -> MultiPoseResult:
+def _fail(message, scene, vary, tol, timings, t0=None) -> MultiPoseResult:
+    if t0 is not None:
+        timings["total"] = time.perf_counter() - t0
     return MultiPoseResult(False, [], {}, tuple(vary), [], [], message, scene, tol, timings=timings)
 
 
@@ -156,7 +158,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     ch1 = choose(first, search(first, timings))
     if ch1 is None or not ch1.reachable:
         return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
-                     tol, timings)
+                     tol, timings, t0)
     nlp, base = ch1.candidate.nlp, ch1.candidate.base
     coeffs, beta = ch1.point.coefficients, ch1.point.magnetization
     d_list, z_list = [design_vector(nlp, ch1.point)], [ch1.point.z]
@@ -166,7 +168,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
         pk = design_problem(tgt, fixed, per_pose, options, replace(settings, tolerances=no_box), None, t0)
         ck = choose(pk, search(pk, timings))
         if ck is None:
-            return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings)
+            return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings, t0)
         pt = ck.point
         d_list.append(nlp.design_vector(h=pt.h, phi=pt.phi, p=pt.p, coefficients=coeffs, magnetization=beta))
         z_list.append(pt.z)
@@ -176,7 +178,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     joint = _joint_nominal(nlp, base, d_list, z_list, targets, s)
     if joint.point is None:
         return _fail("no shared fibre layout with stable states at every pose was found "
-                     f"({'; '.join(joint.attempts)})", base, vset, tol, timings)
+                     f"({'; '.join(joint.attempts)})", base, vset, tol, timings, t0)
     snlp, point, scale = joint.nlp, joint.point, 1.0
     notes = []
     if tol.active:
