@@ -36,7 +36,7 @@ from ..options import SolverOptions
 from ..scene import Scene, default_scene
 from .design_choose import choose
 from .design_mirror import mirrored_problem, robust_by_mirror
-from .design_nlp import DESIGN_VARIABLES, prepare_scene
+from .design_nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
 from .design_optimise import candidate, optimise
 from .design_robust_stage import RobustReport, robust_stage
 from .design_screen import screen
@@ -146,11 +146,11 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     elif base.h_r > 0 and target:  # a hard-magnetic rod designs with its own physics: the field,
         # then the magnetisation profile β(s) (THEORY §9), never a fibre layout; without soft
         # coupling (h = 0) the field magnitude is the scene's and only its angle is designed
-        field = ("h", "phi") if base.h > 0 else ("phi",)
+        field = ("phi",) if remanence_only(base) else ("h", "phi")
         sets = (field, field + ("magnetization",))
     elif not target:  # a stiffness alone: the field magnitude, then its angle too (a transverse
         # field softens the straight rod below the axial field's s(0) = 3, THEORY §6)
-        sets = ((("h",), ("h", "phi")) if not (base.h_r > 0 and not base.h > 0) else (("phi",),))
+        sets = (("phi",),) if remanence_only(base) else (("h",), ("h", "phi"))
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical

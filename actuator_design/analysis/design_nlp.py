@@ -71,6 +71,12 @@ def couple_field_groups(P, P0, h, slices) -> None:
             P[slices[g]] = ca.if_else(h0 > 0, h * P0[slices[g]] / h0, P0[slices[g]])
 
 
+def remanence_only(scene: Scene) -> bool:
+    """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
+    so it has no h to design (THEORY §9)."""
+    return scene.h_r > 0 and not scene.h > 0
+
+
 def coupled_scene(base: Scene, sc: Scene) -> Scene:
     """``sc`` (``base`` with a designed h) with h_r and h_pos moved with h like the field they share,
     as :func:`couple_field_groups` does in the NLP."""
@@ -442,7 +448,7 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
         raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
                          "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
                          "magnetisation profile")
-    if "h" in vary and scene.h_r > 0 and not scene.h > 0:
+    if "h" in vary and remanence_only(scene):
         raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
                          "through its remanence alone (h_r); design phi and/or magnetization at the "
                          "scene's field magnitude")

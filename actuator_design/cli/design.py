@@ -342,18 +342,29 @@ def _physical_payload(res, units, table) -> dict:
     if units is not None:
         phys = payload.setdefault("physical", {})
         phys["length_unit"] = units.length_unit
-        phys["units"] = {"target": units.length_unit, "tip": units.length_unit, "field_mT": "mT (mu0 H)",
-                         "field_A_per_m": "A/m", "angle_deg": "deg", "time_s": "s"}
+        phys["units"] = unit_labels(units)
         if res.target:
             phys["target"] = {"x": units.length(res.target[0]), "y": units.length(res.target[1])}
         if res.achieved:
             phys["tip"] = {"x": units.length(res.achieved["x"]), "y": units.length(res.achieved["y"])}
         if res.stiffness_target is not None:
             phys["target_stiffness_N_per_m"] = res.stiffness_target * units.stiffness_scale
+    add_schedule_units(payload, table)
+    return payload
+
+
+def unit_labels(units) -> dict:
+    """The ``physical.units`` of a design payload: what each added physical key is in."""
+    return {"target": units.length_unit, "tip": units.length_unit, "field_mT": "mT (mu0 H)",
+            "field_A_per_m": "A/m", "angle_deg": "deg", "time_s": "s"}
+
+
+def add_schedule_units(payload: dict, table) -> None:
+    """Add the schedule table's physical columns (field_A_per_m, field_mT, angle_deg, time_s) to
+    each step of ``payload["schedule"]`` in place; the existing keys stay."""
     if table and len(table) == len(payload["schedule"]):
         extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
         payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
-    return payload
 
 
 def _phi_text(res) -> str:

@@ -12,6 +12,7 @@ import io as _io
 import math
 
 from .common import EXIT_OK, bad_input, stdout_to_stderr
+from .design import add_schedule_units, unit_labels
 from .output import emit
 
 __all__ = ["run_poses", "summary"]
@@ -86,13 +87,8 @@ def payload_of(res, units=None, table=None) -> dict:
                 q.update(field_mT=units.field_mT(p.design["h"]), field_A_per_m=units.field_A_per_m(p.design["h"]),
                          angle_deg=math.degrees(p.design["phi"]))
             poses.append(q)
-        payload["physical"] = {"length_unit": units.length_unit, "poses": poses,
-                               "units": {"target": units.length_unit, "tip": units.length_unit,
-                                         "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m", "angle_deg": "deg",
-                                         "time_s": "s"}}
-    if table and len(table) == len(payload["schedule"]):
-        extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
-        payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
+        payload["physical"] = {"length_unit": units.length_unit, "poses": poses, "units": unit_labels(units)}
+    add_schedule_units(payload, table)
     return payload
 
 
