@@ -40,6 +40,7 @@ from ..options import SolverOptions
 from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
+from .design_gauge import has_fibre_gauge
 
 __all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
@@ -176,6 +177,7 @@ class DesignNLP:
 
         E, g, H = sv.f_grad_hess(zr, P)
         m = tr.mass[1:]
+        self.gauge = has_fibre_gauge(zr, d, P0, E, self.dslices, sv.parameter_vector(scene))
         theta0 = P0[lay.slices["theta0"]]
         tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
 
@@ -280,6 +282,16 @@ class DesignNLP:
                 d[self.dslices[name]] = c
         return d
 
+    def fix_gauge(self, d: np.ndarray) -> np.ndarray:
+        """The design vector moved along the gauge orbit to α's mean c_0 = 0 (φ − c_0, α − c_0: the
+        same equilibrium, see :func:`has_fibre_gauge`); ``d`` itself when the scene has no gauge."""
+        d = np.array(d, float)
+        if self.gauge:
+            c0 = d[self.dslices["alpha"].start]
+            d[self.dslices["phi"]] -= c0
+            d[self.dslices["alpha"].start] = 0.0
+        return d
+
     def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
         lim = np.concatenate([np.full(self.n_profile_rows, bounds.get(PROFILE_BOUNDS[v], np.inf))
@@ -374,6 +386,9 @@ class DesignNLP:
             lbg[k:k + 2] = ubg[k:k + 2] = 0.0
             if use_angle:
                 lbg[k + 2] = ubg[k + 2] = 0.0
+        if self.gauge:  # α's mean is pinned at 0 (fix_gauge): a unique optimum, not a flat valley
+            d0 = self.fix_gauge(d0)
+            lbx[self.n + self.dslices["alpha"].start] = ubx[self.n + self.dslices["alpha"].start] = 0.0
         x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
         nlp = self.nlpsol(certified, stiff)
         sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)

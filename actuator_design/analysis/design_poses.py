@@ -4,7 +4,9 @@ The central question of programmable soft actuators: a rod is built once (its fi
 fixed by fabrication) and driven to several poses by the field alone. :func:`design_poses` finds
 
 1. a first design of pose 1 (the single-pose pipeline: screen, optimise, choose), whose layout is
-   the start of the shared one;
+   the start of the shared one; where the joint design from it fails its checks, the next of pose
+   1's reachable single-pose optima is the start (up to :data:`MAX_LAYOUT_STARTS`, best first), so
+   one start's failure is not reported as "no design";
 2. for every other pose, the field that brings the same rod nearest it (layout fixed);
 3. the joint design: one layout and one field per pose, every pose exact (the multi-scenario NLP of
    :mod:`.design_robust` with an empty box), then made robust over the tolerance box (worst-case tip
@@ -155,10 +157,36 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     targets = [first.target] + [design_problem(t, scene, vset, options, settings, None, t0).target
                                 for t in targets[1:]]
     tol = settings.tolerances
-    ch1 = choose(first, search(first, timings))
+    searched = search(first, timings)
+    ch1 = choose(first, searched)
     if ch1 is None or not ch1.reachable:
         return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
                      tol, timings, t0)
+    # Every reachable single-pose optimum of pose 1 is a start for the shared layout, best first:
+    # a joint design that fails its checks from one start is not "no design" while others are left.
+    opt = next(o for o in searched if o.candidate is ch1.candidate)
+    starts = [ch1] + [replace(ch1, point=pt, scene=opt.candidate.nlp.scene_for(
+        opt.candidate.base, design_vector(opt.candidate.nlp, pt)))
+        for pt in opt.optima if pt is not ch1.point and first.rank(pt)[0] == 0][:MAX_LAYOUT_STARTS - 1]
+    first_failure = None
+    for i, start in enumerate(starts):
+        if i > 0 and time.perf_counter() > first.deadline:
+            break
+        out = _from_start(start, first, targets, vset, options, settings, verify, timings, t0)
+        if out.success:
+            if i > 0:
+                out.message += (f"; found from pose 1's single-pose optimum no. {i + 1} (the joint design "
+                                f"from the best one{'' if i == 1 else ' and the next'} did not pass its checks)")
+            return out
+        first_failure = first_failure or out
+    return first_failure
+
+
+def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t0) -> MultiPoseResult:
+    """The joint design (shared profiles, one field per pose) from pose 1's single-pose design
+    ``ch1``: pose k > 1 designed with its layout, the homotopy to every target, the box, checks."""
+    tol = settings.tolerances
+    no_box = Tolerances(field_rel=0.0, angle=0.0)
     nlp, base = ch1.candidate.nlp, ch1.candidate.base
     coeffs, beta = ch1.point.coefficients, ch1.point.magnetization
     d_list, z_list = [design_vector(nlp, ch1.point)], [ch1.point.z]
@@ -223,6 +251,10 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     return MultiPoseResult(ok, poses, alpha, vset, schedule, transitions, "; ".join([head] + notes), first.base,
                            tol if tol.active else None, scenes=scenes,
                            timings=timings, magnetization=magnetization)
+
+
+#: Most single-pose optima of pose 1 tried as starts of the shared layout.
+MAX_LAYOUT_STARTS = 3
 
 
 def _at_bound(design: Dict[str, float], bounds: Dict[str, float], rel: float = 1e-6) -> str:

@@ -273,6 +273,12 @@ class ScenarioDesignNLP:
                           "p": (-bounds.get("p_max", np.inf), bounds.get("p_max", np.inf))}[v]
                 lbx[i], ubx[i] = lo, hi
         lbx[nz + self.nd:] = 0.0
+        if self.base.gauge:  # α's mean pinned at 0, every pose's φ moved with it (DesignNLP.fix_gauge)
+            d0 = np.array(d0, float)
+            c0, d0[0] = d0[0], 0.0
+            for k in range(K):
+                d0[self.pose_index(k, "phi")] -= c0
+            lbx[nz] = ubx[nz] = 0.0
         lo_prof, hi_prof = self._profile_bounds(bounds)
         n_eq, n_piv = K * (C + 1) * n, (K * (C + 1) * n if certified else 0)
         nom_lb = np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K)

@@ -29,6 +29,7 @@ import numpy as np
 from ..options import SolverOptions
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
+from .snap_location import locate_snap, snap_unit
 from .tolerances import Tolerances, apply_deltas, perturb
 
 __all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness"]
@@ -126,6 +127,10 @@ class FoldDistance:
     h_rel_up / h_rel_down : relative field change (0.071 = 7.1 % more / less field).
     phi_deg_ccw / phi_deg_cw : field-angle change, degrees (uniform fields only).
     search : the range searched per axis, {"h_rel_up": ..., ...}.
+    errors : per axis with a snap, the estimated discretisation error of its distance (same unit),
+        or None where the snap could not be located as a fold and refined on finer meshes (then
+        the distance is the last stable point of the branch following on the design mesh):
+        :mod:`.snap_location`.
     """
 
     h_rel_up: Optional[float]
@@ -133,6 +138,7 @@ class FoldDistance:
     phi_deg_ccw: Optional[float]
     phi_deg_cw: Optional[float]
     search: Dict[str, float]
+    errors: Dict[str, Optional[float]] = field(default_factory=dict)
 
     @property
     def h_rel(self) -> Optional[float]:
@@ -147,7 +153,8 @@ class FoldDistance:
     def to_dict(self) -> dict:
         return {"h_rel": self.h_rel, "phi_deg": self.phi_deg, "h_rel_up": self.h_rel_up,
                 "h_rel_down": self.h_rel_down, "phi_deg_ccw": self.phi_deg_ccw,
-                "phi_deg_cw": self.phi_deg_cw, "searched": dict(self.search)}
+                "phi_deg_cw": self.phi_deg_cw, "searched": dict(self.search),
+                "errors": dict(self.errors)}
 
     def sentence(self) -> str:
         """E.g. "the nearest snap is 7.1 % more field or 3.4 deg of angle (clockwise) away"."""
@@ -164,6 +171,11 @@ class FoldDistance:
         elif "phi_deg_ccw" in self.search:
             none.append(f"{self.search['phi_deg_ccw']:.3g} deg of angle either way")
         text = ("the nearest snap is " + " or ".join(parts) + " away") if parts else ""
+        rough = [k for k, v in (("h_rel_up", self.h_rel_up), ("h_rel_down", self.h_rel_down),
+                                ("phi_deg_ccw", self.phi_deg_ccw), ("phi_deg_cw", self.phi_deg_cw))
+                 if v is not None and self.errors.get(k) is None and v in (self.h_rel, self.phi_deg)]
+        if rough:
+            text += " (the last stable point on the design mesh: not located as a fold)"
         if none:
             text += ("; " if text else "") + "no snap within " + " nor ".join(none)
         return text or "no snap searched"
@@ -324,6 +336,7 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
 
     search: Dict[str, float] = {}
     found: Dict[str, Optional[float]] = {}
+    errors: Dict[str, Optional[float]] = {}
     if fold_search:
         for name, (attr, sign, rng) in _axis_offsets(tolerances).items():
             if attr == "angle" and not isinstance(scene.field, UniformField):
@@ -332,12 +345,16 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
                 continue
             P_end = solver.parameter_vector(apply_deltas(scene, {attr: sign * rng}))
             seg = follow_segment(solver, z, P0, P_end, first_step=0.01, max_step=0.05)
-            unit = 1.0 if attr == "field_rel" else math.degrees(1.0)
+            unit = snap_unit(attr)
             search[name] = rng * unit
-            # the snap lies in (t_end, t_end + min_step]: report the last stable point
-            found[name] = None if seg.completed else seg.t_end * rng * unit
+            if seg.completed:
+                found[name] = None
+                continue
+            snap = locate_snap(scene, options, seg.z_end, seg.t_end, attr, sign, rng)
+            found[name] = snap.t * rng * unit
+            errors[name] = None if snap.error is None else snap.error * rng * unit
     fd = FoldDistance(found.get("h_rel_up"), found.get("h_rel_down"), found.get("phi_deg_ccw"),
-                      found.get("phi_deg_cw"), search)
+                      found.get("phi_deg_cw"), search, errors)
     return Robustness(tolerances=tolerances, worst_tip_error=float(pos.max()) + disc,
                       discretisation_error=disc,
                       worst_angle_error=None if ang is None else float(ang.max()),
