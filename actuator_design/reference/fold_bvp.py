@@ -38,7 +38,7 @@ class BVPFold:
     theta: np.ndarray
 
 
-def _rhs(s: np.ndarray, Y: np.ndarray, q: ShootingParams, b: float) -> np.ndarray:
+def _rhs(s: np.ndarray, Y: np.ndarray, q: ShootingParams, b: np.ndarray) -> np.ndarray:
     """(EL) and (Q) in first-order form, vectorised over s (the same equations as
     :func:`.shooting_model._make_rhs`, which works point by point)."""
     th, eta, P = Y[0], Y[4], Y[5]
@@ -77,12 +77,9 @@ def fold_by_bvp(params_of: Callable[[float], ShootingParams], lam_guess: float, 
     -------
     BVPFold
     """
-    p0 = params_of(float(lam_guess))
-    b = p0.b if not callable(p0.b) else None
-    if b is None:
-        raise ValueError("fold_by_bvp: a variable stiffness b(s) is not supported")
+    b = _eval_profile(params_of(float(lam_guess)).b, s)
     w = np.concatenate(([0.0], np.cumsum(0.5 * (eta[1:] ** 2 + eta[:-1] ** 2) * np.diff(s))))
-    scale = 1.0 / np.sqrt(w[-1])  # ∫η² = 1
+    scale = 1.0 / np.sqrt(w[-1])  # ∫η² = 1 (its sign and scale are free)
     dx = np.cos(theta)
     x = np.concatenate(([0.0], np.cumsum(0.5 * (dx[1:] + dx[:-1]) * np.diff(s))))
     dy = np.sin(theta)
@@ -90,7 +87,8 @@ def fold_by_bvp(params_of: Callable[[float], ShootingParams], lam_guess: float, 
     Y0 = np.vstack([theta, b * dtheta, x, y, scale * eta, b * scale * deta, scale ** 2 * w])
 
     def fun(ss, Y, p):
-        return _rhs(ss, Y, params_of(float(p[0])), b)
+        q = params_of(float(p[0]))
+        return _rhs(ss, Y, q, _eval_profile(q.b, ss))
 
     def bc(ya, yb, p):
         q = params_of(float(p[0]))
