@@ -57,6 +57,8 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
             if not getattr(a, "certified", True) and tip_error(a.tip, target) <= reach_probe:
                 # reached only by an unstable state: ask for the nearest stable one, certified
                 a = nlp._solve(base, z0, d0, req_a, certified=True)
+                if not a.converged:  # not an optimum: its point is where the iteration cap hit
+                    continue
             best, z0, d0 = a, a.z, design_vector(nlp, a)
             if tip_error(a.tip, target) > reach_probe:
                 if stiffness is not None:

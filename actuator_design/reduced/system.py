@@ -114,11 +114,19 @@ class ReducedSystem:
         (2n + 1,), J = ∂F/∂(u, λ_1, v) dense, F_μ = ∂F/∂(λ_2..λ_k) (2n + 1, k − 1)."""
         u, lam, n = self.u, self.lam, self.n
         v, c = ca.SX.sym("v", n), ca.SX.sym("c", n)
-        F = ca.vertcat(self.g, ca.mtimes(self.H, v), ca.dot(c, ca.DM(self.mass) * v) - 1)
-        X = ca.vertcat(u, self.lams[0], v)
+        Hv = ca.mtimes(self.H, v)
+        cM = ca.DM(self.mass) * c
+        F = ca.vertcat(self.g, Hv, ca.dot(cM, v) - 1)
+        lam1 = self.lams[0]
+        # J by blocks: one Jacobian of all of F would colour the dense row cᵀM against every v
+        # column (n sweeps, quadratic in n: 1.6 s at n = 160); ∂(Hv)/∂u is the Hessian of v·g.
+        J = ca.blockcat([
+            [self.H, ca.jacobian(self.g, lam1), ca.SX(n, n)],
+            [ca.hessian(ca.dot(v, self.g), u)[0], ca.jacobian(Hv, lam1), self.H],
+            [ca.SX(1, n), ca.SX(1, 1), cM.T]])
         others = ca.vertcat(*self.lams[1:]) if len(self.lams) > 1 else ca.SX(0, 1)
         return ca.Function("moore_spence", [u, lam, v, c, self.P],
-                           [F, ca.densify(ca.jacobian(F, X)), ca.densify(ca.jacobian(F, others))])
+                           [F, ca.densify(J), ca.densify(ca.jacobian(F, others))])
 
     @cached_property
     def f_tip(self) -> ca.Function:
