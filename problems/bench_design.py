@@ -20,8 +20,10 @@ near the tip (ill-conditioned at strong fields), the state re-converged on a 32�
 reference instead (a convergence check). Every snap distance a soft single-pose design reports
 is re-located as a fold of the continuous rod by scipy's ``solve_bvp`` (equilibrium + Jacobi BVP,
 ``actuator_design.reference.fold_bvp``) and must agree to the error the design states. Mirror
-pairs must both succeed or both fail. Not re-checked here (the design's own report covers them,
-by branch following and loading paths): the box corners and the schedule replayed from rest.
+pairs must both succeed or both fail. Every box corner a single-pose design reports is reached by
+the reference's own continuation from the design state (tip and Morse index), and its schedule is
+replayed from rest by it (the final tip), :mod:`bench_replay`; multi-pose sets are checked pose by
+pose at their designs (not their schedules).
 
 Prints one line per case, then the success rate, the failures by cause, the failed checks and the
 time per design; exits 1 when a success fails a check or a mirror pair disagrees.
@@ -46,6 +48,8 @@ from actuator_design.options import SolverOptions
 from actuator_design.solver import get_solver
 from actuator_design.reference.jacobi import jacobi_morse_index
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
+
+from bench_replay import _profile, corner_checks, schedule_check, shooting_params
 
 ROD = {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"}
 STRIPS = {
@@ -76,18 +80,11 @@ def workspace_targets(quick):
     return out
 
 
-def _profile(p):
-    return 0.0 if p is None else p  # a Profile is a vectorised callable of s
-
-
 def reference_check(scene, state, tip):
     """Shooting at the designed scene from the design state's clamp curvature: (tip error, Morse
     index or None)."""
     gamma = float(state._clamp_curvature())  # θ'(0) of the design's state
-    params = ShootingParams(h=scene.h, phi=scene.phi, fx=0.0 if scene.tip_force is None else scene.tip_force[0],
-                            fy=scene.p, m=scene.tip_moment or 0.0, theta0=scene.theta0,
-                            alpha=_profile(scene.fibres), b=_profile(scene.stiffness), h_r=scene.h_r,
-                            beta=_profile(scene.magnetization))
+    params = shooting_params(scene)
     # the root of the free-end residual nearest the design's clamp curvature (there may be several
     # equilibria, THEORY §8: a Newton start can jump to another): a sign change on a fine grid
     # (there may be several equilibria, THEORY §8): every sign change of the free-end residual on a
@@ -198,6 +195,8 @@ def run_single(label, target, scene=None, **kw):
         if res.robustness is not None:
             row["checks"] += fold_checks(res.design_scene, res.path.final,
                                          res.robustness.robustness.fold_distance)
+            row["checks"] += corner_checks(res)
+        row["checks"] += schedule_check(res)
         row["design"] = {"h": res.design["h"], "phi": res.design["phi"]}
     return row
 
