@@ -12,6 +12,7 @@ says so.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Callable, List, Optional, Tuple
 
 import numpy as np
@@ -157,12 +158,19 @@ def corner_checks(res) -> List[str]:
 
 def schedule_check(res) -> List[str]:
     """The reported schedule replayed from rest (the straight rod at zero field) by the reference,
-    leg by leg (straight lines between its points in (h, φ[, p])): it must end at the reported
+    leg by leg (straight lines between its points in (h, φ[, p]), with h_r and h_pos in proportion
+    to h as the one field drives them): it must end at the reported
     tip to the stated discretisation error (times :data:`ESTIMATE_FACTOR`, at least 1e-6). Returns the failed checks (text)."""
     pts, base = res.schedule, res.design_scene
     stated = max(1e-6, res.robustness.robustness.discretisation_error) if res.robustness is not None else 1e-6
     keys = [k for k in ("h", "phi", "p") if k in pts[0]]
-    legs = [lambda t, a=a, b=b: base.with_values(**{k: (1 - t) * a[k] + t * b[k] for k in keys})
+
+    def at(values):  # the field is one field: h_r and h_pos grow with h (h, h_r, h_pos ∝ H, THEORY §9)
+        sc = base.with_values(**values)
+        k = values["h"] / base.h if "h" in values and base.h > 0 else 1.0
+        return replace(sc, h_r=base.h_r * k, h_pos=base.h_pos * k)
+
+    legs = [lambda t, a=a, b=b: at({k: (1 - t) * a[k] + t * b[k] for k in keys})
             for a, b in zip(pts[:-1], pts[1:])]
     tip, how = _replay_shooting(legs, (math.cos(base.theta0), math.sin(base.theta0)))
     if tip is None:  # shooting lost the branch: the whole replay again on the refined mesh
