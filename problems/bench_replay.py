@@ -2,12 +2,12 @@
 corners reached by continuation from the design state, and the schedule replayed from rest.
 
 Both march the shooting reference (``actuator_design.reference.shooting``, scipy's DOP853, its own
-right-hand side) in small parameter steps, each Newton solve started from the last clamp
-curvature θ'(0) (natural continuation); a step whose θ'(0) jumps by more than :data:`MAX_JUMP`
-(relative) has left the branch, and the step is halved (down to :data:`MIN_STEP`). Where shooting
-is ill-conditioned (strong fields: θ'(0) of order h, growth ~e^h) the same march is made by
-Newton on a 32 × 12 LGL mesh instead (a convergence check of the transcription), and the check
-says so.
+right-hand side) in small parameter steps: each step starts Newton from a secant predictor of
+θ'(0) and, of the roots near it, takes the one whose tip is nearest the last accepted tip (at
+strong fields the roots lie close in θ'(0), growth ~e^h); a step whose tip moves by more than
+:data:`TIP_JUMP` has left the branch and is halved (down to :data:`MIN_STEP`). Where shooting
+loses the branch, the same march is made by Newton on a 32 × 12 LGL mesh instead (a convergence
+check of the transcription), and the check says so.
 """
 from __future__ import annotations
 
@@ -23,7 +23,8 @@ from actuator_design.reference.jacobi import jacobi_morse_index
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
 from actuator_design.solver import get_solver
 
-#: Largest relative miss of the secant predictor of θ'(0) in one step (≤ MAX_JUMP·max(1, |γ|)).
+#: Half-width of the θ'(0) window searched for roots around the predictor, relative to max(1, |γ|);
+#: on the refined mesh, 4× it bounds the change of θ in one step.
 MAX_JUMP = 0.05
 #: Largest tip move in one accepted step (rod lengths): a larger one is a jump to another branch.
 TIP_JUMP = 0.05
@@ -67,15 +68,12 @@ def _nearest_root(params, pred: float, gamma: float, tip):
     return min(roots, key=lambda x: _tip_gap(x, tip), default=None)
 
 
-def _march_shooting(scene_at: Callable[[float], object], gamma: float, steps: int,
-                    slope: float = 0.0, tip=None):
-    """Shooting continuation over t ∈ [0, 1] from θ'(0) = ``gamma`` (dγ/dt ≈ ``slope``) and its
-    tip: each step takes the root near the secant predictor nearest the last tip, accepted when
-    the tip moves by at most :data:`TIP_JUMP` (else the step is halved). Returns (solution at
-    t = 1 or None, reason, slope)."""
-    if tip is None:
-        q0 = _nearest_root(shooting_params(scene_at(0.0)), gamma, gamma, None)
-        tip = None if q0 is None else q0.tip
+def _march_shooting(scene_at: Callable[[float], object], gamma: float, tip, steps: int,
+                    slope: float = 0.0):
+    """Shooting continuation over t ∈ [0, 1] from θ'(0) = ``gamma`` and its tip (x, y), with
+    dγ/dt ≈ ``slope``: each step takes the root near the secant predictor nearest the last tip,
+    accepted when the tip moves by at most :data:`TIP_JUMP` (else the step is halved). Returns
+    (solution at t = 1 or None, reason, slope)."""
     t, dt, sol = 0.0, 1.0 / steps, None
     while t < 1.0 - 1e-15:
         dt = min(dt, 1.0 - t)
@@ -116,11 +114,12 @@ def _on_refined(scene, s, theta) -> np.ndarray:
     return np.interp(get_solver(scene, REFINED).transcription.nodes, s, theta)
 
 
-def follow(scene_at, s, theta, gamma, tip, steps=4) -> Tuple[Optional[Tuple[float, float]], Optional[int], str, str]:
+def follow(scene_at, s, theta, gamma, tip, steps=4) -> Tuple[Optional[Tuple[float, float]],
+                                                              Optional[int], str, str]:
     """(tip (x, y), Morse index, method, reason) at t = 1 of the scene family ``scene_at``
     followed from the state (s, θ, γ = θ'(0), its tip (x, y)) at t = 0; tip None when both methods
     lose it."""
-    sol, why, _ = _march_shooting(scene_at, gamma, steps, tip=tip)
+    sol, why, _ = _march_shooting(scene_at, gamma, tip, steps)
     if sol is not None:
         morse = None if scene_at(1.0).h_r > 0 else jacobi_morse_index(sol, sol.params).index
         return (float(sol.tip[0]), float(sol.tip[1])), morse, "shooting", ""
@@ -133,7 +132,8 @@ def follow(scene_at, s, theta, gamma, tip, steps=4) -> Tuple[Optional[Tuple[floa
 def corner_checks(res) -> List[str]:
     """Every box corner the design reports, reached by the reference from the design state along
     the straight segment to it: its tip must be the reported one to the stated discretisation
-    error (times :data:`ESTIMATE_FACTOR`, at least 1e-6), and its Morse index 0. Returns the failed checks (text)."""
+    error (times :data:`ESTIMATE_FACTOR`, at least 1e-6), and its Morse index 0. Returns the
+    failed checks (text)."""
     rob = res.robustness.robustness
     tol, stated = rob.tolerances, max(1e-6, rob.discretisation_error)
     state, base = res.path.final, res.design_scene
@@ -159,8 +159,9 @@ def corner_checks(res) -> List[str]:
 def schedule_check(res) -> List[str]:
     """The reported schedule replayed from rest (the straight rod at zero field) by the reference,
     leg by leg (straight lines between its points in (h, φ[, p]), with h_r and h_pos in proportion
-    to h as the one field drives them): it must end at the reported
-    tip to the stated discretisation error (times :data:`ESTIMATE_FACTOR`, at least 1e-6). Returns the failed checks (text)."""
+    to h as the one field drives them): it must end at the reported tip to the stated
+    discretisation error (times :data:`ESTIMATE_FACTOR`, at least 1e-6). Returns the failed checks
+    (text)."""
     pts, base = res.schedule, res.design_scene
     stated = max(1e-6, res.robustness.robustness.discretisation_error) if res.robustness is not None else 1e-6
     keys = [k for k in ("h", "phi", "p") if k in pts[0]]
@@ -182,8 +183,9 @@ def schedule_check(res) -> List[str]:
             z, tip = got[0], got[1]
         how = "refined-mesh"
     d = math.hypot(tip[0] - res.achieved["x"], tip[1] - res.achieved["y"])
-    return [] if d <= ESTIMATE_FACTOR * stated else [f"schedule: the {how} replay from rest ends {d:.3g} from the reported "
-                                   f"tip (stated {stated:.3g})"]
+    if d <= ESTIMATE_FACTOR * stated:
+        return []
+    return [f"schedule: the {how} replay from rest ends {d:.3g} from the reported tip (stated {stated:.3g})"]
 
 
 def _replay_shooting(legs, tip):
@@ -191,7 +193,7 @@ def _replay_shooting(legs, tip):
     (θ'(0) = 0, ``tip``) at the first leg's start."""
     gamma, slope = 0.0, 0.0
     for leg in legs:
-        sol, why, slope = _march_shooting(leg, gamma, 1, slope, tip=tip)
+        sol, why, slope = _march_shooting(leg, gamma, tip, 1, slope)
         if sol is None:
             return None, why
         gamma, tip = sol.gamma, (float(sol.tip[0]), float(sol.tip[1]))
