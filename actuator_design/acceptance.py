@@ -9,7 +9,8 @@
 2. **The physical branch.** From no guess, the state reached from rest (:mod:`actuator_design.from_rest`);
    the straight-rod start is solved too: when it reaches the same state its result is returned
    (bit for bit the answer of earlier releases), otherwise the state from rest is, and another
-   stable state from the straight rod is reported (``stats["other_stable_states"]``, ``message``).
+   stable state from the straight rod is reported (``stats["other_stable_states"]``, ``message``)
+   when it passes the accuracy check 3 (an unresolved mesh solution is not a state of the rod).
 3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
    dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
    be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
@@ -184,6 +185,7 @@ def _solve_from_start(scene, opts, solver):
     if not result.success:
         return result
     if (straight.success and straight.stable and tip_difference(straight, result) > DISTINCT
+            and residual_problem(straight) is None  # an unresolved mesh solution is no state
             and (opts.keep_self_intersecting or not straight.self_intersecting)):
         tip = straight.tip
         result.stats["other_stable_states"] = [{"start": "straight rod", "tip": dict(tip),

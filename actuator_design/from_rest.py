@@ -16,7 +16,7 @@ checked (THEORY §7): past a branch point the path leaves along the unstable mod
 branch, as an imperfect real rod would, and stays on that side of the unstable state (a Newton
 step that lands on the mirror branch is refused and the step halved), so that neighbouring loads
 end on the same branch. When the step falls below
-:data:`MIN_STEP` the path has reached a fold of the loading history (a snap-through): the state
+:data:`MIN_STEP` (relative to the load reached) the path has reached a fold of the loading history (a snap-through): the state
 there is released by minimising the energy (IPOPT) from the last state, as the physical rod would
 snap, and the path goes on from the new state.
 
@@ -37,14 +37,23 @@ __all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
 
 #: largest change of any node angle in one accepted step (rad)
 MAX_TURN = 0.5
-#: smallest load step before the path is declared at a fold (fraction of the full load)
+#: smallest load step before the path is declared at a fold, relative to the load reached
+#: (a strong field buckles the rod at λ ~ h_c/h: the scale of the path is the load, not 1)
 MIN_STEP = 1e-5
+#: ... and never below this fraction of the full load
+MIN_STEP_FLOOR = 1e-9
 #: size of the kick along the unstable mode (max-norm 1) after a branch point is crossed (rad)
 BRANCH_KICK = 0.05
 #: a loss of stability is located to within this fraction of the load before the kick
 BRANCH_STEP = 0.02
 #: most Newton solves along one path
 MAX_SOLVES = 400
+#: a secant step is accepted only when Newton's correction of the predictor is at most this
+#: multiple of the predicted change (max-norms): a larger correction means Newton left the branch
+#: being followed (e.g. for another stable branch born near an imperfect pitchfork, issue 22)
+CORRECTOR_RATIO = 1.0
+#: ... or at most this (rad): the correction that round-off and a tiny predicted change allow
+CORRECTOR_FLOOR = 1e-3
 
 
 @dataclass
@@ -123,6 +132,16 @@ def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
     return out
 
 
+def _on_branch(z_new: np.ndarray, guess: np.ndarray, z: np.ndarray) -> bool:
+    """Whether Newton's answer ``z_new`` from the secant predictor ``guess`` continues the branch
+    through ``z``: its correction is small next to the predicted change (:data:`CORRECTOR_RATIO`,
+    :data:`CORRECTOR_FLOOR`). On a smooth branch the correction is O(step²) and the change O(step),
+    so halving the step always passes; a jump onto another branch does not shrink with the step."""
+    correction = float(np.max(np.abs(z_new - guess)))
+    predicted = float(np.max(np.abs(guess - z)))
+    return correction <= max(CORRECTOR_RATIO * predicted, CORRECTOR_FLOOR)
+
+
 def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,
                    stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None) -> RestPath:
     """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
@@ -185,6 +204,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol)
         solves += 1
         if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
+                and (z_prev is None or _on_branch(raw.z, guess, z))
                 and (side is None or float(np.dot(raw.z - side[0], side[1])) > 0.0)):
             lowest = []
             unstable = follow_stable and is_unstable(solver, raw.z, at(t), out=lowest)
@@ -212,10 +232,11 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 visit(raw, lowest[0] if lowest else None)
             continue
         dl *= 0.5
-        if dl >= MIN_STEP:
+        min_step = max(MIN_STEP * lam, MIN_STEP_FLOOR)
+        if dl >= min_step:
             continue
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
-        t = min(targets[k], lam + 2 * MIN_STEP)
+        t = min(targets[k], lam + 2 * min_step)
         snap = solver.solve_ipopt(z, at(t))
         solves += 1
         if not snap.converged:

@@ -233,6 +233,45 @@ def test_strong_fields_resolve_the_clamp_layer_at_default_settings(h, phi_deg):
     assert max(abs(r.tip["x"] - x), abs(r.tip["y"] - y)) < 1e-8, (r.tip, x, y)
 
 
+def _layer_energy(h, delta):
+    """Energy of the strong-field clamp layer turning the rod by ``delta`` (rad) onto the field:
+    Ê = −h² + √2 h (1 − cos Δ) (first integral ½θ'² + h² cos²(θ − φ) = h², up to e^(−√2 h))."""
+    return -h * h + math.sqrt(2.0) * h * (1.0 - math.cos(delta))
+
+
+@pytest.mark.parametrize("h,phi_deg", [(1e3, 89.9), (1e3, 90.1), (1e4, 89.99), (100.0, 90.01),
+                                       (30.0, 90.001), (300.0, 89.999)])
+def test_from_rest_near_the_field_axis_takes_the_side_the_field_turns_it(h, phi_deg):
+    """h up to 1e4 within 0.1° of the transverse field (issue 22): from rest the field's first torque
+    turns the rod towards φ (φ < 90°) or φ − 180° (φ > 90°) and the imperfect pitchfork keeps it on
+    that side. The answer is the clamp layer of that side in closed form (tip and energy), not the
+    other stable state across the axis; a note naming another stable state names a true one."""
+    phi = math.radians(phi_deg)
+    aligned = phi if phi_deg < 90.0 else phi - math.pi
+    r = solve(default_scene(h=h, phi=phi))
+    assert r.success and r.stable, r.message
+    x, y = layer_tip(h, aligned)
+    assert max(abs(r.tip["x"] - x), abs(r.tip["y"] - y)) < 1e-8, (r.tip, x, y)
+    assert r.tip["angle"] == pytest.approx(aligned, abs=1e-8)
+    assert r.energy == pytest.approx(_layer_energy(h, abs(aligned)), rel=1e-9)
+    other_side = aligned - math.copysign(math.pi, aligned)
+    for state in r.stats.get("other_stable_states", []):
+        assert state["energy"] == pytest.approx(_layer_energy(h, abs(other_side)), rel=1e-9)
+
+
+@pytest.mark.parametrize("h,phi_deg", [(1.5, 89.95), (3.0, 89.999), (10.0, 89.99)])
+def test_from_rest_near_the_field_axis_is_mirror_symmetric(h, phi_deg):
+    """φ and 180° − φ are mirror images (θ → −θ): from rest the rod bends to opposite sides with
+    equal and opposite tips, to the side the first torque turns it (towards φ for φ < 90°)."""
+    up = solve(default_scene(h=h, phi=math.radians(phi_deg)))
+    down = solve(default_scene(h=h, phi=math.radians(180.0 - phi_deg)))
+    assert up.success and down.success and up.stable and down.stable
+    assert up.tip["angle"] > 0.1
+    assert down.tip["angle"] == pytest.approx(-up.tip["angle"], abs=1e-9)
+    assert down.tip["x"] == pytest.approx(up.tip["x"], abs=1e-9)
+    assert down.tip["y"] == pytest.approx(-up.tip["y"], abs=1e-9)
+
+
 @pytest.mark.parametrize("h,phi_deg,p", [(1.0, 45.0, 1e3), (1.0, 0.0, 1e4), (30.0, 60.0, 1e4)])
 def test_large_loads_from_rest_match_bvp_continuation(h, phi_deg, p):
     """|p| up to 1e4 (layer width 1/√|p|): the state reached from rest, against scipy solve_bvp
