@@ -158,3 +158,29 @@ def test_rejects_non_uniform_fields_and_registers():
     out = registry.get("equilibria")(default_scene(h=3.0, phi=math.pi / 2), None)
     assert len(out["equilibria"]) == 3
     assert {"tip", "energy", "morse_index", "stable", "gamma"} <= set(out["equilibria"][0])
+
+
+# -- held to the accuracy promise of solve (issue 22) ----------------------------------------------
+@pytest.mark.parametrize("amp,steep,centre,h,phi,p", [
+    (1.2, 40.0, 0.5, 5.0, math.pi / 3, 0.0),   # the issue's case: 7 equilibria, tips were 4.7e-5 off
+    (0.8, 20.0, 0.4, 2.0, 1.0, -2.0),
+    (1.4, 10.0, 0.6, 3.5, 2.5, 1.5),
+    (0.5, 30.0, 0.3, 1.0, 0.3, 3.0)])
+def test_equilibria_of_steep_fibre_layouts_meet_the_solve_promise(amp, steep, centre, h, phi, p):
+    """Steep fibre layouts α(s) = a·tanh(k(s − c)) (layers down to 1/40 wide), fields and tip loads:
+    every listed equilibrium is a root of the reference shooting solver (an adaptive IVP,
+    independent of the module's RK4 scan and of the collocation) with its Morse index (Jacobi
+    test) and its tip to 1e-6 — or, where the mesh cannot reach that, flagged inaccurate."""
+    fibres = expression_profile(f"{amp!r}*tanh({steep!r}*(s-{centre!r}))")
+    scene = Scene(field=UniformField(phi=phi), h=h, fibres=fibres, tip_force=(0.0, p))
+    r = find_equilibria(scene)
+    assert r.complete and not r.failures and r.count >= 1
+    params = _ref_params(scene)
+    for e in r.equilibria:
+        sol = solve_shooting(params, e.gamma)
+        assert sol.converged and sol.gamma == pytest.approx(e.gamma, abs=1e-4 * max(1.0, abs(e.gamma)))
+        assert e.morse_index == jacobi_morse_index(sol).index
+        off = max(abs(e.tip["x"] - sol.tip_x), abs(e.tip["y"] - sol.tip_y),
+                  abs(e.tip["angle"] - sol.tip_angle))
+        assert off <= 1e-6 or e.accuracy_problem is not None, (e.tip, sol.tip_x, sol.tip_y, off)
+    assert not r.inaccurate  # the refined meshes reach the promise on all four

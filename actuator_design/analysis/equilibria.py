@@ -87,13 +87,25 @@ class Equilibrium:
     def self_intersecting(self) -> bool:
         return bool(self.result.self_intersecting)
 
+    @property
+    def accuracy_problem(self) -> Optional[str]:
+        """Why the equilibrium misses the accuracy ``solve`` promises (its Euler–Lagrange
+        residual, :func:`~actuator_design.acceptance.residual_problem`), or None."""
+        from ..acceptance import residual_problem
+        return residual_problem(self.result)
+
     def to_dict(self) -> dict:
+        problem = self.accuracy_problem
         return {"tip": self.tip, "energy": self.energy, "morse_index": self.morse_index,
                 "stable": self.stable, "gamma": float(self.gamma),
                 "gamma_shooting": None if self.gamma_shooting is None else float(self.gamma_shooting),
                 "self_intersecting": self.self_intersecting,
                 "smallest_eigenvalue": float(self.result.eigenvalues[0]),
-                "stationarity": float(self.result.stationarity)}
+                "stationarity": float(self.result.stationarity),
+                "el_residual": float(self.result.el_residual), "accurate": problem is None,
+                "accuracy_problem": problem,
+                "mesh": {"elements": int(self.result.options.elements),
+                         "degree": int(self.result.options.degree)}}
 
 
 @dataclass
@@ -135,23 +147,68 @@ class EquilibriaResult:
     def stable_count(self) -> int:
         return sum(e.stable for e in self.equilibria)
 
+    @property
+    def inaccurate(self) -> List[Equilibrium]:
+        """The equilibria that miss ``solve``'s accuracy promise even on the finest mesh tried."""
+        return [e for e in self.equilibria if e.accuracy_problem is not None]
+
     def to_dict(self) -> dict:
         """The ``equilibria --json`` contract: ``equilibria`` with tip, energy, morse_index, stable,
         gamma (θ'(0)) each; plus counts, window and how completeness was checked."""
         return {"equilibria": [e.to_dict() for e in self.equilibria], "count": self.count,
                 "stable_count": self.stable_count, "complete": bool(self.complete),
                 "incomplete_reason": self.incomplete_reason, "gamma_window": list(self.window), "method": self.method, "scan": self.scan,
+                "accurate": not self.inaccurate, "inaccurate_count": len(self.inaccurate),
                 "failures": self.failures, "groups": self.scene.describe_groups(),
                 "units": {"gamma": "1/l", "length": "l", "energy": "B0/l", "angle": "rad"}}
 
 
-def _nlp_options(options: Optional[SolverOptions]) -> SolverOptions:
-    return replace(options or SolverOptions(), ensure_stable=False, method="newton")
+#: most elements an equilibrium's mesh is refined to when its residual misses the promise
+MAX_CONFIRM_ELEMENTS = 128
+#: arc lengths where two equilibria (possibly on different meshes) are compared
+_COMPARE_AT = np.linspace(0.0, 1.0, 129)
+
+
+def _nlp_options(options: Optional[SolverOptions], scene: Optional[Scene] = None) -> SolverOptions:
+    """Newton without saddle escape, on the mesh ``solve`` would grade for ``scene``'s layers."""
+    from ..acceptance import graded_options
+
+    opts = replace(options or SolverOptions(), ensure_stable=False, method="newton")
+    return graded_options(scene, opts) if scene is not None and opts.adapt else opts
+
+
+def confirm(scene: Scene, opts: SolverOptions, theta_at, solver=None) -> EquilibriumResult:
+    """The NLP equilibrium started from the shape ``theta_at(s)`` (a callable of arc length), held
+    to the accuracy promise of ``solve`` (:func:`~actuator_design.acceptance.residual_problem`):
+    while its Euler–Lagrange residual misses it, the mesh's elements are doubled (up to
+    :data:`MAX_CONFIRM_ELEMENTS`) and the equilibrium re-solved from the coarser one. The result
+    that still misses it is returned as it is; the caller flags it (``Equilibrium.accurate``)."""
+    solver = solver or get_solver(scene, opts)
+    res = solve(scene, opts, initial=np.asarray(theta_at(solver.transcription.nodes), float),
+                solver=solver)
+    return refine_to_promise(scene, opts, res)
+
+
+def refine_to_promise(scene: Scene, opts: SolverOptions, res: EquilibriumResult) -> EquilibriumResult:
+    """``res`` (solved with ``opts``), re-solved on meshes with twice the elements while its
+    Euler–Lagrange residual misses the promise of ``solve`` (see :func:`confirm`)."""
+    from ..acceptance import residual_problem
+
+    while res.success and residual_problem(res) is not None and opts.elements < MAX_CONFIRM_ELEMENTS:
+        opts = replace(opts, elements=min(MAX_CONFIRM_ELEMENTS, 2 * opts.elements))
+        finer_solver = get_solver(scene, opts)
+        finer = solve(scene, opts, initial=res.evaluate(finer_solver.transcription.nodes)["theta"],
+                      solver=finer_solver)
+        if not finer.success:
+            break
+        res = finer
+    return res
 
 
 def _dedupe_add(found: List[Equilibrium], eq: Equilibrium, tol: float = 1e-6) -> bool:
+    theta = eq.result.evaluate(_COMPARE_AT)["theta"]
     for other in found:
-        if np.max(np.abs(other.result.z - eq.result.z)) <= tol * max(1.0, np.max(np.abs(eq.result.z))):
+        if np.max(np.abs(other.result.evaluate(_COMPARE_AT)["theta"] - theta)) <= tol * max(1.0, np.max(np.abs(theta))):
             return False
     found.append(eq)
     return True
@@ -183,7 +240,7 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
     """
     t0 = time.perf_counter()
     require_uniform(scene)
-    opts = _nlp_options(options)
+    opts = _nlp_options(options, scene)
     gb = gamma_bound(scene)
     lo, hi = (-gb["window"], gb["window"]) if gamma_window is None else map(float, gamma_window)
     if not hi > lo:
@@ -209,7 +266,6 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
     fine = ShootingProblem(scene, min(2 * N, 8000))
     shot = fine.scalar(0)
     solver = get_solver(scene, opts)
-    nodes = solver.transcription.nodes
     found: List[Equilibrium] = []
     failures = []
     for a, b in br:
@@ -226,8 +282,7 @@ def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
             else:
                 gam = brentq(shot, a, b, xtol=1e-14, rtol=4 * _EPS, maxiter=200)
         _, s, th, dth = shot(gam, record=True)
-        guess = CubicHermiteSpline(s, th, dth)(nodes)
-        res = solve(scene, opts, initial=guess, solver=solver)
+        res = confirm(scene, opts, CubicHermiteSpline(s, th, dth), solver)
         if not res.success:
             failures.append({"gamma_shooting": float(gam), "message": res.message})
             continue

@@ -16,7 +16,7 @@ from ..options import SolverOptions
 from ..reduced.newton import newton
 from ..scene import Scene
 from ..solver import get_solver
-from .equilibria import EquilibriaResult, Equilibrium, _dedupe_add, _nlp_options
+from .equilibria import EquilibriaResult, Equilibrium, _dedupe_add, _nlp_options, refine_to_promise
 from .shooting_scan import gamma_bound, require_uniform
 
 __all__ = ["find_equilibria_deflation"]
@@ -42,7 +42,7 @@ def find_equilibria_deflation(scene: Scene, options: Optional[SolverOptions] = N
     """
     t0 = time.perf_counter()
     require_uniform(scene)
-    opts = _nlp_options(options)
+    opts = _nlp_options(options, scene)
     solver = get_solver(scene, opts)
     params = solver.parameter_vector(scene)
     mass = solver.transcription.mass[1:]
@@ -92,7 +92,8 @@ def find_equilibria_deflation(scene: Scene, options: Optional[SolverOptions] = N
         roots.append(u.copy())
     found: List[Equilibrium] = []
     for u in roots:
-        res = solve(scene, opts, initial=np.concatenate(([th0], u)), solver=solver)
+        res = refine_to_promise(scene, opts, solve(scene, opts, initial=np.concatenate(([th0], u)),
+                                                   solver=solver))
         if res.success:
             _dedupe_add(found, Equilibrium(res, res.gamma, None))
     found.sort(key=lambda e: e.gamma)

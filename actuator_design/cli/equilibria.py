@@ -111,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     if not 11 <= n_gamma <= 100001:
         raise InputError(f"--n-gamma: must lie in [11, 100001], got {n_gamma}")
     method = args.method or (study.method if study else "shooting")
-    from ..analysis.equilibria import find_equilibria, find_equilibria_deflation
+    from ..analysis.equilibria import MAX_CONFIRM_ELEMENTS, find_equilibria, find_equilibria_deflation
     from ..io import dumps_json
 
     with stdout_to_stderr(args.json), bad_input():
@@ -138,12 +138,18 @@ def run(args: argparse.Namespace) -> int:
             print(f"  gamma = {e.gamma:+.10f}  tip = ({e.tip['x']:.8f}, {e.tip['y']:.8f}), angle "
                   f"{e.tip['angle']:+.8f} rad  energy {e.energy:.10g}  "
                   + ("STABLE" if e.stable else f"unstable (Morse index {e.morse_index})")
-                  + ("  [self-intersecting]" if e.self_intersecting else ""))
+                  + ("  [self-intersecting]" if e.self_intersecting else "")
+                  + ("" if e.accuracy_problem is None else f"  [INACCURATE: {e.accuracy_problem}]"))
     if written is not None:
         print_written(written, args.json)
     if result.failures:
         print(f"actuator-design: warning: {len(result.failures)} shooting root(s) not confirmed by the NLP",
               file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if result.inaccurate:
+        print(f"actuator-design: warning: {len(result.inaccurate)} of {result.count} equilibria miss the "
+              f"accuracy promise of solve (Euler–Lagrange residual) on meshes up to "
+              f"{MAX_CONFIRM_ELEMENTS} elements", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not result.complete and method == "shooting":
         print(f"actuator-design: warning: not complete: {result.incomplete_reason}", file=sys.stderr)
