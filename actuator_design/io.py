@@ -25,6 +25,8 @@ from typing import Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
+from .safe_files import write_all
+
 __all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "result_files",
            "write_result", "shape_csv_text", "atomic_write", "write_output_set", "encode_content",
            "FileContent"]
@@ -108,19 +110,27 @@ def result_to_dict(result, config: Optional[dict] = None) -> Dict[str, object]:
 
 
 def atomic_write(path, write: Callable, binary: bool = False) -> Path:
-    """Write a file through ``write(fh)`` to a temporary name beside ``path``, then rename it."""
+    """Write a file through ``write(fh)`` to a temporary name beside ``path``, then rename it.
+
+    ``write`` fills an in-memory file (text, or bytes with ``binary``); its content is then written
+    to a new temporary file in the same folder (created exclusively: never through an existing
+    link) and moved over ``path`` with :func:`os.replace` (which replaces a link at ``path``
+    itself, never its target). On any failure the temporary file is removed and ``path`` is as it
+    was.
+    """
     path = Path(path)
+    buf = io.BytesIO() if binary else io.StringIO(newline="")
+    write(buf)
+    data = buf.getvalue() if binary else buf.getvalue().encode("utf-8")
     tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
-        kwargs = {} if binary else {"encoding": "utf-8", "newline": ""}
-        with open(tmp, "xb" if binary else "x", **kwargs) as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
+        _write_new_file(tmp, data)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(err, OSError) and err.filename is None:  # os.write names no file
+            err.filename = str(path)
         raise
     return path
 
@@ -156,11 +166,13 @@ def encode_content(content: FileContent, dpi: int = 150) -> bytes:
 
 
 def _write_new_file(path: Path, data: bytes) -> None:
-    """Create ``path`` (it must not exist) holding ``data``, flushed to disk."""
-    with open(path, "xb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
+    """Create ``path`` (it must not exist, not even as a link) holding ``data``, flushed to disk."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o666)
+    try:
+        write_all(fd, data)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def _fsync_dir(path: Path) -> None:

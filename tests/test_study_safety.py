@@ -341,8 +341,10 @@ def test_journal_rejects_records_that_do_not_match_the_grid(tmp_path):
              {"index": 7, "values": {"h": 1.0}, "status": "ok"},  # not a point
              {"index": True, "values": {"h": 1.0}, "status": "ok"},
              {"index": 2, "values": {"h": "90.0 deg"}, "status": "ok"}]
-    path.write_text("\n".join(json.dumps(x) for x in lines) + "\n{not json\n" + '{"index": 1')
-    found = Journal(path, "x", 3).records(grid.__getitem__)
+    journal = Journal(path, "x", 3)  # every record checksummed: the grid check comes on top
+    text = [json.dumps(lines[0])] + [json.dumps(journal.stamp(x)) for x in lines[1:]]
+    path.write_text("\n".join(text) + "\n{not json\n" + '{"index": 1')
+    found = journal.records(grid.__getitem__)
     assert sorted(found.records) == [0, 2]
     assert [r.split(":")[0] for r in found.rejected] == ["line 3", "line 4", "line 5", "line 6",
                                                           "line 8"]

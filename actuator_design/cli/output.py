@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import List, Mapping, Sequence
 
-from .common import bad_input, stdout_to_stderr
+from .common import InputError, bad_input, stdout_to_stderr
 
 __all__ = ["write_out", "print_written", "emit"]
 
@@ -33,12 +33,22 @@ def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
     Raises
     ------
     InputError
-        A file could not be written (exit 2); nothing of the set is left.
+        A file could not be written (read-only or full file system, a directory where a file of
+        the set goes; exit 2); nothing of the set is left. A symbolic link where a file of the set
+        goes is replaced by the file (never written through).
     """
     from ..io import write_output_set
+    from ..safe_files import os_error_text
 
-    with bad_input(f"--out: cannot write {what}to {out_dir}: "), stdout_to_stderr(json_mode):
-        return write_output_set(out_dir, files)
+    prefix = f"--out: cannot write {what}to {out_dir}: "
+    try:
+        with bad_input(prefix), stdout_to_stderr(json_mode):
+            return write_output_set(out_dir, files)
+    except InputError as exc:  # an OSError in words (no "[Errno 28]"): "No space left on device"
+        cause = exc.__cause__
+        if isinstance(cause, OSError) and cause.strerror:
+            raise InputError(prefix + os_error_text(cause)) from cause
+        raise
 
 
 def print_written(paths: Sequence[Path], json_mode: bool) -> None:

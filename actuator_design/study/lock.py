@@ -10,6 +10,10 @@ Where ``fcntl`` does not exist (Windows) the file is created exclusively instead
 is taken over only when it names a process of this host known to be gone (:func:`pid_alive`
 cannot tell on Windows: there the refusal names the file to remove).
 
+The lock file is opened without following a link and refused unless it is a regular file
+(:func:`actuator_design.safe_files.open_regular`): a ``study.lock`` planted as a link to a file
+elsewhere is never truncated or written.
+
 Locks are per open file: forked worker processes inherit the descriptor, so a worker calls
 :func:`close_inherited` first (otherwise a worker that outlived its parent would hold the lock).
 """
@@ -25,6 +29,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Optional, Set
 
+from ..safe_files import OutputFolderError, open_regular
 from .errors import StudyError
 
 try:
@@ -96,8 +101,12 @@ def pid_alive(pid: int) -> bool:
     return True
 
 
+#: A lock file longer than this is not a holder's name (only its start is read).
+_MAX_HOLDER_BYTES = 4096
+
+
 def _read(fd: int) -> Optional[Holder]:
-    size = os.fstat(fd).st_size
+    size = min(os.fstat(fd).st_size, _MAX_HOLDER_BYTES)
     return Holder.parse(os.pread(fd, size, 0).decode("utf-8", "replace")) if size else None
 
 
@@ -143,10 +152,10 @@ class FolderLock:
         if fcntl is None:  # pragma: no cover - Windows
             return self._acquire_exclusive_file()
         for _ in range(_TRIES):
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o644)
+            fd = self._open()
             self._flock_or_refuse(fd)
             try:  # the file may have been unlinked by its previous holder meanwhile: start again
-                same = os.stat(self.path)[:2] == os.fstat(fd)[:2]
+                same = os.lstat(self.path)[:2] == os.fstat(fd)[:2]
             except FileNotFoundError:
                 same = False
             if not same:
@@ -156,6 +165,13 @@ class FolderLock:
             self._hold(fd)
             return self._takeover_note(left)
         raise StudyError(in_use_message(self.folder, self._current_holder()))
+
+    def _open(self) -> int:
+        """The lock file, created if absent, opened without following a link."""
+        try:
+            return open_regular(self.path, os.O_RDWR | os.O_CREAT)
+        except OutputFolderError as err:
+            raise StudyError(str(err)) from None
 
     def _flock_or_refuse(self, fd: int) -> None:
         """Exclusive flock on fd (a few tries); StudyError naming the holder (fd closed) when
@@ -177,15 +193,25 @@ class FolderLock:
 
     def _current_holder(self) -> Optional[Holder]:
         try:
-            return Holder.parse(self.path.read_text(encoding="utf-8", errors="replace"))
-        except OSError:
+            fd = open_regular(self.path, os.O_RDONLY)
+        except (OSError, OutputFolderError):
             return None
+        try:
+            return _read(fd)
+        finally:
+            os.close(fd)
 
     def _hold(self, fd: int) -> None:
         text = Holder.this_process().to_text().encode()
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, text, 0)
-        os.fsync(fd)
+        try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, text, 0)
+            os.fsync(fd)
+        except OSError as err:  # e.g. ENOSPC: name the file (os.pwrite does not)
+            os.close(fd)
+            if err.filename is None:
+                err.filename = str(self.path)
+            raise
         self._fd = fd
         _HELD.add(fd)
 
@@ -248,8 +274,8 @@ def holder_of(folder) -> Optional[Holder]:
     """
     path = Path(folder) / LOCK_NAME
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
-    except OSError:
+        fd = open_regular(path, os.O_RDONLY)
+    except (OSError, OutputFolderError):  # absent, or not a lock this tool made: not held
         return None
     try:
         if fcntl is None:  # pragma: no cover - Windows

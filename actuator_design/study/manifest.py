@@ -10,28 +10,32 @@ reported as ``interrupted`` — resume with ``--resume``.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Dict, List, Optional
 
 from ..io import scene_to_dict
+from ..safe_files import open_regular
 from .grid import point_values
 from .journal import JOURNAL_NAME
 from .lock import holder_of
 from .outputs import versions
+from .plan import MANIFEST_NAME
 
 __all__ = ["MANIFEST_NAME", "manifest_base", "counts", "point_list", "read_manifest",
            "previous_manifest"]
-
-MANIFEST_NAME = "manifest.json"
 
 _DEAD_RUN_NOTE = ("the run that wrote this manifest ended without finishing (its process is gone); "
                   "resume it with --resume")
 
 
 def _load(folder) -> Optional[dict]:
+    """The manifest's JSON (not through a link, not from a FIFO), or None when there is none or it
+    is not a JSON object."""
     try:
-        manifest = json.loads((Path(folder) / MANIFEST_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        with os.fdopen(open_regular(Path(folder) / MANIFEST_NAME, os.O_RDONLY), "rb") as fh:
+            manifest = json.loads(fh.read())
+    except (OSError, ValueError, RecursionError):  # OutputFolderError is a ValueError
         return None
     return manifest if isinstance(manifest, dict) else None
 

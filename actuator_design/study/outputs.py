@@ -117,7 +117,7 @@ def write_parquet(path, table: Dict[str, list]) -> Optional[Path]:
             arrays[c] = pa.array(vals, pa.bool_())
         else:
             arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
     try:
         pq.write_table(pa.table(arrays), tmp)
         os.replace(tmp, path)

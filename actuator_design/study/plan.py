@@ -3,8 +3,9 @@
 :func:`plan_study` validates the configuration and its ``study:`` section, counts the grid's
 points *from the specification* and refuses more than the limit before building anything
 (:func:`actuator_design.study.grid.check_grid_size`), resolves the swept keys, and checks the
-output folder: not held by a live run (:mod:`~actuator_design.study.lock`), and holding either
-nothing or this same study when resuming. :func:`journal_records` reads what a resume can reuse,
+output folder: its entries are the tool's own (no links, each of its kind:
+:data:`STUDY_ENTRIES`), it is not held by a live run (:mod:`~actuator_design.study.lock`), and it
+holds either nothing or this same study when resuming. :func:`journal_records` reads what a resume can reuse,
 under the run's lock.
 """
 from __future__ import annotations
@@ -16,14 +17,28 @@ from typing import Any, List, Optional
 
 from ..config import ConfigError, load_config
 from ..io import dumps_json
+from ..safe_files import DIRECTORY, FILE, check_entries
 from .errors import StudyError
 from .grid import (DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values, resolve_axes,
                    substitute)
 from .journal import JOURNAL_NAME, Journal, JournalRecords
-from .lock import holder_of, in_use_message
+from .lock import LOCK_NAME, holder_of, in_use_message
 from .spec import SweepSpec, analysis_list, validate_spec
 
-__all__ = ["StudyPlan", "plan_study", "journal_records"]
+__all__ = ["StudyPlan", "plan_study", "journal_records", "check_study_folder", "STUDY_ENTRIES",
+           "CSV_NAME", "PARQUET_NAME", "FIGURES_DIR", "MANIFEST_NAME"]
+
+MANIFEST_NAME = "manifest.json"
+CSV_NAME = "results.csv"
+PARQUET_NAME = "results.parquet"
+FIGURES_DIR = "figures"
+
+#: The entries a run writes in its study folder and what each must be when it exists.
+STUDY_ENTRIES = {LOCK_NAME: FILE, JOURNAL_NAME: FILE, MANIFEST_NAME: FILE, CSV_NAME: FILE,
+                 PARQUET_NAME: FILE, FIGURES_DIR: DIRECTORY}
+
+#: Versions of the code that shapes a point's result (part of every record's ``inputs`` digest).
+_CODE = ("actuator-design", "casadi", "numpy", "scipy")
 
 #: ``study`` keys that do not change a study's results (left out of its identity): the chunk size
 #: changes which points a walked path lands on, not the states (they agree to the solver's
@@ -45,6 +60,7 @@ class StudyPlan:
     study_id: str
     resume: bool
     name: str
+    inputs_digest: str = ""
 
     @property
     def n_points(self) -> int:
@@ -74,6 +90,8 @@ def plan_study(source, out_dir, resume: bool = False,
     StudyError
         The folder is in use by a live run, holds another study, or holds this one and ``resume``
         is not set.
+    OutputFolderError
+        An entry of the folder is a symbolic link or of the wrong kind (:data:`STUDY_ENTRIES`).
     """
     config = load_config(source)
     study = config.study
@@ -97,13 +115,43 @@ def plan_study(source, out_dir, resume: bool = False,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise StudyError(f"--out: {out} exists and is not a directory")
+    check_study_folder(out)
     holder = holder_of(out) if out.is_dir() else None
     if holder is not None:
         raise StudyError(in_use_message(out, holder))
     _check_journal_header(out, study_id, len(indices), resume)
     name = config.name or (Path(source).stem if isinstance(source, (str, Path)) else "study")
     return StudyPlan(raw=raw, config=config, spec=spec, axes=axes, indices=indices,
-                     analyses=analyses, out=out, study_id=study_id, resume=resume, name=name)
+                     analyses=analyses, out=out, study_id=study_id, resume=resume, name=name,
+                     inputs_digest=_inputs_digest(ident, analyses, spec, config))
+
+
+def check_study_folder(out: Path) -> None:
+    """Refuse a study folder whose entries are links or of the wrong kind (:data:`STUDY_ENTRIES`).
+
+    Raises
+    ------
+    OutputFolderError
+        One line naming the entry (exit 2 at the command line).
+    """
+    check_entries(out, STUDY_ENTRIES)
+
+
+def _inputs_digest(ident: dict, analyses, spec: SweepSpec, config) -> str:
+    """Digest of what shapes every point's result besides its swept values: the configuration
+    (without run settings), the analyses, the kept outputs, the resolved solver settings and the
+    versions of the code (:data:`_CODE`)."""
+    from importlib import metadata
+
+    code = {}
+    for name in _CODE:
+        try:
+            code[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            code[name] = None
+    shaped = {"config": ident, "analyses": analyses, "outputs": spec.outputs,
+              "solver": config.solver_options().as_dict(), "code": code}
+    return hashlib.sha256(dumps_json(shaped).encode()).hexdigest()
 
 
 def _check_keys(raw: dict, axes) -> None:
@@ -142,8 +190,8 @@ def _check_journal_header(out: Path, study_id: str, n_points: int, resume: bool)
 def journal_records(plan: StudyPlan) -> JournalRecords:
     """The journal's records that a run of ``plan`` reuses (read under the run's lock).
 
-    Records whose index or swept values do not match the grid are rejected (their points are
-    computed again); see :meth:`actuator_design.study.journal.Journal.records`.
+    Records whose index or swept values do not match the grid, or that do not prove their content
+    and inputs, are rejected (their points are computed again); see :meth:`actuator_design.study.journal.Journal.records`.
 
     Raises
     ------
@@ -152,5 +200,5 @@ def journal_records(plan: StudyPlan) -> JournalRecords:
     """
     if not _check_journal_header(plan.out, plan.study_id, plan.n_points, plan.resume):
         return JournalRecords()
-    journal = Journal(plan.out / JOURNAL_NAME, plan.study_id, plan.n_points)
+    journal = Journal(plan.out / JOURNAL_NAME, plan.study_id, plan.n_points, plan.inputs_digest)
     return journal.records(lambda i: point_values(plan.axes, plan.indices[i]))

@@ -22,11 +22,16 @@ die with this process) or on a Dask cluster (``scheduler=``; Dask is imported on
 ``figures/*.png``
     a result against a swept key (:mod:`actuator_design.viz.study`).
 
-Every file is written to a temporary name and renamed. An interrupted study (Ctrl-C, SIGTERM, or a
+Every file is written to a temporary name in the folder and renamed; the folder's entries must be
+the tool's own (no links, each of its kind: :func:`~actuator_design.study.plan.check_study_folder`,
+checked again under the lock and before the outputs). A write the file system refuses (read-only,
+full) is a :class:`StudyStorageError` naming the file; when the journal holds the finished points
+it says so, and ``resume=True`` continues once the cause is gone. An interrupted study (Ctrl-C, SIGTERM, or a
 killed process) resumes with ``resume=True`` without recomputing its finished points.
 """
 from __future__ import annotations
 
+import errno
 import io as _io
 import math
 import os
@@ -42,21 +47,18 @@ from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
 from ..io import atomic_write
+from ..safe_files import FILE, check_entries, os_error_text
 from . import backends, walk
-from .errors import StudyError, StudyInterrupted, StudyWarning
+from .errors import StudyError, StudyInterrupted, StudyStorageError, StudyWarning
 from .journal import JOURNAL_NAME, Journal
 from .lock import FolderLock
-from .manifest import (MANIFEST_NAME, counts, manifest_base, point_list, previous_manifest,
-                       read_manifest)
+from .manifest import counts, manifest_base, point_list, previous_manifest, read_manifest
 from .outputs import build_table, write_csv, write_manifest, write_parquet
-from .plan import StudyPlan, journal_records, plan_study
+from .plan import (CSV_NAME, FIGURES_DIR, MANIFEST_NAME, PARQUET_NAME, StudyPlan,
+                   check_study_folder, journal_records, plan_study)
 
-__all__ = ["StudyPlan", "StudyReport", "StudyError", "StudyInterrupted", "StudyWarning",
-           "plan_study", "run_study", "read_manifest"]
-
-CSV_NAME = "results.csv"
-PARQUET_NAME = "results.parquet"
-FIGURES_DIR = "figures"
+__all__ = ["StudyPlan", "StudyReport", "StudyError", "StudyStorageError", "StudyInterrupted",
+           "StudyWarning", "plan_study", "run_study", "read_manifest"]
 
 #: Rejected journal records named in a warning (the count is always given).
 _SHOWN_REJECTIONS = 3
@@ -149,21 +151,57 @@ def run_study(plan, out_dir=None, *, workers: Optional[int] = None, scheduler=No
         Ctrl-C or SIGTERM: the finished points are journaled, the manifest says "interrupted".
     StudyError
         Another live run holds the folder, the scheduler cannot be reached or Dask is missing.
+    StudyStorageError
+        The file system refused a write (``resumable`` when the journal keeps the finished points).
+    OutputFolderError
+        An entry of the folder is a link or of the wrong kind.
     """
     if not isinstance(plan, StudyPlan):
         if out_dir is None:
             raise StudyError("out_dir is required when run_study is given a configuration")
         plan = plan_study(plan, out_dir, resume=resume, max_points=max_points)
     notify = notify or _warn
-    plan.out.mkdir(parents=True, exist_ok=True)
-    lock = FolderLock(plan.out)
-    note = lock.acquire()
     try:
-        if note:
-            notify(note)
-        return _run_locked(plan, workers, scheduler, progress, notify)
-    finally:
-        lock.release()
+        plan.out.mkdir(parents=True, exist_ok=True)
+        lock = FolderLock(plan.out)
+        note = lock.acquire()
+        try:
+            if note:
+                notify(note)
+            check_study_folder(plan.out)  # again, now that no other run of this tool can change it
+            return _run_locked(plan, workers, scheduler, progress, notify)
+        finally:
+            lock.release()
+    except OSError as err:
+        if not _is_storage(err):
+            raise
+        raise _storage_error(err, plan, None) from None
+
+
+#: Errors of the file system even when the error names no file.
+_STORAGE_ERRNOS = {errno.ENOSPC, errno.EROFS, errno.EDQUOT, errno.EFBIG, errno.EIO}
+
+
+def _is_storage(err: OSError) -> bool:
+    """An error of a file (named, or of a kind only a file system raises), not e.g. a lost
+    connection to a Dask scheduler."""
+    return err.filename is not None or err.errno in _STORAGE_ERRNOS
+
+
+def _storage_error(err: OSError, plan: StudyPlan, journaled: Optional[int]) -> StudyStorageError:
+    """The one-line error of a refused write; resumable when the folder holds this study's
+    journal (``journaled``: its points, when known)."""
+    text = f"--out: {os_error_text(err, 'cannot write')}"
+    try:
+        has_journal = Journal.read_header(plan.out / JOURNAL_NAME) is not None
+    except (OSError, ValueError):
+        has_journal = False
+    if not has_journal:
+        return StudyStorageError(f"{text}; nothing of the study is kept in {plan.out}")
+    kept = (f"{journaled} of {plan.n_points} points are journaled" if journaled is not None
+            else "the journal keeps the finished points")
+    return StudyStorageError(f"{text}; {kept} in {plan.out}: once the cause is gone (space freed, "
+                             "folder writable), run again with --resume", resumable=True)
 
 
 def _tasks(plan: StudyPlan, todo: List[int], chunk: int) -> List[dict]:
@@ -183,13 +221,18 @@ def _tasks(plan: StudyPlan, todo: List[int], chunk: int) -> List[dict]:
             for k in range(0, len(todo), chunk)]
 
 
-def _rejection_warning(rejected: List[str]) -> Optional[str]:
+def _rejection_warning(found) -> Optional[str]:
+    """One line: how many journal lines were rejected (of them, how many had no checksum), the
+    first reasons, and that their points are computed again."""
+    rejected = found.rejected
     if not rejected:
         return None
     shown = "; ".join(rejected[:_SHOWN_REJECTIONS])
     more = f"; and {len(rejected) - _SHOWN_REJECTIONS} more" if len(rejected) > _SHOWN_REJECTIONS \
         else ""
-    return (f"journal: {len(rejected)} line(s) rejected ({shown}{more}); points without an "
+    old = (f", {found.unverified} of them without a checksum (a journal of an older version: "
+           "untrusted)" if found.unverified else "")
+    return (f"journal: {len(rejected)} line(s) rejected{old} ({shown}{more}); points without an "
             "accepted record are computed again")
 
 
@@ -200,7 +243,7 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
     out, n = plan.out, plan.n_points
     found = journal_records(plan)
     records: Dict[int, dict] = dict(found.records)
-    rejection = _rejection_warning(found.rejected)
+    rejection = _rejection_warning(found)
     if rejection:
         notify(rejection)
     todo = [i for i in range(n) if i not in records]
@@ -237,7 +280,7 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
                 "runs": runs + [run_info], "warnings": notes, "points": point_list(plan, records)}
 
     write_manifest(out / MANIFEST_NAME, manifest("running"))
-    journal = Journal(out / JOURNAL_NAME, plan.study_id, n).open()
+    journal = Journal(out / JOURNAL_NAME, plan.study_id, n, plan.inputs_digest).open()
     stop = backends.StopRequest()
     if backend == "dask":
         gen = backends.on_dask(tasks, client)
@@ -261,7 +304,7 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
     status = "failed"
     try:
         for recs in gen:
-            journal.append(recs)
+            recs = journal.append(recs)  # as written (and as a resume reads them back)
             for r in recs:
                 records[r["index"]] = r
             run_info["computed"] += len(recs)
@@ -271,6 +314,10 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
         status = "completed"
     except KeyboardInterrupt:
         status = "interrupted"
+    except OSError as err:
+        if not _is_storage(err):
+            raise
+        raise _storage_error(err, plan, len(records)) from None
     finally:
         gen.close()
         journal.close()
@@ -283,16 +330,26 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
                                                  if elapsed > 0 and run_info["computed"] else None))
         if client is not None and isinstance(scheduler, str):
             client.close()
-        if status != "completed":
+        if status == "interrupted":
             write_manifest(out / MANIFEST_NAME, manifest(status))
+        elif status == "failed":  # an error is on its way out: do not let this one replace it
+            try:
+                write_manifest(out / MANIFEST_NAME, manifest(status))
+            except OSError:
+                pass
     if status == "interrupted":
         raise StudyInterrupted(f"{len(records)} of {n} points finished and journaled in {out}; "
                                "run again with --resume to compute the rest")
 
-    files = _write_outputs(plan, records)
-    final = manifest("completed")
-    final["files"] = files
-    write_manifest(out / MANIFEST_NAME, final)
+    try:
+        files = _write_outputs(plan, records)
+        final = manifest("completed")
+        final["files"] = files
+        write_manifest(out / MANIFEST_NAME, final)
+    except OSError as err:
+        if not _is_storage(err):
+            raise
+        raise _storage_error(err, plan, len(records)) from None
     return StudyReport(out=out, name=plan.name, status="completed", n_points=n,
                        counts=final["counts"], computed=run_info["computed"],
                        reused=run_info["reused"], elapsed_s=run_info["elapsed_s"],
@@ -313,6 +370,7 @@ def _import_figure_code() -> None:
 def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     from ..viz.study import default_figures, study_figures
 
+    check_study_folder(plan.out)
     table = build_table(plan.axes, plan.indices, records, plan.spec.outputs)
     files: Dict[str, Any] = {"journal": JOURNAL_NAME}
     write_csv(plan.out / CSV_NAME, table)
@@ -323,6 +381,7 @@ def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     figs = study_figures(plan.axes, table, specs)
     fig_dir = plan.out / FIGURES_DIR
     names = []
+    check_entries(fig_dir, {f"{stem}.png": FILE for stem in figs})
     if figs:
         fig_dir.mkdir(exist_ok=True)
     for stem, fig in figs.items():
