@@ -25,8 +25,16 @@ with the study process; journal records that do not match the grid are computed 
 Units: sweep values carry their units ('5 kA/m', '30 deg'; table columns say which); results of a
 dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad.
 
-Exit codes: 0 every point computed (some may have failed: see the manifest), 2 bad input,
-130 interrupted (resume with --resume).
+Files: the folder's entries must be the tool's own: a study.lock, journal.jsonl, manifest.json,
+results.csv or figures that is a symbolic link or of the wrong kind (a directory where a file goes,
+a FIFO, ...) is refused (exit 2, naming it); nothing outside the folder is ever written. Journal
+records carry a digest of their inputs and a checksum: an edited, damaged or older record is
+computed again (with a warning giving the count).
+
+Exit codes: 0 every point computed (some may have failed: see the manifest), 2 bad input (also a
+write the file system refused before anything was journaled), 3 a write refused (read-only or full
+file system) after points were journaled: free space and resume with --resume, 130 interrupted
+(resume with --resume).
 """
 from __future__ import annotations
 
@@ -34,13 +42,12 @@ import argparse
 import os
 import sys
 
-from .common import EXIT_OK, PROG, InputError, bad_input, check_out_dir, stdout_to_stderr
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, InputError, bad_input, check_out_dir,
+                     error_line, stdout_to_stderr)
 
 __all__ = ["HELP", "add_args", "run"]
 
 HELP = "run a sweep study (parallel, resumable; --scheduler for a Dask cluster)"
-
-_SCHEMES = ("tcp://", "tls://", "inproc://", "ucx://", "ws://", "wss://")
 
 
 def _positive_int(text: str) -> int:
@@ -70,7 +77,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "one is refused before any work")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on a Dask distributed cluster, e.g. tcp://127.0.0.1:8786 "
-                             "(needs the 'distributed' package)")
+                             "(needs the 'distributed' package). Bounded waits: 10 s to connect "
+                             "(env ACTUATOR_DESIGN_DASK_TIMEOUT), 60 s for a worker to join, at "
+                             "the start or after every worker left "
+                             "(ACTUATOR_DESIGN_DASK_WORKER_TIMEOUT); then one line and exit 2, "
+                             "or 3 when the folder holds a run that --resume continues")
     parser.add_argument("--no-progress", dest="progress", action="store_false",
                         help="no progress bar on stderr")
     parser.add_argument("--json", action="store_true",
@@ -81,6 +92,19 @@ def _warning(message: str) -> None:
     print(f"{PROG}: warning: {message}", file=sys.stderr, flush=True)
 
 
+def _cluster_failure(exc, plan) -> int:
+    """Exit 3 when the study folder holds a run that --resume continues (the run had started, or
+    it resumes a journal), else bad input (2)."""
+    from ..study.journal import JOURNAL_NAME
+
+    if not (exc.resumable or (plan.resume and (plan.out / JOURNAL_NAME).is_file())):
+        raise InputError(str(exc)) from None
+    text = str(exc) if exc.resumable else (f"{exc}; {plan.out} keeps the journaled points: run "
+                                           "again with --resume once the cluster answers")
+    print(error_line(text), flush=True, file=sys.stderr)
+    return EXIT_NOT_CONVERGED  # 3: a partial run that --resume continues
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``study``."""
     from pathlib import Path
@@ -88,15 +112,27 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
-    if args.scheduler is not None and not args.scheduler.startswith(_SCHEMES):
-        raise InputError(f"--scheduler: expected an address such as tcp://127.0.0.1:8786, got "
-                         f"{args.scheduler!r}")
+    if args.scheduler is not None:
+        from ..study.dask_cluster import (ClusterError, check_address, quiet_distributed_logs,
+                                          timeouts)
+        try:
+            check_address(args.scheduler)
+            timeouts()
+        except ClusterError as exc:
+            raise InputError(str(exc)) from None
+        try:
+            quiet_distributed_logs()
+        except ImportError:
+            pass  # run_study names the missing package
     if args.scheduler is not None and args.workers is not None:
         raise InputError("--workers: the Dask cluster decides its workers; give either "
                          "--workers or --scheduler")
     out = args.out or f"study_{Path(args.config).stem}"
     from ..io import dumps_json
-    from ..study.runner import StudyError, StudyInterrupted, plan_study, run_study
+    from ..safe_files import OutputFolderError
+    from ..study.dask_cluster import ClusterError
+    from ..study.runner import (StudyError, StudyInterrupted, StudyStorageError, plan_study,
+                                run_study)
 
     with bad_input():
         plan = plan_study(args.config, out, resume=args.resume, max_points=args.max_points)
@@ -107,7 +143,14 @@ def run(args: argparse.Namespace) -> int:
     except StudyInterrupted as exc:
         print(f"{PROG}: interrupted: {exc}", flush=True, file=sys.stderr)
         return 130
-    except StudyError as exc:
+    except StudyStorageError as exc:  # read-only or full file system
+        if not exc.resumable:
+            raise InputError(str(exc)) from exc
+        print(error_line(exc), flush=True, file=sys.stderr)
+        return EXIT_NOT_CONVERGED  # 3: a partial run that --resume continues
+    except ClusterError as exc:  # Dask: unreachable, no workers, workers or scheduler lost
+        return _cluster_failure(exc, plan)
+    except (StudyError, OutputFolderError) as exc:
         raise InputError(str(exc)) from exc
     if args.json:
         print(dumps_json(report.to_dict()))

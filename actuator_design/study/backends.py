@@ -1,4 +1,5 @@
-"""Where a study's chunks run: this process, local worker processes, or a Dask cluster.
+"""Where a study's chunks run: this process, local worker processes, or a Dask cluster
+(:mod:`actuator_design.study.dask_cluster`: every wait bounded).
 
 Each backend is a generator of finished chunks (lists of point records,
 :func:`actuator_design.study.worker.run_chunk`) in the order they finish. Closing the generator
@@ -11,8 +12,6 @@ from __future__ import annotations
 import os
 import threading
 from typing import Iterator, List
-
-from .errors import StudyError
 
 __all__ = ["StopRequest", "serial", "processes", "connect", "on_dask"]
 
@@ -86,38 +85,18 @@ def processes(tasks, workers: int) -> Iterator[List[dict]]:
 
 
 def connect(scheduler):
-    """A Dask client for an address (or the client given) and its number of worker threads."""
-    try:
-        from distributed import Client
-    except ImportError:
-        raise StudyError("--scheduler: running on a Dask cluster needs the 'distributed' package "
-                         "(pip install 'dask[distributed]')") from None
-    if isinstance(scheduler, str):
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as err:
-            raise StudyError(f"--scheduler: cannot connect to {scheduler}: "
-                             f"{' '.join(str(err).split())}") from None
-    else:
-        client = scheduler
-    info = client.scheduler_info()
-    threads = sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values())
-    return client, max(1, threads)
+    """A Dask client for an address (or the client given) with at least one worker, and its
+    number of worker threads; the address is checked and every wait bounded
+    (:func:`actuator_design.study.dask_cluster.connect`, which raises
+    :class:`~actuator_design.study.dask_cluster.ClusterError`)."""
+    from .dask_cluster import connect as connect_bounded
+    return connect_bounded(scheduler)
 
 
 def on_dask(tasks, client) -> Iterator[List[dict]]:
-    """Chunks as Dask futures on ``client``; pending ones are cancelled when closed early."""
-    from distributed import as_completed
-
-    from .worker import run_chunk
-
-    futures = []
-    try:
-        futures = client.map(run_chunk, [{**t, "single_threaded_blas": True} for t in tasks],
-                             pure=False)
-        for f in as_completed(futures):
-            yield f.result()
-    finally:
-        pending = [f for f in futures if not f.done()]
-        if pending:
-            client.cancel(pending)
+    """Chunks as Dask futures on ``client``; pending ones are cancelled when closed early. Lost
+    workers or a lost scheduler stop it with a resumable
+    :class:`~actuator_design.study.dask_cluster.ClusterError` once past their bounds
+    (:func:`actuator_design.study.dask_cluster.run_on_dask`)."""
+    from .dask_cluster import run_on_dask
+    return run_on_dask(tasks, client)
