@@ -128,3 +128,35 @@ def test_cli_bad_fit_spec_names_the_field(tmp_path, capsys, edit, field):
     err = capsys.readouterr().err.strip()
     assert code == 2, err
     assert err.startswith(f"actuator-design: error: {field}:"), err
+
+
+# -- files that are not data files, and data the model cannot explain (issue 22) -------------------
+def _fit_cli(tmp_path, capsys, data):
+    out = tmp_path / "out"
+    code = main(["fit", str(CONFIG), "--data", str(data), "--out", str(out)])
+    printed, err = capsys.readouterr()
+    return code, [ln for ln in err.splitlines() if ln.strip()], out, printed
+
+
+def test_a_fifo_or_a_device_is_one_line_not_a_hang(tmp_path, capsys):
+    """A FIFO with no writer blocked the read forever; /dev/zero was read until memory ran out."""
+    import os
+    fifo = tmp_path / "fifo.csv"
+    os.mkfifo(fifo)
+    for data in (fifo, Path("/dev/zero"), tmp_path):
+        code, lines, out, _ = _fit_cli(tmp_path, capsys, data)
+        assert code == 2 and len(lines) == 1 and "regular file" in lines[0], lines
+        assert not out.exists()
+
+
+def test_data_the_model_cannot_explain_is_not_a_success(tmp_path, capsys):
+    """170° tip angles at 0.1–1 kA/m (the transverse rod barely bends there: |angle| < 1° for any
+    admissible chi_bar by the low-field linearisation) with σ = 0.5°: a non-zero exit naming the
+    parameters at their bounds and the failed χ² test, where it said success (issue 22)."""
+    data = tmp_path / "data.csv"
+    rows = "\n".join(f"{0.1 * k:.1f}, 170" for k in range(1, 11))
+    data.write_text("field [kA/m], tip_angle [deg]\n" + rows + "\n")
+    code, lines, _, printed = _fit_cli(tmp_path, capsys, data)
+    assert code == 3
+    text = printed + " ".join(lines)
+    assert "bound" in text and "chi-square" in text, text

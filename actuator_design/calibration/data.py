@@ -30,13 +30,18 @@ in rod lengths: write ``[1]``, ``[-]``, ``[l]`` or no unit. Angles always need a
 
 Errors are :class:`DataError` (a ``ValueError``) with one line naming the file, the column and the
 row, e.g. ``data.csv: column 'tip_angle', row 4 (line 6): missing value (empty or NaN)``.
+
+Only regular files of at most :data:`.limits.MAX_DATA_BYTES` bytes and
+:data:`.limits.MAX_DATA_ROWS` rows are read; anything else is refused before it is read in full.
 """
 from __future__ import annotations
 
 import csv
 import difflib
 import math
+import os
 import re
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -44,8 +49,10 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..units import QuantityError, parse_quantity
+from . import limits
 
-__all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "read_data", "parse_data"]
+__all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "read_data", "parse_data",
+           "read_bounded_text"]
 
 #: Known columns: name → (role, physical dimension, dimension in a dimensionless scene).
 COLUMNS: Dict[str, Tuple[str, str, str]] = {
@@ -231,7 +238,7 @@ def parse_data(text: str, source: str = "<data>", *, dimensionless: bool = False
     DataError
         One line naming the file, column and row: unknown or duplicate column, unit of the wrong
         dimension or missing, a missing/non-numeric/non-finite value, a row of the wrong length,
-        no measured output, too few rows.
+        no measured output, too few rows or more than :data:`.limits.MAX_DATA_ROWS`.
     """
     comments: List[str] = []
     header = None
@@ -250,6 +257,9 @@ def parse_data(text: str, source: str = "<data>", *, dimensionless: bool = False
             n_cells = len(cells)
             continue
         names, _, factors, keep = header
+        if len(rows) >= limits.MAX_DATA_ROWS:
+            raise DataError(f"{source}: more than {limits.MAX_DATA_ROWS} data rows (the limit of a "
+                            "fit; average repeated measurements or thin the data)")
         if len(cells) != n_cells:
             raise DataError(f"{source}: row {len(rows) + 1} (line {lineno}): expected {n_cells} "
                             f"values (one per header column), got {len(cells)}", row=len(rows) + 1)
@@ -273,19 +283,69 @@ def parse_data(text: str, source: str = "<data>", *, dimensionless: bool = False
                         source=source)
 
 
+def _kind_of(mode: int) -> str:
+    """What a non-regular file is, for a message."""
+    for test, what in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return what
+    return "not a regular file"
+
+
+def read_bounded_text(path) -> str:
+    """The text of a regular file of at most :data:`.limits.MAX_DATA_BYTES` bytes (UTF-8, BOM
+    skipped), checked before its content is read.
+
+    The file is opened without blocking (a FIFO with no writer does not hang the open) and its
+    type and size are taken from the open descriptor, so what is read is what was checked; the
+    read itself stops one byte past the limit.
+
+    Raises
+    ------
+    DataError
+        Not found, not a regular file (FIFO, device, directory, socket), larger than the limit,
+        unreadable or not UTF-8 text (one line).
+    """
+    limit = limits.MAX_DATA_BYTES
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except FileNotFoundError:
+        raise DataError(f"{path}: data file not found") from None
+    except OSError as err:
+        raise DataError(f"{path}: cannot read: {err.strerror or err}") from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise DataError(f"{path}: is {_kind_of(info.st_mode)}: a data file must be a regular "
+                            "file")
+        if info.st_size > limit:
+            raise DataError(f"{path}: {info.st_size} bytes: data files are limited to {limit} "
+                            f"bytes ({limit // 2**20} MiB; average repeated measurements or split "
+                            "the file)")
+        with os.fdopen(os.dup(fd), "rb") as f:
+            raw = f.read(limit + 1)  # a file grown since the check is still cut at the limit
+    except OSError as err:
+        raise DataError(f"{path}: cannot read: {err.strerror or err}") from None
+    finally:
+        os.close(fd)
+    if len(raw) > limit:
+        raise DataError(f"{path}: more than {limit} bytes: data files are limited to {limit} bytes")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise DataError(f"{path}: cannot read: not UTF-8 text ({err.reason} at byte "
+                        f"{err.start})") from None
+
+
 def read_data(path, **kwargs) -> MeasuredData:
-    """Read a measurement CSV file; see :func:`parse_data` for the keyword arguments.
+    """Read a measurement CSV file; see :func:`parse_data` for the keyword arguments and
+    :func:`read_bounded_text` for what is refused before reading.
 
     Raises
     ------
     DataError
         The file cannot be read or its content is invalid (one line).
     """
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataError(f"{path}: data file not found") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise DataError(f"{path}: cannot read: {getattr(err, 'strerror', None) or err}") from None
-    return parse_data(text, source=p.name, **kwargs)
+    text = read_bounded_text(path)
+    return parse_data(text, source=Path(path).name, **kwargs)

@@ -26,9 +26,12 @@ def safe_exp(x: float) -> float:
         return float(np.exp(x))
 
 
-def parameter_entries(names, theta, initial, bounds, free, is_log, sd_x, tq) -> Dict[str, dict]:
+def parameter_entries(names, theta, initial, bounds, free, is_log, sd_x, tq,
+                      active=None) -> Dict[str, dict]:
     """name → {"value", "unit", "initial", "bounds", "fitted", "scale", "description", "std",
-    "ci", "at_bound"} in SI units; ``sd_x``: standard deviations of the free x, shape (k,)."""
+    "ci", "at_bound", "bound_side"} in SI units; ``sd_x``: standard deviations of the free x,
+    shape (k,); ``active``: the optimiser's active bounds of the free x (−1 lower, +1 upper,
+    0 none), shape (k,), or None. ``bound_side`` is "lower", "upper" or None."""
     params = {}
     for i, n in enumerate(names):
         lo_b, hi_b = bounds[i]
@@ -44,11 +47,13 @@ def parameter_entries(names, theta, initial, bounds, free, is_log, sd_x, tq) -> 
                 std = theta[i] * sd_x[a]
             else:
                 lo, hi, std = theta[i] - tq * sd_x[a], theta[i] + tq * sd_x[a], sd_x[a]
-            entry.update(std=float(std), ci=[float(lo), float(hi)],
-                         at_bound=bool(np.isclose(theta[i], lo_b, rtol=1e-9, atol=0) or
-                                       np.isclose(theta[i], hi_b, rtol=1e-9, atol=0)))
+            mask = 0 if active is None else int(active[a])
+            at_lo = mask < 0 or bool(np.isclose(theta[i], lo_b, rtol=1e-9, atol=0))
+            at_hi = mask > 0 or bool(np.isclose(theta[i], hi_b, rtol=1e-9, atol=0))
+            entry.update(std=float(std), ci=[float(lo), float(hi)], at_bound=at_lo or at_hi,
+                         bound_side="lower" if at_lo else ("upper" if at_hi else None))
         else:
-            entry.update(std=None, ci=None, at_bound=False)
+            entry.update(std=None, ci=None, at_bound=False, bound_side=None)
         params[n] = entry
     return params
 

@@ -30,6 +30,7 @@ from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 from ..study.spec import validate_spec
 from ..units import MU0, QuantityError, parse_quantity
+from . import limits
 from .branches import BranchSelector
 from .data import COLUMNS, DataError, MeasuredData
 from .parameters import OUTPUT_COMPONENT, PARAMETERS
@@ -141,6 +142,12 @@ class FitProblem:
                 raise ConfigError(f"study.uncertainty.{name}",
                                   f"no column '{name}' in {src} (its outputs: "
                                   f"{', '.join(self.data.outputs)})")
+        inputs = [cols[c] for c in self.data.inputs]
+        n_conditions = len(np.unique(np.column_stack(inputs), axis=0)) if inputs else 1
+        if n_conditions > limits.MAX_CONDITIONS:
+            raise DataError(f"{src}: {n_conditions} distinct measured conditions: a fit is limited "
+                            f"to {limits.MAX_CONDITIONS} (one forward solve each per model "
+                            "evaluation; average repeated measurements or thin the data)")
         n_meas = self.data.n * len(self.data.outputs)
         if n_meas <= len(self.names):
             raise DataError(f"{src}: {self.data.n} data point(s) with {len(self.data.outputs)} "

@@ -28,6 +28,7 @@ def result_dict(result: FitResult) -> Dict[str, Any]:
         "data": {"source": result.data.source, "columns": dict(result.data.units),
                  "comments": list(result.data.comments)},
         "points": result.points, "optimizer": result.optimizer, "solver": result.solver,
+        "goodness_of_fit": dict(result.goodness_of_fit),
     }
 
 
@@ -59,6 +60,7 @@ def summary_text(result: FitResult) -> str:
                      f"[{dv['ci'][0]:.6g}, {dv['ci'][1]:.6g}]  (derived: {dv['description']})")
     rms = ", ".join(f"{o} {v:.4g} {result.data.units[o]}".rstrip() for o, v in result.rms.items())
     lines.append(f"  residuals   : rms {rms}; s² = {result.s2:.4g} (weighted), dof {result.dof}")
+    lines.append(f"  goodness    : {_goodness_text(result.goodness_of_fit)}")
     n_unstable = sum(1 for p in result.points if not p["stable"])
     n_failed = sum(1 for p in result.points if not p["converged"])
     lines.append(f"  equilibria  : {result.data.n - n_failed} converged, "
@@ -68,6 +70,18 @@ def summary_text(result: FitResult) -> str:
     return "\n".join(lines)
 
 
+
+
+def _goodness_text(gof: Dict[str, Any]) -> str:
+    """One line on the χ² test."""
+    if not gof:
+        return "not tested"
+    if not gof["tested"]:
+        return f"not tested ({gof['reason']})"
+    verdict = "passed" if gof["passed"] else "FAILED: the model does not explain the data"
+    return (f"reduced chi-square {gof['chi2_reduced']:.4g}, dof {gof['dof']}, p = "
+            f"{gof['p_value']:.3g} (fails above {gof['threshold']:.4g}, p < "
+            f"{gof['min_p_value']:g}): {verdict}")
 
 
 def points_csv_text(result: FitResult) -> str:

@@ -19,15 +19,17 @@ class FitResult:
     ----------
     success : bool
         The optimiser converged, every data point has a converged, stable equilibrium, the fit
-        moved from its start (or started at the optimum) and the data determine every fitted
-        parameter (or a reported combination of held ones).
+        moved from its start (or started at the optimum), the data determine every fitted
+        parameter (or a reported combination of held ones), no fitted parameter ends on a bound
+        and the residuals pass the χ² test (when the uncertainties are given, :mod:`.goodness`).
     status, message : str
-        ``status`` is ``converged``, ``not_converged``, ``not_identifiable`` or
-        ``did_not_move``; ``message`` says what failed.
+        ``status`` is ``converged``, ``not_converged``, ``not_identifiable``, ``did_not_move``,
+        ``at_bound`` or ``poor_fit`` (the first failure in this order); ``message`` says what
+        failed, every failure found.
     parameters : dict
         name → {"value", "unit", "std", "ci": [low, high], "initial", "bounds", "fitted",
-        "scale"} in SI units (``fitted`` False for a parameter held because it was not
-        identifiable).
+        "scale", "at_bound", "bound_side"} in SI units (``fitted`` False for a parameter held
+        because it was not identifiable; ``bound_side`` "lower", "upper" or None).
     confidence : float
     identifiable : bool
     warnings : list of str
@@ -42,6 +44,9 @@ class FitResult:
     model : ndarray, shape (n, n_out)
     s2 : float
         Residual variance of the weighted residuals.
+    goodness_of_fit : dict
+        The χ² test (:func:`.goodness.chi_square_test`): ``tested``, ``passed``, ``chi2``,
+        ``dof``, ``chi2_reduced``, ``p_value``, ``min_p_value``, ``threshold``, ``rule``.
     """
 
     success: bool
@@ -69,6 +74,7 @@ class FitResult:
     outputs: List[str]
     name: str = "fit"
     solver: Dict[str, Any] = field(default_factory=dict)
+    goodness_of_fit: Dict[str, Any] = field(default_factory=dict)
 
     @property
     def rms(self) -> Dict[str, float]:

@@ -18,7 +18,12 @@ region, bounds; positive parameters in log scale). Parameters the data do not de
 
 A fit is a clean success only when the optimiser converged, every data point has a converged,
 stable equilibrium, the data determine every fitted parameter (or a reported combination of held
-ones), and the fit moved from its start unless it started at an exact fit.
+ones), the fit moved from its start unless it started at an exact fit, no fitted parameter ends on
+a bound, and — with the uncertainties given — the residuals pass the χ² test (:mod:`.goodness`).
+Data magnitudes implausible for the scene (a unit 1000× off) are warned about (:mod:`.plausibility`).
+
+The size of a fit is bounded (:mod:`.limits`), and SIGINT/SIGTERM stop it after the forward solve
+in progress (:mod:`.interrupt`).
 """
 from __future__ import annotations
 
@@ -32,10 +37,13 @@ import scipy.stats
 from ..config import ConfigError, load_config
 from ..study.spec import validate_spec
 from .data import MeasuredData, read_data
+from .goodness import bound_failures, bound_message, chi_square_message, chi_square_test
 from .identifiability import choose_held, combinations, identifiability_message, null_direction
+from .interrupt import FitInterrupted, stop_on_signals
 from .intervals import (combination_intervals, derived_quantities, natural_covariance,
                         parameter_entries)
 from .parameters import FIT_TERMS, PARAMETERS
+from .plausibility import magnitude_warnings
 from .problem import FitProblem
 from .result import FitResult
 from .spec import FitSpec
@@ -71,9 +79,11 @@ def prepare_fit(config_source, data_source) -> FitProblem:
     return FitProblem(config, data, spec)
 
 
-def fit_config(config_source, data_source, progress: bool = False) -> FitResult:
+def fit_config(config_source, data_source, progress: bool = False,
+               interruptible: bool = True) -> FitResult:
     """:func:`prepare_fit` then :func:`fit`."""
-    return fit(prepare_fit(config_source, data_source), progress=progress)
+    return fit(prepare_fit(config_source, data_source), progress=progress,
+               interruptible=interruptible)
 
 
 def _progress_bar(enabled: bool, total: int):
@@ -85,7 +95,7 @@ def _progress_bar(enabled: bool, total: int):
                 desc="fit: evaluation 1")
 
 
-def fit(problem: FitProblem, progress: bool = False) -> FitResult:
+def fit(problem: FitProblem, progress: bool = False, interruptible: bool = True) -> FitResult:
     """Least-squares fit of ``problem`` (see the module docstring for the method).
 
     Parameters
@@ -93,7 +103,21 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
     problem : FitProblem
     progress : bool
         Show a progress bar (forward solves of the current model evaluation) on stderr.
+    interruptible : bool
+        While the fit runs (in the main thread), SIGINT and SIGTERM stop it after the forward
+        solve in progress (:mod:`.interrupt`).
+
+    Raises
+    ------
+    FitInterrupted
+        A SIGINT or SIGTERM arrived (a ``KeyboardInterrupt``; nothing is returned).
     """
+    with stop_on_signals(interruptible) as stop:
+        return _fit(problem, progress, stop)
+
+
+def _fit(problem: FitProblem, progress: bool, stop) -> FitResult:
+    """:func:`fit` with the stop request ``stop`` checked after every forward solve."""
     spec = problem.spec
     names = problem.names
     k_all = len(names)
@@ -101,7 +125,8 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
     free = list(range(k_all))
     held: Dict[int, str] = {}
     undetermined: List[str] = []
-    warnings: List[str] = []
+    warnings: List[str] = magnitude_warnings(problem)
+    n_magnitude = len(warnings)
     combos: List[dict] = []
     is_log = np.array([PARAMETERS[n].log for n in names])
     bounds = [spec.bounds_of(n) for n in names]
@@ -112,6 +137,18 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
     root_w = np.sqrt(problem.weights)[:, None]  # (n, 1): rows weigh in the sum of squares
     bar = _progress_bar(progress, problem.n_conditions)
     n_eval = 0
+
+    def check_stop():
+        if stop.requested:
+            raise FitInterrupted(f"fit stopped during model evaluation {n_eval}, after "
+                                 f"{problem.n_solves} forward solves ({problem.n_conditions} "
+                                 "per evaluation); no result")
+
+    def solved_one():
+        """After each forward solve: stop on a signal, advance the bar."""
+        check_stop()
+        if bar is not None:
+            bar.update()
 
     def to_x(th):
         return np.where(is_log, np.log(np.maximum(th, 1e-300)), th)[free]
@@ -129,8 +166,7 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
             bar.set_description(f"fit: evaluation {n_eval}" + (" (choosing branches)"
                                                                 if select else ""))
         th = to_theta(x)
-        model, jac = problem.evaluate(th, select=select,
-                                      progress=None if bar is None else bar.update)
+        model, jac = problem.evaluate(th, select=select, progress=solved_one)
         w = root_w / problem.sigma[None, :]  # (n, n_out)
         r = ((model - problem.Y) * w).T.ravel()  # output-major
         Jn = (jac * w[:, :, None]).transpose(1, 0, 2).reshape(n_res, -1)[:, free]
@@ -216,12 +252,14 @@ def fit(problem: FitProblem, progress: bool = False) -> FitResult:
     finally:
         if bar is not None:
             bar.close()
-    return _result(problem, theta, free, held, undetermined, warnings, combos, is_log, bounds,
-                   cache, opt, nfev, njev, n_eval)
+    result = _result(problem, theta, free, held, undetermined, warnings, combos, is_log, bounds,
+                     cache, opt, nfev, njev, n_eval, n_magnitude)
+    check_stop()  # a signal during the model curves
+    return result
 
 
 def _result(problem, theta, free, held, undetermined, warnings, combos, is_log, bounds, cache,
-            opt, nfev, njev, n_eval) -> FitResult:
+            opt, nfev, njev, n_eval, n_magnitude=0) -> FitResult:
     """Intervals, identifiability verdict, status and per-row points of a finished fit."""
     spec, names = problem.spec, problem.names
     r, J, model = cache["r"], cache["J"], cache["model"]
@@ -239,7 +277,8 @@ def _result(problem, theta, free, held, undetermined, warnings, combos, is_log, 
                         "zero)")
         undetermined.append(names[free[0]])
     sd_x = np.sqrt(np.maximum(np.diag(cov_x), 0.0))
-    params = parameter_entries(names, theta, problem.initial, bounds, free, is_log, sd_x, tq)
+    params = parameter_entries(names, theta, problem.initial, bounds, free, is_log, sd_x, tq,
+                               active=getattr(opt, "active_mask", None))
     combination_intervals(combos, params, free, sd_x, tq)
     cov, corr = natural_covariance(cov_x, theta[free], is_log[free])
     for a in range(k):
@@ -253,7 +292,21 @@ def _result(problem, theta, free, held, undetermined, warnings, combos, is_log, 
         if i in free and params[n]["at_bound"]:
             warnings.append(f"{n} = {theta[i]:.6g} sits at a bound: the interval assumes an "
                             "interior optimum; widen the bounds")
+    gof = chi_square_test(r, k, bool(np.all(problem.sigma_given)), spec.min_p_value)
     status, ok, msg = _status(problem, opt, points, theta, free, undetermined, r, J)
+    at_bounds = bound_failures(params)
+    if at_bounds:
+        msg += "; " + bound_message(at_bounds)
+        status, ok = (status, ok) if not ok else ("at_bound", False)
+    if gof["passed"] is False:
+        d = problem.data
+        rms = {o: float(np.sqrt(np.mean(d.as_given(o, (model - problem.Y)[:, j]) ** 2)))
+               for j, o in enumerate(problem.outputs)}
+        sigma = {o: float(d.as_given(o, [problem.sigma[j]])[0])
+                 for j, o in enumerate(problem.outputs)}
+        hint = ("see the warning on the data's magnitudes" if n_magnitude else None)
+        msg += "; " + chi_square_message(gof, rms, d.units, sigma, hint)
+        status, ok = (status, ok) if not ok else ("poor_fit", False)
     return FitResult(
         success=ok, status=status, message=msg,
         parameters=params, fitted_names=[names[i] for i in free], confidence=spec.confidence,
@@ -266,7 +319,7 @@ def _result(problem, theta, free, held, undetermined, warnings, combos, is_log, 
                    "conditions": problem.n_conditions, "forward_solves": int(problem.n_solves)},
         points=points, curves=problem.curves(theta, spec.curve_points), data=problem.data,
         outputs=list(problem.outputs), name=problem.config.name or "fit",
-        solver=problem.options.as_dict())
+        solver=problem.options.as_dict(), goodness_of_fit=gof)
 
 
 def _points(problem, model) -> List[dict]:

@@ -9,6 +9,7 @@ A configuration's ``study:`` section of ``type: fit`` names the parameters to fi
         clamp_angle: {initial: 0 deg, bounds: [-5 deg, 5 deg]}
       uncertainty: {tip_angle: 0.5 deg} # optional: σ of each measured column (weights)
       confidence: 0.95
+      min_p_value: 0.001                # optional: the χ² goodness-of-fit test (limits.py)
 
 Every error is one line naming the field (``study.parameters.chi_bar.bounds``, …).
 """
@@ -21,6 +22,7 @@ from pydantic import Field, StrictFloat, StrictInt, StrictStr, model_validator
 
 from ..study.spec import StrictModel, spec_error
 from ..units import QuantityError, parse_quantity
+from .limits import DEFAULT_MIN_P_VALUE
 from .parameters import OUTPUT_COMPONENT, PARAMETERS
 
 __all__ = ["ParameterSpec", "FitSpec"]
@@ -47,6 +49,7 @@ class FitSpec(StrictModel):
     curve_points: StrictInt = Field(default=101, ge=2, le=10_000)
     identifiability_tol: StrictFloat = Field(default=1e-6, gt=0.0, lt=1.0)
     max_nfev: StrictInt = Field(default=200, ge=1)
+    min_p_value: StrictFloat = Field(default=DEFAULT_MIN_P_VALUE, gt=0.0, lt=0.5)
 
     @model_validator(mode="after")
     def _check(self):
