@@ -83,6 +83,7 @@ def assert_rejected(result, tmp_path, *names):
     ({"length": "1e308 m"}, ["scene.h", "rod.length = 1e+308"]),
     ({"magnitude": "1e308 A/m"}, ["scene.h", "field.magnitude = 1e+308"]),
     ({"modulus": "1e-308 Pa"}, ["scene.h", "rod.youngs_modulus = 1e-308"]),
+    ({"length": "1e-300 m"}, ["rod.length", "B0/l^2"]),  # ℓ² underflows (issue 22)
 ])
 def test_extreme_physical_values_name_the_field(tmp_path, kwargs, names):
     # 1e308² overflows float64 (max ≈ 1.8e308); 1e-308 Pa × (10 mm)(1 mm)³/12 ≈ 8e-321 N m² is
@@ -133,6 +134,8 @@ def test_dimensionless_groups_out_of_range(tmp_path, scene, field):
     (["--p", "-1e300"], "--p"),
     (["--elements", "10000000"], "--elements"),
     (["--transcription", "midpoint", "--elements", "1000000"], "--elements"),
+    (["--phi-deg", "1e30"], "--phi-deg"),  # issue 22: an angle whose reduction mod 360° is noise
+    (["--alpha-deg", "-2e6"], "--alpha-deg"),
 ])
 def test_flags_out_of_range(tmp_path, argv, flag):
     assert_rejected(cli(tmp_path, *argv, isolated="--elements" in argv), tmp_path, flag)
@@ -245,3 +248,30 @@ def test_dense_mesh_in_a_non_uniform_field(tmp_path):
     text = ("scene:\n  type: dimensionless\n  h: 1\n  field: {type: dipole, position: {x: 0.5, y: 0.5}}\n"
             "solver: {transcription: midpoint, elements: 1000}\n")
     assert_rejected(cli(tmp_path, config_text=text), tmp_path, "solver.elements", "200")
+
+
+def test_a_tolerance_given_twice_is_refused(tmp_path):
+    """``--tolerance field=5%,field=10%`` (issue 22): the later value silently won; now one line
+    naming the key, exit 2, before any work."""
+    code, out, err = cli(tmp_path, "--target-tip=0.3,0.5", "--tolerance", "field=5%,field=10%",
+                         command="design")
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1 and "'field'" in err and "twice" in err
+
+
+def test_an_empty_out_folder_is_refused(tmp_path, monkeypatch):
+    """``--out ''`` wrote result.json, shape.csv and shape.png into the current directory."""
+    monkeypatch.chdir(tmp_path)
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["solve", "--out", ""])
+    assert code == 2 and out.getvalue() == "" and "--out" in err.getvalue()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_map_range_beyond_a_group_range_is_refused(tmp_path):
+    """``map --y-param p --y-range 0,1e9`` overflowed (OverflowError) sizing the γ scan; the map's
+    corners are now checked against the group ranges of ``config.limits`` before any work."""
+    code, out, err = cli(tmp_path, "--y-param", "p", "--y-range", "0,1e9", command="map")
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1 and "p = 1e+09" in err and "100000" in err

@@ -143,10 +143,15 @@ def parse_tolerances(spec, base: Optional[Tolerances] = None) -> Tolerances:
     else:
         raise ValueError(f"tolerance: expected 'name=value,...' or a mapping, got {type(spec).__name__}")
     values = {attr: getattr(base, attr) for attr, _ in _SPEC.values()}
+    given = {}
     for key, text in items:
         name = _ALIASES.get(key, key)
         if name not in _SPEC:
             raise ValueError(f"tolerance {key!r}: unknown (allowed: {', '.join(_SPEC)})")
+        if name in given:  # 'field=5%,field=10%': which one the user meant is not ours to guess
+            raise ValueError(f"tolerance {key!r}: given twice ({given[name]!r} and {key + '=' + text!r}); "
+                             "give each name once")
+        given[name] = f"{key}={text}"
         attr, kind = _SPEC[name]
         values[attr] = _parse_value(name, kind, text)
     return Tolerances(**values)

@@ -69,6 +69,11 @@ def nonnegative_float(text: str) -> float:
 SCENE_FLAG_GROUPS = {"h": "h", "p": "p", "h_max": "h", "p_max": "p"}
 
 
+#: largest |angle| a ``--*-deg`` flag takes: beyond it an angle is a typo (1e30 deg), and its
+#: reduction modulo 360° has lost every digit of the angle
+MAX_ANGLE_DEG = 1e6
+
+
 def check_scene_flags(args: argparse.Namespace) -> None:
     """Every scene flag given on the command line within its group's valid range.
 
@@ -79,6 +84,15 @@ def check_scene_flags(args: argparse.Namespace) -> None:
     """
     from ..config.limits import group_problem
 
+    out = getattr(args, "out", None)
+    if isinstance(out, str) and not out.strip():  # '' would write into the current directory
+        raise InputError("--out: an empty folder name; give the folder to write into, e.g. --out results")
+    for dest, value in sorted(vars(args).items()):
+        if (dest.endswith("_deg") and isinstance(value, (int, float)) and not isinstance(value, bool)
+                and not abs(value) <= MAX_ANGLE_DEG):
+            flag = "--" + dest.replace("_", "-")
+            raise InputError(f"{flag}: invalid value {value:g} deg: must be a finite angle in "
+                             f"[-{MAX_ANGLE_DEG:g}, {MAX_ANGLE_DEG:g}] deg")
     for dest, group in SCENE_FLAG_GROUPS.items():
         value = getattr(args, dest, None)
         if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -14,11 +14,23 @@ Units: every value carries its unit (the CSV header, '2 MPa' in the config); res
 (rad, m, Pa, A/m). In a dimensionless scene lengths are in rod lengths l and loads in B0/l^2.
 
 Rows sharing a condition (same field, field angle and loads) share one forward solve. Progress
-goes to stderr (when it is a terminal, or with --progress).
+goes to stderr (when it is a terminal, or with --progress). Ctrl-C (SIGINT) or SIGTERM stops the
+fit after the forward solve in progress.
+
+Goodness of fit: with study.uncertainty given for every measured column, the fit fails (status
+poor_fit) when its chi-square exceeds the upper study.min_p_value quantile (default 0.001) of the
+chi-square distribution with m - k degrees of freedom. A fitted parameter that ends on one of its
+bounds fails it too (status at_bound, naming the parameter and the bound). Data magnitudes that
+are implausible for the scene (e.g. 'field [kA/mm]' for kA/m) are warned about.
+
+Limits: the data file must be a regular file (not a FIFO, device or directory) of at most 16 MiB
+and 100000 rows, with at most 5000 distinct conditions.
 
 Exit codes: 0 fitted, 2 bad input (one line naming the field, column or row), 3 the fit or an
-equilibrium did not converge, the data do not determine a fitted parameter, or the fit did not
-move from its start (the result is still printed / written; its status and message say which).
+equilibrium did not converge, the data do not determine a fitted parameter, the fit did not move
+from its start, a fitted parameter is at a bound or the model does not explain the data (the
+result is still printed / written; its status and message say which), 130 interrupted (SIGINT or
+SIGTERM; nothing printed on stdout or written).
 """
 from __future__ import annotations
 
@@ -27,6 +39,9 @@ import sys
 
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, PROG, bad_input, check_out_dir,
                      stdout_to_stderr)
+
+#: Exit code of a fit stopped by SIGINT or SIGTERM (the shell's 128 + SIGINT, as ``study``).
+EXIT_INTERRUPTED = 130
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -57,12 +72,17 @@ def run(args: argparse.Namespace) -> int:
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
     from ..calibration import fit, prepare_fit
+    from ..calibration.interrupt import FitInterrupted
     from ..io import dumps_json
 
     with bad_input():
         problem = prepare_fit(args.config, args.data)
-    with stdout_to_stderr(args.json):
-        result = fit(problem, progress=bool(args.progress or sys.stderr.isatty()))
+    try:
+        with stdout_to_stderr(args.json):
+            result = fit(problem, progress=bool(args.progress or sys.stderr.isatty()))
+    except FitInterrupted as exc:
+        print(f"{PROG}: interrupted: {exc}", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
     written = None
     if args.out is not None:  # the files first, all or nothing; then stdout
         from ..calibration.outputs import fit_files

@@ -14,7 +14,9 @@ Adding a subcommand means writing such a module and adding its name to :data:`CO
 is dropped, so ``continue_`` is the command ``continue``).
 
 Exit codes: 0 success, 1 unexpected internal error, 2 bad input (one line on stderr, nothing
-written), 3 the solver did not converge (the result is still printed / written, ``success`` false).
+written), 3 no result that meets its promise (not converged, inaccurate, a fit that does not explain
+its data, a partial study that ``--resume`` continues; the result is still printed / written,
+``success`` false), 4 ``design``: unreachable target, 130 interrupted.
 """
 from __future__ import annotations
 
@@ -68,7 +70,9 @@ def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
                     "particles bent by an applied field. All values are dimensionless (THEORY §5): "
                     "lengths in rod lengths l, energies in B0/l, forces in B0/l^2, angles in the "
                     "unit named by each flag.",
-        epilog="Exit codes: 0 success, 1 internal error, 2 bad input, 3 solver did not converge.",
+        epilog=("Exit codes: 0 success, 1 internal error, 2 bad input, 3 no result meeting its promise "
+                "(not converged, inaccurate, poor fit, partial study: --resume), 4 design: unreachable "
+                "target, 130 interrupted."),
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
@@ -104,7 +108,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     Returns
     -------
     int
-        0 success, 1 internal error, 2 bad input, 3 not converged.
+        0 success, 1 internal error, 2 bad input, 3 no result meeting its promise, 4 unreachable
+        design target, 130 interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     try:

@@ -107,9 +107,13 @@ def run(args: argparse.Namespace) -> int:
     from ..io import dumps_json
 
     with bad_input():
+        from ..config.checks import check_scene_groups
+
         for v in (xr[0], xr[1]):
             for w in (yr[0], yr[1]):
-                set_param(set_param(scene, xp, v), yp, w)
+                # the corners of the map within the groups' valid ranges (p = 1e9 overflowed)
+                check_scene_groups(set_param(set_param(scene, xp, v), yp, w),
+                                   prefix=f"map corner ({xp} = {v:g}, {yp} = {w:g}): ")
         from ..analysis.equilibria import gamma_bound
         gamma_bound(scene)  # uniform field required
     xs, ys = np.linspace(*xr, nx), np.linspace(*yr, ny)

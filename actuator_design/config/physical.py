@@ -77,6 +77,15 @@ class Rod(StrictModel):
                 what = "A = w t" if name == "cross_section_area" else "B0 = E w t³/12"
                 raise error(f"gives {what} = {value:g}, which must be positive and finite (over- or "
                             f"underflow: check the value and its unit)", field)
+        # the scales of THEORY §5 (energy B0/ℓ, force B0/ℓ², line load B0/ℓ³) must be representable
+        with np.errstate(all="ignore"):  # float64 over- and underflow give inf and 0, not errors
+            scales = [float(np.float64(self.clamp_stiffness) / np.float64(self.length) ** k)
+                      for k in (1, 2, 3)]
+        # (a huge length is named by the derived groups it blows up; a tiny one divides by 0 first)
+        if float(self.length) < 1.0 and not all(math.isfinite(v) and v > 0 for v in scales):
+            raise error(f"gives the unit force B0/l^2 = {scales[1]:g} N (and B0/l, B0/l^3), which must "
+                        "be positive and finite (over- or underflow: check the value and its unit)",
+                        "length")
         return self
 
     def _source_of(self, derived: str) -> str:
