@@ -4,6 +4,7 @@ import math
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from actuator_design.config import ConfigError, load_config, load_scene
@@ -422,14 +423,32 @@ def test_derived_tip_load_is_checked():
 
 
 def test_mesh_budget_in_solver_section_and_options():
-    # banded budget 4e5 Hessian entries: lgl degree 10 has 21 entries per unknown, 10 unknowns
-    # per element → 1904 elements; midpoint 3 per unknown → 133 333 intervals
-    assert load_config({**dimensionless(h=1), "solver": {"elements": 1904}})
-    assert error_of({**dimensionless(h=1), "solver": {"elements": 1905}}).startswith(
-        "solver.elements: must be <= 1904")
-    assert load_config({**dimensionless(h=1), "solver": {"transcription": "midpoint", "elements": 133_333}})
-    with pytest.raises(ValueError, match=r"^elements must be <= "):
-        SolverOptions(transcription="midpoint", elements=133_334)
+    """The cap is the largest mesh that meets both bounds of config.limits (memory model, rounding
+    floor K ε/Δ² ≤ 10³ tol), derived here from the bounds, not from the code's messages."""
+    eps = float(np.finfo(float).eps)
+    mem = lambda n, band: 18_200 * n + 1_930 * band * n <= 0.85e9  # noqa: E731
+    # midpoint: Δ = 1/N; rounding N ≤ sqrt(1e3 tol / (0.5 ε)); memory N (18.2k + 3·1.93k) ≤ 0.85e9
+    n_round = math.floor(math.sqrt(1e3 * 1e-10 / (0.5 * eps)))
+    n_mem = math.floor(0.85e9 / (18_200 + 3 * 1_930))
+    cap = min(n_round, n_mem)
+    assert mem(cap, 3)
+    mid = {**dimensionless(h=1), "solver": {"transcription": "midpoint"}}
+    assert load_config({**mid, "solver": {"transcription": "midpoint", "elements": cap}})
+    assert error_of({**mid, "solver": {"transcription": "midpoint", "elements": cap + 1}}).startswith(
+        f"solver.elements: must be <= {cap} for midpoint (at tol 1e-10")
+    # a larger tol lifts the rounding bound up to the memory bound
+    loose = {"transcription": "midpoint", "elements": n_mem + 1, "tol": 1e-6}
+    assert error_of({**mid, "solver": loose}).startswith(f"solver.elements: must be <= {n_mem} for midpoint (peak memory")
+    # lgl degree 10: smallest spacing (1 + τ_1)/2 / E, τ_1 the first interior LGL node
+    tau1 = np.sort(np.real(np.polynomial.legendre.legroots(np.polynomial.legendre.legder([0] * 10 + [1]))))[0]
+    e_round = math.floor((1 + tau1) / 2 / math.sqrt(3.5 * eps / (1e3 * 1e-10)))
+    assert load_config({**dimensionless(h=1), "solver": {"elements": e_round}})
+    assert error_of({**dimensionless(h=1), "solver": {"elements": e_round + 1}}).startswith(
+        f"solver.elements: must be <= {e_round} for lgl of degree 10")
+    # meshes the tool picks (SolverOptions from Python) are held to memory only
+    SolverOptions(elements=e_round + 100)
+    with pytest.raises(ValueError, match=r"^elements must be <= .*peak memory"):
+        SolverOptions(transcription="midpoint", elements=n_mem + 1)
 
 
 def test_dense_mesh_budget_needs_a_non_uniform_field():

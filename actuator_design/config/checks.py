@@ -50,7 +50,7 @@ def check_mesh(options, scene=None, field: str = "elements") -> None:
     if getattr(options, "accuracy", None) is not None:
         return  # the resolution is chosen by the accuracy driver, within its own bounds
     problem = mesh_problem(options.transcription, options.elements, options.degree,
-                           dense=scene is not None and _is_dense(scene))
+                           dense=scene is not None and _is_dense(scene), tol=options.tol)
     if problem is not None:
         raise ConfigError(field, problem.removeprefix("elements "))
 

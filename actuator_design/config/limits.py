@@ -15,15 +15,29 @@ distributed load qx, qy    [-1e5, 1e5]           as the tip force, integrated
 
 Mesh size. The solver stores the Hessian of the discrete energy in the n free unknowns θ_i
 (n = elements × degree for ``lgl``, n = elements for ``midpoint``) as a CasADi expression graph
-plus numerical copies. Measured peak memory (Python 3.11, CasADi 3.6):
+plus numerical copies. Measured peak memory (Python 3.11, CasADi 3.6, uniform field; peak RSS of
+``actuator-design solve``): midpoint 4000: 0.22 GB, 16 000: 0.51 GB, 30 000: 0.87 GB, 35 000:
+0.99 GB, 40 000: 1.11 GB, 133 333: 3.44 GB; lgl × 10: 800: 0.62 GB, 1100: 0.81 GB, 1400: 1.01 GB,
+1904: 1.29 GB. These fit
+≈ 0.15 GB + :data:`BYTES_PER_UNKNOWN` · n + :data:`BYTES_PER_ENTRY` · n (2b + 1) within 5 %
+(b = degree for ``lgl``, 1 for ``midpoint``: the Hessian's half band):
 
-* terms local in θ (uniform field, tip loads, distributed loads): the Hessian is banded with
-  2b + 1 entries per row (b = degree for ``lgl``, 1 for ``midpoint``); about 2 kB per entry
-  (lgl 400 × 10: 0.31 GB; midpoint 4000: 0.16 GB), so at most :data:`MAX_BANDED_ENTRIES`
-  = 4·10⁵ entries (≈ 0.8 GB);
+* terms local in θ (uniform field, tip loads, distributed loads): the Hessian is banded, and
+  n is capped so that the model above stays within :data:`MEMORY_BUDGET` (≈ 0.85 GB above the
+  interpreter's 0.15 GB);
 * a non-uniform field (dipole, expression) couples every pair of nodes through the positions: the
   Hessian is dense, about 21 kB per entry (midpoint 125: 0.48 GB; 250: 1.6 GB), so at most
   :data:`MAX_DENSE_UNKNOWNS` = 200 unknowns (≈ 0.85 GB).
+
+Rounding. The stationarity residual r = max_i |∂Ê/∂θ_i| / m_i of a converged state carries a
+rounding floor ≈ K ε / Δ² (Δ the smallest node spacing, in rod lengths; measured K = 0.48–0.49 for
+midpoint 35 000, 40 000 and 133 333, 2.8–3.4 for lgl 800, 1100, 1400 and 1904 × 10:
+:data:`ROUNDING_K`). Newton accepts
+a residual at the rounding floor only up to 10⁴ × tol, so where the user picks a uniform mesh
+(configuration and flags) one with K ε/Δ² > :data:`ROUNDING_MARGIN` × tol, which cannot be confirmed
+on every machine (midpoint 133 333 stopped at 1.9e-6, lgl 1904 × 10 at 1.4e-6, both with tol
+1e-10), is refused: at the default tol = 1e-10 midpoint up to 30 011 intervals, lgl of degree 10
+up to 374 elements (a spectral mesh that fine is never needed: the accuracy driver's largest is 200).
 """
 from __future__ import annotations
 
@@ -31,11 +45,26 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Optional, Tuple
 
-__all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS",
+import numpy as np
+
+__all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS", "MEMORY_BUDGET",
+           "BYTES_PER_UNKNOWN", "BYTES_PER_ENTRY", "ROUNDING_MARGIN", "ROUNDING_K", "smallest_spacing",
            "group_problem", "unknowns", "mesh_problem", "scene_group_values"]
 
-#: Largest number of Hessian entries for a banded (local-term) Hessian, ≈ 0.8 GB at 2 kB each.
-MAX_BANDED_ENTRIES = 400_000
+#: Peak memory a banded (local-term) mesh may need above the interpreter's, bytes.
+MEMORY_BUDGET = 0.85e9
+#: Measured peak memory per free unknown and per Hessian entry (module docstring), bytes.
+BYTES_PER_UNKNOWN = 18_200
+BYTES_PER_ENTRY = 1_930
+#: Largest number of Hessian entries for a banded Hessian (the budget at no per-unknown cost:
+#: an upper bound kept for callers; :func:`mesh_problem` applies the full model).
+MAX_BANDED_ENTRIES = int(MEMORY_BUDGET // BYTES_PER_ENTRY)
+#: A uniform mesh is refused when its rounding floor K ε/Δ² exceeds this multiple of tol (Newton
+#: accepts up to 10⁴ tol at the floor; 10 × margin for other machines and scenes).
+ROUNDING_MARGIN = 1e3
+#: Measured rounding floor of the residual in units of ε/Δ², by transcription (module docstring;
+#: lgl measured at degree 10, taken for every degree).
+ROUNDING_K = {"midpoint": 0.5, "lgl": 3.5}
 #: Largest number of free unknowns when a non-uniform field makes the Hessian dense (≈ 0.85 GB).
 MAX_DENSE_UNKNOWNS = 200
 
@@ -106,8 +135,35 @@ def unknowns(transcription: str, elements: int, degree: int) -> int:
     return int(elements) * (int(degree) if transcription == "lgl" else 1)
 
 
-def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = False) -> Optional[str]:
-    """Why this mesh is too large for the memory budget (≈ 1 GB), or None.
+def smallest_spacing(transcription: str, elements: int, degree: int) -> float:
+    """The smallest node spacing of a uniform mesh, rod lengths.
+
+    ``midpoint``: 1 / elements; ``lgl``: the gap between an element's end node and the next LGL
+    node (the roots of P'_d), times the element length 1 / elements.
+    """
+    if transcription != "lgl":
+        return 1.0 / int(elements)
+    from numpy.polynomial import legendre
+
+    c = np.zeros(int(degree) + 1)
+    c[-1] = 1.0
+    interior = np.sort(np.real(legendre.legroots(legendre.legder(c)))) if degree > 1 else [1.0]
+    return float((1.0 + interior[0]) / 2.0) / int(elements)
+
+
+def _largest_elements(ok, hi: int) -> int:
+    """The largest e in [1, hi] with ok(e) (ok monotone: true up to a point)."""
+    lo = 1
+    while lo < hi:
+        mid = (lo + hi + 1) // 2
+        lo, hi = (mid, hi) if ok(mid) else (lo, mid - 1)
+    return lo
+
+
+def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = False,
+                 tol: Optional[float] = None) -> Optional[str]:
+    """Why this mesh is too large for the memory budget (≈ 1 GB) or too fine for the rounding
+    floor at ``tol`` (module docstring), or None.
 
     Parameters
     ----------
@@ -116,6 +172,9 @@ def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = F
         Mesh size (``degree`` is ignored by ``midpoint``).
     dense : bool
         The scene has a non-uniform field, which makes the Hessian dense.
+    tol : float, optional
+        The solver's stationarity tolerance (``SolverOptions.tol``): the rounding floor is checked
+        against it (a mesh the user picks); None checks memory only (meshes the tool picks).
 
     Returns
     -------
@@ -131,8 +190,23 @@ def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = F
         return (f"elements must be <= {MAX_DENSE_UNKNOWNS // per} for {what} in a non-uniform field "
                 f"(dense Hessian: at most {MAX_DENSE_UNKNOWNS} unknowns to stay under ~1 GB), "
                 f"got {elements} ({n} unknowns)")
-    band = 2 * (per if transcription == "lgl" else 1) + 1
-    if n * band <= MAX_BANDED_ENTRIES:
+    band = 2 * per + 1
+
+    def fits(e):
+        return e * per * (BYTES_PER_UNKNOWN + band * BYTES_PER_ENTRY) <= MEMORY_BUDGET
+
+    def rounds(e):
+        floor = ROUNDING_K[transcription] * np.finfo(float).eps / smallest_spacing(transcription, e, degree) ** 2
+        return tol is None or floor <= ROUNDING_MARGIN * tol
+
+    if fits(elements) and rounds(elements):
         return None
-    return (f"elements must be <= {MAX_BANDED_ENTRIES // (band * per)} for {what} (Hessian storage: "
-            f"at most {MAX_BANDED_ENTRIES} entries to stay under ~1 GB), got {elements}")
+    cap = _largest_elements(lambda e: fits(e) and rounds(e), int(elements))
+    if not rounds(cap + 1):
+        why = (f"at tol {tol:g}: finer meshes carry a rounding floor K ε/Δ² in the residual that tol "
+               f"cannot confirm; a larger tol allows more")
+    else:
+        why = (f"peak memory from the measured model ≈ "
+               f"{0.15 + n * (BYTES_PER_UNKNOWN + band * BYTES_PER_ENTRY) / 1e9:.2g} GB for {elements}; "
+               f"the budget is ~1 GB")
+    return f"elements must be <= {cap} for {what} ({why}), got {elements}"

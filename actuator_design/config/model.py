@@ -51,7 +51,7 @@ class SolverSpec(StrictModel):
 
     @model_validator(mode="after")
     def _check_mesh(self):
-        problem = mesh_problem(self.transcription, self.elements, self.degree)
+        problem = mesh_problem(self.transcription, self.elements, self.degree, tol=self.tol)
         if problem is not None:
             raise error(problem.removeprefix("elements "), "elements")
         return self
