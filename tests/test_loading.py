@@ -164,6 +164,25 @@ def test_symmetric_pitchfork_is_a_continuous_bifurcation_not_a_snap():
     assert path.final.tip["x"] == pytest.approx(1 + mode.u1, abs=1e-9)
 
 
+def test_lowering_the_field_through_the_pitchfork_returns_to_the_straight_rod():
+    """φ = π/2, h lowered from 2 to 0 on the buckled branch: the bent branch ends at the pitchfork
+    h_crit = π/(2√2) (closed form) on the straight rod, which is the stable state below it; the
+    path follows it continuously (no jump, nothing to choose) to the straight rod at h = 0."""
+    path = follow_path(default_scene(h=2.0, phi=HALF_PI, p=0.0), None, ramp("h", 2.0, 0.0))
+    assert path.success and path.snap_free, path.message
+    assert len(path.bifurcations) == 1 and path.bifurcations[0].sign == 0
+    assert path.bifurcations[0].param == pytest.approx(critical_field_transverse(1), rel=1e-6)
+    assert all(p.stable for p in path.points if p.kind != "critical")  # μ ≈ 0 at the pitchfork
+    assert path.final.tip["x"] == pytest.approx(1.0, abs=1e-12)
+    assert path.final.tip["y"] == pytest.approx(0.0, abs=1e-12)
+    # below h_crit every state is the straight rod; above it the buckled mode (closed form)
+    h = path.column("param")
+    y = path.column("y")
+    assert np.all(np.abs(y[h < critical_field_transverse(1) - 1e-3]) < 1e-9)
+    mode = transverse_mode(2.0)
+    assert path.states[0].tip["y"] == pytest.approx(mode.v1, abs=1e-9)
+
+
 def test_follow_path_api_final_and_reaches():
     """The design engineer's use: from zero field to a designed state without a snap."""
     from actuator_design.equilibrium import solve

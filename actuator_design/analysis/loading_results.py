@@ -109,7 +109,8 @@ class Jump:
 class Bifurcation:
     """A continuous loss of stability (supercritical bifurcation): the rod leaves the followed
     branch without a jump, onto one of the bifurcating stable branches (chosen by the sign of
-    the unstable eigenvector: positive at the tip, ``sign``)."""
+    the unstable eigenvector: positive at the tip, ``sign``) — or, with ``sign`` 0, the followed
+    branch ends on a branch that is stable past the branch point (nothing to choose)."""
 
     t: float
     param: float
@@ -151,7 +152,8 @@ class LoadingPath:
     states : list of EquilibriumResult
         The state at each schedule point.
     final : EquilibriumResult
-        The state at the last schedule point (the last state reached when ``success`` is False).
+        The state at the last schedule point (the last schedule point reached when ``success`` is
+        False).
     success : bool
         Every step converged (a non-converged step stops the path: ``message`` says where).
     message : str
@@ -205,13 +207,15 @@ class LoadingPath:
                          f"{j.from_state.tip['angle']:.6f} -> {j.to_state.tip['angle']:.6f} rad, "
                          f"energy released {j.energy_released:.6g} B0/l")
         for b in self.bifurcations:
-            lines.append(f"  continuous bifurcation at {self.param or 't'} = {b.param:.10g} "
-                         f"(branch sign {b.sign:+d})")
+            how = f"branch sign {b.sign:+d}" if b.sign else "onto the one stable branch"
+            lines.append(f"  continuous bifurcation at {self.param or 't'} = {b.param:.10g} ({how})")
         hy = self.hysteresis
         if hy.get("loops"):
             lines.append(f"  hysteresis: width {hy['width']:.8g}, loop area {hy['area']:.6g} "
                          f"({len(hy['loops'])} loop(s))")
         f = self.final
-        lines.append(f"  final state: tip ({f.tip['x']:.6f}, {f.tip['y']:.6f}), angle {f.tip['angle']:.6f} rad, "
+        label = "final state" if self.success else (
+            f"state at the last schedule point reached (t = {len(self.states) - 1})")
+        lines.append(f"  {label}: tip ({f.tip['x']:.6f}, {f.tip['y']:.6f}), angle {f.tip['angle']:.6f} rad, "
                      f"energy {f.energy:.8g}, {'stable' if f.stable else 'UNSTABLE'}")
         return "\n".join(lines)

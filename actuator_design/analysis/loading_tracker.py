@@ -36,6 +36,9 @@ _PAST_FOLD = 1e-7
 #: Past a branch point the unstable state is left this far (far enough that the unstable
 #: eigenvalue is well resolved, near enough that a supercritical branch is still close: ~√d).
 _PAST_BRANCH_POINT = 1e-4
+#: A stable state past a branch point this close to the critical state (max nodal |Δθ|, rad;
+#: ~√(_PAST_BRANCH_POINT) with room) continues the path without a jump.
+_MERGE_DTHETA = 0.1
 
 
 class Tracker:
@@ -246,8 +249,20 @@ class Tracker:
         t = ev.tangent
         slope = t[:n] / t[n] if t is not None and abs(t[n]) > 1e-12 else np.zeros(n)
         ru = self._solve_track(prob, lam_s, prob.full(ev.x[:n] + d * slope, lam_s))
+        if not self._usable(ru):  # a tangent nearly normal to λ (the branch ends here): from the point
+            ru = self._solve_track(prob, lam_s, prob.full(ev.x[:n], lam_s))
         if not self._usable(ru):
             return None
+        if ru.stable and np.max(np.abs(ru.z - rc.z)) <= _MERGE_DTHETA:
+            # the followed branch ends on a branch that is stable past λ_c (a supercritical pitchfork
+            # crossed from its bent side, e.g. a field lowered through the buckling field): the rod
+            # goes on continuously on that branch; nothing to choose (sign 0)
+            self.record(prob, k, lam_c, rc, "critical")
+            self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
+                                         values=seg.values(lam_c), direction=self._direction(seg),
+                                         state=rc, sign=0))
+            self.record(prob, k, lam_s, ru, "landing")
+            return lam_s, ru
         _, H, _ = prob.ev(ru.z[1:], lam_s)
         _, v = lowest_eigenpairs_dense(np.array(H), 1.0 / prob.mass, 1)
         v = np.concatenate([[0.0], v / np.max(np.abs(v))])
