@@ -184,3 +184,43 @@ def test_equilibria_of_steep_fibre_layouts_meet_the_solve_promise(amp, steep, ce
                   abs(e.tip["angle"] - sol.tip_angle))
         assert off <= 1e-6 or e.accuracy_problem is not None, (e.tip, sol.tip_x, sol.tip_y, off)
     assert not r.inaccurate  # the refined meshes reach the promise on all four
+
+
+def _random_scenes(n, seed=2207):
+    """Random fibre layouts α(s) = a₁ sin(πs/2) + a₂ cos(3πs/2) + a₃ s², fields and tip loads
+    (a fixed seed: the same cases on every machine)."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        a = [float(v) for v in rng.uniform(-0.8, 0.8, 3)]
+        fibres = expression_profile(f"{a[0]!r}*sin(pi*s/2)+{a[1]!r}*cos(3*pi*s/2)+{a[2]!r}*s**2")
+        yield Scene(field=UniformField(phi=float(rng.uniform(0.0, math.pi))), h=float(rng.uniform(0.5, 4.0)),
+                    fibres=fibres, tip_force=(0.0, float(rng.uniform(-3.0, 3.0))))
+
+
+def _cases():
+    """Six random scenes; the two quickest (≈ 30 s each) in every run, the rest in benchmarks."""
+    scenes = list(_random_scenes(6))
+    quick = sorted(range(6), key=lambda i: scenes[i].h)[:2]
+    return [pytest.param(s, marks=() if i in quick else pytest.mark.slow, id=f"case{i}-h{s.h:.2f}")
+            for i, s in enumerate(scenes)]
+
+
+@pytest.mark.parametrize("scene", _cases())
+def test_equilibria_match_an_independent_scan_over_random_layouts(scene):
+    """Property test (issue 22): over random fibre layouts, fields and loads, ``equilibria`` lists
+    the same set as the reference shooting solver's own scan over the integral bound (an adaptive
+    IVP and brentq, independent of the module's RK4 scan and of the collocation), with the same
+    Morse indices (Jacobi test) and tips to the promised 1e-6 — or flags an equilibrium inaccurate."""
+    r = find_equilibria(scene)
+    assert r.complete and not r.failures
+    params = _ref_params(scene)
+    W = gamma_bound(scene)["integral"]
+    ref = _reference_roots(params, -W, W, 401)
+    assert r.count == len(ref), ([e.gamma for e in r.equilibria], ref)
+    for e, g in zip(r.equilibria, ref):
+        sol = solve_shooting(params, g)
+        assert sol.converged and e.gamma == pytest.approx(sol.gamma, abs=1e-4 * max(1.0, abs(g)))
+        assert e.morse_index == jacobi_morse_index(sol).index
+        off = max(abs(e.tip["x"] - sol.tip_x), abs(e.tip["y"] - sol.tip_y),
+                  abs(e.tip["angle"] - sol.tip_angle))
+        assert off <= 1e-6 or e.accuracy_problem is not None, (e.tip, off)
