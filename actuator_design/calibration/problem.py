@@ -4,11 +4,12 @@ For each distinct condition c (field H, field angle, load of a data row) and fit
 the dimensionless groups of THEORY §5 (h² = μ0 χ̄ H² A ℓ²/(2B), p = P ℓ²/B, …) fill the slots q of
 the NLP parameter vector of the solver built once for the scene structure; a hard-magnetic rod adds
 h_r = μ0 M_r H A ℓ²/B (THEORY §9), linear in the field and in 1/B. The equilibrium z_c is
-found by damped Newton, warm-started from the condition's previous solution (or, the first time,
-along the conditions sorted by their inputs), on the stable branch closest to the measurements
-(:mod:`.branches`). Rows that share a condition share one forward solve and one sensitivity: the
-branch is chosen against the (weighted) mean of their measurements, which ranks branches exactly as
-the sum of their squared residuals does.
+found by damped Newton, warm-started from the condition's solution at the best parameters
+evaluated so far (:meth:`FitProblem.snapshot`; a trial step the optimiser rejects leaves no trace)
+or, the first time, along the conditions sorted by their inputs, on the stable branch closest to
+the measurements (:mod:`.branches`). Rows that share a condition share one forward solve and one
+sensitivity: the branch is chosen against the (weighted) mean of their measurements, which ranks
+branches exactly as the sum of their squared residuals does.
 
 The tip y = T(z, q) depends on q directly and through z(q), defined by ∇_r Ê(z, q) = 0; the
 implicit function theorem gives dz/dq = −H_r⁻¹ ∂(∇_r Ê)/∂q, so dy/dθ = (∂T/∂z dz/dq + ∂T/∂q) dq/dθ
@@ -324,6 +325,14 @@ class FitProblem:
     def state_of_row(self, i: int) -> ConditionState:
         """The tracked equilibrium of data row ``i`` (0-based)."""
         return self.states[int(self.row_condition[i])]
+
+    def snapshot(self) -> List[ConditionState]:
+        """A copy of the tracked equilibria of all conditions (for :meth:`restore`)."""
+        return [dataclasses.replace(s) for s in self.states]
+
+    def restore(self, snapshot: List[ConditionState]) -> None:
+        """Track the equilibria of ``snapshot`` (from :meth:`snapshot`) again."""
+        self.states = [dataclasses.replace(s) for s in snapshot]
 
     # -- evaluation -----------------------------------------------------------------------------
     def nlp_params(self, theta: np.ndarray, u: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:

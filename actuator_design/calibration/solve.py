@@ -13,7 +13,9 @@ Method (nested least squares with exact sensitivities)
 -----------------------------------------------------
 The model of every distinct measured condition is a stable equilibrium with exact sensitivities
 (:mod:`.problem`, :mod:`.branches`). These Jacobians drive ``scipy.optimize.least_squares`` (trust
-region, bounds; positive parameters in log scale). Parameters the data do not determine are held
+region, bounds; positive parameters in log scale). Every evaluation starts from the equilibria of
+the lowest-cost evaluation so far, so a trial step the optimiser rejects cannot move a condition
+onto another branch for the next one. Parameters the data do not determine are held
 (:mod:`.identifiability`); intervals come from s² (JᵀJ)⁻¹ (:mod:`.intervals`).
 
 A fit is a clean success only when the optimiser converged, every data point has a converged,
@@ -137,6 +139,9 @@ def _fit(problem: FitProblem, progress: bool, stop) -> FitResult:
     root_w = np.sqrt(problem.weights)[:, None]  # (n, 1): rows weigh in the sum of squares
     bar = _progress_bar(progress, problem.n_conditions)
     n_eval = 0
+    # the tracked equilibria of the lowest cost evaluated (the optimiser's iterate): every
+    # evaluation starts from these, not from the last trial's (see compute)
+    best: Dict[str, Any] = {"cost": np.inf, "states": None}
 
     def check_stop():
         if stop.requested:
@@ -158,9 +163,20 @@ def _fit(problem: FitProblem, progress: bool, stop) -> FitResult:
         th[free] = np.where(is_log[free], np.exp(x), x)
         return th
 
-    def compute(x, select=False):
+    def compute(x, select=False, anchor=True):
+        """Residuals and Jacobian at ``x``, warm-started from the best evaluation's equilibria.
+
+        A trial step of the optimiser that is rejected must not move the tracked equilibria:
+        near a branch point a step across the symmetric configuration (e.g. the sign of the clamp
+        angle) makes a branch vanish, Newton lands on the other one, and the next trial would
+        continue that wrong branch where both exist again. So the equilibria of an evaluation are
+        kept only when it lowers the cost (an accepted step) or when it is an ``anchor`` (the
+        fit's own evaluations: branch selection, holding a parameter, re-weighting).
+        """
         nonlocal n_eval
         n_eval += 1
+        if best["states"] is not None:
+            problem.restore(best["states"])
         if bar is not None:
             bar.reset(total=problem.n_conditions)
             bar.set_description(f"fit: evaluation {n_eval}" + (" (choosing branches)"
@@ -172,19 +188,22 @@ def _fit(problem: FitProblem, progress: bool, stop) -> FitResult:
         Jn = (jac * w[:, :, None]).transpose(1, 0, 2).reshape(n_res, -1)[:, free]
         Jx = Jn * np.where(is_log[free], th[free], 1.0)[None, :]  # d/dlog p = p d/dp
         cache.update(x=np.array(x), r=r, J=Jx, model=model)
+        cost = 0.5 * float(r @ r)
+        if anchor or cost < best["cost"]:
+            best.update(cost=cost, states=problem.snapshot())
         if bar is not None:
-            bar.set_postfix(cost=f"{0.5 * float(r @ r):.4g}", refresh=False)
+            bar.set_postfix(cost=f"{cost:.4g}", refresh=False)
         return r, Jx
 
     def fun(x):
         if "x" in cache and np.array_equal(cache["x"], x):
             return cache["r"]
-        return compute(x)[0]
+        return compute(x, anchor=False)[0]
 
     def jac(x):
         if "x" in cache and np.array_equal(cache["x"], x):
             return cache["J"]
-        return compute(x)[1]
+        return compute(x, anchor=False)[1]
 
     def hold(null) -> None:
         """Hold the parameter the null direction leans on most; record the message."""
@@ -220,6 +239,8 @@ def _fit(problem: FitProblem, progress: bool, stop) -> FitResult:
             hi = np.array([np.log(b[1]) if is_log[i] and np.isfinite(b[1]) else
                            (np.inf if is_log[i] else b[1]) for i, b in enumerate(bounds)])[free]
             x0 = np.clip(to_x(theta), lo, hi)
+            if not np.array_equal(cache.get("x"), x0):
+                compute(x0)  # the optimiser's first iterate: its equilibria are the warm start
             opt = scipy.optimize.least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf",
                                                x_scale="jac", max_nfev=spec.max_nfev, ftol=1e-12,
                                                xtol=1e-12, gtol=1e-12)

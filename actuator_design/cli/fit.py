@@ -15,7 +15,8 @@ Units: every value carries its unit (the CSV header, '2 MPa' in the config); res
 
 Rows sharing a condition (same field, field angle and loads) share one forward solve. Progress
 goes to stderr (when it is a terminal, or with --progress). Ctrl-C (SIGINT) or SIGTERM stops the
-fit after the forward solve in progress.
+fit after the forward solve in progress (before the fit, while the inputs are read and the solver
+is built, or while the results are written, at once; a partly written --out set is removed).
 
 Goodness of fit: with study.uncertainty given for every measured column, the fit fails (status
 poor_fit) when its chi-square exceeds the upper study.min_p_value quantile (default 0.001) of the
@@ -35,7 +36,10 @@ SIGTERM; nothing printed on stdout or written).
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
+import threading
 
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, PROG, bad_input, check_out_dir,
                      stdout_to_stderr)
@@ -64,8 +68,33 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "terminal; never on stdout)")
 
 
+@contextlib.contextmanager
+def _sigterm_as_sigint():
+    """Within the block SIGTERM raises ``KeyboardInterrupt`` as SIGINT does (exit 130, not a kill
+    that leaves no message and perhaps a staging folder); the fit itself installs its own
+    handlers (:mod:`actuator_design.calibration.interrupt`). Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``fit``: load and check the inputs, fit, print and optionally write the result."""
+    with _sigterm_as_sigint():
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """:func:`run` with SIGTERM raising ``KeyboardInterrupt`` outside the fit."""
     check_out_dir(args.out)
     from pathlib import Path
 
