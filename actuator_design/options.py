@@ -121,10 +121,10 @@ class SolverOptions:
         if self.accuracy is None:
             from .config.limits import mesh_problem  # the memory budget (README "Units and scenes")
 
-            problem = mesh_problem(self.transcription, int(self.elements) + self.extra_elements,
-                                   int(self.degree))
-            if problem is not None:
-                raise ValueError(problem)
+            mesh = (self.transcription, int(self.elements) + self.extra_elements, int(self.degree))
+            problem = mesh_problem(*mesh)  # memory only: the tool picks meshes finer than a user may
+            if problem is not None:  # over budget anyway: name the binding cap, rounding included
+                raise ValueError(mesh_problem(*mesh, tol=self.tol) or problem)
         if self.accuracy is not None and not (0 < self.accuracy < 1):
             raise ValueError(f"accuracy must lie in (0, 1) (a tip error in rod lengths/rad), got {self.accuracy}")
 

@@ -448,7 +448,10 @@ def test_mesh_budget_in_solver_section_and_options():
     # meshes the tool picks (SolverOptions from Python) are held to memory only
     SolverOptions(elements=e_round + 100)
     with pytest.raises(ValueError, match=r"^elements must be <= .*peak memory"):
-        SolverOptions(transcription="midpoint", elements=n_mem + 1)
+        SolverOptions(transcription="midpoint", elements=n_mem + 1, tol=1e-6)
+    # over the memory budget at the default tol: the message names the binding (rounding) cap
+    with pytest.raises(ValueError, match=rf"^elements must be <= {cap} for midpoint \(at tol 1e-10"):
+        SolverOptions(transcription="midpoint", elements=133_333)
 
 
 def test_dense_mesh_budget_needs_a_non_uniform_field():
