@@ -6,7 +6,9 @@ that the unit has the expected dimension. Conventions:
 * A **plain number** (``27.5`` or ``"27.5"``) is taken in SI base units (m, Pa, N, A/m, ...), except
   for angles, see below. Write the unit whenever the value is not in SI base units.
 * An **angle** given as a plain number is in radians and must lie within [-2π, 2π]; a larger value
-  such as ``90`` is rejected because it almost certainly means degrees (write ``"90 deg"``).
+  such as ``90`` is rejected because it almost certainly means degrees (write ``"90 deg"``). An
+  angle with a unit must lie within ±:data:`MAX_ANGLE_DEG` degrees; a rejected angle is reported
+  in the unit it was given in (:func:`angle_range_problem`, also used by the command line).
 * A **magnetic field** may be given as a field strength H (``"5 kA/m"``) or as a flux density B in
   tesla (``"10 mT"``); the latter is converted as H = B/μ0 with μ0 = 4π·10⁻⁷ H/m (the field in
   vacuum/air, which is how a magnet or coil field is usually quoted).
@@ -24,7 +26,7 @@ import re
 from dataclasses import dataclass
 
 __all__ = ["ureg", "registry", "MU0", "DIMENSIONS", "QuantityError", "parse_quantity",
-           "COMMON_UNITS"]
+           "COMMON_UNITS", "MAX_ANGLE_DEG", "angle_range_problem"]
 
 _REGISTRY = None
 
@@ -48,6 +50,59 @@ MU0 = 4.0e-7 * math.pi
 """Vacuum permeability μ0 = 4π·10⁻⁷ H/m (THEORY §1)."""
 
 _TWO_PI = 2.0 * math.pi
+
+#: Largest |angle| accepted anywhere (configuration values with a unit, ``--*-deg`` flags, angle
+#: values of ``--from``/``--to``/``--window``/``--schedule``), degrees: beyond it an angle is a
+#: typo (1e30 deg), and its reduction modulo 360° has lost every digit of the angle.
+MAX_ANGLE_DEG = 1e6
+_MAX_ANGLE_RAD = math.radians(MAX_ANGLE_DEG)
+_RAD_PER = {"rad": 1.0, "radian": 1.0, "radians": 1.0, "deg": math.pi / 180.0,
+            "degree": math.pi / 180.0, "degrees": math.pi / 180.0, "°": math.pi / 180.0}
+
+
+def angle_range_problem(value: float, unit: str = "deg", rad_per_unit=None):
+    """What is wrong with the angle ``value`` given in ``unit``, in that unit; None when accepted.
+
+    One helper for every angle check, so that a rejected angle is echoed, with its allowed range,
+    in the unit the user wrote (an angle given in degrees is never reported in radians).
+
+    Parameters
+    ----------
+    value : float
+        The angle as given, in ``unit``.
+    unit : str
+        The unit it was given in (``"deg"``, ``"rad"``, ``"°"``, or any pint angle unit together
+        with ``rad_per_unit``).
+    rad_per_unit : float, optional
+        Radians per ``unit`` (default: known for deg and rad).
+
+    Returns
+    -------
+    str or None
+        ``"must be a finite angle in [-1e+06, 1e+06] deg, got 1e+07 deg"``, or None.
+    """
+    per = rad_per_unit if rad_per_unit is not None else _RAD_PER.get(unit, 1.0)
+    v = float(value)
+    if math.isfinite(v) and abs(v * per) <= _MAX_ANGLE_RAD * (1.0 + 1e-15):
+        return None
+    bound = _MAX_ANGLE_RAD / abs(per) if per else math.inf
+    shown = "deg" if unit == "°" else unit
+    return (f"must be a finite angle in [-{bound:g}, {bound:g}] {shown}, "
+            f"got {v:g} {shown}")
+
+
+def _check_angle_text(x_rad: float, text: str, field_name: str) -> float:
+    """``x_rad`` (the angle of ``text``) within ±MAX_ANGLE_DEG, else a QuantityError in the unit
+    written in ``text``."""
+    if abs(x_rad) <= _MAX_ANGLE_RAD * (1.0 + 1e-15):
+        return x_rad
+    m = re.match(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(°|[A-Za-z]+)\s*$", text)
+    number = float(m.group(1)) if m else 0.0
+    if m and number != 0.0 and math.isfinite(number):
+        problem = angle_range_problem(number, m.group(2), x_rad / number)
+    else:  # an expression such as '2*1e9 deg': in radians, the unit it was converted to
+        problem = angle_range_problem(x_rad, "rad")
+    raise QuantityError(field_name, f"{problem} ('{text}')" if not m else problem)
 _NON_FINITE = re.compile(r"^\s*[+-]?(nan|inf)", re.IGNORECASE)
 _MAX_LENGTH = 200
 # powers: a unit exponent is a small number ("mm^2", "m**3"); a tower such as "10**10**10" or
@@ -219,7 +274,8 @@ def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
     ------
     QuantityError
         ``"<field_name>: <reason>"`` for a non-finite value, an unknown unit, a unit of the wrong
-        dimension, or an angle given as a plain number outside [-2π, 2π].
+        dimension, an angle given as a plain number outside [-2π, 2π], or an angle with a unit
+        beyond ±:data:`MAX_ANGLE_DEG` degrees (reported in the unit it was given in).
     """
     if dimension not in DIMENSIONS:
         raise KeyError(f"unknown dimension {dimension!r} (known: {', '.join(DIMENSIONS)})")
@@ -238,7 +294,8 @@ def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
                 "or radians within [-2π, 2π]")
         return plain
 
-    return _text_to_si(str(value), dimension, field_name)
+    return _angle_in_range(_text_to_si(str(value), dimension, field_name), dimension, str(value),
+                           field_name)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -252,6 +309,10 @@ def _text_to_si(text: str, dimension: str, field_name: str) -> float:
             return _check_finite(common, text, field_name)
     q = _parse_string(text, dim, field_name)
     return _check_finite(_to_si(q, text, dimension, dim, field_name), text, field_name)
+
+
+def _angle_in_range(x: float, dimension: str, text: str, field_name: str) -> float:
+    return _check_angle_text(x, text, field_name) if dimension == "angle" else x
 
 
 def _to_si(q, text: str, dimension: str, dim: _Dimension, field_name: str) -> float:

@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass
 from typing import Optional
 
-from .units import MU0, parse_quantity, registry
+from .units import MU0, angle_range_problem, parse_quantity, registry
 
 __all__ = ["UserUnits", "user_units", "length_unit_of", "parameter_from_text",
            "parameter_physical", "parameter_unit_label", "physical_value_keys", "add_physical_values",
@@ -174,7 +174,9 @@ def parameter_from_text(text, param, units: Optional[UserUnits], flag: str) -> f
     ------
     ValueError
         One line naming ``flag``: a unit for a parameter without a physical meaning, a unit on a
-        dimensionless scene, a unit of the wrong dimension, a non-finite value.
+        dimensionless scene, a unit of the wrong dimension, a non-finite value, an angle beyond
+        ±MAX_ANGLE_DEG degrees (reported in the unit it was given in:
+        :func:`~actuator_design.units.angle_range_problem`).
     """
     if isinstance(text, (int, float)) and not isinstance(text, bool):
         value = float(text)
@@ -186,6 +188,10 @@ def parameter_from_text(text, param, units: Optional[UserUnits], flag: str) -> f
             return _with_unit(s, param, units, flag)
     if not math.isfinite(value):
         raise ValueError(f"{flag}: must be a finite number, got {text!r}")
+    if _kind(param) == "angle":  # a plain number is in the parameter's unit, rad
+        problem = angle_range_problem(value, "rad")
+        if problem is not None:
+            raise ValueError(f"{flag}: {problem}")
     return value
 
 

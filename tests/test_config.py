@@ -178,7 +178,7 @@ PARTICLES = {"axis_ratio": 3, "chi_par": 10, "chi_perp": 10, "volume_fraction": 
     ("volume_fraction", 1.5, "volume_fraction: must be < 1"),
     ("volume_fraction", 0, "volume_fraction: must be > 0"),
     ("axis_ratio", 0.5, "axis_ratio: must be >= 1"),
-    ("chi_par", -1, "chi_par: must be > 0"),
+    ("chi_par", -1, "chi_par: must be in (0, 1e+06]"),
     ("saturation_field", "2 mm", "saturation_field: expected a magnetic field"),
 ])
 def test_bad_particles_are_named(key, value, field):

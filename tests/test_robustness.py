@@ -46,7 +46,7 @@ def test_parse_tolerances_units_and_defaults():
     ("field=5%,spin=3", "tolerance 'spin': unknown"),
     ("field=five", "tolerance field: cannot read"),
     ("field", "not NAME=VALUE"),
-    ("angle=60deg", "tolerance angle: must be a number in [0, 45 deg]"),
+    ("angle=60deg", "tolerance angle: must be an angle in [0, 45 deg], got 60 deg"),  # in deg as given
     ("field=nan", "tolerance field: must be a number"),
 ])
 def test_bad_tolerances_name_the_field(spec, words):

@@ -176,14 +176,16 @@ def test_physical_sweep_units_reach_the_scene(tmp_path):
                             "solve.tip.y", "solve.tip.angle"}
 
 
-def test_invalid_points_are_recorded_and_the_study_goes_on(tmp_path):
+def test_an_out_of_range_value_is_refused_before_any_work(tmp_path):
+    """README "Valid ranges": a study value outside its range is exit 2 before anything is written
+    (it was an ``invalid`` point in a written folder); tests/test_study_checks.py has the rest."""
     cfg = copy.deepcopy(TRANSVERSE)
     cfg["study"]["sweep"] = {"h": [0.5, -1.0, 2.0]}
-    report = run_study(cfg, tmp_path / "s", workers=1, progress=False)
-    assert report.counts == {"ok": 2, "not_converged": 0, "invalid": 1, "error": 0, "pending": 0}
-    m = json.loads((tmp_path / "s" / "manifest.json").read_text())
-    assert m["points"][1]["status"] == "invalid"
-    assert m["points"][1]["message"].startswith("scene.h:")
+    with pytest.raises(ConfigError) as info:
+        run_study(cfg, tmp_path / "s", workers=1, progress=False)
+    assert info.value.field == "study.sweep.h"
+    assert "scene.h: must be >= 0, got -1.0" in str(info.value)
+    assert not (tmp_path / "s").exists()
 
 
 # -- resume ----------------------------------------------------------------------------------------------

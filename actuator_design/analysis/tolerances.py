@@ -70,8 +70,11 @@ class Tolerances:
         for name, (attr, kind) in _SPEC.items():
             v = getattr(self, attr)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and 0.0 <= v <= _LIMITS[kind]):
-                lim = f"{_LIMITS[kind]:g}" if kind == "rel" else f"{math.degrees(_LIMITS[kind]):g} deg"
-                raise ValueError(f"tolerance {name}: must be a number in [0, {lim}], got {v!r}")
+                if kind == "rel":
+                    raise ValueError(f"tolerance {name}: must be a number in [0, {_LIMITS[kind]:g}], got {v!r}")
+                got = f"{math.degrees(v):.6g} deg" if isinstance(v, (int, float)) and math.isfinite(v) else repr(v)
+                raise ValueError(f"tolerance {name}: must be an angle in [0, {math.degrees(_LIMITS[kind]):g} deg], "
+                                 f"got {got}")  # echoed in degrees, the unit of the range
 
     @property
     def active(self) -> Tuple[str, ...]:

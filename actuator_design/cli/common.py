@@ -9,12 +9,15 @@ import sys
 from pathlib import Path
 from typing import Optional
 
+from ..units import MAX_ANGLE_DEG  # the largest |angle| any input takes, also a --*-deg flag
+
 __all__ = [
     "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
     "UsageError", "InputError", "error_line", "package_version", "finite_float",
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
     "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags", "add_rate_args", "parse_rates",
-    "table_csv_text",
+    "table_csv_text", "check_angle_deg", "check_parameter_angle",
+    "MAX_ANGLE_DEG",
 ]
 
 PROG = "actuator-design"
@@ -69,9 +72,46 @@ def nonnegative_float(text: str) -> float:
 SCENE_FLAG_GROUPS = {"h": "h", "p": "p", "h_max": "h", "p_max": "p"}
 
 
-#: largest |angle| a ``--*-deg`` flag takes: beyond it an angle is a typo (1e30 deg), and its
-#: reduction modulo 360° has lost every digit of the angle
-MAX_ANGLE_DEG = 1e6
+def check_angle_deg(value, name: str) -> None:
+    """An angle given in degrees (a ``--*-deg`` flag, a ``*_deg`` study value) within
+    ±MAX_ANGLE_DEG, reported in degrees, the unit the user gave.
+
+    Raises
+    ------
+    InputError
+        ``--phi-deg: must be a finite angle in [-1e+06, 1e+06] deg, got 1e+07 deg``.
+    """
+    from ..units import angle_range_problem
+
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return
+    problem = angle_range_problem(float(value), "deg")
+    if problem is not None:
+        raise InputError(f"{name}: {problem}")
+
+
+def check_parameter_angle(name: str, value, where: str) -> None:
+    """A value of the lens parameter ``name`` given as a plain number (a study section, a
+    schedule): when it is an angle, within ±MAX_ANGLE_DEG, reported in the unit of ``name`` —
+    degrees for a ``<name>_deg`` alias, rad for the lens' own angles.
+
+    Raises
+    ------
+    InputError
+        ``study.window: must be a finite angle in [-17453.3, 17453.3] rad, got 20000 rad``.
+    """
+    from ..parameters import degree_aliases, parameters
+    from ..units import angle_range_problem
+
+    if value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
+        return
+    if name in degree_aliases():
+        check_angle_deg(value, where)
+        return
+    p = parameters().get(name)
+    problem = angle_range_problem(value, "rad") if p is not None and p.unit == "rad" else None
+    if problem is not None:
+        raise InputError(f"{where}: {problem}")
 
 
 def check_scene_flags(args: argparse.Namespace) -> None:
@@ -88,11 +128,8 @@ def check_scene_flags(args: argparse.Namespace) -> None:
     if isinstance(out, str) and not out.strip():  # '' would write into the current directory
         raise InputError("--out: an empty folder name; give the folder to write into, e.g. --out results")
     for dest, value in sorted(vars(args).items()):
-        if (dest.endswith("_deg") and isinstance(value, (int, float)) and not isinstance(value, bool)
-                and not abs(value) <= MAX_ANGLE_DEG):
-            flag = "--" + dest.replace("_", "-")
-            raise InputError(f"{flag}: invalid value {value:g} deg: must be a finite angle in "
-                             f"[-{MAX_ANGLE_DEG:g}, {MAX_ANGLE_DEG:g}] deg")
+        if dest.endswith("_deg"):
+            check_angle_deg(value, "--" + dest.replace("_", "-"))
     for dest, group in SCENE_FLAG_GROUPS.items():
         value = getattr(args, dest, None)
         if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -28,7 +28,8 @@ from pydantic import Field
 
 from ..parameters import names as parameter_names
 
-from .common import EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir, finite_float, stdout_to_stderr
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+                     check_parameter_angle, finite_float, stdout_to_stderr)
 from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 
@@ -106,11 +107,14 @@ def run(args: argparse.Namespace) -> int:
                  else _pick(None, study, "start"))
         stop = (parameter_from_text(args.stop, parameter(param), units, "--to") if args.stop is not None
                 else _pick(None, study, "to"))
-    for flag, v in (("--from", start), ("--to", stop)):
+    for flag, v, given in (("--from", start, args.start), ("--to", stop, args.stop)):
         if v is None:
             raise InputError(f"{flag}: required (or give it in the config's study section)")
-    if start == stop:
-        raise InputError(f"--from and --to must differ, got {start:g} twice")
+        if given is None:  # from the study section, in the parameter's unit
+            check_parameter_angle(param, v, f"study.{flag[2:]}")
+    if start == stop:  # echoed as given ('30 deg'), not converted
+        shown = args.start if args.start is not None else f"{start:g}"
+        raise InputError(f"--from and --to must differ, got {shown} twice")
     ds = _pick(args.ds, study, "ds", 0.05)
     ds_max = _pick(args.ds_max, study, "ds_max", 0.5)
     max_points = _pick(args.max_points, study, "max_points", 2000)

@@ -27,7 +27,8 @@ from typing import Literal, Tuple
 
 from pydantic import Field, field_validator
 
-from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
+from .common import (EXIT_OK, InputError, bad_input, check_out_dir, check_parameter_angle,
+                     stdout_to_stderr)
 from .continue_ import PARAM_NAMES, ParamName
 from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
@@ -89,6 +90,9 @@ def run(args: argparse.Namespace) -> int:
                   else (tuple(study.window) if study else None))
     if window is None:
         raise InputError("--window: required as A,B (or give it in the config's study section)")
+    if not args.window:  # from the study section, in the parameter's unit
+        for v in window:
+            check_parameter_angle(param, v, "study.window")
     n_samples = args.samples if args.samples is not None else (study.n_samples if study else 5)
     if n_samples < 2:
         raise InputError(f"--samples: must be >= 2, got {n_samples}")

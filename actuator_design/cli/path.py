@@ -40,8 +40,9 @@ from typing import Dict, Optional, Union
 
 from ..parameters import degree_aliases
 from .scene_args import add_scene_args, build_scene, validate_study
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
-                     finite_float, load_config, stdout_to_stderr)
+from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
+                     check_out_dir, check_parameter_angle, finite_float, load_config,
+                     stdout_to_stderr)
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "add_scene_flags", "scene_and_options", "study_settings",
@@ -135,9 +136,12 @@ def _value(text, key: str, units, flag: str) -> float:
 
     if key in _DEGREE_NAMES:
         try:
-            return finite_float(str(text))
+            value = finite_float(str(text))
         except Exception:
             pass
+        else:
+            check_angle_deg(value, flag)  # in degrees, the unit of the *_deg name
+            return value
         with bad_input():
             return math.degrees(parameter_from_text(text, parameter(_DEGREE_NAMES[key]), units, flag))
     with bad_input():
@@ -167,6 +171,7 @@ def _schedule(args, study, units=None):
                 if name not in PARAMETERS:
                     raise InputError(f"study.schedule[{i}].{k}: unknown parameter (allowed: "
                                      f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
+                check_parameter_angle(k, v, f"study.schedule[{i}].{k}")
                 conv[name] = math.radians(v) if k in _DEGREE_NAMES else v
             rows.append(conv)
         return rows, None, 1.0, max_step
@@ -179,6 +184,9 @@ def _schedule(args, study, units=None):
         raise InputError(f"--param: unknown parameter {name!r} (allowed: "
                          f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
     factor = math.pi / 180.0 if key in _DEGREE_NAMES else 1.0
+    for where, given in (("study.from", study.start if start is None else None),
+                         ("study.to", study.to if to is None else None)):
+        check_parameter_angle(key, given, where)
     start = study.start if start is None else _value(start, key, units, "--from")
     to = study.to if to is None else _value(to, key, units, "--to")
     if text is not None:
@@ -188,6 +196,8 @@ def _schedule(args, study, units=None):
         values = [_value(v.strip(), key, units, "--schedule") for v in text.split(",")]
     elif sched_study is not None:
         values = [float(v) for v in sched_study]
+        for i, v in enumerate(values):
+            check_parameter_angle(key, v, f"study.schedule[{i}]")
     else:
         if start is None or to is None:
             raise InputError("--schedule or both --from and --to: required")

@@ -10,7 +10,8 @@ import math
 from dataclasses import replace
 from typing import Dict, Optional
 
-from .common import InputError, bad_input, finite_float, load_config, nonnegative_float
+from .common import (InputError, bad_input, check_angle_deg, finite_float, load_config,
+                     nonnegative_float)
 
 __all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_hard_magnetic_args",
            "apply_hard_magnetic_flags"]
@@ -79,6 +80,9 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     from ..scene import default_scene
 
     vals = {k: getattr(study, k, None) for k in SCENE_KEYS} if study is not None else {}
+    for k in SCENE_KEYS:  # the study's angles are in degrees, as the flags (checked in main)
+        if k.endswith("_deg") and getattr(args, k, None) is None:
+            check_angle_deg(vals.get(k), f"study.{k}")
     for k in SCENE_KEYS:
         if getattr(args, k, None) is not None:
             vals[k] = getattr(args, k)

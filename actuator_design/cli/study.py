@@ -17,12 +17,15 @@ results.parquet when pyarrow is installed), figures/*.png and journal.jsonl (one
 finished point; --resume skips the points it holds). Every file is written to a temporary name
 and renamed. With --scheduler tcp://HOST:PORT the points run on a Dask distributed cluster.
 
-Safety: a grid of more than 1 000 000 points is refused before any work (--max-points N or
-study.max_points raises the limit); one run at a time writes into a folder (a second one exits 2
+Safety: every swept value and grid point is checked like a scene from a file before the folder is
+created (exit 2 naming study.sweep.<key>, the point and the field's range; a grid of more than
+20 000 points at its corners and through each value); a grid of more than 1 000 000 points is
+refused before any work (--max-points N or study.max_points raises the limit); one run at a time writes into a folder (a second one exits 2
 naming the holder; a lock left by a dead run is taken over with a warning); worker processes die
 with the study process; journal records that do not match the grid are computed again.
 
-Units: sweep values carry their units ('5 kA/m', '30 deg'; table columns say which); results of a
+Units: sweep values carry their units ('5 kA/m', '30 deg'; table columns say which); a physical
+unit on a dimensionless scene is refused (physical units need a physical scene); results of a
 dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad.
 
 Files: the folder's entries must be the tool's own: a study.lock, journal.jsonl, manifest.json,

@@ -16,7 +16,7 @@ from pydantic_core import PydanticCustomError
 from ..units import DIMENSIONS, QuantityError, parse_quantity
 from .errors import UNION_TAGS, error
 
-__all__ = ["StrictModel", "Q", "Angle", "Number", "Positive", "tagged"]
+__all__ = ["StrictModel", "Q", "Angle", "Number", "Positive", "tagged", "interval_text"]
 
 
 def _shown(value, dimension: str) -> str:
@@ -26,7 +26,7 @@ def _shown(value, dimension: str) -> str:
     return f"{value} {unit}"
 
 
-def Q(dimension: str, *, gt=None, ge=None, lt=None, le=None):
+def Q(dimension: str, *, gt=None, ge=None, lt=None, le=None, why: str = None):
     """A float field read by :func:`parse_quantity` in SI units of ``dimension``, with bounds.
 
     Parameters
@@ -35,6 +35,10 @@ def Q(dimension: str, *, gt=None, ge=None, lt=None, le=None):
         A key of :data:`~actuator_design.units.DIMENSIONS` (``"length"``, ``"angle"``, ...).
     gt, ge, lt, le : float, optional
         Bounds on the value in SI units; a violation names the bound and the value as written.
+    why : str, optional
+        The reason for the bounds (a physical plausibility range): a violation then states the
+        whole allowed interval with its SI unit and this reason, e.g. ``must be in [0, 3e+06] A/m
+        (...), got '1e12 A/m'``.
     """
 
     def validate(value, info: ValidationInfo):
@@ -45,10 +49,21 @@ def Q(dimension: str, *, gt=None, ge=None, lt=None, le=None):
         for bound, ok, sym in ((gt, lambda b: x > b, ">"), (ge, lambda b: x >= b, ">="),
                                (lt, lambda b: x < b, "<"), (le, lambda b: x <= b, "<=")):
             if bound is not None and not ok(bound):
+                if why is not None:
+                    raise error(f"must be in {interval_text(dimension, gt, ge, lt, le)} ({why}), "
+                                f"got {_shown(value, dimension)!r}")
                 raise error(f"must be {sym} {bound:g}, got {_shown(value, dimension)}")
         return x
 
     return Annotated[float, BeforeValidator(validate)]
+
+
+def interval_text(dimension: str, gt=None, ge=None, lt=None, le=None) -> str:
+    """The interval of the bounds in the SI unit of ``dimension``: ``"[0, 3e+06] A/m"``."""
+    lo = f"[{ge:g}" if ge is not None else (f"({gt:g}" if gt is not None else "(-inf")
+    hi = f"{le:g}]" if le is not None else (f"{lt:g})" if lt is not None else "inf)")
+    unit = DIMENSIONS[dimension].unit
+    return f"{lo}, {hi}" + (f" {unit}" if unit else "")
 
 
 Angle = Q("angle")

@@ -5,9 +5,13 @@ Keys: ``h``, ``phi`` (or ``field``), ``p`` (or ``tip_force``), ``tip_moment``, `
 ``h_r`` with ``magnetization`` (the angle β(s) of the remanent magnetisation to the tangent, in
 every form ``fibres`` takes; default 0 when ``h_r`` is given). Lengths (positions) are in units of the rod
 length ℓ. Every group must lie in its range (:data:`~actuator_design.config.limits.GROUP_RANGES`).
+A value with a physical unit (``h: "1 kA/m"``, ``p: "1 mN"``) is refused in one line naming the
+field: physical units need a ``type: physical`` scene, whose rod and material convert them
+(angles may carry ``deg``/``rad``).
 """
 from __future__ import annotations
 
+import re
 from typing import Literal, Optional
 
 from pydantic import model_validator
@@ -21,6 +25,50 @@ from .limits import group_problem
 from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
 __all__ = ["DimensionlessScene"]
+
+
+_NUMBER_UNIT = re.compile(r"^\s*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?\s*(°|[^\s\d.+-].*?)\s*$")
+#: Keys whose string values are not quantities.
+_NOT_QUANTITIES = ("type", "expression")
+
+
+def physical_unit_of(text) -> Optional[str]:
+    """The unit of ``"<number> <unit>"`` when it is a physical one (not an angle, not a pure
+    number), else None (no unit, an angle, or an unreadable unit the field's own check reports).
+    """
+    if not isinstance(text, str):
+        return None
+    m = _NUMBER_UNIT.match(text)
+    if not m:
+        return None
+    unit = m.group(1)
+    from ..units import COMMON_UNITS, registry
+    known = COMMON_UNITS.get("deg" if unit == "°" else unit)
+    if known is not None:
+        return None if known[0] == "angle" else unit
+    try:
+        q = registry().Quantity(1.0, unit)
+        base = q.to_base_units().units
+    except Exception:  # noqa: BLE001 - pint: unknown unit; the field's own check names it
+        return None
+    return None if (q.unitless or base == registry().radian) else unit
+
+
+def _physical_unit_problem(data, path=()):
+    """``(dotted path, text, unit)`` of the first value with a physical unit in ``data``, or None."""
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for key, value in items:
+        if key in _NOT_QUANTITIES:
+            continue
+        if isinstance(value, (dict, list)):
+            found = _physical_unit_problem(value, path + (key,))
+            if found is not None:
+                return found
+        else:
+            unit = physical_unit_of(value)
+            if unit is not None:
+                return path + (key,), value, unit
+    return None
 
 
 def _xy(vec):
@@ -44,6 +92,20 @@ class DimensionlessScene(StrictModel):
     clamp_angle: Angle = 0.0
     h_r: Optional[Q("dimensionless", ge=0)] = None
     magnetization: Optional[MagnetizationProfile] = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_physical_units(cls, data):
+        found = _physical_unit_problem(data) if isinstance(data, dict) else None
+        if found is not None:
+            path, text, unit = found
+            field = "".join(f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))
+                            for i, p in enumerate(path))
+            raise error(f"{text!r} has a physical unit ({unit}), but the scene is dimensionless: "
+                        f"physical units need a physical scene (type: physical, with the rod and "
+                        f"its material); here give {field} as a plain number (dimensionless, "
+                        f"THEORY §5)", field)
+        return data
 
     @model_validator(mode="after")
     def _check(self):

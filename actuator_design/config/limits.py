@@ -38,9 +38,28 @@ a residual at the rounding floor only up to 10⁴ × tol, so where the user pick
 on every machine (midpoint 133 333 stopped at 1.9e-6, lgl 1904 × 10 at 1.4e-6, both with tol
 1e-10), is refused: at the default tol = 1e-10 midpoint up to 30 011 intervals, lgl of degree 10
 up to 374 elements (a spectral mesh that fine is never needed: the accuracy driver's largest is 200).
+
+Magnetic material properties (physical scenes, SI) must be physically plausible, so a unit slip
+(``1e12 A/m``) is refused in one line instead of reaching the solver as an enormous group:
+
+=============================================  ===========  =====================================
+property                                       range        why
+=============================================  ===========  =====================================
+remanence M_r, remanent_flux_density / μ0,     [0, 3e6]     no material is magnetised beyond the
+saturation_magnetization M_s, saturation_field  A/m         saturation of Fe65Co35, μ0 M_s ≈ 2.45 T
+                                                            (M_s ≈ 1.95 MA/m); the strongest
+                                                            permanent magnets (NdFeB) reach
+                                                            B_r ≈ 1.4 T (M_r ≈ 1.1 MA/m)
+chi_bar, chi_hat, particles.chi_par, chi_perp  [0, 1e6]     the largest relative permeability of
+                                                            any material (supermalloy, μr ≈ 1e6)
+=============================================  ===========  =====================================
+
+The bounds are generous (about 1.5 times the strongest material) so that every real material,
+and every preset of :mod:`actuator_design.materials`, passes.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Iterable, Optional, Tuple
@@ -49,7 +68,8 @@ import numpy as np
 
 __all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS", "MEMORY_BUDGET",
            "BYTES_PER_UNKNOWN", "BYTES_PER_ENTRY", "ROUNDING_MARGIN", "ROUNDING_K", "smallest_spacing",
-           "group_problem", "unknowns", "mesh_problem", "scene_group_values"]
+           "group_problem", "unknowns", "mesh_problem", "scene_group_values", "MAX_MAGNETIZATION",
+           "MAX_SUSCEPTIBILITY", "MAGNETIZATION_WHY", "SUSCEPTIBILITY_WHY"]
 
 #: Peak memory a banded (local-term) mesh may need above the interpreter's, bytes.
 MEMORY_BUDGET = 0.85e9
@@ -91,6 +111,18 @@ class GroupRange:
     def holds(self, value: float) -> bool:
         return math.isfinite(value) and self.lo <= value <= self.hi
 
+
+#: Largest magnetisation (remanence, saturation magnetisation, saturation field) a scene may give,
+#: A/m: about 1.5 × the saturation of Fe65Co35 (μ0 M_s ≈ 2.45 T, M_s ≈ 1.95 MA/m), the most
+#: strongly magnetised material known; NdFeB, the strongest permanent magnet, has M_r ≈ 1.1 MA/m
+#: (B_r ≈ 1.4 T); handbook values, e.g. Coey, *Magnetism and Magnetic Materials* (2010).
+MAX_MAGNETIZATION = 3.0e6
+MAGNETIZATION_WHY = ("physically plausible: the strongest permanent magnets reach about 1.1e6 A/m "
+                     "(1.4 T), no material is magnetised beyond about 2e6 A/m (2.5 T)")
+#: Largest susceptibility a scene may give (χ̄, χ̂, the particles' χ∥, χ⊥): the largest relative
+#: permeability of any material, μr ≈ 1e6 (supermalloy, a handbook value), χ = μr − 1.
+MAX_SUSCEPTIBILITY = 1.0e6
+SUSCEPTIBILITY_WHY = "physically plausible: no material exceeds about 1e6 (supermalloy)"
 
 _LOAD = 1e5
 #: The valid range of each dimensionless group (THEORY §5), by the name it has in a scene.
@@ -135,6 +167,7 @@ def unknowns(transcription: str, elements: int, degree: int) -> int:
     return int(elements) * (int(degree) if transcription == "lgl" else 1)
 
 
+@functools.lru_cache(maxsize=1024)
 def smallest_spacing(transcription: str, elements: int, degree: int) -> float:
     """The smallest node spacing of a uniform mesh, rod lengths.
 

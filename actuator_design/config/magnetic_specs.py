@@ -11,6 +11,11 @@ saturation and the remanent magnetisation of hard-magnetic rods (THEORY §2, §9
 * ``remanence: 50 kA/m`` (M_r of the composite) or ``remanent_flux_density: 0.1 T`` (= μ0 M_r):
   a hard-magnetic rod (THEORY §9); its angle profile is the scene's ``magnetization``.
 
+Magnetisations (M_r, M_s, the saturation field) and susceptibilities must be physically plausible
+(:data:`~actuator_design.config.limits.MAX_MAGNETIZATION`,
+:data:`~actuator_design.config.limits.MAX_SUSCEPTIBILITY`): ``remanence: 1e12 A/m`` is one line
+naming the field and its range, not a solver failure.
+
 :meth:`Magnetics.resolve` turns the block into the numbers the groups are made of, with the reasons
 (a zero coupling is explained, not silently accepted).
 """
@@ -24,8 +29,9 @@ import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
 
 from ..units import MU0, QuantityError, parse_quantity, registry
-from .base import Positive, Q, StrictModel
+from .base import Q, StrictModel
 from .errors import error
+from .limits import MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY, SUSCEPTIBILITY_WHY
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity"]
 
@@ -43,16 +49,30 @@ def _flux_density(value):
         if ureg(str(value)).dimensionality != ureg.tesla.dimensionality:
             raise error(f"expected a flux density in tesla (e.g. '0.1 T'), got {value!r}; "
                         "give a magnetisation in A/m as remanence")
-        if m_r < 0:
-            raise error(f"must be >= 0 T, got {value!r}")
+        _check_flux_density(m_r, value)
         return m_r
-    if not (math.isfinite(b) and b >= 0):
+    if not math.isfinite(b):
         raise error(f"must be a finite flux density >= 0 T, got {value!r}")
+    _check_flux_density(b / MU0, value)
     return b / MU0
+
+
+def _check_flux_density(m_r: float, value) -> None:
+    """μ0 M_r in [0, μ0 MAX_MAGNETIZATION] T (config.limits), named in tesla as written."""
+    if not 0.0 <= m_r <= MAX_MAGNETIZATION:
+        raise error(f"must be in [0, {MU0 * MAX_MAGNETIZATION:.3g}] T (μ0 × {MAX_MAGNETIZATION:g} "
+                    f"A/m; {MAGNETIZATION_WHY}), got {value!r}")
 
 
 #: A flux density (T; a plain number is in T), read as the magnetisation B/μ0 in A/m.
 FluxDensity = Annotated[float, BeforeValidator(_flux_density)]
+
+
+#: Physically plausible magnetic material values (config.limits): a unit slip is refused in one line.
+_SUSCEPTIBILITY = Q("dimensionless", ge=0, le=MAX_SUSCEPTIBILITY, why=SUSCEPTIBILITY_WHY)
+_SUSCEPTIBILITY_POSITIVE = Q("dimensionless", gt=0, le=MAX_SUSCEPTIBILITY, why=SUSCEPTIBILITY_WHY)
+_MAGNETIZATION = Q("magnetic_field", ge=0, le=MAX_MAGNETIZATION, why=MAGNETIZATION_WHY)
+_MAGNETIZATION_POSITIVE = Q("magnetic_field", gt=0, le=MAX_MAGNETIZATION, why=MAGNETIZATION_WHY)
 
 
 class Particles(StrictModel):
@@ -61,11 +81,11 @@ class Particles(StrictModel):
 
     material: Optional[StrictStr] = None
     axis_ratio: Q("dimensionless", ge=1) = 1.0
-    chi_par: Optional[Positive] = None
-    chi_perp: Optional[Positive] = None
+    chi_par: Optional[_SUSCEPTIBILITY_POSITIVE] = None
+    chi_perp: Optional[_SUSCEPTIBILITY_POSITIVE] = None
     volume_fraction: Q("dimensionless", gt=0, lt=1)
-    saturation_field: Optional[Q("magnetic_field", gt=0)] = None
-    saturation_magnetization: Optional[Q("magnetic_field", gt=0)] = None
+    saturation_field: Optional[_MAGNETIZATION_POSITIVE] = None
+    saturation_magnetization: Optional[_MAGNETIZATION_POSITIVE] = None
 
     @field_validator("material")
     @classmethod
@@ -144,12 +164,12 @@ class MagneticSummary:
 class Magnetics(StrictModel):
     """Soft (χ̄, χ̂ or particles) and hard (remanence) magnetics of a physical scene."""
 
-    chi_bar: Optional[Q("dimensionless", ge=0)] = None
-    chi_hat: Optional[Q("dimensionless", ge=0)] = None
+    chi_bar: Optional[_SUSCEPTIBILITY] = None
+    chi_hat: Optional[_SUSCEPTIBILITY] = None
     particles: Optional[Particles] = None
     body_demagnetization: StrictBool = True
     demagnetizing_factor: Optional[Q("dimensionless", ge=0, le=1)] = None
-    remanence: Optional[Q("magnetic_field", ge=0)] = None
+    remanence: Optional[_MAGNETIZATION] = None
     remanent_flux_density: Optional[FluxDensity] = None
 
     @model_validator(mode="after")

@@ -21,7 +21,7 @@ from .limits import mesh_problem
 from .physical import PhysicalScene
 from .yaml_source import check_structure, read_yaml
 
-__all__ = ["SceneSpec", "SolverSpec", "Config", "load_config", "load_scene"]
+__all__ = ["SceneSpec", "SolverSpec", "Config", "load_config", "load_scene", "validate_config"]
 
 SceneSpec = tagged(("scene",), DimensionlessScene, PhysicalScene)
 
@@ -164,6 +164,22 @@ def load_config(source: Union[str, Path, dict]) -> Config:
         raise translate(err) from None
     config._raw = data  # a private copy already (copied from the dict given, or parsed here)
     return config
+
+
+def validate_config(data: dict) -> Config:
+    """Validate a configuration dict in place, without copying it: for callers that only ask
+    whether it is valid (a study checks every grid point before any work) and whose dict is made
+    of values :func:`load_config` has read already (bounded structure, finite numbers).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`load_config`.
+    """
+    try:
+        return Config.model_validate(data)
+    except ValidationError as err:
+        raise translate(err) from None
 
 
 def load_scene(source: Union[str, Path, dict]) -> Tuple[Scene, SolverOptions, dict]:

@@ -10,10 +10,10 @@ positive, for stiffness) on a dense grid here, and on the solver's own quadratur
 from __future__ import annotations
 
 import math
-from typing import ClassVar, List, Literal, Optional
+from typing import Annotated, ClassVar, List, Literal, Optional
 
 import numpy as np
-from pydantic import StrictStr, field_validator, model_validator
+from pydantic import AfterValidator, StrictStr, field_validator, model_validator
 
 from ..expressions import Expression, ExpressionError
 from ..profiles import Profile, constant_profile, expression_profile, table_profile
@@ -84,6 +84,19 @@ class _ExpressionBase(StrictModel):
         return expression_profile(self.expression)
 
 
+def _degrees_in_range(value: float) -> float:
+    from ..units import angle_range_problem
+
+    problem = angle_range_problem(value, "deg")  # reported in degrees, the unit it was given in
+    if problem is not None:
+        raise error(problem)
+    return value
+
+
+#: An angle given as a plain number of degrees (``values_deg``), within ±MAX_ANGLE_DEG.
+Degrees = Annotated[Number, AfterValidator(_degrees_in_range)]
+
+
 class FibreConstant(StrictModel):
     """Constant fibre angle α, rad (``"30 deg"`` allowed)."""
 
@@ -98,7 +111,7 @@ class FibreTable(_TableBase):
     """Fibre angles at nodes s (rad: numbers or angle strings; or ``values_deg`` in degrees)."""
 
     values: Optional[List[Angle]] = None
-    values_deg: Optional[List[Number]] = None
+    values_deg: Optional[List[Degrees]] = None
 
     @model_validator(mode="after")
     def _check(self):

@@ -2,8 +2,10 @@
 
 :func:`plan_study` validates the configuration and its ``study:`` section, counts the grid's
 points *from the specification* and refuses more than the limit before building anything
-(:func:`actuator_design.study.grid.check_grid_size`), resolves the swept keys, and checks the
-output folder: its entries are the tool's own (no links, each of its kind:
+(:func:`actuator_design.study.grid.check_grid_size`), resolves the swept keys, checks every swept
+value and every grid point that can be checked without solving
+(:func:`actuator_design.study.check.check_points`: an out-of-range value is exit 2 before the
+folder exists), and checks the output folder: its entries are the tool's own (no links, each of its kind:
 :data:`STUDY_ENTRIES`), it is not held by a live run (:mod:`~actuator_design.study.lock`), and it
 holds either nothing or this same study when resuming. :func:`journal_records` reads what a resume can reuse,
 under the run's lock.
@@ -18,9 +20,9 @@ from typing import Any, List, Optional
 from ..config import ConfigError, load_config
 from ..io import dumps_json
 from ..safe_files import DIRECTORY, FILE, check_entries
+from .check import check_points
 from .errors import StudyError
-from .grid import (DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values, resolve_axes,
-                   substitute)
+from .grid import DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values, resolve_axes
 from .journal import JOURNAL_NAME, Journal, JournalRecords
 from .lock import LOCK_NAME, holder_of, in_use_message
 from .spec import SweepSpec, analysis_list, validate_spec
@@ -86,7 +88,9 @@ def plan_study(source, out_dir, resume: bool = False,
     Raises
     ------
     ConfigError
-        Invalid configuration or sweep (``study.<…>``), or a grid of more than ``max_points``.
+        Invalid configuration or sweep (``study.<…>``), a grid of more than ``max_points``, or a
+        grid point whose configuration is invalid (:func:`~actuator_design.study.check.check_points`:
+        ``study.sweep.<key>: grid point … is invalid, refused before any work: <field>: <range>``).
     StudyError
         The folder is in use by a live run, holds another study, or holds this one and ``resume``
         is not set.
@@ -107,7 +111,7 @@ def plan_study(source, out_dir, resume: bool = False,
     analyses = analysis_list(spec)
     indices = grid_indices(axes, spec.grid)
     raw = config.raw
-    _check_keys(raw, axes)
+    check_points(raw, axes, indices, spec.grid)
     # identity of the study: the configuration without settings that do not change results
     ident = {**raw, "study": {k: v for k, v in (raw.get("study") or {}).items()
                               if k not in _RUN_SETTINGS}}
@@ -152,18 +156,6 @@ def _inputs_digest(ident: dict, analyses, spec: SweepSpec, config) -> str:
     shaped = {"config": ident, "analyses": analyses, "outputs": spec.outputs,
               "solver": config.solver_options().as_dict(), "code": code}
     return hashlib.sha256(dumps_json(shaped).encode()).hexdigest()
-
-
-def _check_keys(raw: dict, axes) -> None:
-    """Each swept key must name a value the configuration accepts: try its first value."""
-    for a in axes:
-        try:
-            load_config(substitute(raw, [a], [0]))
-        except ConfigError as err:
-            path = ".".join((a.section,) + a.path)
-            if "unknown key" in err.detail and err.field.startswith(a.section):
-                raise ConfigError(f"study.sweep.{a.key}",
-                                  f"{path} is not a value of this {a.section}: {err}") from None
 
 
 def _check_journal_header(out: Path, study_id: str, n_points: int, resume: bool) -> bool:
