@@ -160,3 +160,5 @@ def test_data_the_model_cannot_explain_is_not_a_success(tmp_path, capsys):
     assert code == 3
     text = printed + " ".join(lines)
     assert "bound" in text and "chi-square" in text, text
+    if "clamp_angle = " in text:  # an angle bound is echoed in the degrees the config gave it in
+        assert "bound 0.0872665 rad (5 deg)" in text, text

@@ -12,6 +12,8 @@ data pull it further, so the fit is not a success either.
 """
 from __future__ import annotations
 
+import math
+
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -91,7 +93,11 @@ def bound_failures(params: Dict[str, dict]) -> List[dict]:
 
 def bound_message(failures: List[dict]) -> str:
     """One clause for the fit's message naming each parameter at a bound and which bound."""
-    parts = [f"{f['name']} = {f['value']:.6g}{(' ' + f['unit']) if f['unit'] else ''} is at its "
-             f"{f['side']} bound {f['bound']:.6g}" for f in failures]
+    def shown(v, unit):  # angles also in degrees, the unit configs give them in (as the report)
+        text = f"{v:.6g}{(' ' + unit) if unit else ''}"
+        return text + (f" ({math.degrees(v):.6g} deg)" if unit == "rad" else "")
+
+    parts = [f"{f['name']} = {shown(f['value'], f['unit'])} is at its {f['side']} bound "
+             f"{shown(f['bound'], f['unit'])}" for f in failures]
     return ("at a bound: " + "; ".join(parts) + " (the data pull beyond it: the interval is not "
             "valid; widen the bounds or check the data and the scene)")
