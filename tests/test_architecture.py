@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "actuator_design"
 
@@ -131,3 +133,27 @@ def test_the_solve_command_without_out_does_not_load_matplotlib():
                     "code = main(['solve', '--h', '0.5', '--json'])\n"
                     "print('matplotlib' in sys.modules, code, file=sys.stderr)")
     assert p.stderr.strip().splitlines()[-1] == "False 0", p.stderr
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["--help"]])
+def test_version_and_help_import_no_command_module(argv):
+    """Start-up (issue 21): ``--version`` and ``--help`` import no command module (and so neither
+    CasADi nor SciPy), and ``--help`` still lists every command with its one-line HELP."""
+    p = _run_python("import sys, contextlib, io\n"
+                    "from actuator_design.cli.main import main, COMMANDS\n"
+                    "buf = io.StringIO()\n"
+                    "with contextlib.redirect_stdout(buf):\n"
+                    f"    code = main({argv!r})\n"
+                    "heavy = [m for m in ('casadi', 'scipy') if m in sys.modules]\n"
+                    "cmds = [m for m in sys.modules if m.startswith('actuator_design.cli.')\n"
+                    "        and m.rsplit('.', 1)[1] in COMMANDS]\n"
+                    "print(code, heavy, cmds, file=sys.stderr)\n"
+                    "print(buf.getvalue())")
+    assert p.stderr.strip().splitlines()[-1] == "0 [] []", p.stderr
+    if argv == ["--help"]:
+        import importlib
+
+        from actuator_design.cli.main import COMMANDS
+        for name in COMMANDS:
+            first_words = " ".join(importlib.import_module(f"actuator_design.cli.{name}").HELP.split()[:3])
+            assert first_words in " ".join(p.stdout.split()), name

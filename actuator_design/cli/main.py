@@ -62,14 +62,17 @@ def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
 
     With ``only`` (a command name), only that command's module is imported and given its full
     arguments: the others are listed by name, which keeps a command's start-up free of the imports
-    of every other command.
+    of every other command. With ``only=""`` (no command given: ``--help``, ``--version``) no
+    command module is imported; each is listed with its ``HELP`` read from its source.
     """
     parser = _Parser(
         prog=PROG,
         description="Equilibria of magneto-elastic soft actuators: elastic rods with magnetic "
-                    "particles bent by an applied field. All values are dimensionless (THEORY §5): "
-                    "lengths in rod lengths l, energies in B0/l, forces in B0/l^2, angles in the "
-                    "unit named by each flag.",
+                    "particles bent by an applied field. Without a CONFIG values are dimensionless "
+                    "(THEORY §5): lengths in rod lengths l, energies in B0/l, forces in B0/l^2; a "
+                    "physical scene (CONFIG with type: physical) is read in its own units (mm, mT, "
+                    "N/m, ...) and each output states the units it is in. Angles are in the unit "
+                    "each flag names.",
         epilog=("Exit codes: 0 success, 1 internal error, 2 bad input, 3 no result meeting its promise "
                 "(not converged, inaccurate, poor fit, partial study: --resume), 4 design: unreachable "
                 "target, 130 interrupted."),
@@ -79,6 +82,9 @@ def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
     sub.required = True
     for name in COMMANDS:
         command = name.rstrip("_").replace("_", "-")
+        if only == "":
+            sub.add_parser(command, help=_help_of(name))
+            continue
         if only is not None and command != only:
             sub.add_parser(command)
             continue
@@ -90,10 +96,29 @@ def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _help_of(name: str) -> str:
+    """The literal ``HELP`` string of the command module ``name``, read from its source without
+    importing it (importing every command costs ~1 s of CasADi and SciPy start-up)."""
+    import ast
+    import importlib.util
+
+    spec = importlib.util.find_spec(f"{__package__}.{name}")
+    with open(spec.origin, encoding="utf-8") as fh:
+        tree = ast.parse(fh.read())
+    for node in tree.body:
+        if (isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "HELP" for t in node.targets)
+                and isinstance(node.value, ast.Constant)):
+            return node.value.value
+    return importlib.import_module(f"{__package__}.{name}").HELP  # not a literal: import it
+
+
 def _command_of(argv: Sequence[str]) -> Optional[str]:
-    """The subcommand named in ``argv`` (its first non-option word), if it is a known one."""
+    """The subcommand named in ``argv`` (its first non-option word) if it is a known one, "" when
+    there is none, None for an unknown word (every command is then imported for the message)."""
     names = {n.rstrip("_").replace("_", "-") for n in COMMANDS}
     first = next((a for a in argv if not a.startswith("-")), None)
+    if first is None:
+        return ""  # no command (--help, --version): import none
     return first if first in names else None
 
 
