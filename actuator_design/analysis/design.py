@@ -13,6 +13,10 @@ as a stable state the real actuator reaches from rest.
    target, the fibre layout α(s) is added (and the report says so).
 3. **Choose** (:mod:`.design_choose`) the best optimum over the sets tried, with the notes that
    explain it.
+3a. **Resolve** (:mod:`.design_mesh`): the chosen state must meet the accuracy promise of ``solve``
+   (Euler–Lagrange residual) on the design mesh; if it does not, the search is run again on the
+   mesh graded towards the clamp for the design's field, and a design the mesh cannot resolve is
+   reported as ``status: "inaccurate"``, never as a design.
 3b. **Robustify** (:mod:`.design_robust_stage`): move the design to one that holds over the lab's
    tolerance box (worst-case tip error over the box's corners, every corner stable; the target
    exact at the nominal field) and report how it holds by following its branch over the box and
@@ -21,7 +25,9 @@ as a stable state the real actuator reaches from rest.
    forward solve, and a quasi-static loading path from zero field to the design. A design counts
    only if such a path reaches it without a snap and it is stable.
 
-:func:`result_of` turns the stages' outputs into the :class:`DesignResult`.
+:func:`result_of` turns the stages' outputs into the :class:`DesignResult`. The request is validated
+before any stage runs (:func:`design_problem`); a numerical error inside a stage is a result with
+``status: "failed"`` naming the stage, not an exception.
 """
 from __future__ import annotations
 
@@ -32,17 +38,20 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from ..config.limits import GROUP_RANGES
 from ..options import SolverOptions
-from ..scene import Scene, default_scene
+from ..scene import Scene, UniformField, default_scene
 from .design_choose import choose
-from .design_mirror import mirrored_problem, robust_by_mirror
+from .design_mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
+from .design_mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from .design_nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
-from .design_optimise import candidate, optimise
+from .design_optimise import candidate, design_vector, optimise
 from .design_robust_stage import RobustReport, robust_stage
 from .design_screen import screen
 from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,
                            normalise_phi, normalise_tip_angle, phi_period, tip_error)
 from .design_verify import stiffness_by_differences, verify as verify_stage
+from .tolerances import Tolerances
 from .registry import register
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
@@ -90,12 +99,39 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
     t0 = time.perf_counter()
     problem = design_problem(target, scene, vary, options, settings, stiffness, t0)
     timings: Dict[str, float] = {}
+    stage = ["search"]
+    try:
+        result = _stages(problem, verify, timings, stage)
+    except NUMERICAL_ERRORS as exc:  # a numerical failure inside a stage is a result, not bad input
+        result = _failed(problem, stage[0], exc, timings)
+    timings["total"] = time.perf_counter() - t0
+    return result
+
+
+#: What a stage may raise on a numerical failure (a singular matrix, an overflow, a CasADi
+#: evaluation error): reported as ``status: "failed"`` naming the stage. The request itself is
+#: validated before any stage runs (:func:`design_problem`), so none of these is bad input.
+NUMERICAL_ERRORS = (ValueError, ArithmeticError, RuntimeError, np.linalg.LinAlgError)
+
+
+def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], stage: List[str]) -> DesignResult:
+    """search → choose → resolve the mesh → robustify → verify → result (``stage[0]``: the running one)."""
     mirror = mirrored_problem(problem)  # a target below the axis is searched as its mirror
     searched = search(mirror or problem, timings)
+    stage[0] = "choose"
     choice = choose(mirror or problem, searched)
+    stage[0] = "mesh check"
+    problem, mirror, choice, check, graded = _resolved(problem, mirror, choice, searched, timings)
     if choice is None:
-        timings["total"] = time.perf_counter() - t0
         return _no_design(problem, timings)
+    mesh = mesh_dict((mirror or problem).options, check, graded)
+    if not check.ok:
+        return _inaccurate(problem, mirror, choice, check, mesh, timings)
+    if graded:
+        choice.notes.append(f"designed on the mesh graded towards the clamp for the design's field "
+                            f"({problem.options.clamp_levels} levels, as solve grades it): on the given "
+                            f"mesh the design did not meet the accuracy of solve")
+    stage[0] = "robustness"
     tr = time.perf_counter()
     if mirror is None:
         choice, robust = robust_stage(problem, choice)
@@ -104,11 +140,94 @@ def design(target: Optional[Sequence[float]] = None, scene: Optional[Scene] = No
     timings["robustness"] = time.perf_counter() - tr
     verification = None
     if verify:
+        stage[0] = "verification"
         tv = time.perf_counter()
         verification = verify_stage(problem, choice)
         timings["verify"] = time.perf_counter() - tv
     result = result_of(problem, choice, verification, timings, robust)
-    timings["total"] = time.perf_counter() - t0
+    result.mesh = mesh
+    return result
+
+
+def _resolved(problem: DesignProblem, mirror: Optional[DesignProblem], choice: Optional[Choice],
+              searched: List[Optimised], timings: Dict[str, float]):
+    """Hold the chosen design to the accuracy of ``solve`` on its mesh (:mod:`.design_mesh`):
+    search again on the mesh graded for its field while that changes the mesh; where it cannot be
+    refined further, take the best optimum found whose state the mesh does resolve.
+
+    Returns
+    -------
+    (problem, mirror, choice, MeshCheck or None, graded)
+        The problem (and mirror) whose mesh the choice was made on.
+    """
+    check, graded = None, False
+    for k in range(MAX_REGRADES + 1):
+        if choice is None:
+            return problem, mirror, None, None, graded
+        check = check_mesh(choice, (mirror or problem).options)
+        if check.ok:
+            break
+        finer, finer_mirror = (regrade(problem, mirror, choice, (mirror or problem).options)
+                               if k < MAX_REGRADES else (None, None))
+        if finer is None:
+            choice, check = _resolved_alternative(mirror or problem, searched, choice, check)
+            break
+        again: Dict[str, float] = {}
+        found_in = search(finer_mirror or finer, again)
+        timings.update({f"{key}_regraded{k + 1}": v for key, v in again.items()})
+        found = choose(finer_mirror or finer, found_in)
+        if found is None:
+            break
+        problem, mirror, choice, searched, graded = finer, finer_mirror, found, found_in, True
+    return problem, mirror, choice, check, graded
+
+
+def _resolved_alternative(problem: DesignProblem, searched: List[Optimised], choice: Choice, check):
+    """The best of the optima whose states the mesh resolves that reaches the target, chosen as
+    :func:`choose` does, or ``(choice, check)`` unchanged when there is none (a resolved pose that
+    misses the target says nothing of whether an unresolved one that reaches it is real)."""
+    opts = problem.options
+    kept = [replace(opt, optima=[pt for pt in opt.optima if check_state(
+        opt.candidate.nlp.scene_for(opt.candidate.base, design_vector(opt.candidate.nlp, pt)),
+        opt.candidate.nlp.solver, pt.z, opts).ok]) for opt in searched]
+    alt = choose(problem, kept) if any(opt.optima for opt in kept) else None
+    alt_check = check_mesh(alt, opts) if alt is not None and alt.reachable else None
+    if alt_check is None or not alt_check.ok:
+        return choice, check
+    alt.notes.append(f"the best design found is not resolved by the mesh ({check.problem}); the best "
+                     "one whose state it resolves is reported")
+    return alt, alt_check
+
+
+def _inaccurate(problem: DesignProblem, mirror, choice: Choice, check, mesh, timings) -> DesignResult:
+    """The result when the mesh does not resolve the chosen design's state: not verified, not
+    checked over the box, ``status: "inaccurate"``."""
+    if mirror is not None:
+        choice = mirror_choice(choice, phi_period(problem.base))
+    o = problem.options
+    where = (f"{o.elements} element{'s' if o.elements != 1 else ''} of degree {o.degree}"
+             + (f", graded {o.clamp_levels} levels towards the clamp" if o.clamp_levels else "")
+             if o.transcription == "lgl" else f"midpoint rule, {o.elements} intervals")
+    result = result_of(problem, replace(choice, notes=[]), None, timings, None)
+    # the state is no state of the rod: whether the target is reachable is not established
+    result.status, result.success, result.reachable, result.mesh = "inaccurate", False, False, mesh
+    result.message = "; ".join(
+        list(problem.notes)
+        + [f"the design mesh ({where}) does not resolve the designed state: {check.problem}; so whether "
+           "the target is reachable is not known, and the design was neither checked over the tolerance "
+           "box nor verified: give more --elements or a higher --degree (solver.elements, solver.degree)"]
+        + list(choice.notes))
+    return result
+
+
+def _failed(problem: DesignProblem, stage: str, exc: Exception, timings: Dict[str, float]) -> DesignResult:
+    """The result when a stage stopped on a numerical error (``status: "failed"``)."""
+    result = _no_design(problem, timings)
+    o = problem.options
+    result.status = "failed"
+    result.message = "; ".join(list(problem.notes) + [
+        f"the design's {stage} stage failed: {type(exc).__name__}: {' '.join(str(exc).split())} (mesh: "
+        f"{o.transcription}, {o.elements} elements, degree {o.degree}); no design is reported"])
     return result
 
 
@@ -124,10 +243,19 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     if not target and stiffness is None:
         raise ValueError("design needs a target tip pose, a stiffness target, or both")
     settings = settings or DesignSettings()
+    if not isinstance(settings.tolerances, Tolerances):
+        raise ValueError(f"tolerances: expected a tolerance box, got {settings.tolerances!r}")
+    check_h_max(settings.h_max)
     if not (settings.time_limit > 0):
         raise ValueError(f"time_limit: must be > 0 s, got {settings.time_limit}")
     base = scene or default_scene(h=0.0)
     settings = _field_bound(settings, base)
+    notes: List[str] = []
+    tol = settings.tolerances
+    if tol.angle > 0 and base.field is not None and not isinstance(base.field, UniformField):
+        settings = replace(settings, tolerances=replace(tol, angle=0.0))  # no angle to be off by
+        notes.append(f"the tolerance box has no field angle: this scene's field is not uniform "
+                     f"(box: {settings.tolerances.describe()})")
     if stiffness is not None and base.tip_force is None:
         base = replace(base, tip_force=(0.0, 0.0))  # the stiffness is dp/dv1: p must be a term
     if vary is not None:
@@ -155,10 +283,20 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
+    for vset in sets:  # every set's terms, up front: a stage's error is then never bad input
+        prepare_scene(base, vset)
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
                          deadline=t0 + settings.time_limit,
-                         fibres_fixed=fibres_fixed(base) and base.fibres_physical)
+                         fibres_fixed=fibres_fixed(base) and base.fibres_physical, notes=tuple(notes))
+
+
+def check_h_max(h_max: float) -> None:
+    """h_max in (0, 1e4], the valid range of h (``config/limits.py``: a clamp layer of width ~1/h)."""
+    hi = GROUP_RANGES["h"].hi
+    if not (0 < h_max <= hi):
+        raise ValueError(f"h_max must lie in (0, {hi:g}] (--h-max; the valid range of h: the clamp layer "
+                         f"has width ~1/h), got {h_max:g}")
 
 
 def _field_bound(settings: DesignSettings, base: Scene) -> DesignSettings:
@@ -180,6 +318,9 @@ def fibres_fixed(scene: Scene) -> bool:
 def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]:
     """Screen and optimise each variable set in turn until one reaches the target.
 
+    The search stops before adding variables when the best design of a set is not resolved by
+    the mesh (:func:`~.design_mesh.unresolved`): the mesh is regraded first (:func:`design`).
+
     Returns
     -------
     list of Optimised
@@ -196,6 +337,10 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
         timings[f"optimise_{name}"] = time.perf_counter() - to
         if any(opt.reaches(problem) for opt in searched):
             break
+        # the best stable optimum (an uncertified probe is not what the choice reports)
+        best = [pt for pt in searched[-1].optima if getattr(pt, "certified", True)][:1]
+        if best and vset != problem.variable_sets[-1] and unresolved(cand, best[0], problem.options):
+            break  # more variables on a mesh that does not resolve this set's best: regrade first
     return searched
 
 
@@ -210,7 +355,7 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     it is False.
     """
     best, vary, target, stiffness = choice.point, choice.candidate.vary, problem.target, problem.stiffness
-    notes = list(choice.notes)
+    notes = list(problem.notes) + list(choice.notes)
     s_dense = np.linspace(0.0, 1.0, 201)
     result = DesignResult(
         success=False, reachable=choice.reachable, verified=False, stable=False, snap_free=False, target=target,
@@ -240,10 +385,14 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     else:
         stiffness_ok = _take_verified(result, problem, verification, notes)
     accept = problem.settings.accept_tol
-    robust_ok = robust is None or robust.holds
+    # a tolerance box asked for and not checked is no success (issue: a stiffness target claimed it)
+    robust_ok = robust.holds if robust is not None else not problem.settings.tolerances.active
     result.success = bool(result.reachable and result.verified and result.stable and result.snap_free
                           and result.error <= accept and stiffness_ok and robust_ok)
-    if result.verified and not robust_ok:
+    if result.verified and result.reachable and robust is None and not robust_ok:
+        notes.append(f"not a success: the design was not checked over the tolerance box "
+                     f"({problem.settings.tolerances.describe()})")
+    elif result.verified and robust is not None and not robust_ok:
         notes.append("not a success: the design does not hold over the tolerance box")
     if result.verified and result.reachable and result.error > accept:
         notes.append(f"not a success: the verified tip misses the target by {result.error:.3g} (> {accept:g})")
@@ -296,9 +445,11 @@ def _no_design(problem: DesignProblem, timings: Dict[str, float]) -> DesignResul
     return DesignResult(success=False, reachable=False, verified=False, stable=False, snap_free=False,
                         target=problem.target, achieved={}, error=float("inf"),
                         design={"h": float("nan"), "phi": float("nan"), "p": float("nan")}, vary=last,
-                        schedule=[], message=f"no stable design of {', '.join(last)} reaches the target "
-                        f"within the bounds ({limits}){hint}",
-                        scene=problem.base, timings=timings, stiffness_target=problem.stiffness)
+                        schedule=[], message="; ".join(list(problem.notes) + [
+                            f"no stable design of {', '.join(last)} reaches the target within the bounds "
+                            f"({limits}){hint}"]),
+                        scene=problem.base, timings=timings, stiffness_target=problem.stiffness,
+                        tolerances=problem.settings.tolerances if problem.settings.tolerances.active else None)
 
 
 @register("design")

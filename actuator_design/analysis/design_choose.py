@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from typing import Dict, List, Optional
 
+from ..config.limits import GROUP_RANGES
 from .design_nlp import DesignPoint, DesignRequest
 from .design_optimise import candidate, design_vector, optimise
 from .design_screen import screen
@@ -70,6 +71,11 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
         what = "target" if stiffness is None else ("stiffness" if not target else "target pose and stiffness")
         notes.append(f"the {what} is not reachable with {', '.join(cand.vary)}: the nearest stable design "
                      f"misses by {target_error(best, target, stiffness):.3g} (reported as 'achieved')")
+        h_max = problem.settings.h_max
+        if "h" in cand.vary and best.h >= h_max * (1.0 - 1e-4):  # (an interior point stops short of it)
+            notes.append(f"the nearest design sits at the field bound h = {h_max:g} (--h-max"
+                         + (f"; h <= {GROUP_RANGES['h'].hi:g} is the valid range" if h_max >= GROUP_RANGES["h"].hi
+                            else "") + "): in a strong field the tip nears the field's axis like 1/h")
         if target and math.hypot(target[0], target[1]) > 1.0:
             notes.append("the target lies beyond the rod's length from the clamp (|r| > 1)")
         elif (problem.user_vary or problem.fibres_fixed) and problem.base.fibres_physical \

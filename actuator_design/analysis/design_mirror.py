@@ -128,4 +128,6 @@ def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choi
         nominal = evaluate_robustness(before.scene, before.point.z, problem.target, tol, options,
                                       fold_search=False)
     largest = report.largest_box if rob.holds or report.largest_box < 1.0 else 0.0
-    return out, RobustReport(rob, largest, nominal, list(report.attempts))
+    # the vertical stiffness dp/dv1 is invariant under the reflection (p and v1 both change sign)
+    return out, RobustReport(rob, largest, nominal, list(report.attempts), stiffness=report.stiffness,
+                             pose_target=report.pose_target)

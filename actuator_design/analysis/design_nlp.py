@@ -30,8 +30,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
-from functools import lru_cache
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
@@ -42,6 +41,7 @@ from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 from .design_gauge import has_fibre_gauge
+from .design_ldl import _bandwidth, _ldl_function, _ldl_pivots  # noqa: F401 (importers use them from here)
 
 __all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
@@ -56,6 +56,20 @@ PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point
 PROFILE_BOUNDS = {"alpha": "alpha_max", "magnetization": "magnetization_max"}
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
+#: Field group up to which stage A's effort weights apply as they are (the default h_max).
+STRONG_FIELD = 10.0
+
+
+def effort_scale(nlp: "DesignNLP", d0: np.ndarray) -> float:
+    """The divisor of stage A's effort weights at a start ``d0``: max(1, h0/STRONG_FIELD)⁴.
+
+    In a strong field the tip approaches its limit like 1/h (the clamp layer, THEORY §5), so
+    dtip/dh ~ 1/h² and the bias of the regularised minimiser, ~ w·h³, grows with h: unscaled, the
+    effort w·h² (9 at h = 300 for w = 1e-4) outweighs the tip error and drags a strong-field start
+    back to h ~ 2.5. Below STRONG_FIELD the weights are unchanged.
+    """
+    h0 = float(np.asarray(d0)[nlp.dslices["h"]][0]) if "h" in nlp.vary else 0.0
+    return max(1.0, h0 / STRONG_FIELD) ** 4
 #: Stage A's effort weights w_eff (objective ½|tip − target|² + w_eff·effort): regularised, then
 #: near zero from the regularised minimiser (see :meth:`DesignNLP._solve`).
 STAGE_A_EFFORT = (1e-4, 1e-10)
@@ -105,33 +119,6 @@ class DesignPoint:
     stage: str
     #: Legendre coefficients of β(s) (rad); empty when the magnetisation is not designed
     magnetization: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-
-@lru_cache(maxsize=32)
-def _ldl_function(n: int, bandwidth: int) -> ca.Function:
-    """``A (n, n) -> D (n,)``: the pivots of A = L D Lᵀ (no pivoting), for a symmetric A of the
-    given bandwidth; built once per (n, bandwidth) (the Python loop costs ~0.15 s at n = 40)."""
-    A = ca.SX.sym("A", n, n)
-    L = [[None] * n for _ in range(n)]
-    D: List[ca.SX] = []
-    for j in range(n):
-        lo = max(0, j - bandwidth)
-        dj = A[j, j] - sum((L[j][k] ** 2 * D[k] for k in range(lo, j)), ca.SX(0))
-        D.append(dj)
-        for i in range(j + 1, min(n, j + bandwidth + 1)):
-            lo_i = max(0, i - bandwidth)
-            acc = A[i, j] - sum((L[i][k] * L[j][k] * D[k] for k in range(max(lo, lo_i), j)), ca.SX(0))
-            L[i][j] = acc / dj
-    return ca.Function("ldl_pivots", [A], [ca.vertcat(*D)])
-
-
-def _ldl_pivots(A: ca.SX, bandwidth: int) -> List[ca.SX]:
-    """Pivots D_j of A = L D Lᵀ (no pivoting) for a symmetric matrix with the given bandwidth.
-
-    All pivots > 0 ⇔ A positive definite (Sylvester); entries outside the band stay zero in L.
-    """
-    n = A.shape[0]
-    return ca.vertsplit(_ldl_function(n, int(bandwidth))(ca.densify(A)))
 
 
 class DesignNLP:
@@ -368,10 +355,11 @@ class DesignNLP:
         does not converge, the plain one is tried from the original start."""
         if req.stage != "A":
             return self._solve_once(base, x0_theta, d0, req, certified, w_eff=1.0)
-        reg = self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[0])
+        scale = effort_scale(self, d0)
+        reg = self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[0] / scale)
         if reg.converged:
             x0_theta, d0 = reg.z, self._dvec(reg)
-        return self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[1])
+        return self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[1] / scale)
 
     def _solve_once(self, base, x0_theta, d0, req: "DesignRequest", certified: bool,
                     w_eff: float) -> DesignPoint:
@@ -453,19 +441,13 @@ class DesignRequest:
     stiffness: Optional[float] = None
 
 
-def _bandwidth(sv: EquilibriumSolver, n: int) -> int:
-    """Bandwidth of the reduced Hessian from its CasADi sparsity pattern (dense if positions are built)."""
-    sp = sv.f_grad_hess.sparsity_out(2)
-    rows, cols = sp.get_triplet()
-    return int(max((abs(r - c) for r, c in zip(rows, cols)), default=0))
-
-
 def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int) -> DesignNLP:
     """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
     from ..physics.terms import build_terms, structure_key
 
     key = (structure_key(build_terms(scene)), tuple(sorted(vary)), options.transcription, options.elements,
-           options.degree, alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
+           options.degree, options.clamp_levels, options.tip_levels, options.tol, options.max_iter,
+           alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
     if key not in _CACHE:
         _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms)
     return _CACHE[key]

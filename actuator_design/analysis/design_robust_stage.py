@@ -18,6 +18,7 @@ import numpy as np
 from .design_nlp import DesignPoint
 from .design_optimise import design_vector
 from .design_robust import robustify
+from .design_stiffness_box import StiffnessOverBox, stiffness_over_box
 from .design_types import Choice, DesignProblem, tip_error
 from .robustness import Robustness, evaluate_robustness
 
@@ -32,19 +33,35 @@ class RobustReport:
     largest_box : the fraction of the box the design was made to hold (1.0: all of it).
     nominal : the robustness of the design before this stage (None when it was not evaluated).
     attempts : one line per robust NLP solve.
+    stiffness : the stiffness over the box (:mod:`.design_stiffness_box`) of a stiffness target.
+    pose_target : the design has a tip target (else the tip spread is around the nominal tip).
     """
 
     robustness: Robustness
     largest_box: float
     nominal: Optional[Robustness] = None
     attempts: List[str] = field(default_factory=list)
+    stiffness: Optional[StiffnessOverBox] = None
+    pose_target: bool = True
+
+    @property
+    def bounded(self) -> bool:
+        """The worst tip error over the box is finite (a state that does not converge on twice the
+        elements gives an unbounded discretisation error: the mesh does not resolve it)."""
+        return math.isfinite(self.robustness.worst_tip_error)
 
     @property
     def holds(self) -> bool:
-        return self.robustness.holds
+        """Stable over the box, no snap inside it, a bounded tip error and (for a stiffness target)
+        the stiffness evaluated at every grid point of the box."""
+        return bool(self.robustness.holds and self.bounded
+                    and (self.stiffness is None or self.stiffness.complete))
 
     def to_dict(self) -> dict:
         out = self.robustness.to_dict()
+        out["holds"] = self.holds
+        if self.stiffness is not None:
+            out["stiffness_over_box"] = self.stiffness.to_dict()
         out["largest_box_fraction"] = float(self.largest_box)
         out["largest_box"] = self.robustness.tolerances.scaled(self.largest_box).to_dict()
         if self.nominal is not None:
@@ -56,9 +73,16 @@ class RobustReport:
     def sentence(self) -> str:
         r = self.robustness
         box = r.tolerances.describe()
-        if r.holds:
-            return (f"holds over the box ({box}): worst tip error {r.worst_tip_error:.3g} rod lengths; "
-                    f"{r.fold_distance.sentence()}")
+        tip = (f"worst tip error {r.worst_tip_error:.3g} rod lengths" if self.pose_target else
+               f"the tip moves by at most {r.worst_tip_error:.3g} rod lengths")
+        if not self.bounded:
+            tip = ("the tip error over the box is not bounded: the states do not converge on a mesh with "
+                   "twice the elements (the mesh does not resolve them)")
+        stiff = "" if self.stiffness is None else f"{self.stiffness.sentence()}; "
+        if self.holds:
+            return f"holds over the box ({box}): {stiff}{tip}; {r.fold_distance.sentence()}"
+        if r.holds:  # stable and snap-free over the box, but the error or stiffness is not bounded
+            return f"does NOT hold over the box ({box}): {stiff}{tip}; {r.fold_distance.sentence()}"
         part = (f"the most robust design found holds over {100 * self.largest_box:.3g} % of the box "
                 f"({r.tolerances.scaled(self.largest_box).describe()})" if self.largest_box > 0
                 else "no design found holds over any part of it")
@@ -66,11 +90,17 @@ class RobustReport:
         return f"does NOT hold over the box ({box}){why}: {part}; {r.fold_distance.sentence()}"
 
 
+def _holds(rob: Robustness) -> bool:
+    """Holds by branch following, with a bounded tip error (see :attr:`RobustReport.holds`)."""
+    return bool(rob.holds and math.isfinite(rob.worst_tip_error))
+
+
 def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Optional[RobustReport]]:
     """Make the chosen design hold over ``problem.settings.tolerances`` and report how it holds.
 
-    Skipped (returns ``(choice, None)``) when the box is empty, the target is not reachable or the
-    design has no pose target (a stiffness alone).
+    Skipped (returns ``(choice, None)``) when the box is empty or the target is not reachable. A
+    design with a stiffness target is not moved: its branch is followed over the box and its
+    stiffness taken there (:func:`~.design_stiffness_box.stiffness_over_box`).
 
     Returns
     -------
@@ -78,15 +108,18 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
         The (possibly moved) design and its report; its notes say what happened.
     """
     tol = problem.settings.tolerances
-    if not tol.active or not choice.reachable or not problem.target:
+    if not tol.active or not choice.reachable or not (problem.target or problem.stiffness is not None):
         return choice, None
     cand, pt, target, s = choice.candidate, choice.point, problem.target, problem.settings
     nlp, options = cand.nlp, problem.options
     if problem.stiffness is not None:
         # the robust NLP pins the pose only: a design that must also meet a stiffness is evaluated
-        # over the box as it is, not moved
-        rob = evaluate_robustness(choice.scene, pt.z, target, tol, options)
-        report = RobustReport(rob, 1.0 if rob.holds else 0.0, None, ["stiffness target: evaluated, not moved"])
+        # over the box as it is, not moved: the branch over the box, and the stiffness on it
+        rob = evaluate_robustness(choice.scene, pt.z, target or None, tol, options)
+        box = stiffness_over_box(choice.scene, pt.z, tol, options, problem.stiffness)
+        report = RobustReport(rob, 0.0, None, ["stiffness target: evaluated, not moved"], stiffness=box,
+                              pose_target=bool(target))
+        report.largest_box = 1.0 if report.holds else 0.0
         if not report.holds:
             choice.notes.append(report.sentence())
         return choice, report
@@ -111,16 +144,16 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
                                            if "magnetization" in nlp.vary else pt.magnetization))
         if tip_error(moved.tip, target) <= s.reach_tol:
             rob = evaluate_robustness(scene, z, target, tol, options)
-            if rob.holds or not nominal.holds:
+            if _holds(rob) or not _holds(nominal):
                 best_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))
                 best_rob, largest = rob, out.scale
     if best_rob is None:  # keep the nominal design; report how it holds (with its nearest snap)
         best_rob = evaluate_robustness(choice.scene, pt.z, target, tol, options)
-        largest = 1.0 if best_rob.holds else 0.0
-    if not best_rob.holds and largest > 0:
+        largest = 1.0 if _holds(best_rob) else 0.0
+    if not _holds(best_rob) and largest > 0:
         # the largest box claimed must itself hold by branch following
         sc, zz = best_choice.scene, best_choice.point.z
-        if not evaluate_robustness(sc, zz, target, tol.scaled(largest), options, fold_search=False).holds:
+        if not _holds(evaluate_robustness(sc, zz, target, tol.scaled(largest), options, fold_search=False)):
             largest = 0.0
     report = RobustReport(best_rob, largest, nominal, out.attempts)
     if not report.holds:

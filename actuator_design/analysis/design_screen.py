@@ -13,7 +13,14 @@ from ..scene import Scene
 from .design_nlp import DesignNLP, DesignPoint
 from .design_types import Candidate, DesignProblem, DesignSettings, ScreenedStart, phi_period
 
-__all__ = ["screen", "start_grid", "unpack"]
+__all__ = ["screen", "start_grid", "unpack", "STRONG_FIELDS"]
+
+#: Field groups screened beyond the weak-field grid when h_max allows them (h_max > 10; the
+#: default h_max = 10 screens the weak grid only). Past h ~ 10 the rod is a clamp layer of width
+#: ~1/h and a straight part along the field (THEORY §5): its tip moves like 1/h, so a start within a
+#: factor ~2.5 in h is near any strong-field pose (a target at h = 300 was called unreachable when
+#: the screen stopped at h = 5.5).
+STRONG_FIELDS = (12.0, 30.0, 80.0, 200.0, 500.0, 1300.0, 3500.0, 1e4)
 
 
 def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[ScreenedStart]:
@@ -37,16 +44,24 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
     nlp, base, target, stiffness = candidate.nlp, candidate.base, problem.target, problem.stiffness
     scored: List[ScreenedStart] = []
     prev = None
-    for d in start_grid(nlp, base, problem.settings):
-        r = solve(nlp.scene_for(base, d), problem.options, initial=prev)
-        if not (r.success and r.stable):
-            r = solve(nlp.scene_for(base, d), problem.options)
-        if not (r.success and r.stable):
-            continue
-        r = _on_design_mesh(r, nlp, nlp.scene_for(base, d), problem.options)
-        if r is None:
-            continue
-        prev = r
+    seeded = [(nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
+                                 magnetization=pt.magnetization), seed) for seed in problem.seeds
+              for pt in (seed.point,)]
+    for d, seed in seeded + [(d, None) for d in start_grid(nlp, base, problem.settings)]:
+        if seed is not None:  # a design found on another mesh: its own state, carried over
+            r = _seeded_start(seed, nlp, nlp.scene_for(base, d), problem.options)
+            if r is None:
+                continue
+        else:
+            r = solve(nlp.scene_for(base, d), problem.options, initial=prev)
+            if not (r.success and r.stable):
+                r = solve(nlp.scene_for(base, d), problem.options)
+            if not (r.success and r.stable):
+                continue
+            r = _on_design_mesh(r, nlp, nlp.scene_for(base, d), problem.options)
+            if r is None:
+                continue
+            prev = r
         dist = 0.0
         if target:
             dist = math.hypot(r.tip["x"] - target[0], r.tip["y"] - target[1])
@@ -83,17 +98,29 @@ def _on_design_mesh(r, nlp: DesignNLP, scene: Scene, options):
     return again if again.success and again.stable else None
 
 
+def _seeded_start(seed, nlp: DesignNLP, scene: Scene, options):
+    """A seed's state (:class:`~.design_mesh.Seed`) re-converged on the design NLP's mesh (None if
+    it is not a stable equilibrium there)."""
+    from ..equilibrium import solve as solve_on
+
+    r = solve_on(scene, options, initial=seed.theta_at(nlp.solver.transcription.nodes), solver=nlp.solver)
+    return r if r.success and r.stable else None
+
+
 def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np.ndarray]:
     """Starting design vectors: field magnitudes × angles over one period of φ (× fibre slopes ×
     loads × magnetisation profiles), each of shape (nlp.nd,).
 
     The period of φ is π for the soft-magnetic energy alone and 2π with a hard-magnetic term (its
-    energy −h_r cos(θ + β − φ) is not symmetric under H → −H, THEORY §9). A designed magnetisation
-    starts from constant angles β = 0, ±90°, 180° and two linear profiles β = ±(1 rad)·P_1(2s − 1).
+    energy −h_r cos(θ + β − φ) is not symmetric under H → −H, THEORY §9); with h_max > 10 the field
+    magnitudes of :data:`STRONG_FIELDS` up to h_max (every other one with a fibre layout) are
+    added. A designed magnetisation starts from constant angles β = 0, ±90°, 180° and two linear
+    profiles β = ±(1 rad)·P_1(2s − 1).
     """
     with_alpha = "alpha" in nlp.vary
     hs = (1.5, 3.0, 5.0) if with_alpha else (0.8, 1.4, 2.2, 3.5, 5.5)
     hs = [h for h in hs if h <= settings.h_max] or [settings.h_max]
+    hs += [h for h in (STRONG_FIELDS[1::2] if with_alpha else STRONG_FIELDS) if h <= settings.h_max]
     n_phi = 8 if with_alpha else 12
     period = phi_period(base)
     phis = np.linspace(-period / 2, period / 2, n_phi + 1)[1:] if "phi" in nlp.vary else [base.phi]

@@ -20,8 +20,8 @@ from .design_nlp import DesignNLP, DesignPoint
 from .tolerances import Tolerances
 
 __all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
-           "Choice", "Verification", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error", "target_error",
-           "effort", "rank"]
+           "Choice", "Verification", "status_of", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error",
+           "target_error", "effort", "rank"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,10 @@ class DesignResult:
     achieved_stiffness: Optional[float] = None
     tolerances: Optional[Tolerances] = None
     robustness: object = None  # a design_robust_stage.RobustReport, or None when not evaluated
+    #: "inaccurate" (the mesh does not resolve the design's state) or "failed" (a stage stopped on
+    #: a numerical error) when set; otherwise derived from the flags (:func:`status_of`)
+    status: str = ""
+    mesh: Optional[Dict[str, object]] = None  # the mesh the design was made on (design_mesh.mesh_dict)
 
     def to_dict(self) -> Dict[str, object]:
         tgt = {} if not self.target else {"x": self.target[0], "y": self.target[1]}
@@ -113,7 +117,7 @@ class DesignResult:
             "verified": bool(self.verified), "stable": bool(self.stable), "snap_free": bool(self.snap_free),
             "target": tgt, "achieved": {k: float(v) for k, v in self.achieved.items()},
             "error": float(self.error), "design": self.design, "schedule": self.schedule,
-            "vary": list(self.vary), "message": self.message,
+            "vary": list(self.vary), "message": self.message, "status": status_of(self),
             "stability_margin": float(self.stability_margin), "optima": self.optima,
             "alternatives": self.alternatives, "timings_s": self.timings,
             "units": {"length": "rod length", "angle": "rad", "h": "dimensionless field group",
@@ -124,6 +128,8 @@ class DesignResult:
         if self.tolerances is not None:
             out["tolerances"] = self.tolerances.to_dict()
         out["robustness"] = None if self.robustness is None else self.robustness.to_dict()
+        if self.mesh is not None:
+            out["mesh"] = dict(self.mesh)
         sc = self.scene.scales
         H = None
         if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):
@@ -141,6 +147,22 @@ class DesignResult:
         return out
 
 
+def status_of(res: "DesignResult") -> str:
+    """The ``status`` word of a design result: "success", "inaccurate" (the mesh does not resolve
+    the design's state), "failed" (a stage stopped on a numerical error), "unreachable",
+    "not_robust" (no design holds over the whole tolerance box), "not_verified" (no snap-free path
+    from zero field), or "not_accepted" (verified, but the tip or stiffness misses the target)."""
+    if res.status:
+        return res.status
+    if res.success:
+        return "success"
+    if not res.reachable:
+        return "unreachable"
+    if res.robustness is not None and not res.robustness.holds:
+        return "not_robust"
+    return "not_accepted" if res.verified else "not_verified"
+
+
 # -- what flows between the stages -------------------------------------------------------------------
 @dataclass(frozen=True)
 class DesignProblem:
@@ -153,6 +175,8 @@ class DesignProblem:
     user_vary : whether the user chose the variables.
     fibres_fixed : the scene's fibre layout is the user's (kept unless ``alpha`` is varied).
     deadline : ``time.perf_counter()`` value after which no new start is optimised.
+    seeds : designs found on another mesh (:class:`~.design_mesh.Seed`), screened first.
+    notes : what the request was changed to before any stage ran (said first in the message).
     """
 
     target: Tuple[float, ...]
@@ -164,6 +188,8 @@ class DesignProblem:
     user_vary: bool
     deadline: float
     fibres_fixed: bool = False
+    seeds: Tuple[object, ...] = ()
+    notes: Tuple[str, ...] = ()
 
     def rank(self, pt: DesignPoint):
         """Sort key: designs that reach the target first, by least effort; then by distance."""

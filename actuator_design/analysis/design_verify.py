@@ -18,8 +18,7 @@ import numpy as np
 
 from ..equilibrium import solve
 from ..options import SolverOptions
-from ..result import EquilibriumResult
-from ..scene import Scene
+from ..scene import Scene, UniformField
 from .design_types import Choice, DesignProblem, Verification, normalise_phi, phi_period
 
 __all__ = ["verify", "stiffness_by_differences"]
@@ -67,6 +66,10 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
         return ok, path
 
     ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p, hard)
+    if not isinstance(choice.scene.field, UniformField):  # a field without an angle to set or turn
+        ok, path = attempt([{k: v for k, v in step.items() if k != "phi"} for step in ramp])
+        return (Verification(forward, path, "magnitude ramp", ramp) if ok else  # (phi = 0 in the table)
+                Verification(forward, None, "no snap-free magnitude ramp from zero field reaches the design", []))
     ok, path = attempt(ramp)
     if ok:
         return Verification(forward, path, "magnitude ramp at the designed angle", ramp)
@@ -78,8 +81,8 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
             schedule = _ramp_then_rotate(pt.h, phi_a, pt.phi, pt.p, steps, design_p, hard)
             ok, path = attempt(schedule)
             if ok:
-                phi_label = normalise_phi(phi_a, phi_period(choice.scene))
-                return Verification(forward, path, f"ramp at {math.degrees(phi_label):.0f} deg, then "
+                phi_label = round(math.degrees(normalise_phi(phi_a, phi_period(choice.scene)))) + 0  # no "-0"
+                return Verification(forward, path, f"ramp at {phi_label:.0f} deg, then "
                                     f"rotate the field {'counter-' if sign > 0 else ''}clockwise by {delta_deg} "
                                     f"deg to the designed angle", schedule)
     return Verification(forward, None, "no snap-free path from zero field reaches the design", [])
@@ -111,12 +114,18 @@ def _ramp_then_rotate(h, phi_a, phi, p, steps, design_p, h_r=None) -> List[Dict[
     return _ramp(h, phi_a, p, steps, design_p, h_r) + turn
 
 
-def stiffness_by_differences(scene: Scene, options: SolverOptions, state: EquilibriumResult,
-                             dp: float = 1e-5) -> float:
-    """dp/dv1 (B0/ℓ³) by central differences of two independent forward solves (warm-started on the
-    verified state so they stay on its branch); truncation error O(dp²)."""
+def stiffness_by_differences(scene: Scene, options: SolverOptions, state, dp: float = 1e-5) -> float:
+    """dp/dv1 (B0/ℓ³) by central differences of two independent forward solves warm-started on
+    ``state`` so they stay on its branch; truncation error O(dp²).
+
+    ``state`` is an :class:`~actuator_design.result.EquilibriumResult` (the solves then choose and
+    check their mesh as ``solve`` does) or θ at the nodes of the mesh of ``options`` (one warm
+    solve each on that mesh). NaN when a solve does not converge.
+    """
     ys = []
     for sgn in (+1.0, -1.0):
         r = solve(scene.with_values(p=scene.p + sgn * dp), replace(options, ensure_stable=False), initial=state)
+        if not r.success:
+            return float("nan")
         ys.append(r.tip["y"])
-    return float(2 * dp / (ys[0] - ys[1]))
+    return float(2 * dp / (ys[0] - ys[1])) if ys[0] != ys[1] else float("inf")

@@ -233,8 +233,9 @@ def _parse_stiffness(value, scene):
 
 
 def _check_settings(s) -> None:
-    if not (s.h_max > 0):
-        raise ValueError(f"h_max must be > 0, got {s.h_max}")
+    from ..analysis.design import check_h_max
+
+    check_h_max(s.h_max)
     if not (s.p_max >= 0):
         raise ValueError(f"p_max must be >= 0, got {s.p_max}")
     if not (0 < s.alpha_max <= math.pi / 2 + 1e-12):
@@ -285,6 +286,8 @@ def _summary(res, units=None, table=None) -> str:
         lines.append(f"  robustness  : {res.robustness.sentence()}")
     elif res.tolerances is None:
         lines.append("  robustness  : not evaluated (no tolerance box: --tolerance none)")
+    else:
+        lines.append(f"  robustness  : NOT checked over the box ({res.tolerances.describe()}): see note")
     if res.schedule:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
@@ -294,13 +297,24 @@ def _summary(res, units=None, table=None) -> str:
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     if res.message:
         lines.append(f"  note        : {res.message}")
-    lines.append("  RESULT      : " + (
-        "SUCCESS — a verified, stable, snap-free design that holds over the tolerance box" if res.success else
-        "unreachable target" if not res.reachable else
-        "NO design holds over the whole tolerance box (the most robust found is reported)"
-        if res.robustness is not None and not res.robustness.holds else
-        "verified, but NOT a success (see note)" if res.verified else "NOT verified"))
+    lines.append("  RESULT      : " + _verdict(res))
     return "\n".join(lines)
+
+
+def _verdict(res) -> str:
+    """The RESULT line: what was established, and nothing that was not computed."""
+    from ..analysis.design_types import status_of
+
+    status = status_of(res)
+    if status == "success":
+        return ("SUCCESS — a verified, stable, snap-free design that holds over the tolerance box"
+                if res.robustness is not None else
+                "SUCCESS — a verified, stable, snap-free design (no tolerance box asked for)")
+    return {"inaccurate": "INACCURATE — the mesh does not resolve the design's state (see note)",
+            "failed": "FAILED — a design stage stopped on a numerical error (see note)",
+            "unreachable": "unreachable target",
+            "not_robust": "NO design holds over the whole tolerance box (the most robust found is reported)",
+            "not_accepted": "verified, but NOT a success (see note)"}.get(status, "NOT verified")
 
 
 def _physical_lines(res, units, table) -> list:
@@ -424,10 +438,12 @@ def run(args: argparse.Namespace) -> int:
     if isinstance(target, list):
         from .design_poses import run_poses
         return run_poses(args, scene, options, raw, target, vary, settings, units, rates)
-    from ..analysis.design import design
+    from ..analysis.design import design, design_problem
     from ..analysis.schedule import schedule_table
     from ..io import dumps_json
-    with stdout_to_stderr(args.json), bad_input():
+    with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
+        design_problem(target, scene, vary, options, settings, stiffness, 0.0)
+    with stdout_to_stderr(args.json):
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)
     table = None
@@ -441,8 +457,17 @@ def run(args: argparse.Namespace) -> int:
     print(dumps_json(payload) if args.json else _summary(res, units, table))
     if written is not None:
         print_written(written, args.json)
-    if not res.reachable or (res.robustness is not None and not res.robustness.holds):
+    return exit_code(res)
+
+
+def exit_code(res) -> int:
+    """0 success; 3 inaccurate (the mesh does not resolve the design), failed (a stage stopped on a
+    numerical error), not verified or not accepted; 4 unreachable or no design holding over the box."""
+    from ..analysis.design_types import status_of
+
+    status = status_of(res)
+    if status == "success":
+        return EXIT_OK
+    if status in ("unreachable", "not_robust"):
         return EXIT_UNREACHABLE
-    if not res.success:
-        return EXIT_NOT_VERIFIED
-    return EXIT_OK
+    return EXIT_NOT_VERIFIED

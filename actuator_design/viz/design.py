@@ -38,10 +38,15 @@ def design_figure(result, units=None):
     axes = fig.subplots(1, panels, gridspec_kw={"width_ratios": [1.35, 1, 1, 1][:panels]})
     ax_shape, ax_alpha, ax_sched = axes[:3]
     state = result.path.final if result.path is not None else result.forward
-    verdict = "verified, stable, snap-free" if result.success else (
-        "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
+    status = getattr(result, "status", "")
+    verdict = ("INACCURATE: the mesh does not resolve the design" if status == "inaccurate" else
+               "FAILED: see the note" if status == "failed" else
+               "verified, stable, snap-free" if result.success else
+               "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
     if state is not None and state.success:
         plot_shape(state, ax=ax_shape, title=f"design — {verdict}")
+    else:
+        ax_shape.set_title(f"design — {verdict} (no verified state)")
     if result.target:  # a stiffness-only design has no target pose
         tx, ty = result.target[0], result.target[1]
         ax_shape.plot([tx], [ty], marker="x", color="crimson", markersize=12, mew=2.5, ls="none", label="target")
@@ -49,15 +54,16 @@ def design_figure(result, units=None):
             a = result.target[2]
             ax_shape.annotate("", xy=(tx + 0.12 * math.cos(a), ty + 0.12 * math.sin(a)), xytext=(tx, ty),
                               arrowprops=dict(arrowstyle="->", color="crimson"))
-    if rob is not None and len(rob.robustness.spread):
+    if rob is not None and len(_finite_rows(rob.robustness.spread)):
         # every tip the branch passes through over the tolerance box (rays to the corners, edges)
-        sp = rob.robustness.spread
+        sp = _finite_rows(rob.robustness.spread)
         ax_shape.plot(sp[:, 0], sp[:, 1], ".", color="tab:blue", markersize=2.5, alpha=0.6,
                       label=f"tip over the box ({rob.robustness.tolerances.describe()})")
-        corners = [c["tip"] for c in rob.robustness.corners if c["reached"]]
+        corners = _corner_tips(rob.robustness)
         if corners:
             ax_shape.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none",
                           color="tab:blue", markersize=6, label="box corners")
+    if rob is not None:
         _spread_panel(axes[3], rob, result.target)
         length_axes(axes[3], units)
     length_axes(ax_shape, units)
@@ -131,21 +137,48 @@ def _schedule_panel(ax, schedule, xlabel: str, title: str, units=None) -> None:
     ax.set_title(title)
 
 
+def _finite_rows(points) -> np.ndarray:
+    """The rows of an (k, 2) array of tips whose coordinates are both finite."""
+    sp = np.asarray(points, float).reshape(-1, 2)
+    return sp[np.all(np.isfinite(sp), axis=1)]
+
+
+def _corner_tips(rob) -> list:
+    """The tips of the box corners the branch reached, where finite."""
+    return [c["tip"] for c in rob.corners
+            if c.get("reached") and all(math.isfinite(float(c["tip"][k])) for k in ("x", "y"))]
+
+
 def _spread_panel(ax, report, target) -> None:
     """The tip over the tolerance box (every state followed on rays and edges), the box corners and
-    the reported worst-case error as a circle around the target (units of ℓ)."""
+    the reported worst-case error as a circle around the target (units of ℓ). Non-finite values
+    (an error that could not be bounded, a state that did not converge) are left out and said so."""
     rob = report.robustness
-    sp = rob.spread
-    r = max(rob.worst_tip_error, 1e-9)
-    cx, cy = (target[0], target[1]) if target else (float(sp[0, 0]), float(sp[0, 1]))
-    ax.plot(sp[:, 0], sp[:, 1], ".", color="tab:blue", markersize=3, label="tip, branch followed")
-    corners = [c["tip"] for c in rob.corners if c["reached"]]
+    sp = _finite_rows(rob.spread)
+    err = rob.worst_tip_error
+    bounded = err is not None and math.isfinite(err)
+    if target:
+        cx, cy = float(target[0]), float(target[1])
+    elif len(sp):
+        cx, cy = float(sp[0, 0]), float(sp[0, 1])
+    else:
+        cx, cy = 0.0, 0.0
+    if len(sp):
+        ax.plot(sp[:, 0], sp[:, 1], ".", color="tab:blue", markersize=3, label="tip, branch followed")
+    corners = _corner_tips(rob)
     if corners:
         ax.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none", color="tab:blue",
                 markersize=7, label="box corners")
-    t = np.linspace(0, 2 * math.pi, 200)
-    ax.plot(cx + r * np.cos(t), cy + r * np.sin(t), "--", color="crimson", lw=1,
-            label=f"worst-case error {r:.3g} l")
+    if bounded:
+        r = max(float(err), 1e-9)
+        t = np.linspace(0, 2 * math.pi, 200)
+        ax.plot(cx + r * np.cos(t), cy + r * np.sin(t), "--", color="crimson", lw=1,
+                label=f"worst-case error {r:.3g} l")
+    else:
+        reach = np.hypot(sp[:, 0] - cx, sp[:, 1] - cy) if len(sp) else np.zeros(0)
+        r = max(float(reach.max()) if reach.size else 0.0, 1e-3)
+        ax.text(0.5, 0.95, "worst-case error not bounded (see note)", ha="center", va="top",
+                transform=ax.transAxes, fontsize=8, color="crimson")
     if target:
         ax.plot([cx], [cy], "x", color="crimson", mew=2.5, markersize=10, label="target")
     ax.set_xlim(cx - 1.3 * r, cx + 1.3 * r)
@@ -154,9 +187,10 @@ def _spread_panel(ax, report, target) -> None:
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
     ax.grid(alpha=0.3)
-    verdict = "holds" if rob.holds else "does NOT hold"
+    verdict = "holds" if getattr(report, "holds", rob.holds) else "does NOT hold"
     ax.set_title(f"tip over the box ({rob.tolerances.describe()}): {verdict}", fontsize=9)
-    ax.legend(loc="lower right", fontsize=7)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="lower right", fontsize=7)
 
 
 def _rod_xy(state, n: int = 150):
