@@ -21,6 +21,7 @@ import pytest
 from numpy.polynomial import legendre
 
 from actuator_design.cli.main import main
+from cli_checks import assert_rejected
 
 ROOT = Path(__file__).resolve().parents[1]
 GUARD_S = 120  # a hostile case must not hang: the subprocess is killed after this many seconds
@@ -63,19 +64,6 @@ def cli(tmp_path, *argv, config_text=None, config_bytes=None, command="solve", i
     p = subprocess.run([sys.executable, "-m", "actuator_design.cli.main", *args], capture_output=True,
                        text=True, env=env, cwd=tmp_path, timeout=GUARD_S)
     return p.returncode, p.stdout, p.stderr
-
-
-def assert_rejected(result, tmp_path, *names):
-    """Exit 2, nothing on stdout, one line on stderr naming every one of ``names``, nothing written."""
-    code, out, err = result
-    assert code == 2, err
-    assert out == ""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("actuator-design: error: ") and "Traceback" not in err
-    for name in names:
-        assert name in lines[0], lines[0]
-    assert not (tmp_path / "out").exists()
 
 
 # -- derived groups after unit conversion ------------------------------------------------------------

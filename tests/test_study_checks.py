@@ -16,6 +16,7 @@ import pytest
 import yaml
 
 from actuator_design.cli.main import main
+from cli_checks import assert_rejected
 from actuator_design.config import ConfigError, load_config
 from actuator_design.materials import MATERIALS
 
@@ -57,20 +58,7 @@ def run(tmp_path, *argv, config=None, out=True):
     return code, o.getvalue(), e.getvalue()
 
 
-def refused(result, tmp_path, *names, absent=()):
-    """Exit 2, one stderr line containing every name (and none of ``absent``), nothing written."""
-    code, out, err = result
-    assert code == 2, err
-    assert out == ""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("actuator-design: error: ") and "Traceback" not in err
-    for name in names:
-        assert name in lines[0], lines[0]
-    for name in absent:
-        assert name not in lines[0], lines[0]
-    assert not (tmp_path / "out").exists()
-    return lines[0]
+refused = assert_rejected
 
 
 def study(base, sweep, grid="cartesian"):
