@@ -123,3 +123,20 @@ def test_the_figure_draws_non_finite_robustness(worst, spread):
     assert isinstance(res.scene.field, UniformField)
     png = png_bytes(design_figure(res), dpi=40)
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_several_poses_on_a_mesh_too_coarse_are_not_called_unreachable(capsys, tmp_path):
+    """The multi-pose design on the 1 × 3 mesh: its search finds nothing there, which says nothing of
+    the targets (reference: the README's multi-pose example reaches both poses on the default mesh,
+    and the single-pose design of pose 1 is verified there, test_design_poses): exit 3 with a
+    status saying so, never exit 4 "unreachable"."""
+    out = tmp_path / "x"
+    code = main(["design", "--target-tip", "0.3,0.5;0.6,0.2", "--elements", "1", "--degree", "3",
+                 "--json", "--out", str(out)])
+    cap = capsys.readouterr()
+    d = json.loads(cap.out.splitlines()[0])
+    assert code == 3, cap.err
+    assert d["status"] in ("inaccurate", "failed") and not d["success"]
+    assert "not established" in d["message"] and "--elements" in d["message"]
+    assert "Traceback" not in cap.err
+    assert json.loads((out / "design.json").read_text())["status"] == d["status"]

@@ -31,6 +31,7 @@ from ..options import SolverOptions
 from ..scene import Scene
 from .design import design_problem, search
 from .design_choose import choose
+from .design_mesh import check_mesh, check_state
 from .design_nlp import PROFILE_VARIABLES, DesignPoint
 from .design_optimise import design_vector
 from .design_robust import pose_designs, robustify
@@ -91,6 +92,9 @@ class MultiPoseResult:
     scenes: List[Scene] = field(default_factory=list)
     timings: Dict[str, float] = field(default_factory=dict)
     magnetization: Optional[Dict[str, object]] = None
+    #: "inaccurate" when the mesh does not resolve a pose's designed state (then nothing is said
+    #: about reachability); "" otherwise (the status follows from ``success``/``reachable``)
+    status: str = ""
 
     @property
     def reachable(self) -> bool:
@@ -105,7 +109,7 @@ class MultiPoseResult:
                 "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha, **({"magnetization": self.magnetization}
                                                                if self.magnetization is not None else {})},
                 "vary": list(self.vary), "schedule": self.schedule, "transitions": self.transitions,
-                "message": self.message,
+                "message": self.message, "status": self.status or ("success" if self.success else "failed"),
                 "tolerances": None if self.tolerances is None else self.tolerances.to_dict(),
                 "timings_s": self.timings,
                 "units": {"length": "rod length", "angle": "rad", "h": "dimensionless field group",
@@ -116,6 +120,18 @@ def _fail(message, scene, vary, tol, timings, t0=None) -> MultiPoseResult:
     if t0 is not None:
         timings["total"] = time.perf_counter() - t0
     return MultiPoseResult(False, [], {}, tuple(vary), [], [], message, scene, tol, timings=timings)
+
+
+def _best_attempt_check(problem, searched):
+    """The mesh check (:mod:`.design_mesh`) of the best-ranked optimum found when none reaches the
+    target: "unreachable" is a claim only when the mesh resolves what the search found; None when
+    nothing was found."""
+    found = [(problem.rank(pt), i, opt, pt) for i, opt in enumerate(searched) for pt in opt.optima]
+    if not found:
+        return None
+    _, _, opt, pt = min(found, key=lambda f: (f[0], f[1]))
+    c = opt.candidate
+    return check_state(c.nlp.scene_for(c.base, design_vector(c.nlp, pt)), c.nlp.solver, pt.z, problem.options)
 
 
 def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = None,
@@ -159,6 +175,25 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     tol = settings.tolerances
     searched = search(first, timings)
     ch1 = choose(first, searched)
+    check = check_mesh(ch1, first.options) if ch1 is not None else _best_attempt_check(first, searched)
+    if check is not None and not check.ok:
+        # the state pose 1 was designed on is no state of the rod on this mesh (design_mesh): neither
+        # a design nor "unreachable" can be claimed
+        o = first.options
+        res = _fail(f"the mesh ({o.elements} element(s) of degree {o.degree}, {o.transcription}) does "
+                    f"not resolve pose 1's designed state: {check.problem}; whether the poses are "
+                    "reachable is not established: give more --elements or a higher --degree",
+                    first.base, vset, tol, timings, t0)
+        res.status = "inaccurate"
+        return res
+    if ch1 is None and not any(opt.optima for opt in searched):
+        o = first.options
+        res = _fail(f"the search found no optimum at all for pose 1 {targets[0]} on this mesh "
+                    f"({o.elements} element(s) of degree {o.degree}, {o.transcription}): whether the "
+                    "poses are reachable is not established; try more --elements or a higher --degree",
+                    first.base, vset, tol, timings, t0)
+        res.status = "failed"
+        return res
     if ch1 is None or not ch1.reachable:
         return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
                      tol, timings, t0)

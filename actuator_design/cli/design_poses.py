@@ -2,7 +2,9 @@
 
 One actuator (one fibre layout) and one field per pose; see :mod:`actuator_design.analysis.design_poses`.
 Exit codes as for one pose: 0 every pose verified and holding over the tolerance box, 2 bad input,
-3 not verified, 4 a pose unreachable or not holding over the box.
+3 not verified (or the mesh does not resolve the design or the search found nothing: status
+inaccurate / failed), 4 a pose
+unreachable or not holding over the box.
 """
 from __future__ import annotations
 
@@ -131,6 +133,8 @@ def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, sett
          payload=payload)
     if res.success:
         return EXIT_OK
+    if res.status in ("inaccurate", "failed"):  # nothing established about reachability
+        return EXIT_NOT_VERIFIED
     if not res.poses or not res.reachable or not res.robust:
         return EXIT_UNREACHABLE
     return EXIT_NOT_VERIFIED
