@@ -386,3 +386,17 @@ def test_subprocess_json_and_bad_input(tmp_path, launcher):
     assert p.returncode == 2 and p.stdout == ""
     assert p.stderr.count("\n") == 1 and p.stderr.startswith("actuator-design: error: argument --h")
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("value", ["-0.3,0.4", "-0.3,0.4;0.6,-0.2", "-1e-1,5E-1"])
+def test_a_list_starting_with_a_negative_number_is_a_value_not_an_option(value):
+    """``--target-tip -0.3,0.4`` was "expected one argument" while ``--target-tip=-0.3,0.4``
+    worked (issue 21): both forms now parse to the same arguments."""
+    from actuator_design.cli.common import UsageError
+    from actuator_design.cli.main import build_parser
+
+    spaced = build_parser(only="design").parse_args(["design", "--target-tip", value])
+    joined = build_parser(only="design").parse_args(["design", f"--target-tip={value}"])
+    assert spaced.target_tip == joined.target_tip
+    with pytest.raises(UsageError, match="expected one argument"):  # an option-looking word is still one
+        build_parser(only="design").parse_args(["design", "--target-tip", "-x"])

@@ -40,9 +40,12 @@ COMMANDS: List[str] = [
 ]
 
 
-#: What argparse must read as a (negative) number, not as an option: ``-1``, ``-1.5``, ``-.5``,
-#: ``-1e3``, ``-2.5E-4`` (argparse's own pattern misses exponents, so ``--p -1e3`` failed).
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+#: What argparse must read as a value starting with a negative number, not as an option: ``-1``,
+#: ``-1.5``, ``-.5``, ``-1e3``, ``-2.5E-4`` (argparse's own pattern misses exponents, so ``--p -1e3``
+#: failed), and lists that start with one: ``-0.3,0.4``, ``-0.3,0.4;0.6,-0.2``, ``-5,5`` (so that
+#: ``--target-tip -0.3,0.4`` works as the ``=`` form does).
+_NUMBER = r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?"
+NEGATIVE_NUMBER = re.compile(rf"^-(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?([,;]\s*{_NUMBER})*$")
 
 
 class _Parser(argparse.ArgumentParser):
