@@ -140,3 +140,23 @@ def test_several_poses_on_a_mesh_too_coarse_are_not_called_unreachable(capsys, t
     assert "not established" in d["message"] and "--elements" in d["message"]
     assert "Traceback" not in cap.err
     assert json.loads((out / "design.json").read_text())["status"] == d["status"]
+
+
+def test_a_numerical_failure_inside_a_shape_design_is_exit_3_not_bad_input(capsys, tmp_path, monkeypatch):
+    """A singular matrix inside ``design --target-shape`` (LinAlgError is a ValueError subclass)
+    was reported as bad input, exit 2; it is one line saying the computation failed, exit 3."""
+    import actuator_design.analysis.design_shape as shape_module
+
+    def singular(*args, **kwargs):
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(shape_module, "design_shape", singular)
+    pts = tmp_path / "shape.csv"
+    pts.write_text("s,x,y\n" + "\n".join(f"{s:.2f},{0.9 * s:.4f},{0.3 * s * s:.4f}"
+                                           for s in np.linspace(0.1, 1, 10)) + "\n")
+    out = tmp_path / "out"
+    code = main(["design", "--target-shape", str(pts), "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 3 and len(err) == 1, err
+    assert err[0].startswith("actuator-design: error: numerical failure (LinAlgError: Singular matrix)")
+    assert not out.exists()

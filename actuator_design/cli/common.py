@@ -13,7 +13,7 @@ from ..units import MAX_ANGLE_DEG  # the largest |angle| any input takes, also a
 
 __all__ = [
     "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
-    "UsageError", "InputError", "error_line", "package_version", "finite_float",
+    "UsageError", "InputError", "NumericalFailure", "error_line", "package_version", "finite_float",
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
     "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags", "add_rate_args", "parse_rates",
     "table_csv_text", "check_angle_deg", "check_parameter_angle",
@@ -30,6 +30,11 @@ class UsageError(Exception):
 
 class InputError(Exception):
     """The user's input (flags, config file, field) is invalid; exit code 2."""
+
+
+class NumericalFailure(Exception):
+    """A computation failed numerically (a singular matrix inside a solver stage): not bad input,
+    no result that meets its promise; one line, exit code 3."""
 
 
 def error_line(exc: BaseException) -> str:
@@ -198,6 +203,11 @@ def bad_input(prefix: str = ""):
     except InputError:
         raise
     except (ValueError, OSError) as exc:
+        numpy = sys.modules.get("numpy")  # not imported here: start-up stays free of it
+        if numpy is not None and isinstance(exc, numpy.linalg.LinAlgError):
+            # a ValueError subclass, but the computation failed, not the input
+            raise NumericalFailure(f"numerical failure ({type(exc).__name__}: {exc}); the input was "
+                                   "accepted: try another mesh (--elements, --degree) or report it") from exc
         raise InputError(f"{prefix}{exc}") from exc
     except Exception as exc:
         try:

@@ -29,8 +29,8 @@ import sys
 import traceback
 from typing import List, Optional, Sequence
 
-from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, InputError, PROG, UsageError, check_scene_flags,
-                     error_line, package_version)
+from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NOT_CONVERGED, InputError, NumericalFailure, PROG,
+                     UsageError, check_scene_flags, error_line, package_version)
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -150,6 +150,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except (UsageError, InputError) as exc:
         print(error_line(exc), file=sys.stderr)
         return EXIT_BAD_INPUT
+    except NumericalFailure as exc:
+        print(error_line(exc), file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     except SystemExit as exc:  # --help, --version
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_BAD_INPUT)
     except BrokenPipeError:  # e.g. `actuator-design solve --json | head`
