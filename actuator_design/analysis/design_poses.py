@@ -176,23 +176,21 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     searched = search(first, timings)
     ch1 = choose(first, searched)
     check = check_mesh(ch1, first.options) if ch1 is not None else _best_attempt_check(first, searched)
+    o = first.options
+    mesh = f"{o.elements} element(s) of degree {o.degree}, {o.transcription}"
+    undetermined = None
     if check is not None and not check.ok:
         # the state pose 1 was designed on is no state of the rod on this mesh (design_mesh): neither
         # a design nor "unreachable" can be claimed
-        o = first.options
-        res = _fail(f"the mesh ({o.elements} element(s) of degree {o.degree}, {o.transcription}) does "
-                    f"not resolve pose 1's designed state: {check.problem}; whether the poses are "
-                    "reachable is not established: give more --elements or a higher --degree",
-                    first.base, vset, tol, timings, t0)
-        res.status = "inaccurate"
-        return res
-    if ch1 is None and not any(opt.optima for opt in searched):
-        o = first.options
-        res = _fail(f"the search found no optimum at all for pose 1 {targets[0]} on this mesh "
-                    f"({o.elements} element(s) of degree {o.degree}, {o.transcription}): whether the "
-                    "poses are reachable is not established; try more --elements or a higher --degree",
-                    first.base, vset, tol, timings, t0)
-        res.status = "failed"
+        undetermined = ("inaccurate", f"the mesh ({mesh}) does not resolve pose 1's designed state: "
+                                      f"{check.problem}")
+    elif ch1 is None and not any(opt.optima for opt in searched):
+        undetermined = ("failed", f"the search found no optimum at all for pose 1 {targets[0]} on "
+                                  f"this mesh ({mesh})")
+    if undetermined is not None:
+        res = _fail(f"{undetermined[1]}; whether the poses are reachable is not established: give "
+                    "more --elements or a higher --degree", first.base, vset, tol, timings, t0)
+        res.status = undetermined[0]
         return res
     if ch1 is None or not ch1.reachable:
         return _fail(f"pose 1 {targets[0]} is not reachable with {', '.join(vset)}", first.base, vset,
