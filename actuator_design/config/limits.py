@@ -31,8 +31,8 @@ plus numerical copies. Measured peak memory (Python 3.11, CasADi 3.6, uniform fi
 
 Rounding. The stationarity residual r = max_i |∂Ê/∂θ_i| / m_i of a converged state carries a
 rounding floor ≈ K ε / Δ² (Δ the smallest node spacing, in rod lengths; measured K = 0.48–0.49 for
-midpoint 35 000, 40 000 and 133 333, 2.8–3.4 for lgl 800, 1100, 1400 and 1904 × 10:
-:data:`ROUNDING_K`). Newton accepts
+midpoint 35 000, 40 000 and 133 333, 1.9–2.3 for lgl 800, 1100, 1400 and 1904 × 10; used:
+:data:`ROUNDING_K`, 0.5 and 3.5, the latter with 1.5 × more margin). Newton accepts
 a residual at the rounding floor only up to 10⁴ × tol, so where the user picks a uniform mesh
 (configuration and flags) one with K ε/Δ² > :data:`ROUNDING_MARGIN` × tol, which cannot be confirmed
 on every machine (midpoint 133 333 stopped at 1.9e-6, lgl 1904 × 10 at 1.4e-6, both with tol
@@ -83,7 +83,7 @@ MAX_BANDED_ENTRIES = int(MEMORY_BUDGET // BYTES_PER_ENTRY)
 #: accepts up to 10⁴ tol at the floor; 10 × margin for other machines and scenes).
 ROUNDING_MARGIN = 1e3
 #: Measured rounding floor of the residual in units of ε/Δ², by transcription (module docstring;
-#: lgl measured at degree 10, taken for every degree).
+#: lgl measured at degree 10 as 1.9–2.3, taken as 3.5 for every degree).
 ROUNDING_K = {"midpoint": 0.5, "lgl": 3.5}
 #: Largest number of free unknowns when a non-uniform field makes the Hessian dense (≈ 0.85 GB).
 MAX_DENSE_UNKNOWNS = 200
@@ -167,21 +167,30 @@ def unknowns(transcription: str, elements: int, degree: int) -> int:
     return int(elements) * (int(degree) if transcription == "lgl" else 1)
 
 
-@functools.lru_cache(maxsize=1024)
+@functools.lru_cache(maxsize=None)
+def _lgl_end_gap(degree: int) -> float:
+    """The gap between the end node of [0, 1] and the next LGL node of degree ``degree`` (the first
+    root of P'_d, as ``transcription.lgl.lgl_nodes_weights`` has it; computed here with numpy alone
+    so that checking a config does not import CasADi)."""
+    from numpy.polynomial import legendre
+
+    if degree <= 1:
+        return 1.0
+    c = np.zeros(int(degree) + 1)
+    c[-1] = 1.0
+    first = float(np.min(np.real(legendre.legroots(legendre.legder(c)))))
+    return (1.0 + first) / 2.0
+
+
 def smallest_spacing(transcription: str, elements: int, degree: int) -> float:
     """The smallest node spacing of a uniform mesh, rod lengths.
 
     ``midpoint``: 1 / elements; ``lgl``: the gap between an element's end node and the next LGL
-    node (the roots of P'_d), times the element length 1 / elements.
+    node, times the element length 1 / elements.
     """
     if transcription != "lgl":
         return 1.0 / int(elements)
-    from numpy.polynomial import legendre
-
-    c = np.zeros(int(degree) + 1)
-    c[-1] = 1.0
-    interior = np.sort(np.real(legendre.legroots(legendre.legder(c)))) if degree > 1 else [1.0]
-    return float((1.0 + interior[0]) / 2.0) / int(elements)
+    return _lgl_end_gap(int(degree)) / int(elements)
 
 
 def _largest_elements(ok, hi: int) -> int:
