@@ -11,6 +11,7 @@ from typing import Callable, Dict, Optional
 
 import numpy as np
 
+from .display import degrees, number
 from .options import SolverOptions
 from .scene import Scene
 
@@ -205,13 +206,13 @@ class EquilibriumResult:
         lines = [
             f"{self.scene.name}",
             f"  status      : {self.status} ({'success' if self.success else 'FAILED'}) — {self.message}",
-            f"  groups      : h = {self.scene.h:.6g}, phi = {np.degrees(self.scene.phi):.6g} deg, "
-            f"p = {self.scene.p:.6g}",
-            f"  tip         : x = {self.tip['x']:.10f}, y = {self.tip['y']:.10f}, "
-            f"angle = {self.tip['angle']:.10f} rad ({np.degrees(self.tip['angle']):.6f} deg)  [units of l]",
-            f"  energy      : {self.energy:.12g}  [B0/l]",
-            f"  clamp       : force = ({self.clamp_force[0]:.6g}, {self.clamp_force[1]:.6g}) [B0/l^2], "
-            f"moment = {self.clamp_moment:.6g} [B0/l]",
+            f"  groups      : h = {number(self.scene.h)}, phi = {degrees(self.scene.phi)} deg, "
+            f"p = {number(self.scene.p)}",
+            f"  tip         : x = {number(self.tip['x'], '.10f')}, y = {number(self.tip['y'], '.10f')}, "
+            f"angle = {number(self.tip['angle'], '.10f')} rad ({degrees(self.tip['angle'], '.6f')} deg)  [units of l]",
+            f"  energy      : {number(self.energy, '.12g')}  [B0/l]",
+            f"  clamp       : force = ({number(self.clamp_force[0])}, {number(self.clamp_force[1])}) [B0/l^2], "
+            f"moment = {number(self.clamp_moment)} [B0/l]",
             f"  stability   : {'STABLE' if self.stable else 'UNSTABLE'} (Morse index {self.morse_index}; "
             f"smallest eigenvalues {', '.join(f'{v:.6g}' for v in self.eigenvalues)})",
             f"  accuracy    : EL residual {self.el_residual:.2e}, stationarity {self.stationarity:.2e}"
@@ -228,8 +229,9 @@ class EquilibriumResult:
             lines.append("  warning     : the shape intersects itself; contact is not modelled")
         phys = self.physical()
         if phys:
-            lines.append(f"  physical    : tip = ({1e3 * phys['tip_x_m']:.6g}, {1e3 * phys['tip_y_m']:.6g}) mm, "
-                         f"clamp force = ({phys['clamp_force_N'][0]:.4g}, {phys['clamp_force_N'][1]:.4g}) N, "
-                         f"clamp moment = {phys['clamp_moment_Nm']:.4g} N m, field scale H0 = "
+            lines.append(f"  physical    : tip = ({number(1e3 * phys['tip_x_m'])}, {number(1e3 * phys['tip_y_m'])}) mm, "
+                         f"clamp force = ({number(phys['clamp_force_N'][0], '.4g')}, "
+                         f"{number(phys['clamp_force_N'][1], '.4g')}) N, "
+                         f"clamp moment = {number(phys['clamp_moment_Nm'], '.4g')} N m, field scale H0 = "
                          f"{phys['field_A_per_m']:.6g} A/m")
         return "\n".join(lines)

@@ -32,6 +32,7 @@ import math
 
 from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float,
                      load_config, parse_rates, stdout_to_stderr, table_csv_text)
+from ..display import degrees, number
 from ..parameters import designable
 from .output import print_written, write_out
 
@@ -252,31 +253,31 @@ def _summary(res, units=None, table=None) -> str:
     d = res.design
     lines = [
         "actuator-design: inverse design",
-        (f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g}"
-         + (f", angle = {math.degrees(res.target[2]):.4g} deg" if len(res.target) > 2 else "") + "  [rod lengths]"
+        (f"  target      : x = {number(res.target[0])}, y = {number(res.target[1])}"
+         + (f", angle = {degrees(res.target[2], '.4g')} deg" if len(res.target) > 2 else "") + "  [rod lengths]"
          if res.target else "  target      : (no tip pose)")
         + (f"; stiffness {res.stiffness_target:.8g} [B0/l^3]" if res.stiffness_target is not None else ""),
         f"  variables   : {', '.join(res.vary)}",
         f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {_phi_text(res)}, "
-        f"p = {d.get('p', float('nan')):.6g}" + (f", h_r = {d['h_r']:.8g}" if "h_r" in d else ""),
+        f"p = {number(d.get('p', float('nan')))}" + (f", h_r = {d['h_r']:.8g}" if "h_r" in d else ""),
     ]
     if "alpha" in res.vary and "alpha" in d:
         a = d["alpha"]["value"]
-        lines.append(f"  fibres      : alpha(s) from {math.degrees(a[0]):.3g} deg (clamp) to "
-                     f"{math.degrees(a[-1]):.3g} deg (tip), Legendre coefficients "
-                     f"{', '.join(f'{c:.4g}' for c in d['alpha']['legendre_coefficients'])} rad")
+        lines.append(f"  fibres      : alpha(s) from {degrees(a[0], '.3g')} deg (clamp) to "
+                     f"{degrees(a[-1], '.3g')} deg (tip), Legendre coefficients "
+                     f"{', '.join(number(c, '.4g') for c in d['alpha']['legendre_coefficients'])} rad")
     if "magnetization" in res.vary and "magnetization" in d:
         b = d["magnetization"]["value"]
-        lines.append(f"  magnetised  : beta(s) from {math.degrees(b[0]):.3g} deg (clamp) to "
-                     f"{math.degrees(b[-1]):.3g} deg (tip), Legendre coefficients "
-                     f"{', '.join(f'{c:.4g}' for c in d['magnetization']['legendre_coefficients'])} rad")
+        lines.append(f"  magnetised  : beta(s) from {degrees(b[0], '.3g')} deg (clamp) to "
+                     f"{degrees(b[-1], '.3g')} deg (tip), Legendre coefficients "
+                     f"{', '.join(number(c, '.4g') for c in d['magnetization']['legendre_coefficients'])} rad")
     phys = res.to_dict().get("physical")
     if phys:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
     lines += _physical_lines(res, units, table)
     if res.achieved:
-        lines.append(f"  achieved    : x = {res.achieved['x']:.10f}, y = {res.achieved['y']:.10f}, "
-                     f"angle = {math.degrees(res.achieved['angle']):.6g} deg; error {res.error:.3e}")
+        lines.append(f"  achieved    : x = {number(res.achieved['x'], '.10f')}, y = {number(res.achieved['y'], '.10f')}, "
+                     f"angle = {degrees(res.achieved['angle'])} deg; error {res.error:.3e}")
     if res.stiffness_target is not None and res.achieved_stiffness is not None:
         lines.append(f"  stiffness   : achieved {res.achieved_stiffness:.10g} [B0/l^3] (central differences of "
                      f"independent forward solves)")
@@ -292,7 +293,7 @@ def _summary(res, units=None, table=None) -> str:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
                      + (f", h_r = {last['h_r']:.6g}" if "h_r" in last else "")
-                     + f" at phi = {math.degrees(last['phi']):.6g} deg")
+                     + f" at phi = {degrees(last['phi'])} deg")
     lines.append(f"  optima      : {len(res.optima)} distinct local optima (see --json 'optima')")
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     if res.message:
@@ -386,9 +387,9 @@ def _phi_text(res) -> str:
     representative in (-90, 90] deg differs, the word that they are one field axis."""
     phi = res.design.get("phi", float("nan"))
     end = res.schedule[-1]["phi"] if res.schedule else phi
-    text = f"{math.degrees(end):.6g} deg"
+    text = f"{degrees(end)} deg"
     if math.isfinite(end) and abs(end - phi) > 1e-9:
-        text += f" (field axis, the same as {math.degrees(phi):.6g} deg)"
+        text += f" (field axis, the same as {degrees(phi)} deg)"
     return text
 
 
