@@ -1,2 +1,83 @@
-"""actuator-design: equilibria, stability and design of magneto-elastic soft actuators."""
+"""actuator-design: equilibria, stability and design of magneto-elastic soft actuators.
+
+The package's face: ``import actuator_design as ad`` gives the scene, the configuration reader,
+every analysis and the result types under one name::
+
+    import actuator_design as ad
+
+    r = ad.solve(ad.default_scene(h=1.5, phi=1.5708))      # a stable buckled state
+    d = ad.design((0.3, 0.5))                               # the main job
+    cfg = ad.load_config("configs/strip.yaml")              # a YAML study / scene
+
+Names are resolved on first use (PEP 562), so ``import actuator_design`` stays cheap (the CLI's
+``--version`` imports it) and loads CasADi, SciPy and matplotlib only when an analysis is used.
+Units: everything is dimensionless (THEORY §5) unless a scene is physical; see each function.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import Dict, Tuple
+
 __version__ = "0.1.0"
+
+#: Public name → (module, attribute). Every name here is part of the API users' scripts rely on.
+_EXPORTS: Dict[str, Tuple[str, str]] = {
+    # the model: scenes, fields, options, configuration
+    "Scene": ("scene", "Scene"),
+    "default_scene": ("scene", "default_scene"),
+    "UniformField": ("scene", "UniformField"),
+    "DipoleField": ("scene", "DipoleField"),
+    "ExpressionField": ("scene", "ExpressionField"),
+    "SolverOptions": ("options", "SolverOptions"),
+    "load_config": ("config.model", "load_config"),
+    "load_scene": ("config.model", "load_scene"),
+    # the energy terms
+    "EnergyTerm": ("physics.terms", "EnergyTerm"),
+    "Bending": ("physics.terms", "Bending"),
+    "FieldOrientation": ("physics.terms", "FieldOrientation"),
+    "FieldPosition": ("physics.terms", "FieldPosition"),
+    "TipForce": ("physics.terms", "TipForce"),
+    "TipMoment": ("physics.terms", "TipMoment"),
+    "DistributedLoad": ("physics.terms", "DistributedLoad"),
+    "HardMagnetic": ("physics.hard_magnetic", "HardMagnetic"),
+    "build_terms": ("physics.terms", "build_terms"),
+    # analyses
+    "solve": ("equilibrium", "solve"),
+    "equilibria": ("analysis.equilibria", "find_equilibria"),
+    # (the continuation engine's own ``continuation`` cannot be ad.continuation: that name is the
+    # subpackage actuator_design.continuation, bound on the package when it is imported)
+    "continue_branch": ("analysis.continuation", "continue_branch"),
+    "critical_points": ("analysis.critical", "critical_points"),
+    "follow_path": ("analysis.loading", "follow_path"),
+    "tip_stiffness": ("analysis.stiffness", "tip_stiffness"),
+    "design": ("analysis.design", "design"),
+    "design_poses": ("analysis.design_poses", "design_poses"),
+    "DesignSettings": ("analysis.design_types", "DesignSettings"),
+    "Tolerances": ("analysis.tolerances", "Tolerances"),
+    "fit": ("calibration", "fit"),
+    "prepare_fit": ("calibration", "prepare_fit"),
+    "plan_study": ("study.runner", "plan_study"),
+    "run_study": ("study.runner", "run_study"),
+    # result types
+    "EquilibriumResult": ("result", "EquilibriumResult"),
+    "EquilibriaResult": ("analysis.equilibria", "EquilibriaResult"),
+    "DesignResult": ("analysis.design_types", "DesignResult"),
+    "FitResult": ("calibration", "FitResult"),
+    "StudyReport": ("study.runner", "StudyReport"),
+}
+
+__all__ = ["__version__", *_EXPORTS]
+
+
+def __getattr__(name: str):
+    try:
+        module, attribute = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'actuator_design' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f".{module}", __name__), attribute)
+    globals()[name] = value  # resolved once
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

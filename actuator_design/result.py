@@ -58,6 +58,15 @@ class EquilibriumResult:
         Iterations, times (s), build/cached flags, method used.
     """
 
+    def __repr__(self) -> str:
+        """One line: status, tip (units of ℓ, rad), stability (the dataclass's repr prints arrays)."""
+        tip = getattr(self, "tip", None) or {}
+        return (f"EquilibriumResult(status={self.status!r}, success={self.success}, "
+                f"tip=(x={tip.get('x', float('nan')):.6g}, y={tip.get('y', float('nan')):.6g}, "
+                f"angle={tip.get('angle', float('nan')):.6g}), stable={self.stable}, "
+                f"morse_index={self.morse_index}, energy={self.energy:.8g})")
+
+
     success: bool
     status: str
     message: str

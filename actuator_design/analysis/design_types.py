@@ -77,6 +77,14 @@ class DesignResult:
     ``verified``, and states the reason whenever ``success`` is False.
     """
 
+    def __repr__(self) -> str:
+        """One line: the verdict, the design (h, φ in rad) and the tip error (units of ℓ)."""
+        d = self.design or {}
+        return (f"DesignResult(status={status_of(self)!r}, success={self.success}, "
+                f"vary={tuple(self.vary)}, h={d.get('h', float('nan')):.8g}, phi={d.get('phi', float('nan')):.6g}, "
+                f"error={self.error:.3g}, verified={self.verified}, stable={self.stable})")
+
+
     success: bool
     reachable: bool
     verified: bool

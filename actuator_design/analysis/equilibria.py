@@ -129,6 +129,13 @@ class EquilibriaResult:
         Why ``complete`` is False (None when complete).
     """
 
+    def __repr__(self) -> str:
+        """One line: how many equilibria, how many stable, and whether the list is complete."""
+        n_stable = sum(1 for e in self.equilibria if getattr(e, "stable", False))
+        return (f"EquilibriaResult(count={len(self.equilibria)}, stable={n_stable}, complete={self.complete}, "
+                f"window=({self.window[0]:.6g}, {self.window[1]:.6g}))")
+
+
     scene: Scene
     options: SolverOptions
     equilibria: List[Equilibrium]

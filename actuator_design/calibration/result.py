@@ -49,6 +49,13 @@ class FitResult:
         ``dof``, ``chi2_reduced``, ``p_value``, ``min_p_value``, ``threshold``, ``rule``.
     """
 
+    def __repr__(self) -> str:
+        """One line: the status and each parameter's value with its interval (SI units)."""
+        parts = [f"{n}={p['value']:.6g}" + (f" [{p['ci'][0]:.4g}, {p['ci'][1]:.4g}]" if p.get("ci") else "")
+                 + f" {p.get('unit', '')}".rstrip() for n, p in self.parameters.items()]
+        return f"FitResult(status={self.status!r}, success={self.success}, {', '.join(parts)})"
+
+
     success: bool
     status: str
     message: str
