@@ -13,8 +13,9 @@ CONFIG has the usual 'scene' (and 'solver') plus
 
 The folder (--out, default study_<config name>) gets manifest.json (resolved config, versions,
 solver settings, times, status of every point), results.csv (tidy: one row per point; also
-results.parquet when pyarrow is installed), figures/*.png and journal.jsonl (one JSON line per
-finished point; --resume skips the points it holds). Every file is written to a temporary name
+results.parquet when pyarrow is installed), results.nc (the same on the grid: one dimension per
+swept key, a netCDF file for xarray.open_dataset), figures/*.png and journal.jsonl (one JSON line
+per finished point; --resume skips the points it holds). Every file is written to a temporary name
 and renamed. With --scheduler tcp://HOST:PORT the points run on a Dask distributed cluster.
 
 Safety: every swept value and grid point is checked like a scene from a file before the folder is
@@ -29,10 +30,10 @@ unit on a dimensionless scene is refused (physical units need a physical scene);
 dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad.
 
 Files: the folder's entries must be the tool's own: a study.lock, journal.jsonl, manifest.json,
-results.csv or figures that is a symbolic link or of the wrong kind (a directory where a file goes,
-a FIFO, ...) is refused (exit 2, naming it); nothing outside the folder is ever written. Journal
-records carry a digest of their inputs and a checksum: an edited, damaged or older record is
-computed again (with a warning giving the count).
+results.csv, results.nc or figures that is a symbolic link or of the wrong kind (a directory
+where a file goes, a FIFO, ...) is refused (exit 2, naming it); nothing outside the folder is
+ever written. Journal records carry a digest of their inputs and a checksum: an edited, damaged
+or older record is computed again (with a warning giving the count).
 
 Exit codes: 0 every point computed (some may have failed: see the manifest), 2 bad input (also a
 write the file system refused before anything was journaled), 3 a write refused (read-only or full

@@ -7,7 +7,8 @@ lives in :mod:`actuator_design.study.spec`, the grid in :mod:`~actuator_design.s
 per-point work in :mod:`~actuator_design.study.worker`, where it runs in
 :mod:`~actuator_design.study.backends`, the folder's lock in :mod:`~actuator_design.study.lock`,
 the journal in :mod:`~actuator_design.study.journal` and the outputs in
-:mod:`~actuator_design.study.outputs`; the figures (pure drawing) are :mod:`actuator_design.viz.study`'s.
+:mod:`~actuator_design.study.outputs` (the table) and :mod:`~actuator_design.study.dataset`
+(``results.nc``, the table on the grid); the figures (pure drawing) are :mod:`actuator_design.viz.study`'s.
 Imports are lazy so that importing
 this package is cheap and never needs Dask.
 """

@@ -28,16 +28,17 @@ from .lock import LOCK_NAME, holder_of, in_use_message
 from .spec import SweepSpec, analysis_list, validate_spec
 
 __all__ = ["StudyPlan", "plan_study", "journal_records", "check_study_folder", "STUDY_ENTRIES",
-           "CSV_NAME", "PARQUET_NAME", "FIGURES_DIR", "MANIFEST_NAME"]
+           "CSV_NAME", "PARQUET_NAME", "NETCDF_NAME", "FIGURES_DIR", "MANIFEST_NAME"]
 
 MANIFEST_NAME = "manifest.json"
 CSV_NAME = "results.csv"
 PARQUET_NAME = "results.parquet"
+NETCDF_NAME = "results.nc"
 FIGURES_DIR = "figures"
 
 #: The entries a run writes in its study folder and what each must be when it exists.
 STUDY_ENTRIES = {LOCK_NAME: FILE, JOURNAL_NAME: FILE, MANIFEST_NAME: FILE, CSV_NAME: FILE,
-                 PARQUET_NAME: FILE, FIGURES_DIR: DIRECTORY}
+                 PARQUET_NAME: FILE, NETCDF_NAME: FILE, FIGURES_DIR: DIRECTORY}
 
 #: Versions of the code that shapes a point's result (part of every record's ``inputs`` digest).
 _CODE = ("actuator-design", "casadi", "numpy", "scipy")
@@ -63,6 +64,8 @@ class StudyPlan:
     resume: bool
     name: str
     inputs_digest: str = ""
+    #: the configuration file (absolute path), None for a configuration given as a dict
+    source: Optional[str] = None
 
     @property
     def n_points(self) -> int:
@@ -127,7 +130,9 @@ def plan_study(source, out_dir, resume: bool = False,
     name = config.name or (Path(source).stem if isinstance(source, (str, Path)) else "study")
     return StudyPlan(raw=raw, config=config, spec=spec, axes=axes, indices=indices,
                      analyses=analyses, out=out, study_id=study_id, resume=resume, name=name,
-                     inputs_digest=_inputs_digest(ident, analyses, spec, config))
+                     inputs_digest=_inputs_digest(ident, analyses, spec, config),
+                     source=(str(Path(source).resolve()) if isinstance(source, (str, Path))
+                             else None))
 
 
 def check_study_folder(out: Path) -> None:

@@ -19,6 +19,9 @@ die with this process) or on a Dask cluster (``scheduler=``; Dask is imported on
     (:mod:`actuator_design.study.journal`);
 ``results.csv`` (and ``results.parquet`` when pyarrow is installed)
     the tidy table (:mod:`actuator_design.study.outputs`);
+``results.nc``
+    the same results on the grid, a labelled N-dimensional array (netCDF3 via xarray,
+    :mod:`actuator_design.study.dataset`), rewritten from the full table by a resumed study;
 ``figures/*.png``
     a result against a swept key (:mod:`actuator_design.viz.study`).
 
@@ -53,8 +56,9 @@ from .errors import StudyError, StudyInterrupted, StudyStorageError, StudyWarnin
 from .journal import JOURNAL_NAME, Journal
 from .lock import FolderLock
 from .manifest import counts, manifest_base, point_list, previous_manifest, read_manifest
+from .dataset import write_dataset
 from .outputs import build_table, write_csv, write_manifest, write_parquet
-from .plan import (CSV_NAME, FIGURES_DIR, MANIFEST_NAME, PARQUET_NAME, StudyPlan,
+from .plan import (CSV_NAME, FIGURES_DIR, MANIFEST_NAME, NETCDF_NAME, PARQUET_NAME, StudyPlan,
                    check_study_folder, journal_records, plan_study)
 
 __all__ = ["StudyPlan", "StudyReport", "StudyError", "StudyStorageError", "StudyInterrupted",
@@ -358,11 +362,13 @@ def _run_locked(plan: StudyPlan, workers, scheduler, progress: bool, notify) -> 
 
 
 def _import_figure_code() -> None:
-    """Import matplotlib and the study figures (≈0.5 s) while the workers compute."""
+    """Import matplotlib and the study figures (≈0.5 s), and xarray for ``results.nc`` (≈0.3 s),
+    while the workers compute."""
     try:
         from ..viz.study import study_figures  # noqa: F401
         from ..viz.style import preload
         preload()
+        import xarray  # noqa: F401
     except Exception:  # noqa: BLE001 - the outputs import it again and report any error there
         pass
 
@@ -375,6 +381,8 @@ def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     files: Dict[str, Any] = {"journal": JOURNAL_NAME}
     write_csv(plan.out / CSV_NAME, table)
     files["csv"] = CSV_NAME
+    write_dataset(plan.out / NETCDF_NAME, plan, table)
+    files["netcdf"] = NETCDF_NAME
     files["parquet"] = PARQUET_NAME if write_parquet(plan.out / PARQUET_NAME, table) else None
     specs = ([f.model_dump() for f in plan.spec.figures] if plan.spec.figures
              else default_figures(plan.axes, table))
