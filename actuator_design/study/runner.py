@@ -35,7 +35,6 @@ killed process) resumes with ``resume=True`` without recomputing its finished po
 from __future__ import annotations
 
 import errno
-import io as _io
 import math
 import os
 import signal
@@ -392,10 +391,9 @@ def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     check_entries(fig_dir, {f"{stem}.png": FILE for stem in figs})
     if figs:
         fig_dir.mkdir(exist_ok=True)
+    from ..viz.style import png_bytes
     for stem, fig in figs.items():
-        buf = _io.BytesIO()
-        fig.savefig(buf, format="png", dpi=120)
-        atomic_write(fig_dir / f"{stem}.png", lambda fh, b=buf.getvalue(): fh.write(b), binary=True)
+        atomic_write(fig_dir / f"{stem}.png", lambda fh, b=png_bytes(fig, dpi=150): fh.write(b), binary=True)
         names.append(f"{FIGURES_DIR}/{stem}.png")
     files["figures"] = names
     return files

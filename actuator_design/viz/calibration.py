@@ -5,7 +5,6 @@ made without pyplot's global state (Agg backend).
 """
 from __future__ import annotations
 
-import io
 import sys
 from typing import Dict
 
@@ -104,11 +103,7 @@ def _fit_title(result) -> str:
     return (f"{result.name}\n" + "; ".join(parts) + f" ({100 * result.confidence:g}% CI)")
 
 
-def fit_figure_pngs(result, dpi: int = 130) -> Dict[str, bytes]:
-    """PNG bytes of :func:`fit_figures`, by figure name."""
-    pngs = {}
-    for name, fig in fit_figures(result).items():
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=dpi)
-        pngs[name] = buf.getvalue()
-    return pngs
+def fit_figure_pngs(result, dpi: int = 150) -> Dict[str, bytes]:
+    """PNG bytes of :func:`fit_figures`, by figure name (:func:`~.style.png_bytes`)."""
+    from .style import png_bytes
+    return {name: png_bytes(fig, dpi=dpi) for name, fig in fit_figures(result).items()}

@@ -16,7 +16,7 @@ import sys
 import tempfile
 from typing import Tuple
 
-__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes", "preload"]
+__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes", "preload", "no_offset_notation"]
 
 
 def _use_agg() -> None:
@@ -83,9 +83,22 @@ def png_bytes(figure, dpi: int = 150) -> bytes:
         A PNG file's content.
     """
     fig = getattr(figure, "figure", None) if not hasattr(figure, "savefig") else figure
+    no_offset_notation(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
+
+
+def no_offset_notation(fig) -> None:
+    """Tick labels as the values themselves on every linear axis of ``fig``: matplotlib's offset
+    notation wrote a stiffness axis as "1e−6 + 5.11194", which reads as a different number. Only
+    the figure's own axes are changed (no global rcParams: a user's plots stay as they are)."""
+    from matplotlib.ticker import ScalarFormatter
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            fmt = axis.get_major_formatter()
+            if isinstance(fmt, ScalarFormatter):
+                fmt.set_useOffset(False)
 
 
 def gif_bytes(animation, fps: int = 12) -> bytes:
