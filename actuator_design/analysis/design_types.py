@@ -19,7 +19,7 @@ from ..scene import Scene
 from .design_nlp import DesignNLP, DesignPoint
 from .tolerances import Tolerances
 
-__all__ = ["DesignSettings", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
+__all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
            "Choice", "Verification", "status_of", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error",
            "target_error", "effort", "rank"]
 
@@ -58,9 +58,49 @@ class DesignSettings:
     time_limit: float = 120.0
     tolerances: Tolerances = field(default_factory=Tolerances)
 
+    def __post_init__(self):
+        self.validate()
+
+    def validate(self) -> None:
+        """One clear ``ValueError`` naming the first setting outside its range (on construction,
+        and so on :func:`dataclasses.replace`: the settings are frozen)."""
+        check_h_max(self.h_max)
+        checks = (
+            ("p_max", self.p_max >= 0 and math.isfinite(self.p_max), "must be a finite number >= 0"),
+            ("alpha_max", 0 < self.alpha_max <= math.pi / 2 + 1e-12,
+             f"must lie in (0, 90] deg, got {math.degrees(self.alpha_max):g} deg"),
+            ("alpha_terms", isinstance(self.alpha_terms, (int, np.integer)) and 1 <= self.alpha_terms <= 12,
+             "must be an integer in [1, 12]"),
+            ("magnetization_max", 0 < self.magnetization_max <= math.pi + 1e-12,
+             f"must lie in (0, 180] deg, got {math.degrees(self.magnetization_max):g} deg"),
+            ("margin", self.margin >= 0 and math.isfinite(self.margin), "must be a finite number >= 0"),
+            ("reach_tol", 0 < self.reach_tol < 1, "must lie in (0, 1) rod lengths"),
+            # (a negative acceptance is allowed: nothing meets it, a way to test the verdicts)
+            ("accept_tol", math.isfinite(self.accept_tol) and self.accept_tol < 1,
+             "must be a finite number < 1 rod length"),
+            ("ramp_steps", isinstance(self.ramp_steps, (int, np.integer)) and 2 <= self.ramp_steps <= 10_000,
+             "must be an integer in [2, 10000]"),
+            ("time_limit", 0 < self.time_limit <= 86400, "must lie in (0, 86400] s"),
+            ("tolerances", isinstance(self.tolerances, Tolerances), "expected a tolerance box (Tolerances)"),
+        )
+        for name, ok, rule in checks:
+            if not ok:
+                value = getattr(self, name)
+                raise ValueError(f"{name} {rule}" + ("" if "got" in rule else f", got {value!r}"))
+
     def bounds(self) -> Dict[str, float]:
         return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max,
                 "magnetization_max": self.magnetization_max}
+
+
+def check_h_max(h_max: float) -> None:
+    """h_max in (0, 1e4], the valid range of h (``config/limits.py``: a clamp layer of width ~1/h)."""
+    from ..config.limits import GROUP_RANGES
+
+    hi = GROUP_RANGES["h"].hi
+    if not (0 < h_max <= hi):
+        raise ValueError(f"h_max must lie in (0, {hi:g}] (--h-max; the valid range of h: the clamp layer "
+                         f"has width ~1/h), got {h_max:g}")
 
 
 @dataclass

@@ -177,8 +177,7 @@ def _inputs(args):
             settings_kw["tolerances"] = parse_tolerances(args.tolerance)
         elif "tolerances" in settings_kw:
             settings_kw["tolerances"] = parse_tolerances(settings_kw["tolerances"])
-        settings = DesignSettings(**settings_kw)
-        _check_settings(settings)
+        settings = DesignSettings(**settings_kw)  # validates itself: one line naming the setting
         changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
         options = dataclasses.replace(options, **changes)
     return scene, options, raw, target, vary, settings, stiffness
@@ -231,22 +230,6 @@ def _parse_stiffness(value, scene):
     if not (math.isfinite(k) and k > 0):
         raise InputError(f"--target-stiffness: must be a finite number > 0, got {value!r}")
     return k
-
-
-def _check_settings(s) -> None:
-    from ..analysis.design import check_h_max
-
-    check_h_max(s.h_max)
-    if not (s.p_max >= 0):
-        raise ValueError(f"p_max must be >= 0, got {s.p_max}")
-    if not (0 < s.alpha_max <= math.pi / 2 + 1e-12):
-        raise ValueError(f"alpha_max must lie in (0, 90] deg, got {math.degrees(s.alpha_max):g} deg")
-    if not (1 <= s.alpha_terms <= 12):
-        raise ValueError(f"alpha_terms must lie in [1, 12], got {s.alpha_terms}")
-    if not (s.margin >= 0):
-        raise ValueError(f"margin must be >= 0, got {s.margin}")
-    if not (0 < s.time_limit <= 86400):
-        raise ValueError(f"time_limit must lie in (0, 86400] s, got {s.time_limit}")
 
 
 def _summary(res, units=None, table=None) -> str:

@@ -1,0 +1,47 @@
+"""Design settings validate themselves on construction (issue 18: ``DesignSettings(h_max=-1)`` from
+Python ended in a raw CasADi error): one ValueError naming the setting and its range; the CLI reports
+the same line with exit 2."""
+import contextlib
+import io
+import math
+
+import pytest
+
+from actuator_design.analysis.design_types import DesignSettings
+from actuator_design.cli.main import main
+from cli_checks import assert_rejected
+
+
+@pytest.mark.parametrize("kw,name", [
+    ({"h_max": -1.0}, "h_max"), ({"h_max": 1e5}, "h_max"), ({"h_max": float("nan")}, "h_max"),
+    ({"p_max": -1.0}, "p_max"), ({"alpha_max": 0.0}, "alpha_max"), ({"alpha_max": 2.0}, "alpha_max"),
+    ({"alpha_terms": 0}, "alpha_terms"), ({"alpha_terms": 2.5}, "alpha_terms"),
+    ({"magnetization_max": 4.0}, "magnetization_max"), ({"margin": -0.1}, "margin"),
+    ({"margin": math.inf}, "margin"), ({"reach_tol": 0.0}, "reach_tol"), ({"ramp_steps": 1}, "ramp_steps"),
+    ({"time_limit": 0.0}, "time_limit"), ({"time_limit": 1e6}, "time_limit"), ({"tolerances": "5%"}, "tolerances"),
+])
+def test_a_setting_out_of_range_is_one_error_naming_it(kw, name):
+    with pytest.raises(ValueError) as err:
+        DesignSettings(**kw)
+    assert str(err.value).startswith(name)
+    assert "\n" not in str(err.value)
+
+
+def test_the_defaults_and_the_range_ends_are_accepted():
+    DesignSettings()
+    DesignSettings(h_max=1e4, alpha_max=math.pi / 2, alpha_terms=12, margin=0.0, time_limit=86400.0)
+
+
+def test_replace_checks_too():
+    """The settings are frozen; a changed copy is constructed, so it is checked."""
+    import dataclasses
+
+    with pytest.raises(ValueError, match="^h_max"):
+        dataclasses.replace(DesignSettings(), h_max=-1.0)
+
+
+def test_the_cli_reports_the_same_line(tmp_path):
+    o, e = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
+        code = main(["design", "--target-tip", "0.3,0.5", "--alpha-terms", "0", "--out", str(tmp_path / "out")])
+    assert_rejected((code, o.getvalue(), e.getvalue()), tmp_path, "alpha_terms", "[1, 12]")
