@@ -38,3 +38,17 @@ def test_solve_on_the_axis_prints_no_negative_zero(capsys):
     out = capsys.readouterr().out
     assert "clamp" in out
     assert _negative_zeros(out) == []
+
+
+def test_a_fit_config_named_fit_is_not_titled_fit_fit(capsys):
+    """Every shipped fit config is named "fit: ..."; the report's first line says "fit:" once."""
+    from pathlib import Path
+
+    import yaml
+
+    root = Path(__file__).resolve().parents[1]
+    config = root / "configs" / "fit_zhao2019.yaml"
+    assert yaml.safe_load(config.read_text())["name"].startswith("fit: ")
+    assert main(["fit", str(config), "--data", str(root / "problems" / "data" / "zhao2019_cantilever.csv")]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("fit: ") and not first.startswith("fit: fit:")

@@ -36,7 +36,9 @@ def result_dict(result: FitResult) -> Dict[str, Any]:
 def summary_text(result: FitResult) -> str:
     """A readable multi-line report of ``result``."""
     pct = f"{100 * result.confidence:g}%"
-    lines = [f"fit: {result.name}",
+    # a config named "fit: ..." (every shipped fit config is) is not printed as "fit: fit: ..."
+    name = result.name[4:].lstrip() if result.name.lower().startswith("fit:") else result.name
+    lines = [f"fit: {name}",
              f"  data        : {result.data.source}, {result.data.n} points, outputs "
              f"{', '.join(result.outputs)}",
              f"  status      : {result.status} ({'success' if result.success else 'FAILED'}) — "
