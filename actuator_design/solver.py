@@ -37,6 +37,7 @@ from .physics.kinematics import PlanarKinematics, PlanarTip
 from .physics.terms import (build_terms, node_field_sources, residual_slots, scalar_parameter_values,
                             structure_key)
 from .reduced.kernel import FastKernel
+from .reduced.linalg import classify_spectrum
 from .reduced.newton import RawSolution, damped_newton, fast_newton
 from .reduced.positional import positional_hessian
 from .scene import Scene
@@ -388,9 +389,9 @@ class EquilibriumSolver:
         vec = np.zeros(np.size(z))
         vec[1:] = Ms * v0
         vec /= np.max(np.abs(vec))
-        scale = tol * max(1.0, abs(lam[0]))
-        return StabilityVerdict(eigenvalues=lam[:k], eigenvector=vec, morse_index=int(np.sum(lam < -scale)),
-                                stable=bool(lam[0] > scale), marginal=bool(abs(lam[0]) <= scale))
+        morse, stable, marginal = classify_spectrum(lam, tol)
+        return StabilityVerdict(eigenvalues=lam[:k], eigenvector=vec, morse_index=morse, stable=stable,
+                                marginal=marginal)
 
 
 def get_solver(scene: Scene, options: SolverOptions) -> EquilibriumSolver:

@@ -19,12 +19,14 @@ from typing import List, Optional
 import numpy as np
 from scipy.linalg import lapack
 
+from .reduced.linalg import STABILITY_TOL, classify_spectrum
+
 __all__ = ["StabilityCheck", "is_unstable", "lowest_eigenvalues", "verdict_of"]
 
 #: reduced systems up to this size are checked densely; bigger ones use ``solver.stability``
 DENSE_MAX = 200
 #: default tolerance of the verdict, as ``EquilibriumSolver.stability``
-TOL = 1e-9
+TOL = STABILITY_TOL
 
 _dsyevr, _dpotrf = lapack.dsyevr, lapack.dpotrf
 #: per kernel: the flat indices of its Hessian's nonzeros in a dense matrix, and their mass scaling
@@ -82,7 +84,7 @@ def is_unstable(solver, z: np.ndarray, params: np.ndarray, tol: float = TOL,
     lam = _lowest(A)
     if out is not None:
         out.append(StabilityCheck(False, lam))
-    return bool(lam[0] < -tol * max(1.0, abs(lam[0])))
+    return classify_spectrum(lam, tol)[0] > 0
 
 
 def verdict_of(solver, z: np.ndarray, params: np.ndarray, check: Optional[StabilityCheck] = None,
@@ -102,6 +104,6 @@ def verdict_of(solver, z: np.ndarray, params: np.ndarray, check: Optional[Stabil
         lowest_eigenvalues(solver, z, params)
     if lam is None:
         return solver.stability(z, params, tol=tol)
-    scale = tol * max(1.0, abs(lam[0]))
-    return StabilityVerdict(eigenvalues=lam, eigenvector=None, morse_index=int(np.sum(lam < -scale)),
-                            stable=bool(lam[0] > scale), marginal=bool(abs(lam[0]) <= scale))
+    morse, stable, marginal = classify_spectrum(lam, tol)
+    return StabilityVerdict(eigenvalues=lam, eigenvector=None, morse_index=morse, stable=stable,
+                            marginal=marginal)
