@@ -27,6 +27,7 @@ import os
 import re
 import sys
 import traceback
+import warnings
 from typing import List, Optional, Sequence
 
 from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NOT_CONVERGED, InputError, NumericalFailure, PROG,
@@ -140,6 +141,27 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         design target, 130 interrupted.
     """
     argv = sys.argv[1:] if argv is None else list(argv)
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_warning(set())
+        return _main(argv)
+
+
+def _one_line_warning(seen: set):
+    """A :func:`warnings.showwarning` that prints each distinct warning once, as one line
+    ``actuator-design: warning: <message>`` on stderr (no file path, no source line)."""
+
+    def show(message, category, filename, lineno, file=None, line=None):  # noqa: ARG001 - hook
+        text = " ".join(str(message).split())
+        if text in seen:
+            return
+        seen.add(text)
+        print(f"{PROG}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
+
+
+def _main(argv: List[str]) -> int:
+    """:func:`main` once warnings are routed to one-line messages."""
     try:
         parser = build_parser(only=_command_of(argv))
         args = parser.parse_args(argv)
