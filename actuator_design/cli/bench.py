@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.bench import pareto_figure
         from ..viz.style import png_bytes
         files = {"bench.json": dumps_json(payload, indent=1), "bench.csv": _csv_text(rows),
-                 "bench_pareto.png": png_bytes(pareto_figure(rows), dpi=110)}
+                 "bench_pareto.png": png_bytes(pareto_figure(rows), dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))

@@ -395,7 +395,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
         if max(abs(state.tip["x"] - res.achieved["x"]), abs(state.tip["y"] - res.achieved["y"])) > 1e-6:
             state = None
     files = {"design.json": text, "schedule.csv": table_csv_text(rows, _columns(rows)),
-             "design.png": png_bytes(design_figure(res, units=units), dpi=100)}
+             "design.png": png_bytes(design_figure(res, units=units), dpi=150)}
     if state is not None and state.success:
         files["shape.csv"] = shape_csv_text(state)
     return files

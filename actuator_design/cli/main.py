@@ -96,8 +96,20 @@ def build_parser(only: Optional[str] = None) -> argparse.ArgumentParser:
         p = sub.add_parser(command, help=module.HELP, description=module.__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)
+        _add_figure_format(p)
         p.set_defaults(_run=module.run)
     return parser
+
+
+def _add_figure_format(parser: argparse.ArgumentParser) -> None:
+    """``--format svg|pdf`` for every command that writes an ``--out`` set with figures."""
+    actions = parser._option_string_actions
+    if "--out" not in actions or "--format" in actions:
+        return
+    from ..viz.style import VECTOR_FORMATS
+    parser.add_argument("--format", choices=VECTOR_FORMATS, default=None, metavar="{svg,pdf}",
+                        help="with --out: also write every figure in this vector format, beside its "
+                             "PNG (150 dpi)")
 
 
 def _help_of(name: str) -> str:
@@ -167,8 +179,10 @@ def _main(argv: List[str]) -> int:
         args = parser.parse_args(argv)
         check_scene_flags(args)
         from ..parallel import single_threaded_blas
+        from ..viz.style import vector_format
         single_threaded_blas()  # small matrices: BLAS threads only contend with worker processes
-        return int(args._run(args))
+        with vector_format(getattr(args, "format", None)):
+            return int(args._run(args))
     except (UsageError, InputError) as exc:
         print(error_line(exc), file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -13,7 +13,7 @@ from typing import List, Mapping, Sequence
 
 from .common import InputError, bad_input, stdout_to_stderr
 
-__all__ = ["write_out", "print_written", "emit"]
+__all__ = ["write_out", "print_written", "emit", "with_vector_figures"]
 
 
 def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
@@ -40,6 +40,7 @@ def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
     from ..io import write_output_set
     from ..safe_files import os_error_text
 
+    files = with_vector_figures(files)
     prefix = f"--out: cannot write {what}to {out_dir}: "
     try:
         with bad_input(prefix), stdout_to_stderr(json_mode):
@@ -49,6 +50,17 @@ def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
         if isinstance(cause, OSError) and cause.strerror:
             raise InputError(prefix + os_error_text(cause)) from cause
         raise
+
+
+def with_vector_figures(files: Mapping[str, object]) -> dict:
+    """``files`` with ``name.svg`` (or ``.pdf``) after each ``name.png`` whose bytes carry that
+    encoding (:class:`~actuator_design.viz.style.FigureBytes`, made under ``--format``)."""
+    out = {}
+    for name, content in files.items():
+        out[name] = content
+        for fmt, data in getattr(content, "vector", {}).items():
+            out[str(Path(name).with_suffix("." + fmt))] = data
+    return out
 
 
 def print_written(paths: Sequence[Path], json_mode: bool) -> None:

@@ -130,7 +130,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
         wr.writeheader()
         wr.writerows(res.rows)
     files = {"schedule.json": text, "schedule.csv": table_csv_text(steps, columns), "waypoints.csv": rows.getvalue(),
-             "schedule.png": png_bytes(schedule_figure(res, units=units), dpi=130)}
+             "schedule.png": png_bytes(schedule_figure(res, units=units), dpi=150)}
     if res.states:
         files["schedule.gif"] = schedule_gif_bytes(res)
     return files

@@ -388,12 +388,15 @@ def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     figs = study_figures(plan.axes, table, specs)
     fig_dir = plan.out / FIGURES_DIR
     names = []
-    check_entries(fig_dir, {f"{stem}.png": FILE for stem in figs})
+    from ..viz.style import png_bytes
+    encoded = {f"{stem}.png": png_bytes(fig, dpi=150) for stem, fig in figs.items()}
+    for name, png in list(encoded.items()):  # under --format: the vector copies beside each PNG
+        encoded.update({f"{name[:-4]}.{fmt}": data for fmt, data in png.vector.items()})
+    check_entries(fig_dir, {name: FILE for name in encoded})
     if figs:
         fig_dir.mkdir(exist_ok=True)
-    from ..viz.style import png_bytes
-    for stem, fig in figs.items():
-        atomic_write(fig_dir / f"{stem}.png", lambda fh, b=png_bytes(fig, dpi=150): fh.write(b), binary=True)
-        names.append(f"{FIGURES_DIR}/{stem}.png")
+    for name, data in encoded.items():
+        atomic_write(fig_dir / name, lambda fh, b=data: fh.write(b), binary=True)
+        names.append(f"{FIGURES_DIR}/{name}")
     files["figures"] = names
     return files

@@ -10,13 +10,59 @@ Figures leave ``viz`` as objects (for callers that compose panels) or as encoded
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import io
 import os
 import sys
 import tempfile
-from typing import Tuple
+from typing import Dict, Iterator, Optional, Tuple
 
-__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes", "preload", "no_offset_notation"]
+__all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "gif_bytes", "preload", "no_offset_notation",
+           "FigureBytes", "vector_format", "VECTOR_FORMATS"]
+
+#: Vector formats a figure can be written in beside its PNG (``--format``).
+VECTOR_FORMATS = ("svg", "pdf")
+
+_VECTOR_FORMAT: contextvars.ContextVar = contextvars.ContextVar("vector_format", default=None)
+
+
+class FigureBytes(bytes):
+    """A figure's PNG bytes that also carry its encodings in vector formats.
+
+    Attributes
+    ----------
+    vector : dict of str → bytes
+        ``{"svg": ..., "pdf": ...}``: the same figure in each format asked for with
+        :func:`vector_format` when :func:`png_bytes` ran (empty if none). Writers of an output set
+        add ``name.svg`` beside ``name.png`` (:func:`actuator_design.cli.output.write_out`).
+    """
+
+    vector: Dict[str, bytes]
+
+    def __new__(cls, png: bytes, vector: Optional[Dict[str, bytes]] = None):
+        obj = super().__new__(cls, png)
+        obj.vector = dict(vector or {})
+        return obj
+
+
+@contextlib.contextmanager
+def vector_format(fmt: Optional[str]) -> Iterator[None]:
+    """Within the block, :func:`png_bytes` also encodes each figure as ``fmt`` (``"svg"`` or
+    ``"pdf"``; None: PNG only).
+
+    Raises
+    ------
+    ValueError
+        ``fmt`` is not one of :data:`VECTOR_FORMATS`.
+    """
+    if fmt is not None and fmt not in VECTOR_FORMATS:
+        raise ValueError(f"figure format {fmt!r}: must be one of {', '.join(VECTOR_FORMATS)}")
+    token = _VECTOR_FORMAT.set(fmt)
+    try:
+        yield
+    finally:
+        _VECTOR_FORMAT.reset(token)
 
 
 def _use_agg() -> None:
@@ -68,7 +114,7 @@ def new_axes_grid(nrows: int = 1, ncols: int = 1, panel_size: Tuple[float, float
     return fig, fig.subplots(nrows, ncols, squeeze=False)
 
 
-def png_bytes(figure, dpi: int = 150) -> bytes:
+def png_bytes(figure, dpi: int = 150) -> FigureBytes:
     """The PNG encoding of a figure (or of the figure an ``Axes`` belongs to).
 
     Parameters
@@ -79,14 +125,24 @@ def png_bytes(figure, dpi: int = 150) -> bytes:
 
     Returns
     -------
-    bytes
-        A PNG file's content.
+    FigureBytes
+        A PNG file's content; inside :func:`vector_format` it also carries the figure in that
+        format (without a creation date, so the same figure gives the same bytes).
     """
     fig = getattr(figure, "figure", None) if not hasattr(figure, "savefig") else figure
     no_offset_notation(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
-    return buf.getvalue()
+    fmt = _VECTOR_FORMAT.get()
+    vector = {}
+    if fmt is not None:
+        import matplotlib
+        out = io.BytesIO()
+        metadata = {"Date": None} if fmt == "svg" else {"CreationDate": None}
+        with matplotlib.rc_context({"svg.hashsalt": "actuator-design", "svg.fonttype": "path"}):
+            fig.savefig(out, format=fmt, metadata=metadata)
+        vector[fmt] = out.getvalue()
+    return FigureBytes(buf.getvalue(), vector)
 
 
 def no_offset_notation(fig) -> None:
