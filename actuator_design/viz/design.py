@@ -4,7 +4,9 @@
   shape with its target, the fibre layout, the field schedule;
 * :func:`schedule_figure` — a :class:`~actuator_design.analysis.schedule.ScheduleResult`: the rod
   at every waypoint and h, φ along the schedule;
-* :func:`schedule_animation` / :func:`schedule_gif_bytes` — the rod moving along the schedule.
+* :func:`schedule_animation` / :func:`schedule_gif_bytes` — the rod moving along the schedule;
+* :func:`shape_fit_figure` — a :class:`~actuator_design.analysis.design_shape.ShapeResult`: the
+  target points, the fitted centreline and the error at each point.
 """
 from __future__ import annotations
 
@@ -16,7 +18,8 @@ from .shape import plot_shape
 from .style import gif_bytes, new_figure
 from .units import field_axis, length_axes
 
-__all__ = ["design_figure", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes"]
+__all__ = ["design_figure", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
+           "shape_fit_figure"]
 
 
 def design_figure(result, units=None):
@@ -282,3 +285,51 @@ def schedule_animation(result):
 def schedule_gif_bytes(result, fps: int = 12) -> bytes:
     """The GIF of :func:`schedule_animation` at ``fps`` frames per second."""
     return gif_bytes(schedule_animation(result), fps=fps)
+
+
+def shape_fit_figure(result, units=None):
+    """The target points of a shape design, the designed rod and the error at each point.
+
+    Parameters
+    ----------
+    result : ShapeResult
+        Points (s, x, y) and fitted points in rod lengths, ``state`` the designed equilibrium
+        (None when no design was found: the panel shows the targets only).
+    units : UserUnits, optional
+        A physical scene's units: the shape axes and the error axis in its length unit.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two panels: the shape (equal aspect) and the error |fitted − target| against s.
+    """
+    fig = new_figure((11.0, 4.6))
+    ax_shape, ax_err = fig.subplots(1, 2, width_ratios=[1.3, 1.0])
+    pts = np.asarray(result.points, dtype=float).reshape(-1, 3)
+    fitted = np.asarray(result.fitted, dtype=float).reshape(-1, 2)
+    if result.state is not None and getattr(result.state, "success", False):
+        x, y = _rod_xy(result.state)
+        ax_shape.plot(x, y, "-", color="C0", lw=2, label="designed rod")
+    ax_shape.plot([0.0, 1.0], [0.0, 0.0], ":", color="0.6", lw=1, label="undeformed rod")
+    ax_shape.plot(pts[:, 1], pts[:, 2], "o", mfc="none", color="C3", label="target points")
+    if len(fitted) == len(pts):
+        ax_shape.plot(fitted[:, 0], fitted[:, 1], ".", color="C0", label="rod at the targets' s")
+    ax_shape.set_aspect("equal", adjustable="datalim")
+    ax_shape.set_xlabel("x / rod lengths")
+    ax_shape.set_ylabel("y / rod lengths")
+    length_axes(ax_shape, units)
+    ax_shape.legend(loc="best", fontsize="small")
+    ax_shape.set_title("target shape and design")
+    if len(fitted) == len(pts) and len(pts):
+        err = np.hypot(fitted[:, 0] - pts[:, 1], fitted[:, 1] - pts[:, 2])
+        ax_err.plot(pts[:, 0], err, "o-", color="C3")
+    ax_err.set_xlabel("arc length s / rod lengths")
+    if units is not None:
+        from .units import scaled_axis
+        scaled_axis(ax_err.yaxis, units.length(1.0), f"error / {units.length_unit}")
+    else:
+        ax_err.set_ylabel("error / rod lengths")
+    ax_err.set_ylim(bottom=0.0)
+    ax_err.set_title(f"error at the points (rms {result.rms_error:.3g} rod lengths)"
+                     if math.isfinite(result.rms_error) else "no fitted shape")
+    return fig
