@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Dict, Optional
 
-from .report import points_csv_text
+from .report import fit_units, points_csv_text, result_dict
 from .result import FitResult
 
 __all__ = ["write_fit", "fit_files"]
@@ -12,15 +12,18 @@ __all__ = ["write_fit", "fit_files"]
 
 def fit_files(result: FitResult, config: Optional[dict] = None) -> Dict[str, object]:
     """``fit.json``, ``fit_points.csv``, ``fit_data_vs_model.png`` and ``fit_residuals.png``, in memory
-    (text, then PNG bytes from :mod:`actuator_design.viz.calibration`)."""
+    (text, then PNG bytes from :mod:`actuator_design.viz.calibration`). A physical ``config``
+    adds the user's units (:func:`~.report.fit_units`): ``physical`` in the JSON, columns in the
+    user's units in the CSV, figure axes in them."""
     from .. import __version__
     from ..io import dumps_json
     from ..viz.calibration import fit_figure_pngs
 
-    payload = {**result.to_dict(), "config": config, "package_version": __version__}
+    units = fit_units(config)
+    payload = {**result_dict(result, units), "config": config, "package_version": __version__}
     files: Dict[str, object] = {"fit.json": dumps_json(payload, indent=1) + "\n",
-                                "fit_points.csv": points_csv_text(result)}
-    files.update({f"{name}.png": data for name, data in fit_figure_pngs(result).items()})
+                                "fit_points.csv": points_csv_text(result, units)}
+    files.update({f"{name}.png": data for name, data in fit_figure_pngs(result, units=units).items()})
     return files
 
 

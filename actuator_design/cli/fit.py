@@ -12,6 +12,10 @@ field data alone) are reported, one is held and the identifiable combination is 
 
 Units: every value carries its unit (the CSV header, '2 MPa' in the config); results are in SI
 (rad, m, Pa, A/m). In a dimensionless scene lengths are in rod lengths l and loads in B0/l^2.
+A physical scene also reports the user's units: lengths in the unit rod.length is written in,
+fields as mu0 H in mT, forces in N (JSON 'physical' with every row, rms and sigma in them; a
+remanence, field offset or critical field also in mT; fit_points.csv columns and figure axes in
+them where the data file's unit differs).
 
 Rows sharing a condition (same field, field angle and loads) share one forward solve. Progress
 goes to stderr (when it is a terminal, or with --progress). Ctrl-C (SIGINT) or SIGTERM stops the
@@ -117,12 +121,14 @@ def _run(args: argparse.Namespace) -> int:
         from ..calibration.outputs import fit_files
         from .output import write_out
         written = write_out(args.out, fit_files(result, config=problem.config.raw), args.json, "results ")
+    from ..calibration.report import fit_units, result_dict, summary_text
+    units = fit_units(problem.config.raw)  # a physical scene: also the user's units
     if args.json:
-        print(dumps_json(result.to_dict()))
+        print(dumps_json(result_dict(result, units)))
         for w in result.warnings:
             print(f"{PROG}: warning: {w}", file=sys.stderr)
     else:
-        print(result.summary())
+        print(summary_text(result, units))
     if written is not None:
         from .output import print_written
         print_written(written, args.json)

@@ -21,7 +21,11 @@ stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the comm
 radians in the output. --from/--to/--schedule values may carry units where NAME has a physical
 meaning: angles ('30 deg'), and for a physical scene fields ('2 mT', '5 kA/m'; h = H dh/dH) and
 loads ('1 mN'); a physical scene's points and jumps then also carry field_mT and field_A_per_m
-(or value_N, ...) beside param.
+(or value_N, ...) beside param. A physical scene reports the user's units beside the dimensionless
+values everywhere: lengths in the unit rod.length is written in, fields as mu0 H in mT, loads in N,
+energies in J — text lines (schedule, final tip, jumps, hysteresis width), JSON 'physical' keys
+(top level and on every point, jump and bifurcation), path.csv columns (tip_x_<unit>,
+tip_y_<unit>, energy_J, value_<name>_mT / _N / _N_m / _N_per_m) and path.png's axes.
 
 JSON (--json): one object with points (param, tip {x, y, angle}, energy, stable, min_eigenvalue,
 ...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops}.
@@ -38,6 +42,7 @@ import re
 import sys
 from typing import Dict, Optional, Union
 
+from ..display import number
 from ..parameters import degree_aliases
 from .scene_args import add_scene_args, build_scene, validate_study
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
@@ -256,6 +261,7 @@ def run(args: argparse.Namespace) -> int:
 
         p = parameter(name.replace("-", "_"))
         add_physical_values(data["points"] + data["jumps"] + data["bifurcations"], p, units, key="param")
+    add_physical_block(data, path, units, factor)
     written = None
     if args.out is not None:
         written = write_out(args.out, _render(path, data, raw, factor, units), args.json)
@@ -275,20 +281,101 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _physical_lines(data, units=None) -> list:
-    """The final tip in the scene's length unit, the jumps and bifurcations of a field ramp in mT
-    (physical scenes; empty otherwise)."""
-    lines = []
-    if units is not None and data["points"]:
-        tip = data["points"][-1]["tip"]
-        lines.append(f"  final tip [{units.length_unit}]: ({units.length(tip['x']):.6g}, {units.length(tip['y']):.6g})")
+    """The schedule, the final tip and energy, the jumps, bifurcations and hysteresis width in the
+    user's units: lengths in the scene's length unit, fields in mT (mu0 H), loads in N, energies
+    in J (physical scenes; empty otherwise)."""
+    phys = data.get("physical")
+    if units is None or phys is None:
+        return []
+    u, lines = units.length_unit, []
+    for n, (unit, values) in phys.get("schedule", {}).items():
+        lines.append(f"  schedule of {n} [{unit}]: " + " -> ".join(number(v) for v in values)
+                     + (" (mu0 H)" if unit == "mT" else ""))
+    if data["points"]:
+        fin = phys["final"]
+        lines.append(f"  final tip [{u}]: ({_len(fin['tip']['x'], units)}, {_len(fin['tip']['y'], units)}), "
+                     f"energy {number(fin['energy_J'], '.6g', noise=1e-12 * units.moment_scale)} J")
+    where = _where_text(data)
     for j in data["jumps"]:
-        if "field_mT" in j:
-            lines.append(f"  jump ({j['kind']}) at {data['param']} = {j['param']:.10g}: mu0 H = {j['field_mT']:.6g} mT "
-                         f"({j['field_A_per_m']:.6g} A/m)")
+        jp = j["physical"]
+        lines.append(f"  jump ({j['kind']}) at {where(j)}: tip ({_len(jp['from_tip']['x'], units)}, "
+                     f"{_len(jp['from_tip']['y'], units)}) -> ({_len(jp['to_tip']['x'], units)}, "
+                     f"{_len(jp['to_tip']['y'], units)}) {u}, energy released "
+                     f"{number(jp['energy_released_J'], '.6g')} J")
     for b in data["bifurcations"]:
-        if "field_mT" in b:
-            lines.append(f"  continuous bifurcation at mu0 H = {b['field_mT']:.6g} mT")
+        bt = b["physical"]["tip"]
+        lines.append(f"  continuous bifurcation at {where(b)}: tip ({_len(bt['x'], units)}, "
+                     f"{_len(bt['y'], units)}) {u}")
+    hy = phys.get("hysteresis")
+    if hy:
+        lines.append(f"  hysteresis width [{hy['unit']}]: {number(hy['width'], '.6g')}")
     return lines
+
+
+def _len(x: float, units) -> str:
+    """A length already in the user's unit, printed (round-off of zero as 0)."""
+    from ..unit_columns import length_noise
+    return number(x, ".6g", noise=length_noise(units))
+
+
+def _where_text(data):
+    """Where a jump or bifurcation is, in the user's units when the parameter has them."""
+    def where(item):
+        if "field_mT" in item:
+            return f"mu0 H = {number(item['field_mT'])} mT ({number(item['field_A_per_m'])} A/m)"
+        for key, unit in (("value_N", "N"), ("value_N_m", "N m"), ("value_N_per_m", "N/m")):
+            if key in item:
+                return f"{data['param']} = {number(item[key])} {unit}"
+        return (f"{data['param'] or 't'} = {item['param']:.10g}"
+                + (" deg" if data.get("param_unit") == "deg" else ""))
+    return where
+
+
+def _unit_suffix(label: str) -> str:
+    return {"mT": "mT", "N": "N", "N m": "N_m", "N/m": "N_per_m"}[label]
+
+
+def add_physical_block(data: dict, path, units, factor: float = 1.0) -> None:
+    """Add the user's units to ``data`` (``path.to_dict()`` as reported) in place; no key is
+    renamed or removed. Every point and bifurcation gains ``physical.tip`` {x, y} (the scene's
+    length unit) and ``physical.energy_J``; every jump ``physical.from_tip``, ``to_tip`` and
+    ``energy_released_J``; the top level ``physical``: ``length_unit``, ``units``, ``final``
+    {tip, energy_J}, ``schedule`` {name: [unit, values]} for parameters with a physical unit
+    (fields as mu0 H in mT, loads in N) and ``hysteresis`` {width, unit} of a linear one.
+    Nothing for a dimensionless scene (``units`` None)."""
+    if units is None:
+        return
+    from ..parameters import parameter
+    from ..user_units import parameter_physical, parameter_unit_label
+
+    def tip(t):
+        return {"x": units.length(t["x"]), "y": units.length(t["y"])}
+
+    for item in data["points"]:
+        item["physical"] = {"tip": tip(item["tip"]), "energy_J": item["energy"] * units.moment_scale}
+    for j in data["jumps"]:
+        j["physical"] = {"from_tip": tip(j["from"]["tip"]), "to_tip": tip(j["to"]["tip"]),
+                         "energy_released_J": j["energy_released"] * units.moment_scale}
+    for b in data["bifurcations"]:
+        b["physical"] = {"tip": tip(b["state"]["tip"]), "energy_J": b["state"]["energy"] * units.moment_scale}
+    fin = data["final"]
+    phys = {"length_unit": units.length_unit,
+            "units": {"tip": units.length_unit, "energy_J": "J", "field_mT": "mT (mu0 H)",
+                      "field_A_per_m": "A/m", "value_N": "N", "value_N_m": "N m", "value_N_per_m": "N/m"},
+            "final": {"tip": tip(fin["tip"]), "energy_J": fin["energy"] * units.moment_scale},
+            "schedule": {}}
+    for n in path.names:
+        p = parameter(n)
+        label = parameter_unit_label(p, units)
+        if label is not None:
+            phys["schedule"][n] = [label, [parameter_physical(p, row[n], units) for row in data["schedule"]]]
+    if path.param is not None and factor == 1.0:
+        p = parameter(path.param)
+        label = parameter_unit_label(p, units)
+        if label is not None and p.transform != "sqrt" and data["hysteresis"].get("loops"):
+            phys["hysteresis"] = {"width": parameter_physical(p, data["hysteresis"]["width"], units),
+                                  "unit": label}
+    data["physical"] = phys
 
 
 def _summary_deg(path, data) -> str:
@@ -320,16 +407,37 @@ def _render(path, data, raw, factor: float = 1.0, units=None) -> Dict[str, Union
     rows = [[p["t"], p["param"], p["tip"]["x"], p["tip"]["y"], p["tip"]["angle"], p["energy"],
              p["stable"], p["min_eigenvalue"], p["morse_index"], p["branch"], p["direction"], p["kind"]]
             + [p["values"][n] for n in path.names] for p in data["points"]]
+    comment = ("units: tip x, y in rod lengths l; angles in rad; energy in B0/l; param in the units of "
+               "--param; value_* in API units (rad for angles)")
+    if units is not None:
+        cols, rows, extra = _physical_columns(path, data, cols, rows, units)
+        comment += "; " + extra
     xlabel = None if path.param is None else data["param"] + (" [deg]" if factor != 1.0 else "")
-    fig = path_figure(path, xscale=1.0 / factor, xlabel=xlabel)
-    if path.param == "h" and factor == 1.0:  # h ∝ H: tick the field axes in mT
-        from ..viz.units import field_axis
-        for ax in fig.axes:
-            if ax.get_xlabel() == xlabel:
-                field_axis(ax.xaxis, units)
+    fig = path_figure(path, xscale=1.0 / factor, xlabel=xlabel, units=units)
     png = png_bytes(fig, dpi=150)
     return {"path.json": dumps_json(payload, indent=1) + "\n",
-            "path.csv": csv_text(cols, rows, "units: tip x, y in rod lengths l; angles in rad; energy in "
-                                             "B0/l; param in the units of --param; value_* in API units "
-                                             "(rad for angles)"),
+            "path.csv": csv_text(cols, rows, comment),
             "path.png": png}
+
+
+def _physical_columns(path, data, cols, rows, units):
+    """path.csv's columns in the user's units after the existing ones: ``tip_x_<unit>``,
+    ``tip_y_<unit>``, ``energy_J`` and ``value_<name>_mT`` (mu0 H), ``_N``, ``_N_m``, ``_N_per_m``
+    of each scheduled parameter with a physical unit; and the units line's text for them."""
+    from ..parameters import parameter
+    from ..user_units import parameter_physical, parameter_unit_label
+
+    u = units.length_unit
+    extra_cols = [f"tip_x_{u}", f"tip_y_{u}", "energy_J"]
+    named = [(n, parameter(n), parameter_unit_label(parameter(n), units)) for n in path.names]
+    named = [(n, p, lab) for n, p, lab in named if lab is not None]
+    extra_cols += [f"value_{n}_{_unit_suffix(lab)}" for n, _p, lab in named]
+    out = []
+    for row, pt in zip(rows, data["points"]):
+        ph = pt["physical"]
+        out.append(list(row) + [ph["tip"]["x"], ph["tip"]["y"], ph["energy_J"]]
+                   + [parameter_physical(p, pt["values"][n], units) for n, p, _lab in named])
+    text = f"tip_x_{u}, tip_y_{u} in {u}; energy_J in J" + "".join(
+        f"; value_{n}_{_unit_suffix(lab)} in {lab}" + (" (mu0 H)" if lab == "mT" else "")
+        for n, _p, lab in named)
+    return cols + extra_cols, out, text

@@ -19,7 +19,12 @@ stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the comm
 radians in the output.
 
 JSON (--json): vertical_stiffness, vertical_stiffness_N_per_m, compliance, stiffness, loads, tips,
-symmetry_error, companion_scene, notes, equilibrium, and field_sweep (when requested).
+symmetry_error, companion_scene, notes, equilibrium, and field_sweep (when requested). A physical
+scene adds the user's units: 'physical' (the state's field in mT (mu0 H) and A/m, its tip in the
+unit rod.length is written in, the compliance in m/N, 1/N, rad/N, rad/(N m) and the stiffness in
+N/m, N/rad, N, N m/rad with the unit of every entry), field_sweep.field_mT and
+field_sweep.lowload_s_N_per_m (also columns of stiffness_curve.csv), text lines in them, and
+stiffness.png in N/m against mT.
 Exit codes: 0 success, 2 bad input, 3 the equilibrium (or a sweep point) did not converge.
 """
 from __future__ import annotations
@@ -116,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
     from ..user_units import user_units
 
-    h_values = _sweep(args, study, user_units(scene, raw))
+    units = user_units(scene, raw)
+    h_values = _sweep(args, study, units)
     moment = study.moment if args.moment is None else args.moment
 
     from ..analysis.stiffness import stiffness_field_curve, tip_stiffness
@@ -129,13 +135,16 @@ def run(args: argparse.Namespace) -> int:
     data = st.to_dict()
     if curve is not None:
         data["field_sweep"] = curve.to_dict()
+    add_physical(data, st, curve, units)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _render(data, curve, raw, scene), args.json)
+        written = write_out(args.out, _render(data, curve, raw, scene, units), args.json)
     if args.json:
         print(dumps_json(data))
     else:
         print(_summary(st, curve))
+        for line in _physical_lines(data, st, curve, units):
+            print(line)
     if written is not None:
         print_written(written, args.json)
     ok = st.equilibrium.success and (curve is None or bool(curve.success.all()))
@@ -169,7 +178,86 @@ def _summary(st, curve) -> str:
     return "\n".join(lines)
 
 
-def _render(data, curve, raw, scene):
+def add_physical(data: dict, st, curve, units) -> None:
+    """Add the user's units to the ``stiffness --json`` payload in place (no key renamed or
+    removed; nothing for a dimensionless scene).
+
+    ``physical``: ``length_unit``; ``field_mT`` and ``field_A_per_m`` (mu0 H and H of the state's
+    h, when the scene converts a field); ``tip`` {x, y} in the length unit; ``vertical_stiffness_N_per_m``;
+    ``compliance`` (m/N, 1/N, rad/N, rad/(N m)) and ``stiffness`` (N/m, N/rad, N, N m/rad) in SI
+    with ``compliance_units``/``stiffness_units`` naming the unit of every entry; ``units``.
+    ``field_sweep`` gains ``field_mT`` (mu0 H) and ``lowload_s_N_per_m`` (s(h) · B0/l^3).
+    """
+    if units is None:
+        return
+    from ..unit_columns import compliance_si, stiffness_si
+
+    eq = data["equilibrium"]
+    comp, comp_units = compliance_si(st.compliance, st.tips, st.loads, units)
+    stiff, stiff_units = stiffness_si(st.stiffness, st.tips, st.loads, units)
+    phys = {"length_unit": units.length_unit,
+            "tip": {"x": units.length(eq["tip"]["x"]), "y": units.length(eq["tip"]["y"])},
+            "vertical_stiffness_N_per_m": st.vertical * units.stiffness_scale,
+            "compliance": comp, "compliance_units": comp_units,
+            "stiffness": stiff, "stiffness_units": stiff_units,
+            "units": {"tip": units.length_unit, "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m",
+                      "vertical_stiffness_N_per_m": "N/m", "compliance": "compliance_units",
+                      "stiffness": "stiffness_units"}}
+    if units.has_field:
+        phys["field_mT"] = units.field_mT(eq["h"])
+        phys["field_A_per_m"] = units.field_A_per_m(eq["h"])
+    data["physical"] = phys
+    if curve is not None:
+        sweep = data["field_sweep"]
+        mT = _sweep_mT(curve)
+        if mT is not None:
+            sweep["field_mT"] = mT
+        sweep["lowload_s_N_per_m"] = [float(v) * units.stiffness_scale for v in curve.lowload]
+
+
+def _sweep_mT(curve):
+    """mu0 H in mT of every sweep point (None without a field scale: no NaN is reported)."""
+    import numpy as np
+
+    from ..units import MU0
+    H = curve.field_A_per_m
+    if H is None or not np.all(np.isfinite(H)):
+        return None
+    return [float(v) * MU0 * 1e3 for v in H]
+
+
+def _physical_lines(data, st, curve, units) -> list:
+    """The state, the compliance and stiffness matrices and the sweep in the user's units."""
+    from ..display import number
+    from ..unit_columns import length_noise
+
+    phys = data.get("physical")
+    if phys is None:
+        return []
+    u, noise = units.length_unit, length_noise(units)
+    field = (f"mu0 H = {number(phys['field_mT'])} mT ({number(phys['field_A_per_m'])} A/m)"
+             if "field_mT" in phys else
+             "field: none converted (this scene has no field scale, e.g. chi_bar = 0)")
+    lines = [f"  in the user's units      : {field}; tip ({number(phys['tip']['x'], noise=noise)}, "
+             f"{number(phys['tip']['y'], noise=noise)}) {u}"]
+    for title, key in (("compliance (SI)", "compliance"), ("stiffness C^-1 (SI)", "stiffness")):
+        rows, cols = (st.tips, st.loads) if key == "compliance" else (st.loads, st.tips)
+        lines.append(f"  {title} d({', '.join(rows)})/d({', '.join(cols)}):")
+        for vals, labs in zip(phys[key], phys[f"{key}_units"]):
+            lines.append("    " + "  ".join((f"{v:12.6g} {lab:<9s}" if math.isfinite(v) else
+                                            f"{'singular':>12s} {'':<9s}") for v, lab in zip(vals, labs)))
+    if curve is not None:
+        sw = data["field_sweep"]
+        where = (f"mu0 H from {number(sw['field_mT'][0])} to {number(sw['field_mT'][-1])} mT"
+                 if "field_mT" in sw else f"h from {curve.h[0]:.6g} to {curve.h[-1]:.6g} (no field scale)")
+        k = curve.vertical * units.stiffness_scale
+        lines.append(f"  field sweep in SI        : {where}; stiffness from {k[0]:.6g} to {k[-1]:.6g} N/m "
+                     f"(closed form s(h): {sw['lowload_s_N_per_m'][0]:.6g} to "
+                     f"{sw['lowload_s_N_per_m'][-1]:.6g} N/m)")
+    return lines
+
+
+def _render(data, curve, raw, scene, units=None):
     from ..io import dumps_json
     from ..viz.loading import stiffness_figure
     from ..viz.style import png_bytes
@@ -179,8 +267,18 @@ def _render(data, curve, raw, scene):
     files = {"stiffness.json": dumps_json(payload, indent=1) + "\n"}
     if curve is not None:
         cols, rows = curve.table()
-        files["stiffness_curve.csv"] = csv_text(
-            cols, rows, "units: h dimensionless (THEORY §5); stiffness in B0/l^3 (N/m columns in SI); "
-                        "tip angle in rad; lowload_s = THEORY §6 s(h)")
-        files["stiffness.png"] = png_bytes(stiffness_figure(curve, si=scene.scales is not None), dpi=150)
+        comment = ("units: h dimensionless (THEORY §5); stiffness in B0/l^3 (N/m columns in SI); "
+                   "tip angle in rad; lowload_s = THEORY §6 s(h)")
+        if units is not None:
+            sw = data["field_sweep"]
+            extra = [("field_mT", sw.get("field_mT")), ("lowload_s_N_per_m", sw["lowload_s_N_per_m"])]
+            extra = [(c, v) for c, v in extra if v is not None]
+            cols = list(cols) + [c for c, _v in extra]
+            rows = [list(r) + [v[i] for _c, v in extra] for i, r in enumerate(rows)]
+            comment += ("; field_mT = mu0 H in mT" if "field_mT" in sw else
+                        "; no field_mT column: this scene has no field scale") + "; lowload_s_N_per_m in N/m"
+        files["stiffness_curve.csv"] = csv_text(cols, rows, comment)
+        files["stiffness.png"] = png_bytes(stiffness_figure(
+            curve, si=scene.scales is not None,
+            stiffness_scale=None if units is None else units.stiffness_scale), dpi=150)
     return files

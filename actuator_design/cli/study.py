@@ -27,7 +27,12 @@ with the study process; journal records that do not match the grid are computed 
 
 Units: sweep values carry their units ('5 kA/m', '30 deg'; table columns say which); a physical
 unit on a dimensionless scene is refused (physical units need a physical scene); results of a
-dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad.
+dimensionless scene are in rod lengths l, energies in B0/l, forces in B0/l^2, angles in rad. A
+physical scene's table also has columns in the user's units (the summary and --json 'physical'
+list them): a swept field as mu0 H in mT ('field.magnitude [mT]'), a swept force in N, lengths in
+the unit rod.length is written in ('solve.tip.x_mm', 'solve.physical.tip_x_mm'), fields in mT
+('solve.physical.field_mT', 'solve.h_mT'); results.nc has them with their units, and the
+figures draw them.
 
 Files: the folder's entries must be the tool's own: a study.lock, journal.jsonl, manifest.json,
 results.csv, results.nc or figures that is a symbolic link or of the wrong kind (a directory
@@ -138,10 +143,12 @@ def run(args: argparse.Namespace) -> int:
     from ..study.runner import (StudyError, StudyInterrupted, StudyStorageError, plan_study,
                                 run_study)
 
+    from ..unit_columns import study_config
+
     with bad_input():
         plan = plan_study(args.config, out, resume=args.resume, max_points=args.max_points)
     try:
-        with stdout_to_stderr(args.json):
+        with stdout_to_stderr(args.json), study_config(plan.raw):  # tables in the user's units too
             report = run_study(plan, workers=args.workers, scheduler=args.scheduler,
                                progress=args.progress, notify=_warning)
     except StudyInterrupted as exc:
@@ -156,8 +163,42 @@ def run(args: argparse.Namespace) -> int:
         return _cluster_failure(exc, plan)
     except (StudyError, OutputFolderError) as exc:
         raise InputError(str(exc)) from exc
+    physical = _physical(plan, report)
     if args.json:
-        print(dumps_json(report.to_dict()))
+        data = report.to_dict()
+        if physical is not None:
+            data["physical"] = physical
+        print(dumps_json(data))
     else:
         print(report.summary())
+        if physical is not None:
+            cols = ", ".join(physical["columns"])  # every name says its unit
+            print(f"  user units  : lengths in {physical['length_unit']} (rod.length), fields as mu0 H in "
+                  f"mT, forces in N; columns {cols or '(none to add)'}")
     return EXIT_OK
+
+
+def _physical(plan, report):
+    """A physical study's units: ``length_unit`` and ``columns`` (column of results.csv in the
+    user's units → its unit), read from the header of the table written; None otherwise."""
+    import csv
+
+    from ..unit_columns import axis_unit_columns, derived_name, table_units
+
+    units = table_units(plan.raw, plan.axes)
+    name = (report.files or {}).get("csv")
+    if units is None or not name:
+        return None
+    try:
+        with open(report.out / name, newline="", encoding="utf-8") as fh:
+            header = next(csv.reader(fh), [])
+    except OSError:
+        return None
+    table = dict.fromkeys(header)
+    columns = {c: u for a in plan.axes for c, u, _f in axis_unit_columns(a, table)}
+    for c in header:
+        d = derived_name(c, units)
+        if d is not None and d[0] in table:
+            columns[d[0]] = d[1]
+    return {"length_unit": units.length_unit,
+            "columns": {c: u + (" (mu0 H)" if u == "mT" else "") for c, u in columns.items()}}

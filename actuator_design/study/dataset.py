@@ -13,6 +13,10 @@ dimensions
 coordinate attributes
     ``units``: the key's unit as written in the YAML (``kA/m``, ``deg``), ``"1"`` for plain
     numbers, none for values that are not numbers; ``csv_column``: the table's column.
+    A physical study's swept field, force or length given in another unit than the user's also
+    has a coordinate in the user's units along the same dimension, from the table's column
+    ``<key> [<unit>]``: ``field.magnitude_mT`` (μ0 H, ``units = "mT"``), ``loads.tip_force.y_N``,
+    ``rod.length_mm`` (the unit of ``rod.length``).
 data variables
     ``point`` (cartesian grids, int32): the grid index, as in the table's ``point`` column.
     ``status`` (int8): CF flags, ``flag_values`` 0 … and ``flag_meanings``
@@ -27,7 +31,8 @@ data variables
     ``results.csv`` keeps them.
 units of data variables
     Only where the table states one (:func:`column_units`), never guessed: a name ending the
-    package's way (``time_s``, ``tip_x_m``, ``energy_J``, ``clamp_force_N.0``, ``field_A_per_m``),
+    package's way (``time_s``, ``tip_x_m``, ``energy_J``, ``clamp_force_N.0``, ``field_A_per_m``;
+    the columns in the user's units: ``tip_x_mm``, ``field_mT``, ``h_mT``),
     or an analysis's own unit labels kept in the table (``solve.units.energy = B0/l`` gives
     ``solve.energy`` its unit). Every variable also has ``csv_column``.
 global attributes
@@ -63,8 +68,9 @@ _FIXED = ("point", "status", "message")
 #: (``time_s``, ``tip_x_m``, ``energy_J``, ``clamp_force_N``, ``clamp_moment_Nm``,
 #: ``vertical_stiffness_N_per_m``, ``field_A_per_m``, ``tip_angle_rad``, ``phi_deg``).
 _SUFFIX_UNITS = (("_N_per_m", "N/m"), ("_A_per_m", "A/m"), ("_N_m", "N m"), ("_Nm", "N m"),
-                 ("_rad", "rad"), ("_deg", "deg"), ("_J", "J"), ("_N", "N"), ("_m", "m"),
-                 ("_s", "s"))
+                 ("_rad", "rad"), ("_deg", "deg"), ("_mT", "mT"), ("_mm", "mm"), ("_cm", "cm"),
+                 ("_um", "um"), ("_µm", "µm"), ("_nm", "nm"), ("_km", "km"), ("_J", "J"),
+                 ("_N", "N"), ("_m", "m"), ("_s", "s"))
 
 #: Results whose unit an analysis's ``units`` labels give by kind rather than by name: the
 #: tip position of an equilibrium is in its ``length`` unit, the residual of the moment balance
@@ -166,6 +172,17 @@ def _axis_coordinate(axis) -> tuple:
     return np.asarray(texts, dtype=str), attrs
 
 
+def _user_unit_coordinates(axis, table: Dict[str, list]) -> Dict[str, tuple]:
+    """Coordinates of a numeric swept key in the user's units, from the table's columns
+    ``<key> [<unit>]`` (:func:`actuator_design.unit_columns.add_unit_columns`): name
+    ``<key>_<unit>`` (``field.magnitude_mT``) → (column, unit, factor on the key's numbers)."""
+    if not axis.numeric:
+        return {}
+    from ..unit_columns import axis_unit_columns
+    return {f"{axis.key}_{unit.replace('/', '_per_').replace(' ', '_')}": (column, unit, factor)
+            for column, unit, factor in axis_unit_columns(axis, table)}
+
+
 def _status_codes(statuses: Sequence[Any]) -> List[str]:
     """The status meanings: :data:`STATUS_MEANINGS`, then any other status in the records."""
     meanings = list(STATUS_MEANINGS)
@@ -215,6 +232,8 @@ def build_dataset(axes, indices, grid: str, table: Dict[str, list],
         for a in axes:
             values, a_attrs = _axis_coordinate(a)
             coords[a.key] = xr.Variable((a.key,), values, a_attrs)
+            for name, (column, unit, factor) in _user_unit_coordinates(a, table).items():
+                coords[name] = xr.Variable((a.key,), values * factor, {"units": unit, "csv_column": column})
     else:
         dims, shape = ("point",), (n_points,)
         flat = np.arange(n_points)
@@ -223,7 +242,10 @@ def build_dataset(axes, indices, grid: str, table: Dict[str, list],
                                        {"long_name": "grid point", "csv_column": "point"})}
         for a in axes:
             values, a_attrs = _axis_coordinate(a)
-            coords[a.key] = xr.Variable(("point",), values[[i[0] for i in indices]], a_attrs)
+            at = values[[i[0] for i in indices]]
+            coords[a.key] = xr.Variable(("point",), at, a_attrs)
+            for name, (column, unit, factor) in _user_unit_coordinates(a, table).items():
+                coords[name] = xr.Variable(("point",), at * factor, {"units": unit, "csv_column": column})
 
     def on_grid(values, dtype, fill) -> np.ndarray:
         out = np.full(int(np.prod(shape)), fill, dtype=dtype)
@@ -245,8 +267,9 @@ def build_dataset(axes, indices, grid: str, table: Dict[str, list],
         "flag_meanings": " ".join(meanings), "csv_column": "status",
         "comment": "not_run: the point has no record (not computed)"})
     units = column_units(table)
+    axis_columns = {a.column for a in axes} | {v.attrs.get("csv_column") for v in coords.values()}
     for column, values in table.items():
-        if column in _FIXED or column in coords or any(a.column == column for a in axes):
+        if column in _FIXED or column in coords or column in axis_columns:
             continue
         kind = _kind(values)
         v_attrs = {"csv_column": column, **({"units": units[column]} if column in units else {})}

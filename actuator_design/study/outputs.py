@@ -57,8 +57,25 @@ def table_columns(axes, records: Dict[int, dict], outputs: Optional[Sequence[str
     return ["point"] + [a.column for a in axes] + ["status", "message", "time_s"] + results
 
 
-def build_table(axes, indices, records: Dict[int, dict], outputs=None) -> Dict[str, list]:
-    """Column name → list of values (one per point with a record, by point index)."""
+def build_table(axes, indices, records: Dict[int, dict], outputs=None,
+                raw: Optional[dict] = None) -> Dict[str, list]:
+    """Column name → list of values (one per point with a record, by point index).
+
+    A physical study (``raw``, the configuration; default the one set by
+    :func:`actuator_design.unit_columns.study_config`) gets, after these, columns in the user's
+    units (:func:`actuator_design.unit_columns.add_unit_columns`): a swept field also as μ0 H in
+    mT (``field.magnitude [mT]``), a swept force in N, SI lengths and lengths in rod lengths in
+    the unit of ``rod.length`` (``solve.physical.tip_x_mm``, ``solve.tip.x_mm``), fields in A/m
+    and the group h as μ0 H in mT (``solve.physical.field_mT``, ``solve.h_mT``).
+    """
+    table = _plain_table(axes, indices, records, outputs)
+    from ..unit_columns import add_unit_columns, current_study_config, table_units
+    add_unit_columns(table, axes, table_units(current_study_config() if raw is None else raw, axes))
+    return table
+
+
+def _plain_table(axes, indices, records: Dict[int, dict], outputs=None) -> Dict[str, list]:
+    """:func:`build_table` without the columns in the user's units."""
     cols = table_columns(axes, records, outputs)
     table: Dict[str, list] = {c: [] for c in cols}
     for i in sorted(records):

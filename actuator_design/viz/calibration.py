@@ -23,12 +23,33 @@ def _figure(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6)):
     return fig, axes
 
 
-def fit_figures(result) -> Dict[str, object]:
+def _axis_units(d, units):
+    """``(values, label)`` functions of a data column: its unit in the user's units (a physical
+    scene: lengths in the unit of ``rod.length``, fields as μ0 H in mT, forces in N), else the
+    data file's."""
+    from ..calibration.report import user_unit
+
+    def values(c, v):
+        u = user_unit(c, units)
+        return np.asarray(v, float) / u[1] if u is not None else d.as_given(c, v)
+
+    def unit(c):
+        u = user_unit(c, units)
+        return (u[0] + (" (μ0H)" if u[0] == "mT" else "")) if u is not None else d.units[c]
+    return values, unit
+
+
+def fit_figures(result, units=None) -> Dict[str, object]:
     """``fit_data_vs_model`` and ``fit_residuals`` figures of a fit result.
 
     Parameters
     ----------
     result : actuator_design.calibration.FitResult
+    units : (str, float), optional
+        A physical scene's length unit and its size in m
+        (:func:`~actuator_design.calibration.report.fit_units`): axes of lengths in that unit,
+        fields as μ0 H in mT, forces in N (angles as in the data file). Default: the data
+        file's units.
 
     Returns
     -------
@@ -37,15 +58,20 @@ def fit_figures(result) -> Dict[str, object]:
         group of the other inputs), and the residuals against the primary input (±2 rms dashed).
     """
     d, outputs, curves = result.data, result.outputs, result.curves
+    as_unit, unit_of = _axis_units(d, units)
     primary = curves.get("x")
     n_out = len(outputs)
     if primary is not None:
         xdata = d.columns[primary]
-        xlabel = f"{primary} [{d.units[primary]}]" if d.units[primary] else primary
+        xlabel = f"{primary} [{unit_of(primary)}]" if unit_of(primary) else primary
     else:
         xdata = np.arange(1, d.n + 1, dtype=float)
         xlabel = "data row"
     groups = curves.get("groups") or [{"label": "", "inputs": {}, "x": None, "y": {}}]
+    if units is not None:  # the other inputs of each curve in the user's units too
+        groups = [{**g, "label": ", ".join(f"{c} = {float(as_unit(c, [v])[0]):.4g} {unit_of(c)}".strip()
+                                           for c, v in g["inputs"].items())} if g["inputs"] else g
+                  for g in groups]
 
     def in_group(g):
         mask = np.ones(d.n, bool)
@@ -59,13 +85,13 @@ def fit_figures(result) -> Dict[str, object]:
         for gi, g in enumerate(groups):
             color = f"C{gi % 10}"
             mask = in_group(g)
-            xd = d.as_given(primary, xdata[mask]) if primary else xdata[mask]
-            ax.plot(xd, d.as_given(o, d.columns[o][mask]), "o", color=color, ms=4, mfc="none",
+            xd = as_unit(primary, xdata[mask]) if primary else xdata[mask]
+            ax.plot(xd, as_unit(o, d.columns[o][mask]), "o", color=color, ms=4, mfc="none",
                     label=f"data {g['label']}".strip())
             if g.get("x") is not None:
-                ax.plot(d.as_given(primary, g["x"]), d.as_given(o, g["y"][o]), "-", color=color,
+                ax.plot(as_unit(primary, g["x"]), as_unit(o, g["y"][o]), "-", color=color,
                         lw=1.5, label=f"model {g['label']}".strip())
-        unit = f" [{d.units[o]}]" if d.units[o] else ""
+        unit = f" [{unit_of(o)}]" if unit_of(o) else ""
         ax.set_xlabel(xlabel)
         ax.set_ylabel(o + unit)
         ax.grid(alpha=0.3)
@@ -75,16 +101,16 @@ def fit_figures(result) -> Dict[str, object]:
     fig2, axs2 = _figure(ncols=n_out)
     for j, o in enumerate(outputs):
         ax = axs2[0, j]
-        res = d.as_given(o, result.residuals[:, j])
+        res = as_unit(o, result.residuals[:, j])
         for gi, g in enumerate(groups):
             mask = in_group(g)
-            xd = d.as_given(primary, xdata[mask]) if primary else xdata[mask]
+            xd = as_unit(primary, xdata[mask]) if primary else xdata[mask]
             ax.plot(xd, res[mask], "o", color=f"C{gi % 10}", ms=4, label=g["label"] or None)
         s = float(np.sqrt(np.mean(res**2)))
         ax.axhline(0.0, color="k", lw=0.8)
         for sign in (-2, 2):
             ax.axhline(sign * s, color="0.5", lw=0.8, ls="--")
-        unit = f" [{d.units[o]}]" if d.units[o] else ""
+        unit = f" [{unit_of(o)}]" if unit_of(o) else ""
         ax.set_xlabel(xlabel)
         ax.set_ylabel(f"residual (model − data) {o}{unit}")
         ax.set_title(f"rms {s:.3g}{unit}; dashed: ±2 rms", fontsize=9)
@@ -103,7 +129,8 @@ def _fit_title(result) -> str:
     return (f"{result.name}\n" + "; ".join(parts) + f" ({100 * result.confidence:g}% CI)")
 
 
-def fit_figure_pngs(result, dpi: int = 150) -> Dict[str, bytes]:
-    """PNG bytes of :func:`fit_figures`, by figure name (:func:`~.style.png_bytes`)."""
+def fit_figure_pngs(result, dpi: int = 150, units=None) -> Dict[str, bytes]:
+    """PNG bytes of :func:`fit_figures` (``units``: see there), by figure name
+    (:func:`~.style.png_bytes`)."""
     from .style import png_bytes
-    return {name: png_bytes(fig, dpi=dpi) for name, fig in fit_figures(result).items()}
+    return {name: png_bytes(fig, dpi=dpi) for name, fig in fit_figures(result, units).items()}

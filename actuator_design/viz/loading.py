@@ -1,9 +1,10 @@
 """Figures of loading paths and stiffness curves: pure drawing, never solves.
 
 :func:`path_figure` draws a :class:`~actuator_design.analysis.loading.LoadingPath` (tip angle and
-energy against the ramped parameter, jumps as dashed arrows, folds and bifurcations marked);
+energy against the ramped parameter, jumps as dashed arrows, folds and bifurcations marked; a
+physical scene's energy in J and ramped field in mT, load in N);
 :func:`stiffness_figure` draws a :class:`~actuator_design.analysis.stiffness.StiffnessCurve` with
-THEORY §6's closed-form s(h) overlaid; :func:`load_deflection_figure` draws load against tip
+THEORY §6's closed-form s(h) overlaid (physical scenes: N/m against μ0 H in mT); :func:`load_deflection_figure` draws load against tip
 deflection curves (dimensionless or SI).
 """
 from __future__ import annotations
@@ -37,7 +38,7 @@ def _runs(points):
     return runs
 
 
-def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None):
+def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None, units=None):
     """Tip angle and energy along a loading path.
 
     Parameters
@@ -48,6 +49,10 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
         Factor applied to the ramped parameter on the x axis (e.g. 180/π for degrees).
     xlabel : str, optional
         Label of the x axis (default: the parameter name, or the path coordinate).
+    units : actuator_design.user_units.UserUnits, optional
+        A physical scene's units: the energy in J and, when ``xscale`` is 1, a ramped field in mT
+        (μ0 H), a load in N (N m, N/m); a field group the scene cannot convert (χ̄ = 0) stays
+        dimensionless and its label says so.
 
     Returns
     -------
@@ -90,10 +95,52 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
     ax_a.legend(loc="best", fontsize=8)
     for ax in (ax_a, ax_e):
         ax.grid(alpha=0.3)
+    if units is not None:
+        _physical_path_axes(path, (ax_a, ax_e), units, xlabel if xscale == 1.0 else None, title is None)
     return fig
 
 
-def stiffness_figure(curve, title: str = None, si: bool = False):
+def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None:
+    """Energy in J; the ramped parameter (``xlabel`` given: in its own unit) in mT, N, N m or N/m."""
+    from ..parameters import parameter
+    from ..user_units import parameter_unit_label
+    from .units import field_axis, scaled_axis
+
+    ax_a, ax_e = axes
+    scaled_axis(ax_e.yaxis, units.moment_scale, "energy / J")
+    if xlabel is None or path.param is None:
+        return
+    try:
+        p = parameter(path.param)
+    except ValueError:
+        return
+    label = parameter_unit_label(p, units)
+    for ax in axes:
+        if p.field_magnitude and label is None:  # χ̄ = 0: no field conversion
+            ax.set_xlabel(f"{xlabel} (dimensionless: this scene has no field scale)")
+        elif label == "mT" and p.transform == "sqrt":  # h2 = h²: mT ∝ √h2, a second axis
+            c = units.field_mT(1.0)
+            ax.set_xlim(left=0.0)  # h2 ≥ 0: no margin where √h2 is undefined
+            sec = ax.secondary_xaxis("top", functions=(lambda v: c * np.sqrt(np.maximum(v, 0.0)),
+                                                       lambda b: (np.asarray(b) / c) ** 2))
+            sec.set_xlabel("field μ0H / mT")
+            hi = max((pt.param for pt in path.points), default=0.0)
+            if hi > 0:  # round fields at evenly spaced h2 (√ crowds evenly spaced mT near 0)
+                sec.set_xticks(sorted({float(f"{c * np.sqrt(v):.2g}") for v in np.linspace(0.0, hi, 5)}))
+            ax.set_xlabel(f"{xlabel} (dimensionless; field μ0H / mT on top)")
+        elif label == "mT":
+            field_axis(ax.xaxis, units)
+        elif label is not None:
+            from ..user_units import parameter_physical
+            scaled_axis(ax.xaxis, parameter_physical(p, 1.0, units), f"{xlabel} / {label}")
+    hy = path.hysteresis
+    if retitle and label is not None and p.transform != "sqrt" and hy.get("loops"):
+        from ..user_units import parameter_physical
+        ax_a.set_title(f"loading path — {len(path.jumps)} snap(s); hysteresis width "
+                       f"{parameter_physical(p, hy['width'], units):.4g} {label}", fontsize=10)
+
+
+def stiffness_figure(curve, title: str = None, si: bool = False, stiffness_scale: float = None):
     """Vertical tip stiffness against the field, with THEORY §6's s(h) overlaid.
 
     Parameters
@@ -101,18 +148,29 @@ def stiffness_figure(curve, title: str = None, si: bool = False):
     curve : StiffnessCurve
     title : str, optional
     si : bool
-        Plot N/m against A/m (physical scenes) instead of the dimensionless values.
+        Plot N/m against the field μ0 H in mT (physical scenes) instead of the dimensionless
+        values; without a field scale (χ̄ = 0) the field axis stays the group h, and says so.
+    stiffness_scale : float, optional
+        B0/ℓ³ in N/m (for the closed form in N/m; default: from the curve's N/m values).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     fig, (ax,) = _figure((6.6, 4.8))
-    use_si = si and curve.field_A_per_m is not None and np.all(np.isfinite(curve.field_A_per_m))
+    has_field = curve.field_A_per_m is not None and np.all(np.isfinite(curve.field_A_per_m))
+    use_si = si and curve.vertical_N_per_m is not None
     if use_si:
-        x, y = curve.field_A_per_m / 1e3, curve.vertical_N_per_m
-        ref = curve.lowload * (curve.vertical_N_per_m / curve.vertical)
-        ax.set_xlabel("field H [kA/m]")
+        from ..units import MU0
+        scale = stiffness_scale if stiffness_scale is not None else float(
+            np.nanmedian(curve.vertical_N_per_m / curve.vertical))
+        y, ref = curve.vertical_N_per_m, curve.lowload * scale
+        if has_field:
+            x = curve.field_A_per_m * MU0 * 1e3
+            ax.set_xlabel("field μ0H [mT]")
+        else:
+            x = curve.h
+            ax.set_xlabel("field group h (dimensionless: this scene has no field scale)")
         ax.set_ylabel("tip stiffness K [N/m]")
     else:
         x, y, ref = curve.h, curve.vertical, curve.lowload

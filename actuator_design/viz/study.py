@@ -33,7 +33,9 @@ def default_figures(axes, table: Dict[str, list]) -> List[dict]:
     if not numeric_axes:
         return []
     x = max(numeric_axes, key=lambda a: len(set(a.numbers)))
-    results = [c for c in table if "." in c and c not in {a.column for a in axes}]
+    swept = {a.column for a in axes}
+    results = [c for c in table if "." in c and c not in swept
+               and not any(c.startswith(f"{a.key} [") for a in axes)]  # nor a swept key in other units
     y = next((c for c in _PREFERRED_Y if c in table), None)
     if y is None:
         y = next((c for c in results if _numeric(table[c]) is not None
@@ -45,7 +47,23 @@ def default_figures(axes, table: Dict[str, list]) -> List[dict]:
     return [{"x": x.key, "y": y, "hue": hue}]
 
 
-def study_figures(axes, table: Dict[str, list], specs: List[dict]) -> Dict[str, object]:
+def _plotted(column: str, table, axes, units):
+    """``(column drawn, axis label)``: a physical study's column in the user's units when the
+    table has it (:func:`actuator_design.unit_columns.unit_column`), else ``column`` itself — with
+    a word when it has a user unit that could not be computed (e.g. χ̄ = 0: no field scale)."""
+    from ..unit_columns import derived_name, unit_column
+
+    found = unit_column(column, table, axes, units)
+    if found is not None:
+        col, unit = found
+        return col, col if col.endswith("]") else f"{column} [{unit}]"
+    if units is not None and derived_name(column, units) is not None:
+        return column, f"{column} (dimensionless: no conversion to the user's units here)"
+    return column, column
+
+
+def study_figures(axes, table: Dict[str, list], specs: List[dict],
+                  raw: Optional[dict] = None) -> Dict[str, object]:
     """Figures by file stem (``<y>_vs_<x>``) from the study table.
 
     Parameters
@@ -53,7 +71,15 @@ def study_figures(axes, table: Dict[str, list], specs: List[dict]) -> Dict[str, 
     axes : list of Axis
     table : dict of column → list
     specs : list of {"x": key, "y": column, "hue": key or None}
+    raw : dict, optional
+        The study's configuration (default the one set by
+        :func:`actuator_design.unit_columns.study_config`): a physical study draws the table's
+        columns in the user's units where it has them (a swept field in mT as μ0 H, forces in N,
+        lengths in the unit of ``rod.length``).
     """
+    from ..unit_columns import current_study_config, table_units
+
+    units = table_units(current_study_config() if raw is None else raw, axes)
     by_key = {a.key: a for a in axes}
     out = {}
     status = np.array(table.get("status", []), dtype=object)
@@ -61,8 +87,10 @@ def study_figures(axes, table: Dict[str, list], specs: List[dict]) -> Dict[str, 
         xa, ycol = by_key[spec["x"]], spec["y"]
         if ycol not in table:
             continue
-        x = _numeric(table[xa.column])
-        y = _numeric(table[ycol])
+        xcol, xlabel = _plotted(xa.column, table, axes, units)
+        ycol_drawn, ylabel = _plotted(ycol, table, axes, units)
+        x = _numeric(table[xcol])
+        y = _numeric(table[ycol_drawn])
         if x is None or y is None:
             continue
         ok = (status == "ok") & np.isfinite(x) & np.isfinite(y)
@@ -76,8 +104,9 @@ def study_figures(axes, table: Dict[str, list], specs: List[dict]) -> Dict[str, 
         keys = list(zip(*[table[a.column] for a in others])) if others else [()] * len(x)
         cmap, norm = None, None
         hue_vals = None
+        hue_col, hue_label = (None, None) if hue is None else _plotted(hue.column, table, axes, units)
         if hue is not None:
-            hue_vals = table[hue.column]
+            hue_vals = table[hue_col]
             hv = _numeric(hue_vals) if hue.numeric else None
             if hv is not None and np.isfinite(hv).any():
                 import matplotlib
@@ -113,11 +142,11 @@ def study_figures(axes, table: Dict[str, list], specs: List[dict]) -> Dict[str, 
         if cmap is not None:
             import matplotlib.cm as cm
             sm = cm.ScalarMappable(norm=norm, cmap=cmap)
-            fig.colorbar(sm, ax=ax, label=hue.column)
+            fig.colorbar(sm, ax=ax, label=hue_label)
         elif labelled:
             ax.legend(fontsize=8)
-        ax.set_xlabel(xa.column)
-        ax.set_ylabel(ycol)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
         n_bad = int(np.sum(status != "ok")) if status.size else 0
         ax.set_title(f"{ycol} vs {xa.key}" + (f" ({n_bad} points not ok, not drawn)" if n_bad else ""),
                      fontsize=10)
