@@ -149,7 +149,8 @@ def summary_text(result: FitResult, units=None) -> str:
                      f"[{dv['ci'][0]:.6g}, {dv['ci'][1]:.6g}]{extra}  (derived: {dv['description']})")
     rms = ", ".join(f"{o} {v:.4g} {result.data.units[o]}".rstrip() + _rms_user(result, o, units)
                     for o, v in result.rms.items())
-    lines.append(f"  residuals   : rms {rms}; s² = {result.s2:.4g} (weighted), dof {result.dof}")
+    lines.append(f"  residuals   : rms {rms}; s² = {result.s2:.4g} ({_weights_text(result)}), "
+                 f"dof {result.dof}")
     lines.append(f"  goodness    : {_goodness_text(result.goodness_of_fit)}")
     n_unstable = sum(1 for p in result.points if not p["stable"])
     n_failed = sum(1 for p in result.points if not p["converged"])
@@ -169,6 +170,16 @@ def _mT_text(p: Dict[str, Any], what: str) -> str:
     m = _in_mT(p)
     ci = f" [{m['ci_mT'][0]:.6g}, {m['ci_mT'][1]:.6g}]" if "ci_mT" in m else ""
     return f"{what} = {m['value_mT']:.6g} mT{ci}"
+
+
+def _weights_text(result) -> str:
+    """Which weights s² uses: Σ w ((model − data)/σ)² / dof with each output's σ (in the data
+    file's unit) and, when the data file gives them, the row weights w."""
+    d = result.data
+    sig = ", ".join(f"{o} {float(d.as_given(o, [result.sigma[j]])[0]):.4g} {d.units[o]}".rstrip()
+                    for j, o in enumerate(result.outputs))
+    rows = "row weights w from the data file" if d.weights is not None else "w = 1"
+    return f"weighted: residual/σ with σ = {sig}; {rows}"
 
 
 def _rms_user(result: FitResult, output: str, units) -> str:

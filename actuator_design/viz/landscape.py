@@ -178,8 +178,11 @@ def plot_landscape_map(mmap, curves: Sequence = (), title: Optional[str] = None)
     if bi.any() and min(bi.shape) >= 2:
         axes[1].contourf(mmap.x, mmap.y, bi, levels=[0.5, 1.5], colors="none", hatches=["//"])
         axes[1].contour(mmap.x, mmap.y, bi, levels=[0.5], colors="k", linewidths=1.0)
-        axes[1].plot([], [], color="k", lw=1.0, label="bistable (≥ 2 stable)")
-        axes[1].legend(fontsize=8, loc="upper left")
+        from matplotlib.patches import Patch
+        handles, labels = axes[1].get_legend_handles_labels()
+        handles.append(Patch(facecolor="none", edgecolor="k", hatch="//", lw=1.0))
+        labels.append("bistable (≥ 2 stable)")
+        axes[1].legend(handles, labels, fontsize=8, loc="upper left")
     axes[1].set_title("number of stable equilibria (bistable hatched)", fontsize=10)
     if title:
         fig.suptitle(title, fontsize=11)

@@ -28,10 +28,9 @@ def _runs(points):
     for p in points:
         if cur and (p.branch != cur[-1].branch or p.direction != cur[-1].direction
                     or p.kind == "landing"):
-            if p.kind != "landing" and p.branch == cur[-1].branch:
-                cur.append(p)  # a new direction starts where the old one ended
             runs.append(cur)
-            cur = []
+            # a new direction starts where the old one ended (the run keeps its own direction)
+            cur = [cur[-1]] if p.kind != "landing" and p.branch == cur[-1].branch else []
         cur.append(p)
     if cur:
         runs.append(cur)
@@ -67,7 +66,9 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
         x = [p.param * xscale for p in run]
         d = run[-1].direction
         lab = {1: f"{xlabel} increasing", -1: f"{xlabel} decreasing", 0: "stable path"}[d]
-        kw = dict(color=colours[d], lw=1.8, label=None if lab in labelled else lab)
+        # the way back is dashed: where it retraces the way out (no hysteresis) both stay visible
+        kw = dict(color=colours[d], lw=1.8, ls=(0, (5, 3)) if d == -1 else "-",
+                  label=None if lab in labelled else lab)
         labelled.add(lab)
         ax_a.plot(x, [p.tip["angle"] for p in run], **kw)
         ax_e.plot(x, [p.energy for p in run], **kw)

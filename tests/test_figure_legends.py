@@ -1,0 +1,40 @@
+"""Legends show what is drawn (issue 21 item 3): a path ramped up and back labels each direction
+on the line that is drawn in that direction, the way back visible where it retraces the way out;
+a map's bistable region is hatched in the legend as in the panel."""
+from types import SimpleNamespace
+
+import numpy as np
+
+from actuator_design.analysis.loading import follow_path, ramp
+from actuator_design.scene import default_scene
+from actuator_design.viz.landscape import plot_landscape_map
+from actuator_design.viz.loading import path_figure
+
+
+def _lines(ax):
+    return {ln.get_label(): ln for ln in ax.get_lines() if not ln.get_label().startswith("_")}
+
+
+def test_a_path_up_and_back_labels_each_direction_on_its_own_line():
+    path = follow_path(default_scene(h=0.0, phi=0.0), schedule=ramp("h", 0.0, 1.0, back=True))
+    ax = path_figure(path).axes[0]
+    lines = _lines(ax)
+    up, down = lines["h increasing"], lines["h decreasing"]
+    x_up, x_down = np.asarray(up.get_xdata(), float), np.asarray(down.get_xdata(), float)
+    # each line runs in the direction its label says, over the whole ramp
+    assert np.all(np.diff(x_up) >= 0) and np.all(np.diff(x_down) <= 0)
+    assert (x_up[0], x_up[-1]) == (0.0, 1.0) and (x_down[0], x_down[-1]) == (1.0, 0.0)
+    # the way back retraces the way out here (no hysteresis below the buckling field): it is
+    # dashed, so the solid line under it stays visible
+    assert up.get_linestyle() == "-" and down.get_linestyle() not in ("-", "solid")
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["h increasing", "h decreasing"]
+
+
+def test_the_bistable_legend_entry_is_hatched_like_the_region():
+    x, y = np.meshgrid(np.linspace(0, 1, 5), np.linspace(0, 1, 4))
+    stable = np.where(x > 0.5, 2, 1)
+    mmap = SimpleNamespace(x=x, y=y, counts=stable + 1, stable=stable, x_param="h", y_param="p")
+    axes = plot_landscape_map(mmap)
+    legend = axes[1].get_legend()
+    entry = [h for h, t in zip(legend.legend_handles, legend.get_texts()) if t.get_text().startswith("bistable")]
+    assert len(entry) == 1 and entry[0].get_hatch() == "//"
