@@ -89,8 +89,8 @@ def fit_figures(result, units=None) -> Dict[str, object]:
             ax.plot(xd, as_unit(o, d.columns[o][mask]), "o", color=color, ms=4, mfc="none",
                     label=f"data {g['label']}".strip())
             if g.get("x") is not None:
-                ax.plot(as_unit(primary, g["x"]), as_unit(o, g["y"][o]), "-", color=color,
-                        lw=1.5, label=f"model {g['label']}".strip())
+                _model_curve(ax, as_unit(primary, g["x"]), as_unit(o, g["y"][o]),
+                             g.get("branch_switch"), color, f"model {g['label']}".strip())
         unit = f" [{unit_of(o)}]" if unit_of(o) else ""
         ax.set_xlabel(xlabel)
         ax.set_ylabel(o + unit)
@@ -121,12 +121,28 @@ def fit_figures(result, units=None) -> Dict[str, object]:
     return {"fit_data_vs_model": fig, "fit_residuals": fig2}
 
 
+def _model_curve(ax, x, y, switch, color, label) -> None:
+    """The model curve, one solid line per branch: at a branch switch (``switch[m]``: point m is
+    on another branch than m − 1) the two branches are joined by a dotted line."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    marks = np.flatnonzero(np.asarray(switch if switch is not None else [], bool))
+    cuts = [0] + [int(m) for m in marks if 0 < m < x.size] + [x.size]
+    for k, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+        ax.plot(x[a:b], y[a:b], "-", color=color, lw=1.5, label=label if k == 0 else None)
+        if a > 0:
+            ax.plot(x[a - 1:a + 1], y[a - 1:a + 1], ":", color=color, lw=1.2,
+                    label="jump to the branch nearest the data" if k == 1 else None)
+
+
 def _fit_title(result) -> str:
     parts = []
     for name, p in result.parameters.items():
         if p["fitted"]:
             parts.append(f"{name} = {p['value']:.4g} [{p['ci'][0]:.4g}, {p['ci'][1]:.4g}]")
-    return (f"{result.name}\n" + "; ".join(parts) + f" ({100 * result.confidence:g}% CI)")
+    ci = f" ({100 * result.confidence:g}% CI)"
+    joined = "; ".join(parts) + ci
+    # one parameter a line when they do not fit the figure's width (no title cut off at the edges)
+    return f"{result.name}\n" + (joined if len(joined) <= 80 else ";\n".join(parts) + ci)
 
 
 def fit_figure_pngs(result, dpi: int = 150, units=None) -> Dict[str, bytes]:
