@@ -411,7 +411,7 @@ def _take_verified(result: DesignResult, problem: DesignProblem, v: Verification
     notes.append(f"verified by a loading path from zero field: {v.label}")
     fwd = v.forward
     if fwd.success and max(abs(fwd.tip["x"] - final.tip["x"]), abs(fwd.tip["y"] - final.tip["y"])) > 1e-6:
-        notes.append("note: a forward solve from the straight rod at the designed field lands on "
+        notes.append("a forward solve from the straight rod at the designed field lands on "
                      "another equilibrium; the design is reached only along the reported schedule")
     if problem.stiffness is None:
         return True

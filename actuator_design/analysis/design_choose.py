@@ -70,7 +70,8 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
     if not reachable:
         what = "target" if stiffness is None else ("stiffness" if not target else "target pose and stiffness")
         notes.append(f"the {what} is not reachable with {', '.join(cand.vary)}: the nearest stable design "
-                     f"misses by {target_error(best, target, stiffness):.3g} (reported as 'achieved')")
+                     f"misses by {target_error(best, target, stiffness):.3g}"
+                     + (" rod lengths" if stiffness is None else "") + " (reported as 'achieved')")
         h_max = problem.settings.h_max
         if "h" in cand.vary and best.h >= h_max * (1.0 - 1e-4):  # (an interior point stops short of it)
             notes.append(f"the nearest design sits at the field bound h = {h_max:g} (--h-max"

@@ -260,7 +260,9 @@ def _summary(res, units=None, table=None) -> str:
     lines += _physical_lines(res, units, table)
     if res.achieved:
         lines.append(f"  achieved    : x = {number(res.achieved['x'], '.10f')}, y = {number(res.achieved['y'], '.10f')}, "
-                     f"angle = {degrees(res.achieved['angle'])} deg; error {res.error:.3e}")
+                     f"angle = {degrees(res.achieved['angle'])} deg; error {res.error:.3e}"
+                     + (f" rod lengths ({units.length(res.error):.4g} {units.length_unit})"
+                        if units is not None and res.target else ""))
     if res.stiffness_target is not None and res.achieved_stiffness is not None:
         lines.append(f"  stiffness   : achieved {res.achieved_stiffness:.10g} [B0/l^3] (central differences of "
                      f"independent forward solves)")
@@ -271,7 +273,9 @@ def _summary(res, units=None, table=None) -> str:
     elif res.tolerances is None:
         lines.append("  robustness  : not evaluated (no tolerance box: --tolerance none)")
     else:
-        lines.append(f"  robustness  : NOT checked over the box ({res.tolerances.describe()}): see note")
+        why = ("the target is not reached, so there is no design to hold" if not res.reachable
+               else "see note")
+        lines.append(f"  robustness  : NOT checked over the box ({res.tolerances.describe()}): {why}")
     if res.schedule:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
