@@ -8,7 +8,8 @@ value zero (a companion scene; the report says so).
 
 --field-sweep A,B --n N follows the stable state from h = A to h = B and reports the stiffness
 curve with THEORY §6's closed form s(h) = 4h^3/(2h - sqrt(2) tanh(sqrt(2) h)) (exact for phi = 0,
-p = 0) alongside; --out DIR then also writes stiffness_curve.csv and stiffness.png.
+p = 0) alongside; --out DIR then also writes stiffness_curve.csv and stiffness.png (without a
+sweep, stiffness.png is the state with its compliance ellipse at the tip).
 
 Without CONFIG the scene is THEORY §5's cantilever with h = 1, phi = 0, p = 0, alpha = 0 unless
 flags set them. A CONFIG may carry `study: {type: stiffness, field_sweep: [A, B], n: N, moment:
@@ -138,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     add_physical(data, st, curve, units)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _render(data, curve, raw, scene, units), args.json)
+        written = write_out(args.out, _render(data, curve, raw, scene, units, st), args.json)
     if args.json:
         print(dumps_json(data))
     else:
@@ -257,7 +258,7 @@ def _physical_lines(data, st, curve, units) -> list:
     return lines
 
 
-def _render(data, curve, raw, scene, units=None):
+def _render(data, curve, raw, scene, units=None, st=None):
     from ..io import dumps_json
     from ..viz.loading import stiffness_figure
     from ..viz.style import png_bytes
@@ -281,4 +282,7 @@ def _render(data, curve, raw, scene, units=None):
         files["stiffness.png"] = png_bytes(stiffness_figure(
             curve, si=scene.scales is not None,
             stiffness_scale=None if units is None else units.stiffness_scale), dpi=150)
+    elif st is not None:  # one state: its shape with the compliance ellipse at the tip
+        from ..viz.compliance import compliance_figure
+        files["stiffness.png"] = png_bytes(compliance_figure(st, units), dpi=150)
     return files
