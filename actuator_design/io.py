@@ -317,10 +317,13 @@ def write_output_set(out_dir, files: Mapping[str, FileContent], dpi: int = 150) 
     return [Path(out_dir) / name for name in names]
 
 
-def shape_csv_text(result) -> str:
+def shape_csv_text(result, units=None) -> str:
     """The dense shape (:data:`CSV_POINTS` points) as CSV text: s, x, y, theta, dtheta [, x_m, y_m].
 
-    The first line is a comment stating the units; the second the column names.
+    The first line is a comment stating the units; the second the column names. With ``units``
+    (a physical scene's :class:`~actuator_design.user_units.UserUnits`) also, after those, the
+    shape in the unit ``rod.length`` is written in: ``s_<unit>``, ``x_<unit>``, ``y_<unit>`` (x_mm,
+    y_mm; x_m and y_m are not repeated for a rod written in m) and ``dtheta_rad_per_<unit>``.
     """
     d = result.evaluate(np.linspace(0.0, 1.0, CSV_POINTS))
     cols = ["s", "x", "y", "theta", "dtheta"]
@@ -329,15 +332,24 @@ def shape_csv_text(result) -> str:
     if scales is not None:
         cols += ["x_m", "y_m"]
         data += [d["x"] * scales.length, d["y"] * scales.length]
+    note = "; x_m, y_m in m" if scales is not None else ""
+    if units is not None:
+        u, f = units.length_unit, units.length(1.0)
+        extra = [(f"s_{u}", d["s"] * f)] + [(f"{c}_{u}", d[c] * f) for c in ("x", "y") if f"{c}_{u}" not in cols]
+        extra.append((f"dtheta_rad_per_{u}", d["dtheta"] / f))
+        cols += [c for c, _v in extra]
+        data += [v for _c, v in extra]
+        note += f"; s_{u}, x_{u}, y_{u} in {u} (the unit of rod.length); dtheta_rad_per_{u} in rad/{u}"
     table = np.column_stack([np.asarray(c, float) for c in data])
     lines = ["# units: s, x, y in rod lengths l (clamp at the origin); theta in rad; dtheta = "
-             "dtheta/ds in rad per rod length" + ("; x_m, y_m in m" if scales is not None else ""),
+             "dtheta/ds in rad per rod length" + note,
              ",".join(cols)]
     lines += [",".join(repr(float(v)) for v in row) for row in table]
     return "\n".join(lines) + "\n"
 
 
-def result_files(result, config: Optional[dict] = None) -> Dict[str, str]:
+def result_files(result, config: Optional[dict] = None, units=None,
+                 payload: Optional[dict] = None) -> Dict[str, str]:
     """The data files of ``solve --out`` in memory: ``result.json`` and ``shape.csv`` (text).
 
     Parameters
@@ -346,9 +358,21 @@ def result_files(result, config: Optional[dict] = None) -> Dict[str, str]:
         A result of :func:`actuator_design.equilibrium.solve` (converged or not).
     config : dict, optional
         The raw configuration the scene came from, embedded in ``result.json``.
+    units : UserUnits, optional
+        A physical scene's user units: ``shape.csv`` adds the shape in them
+        (:func:`shape_csv_text`).
+    payload : dict, optional
+        The result's JSON contract to write (default ``result.to_dict()``), e.g. with the user's
+        units added; ``scene``, ``config`` and ``package_version`` are added to it.
     """
-    return {"result.json": dumps_json(result_to_dict(result, config), indent=1) + "\n",
-            "shape.csv": shape_csv_text(result)}
+    if payload is None:
+        data = result_to_dict(result, config)
+    else:
+        from . import __version__
+        data = jsonable({**payload, "scene": scene_to_dict(result.scene), "config": config,
+                         "package_version": __version__})
+    return {"result.json": dumps_json(data, indent=1) + "\n",
+            "shape.csv": shape_csv_text(result, units)}
 
 
 def write_result(result, out_dir, config: Optional[dict] = None,

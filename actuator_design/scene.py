@@ -100,12 +100,16 @@ class Scales:
     h_per_field : float
         dh/dH0 = √(μ0 χ̄ A ℓ² / (2 B0)), per A/m: converts a designed h to a field even when the
         scene's own field is zero (0 when unknown).
+    h_r_per_field : float
+        dh_r/dH0 = μ0 M_r A ℓ² / B0, per A/m (THEORY §9): the hard-magnetic group of a field (0 when
+        the rod has no remanent magnetisation).
     """
 
     length: float
     bending_stiffness: float
     field: float = 0.0
     h_per_field: float = 0.0
+    h_r_per_field: float = 0.0
 
     @property
     def force(self) -> float:
@@ -133,6 +137,7 @@ class Scales:
             "bending_stiffness_Nm2": self.bending_stiffness,
             "field_A_per_m": self.field,
             "h_per_field_per_A_per_m": self.h_per_field,
+            "h_r_per_field_per_A_per_m": self.h_r_per_field,
             "force_N": self.force,
             "moment_Nm": self.moment,
             "energy_J": self.moment,

@@ -48,6 +48,9 @@ class UserUnits:
         B0/ℓ², N.
     moment_scale : float
         B0/ℓ, N m.
+    h_r_per_field : float
+        dh_r/dH, per A/m (THEORY §9; 0 without a remanent magnetisation): the field of a
+        hard-magnetic rod whose soft group has no scale (χ̄ = 0) is read from h_r.
     """
 
     length_m: float
@@ -57,6 +60,7 @@ class UserUnits:
     stiffness_scale: float
     force_scale: float
     moment_scale: float
+    h_r_per_field: float = 0.0
 
     @property
     def has_field(self) -> bool:
@@ -78,6 +82,15 @@ class UserUnits:
     def field_mT(self, h: float) -> float:
         """μ0 H in mT for the group ``h``."""
         return self.field_A_per_m(h) * MU0 * 1e3
+
+    @property
+    def has_remanent_field(self) -> bool:
+        """Whether the hard-magnetic group h_r converts to A/m (dh_r/dH > 0)."""
+        return self.h_r_per_field > 0.0
+
+    def field_mT_of_h_r(self, h_r: float) -> float:
+        """μ0 H in mT of the hard-magnetic group ``h_r`` (h_r ∝ H, THEORY §9)."""
+        return float(h_r) / self.h_r_per_field * MU0 * 1e3
 
     def h_from_field(self, H_A_per_m: float) -> float:
         """The group h of a field strength H in A/m."""
@@ -117,13 +130,16 @@ def user_units(scene, raw: Optional[dict] = None) -> Optional[UserUnits]:
     unit, per = length_unit_of(raw)
     return UserUnits(length_m=sc.length, length_unit=unit, metres_per_unit=per,
                      h_per_field=float(sc.h_per_field), stiffness_scale=sc.stiffness,
-                     force_scale=sc.force, moment_scale=sc.moment)
+                     force_scale=sc.force, moment_scale=sc.moment,
+                     h_r_per_field=float(getattr(sc, "h_r_per_field", 0.0)))
 
 
 # -- parameters of the lens with a physical meaning ----------------------------------------------------
 def _kind(param) -> Optional[str]:
-    """How a lens parameter maps to a physical quantity: "field", "field2", "angle", "force",
-    "moment", "force_per_length" or None (no physical meaning here)."""
+    """How a lens parameter maps to a physical quantity: "field", "field2", "field_r" (h_r ∝ H),
+    "angle", "force", "moment", "force_per_length" or None (no physical meaning here)."""
+    if param.name == "h_r":
+        return "field_r"
     if param.field_magnitude:
         return "field2" if param.transform == "sqrt" else "field"
     return {"rad": "angle", "B0/l^2": "force", "B0/l": "moment", "B0/l^3": "force_per_length"}.get(param.unit)
@@ -136,6 +152,8 @@ def parameter_unit_label(param, units: Optional[UserUnits]) -> Optional[str]:
         return None
     if kind in ("field", "field2"):
         return "mT" if units.has_field else None
+    if kind == "field_r":
+        return "mT" if units.has_remanent_field else None
     return {"force": "N", "moment": "N m", "force_per_length": "N/m"}[kind]
 
 
@@ -150,6 +168,8 @@ def parameter_physical(param, value: float, units: Optional[UserUnits]) -> Optio
         return units.field_mT(value)
     if kind == "field2":
         return units.field_mT(math.sqrt(max(float(value), 0.0)))
+    if kind == "field_r":
+        return units.field_mT_of_h_r(value)
     scale = {"force": units.force_scale, "moment": units.moment_scale,
              "force_per_length": units.stiffness_scale}[kind]
     return float(value) * scale
@@ -213,6 +233,11 @@ def _with_unit(text: str, param, units: Optional[UserUnits], flag: str) -> float
                              "(its magnetic group per field is 0, e.g. chi_bar = 0)")
         h = units.h_from_field(parse_quantity(text, "magnetic_field", flag))
         return h * h if kind == "field2" else h
+    if kind == "field_r":
+        if not units.has_remanent_field:
+            raise ValueError(f"{flag}: this scene cannot convert a field to h_r "
+                             "(it has no remanent magnetisation, magnetics.remanence)")
+        return parse_quantity(text, "magnetic_field", flag) * units.h_r_per_field
     dim, scale = {"force": ("force", units.force_scale), "moment": ("moment", units.moment_scale),
                   "force_per_length": ("force_per_length", units.stiffness_scale)}[kind]
     return parse_quantity(text, dim, flag) / scale
@@ -232,6 +257,9 @@ def physical_value_keys(param, value: float, units: Optional[UserUnits]) -> dict
     if kind in ("field", "field2"):
         h = float(value) if kind == "field" else math.sqrt(max(float(value), 0.0))
         return {"field_mT": units.field_mT(h), "field_A_per_m": units.field_A_per_m(h)}
+    if kind == "field_r":
+        mT = units.field_mT_of_h_r(value)
+        return {"field_mT": mT, "field_A_per_m": mT * 1e-3 / MU0}
     return {_KEYS[kind]: parameter_physical(param, value, units)}
 
 

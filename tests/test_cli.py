@@ -210,7 +210,7 @@ def test_out_csv_has_metres_for_a_physical_scene(capsys, tmp_path):
     code, _, err = run_cli(capsys, "solve", cfg, "--out", tmp_path / "o")
     assert code == 0, err
     lines = (tmp_path / "o" / "shape.csv").read_text().splitlines()
-    assert lines[1] == "s,x,y,theta,dtheta,x_m,y_m" and "m" in lines[0]
+    assert lines[1].startswith("s,x,y,theta,dtheta,x_m,y_m,") and "m" in lines[0]  # + the rod's own unit
     row = [float(v) for v in lines[-1].split(",")]
     length = json.loads((tmp_path / "o" / "result.json").read_text())["scene"]["scales"]["length_m"]
     assert row[5] == pytest.approx(row[1] * length) and row[6] == pytest.approx(row[2] * length)

@@ -14,6 +14,11 @@ parameters with a physical meaning: angles ('30 deg') always; for a physical sce
 '5 kA/m'; h = H dh/dH) and loads ('1 mN'). A physical scene's folds and branch points also carry
 field_mT and field_A_per_m (or value_N, ...) beside their value.
 
+A physical scene (`type: physical`) also speaks its own units: lengths in the unit rod.length is
+written in, fields as mu0 H in mT, loads in N, energies in J — text lines, the JSON's
+`physical` keys beside the dimensionless ones, extra CSV columns (value_<unit>, tip_x_<unit>, tip_y_<unit>, energy_J) and
+the figure's axes.
+
 With CONFIG, its `study:` section (type: continuation; keys param, from, to, ds, ds_max,
 max_points, switch, straight and the scene values h, phi_deg, p, alpha_deg) and then the flags
 apply.
@@ -71,16 +76,50 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_output_args(parser, "branch.json, branch.csv and branch.png")
 
 
-def _csv(res) -> str:
-    lines = [f"# branch in {res.param}; tip x, y in rod lengths l, angle in rad, energy in B0/l",
-             "branch,value,tip_angle,tip_x,tip_y,energy,morse_index,stable"]
+def _csv(res, units=None) -> str:
+    """``branch.csv``: one row per point; a physical scene adds the value in its unit (when the
+    parameter has one) and the state in the user's units."""
+    from ..parameters import parameter
+    from ..unit_results import parameter_conversion, state_columns, state_csv_note, state_values, unit_suffix
+    from ..user_units import parameter_physical
+
+    extra, note = [], ""
+    p = parameter(res.param)
+    unit = parameter_conversion(p, units)[0] if units is not None else None
+    if units is not None:
+        extra = ([f"value_{unit_suffix(unit)}"] if unit is not None else []) + state_columns(units)
+        note = ("; " + (f"value_{unit_suffix(unit)} in {unit}" + (" (mu0 H)" if unit == "mT" else "") + "; "
+                        if unit is not None else "") + state_csv_note(units))
+    lines = [f"# branch in {res.param}; tip x, y in rod lengths l, angle in rad, energy in B0/l" + note,
+             "branch,value,tip_angle,tip_x,tip_y,energy,morse_index,stable"
+             + "".join("," + c for c in extra)]
     for k, br in enumerate([res.branch] + res.secondary):
         for i in range(len(br)):
             # float(): numpy scalars' repr is "np.float64(…)" since numpy 2
-            lines.append(f"{k},{float(br.lam[i])!r},{float(br.tips[i, 0])!r},{float(br.tips[i, 1])!r},"
-                         f"{float(br.tips[i, 2])!r},{float(br.energy[i])!r},{int(br.morse_index[i])},"
-                         f"{int(br.morse_index[i] == 0)}")
+            row = (f"{k},{float(br.lam[i])!r},{float(br.tips[i, 0])!r},{float(br.tips[i, 1])!r},"
+                   f"{float(br.tips[i, 2])!r},{float(br.energy[i])!r},{int(br.morse_index[i])},"
+                   f"{int(br.morse_index[i] == 0)}")
+            if units is not None:
+                tip = {"x": float(br.tips[i, 1]), "y": float(br.tips[i, 2])}
+                vals = ([parameter_physical(p, float(br.lam[i]), units)] if unit is not None else [])
+                vals += state_values(tip, float(br.energy[i]), float(br.gamma[i]), units)
+                row += "".join("," + repr(float(v)) for v in vals)
+            lines.append(row)
     return "\n".join(lines) + "\n"
+
+
+def add_units(payload: dict, res, units) -> None:
+    """A physical scene's units in ``continue``'s JSON, in place: the top-level ``physical`` and,
+    beside every point's, fold's and branch point's value, its value in the parameter's unit and
+    ``physical`` {tip in the length unit, energy_J} (secondary branches too)."""
+    if units is None:
+        return
+    from ..unit_results import add_point_units, command_physical
+
+    payload["physical"] = command_physical(res.scene, units, [res.param])
+    add_point_units(payload["branch"] + payload["folds"] + payload["branch_points"], res.param, units)
+    for sec in payload.get("secondary_branches", []):
+        add_point_units(sec["points"] + sec["folds"] + sec["branch_points"], res.param, units)
 
 
 def _pick(flag, study, key, default=None):
@@ -99,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
     from ..parameters import parameter
-    from ..user_units import add_physical_values, parameter_from_text, user_units
+    from ..user_units import parameter_from_text, user_units
 
     units = user_units(scene, raw)
     with bad_input():
@@ -149,25 +188,28 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as err:
             raise InputError(str(err)) from err
     payload = res.to_dict()
-    add_physical_values(payload["folds"] + payload["branch_points"], parameter(param), units)
+    add_units(payload, res, units)
     written = None
     if args.out is not None:
         from ..viz.landscape import plot_branches
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
-            if param == "h":  # h ∝ H: tick the parameter axis in mT
-                from ..viz.units import field_axis
-                field_axis(ax.xaxis, units)
+            from ..viz.units import parameter_axis  # h in mT, loads in N, ...
+            parameter_axis(ax, parameter(param), units, param, "x",
+                           data_max=max(float(np.max(b.lam)) for b in [res.branch] + res.secondary))
             files = {"branch.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "branch.csv": _csv(res), "branch.png": png_bytes(ax, dpi=150)}
+                     "branch.csv": _csv(res, units), "branch.png": png_bytes(ax, dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
         br = res.branch
-        mT = (lambda v: f" ({units.field_mT(v if param == 'h' else max(v, 0) ** 0.5):.6g} mT)"
-              if units is not None and units.has_field and param in ("h", "h2") else "")
+        from ..unit_results import value_text
+
+        def mT(v):  # the value in the parameter's unit: " (mu0 H = 25 mT)", " (p = 1e-3 N)"
+            text = value_text(param, v, units) if units is not None else None
+            return f" ({text})" if text else ""
         print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g}{mT(br.lam[0])} to "
               f"{br.lam[-1]:.6g}{mT(br.lam[-1])} ({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
         for cp in br.folds:
@@ -177,7 +219,16 @@ def run(args: argparse.Namespace) -> int:
             print(f"  branch point at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
                   f"(Morse index {cp.morse_before} -> {cp.morse_after})")
         for s in res.secondary:
-            print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}")
+            print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}"
+                  f"{mT(s.lam[-1])}")
+        if units is not None:
+            from ..unit_results import physical_header, scene_text, state_text, units_line
+            k = len(br) - 1
+            print(f"  end state   : {state_text({'x': br.tips[k, 1], 'y': br.tips[k, 2]}, br.energy[k], units, br.gamma[k])}")
+            given = scene_text(res.scene, units)
+            print(f"  user units  : {units_line(units)}" + (f"; start scene: {given}" if given else ""))
+            for note in physical_header(units, [param])["notes"]:
+                print(f"  note        : {note}")
     if written is not None:
         print_written(written, args.json)
     if res.branch.status == "step_too_small":

@@ -16,6 +16,11 @@ parameters with a physical meaning: angles ('10 deg,80 deg') always; for a physi
 ('2 mT,6 mT', '5 kA/m,8 kA/m'; h = H dh/dH) and loads ('1 mN,3 mN'). A physical scene's critical
 points also carry field_mT and field_A_per_m (or value_N, ...) beside their value.
 
+A physical scene (`type: physical`) also speaks its own units: lengths in the unit rod.length is
+written in, fields as mu0 H in mT, loads in N, energies in J — text lines, the JSON's
+`physical` keys beside the dimensionless ones, extra CSV columns (value_<unit>, tip_x_<unit>, tip_y_<unit>, energy_J) and
+the figure's axes.
+
 With CONFIG, its `study:` section (type: critical; keys param, window [a, b], n_samples and the
 scene values h, phi_deg, p, alpha_deg) and then the flags apply.
 """
@@ -64,13 +69,44 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_output_args(parser, "critical.json, critical.csv and critical.png")
 
 
-def _csv(res) -> str:
-    lines = [f"# critical points of {res.param}; tip angle in rad",
-             "kind,value,tip_angle,equilibria_below,equilibria_above,located"]
+def _csv(res, units=None) -> str:
+    """``critical.csv``: one row per critical point; a physical scene adds the value in the
+    parameter's unit (when it has one), the tip in the length unit and the energy in J."""
+    from ..parameters import parameter
+    from ..unit_results import parameter_conversion, unit_suffix
+    from ..user_units import parameter_physical
+
+    p = parameter(res.param)
+    unit = parameter_conversion(p, units)[0] if units is not None else None
+    extra, note = [], ""
+    if units is not None:
+        u = units.length_unit
+        extra = ([f"value_{unit_suffix(unit)}"] if unit is not None else []) + [f"tip_x_{u}", f"tip_y_{u}", "energy_J"]
+        note = ("; " + (f"value_{unit_suffix(unit)} in {unit}" + (" (mu0 H)" if unit == "mT" else "") + "; "
+                        if unit is not None else "")
+                + f"tip_x_{u}, tip_y_{u} in {u} (the unit of rod.length); energy_J in J")
+    lines = [f"# critical points of {res.param}; tip angle in rad" + note,
+             "kind,value,tip_angle,equilibria_below,equilibria_above,located" + "".join("," + c for c in extra)]
     for d in res.folds + res.branch_points:
-        lines.append(f"{d['kind']},{d['value']!r},{d['tip_angle']!r},{d['equilibria_below']},"
-                     f"{d['equilibria_above']},{int(d['located'])}")
+        row = (f"{d['kind']},{d['value']!r},{d['tip_angle']!r},{d['equilibria_below']},"
+               f"{d['equilibria_above']},{int(d['located'])}")
+        if units is not None:
+            vals = [parameter_physical(p, d["value"], units)] if unit is not None else []
+            vals += [units.length(d["tip"]["x"]), units.length(d["tip"]["y"]), d["energy"] * units.moment_scale]
+            row += "".join("," + repr(float(v)) for v in vals)
+        lines.append(row)
     return "\n".join(lines) + "\n"
+
+
+def add_units(payload: dict, param, scene, units) -> None:
+    """A physical scene's units in ``critical``'s JSON, in place: the top-level ``physical`` and
+    each critical point's value in the parameter's unit and ``physical`` {tip, energy_J}."""
+    if units is None:
+        return
+    from ..unit_results import add_point_units, command_physical
+
+    payload["physical"] = command_physical(scene, units, [param])
+    add_point_units(payload["folds"] + payload["branch_points"], param, units)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,8 +117,7 @@ def run(args: argparse.Namespace) -> int:
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
     from ..parameters import parameter
-    from ..user_units import (add_physical_values, pair_from_text, parameter_unit_label,
-                              physical_value_keys, user_units)
+    from ..user_units import pair_from_text, parameter_unit_label, physical_value_keys, user_units
 
     units = user_units(scene, raw)
     with bad_input():
@@ -107,7 +142,7 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         res = critical_points(scene, param, window, options=options, n_samples=n_samples)
     payload = res.to_dict()
-    add_physical_values(payload["folds"] + payload["branch_points"], parameter(param), units)
+    add_units(payload, param, scene, units)
     unit = parameter_unit_label(parameter(param), units)
     written = None
     if args.out is not None:
@@ -115,17 +150,21 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
-            if param == "h":  # h ∝ H: tick the parameter axis in mT
-                from ..viz.units import field_axis
-                field_axis(ax.xaxis, units)
+            from ..viz.units import parameter_axis  # h in mT, loads in N, ...
+            parameter_axis(ax, parameter(param), units, param, "x", data_max=window[1])
             full = res.to_dict(branches=True)
-            add_physical_values(full["folds"] + full["branch_points"], parameter(param), units)
+            add_units(full, param, scene, units)
             files = {"critical.json": dumps_json({**full, "config": raw}, indent=1) + "\n",
-                     "critical.csv": _csv(res), "critical.png": png_bytes(ax, dpi=150)}
+                     "critical.csv": _csv(res, units), "critical.png": png_bytes(ax, dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
+        from ..display import ANGLE_NOISE_RAD, number
+        from ..unit_results import state_text
+
+        def degrees_free(rad):  # a tip angle in rad, round-off of zero as 0
+            return number(rad, "+.8f", ANGLE_NOISE_RAD)
         ends = [physical_value_keys(parameter(param), v, units) for v in window]
         span = (f" ({ends[0]['field_mT']:.6g} to {ends[1]['field_mT']:.6g} mT)" if "field_mT" in ends[0] else "")
         print(f"{param} in [{window[0]:g}, {window[1]:g}]{span}: {len(res.folds)} fold(s), "
@@ -134,8 +173,16 @@ def run(args: argparse.Namespace) -> int:
         for d in res.folds + res.branch_points:
             phys = f" ({d['field_mT']:.6g} mT)" if "field_mT" in d else (
                 f" ({next(v for k, v in d.items() if k.startswith('value_')):.6g} {unit})" if unit else "")
-            print(f"  {d['kind']:12s} {param} = {d['value']:.12g}{phys}  tip angle {d['tip_angle']:+.8f} rad  "
+            print(f"  {d['kind']:12s} {param} = {d['value']:.12g}{phys}  tip angle {degrees_free(d['tip_angle'])} rad  "
                   f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}")
+            if units is not None:
+                print(f"      in the user's units: {state_text(d['tip'], d['energy'], units)}")
+        if units is not None:
+            from ..unit_results import physical_header, scene_text, units_line
+            given = scene_text(scene, units)
+            print(f"  user units: {units_line(units)}" + (f"; scene: {given}" if given else ""))
+            for note in physical_header(units, [param])["notes"]:
+                print(f"  note: {note}")
     if written is not None:
         print_written(written, args.json)
     for why in res.incomplete_reasons:

@@ -12,6 +12,11 @@ complete: false with the reason (`incomplete_reason`) and the command exits 3.
 Without CONFIG the scene is THEORY §5's cantilever with h = 1, phi = 45 deg, p = 0, alpha = 0 deg;
 with CONFIG its `study:` section (type: equilibria; keys h, phi_deg, p, alpha_deg, n_gamma, method)
 and then the flags override it.
+
+A physical scene (`type: physical`) also speaks its own units: lengths in the unit rod.length is
+written in, fields as mu0 H in mT, loads in N, energies in J — a text line per state, the JSON's
+`physical` keys beside the dimensionless ones, extra CSV columns (tip_x_<unit>, tip_y_<unit>, energy_J, gamma_rad_per_<unit>) and
+the figure's axes.
 """
 from __future__ import annotations
 
@@ -94,13 +99,33 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_output_args(parser, "equilibria.json, equilibria.csv and equilibria.png")
 
 
-def _csv(result) -> str:
-    lines = ["# units: tip x, y in rod lengths l; angle in rad; energy in B0/l; gamma = theta'(0) in 1/l",
-             "gamma,tip_x,tip_y,tip_angle,energy,morse_index,stable,self_intersecting"]
+def _csv(result, units=None) -> str:
+    """``equilibria.csv``: one row per equilibrium; a physical scene adds the state in its units."""
+    from ..unit_results import state_columns, state_csv_note, state_values
+
+    note = "" if units is None else "; " + state_csv_note(units)
+    cols = "gamma,tip_x,tip_y,tip_angle,energy,morse_index,stable,self_intersecting"
+    lines = ["# units: tip x, y in rod lengths l; angle in rad; energy in B0/l; gamma = theta'(0) in 1/l"
+             + note, cols + ("" if units is None else "," + ",".join(state_columns(units)))]
     for e in result.equilibria:
-        lines.append(f"{e.gamma!r},{e.tip['x']!r},{e.tip['y']!r},{e.tip['angle']!r},{e.energy!r},"
-                     f"{e.morse_index},{int(e.stable)},{int(e.self_intersecting)}")
+        row = (f"{e.gamma!r},{e.tip['x']!r},{e.tip['y']!r},{e.tip['angle']!r},{e.energy!r},"
+               f"{e.morse_index},{int(e.stable)},{int(e.self_intersecting)}")
+        if units is not None:
+            row += "," + ",".join(repr(v) for v in state_values(e.tip, e.energy, e.gamma, units))
+        lines.append(row)
     return "\n".join(lines) + "\n"
+
+
+def add_units(payload: dict, result, units) -> None:
+    """A physical scene's units in ``equilibria``'s JSON, in place: the top-level ``physical``
+    (units, field and loads) and each equilibrium's ``physical`` (tip, energy_J, gamma per unit)."""
+    if units is None:
+        return
+    from ..unit_results import command_physical, point_physical
+
+    payload["physical"] = command_physical(result.scene, units)
+    for item, e in zip(payload.get("equilibria", []), result.equilibria):
+        item["physical"] = point_physical(e.tip, e.energy, units, e.gamma)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -120,18 +145,23 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = find_equilibria_deflation(scene, options)
     payload = result.to_dict()
+    from ..user_units import user_units
+
+    units = user_units(scene, raw)
+    add_units(payload, result, units)
     written = None
     if args.out is not None:
         from ..viz.landscape import plot_equilibria
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             files = {"equilibria.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "equilibria.csv": _csv(result),
-                     "equilibria.png": png_bytes(plot_equilibria(result), dpi=150)}
+                     "equilibria.csv": _csv(result, units),
+                     "equilibria.png": png_bytes(plot_equilibria(result, units=units), dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
+        from ..unit_results import scene_text, state_text, units_line
         print(f"{result.count} equilibria ({result.stable_count} stable) with theta'(0) in "
               f"[{result.window[0]:.6g}, {result.window[1]:.6g}] ({method}; complete: {result.complete})")
         for e in result.equilibria:
@@ -140,6 +170,11 @@ def run(args: argparse.Namespace) -> int:
                   + ("STABLE" if e.stable else f"unstable (Morse index {e.morse_index})")
                   + ("  [self-intersecting]" if e.self_intersecting else "")
                   + ("" if e.accuracy_problem is None else f"  [INACCURATE: {e.accuracy_problem}]"))
+            if units is not None:
+                print(f"      in the user's units: {state_text(e.tip, e.energy, units, e.gamma)}")
+        if units is not None:
+            given = scene_text(result.scene, units)
+            print(f"  user units: {units_line(units)}" + (f"; {given}" if given else ""))
     if written is not None:
         print_written(written, args.json)
     if result.failures:

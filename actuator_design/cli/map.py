@@ -12,7 +12,14 @@ A hard-magnetic rod (--h-r, --magnetization-deg; THEORY §9) is counted with its
 h_r and magnetization are grid parameters like the others (e.g. --x-param h_r --y-param phi).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
-angles in rad (the --phi-deg and --alpha-deg flags take degrees).
+angles in rad (the --phi-deg and --alpha-deg flags take degrees). --x-range/--y-range accept units
+for parameters with a physical meaning ('10 deg,80 deg'; for a physical scene '2 mT,60 mT',
+'0 mN,1 mN').
+
+A physical scene (`type: physical`) also speaks its own units: lengths in the unit rod.length is
+written in, fields as mu0 H in mT, loads in N, energies in J — the ranges in the text, the JSON's
+`physical` keys beside the dimensionless ones, extra CSV columns (<param>_mT, <param>_N, ...) and
+the figure's axes.
 
 With CONFIG, its `study:` section (type: map; keys x_param, x_range, y_param, y_range, n [nx, ny],
 n_gamma, workers, curves and the scene values h, phi_deg, p, alpha_deg) and then the flags apply.
@@ -28,7 +35,7 @@ from pydantic import Field
 
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
 from .continue_ import PARAM_NAMES, ParamName
-from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene, pair
+from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "MapStudy"]
@@ -64,9 +71,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_scene_args(parser)
     c = parser.add_argument_group("grid")
     c.add_argument("--x-param", choices=PARAM_NAMES, help="x parameter (default h2)")
-    c.add_argument("--x-range", type=pair, metavar="A,B", help="x range (default 0,20)")
+    c.add_argument("--x-range", metavar="A,B",
+                   help="x range (default 0,20); units allowed where the parameter has them, e.g. '10 mT,60 mT'")
     c.add_argument("--y-param", choices=PARAM_NAMES, help="y parameter (default p)")
-    c.add_argument("--y-range", type=pair, metavar="A,B", help="y range (default 0,60)")
+    c.add_argument("--y-range", metavar="A,B",
+                   help="y range (default 0,60); units allowed where the parameter has them, e.g. '0 mN,2 mN'")
     c.add_argument("--n", type=_grid, metavar="N[,NY]", help="grid points per axis (default 50)")
     c.add_argument("--n-gamma", type=int, metavar="N", help="gamma samples per grid point (default 161)")
     c.add_argument("--workers", type=int, metavar="N", help=f"processes (default: all {os.cpu_count()} cores)")
@@ -86,7 +95,13 @@ def run(args: argparse.Namespace) -> int:
     scene, options, raw, study = build_scene(args, MapStudy, "map")
     d = study or MapStudy(type="map")
     xp, yp = args.x_param or d.x_param, args.y_param or d.y_param
-    xr, yr = args.x_range or tuple(d.x_range), args.y_range or tuple(d.y_range)
+    from ..parameters import parameter
+    from ..user_units import pair_from_text, user_units
+
+    units = user_units(scene, raw)
+    with bad_input():
+        xr = pair_from_text(args.x_range, parameter(xp), units, "--x-range") if args.x_range else tuple(d.x_range)
+        yr = pair_from_text(args.y_range, parameter(yp), units, "--y-range") if args.y_range else tuple(d.y_range)
     nx, ny = args.n or tuple(d.n)
     n_gamma = args.n_gamma if args.n_gamma is not None else d.n_gamma
     workers = args.workers if args.workers is not None else d.workers
@@ -127,18 +142,25 @@ def run(args: argparse.Namespace) -> int:
             except RuntimeError as err:
                 print(f"actuator-design: warning: critical curves not computed: {err}", file=sys.stderr)
     payload = {**m.to_dict(), "critical_curves": [c.to_dict() for c in curves]}
+    add_units(payload, m, curves, scene, units)
     written = None
     if args.out is not None:
         from ..viz.landscape import plot_landscape_map
         from ..viz.style import png_bytes
+        from ..viz.units import parameter_axis
         with stdout_to_stderr(args.json):
+            axes = plot_landscape_map(m, curves)
+            for ax in axes:  # fields in mT, loads in N, ...
+                parameter_axis(ax, parameter(xp), units, xp, "x", data_max=xr[1])
+                parameter_axis(ax, parameter(yp), units, yp, "y", data_max=yr[1])
             files = {"map.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
-                     "map.csv": m.csv_text(),
-                     "map.png": png_bytes(plot_landscape_map(m, curves)[0], dpi=150)}
+                     "map.csv": _csv(m, units),
+                     "map.png": png_bytes(axes[0], dpi=150)}
         written = write_out(args.out, files, args.json)
     if args.json:
         print(dumps_json(payload))
     else:
+        _in = _in_units(units)
         vals, freq = np.unique(m.counts, return_counts=True)
         print(f"{ny} x {nx} grid of ({xp}, {yp}) in {m.stats['time_s']:.2f} s: "
               + ", ".join(f"{f} points with {v} equilibria" for v, f in zip(vals, freq) if v >= 0))
@@ -149,8 +171,76 @@ def run(args: argparse.Namespace) -> int:
             print(f"  unknown: {int(np.sum(~m.complete))} points where the shooting scan cannot be "
                   f"trusted (counted -1)")
         for c in curves:
-            print(f"  fold curve of {yp}: {yp} = {c.lam[0]:.8g} at {xp} = {c.mu[0]:.6g} ... "
-                  f"{c.lam[-1]:.8g} at {xp} = {c.mu[-1]:.6g}")
+            print(f"  fold curve of {yp}: {yp} = {c.lam[0]:.8g}{_in(yp, c.lam[0])} at {xp} = "
+                  f"{c.mu[0]:.6g}{_in(xp, c.mu[0])} ... {c.lam[-1]:.8g}{_in(yp, c.lam[-1])} at {xp} = "
+                  f"{c.mu[-1]:.6g}{_in(xp, c.mu[-1])}")
+        if units is not None:
+            from ..unit_results import physical_header, units_line
+            print(f"  user units: {units_line(units)}; {xp} in [{xr[0]:g}, {xr[1]:g}]{_in(xp, xr[0], xr[1])}, "
+                  f"{yp} in [{yr[0]:g}, {yr[1]:g}]{_in(yp, yr[0], yr[1])}")
+            for note in physical_header(units, [xp, yp])["notes"]:
+                print(f"  note: {note}")
     if written is not None:
         print_written(written, args.json)
     return EXIT_OK
+
+
+def _in_units(units):
+    """``_in(name, *values)``: `` (25 mT)`` / `` (10 to 60 mT)`` of lens-parameter values in their
+    unit on a physical scene, else ``""``."""
+    def _in(name, *values):
+        if units is None:
+            return ""
+        from ..display import number
+        from ..unit_results import parameter_conversion, values_in_unit
+        conv = values_in_unit(name, values, units)
+        if conv is None:
+            return ""
+        unit = parameter_conversion(name, units)[0]
+        return " (" + " to ".join(number(v, ".6g") for v in conv[1]) + f" {unit})"
+    return _in
+
+
+def _csv(m, units=None) -> str:
+    """``map.csv``: the map's long-format CSV; a physical scene adds each parameter in its unit."""
+    text = m.csv_text()
+    if units is None:
+        return text
+    from ..unit_results import column_note, values_in_unit
+
+    conv = [(name, values_in_unit(name, vals, units)) for name, vals in ((m.x_param, m.x), (m.y_param, m.y))]
+    conv = [(name, c) for name, c in conv if c is not None]
+    if not conv:
+        return text
+    comment, header, *rows = text.splitlines()
+    comment += "; " + "; ".join(column_note(name, units) for name, _c in conv)
+    header += "".join(f",{name}_{c[0]}" for name, c in conv)
+    nx = len(m.x)
+    out = [comment, header]
+    for k, row in enumerate(rows):  # rows run over x fastest, then y
+        i, j = divmod(k, nx)
+        vals = [c[1][j] if name == m.x_param else c[1][i] for name, c in conv]
+        out.append(row + "".join("," + repr(float(v)) for v in vals))
+    return "\n".join(out) + "\n"
+
+
+def add_units(payload: dict, m, curves, scene, units) -> None:
+    """A physical scene's units in ``map``'s JSON, in place: the top-level ``physical`` with
+    ``x_<unit>``/``y_<unit>`` (the grid in each parameter's unit, where it has one) and each
+    critical curve's points in those units."""
+    if units is None:
+        return
+    from ..unit_results import command_physical, values_in_unit
+
+    phys = command_physical(scene, units, [m.x_param, m.y_param])
+    for axis, name, vals in (("x", m.x_param, m.x), ("y", m.y_param, m.y)):
+        conv = values_in_unit(name, vals, units)
+        if conv is not None:
+            phys[f"{axis}_{conv[0]}"] = conv[1]
+    payload["physical"] = phys
+    for cd in payload.get("critical_curves", []):
+        for pt in cd["points"]:
+            for name in (cd["param"], cd["second"]):
+                conv = values_in_unit(name, [pt[name]], units)
+                if conv is not None:
+                    pt[f"{name}_{conv[0]}"] = conv[1][0]

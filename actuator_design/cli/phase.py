@@ -14,6 +14,11 @@ Units: lengths (tip x, y) in rod lengths l, energies in B0/l, loads in B0/l^2 (m
 theta' in rad per rod length; field and fibre angles in degrees on the command line, theta (and
 the --theta-range window) in radians.
 
+A physical scene (`type: physical`) also speaks its own units: lengths in the unit rod.length is
+written in, fields as mu0 H in mT, loads in N, energies in J, H in J/m — a text line per state, the JSON's
+`physical` keys beside the dimensionless ones, extra CSV columns (s_<unit>, dtheta_rad_per_<unit>) and
+the figure's axes.
+
 JSON (--json): groups, trajectories (theta, dtheta, level, spread of H, stable, morse_index,
 tip_angle, energy, gamma), theta/dtheta ranges. --out DIR writes phase.json, trajectories.csv and
 phase.png. Exit codes: 0 success, 2 bad input (e.g. a scene whose equation is not autonomous).
@@ -98,19 +103,41 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         portrait = phase_portrait(scene, None, options, theta_range=th_rng, dtheta_range=dth_rng)
     data = portrait.to_dict()
+    from ..user_units import user_units
+
+    units = user_units(scene, raw)
+    add_units(data, portrait, units)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _render(portrait, data, raw), args.json)
+        written = write_out(args.out, _render(portrait, data, raw, units), args.json)
     if args.json:
         print(dumps_json(data))
     else:
-        print(_summary(portrait))
+        print(_summary(portrait, units))
     if written is not None:
         print_written(written, args.json)
     return EXIT_OK
 
 
-def _summary(portrait) -> str:
+def add_units(data: dict, portrait, units) -> None:
+    """A physical scene's units in ``phase``'s JSON, in place: the top-level ``physical`` and each
+    trajectory's ``physical``: energy_J, gamma and dtheta in rad per length unit, the level of H
+    in J/m (H is an energy per length, B0/ℓ²)."""
+    if units is None:
+        return
+    from ..unit_results import command_physical, curvature_per_unit
+
+    u = units.length_unit
+    data["physical"] = command_physical(portrait.scene, units)
+    data["physical"]["units"].update({f"dtheta_rad_per_{u}": f"rad/{u}", "level_J_per_m": "J/m"})
+    for item, t in zip(data["trajectories"], portrait.trajectories):
+        item["physical"] = {"energy_J": float(t.energy) * units.moment_scale,
+                            f"gamma_rad_per_{u}": curvature_per_unit(t.gamma, units),
+                            "level_J_per_m": float(t.level) * units.force_scale,
+                            f"dtheta_rad_per_{u}": [curvature_per_unit(v, units) for v in t.dtheta]}
+
+
+def _summary(portrait, units=None) -> str:
     sc = portrait.scene
     lines = [f"phase portrait: h = {sc.h:.6g}, phi = {math.degrees(sc.phi):.6g} deg, p = {sc.p:.6g}: "
              f"{len(portrait.trajectories)} equilibria "
@@ -120,23 +147,44 @@ def _summary(portrait) -> str:
                      f"H = {t.level:.8g} (spread {t.spread:.1e}), "
                      + ("stable" if t.stable else f"unstable (Morse index {t.morse_index})")
                      + (", self-intersecting" if t.self_intersecting else ""))
+        if units is not None:
+            from ..display import number
+            from ..unit_results import curvature_per_unit
+            u = units.length_unit
+            lines.append(f"      in the user's units: gamma = {number(curvature_per_unit(t.gamma, units), '.6g', 1e-12)} "
+                         f"rad/{u}, energy = {number(t.energy * units.moment_scale, '.6g', 1e-12 * units.moment_scale)} J, "
+                         f"H = {number(t.level * units.force_scale, '.6g', 1e-12 * units.force_scale)} J/m")
+    if units is not None:
+        from ..unit_results import scene_text, units_line
+        given = scene_text(sc, units)
+        lines.append(f"  user units: {units_line(units)}" + (f"; {given}" if given else ""))
     for n in portrait.notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)
 
 
-def _render(portrait, data, raw):
+def _render(portrait, data, raw, units=None):
     from ..io import dumps_json
     from ..viz.phase import phase_figure
     from ..viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
-    rows = [[i, j, float(th), float(dth)] for i, t in enumerate(portrait.trajectories)
-            for j, (th, dth) in enumerate(zip(t.theta, t.dtheta))]
-    png = png_bytes(phase_figure(portrait), dpi=150)
+    cols = ["equilibrium", "point", "theta", "dtheta"]
+    note = "units: theta in rad, dtheta in rad per rod length; s = point/(n-1) along each equilibrium"
+    rows = []
+    for i, t in enumerate(portrait.trajectories):
+        n = len(t.theta)
+        for j, (th, dth) in enumerate(zip(t.theta, t.dtheta)):
+            row = [i, j, float(th), float(dth)]
+            if units is not None:  # s and θ' in the user's length unit
+                row += [units.length(j / max(n - 1, 1)), float(dth) / units.length(1.0)]
+            rows.append(row)
+    if units is not None:
+        u = units.length_unit
+        cols += [f"s_{u}", f"dtheta_rad_per_{u}"]
+        note += f"; s_{u} in {u} (the unit of rod.length), dtheta_rad_per_{u} in rad/{u}"
+    png = png_bytes(phase_figure(portrait, units=units), dpi=150)
     return {"phase.json": dumps_json(payload, indent=1) + "\n",
-            "trajectories.csv": csv_text(["equilibrium", "point", "theta", "dtheta"], rows,
-                                         "units: theta in rad, dtheta in rad per rod length; "
-                                         "s = point/(n-1) along each equilibrium"),
+            "trajectories.csv": csv_text(cols, rows, note),
             "phase.png": png}

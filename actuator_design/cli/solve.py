@@ -6,7 +6,11 @@ clamped at the origin along x, in a uniform field at angle phi with a vertical t
 defaults h = 1.0, phi = 45 deg, p = 0, alpha = 0 deg. With CONFIG the flags override its values.
 
 Units: lengths in rod lengths l, energies in B0/l, forces in B0/l^2, moments in B0/l; angles are
-given in degrees on the command line and reported in radians.
+given in degrees on the command line and reported in radians. A physical scene also reports the
+user's units: lengths in the unit rod.length is written in, the field as mu0 H in mT, forces in N,
+moments in N m, energies in J — two text lines, keys added to the JSON's 'physical' (tip_x_<unit>,
+tip_y_<unit>, shape_<unit>, field_mT, tip_force_N, ...), shape.csv columns s_<unit>, x_<unit>,
+y_<unit>, dtheta_rad_per_<unit> and shape.png's axes, field and load in them.
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ import sys
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, nonnegative_float,
                      stdout_to_stderr)
+from ..display import number
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "build_inputs"]
@@ -148,13 +153,23 @@ def run(args: argparse.Namespace) -> int:
 
     with stdout_to_stderr(args.json):
         result = solve(scene, options)
+    from ..user_units import user_units
+
+    units = user_units(scene, raw)
+    payload = result.to_dict()
+    add_physical(payload, result, units)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _output_files(result, raw), args.json, what="results ")
+        written = write_out(args.out, _output_files(result, raw, units, payload), args.json,
+                            what="results ")
     if args.json:
-        print(dumps_json(result.to_dict()))
+        print(dumps_json(payload))
     else:
-        print(result.summary())
+        lines = physical_lines(result, units)
+        summary = result.summary().splitlines()
+        if lines:  # the user's units in place of the summary's line in mm
+            summary = [ln for ln in summary if not ln.startswith("  physical    :")] + lines
+        print("\n".join(summary))
     if written is not None:
         print_written(written, args.json)
     if not result.success:
@@ -167,13 +182,64 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _output_files(result, raw) -> dict:
-    """``result.json``, ``shape.csv`` and ``shape.png`` of ``--out``, in memory."""
+def _output_files(result, raw, units=None, payload=None) -> dict:
+    """``result.json``, ``shape.csv`` and ``shape.png`` of ``--out``, in memory (a physical scene's
+    ``units``: the shape also in the user's units, the figure drawn in them)."""
     from ..io import result_files
     from ..viz.shape import shape_figure
     from ..viz.style import png_bytes
 
-    return dict(result_files(result, raw), **{"shape.png": png_bytes(shape_figure(result), dpi=150)})
+    return dict(result_files(result, raw, units, payload),
+                **{"shape.png": png_bytes(shape_figure(result, units=units), dpi=150)})
+
+
+def add_physical(payload: dict, result, units) -> None:
+    """Add the user's units to ``solve --json``'s ``physical`` in place (no key renamed, removed or
+    changed; nothing for a dimensionless scene): ``length_unit``, ``tip_x_<unit>``,
+    ``tip_y_<unit>``, ``shape_<unit>`` {s, x, y} at the nodes, ``gamma_rad_per_<unit>`` (θ'(0)),
+    the scene's ``field_mT`` (μ0 H of h), ``tip_force_N``, ``tip_moment_N_m``,
+    ``distributed_load_N_per_m`` (those it has) and ``units``."""
+    if units is None or not isinstance(payload.get("physical"), dict):
+        return
+    from ..unit_results import curvature_per_unit, scene_physical
+
+    u = units.length_unit
+    added = {"length_unit": u, f"tip_x_{u}": units.length(result.tip["x"]),
+             f"tip_y_{u}": units.length(result.tip["y"]),
+             f"shape_{u}": {"s": [units.length(v) for v in result.s],
+                            "x": [units.length(v) for v in result.x],
+                            "y": [units.length(v) for v in result.y]},
+             f"gamma_rad_per_{u}": curvature_per_unit(result.gamma, units),
+             **scene_physical(result.scene, units)}
+    added["units"] = {k: v for k, v in {
+        f"tip_x_{u}": u, f"tip_y_{u}": u, f"shape_{u}": u, f"gamma_rad_per_{u}": f"rad/{u}",
+        "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m", "tip_force_N": "N",
+        "tip_moment_N_m": "N m", "distributed_load_N_per_m": "N/m", "energy_J": "J",
+        "clamp_force_N": "N", "clamp_moment_Nm": "N m", "tip_x_m": "m", "tip_y_m": "m"}.items()
+        if k in added or k in payload["physical"]}
+    payload["physical"] = {**added, **payload["physical"]}  # the SI keys as they were
+
+
+def physical_lines(result, units) -> list:
+    """The text lines in the user's units (empty for a dimensionless scene): the tip, the field and
+    loads, the energy and the clamp reactions, then which units they are in. Replaces the summary's
+    ``physical`` line, which is in mm whatever the scene's unit."""
+    if units is None:
+        return []
+    from ..unit_results import length_text, scene_text, units_line
+
+    u = units.length_unit
+    noise = 1e-12  # round-off of a zero, in the dimensionless unit of each quantity
+    fx, fy = (number(float(v) * units.force_scale, ".4g", noise * units.force_scale)
+              for v in result.clamp_force)
+    given = scene_text(result.scene, units)
+    return [f"  physical    : tip = ({length_text(units.length(result.tip['x']), units)}, "
+            f"{length_text(units.length(result.tip['y']), units)}) {u}"
+            + (f", {given}" if given else "")
+            + f", energy = {number(result.energy * units.moment_scale, '.6g', noise * units.moment_scale)} J"
+            f", clamp force = ({fx}, {fy}) N, clamp moment = "
+            f"{number(result.clamp_moment * units.moment_scale, '.4g', noise * units.moment_scale)} N m",
+            f"  user units  : {units_line(units)}"]
 
 
 def _rad(deg):

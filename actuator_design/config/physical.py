@@ -187,6 +187,7 @@ class _Derived:
     h0: float
     h_per_field: float
     magnetics: Optional[MagneticSummary] = None
+    h_r_per_field: float = 0.0
 
 
 class PhysicalScene(StrictModel):
@@ -224,7 +225,7 @@ class PhysicalScene(StrictModel):
         rod = self.rod
         length, area, b0 = rod.length, rod.cross_section_area, rod.clamp_stiffness
         values, sources = {}, {}
-        h0 = h_per_field = 0.0
+        h0 = h_per_field = h_r_per_field = 0.0
         summary = None
         if self.field is not None:
             _, h0 = self.field.to_field(length)
@@ -241,6 +242,7 @@ class PhysicalScene(StrictModel):
             h_per_field = magnetic_group(chi_bar, 1.0, area, length, b0)  # h is proportional to H0
             if summary.remanence is not None:
                 values["h_r"] = remanent_group(summary.remanence, h0, area, length, b0)
+                h_r_per_field = remanent_group(summary.remanence, 1.0, area, length, b0)  # h_r ∝ H0
                 sources["h_r"] = rod.sources() + field_src + [
                     f"magnetics remanence M_r = {summary.remanence:g} A/m"]
         loads = self.loads or Loads()
@@ -260,7 +262,7 @@ class PhysicalScene(StrictModel):
                 values["qx"], values["qy"] = float(q[0] * line), float(q[1] * line)
                 given = "loads.weight" if loads.weight is not None else "loads.distributed"
                 sources["qx"] = sources["qy"] = rod.sources() + [f"{given} = ({q[0]:g}, {q[1]:g}) N/m"]
-        return _Derived(values, sources, float(h0), float(h_per_field), summary)
+        return _Derived(values, sources, float(h0), float(h_per_field), summary, float(h_r_per_field))
 
     def magnetics_summary(self) -> Optional[MagneticSummary]:
         """The magnetic numbers and their reasons (:meth:`.magnetic_specs.Magnetics.resolve`)."""
@@ -289,7 +291,8 @@ class PhysicalScene(StrictModel):
             tip_moment=v.get("tip_moment"),
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
-            scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field),
+            scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field,
+                          h_r_per_field=d.h_r_per_field if hard else 0.0),
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
             fibres_physical=not self._isotropic_particles())
 

@@ -23,17 +23,23 @@ from .style import new_axes
 __all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity", "plot_landscape_map"]
 
 
-def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200):
+def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200, units=None):
     """Draw every equilibrium of an :class:`~actuator_design.analysis.equilibria.EquilibriaResult`.
 
     Stable shapes solid, unstable dashed; the legend gives θ'(0), the Morse index and flags
-    self-intersecting shapes.
+    self-intersecting shapes. With a physical scene's ``units``
+    (:class:`~actuator_design.user_units.UserUnits`) the axes are in the length unit of
+    ``rod.length``, θ'(0) in rad per that unit and the title gives the field in mT and loads in N.
     """
+    from .units import groups_text, length_axes
+
     ax = ax or new_axes()
     s = np.linspace(0.0, 1.0, points)
     for k, e in enumerate(result.equilibria):
         d = e.result.evaluate(s)
-        label = (f"γ = {e.gamma:.4g}, " + ("stable" if e.stable else f"index {e.morse_index}")
+        gamma = (f"γ = {e.gamma:.4g}" if units is None else
+                 f"γ = {e.gamma / units.length(1.0):.4g} rad/{units.length_unit}")
+        label = (f"{gamma}, " + ("stable" if e.stable else f"index {e.morse_index}")
                  + (", self-intersecting" if e.self_intersecting else ""))
         ax.plot(d["x"], d["y"], lw=2.2 if e.stable else 1.4, ls="-" if e.stable else "--",
                 color=f"C{k % 10}", label=label)
@@ -43,10 +49,9 @@ def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
-    g = result.scene.describe_groups()
-    ax.set_title(title or (f"{result.count} equilibria ({result.stable_count} stable): h = {g.get('h', 0):.4g}, "
-                           f"φ = {math.degrees(g.get('phi', 0.0)):.4g}°, p = {g.get('p', 0.0):.4g}"),
-                 fontsize=10)
+    length_axes(ax, units)
+    ax.set_title(title or (f"{result.count} equilibria ({result.stable_count} stable): "
+                           + groups_text(result.scene, units)), fontsize=10)
     ax.legend(fontsize=7, loc="best")
     return ax
 

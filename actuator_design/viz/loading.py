@@ -105,7 +105,7 @@ def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None
     """Energy in J; the ramped parameter (``xlabel`` given: in its own unit) in mT, N, N m or N/m."""
     from ..parameters import parameter
     from ..user_units import parameter_unit_label
-    from .units import field_axis, scaled_axis
+    from .units import parameter_axis, scaled_axis
 
     ax_a, ax_e = axes
     scaled_axis(ax_e.yaxis, units.moment_scale, "energy / J")
@@ -116,24 +116,9 @@ def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None
     except ValueError:
         return
     label = parameter_unit_label(p, units)
+    hi = max((pt.param for pt in path.points), default=0.0)
     for ax in axes:
-        if p.field_magnitude and label is None:  # χ̄ = 0: no field conversion
-            ax.set_xlabel(f"{xlabel} (dimensionless: this scene has no field scale)")
-        elif label == "mT" and p.transform == "sqrt":  # h2 = h²: mT ∝ √h2, a second axis
-            c = units.field_mT(1.0)
-            ax.set_xlim(left=0.0)  # h2 ≥ 0: no margin where √h2 is undefined
-            sec = ax.secondary_xaxis("top", functions=(lambda v: c * np.sqrt(np.maximum(v, 0.0)),
-                                                       lambda b: (np.asarray(b) / c) ** 2))
-            sec.set_xlabel("field μ0H / mT")
-            hi = max((pt.param for pt in path.points), default=0.0)
-            if hi > 0:  # round fields at evenly spaced h2 (√ crowds evenly spaced mT near 0)
-                sec.set_xticks(sorted({float(f"{c * np.sqrt(v):.2g}") for v in np.linspace(0.0, hi, 5)}))
-            ax.set_xlabel(f"{xlabel} (dimensionless; field μ0H / mT on top)")
-        elif label == "mT":
-            field_axis(ax.xaxis, units)
-        elif label is not None:
-            from ..user_units import parameter_physical
-            scaled_axis(ax.xaxis, parameter_physical(p, 1.0, units), f"{xlabel} / {label}")
+        parameter_axis(ax, p, units, xlabel, "x", data_max=hi)
     hy = path.hysteresis
     if retitle and label is not None and p.transform != "sqrt" and hy.get("loops"):
         from ..user_units import parameter_physical

@@ -15,17 +15,22 @@ from .style import new_figure
 __all__ = ["plot_phase", "phase_figure"]
 
 
-def _title(portrait) -> str:
+def _title(portrait, units=None) -> str:
+    from .units import groups_text
+
     sc = portrait.scene
-    parts = [f"h = {sc.h:.4g}", f"φ = {math.degrees(sc.phi):.4g}°", f"p = {sc.p:.4g}"]
+    parts = [groups_text(sc, units)]
     if sc.fibres.value:
         parts.append(f"α = {math.degrees(sc.fibres.value):.4g}°")
     n, ns = len(portrait.trajectories), sum(t.stable for t in portrait.trajectories)
     return ", ".join(parts) + f" — {n} equilibria ({ns} stable)"
 
 
-def plot_phase(portrait, ax=None, title: str = None, legend: bool = True):
-    """Draw one phase portrait into ``ax`` (a new Agg figure when omitted); returns the axes."""
+def plot_phase(portrait, ax=None, title: str = None, legend: bool = True, units=None):
+    """Draw one phase portrait into ``ax`` (a new Agg figure when omitted); returns the axes.
+
+    With a physical scene's ``units`` (:class:`~actuator_design.user_units.UserUnits`) θ' is ticked
+    in rad per the length unit of ``rod.length`` and the title gives the field in mT, loads in N."""
     if ax is None:
         fig, axes = _figure(1)
         ax = axes[0]
@@ -44,7 +49,10 @@ def plot_phase(portrait, ax=None, title: str = None, legend: bool = True):
     ax.set_ylim(portrait.dtheta[0], portrait.dtheta[-1])
     ax.set_xlabel("θ [rad]")
     ax.set_ylabel("θ' = κ [rad/l]")
-    ax.set_title(title or _title(portrait), fontsize=9)
+    if units is not None:
+        from .units import scaled_axis
+        scaled_axis(ax.yaxis, 1.0 / units.length(1.0), f"θ' = κ [rad/{units.length_unit}]")
+    ax.set_title(title or _title(portrait, units), fontsize=9)
     if legend and portrait.trajectories:
         ax.legend(loc="upper right", fontsize=7, framealpha=0.85)
     return ax
@@ -58,8 +66,9 @@ def _figure(n):
     return fig, np.atleast_1d(fig.subplots(nrows, ncols)).ravel()
 
 
-def phase_figure(portraits, titles=None):
-    """A figure with one panel per portrait (a single portrait or a list).
+def phase_figure(portraits, titles=None, units=None):
+    """A figure with one panel per portrait (a single portrait or a list); ``units``: see
+    :func:`plot_phase`.
 
     Returns
     -------
@@ -69,7 +78,7 @@ def phase_figure(portraits, titles=None):
         portraits = [portraits]
     fig, axes = _figure(len(portraits))
     for i, p in enumerate(portraits):
-        plot_phase(p, ax=axes[i], title=None if titles is None else titles[i])
+        plot_phase(p, ax=axes[i], title=None if titles is None else titles[i], units=units)
     for ax in axes[len(portraits):]:
         ax.set_visible(False)
     return fig

@@ -1,8 +1,10 @@
 """The shape of one equilibrium: pure drawing, never solves.
 
 :func:`plot_shape` draws the deformed rod, the undeformed rod, the clamp, the applied field and the
-tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l);
-:func:`shape_figure` is the figure of ``solve --out`` (``shape.png``).
+tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l),
+or, given a physical scene's user units, with axes in the unit of ``rod.length``, the field as
+μ0 H in mT and the tip force in N; :func:`shape_figure` is the figure of ``solve --out``
+(``shape.png``).
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ DENSE_POINTS = 300
 SHAPE_FIGSIZE = (6.4, 5.6)
 
 
-def plot_shape(result, ax=None, title=None):
+def plot_shape(result, ax=None, title=None, units=None):
     """Draw an equilibrium: rod, undeformed rod, clamp, field and tip force.
 
     Parameters
@@ -33,6 +35,9 @@ def plot_shape(result, ax=None, title=None):
         Axes to draw into; a new Agg figure is made when omitted.
     title : str, optional
         Title; default: h, φ (deg), p and the stability verdict.
+    units : actuator_design.user_units.UserUnits, optional
+        A physical scene's units: axes ticked in the length unit of ``rod.length``, the field as
+        μ0 H in mT and the tip force in N (in the labels and the default title).
 
     Returns
     -------
@@ -48,42 +53,45 @@ def plot_shape(result, ax=None, title=None):
     ux, uy = s * math.cos(t0), s * math.sin(t0)
     window = _window(np.r_[x, ux, 0.0], np.r_[y, uy, 0.0], scene.field)
 
-    _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy])
+    _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy], units)
     ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
     ax.plot(x, y, color="C0", lw=2.6, label="deformed", zorder=4)
     _draw_clamp(ax, t0)
-    _draw_tip_force(ax, scene, result.tip, window)
+    _draw_tip_force(ax, scene, result.tip, window, units)
 
     ax.set_xlim(window[0], window[1])
     ax.set_ylim(window[2], window[3])
     ax.set_aspect("equal")
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
-    ax.set_title(_default_title(result) if title is None else title, fontsize=10)
+    from .units import length_axes
+    length_axes(ax, units)
+    ax.set_title(_default_title(result, units) if title is None else title, fontsize=10)
     ax.legend(loc="best", fontsize=8, framealpha=0.85)
     return ax
 
 
-def shape_figure(result, title=None):
-    """A new figure holding :func:`plot_shape` of ``result``.
+def shape_figure(result, title=None, units=None):
+    """A new figure holding :func:`plot_shape` of ``result`` (``units``: see there).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    return plot_shape(result, title=title).figure
+    return plot_shape(result, title=title, units=units).figure
 
 
 # -- pieces ---------------------------------------------------------------------------------------
-def _default_title(result) -> str:
+def _default_title(result, units=None) -> str:
     scene = result.scene
     from ..scene import UniformField
-    parts = [f"h = {scene.h:.4g}"]
+    from .units import field_text, load_text
+    parts = [field_text(scene.h, units)]
     if isinstance(scene.field, UniformField):
         parts.append(f"φ = {math.degrees(scene.field.phi):.4g}°")
     elif scene.field is not None:
         parts.append(f"{scene.field.kind} field")
-    parts.append(f"p = {scene.p:.4g}")
+    parts.append(load_text(scene.p, units))
     verdict = "stable" if result.stable else f"unstable (Morse index {result.morse_index})"
     if not result.success:
         verdict = "NOT CONVERGED, " + verdict
@@ -116,15 +124,15 @@ def _draw_clamp(ax, t0: float) -> None:
     ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=2.2, zorder=3)
 
 
-def _draw_field(ax, scene, window, xs, ys) -> None:
+def _draw_field(ax, scene, window, xs, ys, units=None) -> None:
     from ..scene import DipoleField, UniformField
     field = scene.field
     if field is None:
         return
     if isinstance(field, UniformField):
-        _draw_uniform(ax, field.phi, scene.h, window, xs, ys)
+        _draw_uniform(ax, field.phi, scene.h, window, xs, ys, units)
         return
-    _draw_streamlines(ax, field, scene.h, window)
+    _draw_streamlines(ax, field, scene.h, window, units)
     if isinstance(field, DipoleField):
         ax.plot([field.x0], [field.y0], marker="o", ms=9, color="C3", zorder=5, ls="none",
                 label="dipole")
@@ -133,7 +141,7 @@ def _draw_field(ax, scene, window, xs, ys) -> None:
                     arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8), zorder=6)
 
 
-def _draw_uniform(ax, phi: float, h: float, window, xs, ys) -> None:
+def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None) -> None:
     """Three parallel arrows in direction φ, labelled with h, in the corner farthest from the rod."""
     x0, x1, y0, y1 = window
     w = x1 - x0
@@ -149,11 +157,12 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys) -> None:
         c = centre + 0.45 * size * k * n
         ax.annotate("", xy=c + size * e, xytext=c - size * e,
                     arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.6), zorder=5)
-    ax.text(centre[0], centre[1] - 1.25 * size, f"field: h = {h:.4g}, φ = {math.degrees(phi):.4g}°",
+    from .units import field_text
+    ax.text(centre[0], centre[1] - 1.25 * size, f"field: {field_text(h, units)}, φ = {math.degrees(phi):.4g}°",
             color="C2", ha="center", va="top", fontsize=8, zorder=5)
 
 
-def _draw_streamlines(ax, field, h: float, window, n: int = 41) -> None:
+def _draw_streamlines(ax, field, h: float, window, units=None, n: int = 41) -> None:
     """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
     from ..physics.fields import field_model
     from ..scene import DipoleField
@@ -176,10 +185,11 @@ def _draw_streamlines(ax, field, h: float, window, n: int = 41) -> None:
     if np.all(bad):
         return
     ax.streamplot(gx, gy, U, V, color="C2", linewidth=0.7, density=1.1, arrowsize=0.8, zorder=1)
-    ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, h = {h:.4g})")
+    from .units import field_text
+    ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, {field_text(h, units)})")
 
 
-def _draw_tip_force(ax, scene, tip, window) -> None:
+def _draw_tip_force(ax, scene, tip, window, units=None) -> None:
     """An arrow of fixed length at the tip in the direction of the tip force, labelled."""
     f = scene.tip_force
     if f is None:
@@ -193,6 +203,10 @@ def _draw_tip_force(ax, scene, tip, window) -> None:
     e = np.array([fx, fy]) / mag
     ax.annotate("", xy=(tx + L * e[0], ty + L * e[1]), xytext=(tx, ty),
                 arrowprops=dict(arrowstyle="-|>", color="C3", lw=2.0), zorder=6)
-    label = f"p = {fy:.4g}" if fx == 0.0 else f"f = ({fx:.4g}, {fy:.4g})"
-    ax.text(tx + 1.15 * L * e[0], ty + 1.15 * L * e[1], label + " B0/l²", color="C3", fontsize=8,
+    if units is not None:  # in N
+        k = units.force_scale
+        label = (f"p = {fy * k:.4g}" if fx == 0.0 else f"f = ({fx * k:.4g}, {fy * k:.4g})") + " N"
+    else:
+        label = (f"p = {fy:.4g}" if fx == 0.0 else f"f = ({fx:.4g}, {fy:.4g})") + " B0/l²"
+    ax.text(tx + 1.15 * L * e[0], ty + 1.15 * L * e[1], label, color="C3", fontsize=8,
             ha="left" if e[0] >= 0 else "right", va="bottom" if e[1] >= 0 else "top", zorder=6)
