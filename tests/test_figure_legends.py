@@ -38,3 +38,28 @@ def test_the_bistable_legend_entry_is_hatched_like_the_region():
     legend = axes[1].get_legend()
     entry = [h for h, t in zip(legend.legend_handles, legend.get_texts()) if t.get_text().startswith("bistable")]
     assert len(entry) == 1 and entry[0].get_hatch() == "//"
+
+
+def test_the_shape_draws_the_field_at_the_angle_the_text_reports():
+    """A design's text reports the angle the schedule leaves the field at (153.8°) while its state
+    holds the same axis the other way (-26.2°; the soft-magnetic energy is even in ĥ, THEORY §5):
+    the figure draws and labels the reported angle and names the other, and the arrows point along it."""
+    import math
+
+    import pytest
+
+    from actuator_design.equilibrium import solve
+    from actuator_design.viz.shape import plot_shape
+
+    phi = math.radians(-26.2419)
+    res = solve(default_scene(h=2.0, phi=phi))
+    ax = plot_shape(res, field_angle=phi + math.pi)
+    (label,) = [t.get_text() for t in ax.texts if t.get_text().startswith("field:")]
+    assert "φ = 153.8°" in label and "the same axis as −26.24°" in label.replace("-", "−")
+    arrows = [a for a in ax.texts if getattr(a, "arrow_patch", None) is not None and a.get_text() == ""]
+    d = np.subtract(arrows[0].xy, arrows[0].xyann)
+    assert math.atan2(d[1], d[0]) == pytest.approx(phi + math.pi, abs=1e-9)
+    # without the override (or with the scene's own angle) the scene's angle is drawn, no note
+    ax = plot_shape(res, field_angle=phi)
+    (label,) = [t.get_text() for t in ax.texts if t.get_text().startswith("field:")]
+    assert "φ = -26.24°" in label and "same axis" not in label

@@ -47,7 +47,8 @@ def design_figure(result, units=None):
                "verified, stable, snap-free" if result.success else
                "reachable, NOT verified" if result.reachable else "UNREACHABLE: nearest pose shown")
     if state is not None and state.success:
-        plot_shape(state, ax=ax_shape, title=f"design — {verdict}")
+        end_phi = result.schedule[-1].get("phi") if getattr(result, "schedule", None) else None
+        plot_shape(state, ax=ax_shape, title=f"design — {verdict}", field_angle=end_phi)
     else:
         ax_shape.set_title(f"design — {verdict} (no verified state)")
     if result.target:  # a stiffness-only design has no target pose

@@ -24,7 +24,7 @@ DENSE_POINTS = 300
 SHAPE_FIGSIZE = (6.4, 5.6)
 
 
-def plot_shape(result, ax=None, title=None, units=None):
+def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
     """Draw an equilibrium: rod, undeformed rod, clamp, field and tip force.
 
     Parameters
@@ -38,6 +38,11 @@ def plot_shape(result, ax=None, title=None, units=None):
     units : actuator_design.user_units.UserUnits, optional
         A physical scene's units: axes ticked in the length unit of ``rod.length``, the field as
         μ0 H in mT and the tip force in N (in the labels and the default title).
+    field_angle : float, optional
+        The angle (rad) to draw a uniform field at, when the user set the field along the same
+        axis the other way round (a soft-magnetic rod's energy is the same for φ and φ + π,
+        THEORY §5): the figure then shows the angle the text reports, and that the scene's angle
+        is the same axis.
 
     Returns
     -------
@@ -53,7 +58,7 @@ def plot_shape(result, ax=None, title=None, units=None):
     ux, uy = s * math.cos(t0), s * math.sin(t0)
     window = _window(np.r_[x, ux, 0.0], np.r_[y, uy, 0.0], scene.field)
 
-    _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy], units)
+    _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy], units, field_angle)
     ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
     ax.plot(x, y, color="C0", lw=2.6, label="deformed", zorder=4)
     _draw_clamp(ax, t0)
@@ -124,13 +129,19 @@ def _draw_clamp(ax, t0: float) -> None:
     ax.plot([a[0], b[0]], [a[1], b[1]], color="k", lw=2.2, zorder=3)
 
 
-def _draw_field(ax, scene, window, xs, ys, units=None) -> None:
+def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None:
     from ..scene import DipoleField, UniformField
     field = scene.field
     if field is None:
         return
     if isinstance(field, UniformField):
-        _draw_uniform(ax, field.phi, scene.h, window, xs, ys, units)
+        same_axis = None
+        if field_angle is not None and abs(math.remainder(field_angle - field.phi, math.pi)) < 1e-9:
+            same_axis, phi = (field.phi if abs(math.remainder(field_angle - field.phi, 2 * math.pi)) > 1e-9
+                              else None), field_angle
+        else:
+            phi = field.phi
+        _draw_uniform(ax, phi, scene.h, window, xs, ys, units, same_axis)
         return
     _draw_streamlines(ax, field, scene.h, window, units)
     if isinstance(field, DipoleField):
@@ -141,8 +152,9 @@ def _draw_field(ax, scene, window, xs, ys, units=None) -> None:
                     arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8), zorder=6)
 
 
-def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None) -> None:
-    """Three parallel arrows in direction φ, labelled with h, in the corner farthest from the rod."""
+def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axis=None) -> None:
+    """Three parallel arrows in direction φ, labelled with h, in the corner farthest from the rod
+    (``same_axis``: the scene's own angle, the same field axis, named in the label)."""
     x0, x1, y0, y1 = window
     w = x1 - x0
     e = np.array([math.cos(phi), math.sin(phi)])
@@ -157,8 +169,11 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None) -> None:
         c = centre + 0.45 * size * k * n
         ax.annotate("", xy=c + size * e, xytext=c - size * e,
                     arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.6), zorder=5)
+    from ..display import degrees
     from .units import field_text
-    ax.text(centre[0], centre[1] - 1.25 * size, f"field: {field_text(h, units)}, φ = {math.degrees(phi):.4g}°",
+    axis_note = "" if same_axis is None else f"\n(the same axis as {degrees(same_axis, '.4g')}°)"
+    ax.text(centre[0], centre[1] - 1.25 * size,
+            f"field: {field_text(h, units)}, φ = {degrees(phi, '.4g')}°{axis_note}",
             color="C2", ha="center", va="top", fontsize=8, zorder=5)
 
 
