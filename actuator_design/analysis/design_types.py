@@ -28,22 +28,35 @@ __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Ca
 class DesignSettings:
     """Bounds and tolerances of a design (dimensionless, THEORY §5).
 
-    h_max : largest field group h allowed.
-    p_max : largest |p| allowed when the tip load is designed.
-    alpha_max : largest |α(s)| (rad), a fabrication limit on the fibre angle.
-    alpha_terms : Legendre coefficients of α(s) (smooth layouts with few parameters), and of the
-        remanent magnetisation angle β(s) when it is designed.
-    magnetization_max : largest |β(s)| (rad) of a designed magnetisation profile (THEORY §9).
-    margin : required stability margin μ: λ_min(H_r, M) ≥ μ.
-    reach_tol : a target is reachable when the nearest pose is within this distance (units of ℓ).
-    accept_tol : the verified achieved tip must be within this distance of the target.
-    ramp_steps : points of each leg (ramp, rotation) of a verification schedule; the path follower
-        refines between them (steps of ≤ 1/4 of a leg segment and ≤ 0.5 rad of shape change).
-    time_limit : wall-clock budget of the search (s): once spent, no further starting design is
-        optimised (the ones done are kept and the message says so); each NLP is also capped in
-        iterations (:mod:`.design_nlp`), so the work of a design is bounded.
-    tolerances : the lab's tolerance box the design must hold over (default: field ±5 %, angle ±2°;
-        an empty box skips the robustness stage).
+    Attributes
+    ----------
+    h_max : float
+        Largest field group h allowed.
+    p_max : float
+        Largest |p| allowed when the tip load is designed.
+    alpha_max : float
+        Largest |α(s)| (rad), a fabrication limit on the fibre angle.
+    alpha_terms : int
+        Legendre coefficients of α(s) (smooth layouts with few parameters), and of the remanent
+        magnetisation angle β(s) when it is designed.
+    magnetization_max : float
+        Largest |β(s)| (rad) of a designed magnetisation profile (THEORY §9).
+    margin : float
+        Required stability margin μ: λ_min(H_r, M) ≥ μ.
+    reach_tol : float
+        A target is reachable when the nearest pose is within this distance (units of ℓ).
+    accept_tol : float
+        The verified achieved tip must be within this distance of the target.
+    ramp_steps : int
+        Points of each leg (ramp, rotation) of a verification schedule; the path follower refines
+        between them (steps of ≤ 1/4 of a leg segment and ≤ 0.5 rad of shape change).
+    time_limit : float
+        Wall-clock budget of the search (s): once spent, no further starting design is optimised
+        (the ones done are kept and the message says so); each NLP is also capped in iterations
+        (:mod:`.design_nlp`), so the work of a design is bounded.
+    tolerances : Tolerances
+        The lab's tolerance box the design must hold over (default: field ±5 %, angle ±2°; an
+        empty box skips the robustness stage).
     """
 
     h_max: float = 10.0

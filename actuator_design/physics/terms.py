@@ -35,8 +35,8 @@ NodeField = Callable[[Scene, np.ndarray], np.ndarray]
 class EnergyTerm:
     """Interface of an energy term; subclasses override what they contribute.
 
-    Class attributes
-    ----------------
+    Attributes
+    ----------
     name : str
         Unique registry name (also the name used in ``Scene.extra_terms`` for plug-ins).
     parameters : tuple of Parameter
