@@ -7,8 +7,6 @@ Every reference value is converted here from the YAML's inputs, never by the cod
 B0/ℓ, the first integral H in B0/ℓ² (J/m), B0 = E w t³/12, the field μ0 H of a group h from
 h² = μ0 χ̄ H² A ℓ² / (2 B0) and of h_r from h_r = μ0 M_r H A ℓ² / B0, A = w t.
 """
-import csv
-import io
 import json
 import math
 from pathlib import Path
@@ -16,29 +14,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from actuator_design.cli.main import main
+from unit_outputs import (B0, CHI, E, L, MM, MU0, T, W, dh_dH, figures, mT_of_h,  # noqa: F401
+                          read_csv, run, scene)  # figures: a fixture
 
-MU0 = 4e-7 * math.pi
-L, W, T, E, CHI = 20e-3, 5e-3, 0.5e-3, 1e6, 0.5  # the rod in SI; the YAML writes mm, MPa, mT
-B0 = E * W * T**3 / 12.0
-MM = 1e-3
 SOLVER = {"elements": 4, "degree": 10}
-
-
-def scene(**changes) -> dict:
-    s = {"type": "physical",
-         "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"},
-         "magnetics": {"chi_bar": CHI},
-         "field": {"type": "uniform", "magnitude": "25 mT", "angle": "90 deg"},
-         "loads": {"tip_force": {"x": "0 N", "y": "0.07 mN"}},
-         "fibres": "0 deg"}
-    s.update(changes)
-    return s
-
-
-def mT_of_h(h: float) -> float:
-    """μ0 H in mT of the group h, by hand (h = H √(μ0 χ̄ A ℓ² / (2 B0)))."""
-    return h / math.sqrt(MU0 * CHI * W * T * L**2 / (2.0 * B0)) * MU0 * 1e3
 
 
 def config(tmp_path, **changes) -> Path:
@@ -46,34 +25,6 @@ def config(tmp_path, **changes) -> Path:
     path.write_text(yaml.safe_dump({"name": "units", "scene": scene(**changes), "solver": SOLVER},
                                    allow_unicode=True))
     return path
-
-
-def run(argv, capsys):
-    capsys.readouterr()
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-@pytest.fixture
-def figures(monkeypatch):
-    """Every Figure (or Axes) a command encodes as PNG, in order."""
-    from actuator_design.viz import style
-
-    real, seen = style.png_bytes, []
-
-    def capture(fig, *args, **kwargs):
-        seen.append(getattr(fig, "figure", fig))
-        return real(fig, *args, **kwargs)
-
-    monkeypatch.setattr(style, "png_bytes", capture)
-    return seen
-
-
-def read_csv(path: Path):
-    text = path.read_text().splitlines()
-    rows = list(csv.DictReader(io.StringIO("\n".join(ln for ln in text if not ln.startswith("#")))))
-    return rows, [ln for ln in text if ln.startswith("#")]
 
 
 def mm(x_rod):

@@ -7,7 +7,6 @@ Every reference value is converted here from the YAML's inputs, never by the cod
 B0 = E w t³/12, and the field μ0 H of a group h from h² = μ0 χ̄ H² A ℓ² / (2 B0), A = w t.
 """
 import csv
-import io
 import json
 import math
 from pathlib import Path
@@ -16,70 +15,17 @@ import numpy as np
 import pytest
 import yaml
 
-from actuator_design.cli.main import main
+from unit_outputs import (B0, CHI, E, L, MM, MU0, T, W, dh_dH, figures, mT_of_h,  # noqa: F401
+                          read_csv, run, scene)  # figures: a fixture
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "problems" / "data"
-MU0 = 4e-7 * math.pi
-
-# the rod, in SI; the YAML below writes it in mm, MPa and mT
-L, W, T, E, CHI = 20e-3, 5e-3, 0.5e-3, 1e6, 0.5
-B0 = E * W * T**3 / 12.0
-MM = 1e-3
-
-
-def scene(**changes) -> dict:
-    s = {"type": "physical",
-         "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"},
-         "magnetics": {"chi_bar": CHI},
-         "field": {"type": "uniform", "magnitude": "25 mT", "angle": "90 deg"},
-         "loads": {"tip_force": {"x": "0 N", "y": "0.07 mN"}},
-         "fibres": "0 deg"}
-    s.update(changes)
-    return s
-
-
-def dh_dH(chi: float = CHI, e: float = E, length: float = L) -> float:
-    """h per A/m by hand: h = H √(μ0 χ̄ A ℓ² / (2 B0))."""
-    return math.sqrt(MU0 * chi * W * T * length**2 / (2.0 * e * W * T**3 / 12.0))
-
-
-def mT_of_h(h: float) -> float:
-    return h / dh_dH() * MU0 * 1e3
 
 
 def write(tmp_path, cfg: dict, name: str = "scene.yaml") -> Path:
     path = tmp_path / name
     path.write_text(yaml.safe_dump(cfg, allow_unicode=True))
     return path
-
-
-def run(argv, capsys):
-    capsys.readouterr()
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
-
-
-@pytest.fixture
-def figures(monkeypatch):
-    """Every Figure a command encodes as PNG, in order."""
-    from actuator_design.viz import style
-
-    real, seen = style.png_bytes, []
-
-    def capture(fig, *args, **kwargs):
-        seen.append(fig)
-        return real(fig, *args, **kwargs)
-
-    monkeypatch.setattr(style, "png_bytes", capture)
-    return seen
-
-
-def read_csv(path: Path):
-    lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")]
-    comments = [ln for ln in path.read_text().splitlines() if ln.startswith("#")]
-    return list(csv.DictReader(io.StringIO("\n".join(lines)))), comments
 
 
 SOLVER = {"elements": 4, "degree": 10}
