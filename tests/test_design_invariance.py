@@ -54,3 +54,41 @@ def test_the_target_in_mm_gives_the_design_in_rod_lengths(problem, tmp_path, cap
     mm = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(_key(mm["design"]), _key(rod["design"]), atol=1e-6)
     assert mm["physical"]["field_mT"] == pytest.approx(rod["physical"]["field_mT"], rel=1e-6)
+
+
+def test_the_default_scene_design_is_the_same_for_a_target_one_ulp_apart():
+    """(0.6, 0.6) on the default scene: before targets were resolved to 1e-12 rod lengths, the
+    SkylakeX kernel gave h = 4.107 for x = 0.6 and h = 5.521 for the next float up (what
+    '12,12 --target-units mm' on a 20 mm rod produces)."""
+    from actuator_design.scene import default_scene
+
+    a = design((0.6, 0.6), scene=default_scene())
+    b = design((float(np.nextafter(0.6, 1.0)), 0.6), scene=default_scene())
+    assert a.success and b.success, (a.message, b.message)
+    np.testing.assert_allclose(_key(b.design), _key(a.design), atol=1e-6)
+    assert b.target == a.target == (0.6, 0.6)
+
+
+def test_an_iteration_cap_in_the_box_homotopy_does_not_change_the_design(monkeypatch):
+    """At (0.232, 0.498) the robust stage's first step (a quarter of the tolerance box) converged
+    with one OpenBLAS kernel and hit IPOPT's iteration cap with another, and the two ended at
+    h = 7.62 (verified) and 4.41 (not verifiable). A failed step is now halved and retried: a cap
+    forced on that step gives the design the unhindered run gives."""
+    from actuator_design.analysis import design_robust
+    from actuator_design.scene import default_scene
+
+    free = design((0.232, 0.498), scene=default_scene())
+    real, forced = design_robust.ScenarioDesignNLP.solve, []
+
+    def capped(self, base, tol, scale, *args, **kwargs):
+        pt = real(self, base, tol, scale, *args, **kwargs)
+        if scale == 0.25 and not forced:
+            forced.append(scale)
+            pt.converged, pt.status = False, "Maximum_Iterations_Exceeded"
+        return pt
+
+    monkeypatch.setattr(design_robust.ScenarioDesignNLP, "solve", capped)
+    hindered = design((0.232, 0.498), scene=default_scene())
+    assert forced == [0.25]
+    assert free.success and hindered.success, (free.message, hindered.message)
+    np.testing.assert_allclose(_key(hindered.design), _key(free.design), atol=1e-6)

@@ -48,7 +48,8 @@ from .design_optimise import candidate, design_vector, optimise
 from .design_robust_stage import RobustReport, robust_stage
 from .design_screen import screen
 from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,  # noqa: F401
-                           check_h_max, normalise_phi, normalise_tip_angle, phi_period, tip_error)
+                           canonical_target, check_h_max, normalise_phi, normalise_tip_angle, phi_period,
+                           tip_error)
 from .design_verify import stiffness_by_differences, verify as verify_stage
 from .registry import register
 
@@ -236,6 +237,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         raise ValueError(f"target: expected finite x,y[,angle], got {target}")
     if len(target) == 3:
         target = (target[0], target[1], normalise_tip_angle(target[2]))
+    target = canonical_target(target)  # one problem however the target was written
     if stiffness is not None and not (math.isfinite(stiffness) and stiffness > 0):
         raise ValueError(f"stiffness target: must be a finite number > 0, got {stiffness}")
     if not target and stiffness is None:

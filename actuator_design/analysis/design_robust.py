@@ -354,7 +354,7 @@ def _stable_everywhere(snlp: ScenarioDesignNLP, base: Scene, pt: ScenarioPoint, 
 
 def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequence[np.ndarray],
               targets: Sequence[Sequence[float]], tol: Tolerances, *, margin: float, bounds: Dict[str, float],
-              scales: Sequence[float] = (0.25, 0.5, 0.75, 1.0), refine: int = 2) -> RobustOutcome:
+              first_step: float = 0.25, max_step: float = 0.25, min_step: float = 1.0 / 64) -> RobustOutcome:
     """Move a (multi-pose) nominal design to one that holds over the tolerance box, by homotopy in
     the box size.
 
@@ -374,14 +374,18 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
         Stability margin μ required at every pose's nominal point and corners.
     bounds : dict
         ``h_max``, ``p_max``, ``alpha_max`` as for the nominal design.
-    scales : sequence of float
-        Box fractions solved in turn, each warm-started from the last (a box with no active
-        tolerance solves the nominal multi-pose problem once). Steps of a quarter: from 0.5
-        straight to 1 the solve wandered (140 iterations with one BLAS kernel, 291 with another)
-        and ended at different designs (target (0.536, 0.450): h = 5.73 and 8.81); with 0.75
-        between, each takes ~15 and both kernels give one design.
-    refine : int
-        Bisection steps between the last box fraction that worked and the first that failed.
+    first_step, max_step, min_step : float
+        Step control of the homotopy in the box fraction s ∈ [0, 1], each solve warm-started from
+        the last design: steps of a quarter (0.25, 0.5, 0.75, 1) while they succeed; a step that
+        fails is halved and retried, one that succeeds after that doubles again (up to
+        ``max_step``), and the homotopy stops at the last fraction that worked only when the step
+        falls below ``min_step``. The ladder alone let an iteration limit decide: at target
+        (0.232, 0.498) the first step's certified solve hit the 150-iteration cap with one
+        OpenBLAS kernel and converged with another, and the design ended at h = 4.41 (not
+        verifiable) and 7.62 (issue 17); with the retry both kernels end at 7.62. (Smaller first
+        steps are no better: the worst-case objective then follows its slow drift to larger
+        fields, e.g. to the h bound at target (0.6, 0.6). From 0.5 straight to 1 the solve wandered
+        (target (0.536, 0.450): h = 5.73 and 8.81 on two kernels); a quarter keeps each solve short.)
 
     Returns
     -------
@@ -415,23 +419,18 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
                         f"{max(pt.worst_error, default=0.0):.3g}")
         return pt
 
-    if not corners:
-        scales, refine = (1.0,), 0
-    failed_at = None
-    for scale in scales:
+    if not corners:  # no tolerance is active: the nominal (multi-pose) problem, solved once
+        pt = attempt(1.0)
+        if pt.converged:
+            best, done = pt, 1.0
+        return RobustOutcome(best, done, attempts, snlp)
+    step = first_step
+    while done < 1.0 and step >= min_step:
+        scale = min(1.0, done + step)
         pt = attempt(scale)
-        if not pt.converged:
-            failed_at = scale
-            break
-        best, done, d, zs = pt, scale, pt.d, pt.z
-    if failed_at is not None:
-        lo, hi = done, failed_at
-        for _ in range(refine):
-            mid = 0.5 * (lo + hi)
-            pt = attempt(mid)
-            if pt.converged:
-                best, lo, d, zs = pt, mid, pt.d, pt.z
-            else:
-                hi = mid
-        done = lo
+        if pt.converged:
+            best, done, d, zs = pt, scale, pt.d, pt.z
+            step = min(2.0 * step, max_step)
+        else:
+            step *= 0.5
     return RobustOutcome(best, done, attempts, snlp)

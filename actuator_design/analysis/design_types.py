@@ -21,7 +21,7 @@ from .tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
            "Choice", "Verification", "status_of", "normalise_phi", "phi_period", "normalise_tip_angle", "tip_error",
-           "target_error", "effort", "rank"]
+           "target_error", "effort", "rank", "canonical_target", "TARGET_DECIMALS"]
 
 
 @dataclass(frozen=True)
@@ -327,6 +327,17 @@ def phi_period(scene) -> float:
     (−h_r cos(θ + β − φ) changes sign under H → −H, THEORY §9)."""
     hard = getattr(scene, "magnetization", None) is not None and getattr(scene, "h_r", 0.0) != 0.0
     return 2 * math.pi if hard else math.pi
+
+
+#: Decimal places a target pose is resolved to (rod lengths, rad): 1e-12, far below every
+#: tolerance of a design (reach_tol, accept_tol, the discretisation error), so one request written
+#: two ways — 0.6 or 12 mm / 20 mm = 0.6000000000000001, a target moved by an ulp — is one problem.
+TARGET_DECIMALS = 12
+
+
+def canonical_target(target) -> tuple:
+    """``target`` (x, y[, angle]) resolved to :data:`TARGET_DECIMALS` decimal places; -0.0 as 0.0."""
+    return tuple(round(float(v), TARGET_DECIMALS) + 0.0 for v in target)
 
 
 def normalise_tip_angle(angle: float) -> float:
