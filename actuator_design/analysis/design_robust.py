@@ -352,6 +352,21 @@ def _stable_everywhere(snlp: ScenarioDesignNLP, base: Scene, pt: ScenarioPoint, 
     return True
 
 
+#: Largest turn (rad) of any point of a pose's states (nominal and corners) in one step of the box
+#: homotopy. The homotopy follows one design as the box grows; a converged solve whose states
+#: jumped has left it (target (0.4178, 0.4979): one kernel's solve of the first quarter jumped to
+#: a design whose worst corner error was 0.93 rod lengths, where the other's path ends at 0.010). As the verification's
+#: path follower (max_dtheta, :mod:`.design_verify`).
+MAX_SHAPE_TURN = 0.5
+
+
+def _continuous(z_from: Sequence[Sequence[np.ndarray]], z_to: Sequence[Sequence[np.ndarray]]) -> bool:
+    """Every state of every pose (its nominal state and its corners; θ at all nodes) turned by at
+    most :data:`MAX_SHAPE_TURN`."""
+    return all(float(np.max(np.abs(np.asarray(b) - np.asarray(a)), initial=0.0)) <= MAX_SHAPE_TURN
+               for row_a, row_b in zip(z_from, z_to) for a, b in zip(row_a, row_b))
+
+
 def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequence[np.ndarray],
               targets: Sequence[Sequence[float]], tol: Tolerances, *, margin: float, bounds: Dict[str, float],
               first_step: float = 0.25, max_step: float = 0.25, min_step: float = 1.0 / 64) -> RobustOutcome:
@@ -379,7 +394,8 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
         the last design: steps of a quarter (0.25, 0.5, 0.75, 1) while they succeed; a step that
         fails is halved and retried, one that succeeds after that doubles again (up to
         ``max_step``), and the homotopy stops at the last fraction that worked only when the step
-        falls below ``min_step``. The ladder alone let an iteration limit decide: at target
+        falls below ``min_step``. A converged step whose states (nominal or corner) turned by more
+        than :data:`MAX_SHAPE_TURN` has jumped to another design and counts as failed. The ladder alone let an iteration limit decide: at target
         (0.232, 0.498) the first step's certified solve hit the 150-iteration cap with one
         OpenBLAS kernel and converged with another, and the design ended at h = 4.41 (not
         verifiable) and 7.62 (issue 17); with the retry both kernels end at 7.62. (Smaller first
@@ -428,6 +444,9 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
     while done < 1.0 and step >= min_step:
         scale = min(1.0, done + step)
         pt = attempt(scale)
+        if pt.converged and not _continuous(zs, pt.z):
+            attempts[-1] += f" (rejected: a state turned by more than {MAX_SHAPE_TURN:g} rad in one step)"
+            pt.converged = False
         if pt.converged:
             best, done, d, zs = pt, scale, pt.d, pt.z
             step = min(2.0 * step, max_step)
