@@ -63,3 +63,21 @@ def test_the_shape_draws_the_field_at_the_angle_the_text_reports():
     ax = plot_shape(res, field_angle=phi)
     (label,) = [t.get_text() for t in ax.texts if t.get_text().startswith("field:")]
     assert "φ = -26.24°" in label and "same axis" not in label
+
+
+def test_a_branch_legend_names_only_what_is_drawn():
+    """A stable branch without folds or branch points: its legend has 'stable' and nothing it does
+    not draw; the straight rod continued through the first pitchfork adds 'unstable' and
+    'branch point' (h_crit = π/(2√2), THEORY §6)."""
+    import math
+
+    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.viz.landscape import plot_branches
+
+    plain = continue_branch(default_scene(h=0.0, phi=0.0), "h", 0.0, 1.0)
+    labels = [t.get_text() for t in plot_branches([plain.branch]).get_legend().get_texts()]
+    assert labels == ["stable"]
+    through = continue_branch(default_scene(h=0.0, phi=math.pi / 2), "h", 0.0, 1.5, initial=None)
+    assert through.branch.branch_points
+    labels = [t.get_text() for t in plot_branches([through.branch]).get_legend().get_texts()]
+    assert labels == ["stable", "unstable", "branch point"]

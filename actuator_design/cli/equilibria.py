@@ -162,7 +162,8 @@ def run(args: argparse.Namespace) -> int:
         print(dumps_json(payload))
     else:
         from ..unit_results import scene_text, state_text, units_line
-        print(f"{result.count} equilibria ({result.stable_count} stable) with theta'(0) in "
+        noun = "equilibrium" if result.count == 1 else "equilibria"
+        print(f"{result.count} {noun} ({result.stable_count} stable) with theta'(0) in "
               f"[{result.window[0]:.6g}, {result.window[1]:.6g}] ({method}; complete: {result.complete})")
         for e in result.equilibria:
             print(f"  gamma = {e.gamma:+.10f}  tip = ({e.tip['x']:.8f}, {e.tip['y']:.8f}), angle "

@@ -50,7 +50,8 @@ def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
     length_axes(ax, units)
-    ax.set_title(title or (f"{result.count} equilibria ({result.stable_count} stable): "
+    noun = "equilibrium" if result.count == 1 else "equilibria"
+    ax.set_title(title or (f"{result.count} {noun} ({result.stable_count} stable): "
                            + groups_text(result.scene, units)), fontsize=10)
     ax.legend(fontsize=7, loc="best")
     return ax
@@ -88,6 +89,7 @@ def plot_branches(branches: Iterable, ax=None, param_label: Optional[str] = None
         Reference curves (e.g. a closed form) drawn thin and black.
     """
     ax = ax or new_axes()
+    branches = list(branches)
     col = {"tip_angle": 0, "tip_x": 1, "tip_y": 2}
     name = None
     for k, br in enumerate(branches):
@@ -105,10 +107,17 @@ def plot_branches(branches: Iterable, ax=None, param_label: Optional[str] = None
             ax.plot([cp.value], [v], "s", mfc="none", mec="r", ms=7)
     for xr, yr, lab in (reference or []):
         ax.plot(xr, yr, color="k", lw=0.7, ls=":", label=lab)
-    ax.plot([], [], color="0.3", ls="-", label="stable")
-    ax.plot([], [], color="0.3", ls="--", label="unstable")
-    ax.plot([], [], "o", mfc="none", mec="k", label="fold")
-    ax.plot([], [], "s", mfc="none", mec="r", label="branch point")
+    drawn = branches  # the legend names only what is drawn
+    stab = [bool(np.any(b.morse_index == 0)) for b in drawn]
+    unstab = [bool(np.any(b.morse_index != 0)) for b in drawn]
+    if any(stab):
+        ax.plot([], [], color="0.3", ls="-", label="stable")
+    if any(unstab):
+        ax.plot([], [], color="0.3", ls="--", label="unstable")
+    if any(b.folds for b in drawn):
+        ax.plot([], [], "o", mfc="none", mec="k", label="fold")
+    if any(b.branch_points for b in drawn):
+        ax.plot([], [], "s", mfc="none", mec="r", label="branch point")
     ax.set_xlabel(param_label or (name or "parameter"))
     ax.set_ylabel({"tip_angle": "tip angle θ(1) [rad]", "tip_x": "x(1) / l", "tip_y": "y(1) / l",
                    "energy": "energy [B0/l]"}[quantity])
