@@ -374,10 +374,15 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
 
 def critical_curves(scene: Scene, param: str, second: str, window: Sequence[float],
                     second_window: Sequence[float], *, options: Optional[SolverOptions] = None,
-                    n_starts: int = 3, n_samples: int = 5) -> List[FoldCurve]:
+                    n_starts: int = 3, n_samples: int = 5, seeds: Sequence[float] = ()) -> List[FoldCurve]:
     """Every fold curve λ_crit(μ) of ``param`` in ``window`` over μ = ``second`` in
-    ``second_window``: :func:`critical_points` at ``n_starts`` values of μ (ends included), each fold
-    not already on a curve continued by :func:`fold_curve` (e.g. p_crit^(k)(h²) for φ = 0).
+    ``second_window``: :func:`critical_points` at ``n_starts`` values of μ (ends included) and at
+    ``seeds``, each fold not already on a curve continued by :func:`fold_curve` (e.g. p_crit^(k)(h²)
+    for φ = 0).
+
+    ``seeds``: further values of μ to look for folds at, e.g. where a multiplicity map's count
+    changes along λ (a fold curve that enters and leaves the window between the evenly spaced
+    starts is otherwise missed: a transverse field's p-fold exists only above h_crit).
 
     Returns
     -------
@@ -386,7 +391,10 @@ def critical_curves(scene: Scene, param: str, second: str, window: Sequence[floa
     """
     curves: List[FoldCurve] = []
     a, b = (float(v) for v in window)
-    for mu in np.linspace(min(second_window), max(second_window), max(1, int(n_starts))):
+    lo, hi = min(second_window), max(second_window)
+    starts = list(np.linspace(lo, hi, max(1, int(n_starts))))
+    starts += [float(v) for v in seeds if lo <= float(v) <= hi]
+    for mu in starts:
         sc = set_param(scene, second, mu)
         cr = critical_points(sc, param, (a, b), options=options, n_samples=n_samples)
         for cp in cr.fold_points:
@@ -396,7 +404,12 @@ def critical_curves(scene: Scene, param: str, second: str, window: Sequence[floa
                     o = np.argsort(c.mu)
                     lam_c = np.interp(mu, c.mu[o], c.lam[o])
                     ang_c = np.interp(mu, c.mu[o], c.tip_angle[o])
-                    if abs(lam_c - cp.value) <= 1e-3 * (1 + abs(cp.value)) and abs(ang_c - cp.tip["angle"]) < 1e-2:
+                    # the polyline's interpolation error is below its step around mu
+                    k = int(np.clip(np.searchsorted(c.mu[o], mu), 1, len(o) - 1))
+                    dlam = abs(c.lam[o][k] - c.lam[o][k - 1])
+                    dang = abs(c.tip_angle[o][k] - c.tip_angle[o][k - 1])
+                    if (abs(lam_c - cp.value) <= 1e-3 * (1 + abs(cp.value)) + dlam
+                            and abs(ang_c - cp.tip["angle"]) < 1e-2 + dang):
                         on = True
                         break
             if not on:

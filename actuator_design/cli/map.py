@@ -138,7 +138,8 @@ def run(args: argparse.Namespace) -> int:
         curves = []
         if curves_on:
             try:
-                curves = critical_curves(set_param(scene, xp, xr[0]), yp, xp, yr, xr, options=options)
+                curves = critical_curves(set_param(scene, xp, xr[0]), yp, xp, yr, xr, options=options,
+                                         seeds=fold_seeds(m))
             except RuntimeError as err:
                 print(f"actuator-design: warning: critical curves not computed: {err}", file=sys.stderr)
     payload = {**m.to_dict(), "critical_curves": [c.to_dict() for c in curves]}
@@ -183,6 +184,19 @@ def run(args: argparse.Namespace) -> int:
     if written is not None:
         print_written(written, args.json)
     return EXIT_OK
+
+
+def fold_seeds(m, at_most: int = 4) -> list:
+    """Values of the x parameter where the map's count of equilibria changes along y (a fold of y
+    lies in the window there), at most ``at_most`` evenly chosen: seeds for the fold curves."""
+    import numpy as np
+
+    cols = [j for j in range(len(m.x))
+            if len({int(c) for c in m.counts[:, j] if c >= 0}) > 1]
+    if not cols:
+        return []
+    pick = np.unique(np.linspace(0, len(cols) - 1, min(at_most, len(cols))).round().astype(int))
+    return [float(m.x[cols[i]]) for i in pick]
 
 
 def _in_units(units):
