@@ -90,7 +90,18 @@ def residual_problem(result) -> Optional[str]:
 
 
 def check_physical(result):
-    """Mark a self-intersecting ``result`` as failed unless its options keep it (in place)."""
+    """Mark a self-intersecting ``result`` as failed unless its options keep it, and one whose shape
+    leaves the region where the field's representation holds (a fitted magnet or coil field,
+    :mod:`~actuator_design.field_sources`), in place."""
+    region = getattr(result.scene.field, "region_problem", None)
+    if result.success and region is not None:
+        d = result.evaluate(np.linspace(0.0, 1.0, 401))
+        problem = region(d["x"], d["y"])
+        if problem is not None:
+            result.success = False
+            result.status = "outside_field_region"
+            result.message += f"; {problem}: the field there is not known to its stated accuracy"
+            return result
     if not result.success or result.options.keep_self_intersecting or not result.self_intersecting:
         return result
     result.success = False

@@ -210,13 +210,25 @@ class EquilibriumResult:
         wanted = set(self.DICT_KEYS if include is None else include)
         return {k: makers[k]() for k in self.DICT_KEYS if k in wanted}
 
+    def _groups_text(self) -> str:
+        """h, then φ (a uniform field) or h_pos (a non-uniform one), h_r (a remanent rod), p."""
+        sc = self.scene
+        parts = [f"h = {number(sc.h)}"]
+        if sc.field is None or sc.field.is_uniform:
+            parts.append(f"phi = {degrees(sc.phi)} deg")
+        else:
+            parts.append(f"h_pos = {number(sc.h_pos)}")
+        if sc.magnetization is not None:
+            parts.append(f"h_r = {number(sc.h_r)}")
+        return ", ".join(parts + [f"p = {number(sc.p)}"])
+
     def summary(self) -> str:
         """A readable multi-line summary."""
         lines = [
             f"{self.scene.name}",
             f"  status      : {self.status} ({'success' if self.success else 'FAILED'}) — {self.message}",
-            f"  groups      : h = {number(self.scene.h)}, phi = {degrees(self.scene.phi)} deg, "
-            f"p = {number(self.scene.p)}",
+            f"  groups      : {self._groups_text()}",
+            *([f"  field       : {self.scene.field.describe()}"] if hasattr(self.scene.field, "describe") else []),
             f"  tip         : x = {number(self.tip['x'], '.10f')}, y = {number(self.tip['y'], '.10f')}, "
             f"angle = {number(self.tip['angle'], '.10f')} rad ({degrees(self.tip['angle'], '.6f')} deg)  [units of l]",
             f"  energy      : {number(self.energy, '.12g')}  [B0/l]",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field as dc_field, replace
-from typing import Dict, Optional, Tuple, Union
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
@@ -24,6 +24,7 @@ __all__ = [
     "UniformField",
     "DipoleField",
     "ExpressionField",
+    "SourceField",
     "Field",
     "Scales",
     "Scene",
@@ -82,7 +83,51 @@ class ExpressionField:
     is_uniform: bool = dc_field(default=False, init=False)
 
 
-Field = Union[UniformField, DipoleField, ExpressionField]
+@dataclass(frozen=True)
+class SourceField:
+    """The field of magnets and coils (:mod:`actuator_design.field_sources`), computed by magpylib and
+    represented over the rod's reach by fitted zonal solid harmonics (divergence- and curl-free by
+    construction; :mod:`actuator_design.physics.harmonic`). Dimensionless: ĥ = H/H0, positions in ℓ.
+
+    Parameters
+    ----------
+    terms : tuple of HarmonicTerm
+        One fitted expansion per source (its region: :meth:`HarmonicTerm.contains`).
+    sources : tuple
+        The SI source descriptions the fit was made from (MagnetSource, CoilSource).
+    length : float
+        ℓ (m) the fit was made for.
+    fit_error, gradient_error : float
+        Largest errors of ĥ and ∇ĥ ℓ against magpylib at random points of the reach (relative to H0).
+    """
+
+    terms: Tuple[Any, ...]
+    sources: Tuple[Any, ...] = ()
+    length: float = 1.0
+    fit_error: float = 0.0
+    gradient_error: float = 0.0
+    kind: str = dc_field(default="sources", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+    def describe(self) -> str:
+        """One line: the sources, the fits' orders and regions, the errors against magpylib."""
+        names = []
+        for src, t in zip(self.sources, self.terms):
+            kind = getattr(src, "shape", None) or getattr(src, "kind", "source")
+            region = ("beyond" if t.kind == "exterior" else "within") + f" {t.valid_radius * self.length * 1e3:.4g} mm"
+            names.append(f"{kind} {'magnet' if hasattr(src, 'shape') else 'coil'} (order {len(t.coefficients)}, "
+                         f"holds {region} of its centre)")
+        return (f"{', '.join(names)} by magpylib, fitted with zonal harmonics; fit error {self.fit_error:.2g} "
+                f"(field), {self.gradient_error:.2g} (gradient) relative to H0")
+
+    def region_problem(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
+        """Why points (units of ℓ) of a state lie where the fit does not hold, or None."""
+        from .physics.harmonic import outside_region
+
+        return outside_region(self.terms, np.asarray(x, float), np.asarray(y, float))
+
+
+Field = Union[UniformField, DipoleField, ExpressionField, SourceField]
 
 
 @dataclass(frozen=True)

@@ -118,6 +118,7 @@ class EquilibriumSolver:
         self._scale_lin = [sl[k].start for k, how in scales.items() if how == "linear" and k in sl]
         self._scale_sq = [sl[k].start for k, how in scales.items() if how == "squared" and k in sl]
         self.jit_note = ""
+        self.hessian_mapped = False  # set by the positional kernel (see nlpsol)
         self.kernel = self._build_kernel(zr, P, gr, options.jit)
         summary = ca.Function("summary", [z, P], [ca.vertcat(E, *de.tip)])
         self._summary_in = (np.zeros(z.numel()), np.zeros(self.layout.size))
@@ -169,6 +170,10 @@ class EquilibriumSolver:
                 "ipopt.max_iter": int(self.options.max_iter),
                 "ipopt.hessian_constant": "no",
             }
+            if self.hessian_mapped:  # the exact Hessian of the whole energy would take seconds to
+                # build (a fitted field's jet at every point, O(n³)): quasi-Newton, then the Newton
+                # polish with the structured Hessian
+                ipopt_opts["ipopt.hessian_approximation"] = "limited-memory"
             self._nlpsol = ca.nlpsol("equilibrium", "ipopt", self._nlp, ipopt_opts)
             self.build_time += time.perf_counter() - t0
         return self._nlpsol
@@ -194,8 +199,11 @@ class EquilibriumSolver:
         if structured is None:
             return None
         u, g = structured.u, structured.gradient
+        self.hessian_mapped = g is None
         f_g = None
-        if jit:
+        if jit and g is None:
+            self.jit_note = "not JIT-compiled: the field's per-point derivatives are mapped, not inlined"
+        elif jit:
             try:
                 f_g = ca.Function("grad_fast", [u, P], [g, self._residual(g)], _jit_options())
                 structured.compile(_jit_options())

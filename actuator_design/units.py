@@ -129,6 +129,7 @@ DIMENSIONS = {
     "force_per_length": _Dimension("a force per length", "0.2 N/m", "N/m"),
     "magnetic_field": _Dimension("a magnetic field", "5 kA/m' or '10 mT", "A/m"),
     "magnetic_moment": _Dimension("a magnetic moment", "0.05 A m^2", "A m^2"),
+    "current": _Dimension("an electric current", "2.5 A", "A"),
     "density": _Dimension("a density", "1100 kg/m^3", "kg/m^3"),
     "acceleration": _Dimension("an acceleration", "9.81 m/s^2", "m/s^2"),
     "angle": _Dimension("an angle", "30 deg", "rad"),
@@ -186,6 +187,7 @@ COMMON_UNITS = {
     "Pa": ("pressure", 1.0), "kPa": ("pressure", 1e3), "MPa": ("pressure", 1e6), "GPa": ("pressure", 1e9),
     "N": ("force", 1.0), "mN": ("force", 1e-3), "uN": ("force", 1e-6), "µN": ("force", 1e-6),
     "A/m": ("magnetic_field", 1.0), "kA/m": ("magnetic_field", 1e3), "MA/m": ("magnetic_field", 1e6),
+    "A": ("current", 1.0), "mA": ("current", 1e-3),
     "T": ("flux_density", 1.0), "mT": ("flux_density", 1e-3), "uT": ("flux_density", 1e-6),
     "µT": ("flux_density", 1e-6),
 }

@@ -280,6 +280,20 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
+    if getattr(base.field, "kind", "") == "sources":
+        raise ValueError("design: a field of magnets and coils (field type magnet or coils) cannot be designed "
+                         "yet (its design NLP would take minutes to build); solve, path and continue "
+                         "work in it, and design works on a uniform or dipole field")
+    if vary is None and base.field is not None and not base.field.is_uniform:
+        # a magnet, coil or dipole field has no angle to turn: its strength h (every source scaled
+        # together) is designed, with the fibre layout or magnetisation where the scene leaves it free
+        sets = tuple(dict.fromkeys(tuple(v for v in vs if v != "phi") for vs in sets if vs != ("phi",)))
+        sets = tuple(vs for vs in sets if vs)
+        notes.append(f"the field is not uniform ({base.field.kind}): its angle is not a design variable; "
+                     "h scales the whole field (every source together)")
+        if not sets:
+            raise ValueError(f"nothing to design: a {base.field.kind} field has no angle and this rod's "
+                             "field strength is its remanence alone; give --vary magnetization")
     for vset in sets:  # every set's terms, up front: a stage's error is then never bad input
         prepare_scene(base, vset)
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),

@@ -174,7 +174,8 @@ def run(args: argparse.Namespace) -> int:
         print_written(written, args.json)
     if not result.success:
         what = {"inaccurate": "the result misses the accuracy asked for",
-                "self_intersecting": "the shape intersects itself"}.get(result.status,
+                "self_intersecting": "the shape intersects itself",
+                "outside_field_region": "the rod leaves the region where the field is known"}.get(result.status,
                                                                        "the solver did not converge")
         print(f"actuator-design: warning: {what} ({result.status}): "
               f"{' '.join(result.message.split())}", file=sys.stderr)

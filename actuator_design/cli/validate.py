@@ -112,6 +112,8 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=()) ->
                       f"{math.degrees(field.moment_angle):.6g} deg")
     elif isinstance(field, ExpressionField):
         field_text = f"expression hx = {field.hx}, hy = {field.hy} (div- and curl-free: checked)"
+    elif hasattr(field, "describe"):
+        field_text = field.describe()
     else:  # pragma: no cover - future field kinds
         field_text = getattr(field, "kind", type(field).__name__)
     loads = []

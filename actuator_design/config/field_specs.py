@@ -13,45 +13,18 @@ import numpy as np
 from pydantic import StrictStr, field_validator, model_validator
 
 from ..expressions import Expression, ExpressionError
-from ..scene import DipoleField, ExpressionField, UniformField
+from ..scene import DipoleField, ExpressionField, SourceField, UniformField
 from .base import Angle, Number, Q, StrictModel, tagged
 from .errors import error
 from .profile_specs import GRID
+from .source_specs import PhysicalCoils, PhysicalMagnet
+from .vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
 
 __all__ = ["NumberXY", "LengthXY", "ForceXY", "LineLoadXY", "UniformSpec", "DipoleSpec",
            "ExpressionSpec", "PhysicalUniform", "PhysicalDipole", "PhysicalExpression",
-           "DimensionlessField", "PhysicalField", "max_shape_on_rod", "is_non_uniform"]
+           "PhysicalMagnet", "PhysicalCoils", "DimensionlessField", "PhysicalField", "max_shape_on_rod", "is_non_uniform"]
 
 _HALF_PI = 0.5 * math.pi
-
-
-# -- vectors -------------------------------------------------------------------------------------
-class NumberXY(StrictModel):
-    """Dimensionless (x, y) components."""
-
-    x: Number = 0.0
-    y: Number = 0.0
-
-
-class LengthXY(StrictModel):
-    """Position (x, y), m; the clamp is at the origin, the rod along +x."""
-
-    x: Q("length") = 0.0
-    y: Q("length") = 0.0
-
-
-class ForceXY(StrictModel):
-    """Force (x, y), N."""
-
-    x: Q("force") = 0.0
-    y: Q("force") = 0.0
-
-
-class LineLoadXY(StrictModel):
-    """Force per unit length (x, y), N/m."""
-
-    x: Q("force_per_length") = 0.0
-    y: Q("force_per_length") = 0.0
 
 
 # -- fields --------------------------------------------------------------------------------------
@@ -147,12 +120,14 @@ class PhysicalExpression(_ExpressionFieldBase):
 
 
 DimensionlessField = tagged(("field",), UniformSpec, DipoleSpec, ExpressionSpec)
-PhysicalField = tagged(("field",), PhysicalUniform, PhysicalDipole, PhysicalExpression)
+PhysicalField = tagged(("field",), PhysicalUniform, PhysicalDipole, PhysicalExpression, PhysicalMagnet,
+                       PhysicalCoils)
 
 
 def is_non_uniform(field_spec) -> bool:
     """A dipole or expression field: every node interacts with every other (dense Hessian)."""
-    return isinstance(field_spec, (DipoleSpec, ExpressionSpec, PhysicalDipole, PhysicalExpression))
+    return isinstance(field_spec, (DipoleSpec, ExpressionSpec, PhysicalDipole, PhysicalExpression, PhysicalMagnet,
+                                   PhysicalCoils))
 
 
 def max_shape_on_rod(field) -> float:
@@ -160,7 +135,11 @@ def max_shape_on_rod(field) -> float:
     x, y = GRID, np.zeros_like(GRID)
     if isinstance(field, UniformField):
         return 1.0
-    if isinstance(field, DipoleField):
+    if isinstance(field, SourceField):
+        from ..physics.fields import field_model
+
+        hx, hy = field_model(field).evaluate(x, y, {})
+    elif isinstance(field, DipoleField):
         rx, ry = x - field.x0, y - field.y0
         r = np.hypot(rx, ry)
         mx, my = math.cos(field.moment_angle), math.sin(field.moment_angle)

@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 
 from ..expressions import Expression
-from ..scene import DipoleField, ExpressionField, UniformField
+from ..scene import DipoleField, ExpressionField, SourceField, UniformField
 
 __all__ = ["FieldModel", "field_model", "FieldCheckError", "check_current_free"]
 
@@ -165,6 +165,27 @@ class ExpressionFieldModel(FieldModel):
         return (type(self).__name__,) + self.text
 
 
+class SourceFieldModel(FieldModel):
+    """Magnets and coils: ĥ = −∇ψ of the fitted zonal harmonics (:mod:`.harmonic`), exact
+    derivatives by automatic differentiation; the numbers are constants of the expression."""
+
+    def __init__(self, field: SourceField):
+        from .harmonic import field_function
+
+        self.terms = tuple(field.terms)
+        self._f = field_function(self.terms)
+
+    def value(self, x, y, P):
+        n = x.numel() if hasattr(x, "numel") else 1
+        if n == 1:
+            return self._f(x, y)
+        hx, hy = self._f.map(n)(ca.reshape(x, 1, n), ca.reshape(y, 1, n))
+        return ca.reshape(hx, x.shape), ca.reshape(hy, x.shape)
+
+    def structure(self):
+        return (type(self).__name__,) + self.terms
+
+
 def field_model(field) -> FieldModel:
     """The :class:`FieldModel` for a scene field dataclass."""
     if isinstance(field, UniformField):
@@ -173,6 +194,8 @@ def field_model(field) -> FieldModel:
         return DipoleFieldModel()
     if isinstance(field, ExpressionField):
         return ExpressionFieldModel(field)
+    if isinstance(field, SourceField):
+        return SourceFieldModel(field)
     raise TypeError(f"unknown field type {type(field).__name__}")
 
 

@@ -38,7 +38,11 @@ from ..physics.fields import FieldModel
 from ..physics.kinematics import PlanarKinematics, PlanarTip
 from ..physics.terms import node_field_sources
 
-__all__ = ["PositionalHessian", "positional_hessian"]
+__all__ = ["PositionalHessian", "positional_hessian", "MAPPED_ABOVE"]
+
+#: Per-point derivative functions larger than this (CasADi instructions) are mapped over the points
+#: in a matrix graph instead of inlined at every point (the point dipole: ~600; a fitted magnet: ~20 000).
+MAPPED_ABOVE = 4000
 
 
 class _FieldAtPoint(FieldModel):
@@ -212,6 +216,10 @@ class PositionalHessian:
                 entries[key] = entries.get(key, 0) + scale * values[k]
 
         rV, cV = (np.asarray(a, np.intp) for a in hess_sp.get_triplet())
+        if point.n_instructions() > MAPPED_ABOVE:
+            self._build_mapped(tr, layout, P, u, z, lin, positions, density, point, tip, names, fields, w,
+                               point_index, tip_index, m, rV, cV, energy)
+            return
         fth, fk, fx, fy = [], [], [], []  # w_q ∂V/∂(θ, κ, x, y) at each point
         F = 0
         for q in range(nq):
@@ -257,9 +265,15 @@ class PositionalHessian:
             self._check_pointwise(ca.Function("pointwise_energy", [u, P], [F]), energy, P.numel(),
                                   layout.slices["theta0"].start)
 
+        self._finish(tr, u, lin, P, rows, cols, m)
+
+    def _finish(self, tr, u, lin, P, rows, cols, m) -> None:
+        """K's CSR structure (rows, cols sorted row-major) and Φ's constant rows."""
+        n = self.n
+        phi_lin = ca.jacobian(lin, u)
         indptr = np.searchsorted(rows, np.arange(m + 1))
         # K sparse (per-point blocks); the CasADi call writes its nonzeros into the CSR data
-        self._K = sparse.csr_matrix((np.zeros(len(keys)), cols, indptr), shape=(m, m))
+        self._K = sparse.csr_matrix((np.zeros(len(rows)), cols, indptr), shape=(m, m))
         assert self._K.has_canonical_format  # sorted, no duplicates: scipy never rewrites its data
         self._k_nz = self._K.data
         n_lin = lin.numel()
@@ -267,6 +281,67 @@ class PositionalHessian:
         P0 = ca.DM.zeros(P.numel())
         self._phi[:n_lin] = np.asarray(ca.evalf(ca.densify(ca.substitute(phi_lin, P, P0))))
         self._phi_pos = self._phi[n_lin:]
+
+    def _build_mapped(self, tr, layout, P, u, z, lin, positions, density, point, tip, names, fields, w,
+                      point_index, tip_index, m, rV, cV, energy) -> None:
+        """The Hessian as a matrix graph (MX) whose per-point derivatives are one SX function
+        mapped over the points, for fields whose jet is large (a fitted magnet or coil field:
+        ~20 000 operations a point, where inlining them at every point and eliminating common
+        subexpressions took ~10 s to build). Same numbers as the inlined graph, assembled by a
+        constant sparse matrix: K's nonzeros = A · (w_q ∇²V_q nonzeros, tip's, S's)."""
+        nq = tr.quadrature_points.size
+        nv = rV.size
+        pt = ca.SX.sym("pt", 3)
+        gT, hT, rT, cT = _hessian_entries(tip(pt[0], pt[1], pt[2], P), pt)
+        tip_derivatives = ca.Function("tip_derivatives", [pt, P], [gT, hT], {"cse": True})
+        th_s, mu_s = ca.SX.sym("th", nq), ca.SX.sym("mu", 2 * nq + 2)
+        S = ca.hessian(ca.dot(mu_s, positions(th_s)), th_s)[0]
+        rS, cS = (np.asarray(a, np.intp) for a in S.sparsity().get_triplet())
+        s_fn = ca.Function("position_curvature", [th_s, mu_s], [ca.vertcat(*S.nonzeros())])
+        pos_sx = positions(tr.point_values(z)[0])
+        phi_fn = ca.Function("position_rows", [u, P], [ca.densify(ca.jacobian(pos_sx, u)).T])
+        # where each source value goes in K: sources = (h_q nonzeros for q = 0.., tip's, S's)
+        keys_of = [(int(point_index(q)[rV[k]]), int(point_index(q)[cV[k]]), w[q]) for q in range(nq)
+                   for k in range(nv)]
+        keys_of += [(int(tip_index[r]), int(tip_index[c]), 1.0) for r, c in zip(rT, cT)]
+        keys_of += [(int(r), int(c), 1.0) for r, c in zip(rS, cS)]
+        keys = sorted({(r, c) for r, c, _ in keys_of})
+        where = {k: i for i, k in enumerate(keys)}
+        A = sparse.csr_matrix(([wt for _, _, wt in keys_of], ([where[(r, c)] for r, c, _ in keys_of],
+                                                             np.arange(len(keys_of)))),
+                              shape=(len(keys), len(keys_of)))
+        A_dm = ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.tocsc().indptr.tolist(), A.tocsc().indices.tolist()),
+                     A.tocsc().data)
+        # the graph
+        Pm, um = ca.MX.sym("P", layout.size), ca.MX.sym("u", self.n)
+        zm = ca.vertcat(Pm[layout.slices["theta0"].start], um)
+        thq, kq = tr.point_values(zm)
+        pos = positions(thq)
+        points = ca.horzcat(thq, kq, pos[:nq], pos[nq:2 * nq]).T
+        fm = [Pm[layout.slices[name]].T for name in names]
+        gq, hq = point.map(nq)(points, *fm, Pm)  # (4, n_q), (n_v, n_q)
+        g_t, h_t = tip_derivatives(ca.vertcat(zm[-1], pos[2 * nq], pos[2 * nq + 1]), Pm)
+        wT = ca.DM(w).T
+        force = ca.vertcat((gq[2, :] * wT).T, (gq[3, :] * wT).T, g_t[1], g_t[2])
+        k_nz = ca.mtimes(A_dm, ca.vertcat(ca.vec(hq), h_t, s_fn(thq, force)))
+        phi_pos_T = phi_fn(um, Pm)
+        self.u, self.gradient = u, None  # no SX gradient: gradient_function serves (no JIT path)
+        pv, fv = ca.SX.sym("p", 4), [ca.SX.sym(name) for name in names]
+        self._parts = dict(transcription=tr, layout=layout, names=names, positions=positions,
+                           tip_gradient=ca.Function("tip_gradient", [pt, P], [gT]),
+                           point_gradient=ca.Function("point_gradient", [pv, *fv, P], [point(pv, *fv, P)[0]]))
+        self._outputs = (um, Pm, k_nz, phi_pos_T)
+        self.function = ca.Function("positional_hessian", [um, Pm], [k_nz, phi_pos_T])
+        if energy is not None:
+            th_sx, k_sx = tr.point_values(z)
+            F = sum((w[q] * density(th_sx[q], k_sx[q], pos_sx[q], pos_sx[nq + q], *[f[q] for f in fields], P)
+                     for q in range(nq)), ca.SX(0))
+            F = F + tip(z[-1], pos_sx[2 * nq], pos_sx[2 * nq + 1], P)
+            self._check_pointwise(ca.Function("pointwise_energy", [u, P], [F]), energy, P.numel(),
+                                  layout.slices["theta0"].start)
+        rows = np.array([k[0] for k in keys], np.intp)
+        cols = np.array([k[1] for k in keys], np.intp)
+        self._finish(tr, u, lin, P, rows, cols, m)
 
     def gradient_function(self, inv_mass: np.ndarray) -> ca.Function:
         """``(u, P) -> (∇Ê (n,), max_i |∇Ê_i| inv_mass_i)`` as a matrix graph (MX): the point

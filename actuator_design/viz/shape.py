@@ -110,6 +110,10 @@ def _window(xs, ys, field):
     if isinstance(field, DipoleField):
         xs.append(field.x0)
         ys.append(field.y0)
+    for t in getattr(field, "terms", ()):  # magnets and coils beside the rod (not those around it)
+        if t.kind == "exterior":
+            xs.append(t.centre[0])
+            ys.append(t.centre[1])
     x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
     span = max(x1 - x0, y1 - y0, 1.0)
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
@@ -144,12 +148,43 @@ def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None
         _draw_uniform(ax, phi, scene.h, window, xs, ys, units, same_axis)
         return
     _draw_streamlines(ax, field, scene.h, window, units)
+    if getattr(field, "kind", "") == "sources":
+        _draw_sources(ax, field)
     if isinstance(field, DipoleField):
         ax.plot([field.x0], [field.y0], marker="o", ms=9, color="C3", zorder=5, ls="none",
                 label="dipole")
         m = 0.12 * np.array([math.cos(field.moment_angle), math.sin(field.moment_angle)])
         ax.annotate("", xy=(field.x0 + m[0], field.y0 + m[1]), xytext=(field.x0 - m[0], field.y0 - m[1]),
                     arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.8), zorder=6)
+
+
+def _draw_sources(ax, field) -> None:
+    """Magnets (their section in the plane, the north pole's arrow) and coils (their windings'
+    sections, two dots a loop), in units of ℓ."""
+    from matplotlib.patches import Circle, Polygon
+    for k, src in enumerate(field.sources):
+        c = np.array(src.position) / field.length
+        e = np.array([math.cos(src.axis_angle), math.sin(src.axis_angle)])
+        n = np.array([-e[1], e[0]])
+        label = "magnet" if k == 0 else None
+        if hasattr(src, "shape"):
+            r = 0.5 * src.diameter / field.length
+            if src.shape == "sphere":
+                ax.add_patch(Circle(c, r, facecolor="0.85", edgecolor="C3", lw=1.2, zorder=4, label=label))
+                half = r
+            else:
+                half = 0.5 * src.height / field.length
+                box = [c + a * half * e + b * r * n for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+                ax.add_patch(Polygon(box, closed=True, facecolor="0.85", edgecolor="C3", lw=1.2, zorder=4,
+                                     label=label))
+            ax.annotate("", xy=c + 0.8 * half * e, xytext=c - 0.8 * half * e,
+                        arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.4), zorder=6)
+            continue
+        from ..field_sources import _loops
+        pts = np.array([c + off / field.length * e + side * src.radius / field.length * n
+                        for off, _ in _loops(src) for side in (-1, 1)])
+        ax.plot(pts[:, 0], pts[:, 1], ls="none", marker="s", ms=4, color="C1", zorder=4,
+                label=f"{src.kind} windings")
 
 
 def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axis=None) -> None:
@@ -192,6 +227,8 @@ def _draw_streamlines(ax, field, h: float, window, units=None, n: int = 41) -> N
         bad = ~np.isfinite(mag) | (mag == 0)
         if isinstance(field, DipoleField):
             bad |= np.hypot(X - field.x0, Y - field.y0) < 0.06 * (window[1] - window[0])
+        for t in getattr(field, "terms", ()):  # a fitted field is known only where its fit holds
+            bad |= ~t.contains(X, Y)
         finite = mag[~bad]
         if finite.size:  # points where |ĥ| explodes (other singularities)
             bad |= mag > 1e3 * np.median(finite)

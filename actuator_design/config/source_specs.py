@@ -1,0 +1,125 @@
+"""Configuration of real field sources: a permanent magnet, coils (physical scenes only).
+
+    field:                                   field:
+      type: magnet                             type: coils
+      shape: cylinder        # or sphere       coils:
+      diameter: 10 mm                            - kind: helmholtz   # loop, solenoid, maxwell
+      height: 10 mm                                radius: 50 mm
+      position: {x: 25 mm, y: -15 mm}              turns: 100
+      axis_angle: 90 deg     # its north pole      current: 2 A
+      remanence: 1.2 T                             position: {x: 10 mm, y: 0 mm}
+                                                   axis_angle: 90 deg
+
+Every source is centred in the rod's plane with its axis in that plane. magpylib computes the
+field; :mod:`actuator_design.field_sources` fits it over the rod's reach and reports the fit error.
+The field scale H0 is the largest |H| over the part of the reach outside the sources.
+"""
+from __future__ import annotations
+
+import math
+from typing import List, Literal, Optional
+
+from pydantic import Field, StrictInt, model_validator
+
+from ..field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
+from .base import Angle, Q, StrictModel
+from .errors import error
+from .vectors import LengthXY
+
+__all__ = ["PhysicalMagnet", "PhysicalCoils", "CoilSpec"]
+
+_MAX_TURNS = 2000
+
+
+def _fitted(sources, length: float, tol: float, where: str):
+    """The scene field and H0 of ``sources``; a failed fit or a clamp outside the fit's region
+    is one config error naming ``where``."""
+    try:
+        field, h0 = source_field(tuple(sources), length, tol)
+    except ValueError as exc:
+        raise error(str(exc), where) from None
+    for k, t in enumerate(field.terms):
+        if not t.contains([0.0], [0.0])[0]:
+            raise error(f"the clamp lies within {t.valid_radius * length * 1e3:.4g} mm of source {k + 1}'s "
+                        "centre, where its field cannot be represented (inside or next to the source)", where)
+    return field, h0
+
+
+class PhysicalMagnet(StrictModel):
+    """A permanent magnet magnetised along its axis: a cylinder or a sphere, centred in the rod's
+    plane at ``position`` (m) with its axis (and north pole) at ``axis_angle`` to the rod axis."""
+
+    type: Literal["magnet"]
+    shape: Literal["cylinder", "sphere"] = "cylinder"
+    diameter: Q("length", gt=0)
+    height: Optional[Q("length", gt=0)] = None
+    position: LengthXY
+    axis_angle: Angle = 0.0
+    remanence: Q("magnetic_field", gt=0)
+    fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.shape == "cylinder" and self.height is None:
+            raise error("a cylinder magnet needs its height (e.g. '10 mm')", "height")
+        if self.shape == "sphere" and self.height is not None:
+            raise error("a sphere has no height; give its diameter only", "height")
+        return self
+
+    def source(self) -> MagnetSource:
+        return MagnetSource(self.shape, float(self.diameter), float(self.height or 0.0),
+                            (float(self.position.x), float(self.position.y)), float(self.axis_angle),
+                            float(self.remanence))
+
+    def to_field(self, length: float, where: str = "field"):
+        return _fitted([self.source()], length, float(self.fit_tolerance), where)
+
+
+class CoilSpec(StrictModel):
+    """Circular windings: ``loop`` (``turns`` turns at one place), ``solenoid`` (``turns`` loops
+    spread over ``length``), ``helmholtz`` / ``maxwell`` (two windings of ``turns`` turns,
+    ``spacing`` apart — default the radius / √3 × the radius — with equal / opposite currents)."""
+
+    kind: Literal["loop", "solenoid", "helmholtz", "maxwell"] = "loop"
+    radius: Q("length", gt=0)
+    turns: StrictInt = Field(default=1, ge=1, le=_MAX_TURNS)
+    current: Q("current")
+    position: LengthXY
+    axis_angle: Angle = 0.0
+    length: Optional[Q("length", gt=0)] = None
+    spacing: Optional[Q("length", gt=0)] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        if self.kind == "solenoid" and self.length is None:
+            raise error("a solenoid needs its length (e.g. '40 mm')", "length")
+        if self.kind != "solenoid" and self.length is not None:
+            raise error(f"only a solenoid has a length; a {self.kind} has none", "length")
+        if self.kind in ("loop", "solenoid") and self.spacing is not None:
+            raise error(f"only a helmholtz or maxwell pair has a spacing; a {self.kind} has none", "spacing")
+        return self
+
+    def source(self) -> CoilSource:
+        spacing = self.spacing
+        if spacing is None and self.kind in ("helmholtz", "maxwell"):
+            spacing = self.radius * (1.0 if self.kind == "helmholtz" else math.sqrt(3.0))
+        return CoilSource(self.kind, float(self.radius), (float(self.position.x), float(self.position.y)),
+                          float(self.axis_angle), float(self.current), int(self.turns),
+                          float(self.length or 0.0), float(spacing or 0.0))
+
+
+class PhysicalCoils(StrictModel):
+    """One or more coils (each :class:`CoilSpec`), their fields added."""
+
+    type: Literal["coils"]
+    coils: List[CoilSpec] = Field(min_length=1, max_length=16)
+    fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
+
+    @model_validator(mode="after")
+    def _check(self):
+        if all(c.current == 0.0 for c in self.coils):
+            raise error("every coil's current is zero: there is no field", "coils")
+        return self
+
+    def to_field(self, length: float, where: str = "field"):
+        return _fitted([c.source() for c in self.coils], length, float(self.fit_tolerance), where)

@@ -1,0 +1,117 @@
+"""Fields of magnets and coils as zonal solid harmonics: exact derivatives, div- and curl-free.
+
+A magnet or coil whose symmetry axis lies in the rod's plane (z = 0) has, outside its sources, a
+magnetic scalar potential ψ (H = −∇ψ) that is harmonic and axisymmetric about the axis. About the
+source's centre c, with ρ = |r − c| and cos ϑ = (r − c)·ê/ρ (ê the axis, in the plane):
+
+    exterior (ρ > R_v, the sphere holding every source):  ψ = Σ_l a_l (R/ρ)^(l+1) P_l(cos ϑ)
+    interior (ρ < R_i, the ball free of sources):        ψ = Σ_l a_l (ρ/R)^l P_l(cos ϑ)
+
+Every term is a solid harmonic in three dimensions, so the represented field is divergence- and
+curl-free by construction (THEORY §3: the applied field of a current-free region); in the plane
+z = 0 its normal component vanishes by the symmetry z → −z. The coefficients are fitted to
+magpylib (:mod:`actuator_design.field_sources`), which stays the source of truth; here is only
+their evaluation as CasADi expressions (exact gradients and Hessians for the NLP) and the region
+where a fit holds. The recurrences (ϱ = ρ/R, u = (r − c)·ê/R, q = ϱ²) are Legendre's three-term
+recurrence multiplied out, so no square root is taken in the interior form:
+
+    interior  R_l = ϱ^l P_l:        (l+1) R_{l+1} = (2l+1) u R_l − l q R_{l−1},  R_0 = 1, R_1 = u
+    exterior  I_l = ϱ^−(l+1) P_l:  (l+1) I_{l+1} = ((2l+1) u I_l − l I_{l−1}) / q,  I_0 = 1/ϱ, I_1 = u/ϱ³
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["HarmonicTerm", "basis_potentials", "potential", "field_function", "outside_region"]
+
+
+@dataclass(frozen=True)
+class HarmonicTerm:
+    """One source's fitted zonal expansion (dimensionless: lengths in ℓ, ψ in units of H0 ℓ).
+
+    Attributes
+    ----------
+    kind : {"exterior", "interior"}
+    centre : (float, float)
+        c, units of ℓ (the clamp at the origin).
+    axis_angle : float
+        Direction of ê in the plane, rad from c1.
+    radius : float
+        R, the normalising radius (the sphere the coefficients were projected on), units of ℓ.
+    coefficients : tuple of float
+        a_1, a_2, ... (a_0 carries no field).
+    valid_radius : float
+        Where the fit holds to its reported error: ρ ≥ valid_radius (exterior) or
+        ρ ≤ valid_radius (interior), units of ℓ.
+    """
+
+    kind: str
+    centre: Tuple[float, float]
+    axis_angle: float
+    radius: float
+    coefficients: Tuple[float, ...]
+    valid_radius: float
+
+    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Whether the points (units of ℓ) lie where the fit holds; boolean array."""
+        rho = np.hypot(np.asarray(x, float) - self.centre[0], np.asarray(y, float) - self.centre[1])
+        return rho >= self.valid_radius if self.kind == "exterior" else rho <= self.valid_radius
+
+
+def basis_potentials(kind: str, centre, axis_angle: float, radius: float, order: int, x, y, z=0.0) -> list:
+    """The unit-coefficient potentials [ψ_1, ..., ψ_order] of a zonal expansion at (x, y, z) (CasADi
+    scalars or numbers, units of ℓ), by the recurrences of the module docstring."""
+    ex, ey = math.cos(axis_angle), math.sin(axis_angle)
+    dx, dy, dz = (x - centre[0]) / radius, (y - centre[1]) / radius, z / radius
+    u = ex * dx + ey * dy
+    q = dx * dx + dy * dy + dz * dz
+    out = []
+    if kind == "interior":
+        prev, cur = 1.0, u
+        for l in range(1, order + 1):
+            out.append(cur)
+            prev, cur = cur, ((2 * l + 1) * u * cur - l * q * prev) / (l + 1)
+        return out
+    inv_q = 1 / q
+    prev = ca.sqrt(inv_q) if isinstance(q, (ca.SX, ca.MX)) else math.sqrt(inv_q)
+    cur = u * prev * inv_q
+    for l in range(1, order + 1):
+        out.append(cur)
+        prev, cur = cur, ((2 * l + 1) * u * cur - l * prev) * inv_q / (l + 1)
+    return out
+
+
+def potential(term: HarmonicTerm, x, y, z=0.0):
+    """ψ of one term at (x, y, z) (CasADi scalars or numbers, units of ℓ)."""
+    basis = basis_potentials(term.kind, term.centre, term.axis_angle, term.radius, len(term.coefficients), x, y, z)
+    return sum((a * b for a, b in zip(term.coefficients, basis)), 0)
+
+
+def field_function(terms: Sequence[HarmonicTerm], with_z: bool = False) -> ca.Function:
+    """ĥ = −∇ψ summed over ``terms`` as a CasADi function of scalars (x, y) → (hx, hy), or with
+    ``with_z`` of (x, y, z) → (hx, hy, hz) (for checks off the plane)."""
+    x, y, z = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("z")
+    psi = sum((potential(t, x, y, z if with_z else 0.0) for t in terms), ca.SX(0))
+    r = ca.vertcat(x, y, z) if with_z else ca.vertcat(x, y)
+    h = -ca.gradient(psi, r)
+    ins = [x, y, z] if with_z else [x, y]
+    return ca.Function("harmonic_field", ins, [h[i] for i in range(h.numel())])
+
+
+def outside_region(terms: Sequence[HarmonicTerm], x: np.ndarray, y: np.ndarray) -> Optional[str]:
+    """Why the points (x, y) (units of ℓ) are not all where every fit holds, or None."""
+    for k, t in enumerate(terms):
+        inside = t.contains(x, y)
+        if not np.all(inside):
+            i = int(np.argmin(inside))
+            rho = math.hypot(float(x[i]) - t.centre[0], float(y[i]) - t.centre[1])
+            side = "closer to" if t.kind == "exterior" else "farther from"
+            return (f"the rod comes {side} source {k + 1}'s centre than its field representation holds "
+                    f"(at ({float(x[i]):.4g}, {float(y[i]):.4g}) rod lengths: distance {rho:.4g}, "
+                    f"{'at least' if t.kind == 'exterior' else 'at most'} {t.valid_radius:.4g})")
+    return None

@@ -1,0 +1,128 @@
+"""Equilibria in the fields of real magnets and coils (issue 19): ``solve`` on the shipped configs
+against an independent shooting solver that calls magpylib for the field at every step
+(:mod:`actuator_design.reference.shooting_field`, magpylib objects built here by hand); the region
+where a fit holds is enforced; bad source configs are one clear line."""
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import magpylib as magpy
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from actuator_design.acceptance import check_physical
+from actuator_design.cli.main import main
+from actuator_design.config.errors import ConfigError
+from actuator_design.config.model import load_config
+from actuator_design.equilibrium import solve
+from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
+                                                      solve_field_shooting)
+
+MU0 = 4e-7 * math.pi
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+def _scene(name):
+    return load_config(CONFIGS / name).to_scene()
+
+
+def _reference_tip(scene, objs, result):
+    length, h0 = scene.scales.length, scene.scales.field
+    field = field_from_function(lambda p: magpy.getH(objs, p, sumup=True), length, h0)
+    rod = FieldRod(field, h=scene.h, h_pos=scene.h_pos, h_r=scene.h_r,
+                   alpha=float(scene.fibres(np.array([0.0]))[0]),
+                   beta=float(scene.magnetization(np.array([0.0]))[0]) if scene.magnetization is not None else 0.0)
+    s = np.linspace(0, 1, 201)
+    d = result.evaluate(s)
+    shot = solve_field_shooting(rod, guess_from_shape(rod, s, d["theta"], d["dtheta"][0], d["x"], d["y"]))
+    return np.array(shot.tip)
+
+
+def test_hard_magnetic_strip_beside_a_cylinder_magnet_against_shooting():
+    scene = _scene("magnet_cylinder_hard_strip.yaml")
+    assert scene.h_r > 0 and scene.h == 0
+    res = solve(scene)
+    assert res.success and res.stable
+    up = Rotation.from_rotvec([-0.5 * math.pi, 0, 0])  # the cylinder's axis (local z) to +y
+    magnet = magpy.magnet.Cylinder(dimension=(10e-3, 10e-3), magnetization=(0, 0, 1.2 / MU0),
+                                   position=(25e-3, -15e-3, 0), orientation=up)
+    ref = _reference_tip(scene, [magnet], res)
+    ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
+    assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
+    assert abs(ours[1]) > 0.05  # the field does bend the rod
+
+
+def test_soft_strip_between_helmholtz_coils_against_shooting():
+    scene = _scene("helmholtz_soft_strip.yaml")
+    res = solve(scene)
+    assert res.success and res.stable
+    a = math.radians(70)
+    axis = Rotation.from_euler("z", a) * Rotation.from_rotvec([0, 0.5 * math.pi, 0])
+    coils = [magpy.current.Circle(diameter=0.1, current=200 * 5.0, orientation=axis,
+                                  position=(10e-3 + z * math.cos(a), z * math.sin(a), 0)) for z in (-25e-3, 25e-3)]
+    ref = _reference_tip(scene, coils, res)
+    ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
+    assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
+    assert ours[1] > 0.3
+
+
+def test_a_state_outside_the_fitted_region_is_not_a_success():
+    """The fit's region shrunk by hand to exclude the rod's tip: the same state is refused."""
+    scene = _scene("magnet_cylinder_hard_strip.yaml")
+    res = solve(scene)
+    t = scene.field.terms[0]
+    tip_distance = math.hypot(res.tip["x"] - t.centre[0], res.tip["y"] - t.centre[1])
+    narrowed = replace(scene.field, terms=(replace(t, valid_radius=tip_distance + 0.01),))
+    res.scene = replace(scene, field=narrowed)
+    check_physical(res)
+    assert not res.success and res.status == "outside_field_region"
+    assert "closer to source 1's centre" in res.message
+
+
+@pytest.mark.parametrize("field, where, words", [
+    ({"type": "magnet", "diameter": "10 mm", "position": {"x": "25 mm", "y": "0 mm"}, "remanence": "1 T"},
+     "scene.field.height", "needs its height"),
+    ({"type": "magnet", "shape": "cylinder", "diameter": "10 mm", "height": "10 mm",
+      "position": {"x": "3 mm", "y": "0 mm"}, "remanence": "1 T"}, "scene.field", "the clamp lies within"),
+    ({"type": "magnet", "diameter": "10 mm", "height": "1 A", "position": {"x": "25 mm"}, "remanence": "1 T"},
+     "scene.field.height", "length"),
+    ({"type": "coils", "coils": [{"kind": "solenoid", "radius": "5 mm", "current": "1 A",
+                                  "position": {"x": "30 mm"}}]}, "scene.field.coils[0].length", "needs its length"),
+    ({"type": "coils", "coils": [{"radius": "5 mm", "current": "0 A", "position": {"x": "30 mm"}}]},
+     "scene.field.coils", "zero"),
+    ({"type": "coils", "coils": [{"radius": "5 mm", "current": "1 A", "position": {"x": "30 mm"}, "turns": 10 ** 6}]},
+     "scene.field.coils[0].turns", "2000"),
+    ({"type": "coils", "coils": [{"radius": "5 mm", "current": "1 A", "position": {"x": "30 mm"}, "colour": 1}]},
+     "scene.field.coils[0].colour", ""),
+])
+def test_bad_source_configs_name_the_field(field, where, words):
+    cfg = {"scene": {"type": "physical", "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm",
+                                                  "youngs_modulus": "1 MPa"},
+                     "magnetics": {"remanent_flux_density": "0.01 T"}, "magnetization": "0 deg", "field": field}}
+    with pytest.raises(ConfigError) as err:
+        load_config(cfg)
+    assert err.value.field == where and words in err.value.detail, str(err.value)
+
+
+def test_solve_prints_the_fit(capsys):
+    assert main(["solve", str(CONFIGS / "helmholtz_soft_strip.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "field       : helmholtz coil" in out and "fit error" in out and "h_pos = " in out
+
+
+def test_design_in_a_non_uniform_field_designs_its_strength_not_an_angle():
+    """A dipole field has no angle: the automatic sets drop φ (they asked for it and failed with
+    '--vary phi: needs a uniform field' before) and say so."""
+    from actuator_design.analysis.design import design_problem
+
+    scene = _scene("permanent_magnet_dipole.yaml")
+    prob = design_problem((0.9, -0.2), replace(scene, fibres_given=False), None, None, None, None, 0.0)
+    assert prob.variable_sets == (("h",), ("h", "alpha"))
+    assert any("its angle is not a design variable" in n for n in prob.notes)
+
+
+def test_design_in_a_field_of_magnets_and_coils_is_refused_in_one_line(capsys):
+    assert main(["design", str(CONFIGS / "helmholtz_soft_strip.yaml"), "--target-tip", "0.8,0.5"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "magnets and coils" in err[0] and "cannot be designed yet" in err[0]
