@@ -127,7 +127,7 @@ def operator_for(solver):
     return op
 
 
-def balance(solver, params, dense, scene, z):
+def balance(solver, params, dense, scene, z, point_loads=None):
     """Clamp force (2,), clamp moment and max |R(s)| (units of B0/ℓ², B0/ℓ, B0/ℓ; module doc).
 
     Parameters
@@ -139,6 +139,8 @@ def balance(solver, params, dense, scene, z):
         s -> (θ, θ', x, y), the dense shape (used for meshes without a stored operator).
     scene : Scene
     z : ndarray, shape (n_nodes,)
+    point_loads : (s, Fx, Fy, x, y) arrays, optional
+        Point forces on the rod (contact forces, units of B0/ℓ²) at arc lengths s, positions (x, y).
     """
     op = operator_for(solver)
     if op is None:
@@ -150,7 +152,7 @@ def balance(solver, params, dense, scene, z):
     col = lambda v: np.asarray(v, float)[:, None]
     tip = np.array([solver.summary(z, params)[1:]])
     force, moment, R = _moment_balance(solver, op, [col(v) for v in g], [col(v) for v in e],
-                                       loads, tip, np.atleast_2d(params))
+                                       loads, tip, np.atleast_2d(params), point_loads)
     return force[0], float(moment[0]), float(R[0])
 
 
@@ -215,10 +217,11 @@ def _loads_function(solver, scene, params):
     return loads
 
 
-def _moment_balance(solver, op, g, e, loads, tip, P):
+def _moment_balance(solver, op, g, e, loads, tip, P, point_loads=None):
     """The clamp reaction and max |R| of m states (module doc). ``g``, ``e``: (θ, θ', x, y) at the
     quadrature points and the residual edges, each (k, m); ``tip``: (θ(1), x(1), y(1)) per state,
-    shape (m, 3); ``P``: parameters, shape (m, n_params)."""
+    shape (m, 3); ``P``: parameters, shape (m, n_params); ``point_loads``: (s, Fx, Fy, x, y) of
+    point forces on one state (contact), which enter n(s) and ∫ r×F for every edge s ≤ s_j."""
     fast = _vectorised(solver)
     x, y, xe, ye = g[2], g[3], e[2], e[3]
     n_g = x.shape[0]  # one evaluation for the quadrature points and the residual edges
@@ -237,6 +240,13 @@ def _moment_balance(solver, op, g, e, loads, tip, P):
         return np.concatenate((np.cumsum(per[::-1], axis=0)[::-1], np.zeros((1, per.shape[1]))))
 
     I_tau, I_Fx, I_Fy, I_rF = tail(tau), tail(Fx), tail(Fy), tail(x * Fy - y * Fx)
+    if point_loads is not None:  # beyond each edge (all edges, the clamp's first)
+        sj, pfx, pfy, pxj, pyj = (np.asarray(v, float) for v in point_loads)
+        edges = _all_edges(op)
+        beyond = (sj[None, :] >= edges[:, None] - 1e-14).astype(float)  # (n_edges, n_points)
+        I_Fx = I_Fx + (beyond @ pfx)[:, None]
+        I_Fy = I_Fy + (beyond @ pfy)[:, None]
+        I_rF = I_rF + (beyond @ (pxj * pfy - pyj * pfx))[:, None]
     r1xf = tip_x * fy - tip_y * fx
     clamp_force = -np.stack([fx + I_Fx[0], fy + I_Fy[0]], axis=1)
     clamp_moment = -(m + r1xf + I_tau[0] + I_rF[0])
@@ -245,3 +255,9 @@ def _moment_balance(solver, op, g, e, loads, tip, P):
     nx, ny = fx + I_Fx[keep], fy + I_Fy[keep]
     R = moment - m - r1xf - I_tau[keep] - I_rF[keep] + (xe * ny - ye * nx)
     return clamp_force, clamp_moment, np.max(np.abs(R), axis=0)
+
+
+def _all_edges(op) -> np.ndarray:
+    """Arc lengths of every sub-interval edge, the clamp's first: the rows of ``tail``."""
+    w = op.wg.reshape(op.n_sub, -1).sum(1)
+    return np.concatenate(([0.0], np.cumsum(w)))

@@ -49,6 +49,9 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         Never raises on non-convergence: ``success``/``status``/``message`` say what happened.
     """
     options = options or SolverOptions()
+    if scene.obstacles:  # unilateral constraints: IPOPT with the contact rows
+        from .contact import solve_contact
+        return solve_contact(scene, options)
     if options.accuracy is not None and solver is None:
         from dataclasses import replace
 

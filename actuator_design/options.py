@@ -1,8 +1,9 @@
 """Solver settings: which transcription, at what resolution, solved how."""
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
-from typing import Optional
+from typing import Optional, Tuple
 
 __all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE", "STARTS", "MAX_LEVELS"]
 
@@ -15,6 +16,7 @@ MAX_DEGREE = 60
 STARTS = ("rest", "straight")
 #: Most grading levels towards one end (element length 2^-40/E: far below any layer of h ≤ 1e4).
 MAX_LEVELS = 40
+MAX_SPLITS = 16  # extra element boundaries (contact points)
 
 
 @dataclass(frozen=True)
@@ -72,6 +74,9 @@ class SolverOptions:
     clamp_levels, tip_levels : int
         Geometric grading of the ``lgl`` mesh towards the clamp/tip (see
         :class:`~actuator_design.transcription.lgl.LGL`), in [0, 40].
+    split_at : tuple of float
+        Extra ``lgl`` element boundaries in (0, 1) (at most 16): where a point force (a contact)
+        kinks θ', so that each side is one polynomial (:mod:`actuator_design.contact` sets them).
     keep_self_intersecting : bool
         Accept a self-intersecting shape as a result (contact is not modelled); by default it is
         ``success=False`` with ``status="self_intersecting"``.
@@ -99,6 +104,7 @@ class SolverOptions:
     clamp_levels: int = 0
     tip_levels: int = 0
     keep_self_intersecting: bool = False
+    split_at: Tuple[float, ...] = ()
 
     def __post_init__(self):
         if self.transcription not in TRANSCRIPTIONS:
@@ -118,6 +124,10 @@ class SolverOptions:
                 raise ValueError(f"{name} must lie in [0, {MAX_LEVELS}], got {getattr(self, name)}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
+        split = tuple(float(v) for v in self.split_at)
+        if len(split) > MAX_SPLITS or not all(math.isfinite(v) and 0.0 < v < 1.0 for v in split):
+            raise ValueError(f"split_at: at most {MAX_SPLITS} arc lengths in (0, 1), got {self.split_at}")
+        object.__setattr__(self, "split_at", tuple(sorted(set(split))))
         if self.accuracy is None:
             from .config.limits import mesh_problem  # the memory budget (README "Units and scenes")
 
@@ -131,7 +141,8 @@ class SolverOptions:
     @property
     def extra_elements(self) -> int:
         """Elements added by grading (``lgl`` only)."""
-        return int(self.clamp_levels) + int(self.tip_levels) if self.transcription == "lgl" else 0
+        return (int(self.clamp_levels) + int(self.tip_levels) + len(self.split_at)
+                if self.transcription == "lgl" else 0)
 
     def as_dict(self) -> dict:
         return asdict(self)

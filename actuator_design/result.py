@@ -86,6 +86,8 @@ class EquilibriumResult:
     z: Optional[np.ndarray] = None  # raw node vector (warm starts)
     #: a-posteriori estimate of the tip error (rod lengths) when an accuracy was asked for
     error_estimate: Optional[float] = None
+    #: the contact set of a scene with obstacles (:mod:`actuator_design.contact`), else None
+    contact: Optional[dict] = None
     #: callables filled by the solver; the diagnostics they compute are evaluated on first access
     _dense: Optional[Callable] = field(default=None, repr=False)
     _balance: Optional[Callable] = field(default=None, repr=False)
@@ -166,7 +168,7 @@ class EquilibriumResult:
     DICT_KEYS = ("success", "status", "message", "stable", "morse_index", "marginal", "escaped_saddle",
                  "self_intersecting", "tip", "energy", "h", "phi", "p", "gamma", "clamp_reaction",
                  "el_residual", "error_estimate", "stationarity", "eigenvalues", "shape", "groups",
-                 "scales", "physical", "units", "solver")
+                 "scales", "physical", "units", "solver", "contact")
 
     def to_dict(self, include=None) -> Dict[str, object]:
         """The JSON contract of ``actuator-design solve --json`` (keys are stable; more may be added).
@@ -198,6 +200,7 @@ class EquilibriumResult:
             "error_estimate": lambda: None if self.error_estimate is None else float(self.error_estimate),
             "stationarity": lambda: float(self.stationarity),
             "eigenvalues": lambda: [float(v) for v in self.eigenvalues],
+            "contact": lambda: self.contact,
             "shape": lambda: {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
                               "theta": self.theta.tolist()},
             "groups": lambda: self.scene.describe_groups(),
@@ -246,6 +249,17 @@ class EquilibriumResult:
         if self.escaped_saddle:
             lines.append("  note        : the solver first stopped at an unstable equilibrium and was "
                          "perturbed along its unstable mode to reach this stable one")
+        if self.contact is not None:
+            c = self.contact
+            strong = [p for p in c["points"] if not p["weak"]]
+            where = ", ".join(f"s = {p['s']:.4g} ({'tip' if p['s'] == 1.0 else 'obstacle ' + str(p['obstacle'] + 1)})"
+                              for p in strong[:4]) + (", ..." if len(strong) > 4 else "")
+            lines.append(f"  contact     : {len(strong)} point(s) in contact{': ' + where if strong else ''}; "
+                         f"total contact force ({number(c['total_force'][0])}, {number(c['total_force'][1])}) "
+                         f"[B0/l^2]" + (f" = ({number(c['total_force_N'][0], '.4g')}, "
+                                        f"{number(c['total_force_N'][1], '.4g')}) N" if "total_force_N" in c else "")
+                         + (f"; {c['weakly_active']} weakly active (no force at the gap)"
+                                        if c["weakly_active"] else ""))
         if self.self_intersecting:
             lines.append("  warning     : the shape intersects itself; contact is not modelled")
         phys = self.physical()

@@ -254,6 +254,12 @@ class Scene:
     extra_terms : tuple of TermValues
         Plug-in energy terms present in the scene, with their values (the extension point: which
         terms are listed is structural, their values are not).
+    obstacles : tuple of Wall or Peg
+        Rigid frictionless obstacles (:mod:`actuator_design.obstacles`); ``solve`` then finds a
+        contact equilibrium (:mod:`actuator_design.contact`).
+    contact_gap : float
+        The distance the centre line keeps from an obstacle, units of ℓ (the rod's half-thickness
+        for a physical scene).
     """
 
     field: Optional[Field] = dc_field(default_factory=UniformField)
@@ -272,6 +278,8 @@ class Scene:
     h_r: float = 0.0
     magnetization: Optional[Profile] = None
     fibres_physical: bool = True
+    obstacles: Tuple[Any, ...] = ()
+    contact_gap: float = 0.0
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:

@@ -406,7 +406,8 @@ def get_solver(scene: Scene, options: SolverOptions) -> EquilibriumSolver:
     """A cached :class:`EquilibriumSolver` for the scene's structure (built on first use)."""
     lgl = options.transcription == "lgl"
     key = (structure_key(build_terms(scene)), options.transcription, options.elements,
-           options.degree if lgl else None, (options.clamp_levels, options.tip_levels) if lgl else None,
+           options.degree if lgl else None,
+           (options.clamp_levels, options.tip_levels, options.split_at) if lgl else None,
            options.tol, options.max_iter, bool(options.jit))
     solver = _CACHE.get(key)
     if solver is None:

@@ -446,7 +446,7 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
     from ..physics.terms import build_terms, structure_key
 
     key = (structure_key(build_terms(scene)), tuple(sorted(vary)), options.transcription, options.elements,
-           options.degree, options.clamp_levels, options.tip_levels, options.tol, options.max_iter,
+           options.degree, options.clamp_levels, options.tip_levels, options.split_at, options.tol, options.max_iter,
            alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
     if key not in _CACHE:
         _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms)

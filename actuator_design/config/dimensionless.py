@@ -12,9 +12,9 @@ field: physical units need a ``type: physical`` scene, whose rod and material co
 from __future__ import annotations
 
 import re
-from typing import Literal, Optional
+from typing import List, Literal, Optional
 
-from pydantic import model_validator
+from pydantic import Field, model_validator
 
 from ..profiles import constant_profile
 from ..scene import Scene, UniformField
@@ -22,6 +22,7 @@ from .base import Angle, Number, Q, StrictModel
 from .errors import error
 from .field_specs import DimensionlessField, NumberXY
 from .limits import group_problem
+from .obstacle_specs import MAX_OBSTACLES, DimensionlessObstacle, obstacles_of
 from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
 __all__ = ["DimensionlessScene"]
@@ -92,6 +93,8 @@ class DimensionlessScene(StrictModel):
     clamp_angle: Angle = 0.0
     h_r: Optional[Q("dimensionless", ge=0)] = None
     magnetization: Optional[MagnetizationProfile] = None
+    obstacles: Optional[List[DimensionlessObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
+    contact_gap: Optional[Q("dimensionless", ge=0, le=1)] = None
 
     @model_validator(mode="before")
     @classmethod
@@ -140,7 +143,8 @@ class DimensionlessScene(StrictModel):
                      distributed_load=_xy(self.distributed_load), theta0=self.clamp_angle,
                      scales=None, name=name or "dimensionless cantilever", h_r=self.h_r or 0.0,
                      fibres_given=self.fibres is not None,
-                     magnetization=(_profile(self.magnetization, 0.0) if self.hard_magnetic else None))
+                     magnetization=(_profile(self.magnetization, 0.0) if self.hard_magnetic else None),
+                     obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0))
 
     @property
     def hard_magnetic(self) -> bool:

@@ -51,7 +51,8 @@ def dotted(loc) -> str:
 def _strip_tags(loc) -> list:
     out = []
     for i, part in enumerate(loc):
-        if i and loc[i - 1] in UNION_TAGS and part in UNION_TAGS[loc[i - 1]]:
+        owner = next((p for p in reversed(loc[:i]) if isinstance(p, str)), None)  # a list's item: the list
+        if owner in UNION_TAGS and part in UNION_TAGS[owner] and (loc[i - 1] == owner or isinstance(loc[i - 1], int)):
             continue
         out.append(part)
     return out
@@ -68,7 +69,8 @@ def translate(err: ValidationError) -> ConfigError:
         loc.append(ctx["key"])
         detail = f"unknown key (allowed: {ctx['allowed']}{ctx['hint']})"
     elif kind in ("union_tag_invalid", "union_tag_not_found"):
-        tags = ", ".join(UNION_TAGS.get(loc[-1] if loc else "", []))
+        named = [part for part in loc if isinstance(part, str)]  # a list's item: its list's name
+        tags = ", ".join(UNION_TAGS.get(named[-1] if named else "", []))
         what = f"unknown type '{ctx['tag']}'" if kind == "union_tag_invalid" else "missing"
         loc.append("type")
         detail = f"{what} (allowed: {tags})"

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Dict, List, Literal, Optional, Tuple
 
 import numpy as np
-from pydantic import model_validator
+from pydantic import Field, model_validator
 
 from ..profiles import constant_profile
 from ..scene import Scales, Scene
@@ -28,6 +28,7 @@ from .base import Angle, Positive, Q, StrictModel
 from .errors import ConfigError, error
 from .field_specs import ForceXY, LineLoadXY, PhysicalDipole, PhysicalField, max_shape_on_rod
 from .limits import GROUP_RANGES, group_problem
+from .obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
 from .magnetic_specs import MagneticSummary, Magnetics, Particles
 from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
@@ -201,6 +202,7 @@ class PhysicalScene(StrictModel):
     fibres: Optional[FibreProfile] = None
     magnetization: Optional[MagnetizationProfile] = None
     clamp: Optional[Clamp] = None
+    obstacles: Optional[List[PhysicalObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
 
     @model_validator(mode="after")
     def _check(self):
@@ -294,7 +296,9 @@ class PhysicalScene(StrictModel):
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field,
                           h_r_per_field=d.h_r_per_field if hard else 0.0),
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
-            fibres_physical=not self._isotropic_particles())
+            fibres_physical=not self._isotropic_particles(),
+            obstacles=obstacles_of(self.obstacles, length),
+            contact_gap=0.5 * float(self.rod.thickness) / length if self.obstacles else 0.0)
 
     def _isotropic_particles(self) -> bool:
         """Spherical (or otherwise isotropic) particles: χ̄ = 0 of the particles alone (THEORY §2),

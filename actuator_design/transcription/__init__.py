@@ -10,7 +10,7 @@ def make_transcription(options) -> Transcription:
     """The transcription named by a :class:`~actuator_design.options.SolverOptions`."""
     if options.transcription == "lgl":
         return LGL(options.elements, options.degree, getattr(options, "clamp_levels", 0),
-                   getattr(options, "tip_levels", 0))
+                   getattr(options, "tip_levels", 0), getattr(options, "split_at", ()))
     if options.transcription == "midpoint":
         return Midpoint(options.elements)
     raise ValueError(f"unknown transcription {options.transcription!r}")

@@ -103,14 +103,22 @@ class LGL(Transcription):
     name = "lgl"
     order_description = "spectral in the degree; O(E^-2d) in the energy"
 
-    def __init__(self, elements: int = 4, degree: int = 10, clamp_levels: int = 0, tip_levels: int = 0):
+    def __init__(self, elements: int = 4, degree: int = 10, clamp_levels: int = 0, tip_levels: int = 0,
+                 split_at=()):
         self.d = int(degree)
         self.levels = (int(clamp_levels), int(tip_levels))
-        self._bp = graded_breakpoints(int(elements), *self.levels)
+        bp = graded_breakpoints(int(elements), *self.levels)
+        # extra boundaries (contact points), none closer than 1e-6 to another: no sliver elements
+        split = []
+        for v in sorted(float(v) for v in split_at):
+            if np.min(np.abs(bp - v)) > 1e-6 and (not split or v - split[-1] > 1e-6):
+                split.append(v)
+        self.split = tuple(split)
+        self._bp = np.union1d(bp, self.split) if self.split else bp
         self.E = self._bp.size - 1
         tau, w = lgl_nodes_weights(self.d)
         self._tau, self._w = tau, w
-        self.uniform = not any(self.levels)
+        self.uniform = not any(self.levels) and not self.split
         if self.uniform:  # the equal-element formulas, bit for bit (warm-started analyses rely on it)
             self.J = 0.5 / self.E
             self._J = np.full(self.E, self.J)
@@ -134,7 +142,8 @@ class LGL(Transcription):
         return self._bp.copy()
 
     def structure(self):
-        return (self.name, self.E, self.d) + ((self.levels,) if any(self.levels) else ())
+        return ((self.name, self.E, self.d) + ((self.levels,) if any(self.levels) else ())
+                + ((self.split,) if self.split else ()))
 
     def point_values(self, z):
         theta_q = z[self._gidx.tolist()]

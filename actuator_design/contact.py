@@ -1,0 +1,274 @@
+"""Contact equilibria: the energy minimised subject to d(r(s)) ≥ gap against every obstacle.
+
+The obstacles of a scene (:mod:`actuator_design.obstacles`) are unilateral, frictionless
+constraints imposed at the transcription's quadrature points and at the tip, where the positions
+r(s) are the NLP's own expressions of θ. IPOPT solves
+
+    min Ê(θ)  s.t.  θ(0) = θ0,   d_k(r(s_j)) − gap ≥ 0   for every obstacle k and point j,
+
+from the rest state (the straight rod, which must be free of the obstacles) with the loads applied.
+What a contact equilibrium reports, beyond an ordinary one:
+
+* the contact set: the points whose multiplier μ_j > 0 (the force μ_j ∇d_k on the rod, units of
+  B0/ℓ², and per unit length μ_j/w_j at a quadrature point of weight w_j), and the weakly active
+  ones (d = gap to the tolerance and μ_j = 0: strict complementarity fails there);
+* stability: the inertia of the Lagrangian's reduced Hessian ∇²(Ê − Σ μ_j d_j) on the tangent space
+  of the strongly active constraints (against the L² mass, as without contact, THEORY §7);
+* accuracy: the moment balance of :mod:`actuator_design.balance` with the contact forces as point
+  loads (the Euler–Lagrange residual including contact).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Dict, List, Optional
+
+import casadi as ca
+import numpy as np
+import scipy.linalg as sla
+
+from .options import MAX_SPLITS
+
+__all__ = ["solve_contact", "ContactVerdict"]
+
+#: a multiplier above this (relative to max(1, |clamp force|)) is a contact; below it, with the
+#: constraint at the gap, the contact is weak (strict complementarity fails)
+ACTIVE = 1e-5
+_CACHE: Dict[tuple, "ContactNLP"] = {}
+
+
+@dataclass
+class ContactVerdict:
+    eigenvalues: np.ndarray
+    morse_index: int
+    stable: bool
+    marginal: bool = False
+
+
+class ContactNLP:
+    """The contact-constrained NLP of one solver and one set of obstacles (built once)."""
+
+    def __init__(self, solver, obstacles, gap: float):
+        tr, lay = solver.transcription, solver.layout
+        z = ca.SX.sym("z", tr.nodes.size)
+        P = ca.SX.sym("P", lay.size)
+        E = solver.f_energy(z, P)
+        thq, _ = tr.point_values(z)
+        xq, yq = tr.point_positions(thq)
+        xt, yt = tr.tip_position(thq)
+        sq, wq = np.asarray(tr.quadrature_points, float), np.asarray(tr.quadrature_weights, float)
+        # one row per distinct point (LGL's element ends are points of two elements, its last is
+        # the tip), none at the clamp (fixed); the weight of a point is that of all its copies
+        s_all = np.concatenate([sq, [1.0]])
+        w_all = np.concatenate([wq, [0.0]])
+        keys = np.round(s_all, 13)
+        first = [int(np.flatnonzero(keys == k)[0]) for k in np.unique(keys) if k > 0.0]
+        self.s_points = s_all[first]
+        self.w_points = np.array([w_all[keys == keys[i]].sum() for i in first])
+        X, Y = ca.vertcat(xq, xt)[first], ca.vertcat(yq, yt)[first]
+        self.obstacles, self.gap = tuple(obstacles), float(gap)
+        rows = [ob.distance(X, Y) - gap for ob in obstacles]
+        self.n_points = X.numel()
+        g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
+        self.f_xy = ca.Function("contact_points", [z], [X, Y])
+        self.f_dist = ca.Function("contact_rows", [z], [ca.vertcat(*rows)])
+        self.f_jac = ca.Function("contact_jacobian", [z], [ca.jacobian(ca.vertcat(*rows), z)])
+        mu = ca.SX.sym("mu", len(rows) * self.n_points)
+        lag = E - ca.dot(mu, ca.vertcat(*rows))
+        self.f_lag = ca.Function("contact_lagrangian", [z, P, mu],
+                                 [ca.gradient(lag, z), ca.hessian(lag, z)[0]])
+        # bounds not relaxed: a contact point sits exactly at the gap
+        opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
+                "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive", "ipopt.bound_relax_factor": 0.0}
+        self.nlpsol = ca.nlpsol("contact", "ipopt", {"x": z, "p": P, "f": E, "g": g}, opts)
+
+
+def contact_nlp(solver, scene) -> ContactNLP:
+    key = (id(solver), scene.obstacles, scene.contact_gap)
+    if key not in _CACHE:
+        _CACHE[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap)
+    return _CACHE[key]
+
+
+def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
+    d = np.asarray(nlp.f_dist(z0), float).ravel()
+    if np.all(d > 0):
+        return None
+    k, j = divmod(int(np.argmin(d)), nlp.n_points)
+    return (f"the rod at rest (straight at the clamp angle) enters the {scene.obstacles[k].describe()} "
+            f"at s = {nlp.s_points[j]:.4g}: contact equilibria are sought from a free rest state")
+
+
+def solve_contact(scene, options):
+    """A contact equilibrium of ``scene`` (its obstacles non-empty), or a failed result saying why.
+
+    A point force inside an element kinks θ', which one polynomial cannot follow: every interior
+    contact point becomes an element boundary (``SolverOptions.split_at``) at the point of the
+    solved shape nearest its obstacle, and the solve is repeated until those points stay put
+    (at most :data:`MAX_SPLIT_ROUNDS` rounds; the residual check judges the last).
+
+    Returns
+    -------
+    EquilibriumResult
+        ``contact`` holds the contact set (module doc); accepted by the checks of
+        :mod:`actuator_design.acceptance` like any equilibrium.
+    """
+    from dataclasses import replace
+
+    from .acceptance import accept, graded_options
+
+    t0 = time.perf_counter()
+    opts = graded_options(scene, options) if options.adapt else options
+    splits, rounds = tuple(opts.split_at), 0
+    while True:
+        result = _solve_once(scene, replace(opts, split_at=splits), t0)
+        rounds += 1
+        interior = [p for p in result.contact["points"] if not p["weak"] and 0.0 < p["s"] < 1.0]
+        if not result.success or not interior or rounds >= MAX_SPLIT_ROUNDS:
+            break
+        new = _merged(sorted(_nearest_point(scene, result, p) for p in interior))
+        if len(new) > MAX_SPLITS or (len(new) == len(splits)
+                                     and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= 1e-9):
+            break
+        splits = new
+    result.contact["split_at"] = list(result.options.split_at)
+    if options.accuracy is not None:
+        result.message += "; the accuracy option is not applied to contact equilibria (the residual check is)"
+    inside = _penetration(scene, result)
+    if inside is not None and result.success:
+        result.success, result.status = False, "inaccurate"
+        result.message += f"; {inside}: give more elements (solver.elements)"
+    return accept(result)
+
+
+#: rounds of solve → move the element boundaries to the contact points → solve
+MAX_SPLIT_ROUNDS = 8
+#: contact points closer than this (rod lengths of arc) are one point: one element boundary
+MERGE = 1e-6
+
+
+def _merged(points) -> tuple:
+    """Sorted arc lengths with those closer than :data:`MERGE` merged into their mean."""
+    groups = []
+    for s in points:
+        if groups and s - groups[-1][-1] <= MERGE:
+            groups[-1].append(s)
+        else:
+            groups.append([s])
+    return tuple(round(float(np.mean(g)), 12) for g in groups)
+
+
+def _nearest_point(scene, result, point: dict) -> float:
+    """The arc length of the shape's point nearest the obstacle of a contact ``point``, near it."""
+    from scipy.optimize import minimize_scalar
+
+    ob = scene.obstacles[point["obstacle"]]
+    half = 0.5 / max(1, result.options.elements)
+    lo, hi = max(1e-9, point["s"] - half), min(1.0 - 1e-9, point["s"] + half)
+    dist = lambda s: float(np.asarray(ob.distance(*(result.evaluate(np.array([s]))[k] for k in ("x", "y"))))[0])
+    return float(minimize_scalar(dist, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}).x)
+
+
+def _solve_once(scene, opts, t0: float):
+    """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted)."""
+    from .balance import balance
+    from .equilibrium import _make_result
+    from .solver import RawSolution, get_solver
+
+    solver = get_solver(scene, opts)
+    nlp = contact_nlp(solver, scene)
+    P = solver.parameter_vector(scene)
+    z0 = np.full(solver.transcription.nodes.size, scene.theta0)
+    problem = _rest_state_problem(scene, nlp, z0)
+    n_rows = len(scene.obstacles) * nlp.n_points
+    lbg = np.zeros(1 + n_rows)
+    ubg = np.concatenate([[0.0], np.full(n_rows, np.inf)])
+    sol = nlp.nlpsol(x0=z0, p=P, lbg=lbg, ubg=ubg)
+    st = nlp.nlpsol.stats()
+    z = np.asarray(sol["x"], float).ravel()
+    mu = np.maximum(-np.asarray(sol["lam_g"], float).ravel()[1:], 0.0)
+    status = str(st.get("return_status"))
+    converged = bool(st.get("success", False)) and problem is None
+    grad, H = (np.asarray(v, float) for v in nlp.f_lag(z, P, mu))
+    mass = np.asarray(solver.transcription.mass, float)
+    stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
+    d = np.asarray(nlp.f_dist(z), float).ravel()
+    strong = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
+    weak = (~strong) & (d <= 1e-8)
+    verdict = _verdict(H[1:, 1:], np.asarray(nlp.f_jac(z), float)[strong][:, 1:], mass[1:])
+    message = f"IPOPT: {status} (contact, from the straight rod with the loads applied)"
+    if problem is not None:
+        message += f"; {problem}"
+    raw = RawSolution(z=z, converged=converged, status="converged" if converged else "not_converged",
+                      iterations=int(st.get("iter_count", 0)), stationarity=stationarity, message=message)
+    result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
+    result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
+    loads = _point_loads(result.contact)
+    dense = result._dense
+    result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
+    return result
+
+
+#: the centre line may come this much closer than the gap between the constrained points
+PENETRATION_TOL = 1e-6
+
+
+def _penetration(scene, result) -> Optional[str]:
+    """Whether the dense shape comes closer to an obstacle than the gap between the points where
+    contact is imposed (by more than :data:`PENETRATION_TOL` rod lengths)."""
+    d = result.evaluate(np.linspace(0.0, 1.0, 2001))
+    for k, ob in enumerate(scene.obstacles):
+        dist = np.asarray(ob.distance(d["x"], d["y"]), float) - scene.contact_gap
+        i = int(np.argmin(dist))
+        if dist[i] < -PENETRATION_TOL:
+            return (f"between the points where contact is imposed the rod enters the "
+                    f"{ob.describe()} by {-dist[i]:.2g} rod lengths at s = {d['s'][i]:.4g}")
+    return None
+
+
+def _verdict(H: np.ndarray, A: np.ndarray, m: np.ndarray) -> ContactVerdict:
+    """Inertia of H on the null space of the active rows A, against the mass diag(m) (module doc)."""
+    Z = sla.null_space(A) if A.size else np.eye(H.shape[0])
+    if Z.shape[1] == 0:
+        return ContactVerdict(np.array([np.inf]), 0, True)
+    Hz, Mz = Z.T @ H @ Z, Z.T @ (m[:, None] * Z)
+    ev = sla.eigh(0.5 * (Hz + Hz.T), 0.5 * (Mz + Mz.T), eigvals_only=True)
+    tol = 1e-9 * max(1.0, float(np.max(np.abs(ev))))
+    return ContactVerdict(ev[:6], int(np.sum(ev < -tol)), bool(ev[0] > tol), bool(abs(ev[0]) <= tol))
+
+
+def _contact_report(scene, nlp: ContactNLP, z, mu, strong, weak) -> dict:
+    X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
+    points: List[dict] = []
+    for k, ob in enumerate(scene.obstacles):
+        sl = slice(k * nlp.n_points, (k + 1) * nlp.n_points)
+        for j in np.flatnonzero(strong[sl] | weak[sl]):
+            i = k * nlp.n_points + j
+            nrm = ob.normal(X[j], Y[j])[:, 0]
+            f = mu[i] * nrm
+            w = nlp.w_points[j]
+            tip = nlp.s_points[j] == 1.0  # a point force; elsewhere the force of a quadrature weight
+            points.append({"obstacle": k, "s": float(nlp.s_points[j]), "x": float(X[j]), "y": float(Y[j]),
+                           "force": [float(f[0]), float(f[1])], "multiplier": float(mu[i]),
+                           "force_per_length": None if tip else [float(f[0] / w), float(f[1] / w)],
+                           "weak": bool(weak[i])})
+    total = np.sum([p["force"] for p in points], axis=0) if points else np.zeros(2)
+    sc = scene.scales
+    if sc is not None:  # in the scene's SI units too
+        for p in points:
+            p["force_N"] = [v * sc.force for v in p["force"]]
+            p["force_per_length_N_per_m"] = (None if p["force_per_length"] is None else
+                                             [v * sc.force / sc.length for v in p["force_per_length"]])
+            p["position_m"] = [p["x"] * sc.length, p["y"] * sc.length]
+    return {"points": points, "total_force": [float(total[0]), float(total[1])],
+            **({"total_force_N": [float(total[0] * sc.force), float(total[1] * sc.force)]} if sc else {}),
+            "obstacles": [ob.describe() for ob in scene.obstacles], "gap": scene.contact_gap,
+            "weakly_active": int(sum(p["weak"] for p in points)),
+            "units": {"force": "B0/l^2", "force_per_length": "B0/l^3", "position": "rod length"}}
+
+
+def _point_loads(contact: dict):
+    pts = [p for p in contact["points"] if not p["weak"]]
+    if not pts:
+        return None
+    return tuple(np.array(v) for v in zip(*[(p["s"], p["force"][0], p["force"][1], p["x"], p["y"]) for p in pts]))

@@ -1,0 +1,146 @@
+"""Contact with walls and pegs (issue 20, first step): a cantilever pressed by a tip load onto a
+floor below its tip, against the linear beam with a unilateral support (closed form) and against
+the elastica shot with the tip pinned at the floor (the reference's own Runge–Kutta, the contact
+force its unknown); the Euler–Lagrange residual includes the contact force; interior point contacts
+are reported as not resolved by the mesh, never as a success."""
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from actuator_design.balance import balance
+from actuator_design.config.errors import ConfigError
+from actuator_design.config.model import load_config
+from actuator_design.equilibrium import solve
+from actuator_design.obstacles import Peg, Wall
+from actuator_design.reference.shooting import ShootingParams, solve_shooting
+from actuator_design.scene import Scene
+from actuator_design.solver import get_solver
+
+
+def _floor_scene(depth, p):
+    return Scene(field=None, tip_force=(0.0, -p), obstacles=(Wall((0.0, -depth), 0.5 * math.pi),))
+
+
+def test_small_load_on_a_floor_is_the_linear_propped_cantilever():
+    """Linear beam, tip load p down, tip held at −δ (p > 3δ): the floor pushes back R = p − 3δ."""
+    depth, p = 1e-3, 0.01
+    r = solve(_floor_scene(depth, p))
+    assert r.success and r.stable
+    pts = r.contact["points"]
+    assert len(pts) == 1 and pts[0]["s"] == 1.0 and not pts[0]["weak"]
+    assert abs(r.tip["y"] + depth) <= 1e-10
+    R = r.contact["total_force"][1]
+    assert abs(R - (p - 3 * depth)) <= 1e-4 * p  # nonlinear corrections O(δ²)
+
+
+def test_tip_pressed_onto_a_floor_against_shooting():
+    """Large deflection: the elastica whose net tip force −p + R puts its tip on the floor."""
+    depth, p = 0.1, 1.0
+    r = solve(_floor_scene(depth, p))
+    assert r.success and r.stable and r.morse_index == 0
+
+    def tip_y(R):
+        sol = solve_shooting(ShootingParams(fy=-p + R), gamma_guess=0.0)
+        assert sol.converged
+        return sol.tip_y + depth
+
+    R = brentq(tip_y, 0.0, p, xtol=1e-14)
+    ref = solve_shooting(ShootingParams(fy=-p + R), gamma_guess=0.0)
+    assert abs(r.contact["total_force"][1] - R) <= 1e-6 and abs(r.contact["total_force"][0]) <= 1e-9
+    assert abs(r.tip["x"] - ref.tip_x) <= 1e-6 and abs(r.tip["angle"] - ref.tip_angle) <= 1e-6
+    # the moment balance holds with the contact force, not without it
+    assert r.el_residual <= 1e-8
+    sv = get_solver(r.scene, r.options)
+    without = balance(sv, sv.parameter_vector(r.scene), r._dense, r.scene, r.z)[2]
+    assert without > 0.1
+    np.testing.assert_allclose(r.clamp_force, [0.0, p - R], atol=1e-8)
+
+
+def test_a_floor_out_of_reach_changes_nothing():
+    free = solve(Scene(field=None, tip_force=(0.0, -0.1)))
+    r = solve(_floor_scene(0.5, 0.1))
+    assert r.success and r.contact["points"] == []
+    assert abs(r.tip["x"] - free.tip["x"]) <= 1e-9 and abs(r.tip["y"] - free.tip["y"]) <= 1e-9
+
+
+def _peg_reference(f, centre, radius, guess):
+    """The elastica with tip force f touching a peg at one interior point, by shooting on
+    (θ'(0), s_c, R, ψ): the internal force is f + R ν on [0, s_c] (ν = (cos ψ, sin ψ)) and f beyond;
+    the contact point lies on the peg, ν is the peg's normal there, the rod is tangent to the peg,
+    and the free end has no moment. Its own right-hand side: θ'' = n_x sin θ − n_y cos θ."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import root
+
+    def rhs(n):
+        return lambda s, u: [u[1], n[0] * math.sin(u[0]) - n[1] * math.cos(u[0]), math.cos(u[0]), math.sin(u[0])]
+
+    def shoot(v):
+        gamma, sc, R, psi = v
+        nu = np.array([math.cos(psi), math.sin(psi)])
+        a = solve_ivp(rhs(f + R * nu), (0, sc), [0, gamma, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13)
+        b = solve_ivp(rhs(f), (sc, 1), a.y[:, -1], method="DOP853", rtol=1e-13, atol=1e-13)
+        return a, b, nu
+
+    def ends(v):
+        a, b, nu = shoot(v)
+        rc = a.y[2:, -1] - centre
+        t = np.array([math.cos(a.y[0, -1]), math.sin(a.y[0, -1])])
+        return [np.linalg.norm(rc) - radius, rc @ t, nu[0] * rc[1] - nu[1] * rc[0], b.y[1, -1]]
+
+    out = root(ends, guess, method="hybr", options={"xtol": 1e-13})
+    assert max(abs(e) for e in ends(out.x)) <= 1e-10, out.message
+    a, b, nu = shoot(out.x)
+    assert nu @ (a.y[2:, -1] - centre) > 0  # the peg pushes the rod away from its centre
+    return out.x, b.y[:, -1], nu
+
+
+def test_an_elastica_resting_on_a_peg_against_shooting():
+    """A peg under the middle of the rod, the tip pulled down: one interior contact. The mesh gets
+    an element boundary there (a point force kinks θ'), so the tip and the contact force match the
+    shooting reference with the contact point as an unknown."""
+    f, centre, gap = np.array([0.0, -1.6]), np.array([0.6, -0.2]), 0.025
+    r = solve(Scene(field=None, tip_force=tuple(f), obstacles=(Peg(tuple(centre), 0.1),), contact_gap=gap))
+    assert r.success and r.stable, r.message
+    pts = r.contact["points"]
+    big = [q for q in pts if np.hypot(*q["force"]) > 1e-3]
+    assert len(big) == 1 and 0 < big[0]["s"] < 1 and r.contact["split_at"]
+    F = np.array(r.contact["total_force"])
+    guess = [r.evaluate(np.array([0.0]))["dtheta"][0], big[0]["s"], np.hypot(*F), math.atan2(F[1], F[0])]
+    (gamma, sc, R, psi), end, nu = _peg_reference(f, centre, 0.1 + gap, guess)
+    assert abs(r.tip["x"] - end[2]) <= 1e-6 and abs(r.tip["y"] - end[3]) <= 1e-6
+    assert abs(r.tip["angle"] - end[0]) <= 1e-6
+    assert np.max(np.abs(F - R * nu)) <= 1e-4 and abs(big[0]["s"] - sc) <= 1e-4
+    assert r.el_residual <= 1e-6
+
+
+def test_an_obstacle_crossing_the_rod_at_rest_is_refused():
+    r = solve(Scene(field=None, tip_force=(0.0, -0.5), obstacles=(Peg((0.5, 0.0), 0.05),)))
+    assert not r.success and "at rest" in r.message
+
+
+def test_obstacles_from_yaml():
+    cfg = {"scene": {"type": "physical",
+                     "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm", "youngs_modulus": "1 MPa"},
+                     "loads": {"tip_force": {"x": "0 N", "y": "-1 mN"}},
+                     "obstacles": [{"type": "wall", "point": {"x": "0 mm", "y": "-2 mm"}, "normal_angle": "90 deg"},
+                                   {"type": "peg", "centre": {"x": "10 mm", "y": "5 mm"}, "radius": "2 mm"}]}}
+    sc = load_config(cfg).to_scene()
+    assert sc.contact_gap == pytest.approx(0.025)  # half the thickness, in rod lengths
+    assert sc.obstacles[0] == Wall((0.0, -0.1), 0.5 * math.pi)
+    assert sc.obstacles[1] == Peg((0.5, 0.25), 0.1)
+    r = solve(sc)
+    assert r.success and abs(r.tip["y"] + 0.1 - 0.025) <= 1e-9  # the surface, not the centre line, touches
+    assert r.contact["points"][0]["force_N"][1] > 0
+
+
+@pytest.mark.parametrize("obstacle, where", [
+    ({"type": "hole", "centre": {"x": 0.5, "y": 0}}, "scene.obstacles[0].type"),
+    ({"type": "peg", "centre": {"x": 0.5, "y": 0.3}, "radius": -0.1}, "scene.obstacles[0].radius"),
+    ({"type": "wall", "point": {"x": 0, "y": -0.1}}, "scene.obstacles[0].normal_angle"),
+])
+def test_bad_obstacles_name_the_field(obstacle, where):
+    with pytest.raises(ConfigError) as err:
+        load_config({"scene": {"type": "dimensionless", "p": -1, "obstacles": [obstacle]}})
+    assert err.value.field == where, str(err.value)
