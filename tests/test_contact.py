@@ -144,3 +144,15 @@ def test_bad_obstacles_name_the_field(obstacle, where):
     with pytest.raises(ConfigError) as err:
         load_config({"scene": {"type": "dimensionless", "p": -1, "obstacles": [obstacle]}})
     assert err.value.field == where, str(err.value)
+
+
+def test_the_shape_figure_draws_obstacles_and_contact_forces():
+    from matplotlib.patches import Circle
+
+    from actuator_design.viz.shape import plot_shape
+
+    r = solve(Scene(field=None, tip_force=(0.0, -1.6), obstacles=(Peg((0.6, -0.2), 0.1),), contact_gap=0.025))
+    ax = plot_shape(r)
+    assert any(isinstance(p, Circle) for p in ax.patches)
+    labels = ax.get_legend_handles_labels()[1]
+    assert "obstacle" in labels and "contact force (1 point)" in labels

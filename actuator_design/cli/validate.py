@@ -130,6 +130,8 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=()) ->
         f"scene       : {scene.name}",
         f"groups      : {groups}",
         f"field       : {field_text}",
+        (f"obstacles   : {'; '.join(ob.describe() for ob in scene.obstacles)}; the rod keeps "
+         f"{scene.contact_gap:.4g} l from them (contact, frictionless)" if scene.obstacles else None),
         f"loads       : {'; '.join(loads) or 'none'}",
         f"clamp angle : {math.degrees(scene.theta0):.6g} deg",
         f"fibres      : {_profile(scene.fibres, 'alpha', deg=True)}",

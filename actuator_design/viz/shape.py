@@ -59,6 +59,10 @@ def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
     window = _window(np.r_[x, ux, 0.0], np.r_[y, uy, 0.0], scene.field)
 
     _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy], units, field_angle)
+    if scene.obstacles:
+        from .contact import draw_contact_forces, draw_obstacles
+        draw_obstacles(ax, scene, window)
+        draw_contact_forces(ax, result, window)
     ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
     ax.plot(x, y, color="C0", lw=2.6, label="deformed", zorder=4)
     _draw_clamp(ax, t0)
