@@ -94,13 +94,14 @@ def check_physical(result):
     leaves the region where the field's representation holds (a fitted magnet or coil field,
     :mod:`~actuator_design.field_sources`), in place."""
     region = getattr(result.scene.field, "region_problem", None)
-    if result.success and region is not None:
+    if region is not None:  # also a failed solve: it may have failed because the rod left it
         d = result.evaluate(np.linspace(0.0, 1.0, 401))
-        problem = region(d["x"], d["y"])
+        problem = region(d["x"], d["y"]) if np.all(np.isfinite(d["x"])) else None
         if problem is not None:
             result.success = False
             result.status = "outside_field_region"
-            result.message += f"; {problem}: the field there is not known to its stated accuracy"
+            result.message += (f"; {problem}: the field there is not known to its stated accuracy (a rod "
+                               "pulled onto a magnet leaves the region its field is fitted in)")
             return result
     if not result.success or result.options.keep_self_intersecting or not result.self_intersecting:
         return result

@@ -72,15 +72,23 @@ class ContactNLP:
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
         self.f_dist = ca.Function("contact_rows", [z], [ca.vertcat(*rows)])
-        self.f_jac = ca.Function("contact_jacobian", [z], [ca.jacobian(ca.vertcat(*rows), z)])
-        mu = ca.SX.sym("mu", len(rows) * self.n_points)
-        lag = E - ca.dot(mu, ca.vertcat(*rows))
-        self.f_lag = ca.Function("contact_lagrangian", [z, P, mu],
-                                 [ca.gradient(lag, z), ca.hessian(lag, z)[0]])
         # bounds not relaxed: a contact point sits exactly at the gap
         opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
                 "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive", "ipopt.bound_relax_factor": 0.0}
         self.nlpsol = ca.nlpsol("contact", "ipopt", {"x": z, "p": P, "f": E, "g": g}, opts)
+        # the Lagrangian's gradient and Hessian (upper triangle) and the rows' Jacobian, as IPOPT
+        # built them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
+        self.f_grad = self.nlpsol.get_function("nlp_grad")
+        self.f_hess = self.nlpsol.get_function("nlp_hess_l")
+        self.f_jac_g = self.nlpsol.get_function("nlp_jac_g")
+
+    def lagrangian(self, z, P, lam_g):
+        """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
+        grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
+        triu = np.asarray(ca.densify(self.f_hess(z, P, 1.0, lam_g)), float)
+        H = triu + triu.T - np.diag(np.diag(triu))
+        jac = np.asarray(ca.densify(self.f_jac_g(z, P)[1]), float)[1:]
+        return grad, H, jac
 
 
 def contact_nlp(solver, scene) -> ContactNLP:
@@ -92,7 +100,7 @@ def contact_nlp(solver, scene) -> ContactNLP:
 
 def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
     d = np.asarray(nlp.f_dist(z0), float).ravel()
-    if np.all(d > 0):
+    if np.all(d >= -1e-12):  # touching at rest (a rod lying on a floor) is free
         return None
     k, j = divmod(int(np.argmin(d)), nlp.n_points)
     return (f"the rod at rest (straight at the clamp angle) enters the {scene.obstacles[k].describe()} "
@@ -128,7 +136,7 @@ def solve_contact(scene, options):
             break
         new = _merged(sorted(_nearest_point(scene, result, p) for p in interior))
         if len(new) > MAX_SPLITS or (len(new) == len(splits)
-                                     and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= 1e-9):
+                                     and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= SPLIT_TOL):
             break
         splits = new
     result.contact["split_at"] = list(result.options.split_at)
@@ -143,6 +151,9 @@ def solve_contact(scene, options):
 
 #: rounds of solve → move the element boundaries to the contact points → solve
 MAX_SPLIT_ROUNDS = 8
+#: a boundary this close (arc length) to its contact point stays: the kink it leaves is below the
+#: residual check's resolution (a force F off by δs leaves a residual ~F δs)
+SPLIT_TOL = 1e-8
 #: contact points closer than this (rod lengths of arc) are one point: one element boundary
 MERGE = 1e-6
 
@@ -186,16 +197,17 @@ def _solve_once(scene, opts, t0: float):
     sol = nlp.nlpsol(x0=z0, p=P, lbg=lbg, ubg=ubg)
     st = nlp.nlpsol.stats()
     z = np.asarray(sol["x"], float).ravel()
-    mu = np.maximum(-np.asarray(sol["lam_g"], float).ravel()[1:], 0.0)
+    lam = np.asarray(sol["lam_g"], float).ravel()
+    mu = np.maximum(-lam[1:], 0.0)
     status = str(st.get("return_status"))
     converged = bool(st.get("success", False)) and problem is None
-    grad, H = (np.asarray(v, float) for v in nlp.f_lag(z, P, mu))
+    grad, H, jac = nlp.lagrangian(z, P, lam)
     mass = np.asarray(solver.transcription.mass, float)
     stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
     d = np.asarray(nlp.f_dist(z), float).ravel()
     strong = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
     weak = (~strong) & (d <= 1e-8)
-    verdict = _verdict(H[1:, 1:], np.asarray(nlp.f_jac(z), float)[strong][:, 1:], mass[1:])
+    verdict = _verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
     message = f"IPOPT: {status} (contact, from the straight rod with the loads applied)"
     if problem is not None:
         message += f"; {problem}"

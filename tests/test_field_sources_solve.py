@@ -126,3 +126,20 @@ def test_design_in_a_field_of_magnets_and_coils_is_refused_in_one_line(capsys):
     assert main(["design", str(CONFIGS / "helmholtz_soft_strip.yaml"), "--target-tip", "0.8,0.5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "magnets and coils" in err[0] and "cannot be designed yet" in err[0]
+
+
+def test_a_rod_pulled_onto_a_magnet_says_it_left_the_fitted_region():
+    """A magnet the rod can reach, pulling hard: the path from rest snaps towards it and the solve
+    fails there; the result names the cause (the field is not known there), not a solver code."""
+    from actuator_design.field_sources import MagnetSource, source_field
+    from actuator_design.profiles import constant_profile
+    from actuator_design.scene import Scene
+
+    magnet = MagnetSource("cylinder", 10e-3, 10e-3, (15e-3, -12e-3), 0.5 * math.pi, 1.2 / MU0)
+    field, _ = source_field((magnet,), 20e-3)
+    assert field.terms[0].valid_radius > math.hypot(*field.terms[0].centre) - 1.0  # the rod can get there
+    gentle = solve(Scene(field=field, h_r=0.5, magnetization=constant_profile(math.pi)))
+    assert gentle.success
+    r = solve(Scene(field=field, h_r=5.0, magnetization=constant_profile(math.pi)))
+    assert not r.success and r.status == "outside_field_region"
+    assert "closer to source 1's centre than its field representation holds" in r.message
