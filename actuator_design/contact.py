@@ -194,25 +194,35 @@ def _solve_once(scene, opts, t0: float):
     n_rows = len(scene.obstacles) * nlp.n_points
     lbg = np.zeros(1 + n_rows)
     ubg = np.concatenate([[0.0], np.full(n_rows, np.inf)])
-    sol = nlp.nlpsol(x0=z0, p=P, lbg=lbg, ubg=ubg)
-    st = nlp.nlpsol.stats()
-    z = np.asarray(sol["x"], float).ravel()
-    lam = np.asarray(sol["lam_g"], float).ravel()
+    if problem is not None:  # no rest state to start from: nothing is solved
+        z, lam, status, iterations = z0, np.zeros(1 + n_rows), "obstacle_at_rest", 0
+        message = problem
+    else:
+        sol = nlp.nlpsol(x0=z0, p=P, lbg=lbg, ubg=ubg)
+        st = nlp.nlpsol.stats()
+        z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
+        status = str(st.get("return_status"))
+        iterations = int(st.get("iter_count", 0))
+        message = f"IPOPT: {status} (contact, from the straight rod with the loads applied)"
+    converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     mu = np.maximum(-lam[1:], 0.0)
-    status = str(st.get("return_status"))
-    converged = bool(st.get("success", False)) and problem is None
-    grad, H, jac = nlp.lagrangian(z, P, lam)
     mass = np.asarray(solver.transcription.mass, float)
-    stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
-    d = np.asarray(nlp.f_dist(z), float).ravel()
+    finite = bool(np.all(np.isfinite(z)) and np.all(np.isfinite(lam)))
+    if finite:
+        grad, H, jac = nlp.lagrangian(z, P, lam)
+        finite = bool(np.all(np.isfinite(grad)) and np.all(np.isfinite(H)))
+    d = np.asarray(nlp.f_dist(z), float).ravel() if finite else np.full(n_rows, np.nan)
     strong = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
     weak = (~strong) & (d <= 1e-8)
-    verdict = _verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
-    message = f"IPOPT: {status} (contact, from the straight rod with the loads applied)"
-    if problem is not None:
-        message += f"; {problem}"
-    raw = RawSolution(z=z, converged=converged, status="converged" if converged else "not_converged",
-                      iterations=int(st.get("iter_count", 0)), stationarity=stationarity, message=message)
+    if finite:
+        stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
+        verdict = _verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
+    else:  # IPOPT left no usable point: no verdict
+        converged, stationarity = False, float("inf")
+        verdict = ContactVerdict(np.array([np.nan]), -1, False)
+    raw = RawSolution(z=z, converged=converged,
+                      status="converged" if converged else ("obstacle_at_rest" if problem else "not_converged"),
+                      iterations=iterations, stationarity=stationarity, message=message)
     result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
     result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
     loads = _point_loads(result.contact)

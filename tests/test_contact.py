@@ -117,7 +117,7 @@ def test_an_elastica_resting_on_a_peg_against_shooting():
 
 def test_an_obstacle_crossing_the_rod_at_rest_is_refused():
     r = solve(Scene(field=None, tip_force=(0.0, -0.5), obstacles=(Peg((0.5, 0.0), 0.05),)))
-    assert not r.success and "at rest" in r.message
+    assert not r.success and r.status == "obstacle_at_rest" and "at rest" in r.message
 
 
 def test_obstacles_from_yaml():
