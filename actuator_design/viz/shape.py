@@ -94,8 +94,8 @@ def shape_figure(result, title=None, units=None):
 def _default_title(result, units=None) -> str:
     scene = result.scene
     from ..scene import UniformField
-    from .units import field_text, load_text
-    parts = [field_text(scene.h, units)]
+    from .units import load_text, scene_field_text
+    parts = [scene_field_text(scene, units)]
     if isinstance(scene.field, UniformField):
         parts.append(f"φ = {math.degrees(scene.field.phi):.4g}°")
     elif scene.field is not None:
@@ -151,7 +151,7 @@ def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None
             phi = field.phi
         _draw_uniform(ax, phi, scene.h, window, xs, ys, units, same_axis)
         return
-    _draw_streamlines(ax, field, scene.h, window, units)
+    _draw_streamlines(ax, field, scene, window, units)
     if getattr(field, "kind", "") == "sources":
         _draw_sources(ax, field)
     if isinstance(field, DipoleField):
@@ -216,7 +216,7 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axi
             color="C2", ha="center", va="top", fontsize=8, zorder=5)
 
 
-def _draw_streamlines(ax, field, h: float, window, units=None, n: int = 41) -> None:
+def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None:
     """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
     from ..physics.fields import field_model
     from ..scene import DipoleField
@@ -241,8 +241,8 @@ def _draw_streamlines(ax, field, h: float, window, units=None, n: int = 41) -> N
     if np.all(bad):
         return
     ax.streamplot(gx, gy, U, V, color="C2", linewidth=0.7, density=1.1, arrowsize=0.8, zorder=1)
-    from .units import field_text
-    ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, {field_text(h, units)})")
+    from .units import scene_field_text
+    ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, {scene_field_text(scene, units)})")
 
 
 def _draw_tip_force(ax, scene, tip, window, units=None) -> None:

@@ -126,6 +126,20 @@ def field_text(h: float, units) -> str:
     return f"h = {h:.4g}"
 
 
+def scene_field_text(scene, units) -> str:
+    """:func:`field_text` of a scene: on a physical scene μ0H of h, or of h_r for a hard-magnetic
+    rod without soft coupling (:func:`~actuator_design.unit_results.scene_physical`); else the
+    group that carries the field (``h_r = 2`` when h = 0)."""
+    if units is not None:
+        from ..unit_results import scene_physical
+        mT = scene_physical(scene, units).get("field_mT")
+        if mT is not None:
+            return f"μ0H = {mT:.4g} mT"
+    if scene.h == 0 and scene.magnetization is not None and scene.h_r > 0:
+        return f"h_r = {scene.h_r:.4g}"
+    return f"h = {scene.h:.4g}"
+
+
 def load_text(p: float, units, name: str = "p") -> str:
     """``p = 7e-05 N`` (a tip load in B0/ℓ² on a physical scene), else ``p = 0.5376``."""
     if units is not None:
