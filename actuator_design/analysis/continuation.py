@@ -38,6 +38,7 @@ from ..solver import EquilibriumSolver, get_solver
 from .branch import Branch, ContinuationResult, CriticalPoint
 from .stability_changes import insert_stability_changes
 from .registry import register
+from ..contact_guard import no_contact
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
@@ -280,6 +281,7 @@ class Continuation:
         return out
 
 
+@no_contact("continue")
 def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
                     options: Optional[SolverOptions] = None, initial=None, ds: float = 0.05,
                     ds_max: float = 0.5, max_points: int = 2000, switch: bool = False,

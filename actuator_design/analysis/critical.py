@@ -39,6 +39,7 @@ from ..scene import Scene
 from .continuation import Branch, Continuation, CriticalPoint, get_param, set_param
 from .equilibria import find_equilibria
 from .registry import register
+from ..contact_guard import no_contact
 
 __all__ = ["fold_function", "locate_fold", "FoldCurve", "fold_curve", "CriticalResult",
            "critical_points", "critical_curves", "count_equilibria"]
@@ -275,6 +276,7 @@ def _dedupe(points: List[CriticalPoint], rtol: float = VALUE_RTOL) -> List[Criti
     return out
 
 
+@no_contact("critical")
 def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                     options: Optional[SolverOptions] = None, n_samples: int = 5,
                     ds: float = 0.05, ds_max: float = 0.3, max_points: int = 3000,

@@ -52,6 +52,7 @@ from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, 
                            tip_error)
 from .design_verify import stiffness_by_differences, verify as verify_stage
 from .registry import register
+from ..contact_guard import refuse_contact
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
            "result_of", "fibres_fixed"]
@@ -280,6 +281,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
+    refuse_contact(base, "design")
     if getattr(base.field, "kind", "") == "sources":
         raise ValueError("design: a field of magnets and coils (field type magnet or coils) cannot be designed "
                          "yet (its design NLP would take minutes to build); solve, path and continue "

@@ -39,6 +39,7 @@ from .design_types import Choice, DesignSettings, normalise_phi, phi_period, tip
 from .design_verify import verify as verify_stage
 from .robustness import Robustness, evaluate_robustness
 from .tolerances import Tolerances
+from ..contact_guard import no_contact
 
 __all__ = ["PoseResult", "MultiPoseResult", "design_poses", "MAX_POSES"]
 
@@ -134,6 +135,7 @@ def _best_attempt_check(problem, searched):
     return check_state(c.nlp.scene_for(c.base, design_vector(c.nlp, pt)), c.nlp.solver, pt.z, problem.options)
 
 
+@no_contact("design")
 def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = None,
                  vary: Optional[Sequence[str]] = None, options: Optional[SolverOptions] = None,
                  settings: Optional[DesignSettings] = None, verify: bool = True) -> MultiPoseResult:

@@ -41,6 +41,7 @@ from .registry import register
 from .shooting_scan import (MAX_REFINE, SAFETY, SHOOTING_TERMS, ShootingProblem, brackets,
                             curvature_bound, gamma_bound, min_gamma_points, require_uniform,
                             scan_validity, steps_for)
+from ..contact_guard import no_contact
 
 __all__ = ["ShootingProblem", "Equilibrium", "EquilibriaResult", "find_equilibria",
            "find_equilibria_deflation", "gamma_bound", "curvature_bound", "SAFETY", "MAX_REFINE",
@@ -221,6 +222,7 @@ def _dedupe_add(found: List[Equilibrium], eq: Equilibrium, tol: float = 1e-6) ->
     return True
 
 
+@no_contact("equilibria")
 def find_equilibria(scene: Scene, options: Optional[SolverOptions] = None, *,
                     n_gamma: int = 401, gamma_window: Optional[Sequence[float]] = None,
                     n_steps: Optional[int] = None) -> EquilibriaResult:

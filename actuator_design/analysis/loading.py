@@ -46,6 +46,7 @@ from ..scene import Scene
 from .registry import register
 from .loading_results import Bifurcation, Jump, LoadingPath, PathPoint
 from .loading_tracker import Tracker as _Tracker
+from ..contact_guard import no_contact
 
 __all__ = ["apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
            "PathPoint", "Jump", "Bifurcation"]
@@ -127,6 +128,7 @@ def normalise_schedule(schedule: Schedule) -> Tuple[List[str], np.ndarray]:
 
 
 # -- results -----------------------------------------------------------------------------------
+@no_contact("path")
 def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule: Schedule = (), *,
                 initial: Union[None, np.ndarray, EquilibriumResult] = None,
                 max_step: Optional[float] = None, max_dtheta: float = 0.3) -> LoadingPath:

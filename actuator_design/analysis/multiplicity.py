@@ -36,6 +36,7 @@ from .multiplicity_scan import count_roots
 from .shooting_scan import (ShootingProblem, curvature_bound, gamma_bound, growth_exponent, is_autonomous,
                             min_gamma_points, scan_validity, steps_for)
 from .registry import register
+from ..contact_guard import no_contact
 
 __all__ = ["MultiplicityMap", "multiplicity_map", "count_row", "count_rows"]
 
@@ -220,6 +221,7 @@ def _rows(scene, x_param, xs, y_param, ys, n_gamma, rad_per_step, stability):
     return np.array(counts), np.array(stable), stats
 
 
+@no_contact("map")
 def multiplicity_map(scene: Scene, x_param: str, x_values, y_param: str, y_values, *,
                      n_gamma: int = 161, rad_per_step: float = 0.3, stability: bool = True,
                      workers: Optional[int] = None, rows_per_task: Optional[int] = None,

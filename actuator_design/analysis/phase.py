@@ -34,6 +34,7 @@ from ..options import SolverOptions
 from ..physics.registry import refuse_unsupported
 from ..result import EquilibriumResult
 from ..scene import Scene, UniformField
+from ..contact_guard import no_contact
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
 
@@ -194,6 +195,7 @@ def trajectory(result: EquilibriumResult, H=None, n: int = TRAJECTORY_POINTS) ->
                            self_intersecting=bool(result.self_intersecting))
 
 
+@no_contact("phase")
 def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult]] = None,
                    options: Optional[SolverOptions] = None, *,
                    theta_range: Optional[Tuple[float, float]] = None,

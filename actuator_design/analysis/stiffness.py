@@ -43,6 +43,7 @@ from ..result import EquilibriumResult
 from ..scene import Scene
 from ..solver import EquilibriumSolver, get_solver
 from .registry import register
+from ..contact_guard import no_contact
 
 __all__ = ["Sensitivities", "sensitivities", "TipStiffness", "tip_stiffness",
            "StiffnessCurve", "stiffness_field_curve", "LOAD_NAMES"]
@@ -208,6 +209,7 @@ def compliance_at(solver: EquilibriumSolver, z: np.ndarray, params: np.ndarray,
     return J[rows] @ dz
 
 
+@no_contact("stiffness")
 def tip_stiffness(target, options: Optional[SolverOptions] = None, *, moment: bool = True,
                   initial=None) -> TipStiffness:
     """Tangent tip compliance/stiffness of an equilibrium.
