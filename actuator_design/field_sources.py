@@ -143,9 +143,18 @@ def _reach_grid(n_r: int = 48, n_a: int = 96) -> np.ndarray:
     return np.unique(np.round(pts, 14), axis=0)
 
 
+def _geometry(src, length: float):
+    """(centre, R_v, R_i, kind, distance to the clamp) of a source in units of ℓ: the exterior
+    series beside a source, the interior one when the clamp lies inside its source-free ball."""
+    c = (src.position[0] / length, src.position[1] / length)
+    rv, ri = (r / length for r in _radii(src))
+    d = math.hypot(*c)
+    return c, rv, ri, ("interior" if d < ri else "exterior"), d
+
+
 def _outside_sources(pts: np.ndarray, geo) -> np.ndarray:
     keep = np.ones(len(pts), bool)
-    for c, _, rv, ri, kind in geo:
+    for c, rv, ri, kind, _ in geo:
         rho = np.hypot(pts[:, 0] - c[0], pts[:, 1] - c[1])
         keep &= rho > rv if kind == "exterior" else rho < ri
     return keep
@@ -176,10 +185,7 @@ def _basis_values(fn, pts: np.ndarray):
 
 def _fit_one(src, length: float, h0_guess: float, tol: float) -> Tuple[HarmonicTerm, int]:
     """The zonal fit of one source (dimensionless, ψ in A/m · ℓ; divided by H0 by the caller)."""
-    c = (src.position[0] / length, src.position[1] / length)
-    rv, ri = (r / length for r in _radii(src))
-    d = math.hypot(*c)
-    kind = "interior" if d < ri else "exterior"
+    c, rv, ri, kind, d = _geometry(src, length)
     e = np.array([math.cos(src.axis_angle), math.sin(src.axis_angle)])
     n = np.array([-e[1], e[0]])
     if kind == "exterior":
@@ -222,7 +228,10 @@ def _fit_one(src, length: float, h0_guess: float, tol: float) -> Tuple[HarmonicT
         rings = np.sort(np.unique(np.round(rho, 12)))
         ok = [r for r in rings if np.all(miss[(rho >= r) if kind == "exterior" else (rho <= r)] <= tol)]
         if not ok:
-            raise ValueError("no fit of this source meets the tolerance anywhere in the rod's reach")
+            raise ValueError(f"no fit of this source (centre {d:.3g} rod lengths from the clamp) meets the "
+                             f"fit_tolerance {tol:g} anywhere in the rod's reach: the best misses magpylib by "
+                             f"{miss.min():.2g} of the field scale (far sources: magpylib's own rounding; "
+                             "raise fit_tolerance, or use a uniform field)")
         valid = min(ok) if kind == "exterior" else max(ok)
     if valid is None:  # where it was checked: the part of the reach outside the sources
         # (less a hair: a straight rod pointing at the centre ends exactly at d − 1)
@@ -266,11 +275,7 @@ def fit_sources(sources: Tuple, length: float, tol: float = FIT_TOLERANCE, check
     """
     import casadi as ca
 
-    geo = []
-    for s in sources:
-        c = (s.position[0] / length, s.position[1] / length)
-        rv, ri = (r / length for r in _radii(s))
-        geo.append((c, s.axis_angle, rv, ri, "interior" if math.hypot(*c) < ri else "exterior"))
+    geo = [_geometry(s, length) for s in sources]
     grid = _reach_grid()
     grid = grid[_outside_sources(grid, geo)]
     if len(grid) == 0:

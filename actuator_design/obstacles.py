@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass, field as dc_field
 from typing import Tuple
 
+import casadi as ca
 import numpy as np
 
 __all__ = ["Wall", "Peg", "Obstacle"]
@@ -51,12 +52,8 @@ class Peg:
 
     def distance(self, x, y):
         dx, dy = x - self.centre[0], y - self.centre[1]
-        try:
-            import casadi as ca
-            if isinstance(dx, (ca.SX, ca.MX)):
-                return ca.sqrt(dx * dx + dy * dy) - self.radius
-        except ImportError:  # pragma: no cover - casadi is a dependency
-            pass
+        if isinstance(dx, (ca.SX, ca.MX)):
+            return ca.sqrt(dx * dx + dy * dy) - self.radius
         return np.hypot(dx, dy) - self.radius
 
     def normal(self, x, y) -> np.ndarray:
