@@ -1,8 +1,11 @@
-"""Configuration of obstacles (contact, :mod:`actuator_design.contact`): walls and pegs.
+"""Configuration of obstacles (contact, :mod:`actuator_design.contact`): walls, pegs, convex
+polygons and straight channels.
 
     obstacles:                                   # dimensionless scene: rod lengths, rad
       - {type: wall, point: {x: 0, y: -0.1}, normal_angle: 90 deg}   # a floor 0.1 below the clamp
       - {type: peg, centre: {x: 0.6, y: -0.3}, radius: 0.1}
+      - {type: polygon, vertices: [{x: 0.5, y: -0.3}, {x: 0.8, y: -0.3}, {x: 0.8, y: -0.2}]}
+      - {type: channel, centre: {x: 0, y: 0}, angle: 0 deg, width: 0.2}  # two walls, 0.2 apart
 
 In a physical scene positions and radii carry lengths ("2 mm") and the rod keeps half its
 thickness from every obstacle; in a dimensionless one ``contact_gap`` (rod lengths, default 0) sets it.
@@ -10,17 +13,20 @@ thickness from every obstacle; in a dimensionless one ``contact_gap`` (rod lengt
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import List, Literal
 
-from ..obstacles import Peg, Wall
+from pydantic import Field, model_validator
+
+from ..obstacles import Peg, Polygon, Wall
 from .base import Angle, Number, Q, StrictModel, tagged
 from .errors import error
 from .vectors import LengthXY, NumberXY
 
-__all__ = ["WallSpec", "PegSpec", "PhysicalWall", "PhysicalPeg", "DimensionlessObstacle", "PhysicalObstacle",
-           "MAX_OBSTACLES"]
+__all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "PhysicalWall", "PhysicalPeg", "PhysicalPolygon",
+           "PhysicalChannel", "DimensionlessObstacle", "PhysicalObstacle", "MAX_OBSTACLES", "MAX_VERTICES"]
 
 MAX_OBSTACLES = 32  # bounds the constraint rows (each obstacle: one row per point of the mesh)
+MAX_VERTICES = 64  # bounds a polygon's distance expression (a few operations per edge and point)
 
 
 class WallSpec(StrictModel):
@@ -45,6 +51,43 @@ class PegSpec(StrictModel):
         return Peg((self.centre.x / length, self.centre.y / length), float(self.radius) / length)
 
 
+class PolygonSpec(StrictModel):
+    """A solid convex polygon through ``vertices`` (rod lengths), in order around it."""
+
+    type: Literal["polygon"]
+    vertices: List[NumberXY] = Field(min_length=3, max_length=MAX_VERTICES)
+
+    @model_validator(mode="after")
+    def _convex(self):
+        xy = [(float(v.x), float(v.y)) for v in self.vertices]
+        if not all(math.isfinite(c) for p in xy for c in p):
+            raise error("positions must be finite", "vertices")
+        try:
+            Polygon(tuple(xy))
+        except ValueError as err:
+            raise error(str(err), "vertices") from None
+        return self
+
+    def to_obstacle(self, length: float = 1.0) -> Polygon:
+        return Polygon(tuple((v.x / length, v.y / length) for v in self.vertices))
+
+
+class ChannelSpec(StrictModel):
+    """A straight channel: two parallel walls ``width`` apart (rod lengths, wall to wall), about
+    a centre line through ``centre`` at ``angle`` to the x axis; the rod is inside it."""
+
+    type: Literal["channel"]
+    centre: NumberXY
+    angle: Angle = 0.0
+    width: Q("dimensionless", gt=0, le=100)
+
+    def to_obstacle(self, length: float = 1.0) -> tuple:
+        c, a, half = (self.centre.x / length, self.centre.y / length), float(self.angle), 0.5 * float(self.width) / length
+        n = (-math.sin(a), math.cos(a))  # the centre line's left normal
+        return (Wall((c[0] + half * n[0], c[1] + half * n[1]), a - 0.5 * math.pi),   # its left wall
+                Wall((c[0] - half * n[0], c[1] - half * n[1]), a + 0.5 * math.pi))   # its right wall
+
+
 class PhysicalWall(WallSpec):
     point: LengthXY
 
@@ -54,17 +97,41 @@ class PhysicalPeg(PegSpec):
     radius: Q("length", gt=0)
 
 
-DimensionlessObstacle = tagged(("obstacles",), WallSpec, PegSpec)
-PhysicalObstacle = tagged(("obstacles",), PhysicalWall, PhysicalPeg)
+class PhysicalPolygon(PolygonSpec):
+    vertices: List[LengthXY] = Field(min_length=3, max_length=MAX_VERTICES)
+
+
+class PhysicalChannel(ChannelSpec):
+    centre: LengthXY
+    width: Q("length", gt=0)
+
+
+DimensionlessObstacle = tagged(("obstacles",), WallSpec, PegSpec, PolygonSpec, ChannelSpec)
+PhysicalObstacle = tagged(("obstacles",), PhysicalWall, PhysicalPeg, PhysicalPolygon, PhysicalChannel)
 
 
 def obstacles_of(specs, length: float = 1.0) -> tuple:
-    """The scene's obstacles (units of ℓ) from their configs; positions must be finite."""
+    """The scene's obstacles (units of ℓ) from their configs (a channel gives its two walls);
+    positions must be finite and a polygon convex."""
     out = []
     for k, spec in enumerate(specs or ()):
-        ob = spec.to_obstacle(length)
-        nums = (*getattr(ob, "point", ()), *getattr(ob, "centre", ()), getattr(ob, "radius", 0.0))
+        nums = [float(v) for v in _numbers(spec)]
         if not all(math.isfinite(v) for v in nums):
-            raise error("positions and radii must be finite", f"obstacles[{k}]")
-        out.append(ob)
+            raise error("positions, radii and widths must be finite", f"obstacles[{k}]")
+        try:
+            ob = spec.to_obstacle(length)
+        except ValueError as err:
+            raise error(str(err), f"obstacles[{k}]") from None
+        out.extend(ob if isinstance(ob, tuple) else (ob,))
     return tuple(out)
+
+
+def _numbers(spec):
+    """Every number of an obstacle's config (positions, radius, width)."""
+    for v in spec.model_dump().values():
+        if isinstance(v, dict):
+            yield from (c for c in v.values() if isinstance(c, (int, float)))
+        elif isinstance(v, list):
+            yield from (c for item in v for c in item.values())
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            yield v

@@ -9,25 +9,22 @@ __all__ = ["draw_obstacles", "draw_contact_forces"]
 
 
 def draw_obstacles(ax, scene, window) -> None:
-    """Walls as a hatched band behind their line, pegs as grey discs (units of ℓ)."""
-    from matplotlib.patches import Circle, Polygon
+    """Each obstacle's solid as a grey patch (its ``outline``; a wall's as a hatched band behind
+    its line), units of ℓ."""
+    from matplotlib.patches import Polygon
 
     x0, x1, y0, y1 = window
     span = max(x1 - x0, y1 - y0)
     for k, ob in enumerate(scene.obstacles):
         label = "obstacle" if k == 0 else None
-        if ob.kind == "peg":
-            ax.add_patch(Circle(ob.centre, ob.radius, facecolor="0.8", edgecolor="0.3", lw=1.0, zorder=3,
-                                label=label))
-            continue
-        n = np.array([math.cos(ob.normal_angle), math.sin(ob.normal_angle)])
-        t = np.array([-n[1], n[0]])
-        p = np.array(ob.point)
-        a, b = p - 2 * span * t, p + 2 * span * t
-        depth = 0.04 * span
-        ax.add_patch(Polygon([a, b, b - depth * n, a - depth * n], closed=True, facecolor="0.85",
-                             edgecolor="0.3", hatch="////", lw=0.0, zorder=3, label=label))
-        ax.plot([a[0], b[0]], [a[1], b[1]], color="0.3", lw=1.2, zorder=3)
+        outline = ob.outline(span)
+        if ob.kind == "wall":  # a half-plane: its line, and a hatched band on the solid side
+            ax.add_patch(Polygon(outline, closed=True, facecolor="0.85", edgecolor="0.3", hatch="////", lw=0.0,
+                                 zorder=3, label=label))
+            ax.plot(outline[:2, 0], outline[:2, 1], color="0.3", lw=1.2, zorder=3)
+        else:
+            ax.add_patch(Polygon(outline, closed=True, facecolor="0.8", edgecolor="0.3", lw=1.0, zorder=3,
+                                 label=label))
 
 
 def draw_contact_forces(ax, result, window) -> None:

@@ -1,0 +1,51 @@
+"""Independent references for contact tests: shooting with the contact conditions written out
+(scipy's DOP853 and root finders; nothing of the package's transcription)."""
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from actuator_design.reference.shooting import ShootingParams, solve_shooting
+
+
+def floor_reference(p: float, depth: float):
+    """The elastica with a downward tip load p whose tip rests on a floor at y = −depth: the floor's
+    reaction R (by bisection on the tip height) and the shooting solution with net tip force −p + R."""
+    def tip_y(R):
+        sol = solve_shooting(ShootingParams(fy=-p + R), gamma_guess=0.0)
+        assert sol.converged
+        return sol.tip_y + depth
+
+    R = brentq(tip_y, 0.0, p, xtol=1e-14)
+    return R, solve_shooting(ShootingParams(fy=-p + R), gamma_guess=0.0)
+
+
+def peg_reference(f, centre, radius, guess):
+    """The elastica with tip force f touching a peg at one interior point, by shooting on
+    (θ'(0), s_c, R, ψ): the internal force is f + R ν on [0, s_c] (ν = (cos ψ, sin ψ)) and f beyond;
+    the contact point lies on the peg, ν is the peg's normal there, the rod is tangent to the peg,
+    and the free end has no moment. Its own right-hand side: θ'' = n_x sin θ − n_y cos θ."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import root
+
+    def rhs(n):
+        return lambda s, u: [u[1], n[0] * math.sin(u[0]) - n[1] * math.cos(u[0]), math.cos(u[0]), math.sin(u[0])]
+
+    def shoot(v):
+        gamma, sc, R, psi = v
+        nu = np.array([math.cos(psi), math.sin(psi)])
+        a = solve_ivp(rhs(f + R * nu), (0, sc), [0, gamma, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13)
+        b = solve_ivp(rhs(f), (sc, 1), a.y[:, -1], method="DOP853", rtol=1e-13, atol=1e-13)
+        return a, b, nu
+
+    def ends(v):
+        a, b, nu = shoot(v)
+        rc = a.y[2:, -1] - centre
+        t = np.array([math.cos(a.y[0, -1]), math.sin(a.y[0, -1])])
+        return [np.linalg.norm(rc) - radius, rc @ t, nu[0] * rc[1] - nu[1] * rc[0], b.y[1, -1]]
+
+    out = root(ends, guess, method="hybr", options={"xtol": 1e-13})
+    assert max(abs(e) for e in ends(out.x)) <= 1e-10, out.message
+    a, b, nu = shoot(out.x)
+    assert nu @ (a.y[2:, -1] - centre) > 0  # the peg pushes the rod away from its centre
+    return out.x, b.y[:, -1], nu

@@ -1,0 +1,88 @@
+"""Polygons and channels as obstacles (issue 20 item 1): an edge of a polygon under the tip acts as
+a floor, a corner under the rod as a point (a peg of radius 0 met by the rod's surface), each
+against the shooting references of :mod:`contact_references`; a channel is its two walls."""
+import math
+
+import numpy as np
+import pytest
+from contact_references import floor_reference, peg_reference
+
+from actuator_design.config.errors import ConfigError
+from actuator_design.config.model import load_config
+from actuator_design.equilibrium import solve
+from actuator_design.obstacles import Polygon, Wall
+from actuator_design.scene import Scene
+
+
+def test_a_box_edge_under_the_tip_is_a_floor():
+    depth, p = 0.1, 1.0
+    box = Polygon(((0.5, -0.5), (1.5, -0.5), (1.5, -depth), (0.5, -depth)))
+    r = solve(Scene(field=None, tip_force=(0.0, -p), obstacles=(box,)))
+    assert r.success and r.stable, r.message
+    R, ref = floor_reference(p, depth)
+    assert [q["s"] for q in r.contact["points"]] == [1.0]
+    assert abs(r.contact["total_force"][1] - R) <= 1e-6 and abs(r.contact["total_force"][0]) <= 1e-9
+    assert abs(r.tip["x"] - ref.tip_x) <= 1e-6 and abs(r.tip["angle"] - ref.tip_angle) <= 1e-6
+
+
+def test_a_corner_under_the_rod_against_shooting():
+    """The rod's surface (gap 0.025) on a wedge's top corner: the centre line keeps the gap from
+    one point, the shooting reference of a peg of radius 0.025 about that corner."""
+    f, corner, gap = np.array([0.0, -1.6]), np.array([0.6, -0.2]), 0.025
+    wedge = Polygon((tuple(corner), (0.75, -0.6), (0.45, -0.6)))
+    r = solve(Scene(field=None, tip_force=tuple(f), obstacles=(wedge,), contact_gap=gap))
+    assert r.success and r.stable, r.message
+    big = [q for q in r.contact["points"] if np.hypot(*q["force"]) > 1e-3]
+    assert len(big) == 1 and 0 < big[0]["s"] < 1
+    F = np.array(r.contact["total_force"])
+    guess = [r.evaluate(np.array([0.0]))["dtheta"][0], big[0]["s"], np.hypot(*F), math.atan2(F[1], F[0])]
+    (gamma, sc, R, psi), end, nu = peg_reference(f, corner, gap, guess)
+    assert abs(r.tip["x"] - end[2]) <= 1e-6 and abs(r.tip["y"] - end[3]) <= 1e-6
+    assert abs(r.tip["angle"] - end[0]) <= 1e-6
+    assert np.max(np.abs(F - R * nu)) <= 1e-4 and abs(big[0]["s"] - sc) <= 1e-4
+
+
+def test_polygon_distance_is_euclidean_outside_and_signed_inside():
+    sq = Polygon(((0, 0), (0, 1), (1, 1), (1, 0)))  # clockwise: stored counter-clockwise
+    x = np.array([0.5, 2.0, 0.5, 0.9, -3.0])
+    y = np.array([2.0, 2.0, 0.5, 0.5, -4.0])
+    np.testing.assert_allclose(sq.distance(x, y), [1.0, math.sqrt(2), -0.5, -0.1, 5.0], atol=1e-15)
+    np.testing.assert_allclose(sq.normal([2.0, 0.5], [2.0, 2.0]), [[1 / math.sqrt(2), 0], [1 / math.sqrt(2), 1]],
+                               atol=1e-12)
+
+
+def test_a_channel_is_two_walls():
+    cfg = load_config({"scene": {"type": "dimensionless", "p": -2,
+                                 "obstacles": [{"type": "channel", "centre": {"x": 0, "y": 0.05},
+                                                "angle": "0 deg", "width": 0.5}]}})
+    walls = cfg.to_scene().obstacles
+    assert len(walls) == 2 and all(isinstance(w, Wall) for w in walls)
+    assert walls[0].distance(0.0, 0.05) == pytest.approx(0.25) and walls[1].distance(0.0, 0.05) == pytest.approx(0.25)
+    assert walls[0].distance(0.0, 0.3) == pytest.approx(0.0, abs=1e-15) and walls[1].distance(0.0, -0.2) == pytest.approx(0.0, abs=1e-15)
+    r = solve(cfg.to_scene())
+    assert r.success and r.stable and abs(r.tip["y"] + 0.2) <= 1e-10
+
+
+def test_physical_polygon_in_mm():
+    cfg = load_config({"scene": {"type": "physical", "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm",
+                                                             "youngs_modulus": "1 MPa"},
+                                 "obstacles": [{"type": "polygon", "vertices": [{"x": "10 mm", "y": "-4 mm"},
+                                                                                 {"x": "16 mm", "y": "-4 mm"},
+                                                                                 {"x": "16 mm", "y": "-2 mm"}]}]}})
+    (poly,) = cfg.to_scene().obstacles
+    np.testing.assert_allclose(poly.vertices, [(0.5, -0.2), (0.8, -0.2), (0.8, -0.1)], atol=1e-15)
+
+
+@pytest.mark.parametrize("obstacle, words", [
+    ({"type": "polygon", "vertices": [{"x": 0, "y": 0}, {"x": 1, "y": 0}]}, "obstacles"),
+    ({"type": "polygon", "vertices": [{"x": 0, "y": 0}, {"x": 1, "y": 0}, {"x": 0.5, "y": 0.1}, {"x": 1, "y": 1}]},
+     "convex"),
+    ({"type": "polygon", "vertices": [{"x": 0, "y": 0}, {"x": 1, "y": 0}, {"x": 2, "y": 0}]}, "convex"),
+    ({"type": "channel", "centre": {"x": 0, "y": 0}, "width": 0}, "width"),
+    ({"type": "channel", "centre": {"x": float("nan"), "y": 0}, "width": 0.2}, "finite"),
+])
+def test_bad_polygons_and_channels_name_the_field(obstacle, words):
+    with pytest.raises(ConfigError) as err:
+        load_config({"scene": {"type": "dimensionless", "obstacles": [obstacle]}}).to_scene()
+    msg = str(err.value)
+    assert "obstacles" in msg and words in msg and "\n" not in msg.strip()
