@@ -107,8 +107,12 @@ def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]
             f"at s = {nlp.s_points[j]:.4g}: contact equilibria are sought from a free rest state")
 
 
-def solve_contact(scene, options):
+def solve_contact(scene, options, initial=None):
     """A contact equilibrium of ``scene`` (its obstacles non-empty), or a failed result saying why.
+
+    From the straight rod (the rest state) with the loads applied, or from ``initial`` (an
+    ``EquilibriumResult`` of a nearby scene, e.g. the previous state of a loading path: its shape
+    interpolated onto the mesh, its contact points the first element boundaries).
 
     A point force inside an element kinks θ', which one polynomial cannot follow: every interior
     contact point becomes an element boundary (``SolverOptions.split_at``) at the point of the
@@ -128,8 +132,10 @@ def solve_contact(scene, options):
     t0 = time.perf_counter()
     opts = graded_options(scene, options) if options.adapt else options
     splits, rounds = tuple(opts.split_at), 0
+    if initial is not None and initial.contact is not None:
+        splits = tuple(initial.contact.get("split_at", splits))
     while True:
-        result = _solve_once(scene, replace(opts, split_at=splits), t0)
+        result = _solve_once(scene, replace(opts, split_at=splits), t0, initial)
         rounds += 1
         interior = [p for p in result.contact["points"] if not p["weak"] and 0.0 < p["s"] < 1.0]
         if not result.success or not interior or rounds >= MAX_SPLIT_ROUNDS:
@@ -180,8 +186,9 @@ def _nearest_point(scene, result, point: dict) -> float:
     return float(minimize_scalar(dist, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}).x)
 
 
-def _solve_once(scene, opts, t0: float):
-    """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted)."""
+def _solve_once(scene, opts, t0: float, initial=None):
+    """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
+    straight rod or from ``initial``'s shape at the mesh's nodes."""
     from .balance import balance
     from .equilibrium import _make_result
     from .solver import RawSolution, get_solver
@@ -190,7 +197,10 @@ def _solve_once(scene, opts, t0: float):
     nlp = contact_nlp(solver, scene)
     P = solver.parameter_vector(scene)
     z0 = np.full(solver.transcription.nodes.size, scene.theta0)
-    problem = _rest_state_problem(scene, nlp, z0)
+    if initial is not None:
+        z0 = np.asarray(initial.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
+        z0[0] = scene.theta0
+    problem = _rest_state_problem(scene, nlp, z0) if initial is None else None
     n_rows = len(scene.obstacles) * nlp.n_points
     lbg = np.zeros(1 + n_rows)
     ubg = np.concatenate([[0.0], np.full(n_rows, np.inf)])
@@ -203,7 +213,8 @@ def _solve_once(scene, opts, t0: float):
         z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
         status = str(st.get("return_status"))
         iterations = int(st.get("iter_count", 0))
-        message = f"IPOPT: {status} (contact, from the straight rod with the loads applied)"
+        start = "the previous state" if initial is not None else "the straight rod with the loads applied"
+        message = f"IPOPT: {status} (contact, from {start})"
     converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     mu = np.maximum(-lam[1:], 0.0)
     mass = np.asarray(solver.transcription.mass, float)

@@ -51,7 +51,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     options = options or SolverOptions()
     if scene.obstacles:  # unilateral constraints: IPOPT with the contact rows
         from .contact import solve_contact
-        return solve_contact(scene, options)
+        return solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
     if options.accuracy is not None and solver is None:
         from dataclasses import replace
 

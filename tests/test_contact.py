@@ -121,7 +121,7 @@ def test_the_shape_figure_draws_obstacles_and_contact_forces():
     assert "obstacle" in labels and "contact force (1 point)" in labels
 
 
-@pytest.mark.parametrize("argv", [["path", "--param", "h", "--from", "0", "--to", "3"], ["stiffness"],
+@pytest.mark.parametrize("argv", [["continue", "--param", "h", "--from", "0", "--to", "3"], ["stiffness"],
                                   ["design", "--target-tip", "0.5,0.5"], ["equilibria"]])
 def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, capsys):
     from pathlib import Path
@@ -131,11 +131,11 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "obstacles (contact), which only solve models so far" in err[0]
+    assert len(err) == 1 and "obstacles (contact), which only solve and path model so far" in err[0]
 
 
 def test_the_api_refuses_too():
-    from actuator_design.analysis.loading import follow_path
+    from actuator_design.analysis.stiffness import tip_stiffness
 
-    with pytest.raises(ValueError, match="path: this scene has obstacles"):
-        follow_path(_floor_scene(0.1, 1.0), schedule=[{"p": 0.0}, {"p": -1.0}])
+    with pytest.raises(ValueError, match="stiffness: this scene has obstacles"):
+        tip_stiffness(_floor_scene(0.1, 1.0))

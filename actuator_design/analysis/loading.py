@@ -46,7 +46,6 @@ from ..scene import Scene
 from .registry import register
 from .loading_results import Bifurcation, Jump, LoadingPath, PathPoint
 from .loading_tracker import Tracker as _Tracker
-from ..contact_guard import no_contact
 
 __all__ = ["apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
            "PathPoint", "Jump", "Bifurcation"]
@@ -128,7 +127,6 @@ def normalise_schedule(schedule: Schedule) -> Tuple[List[str], np.ndarray]:
 
 
 # -- results -----------------------------------------------------------------------------------
-@no_contact("path")
 def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule: Schedule = (), *,
                 initial: Union[None, np.ndarray, EquilibriumResult] = None,
                 max_step: Optional[float] = None, max_dtheta: float = 0.3) -> LoadingPath:
@@ -161,7 +159,9 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     -------
     LoadingPath
         ``points``, ``jumps``, ``bifurcations``, ``snap_free``, ``hysteresis``, ``states``,
-        ``final`` (the state at the last schedule point), ``success``/``message``.
+        ``final`` (the state at the last schedule point), ``success``/``message``. A scene with
+        obstacles is followed by contact equilibria (:func:`.contact_path.follow_contact_path`):
+        touch-down and lift-off in ``contact_events``.
 
     Raises
     ------
@@ -170,6 +170,9 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         step settings.
     """
     options = options or SolverOptions()
+    if scene.obstacles:
+        from .contact_path import follow_contact_path
+        return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
     names, vals = normalise_schedule(schedule)
     if max_step is None:
         max_step = min(1.0, (len(vals) - 1) / 20.0)

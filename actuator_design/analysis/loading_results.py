@@ -5,7 +5,7 @@ here; :func:`~.loading.follow_path` builds them.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional
 
 import numpy as np
@@ -157,6 +157,10 @@ class LoadingPath:
     success : bool
         Every step converged (a non-converged step stops the path: ``message`` says where).
     message : str
+    contact_events : list of dict
+        Paths through contact (:mod:`.contact_path`): each touch-down and lift-off in path order,
+        with ``kind``, ``t``, ``param``, ``values``, ``obstacle`` (index) and ``obstacle_text``,
+        ``s`` (arc length of the touching point, ℓ) and ``located`` (False: at the step only).
     """
 
     names: List[str]
@@ -171,6 +175,7 @@ class LoadingPath:
     final: EquilibriumResult
     success: bool
     message: str
+    contact_events: List[dict] = field(default_factory=list)
 
     def column(self, key: str) -> np.ndarray:
         """A column of ``points``: "t", "param", "x", "y", "angle", "energy", "stable",
@@ -195,6 +200,7 @@ class LoadingPath:
                 "jumps": [j.to_dict() for j in self.jumps],
                 "bifurcations": [b.to_dict() for b in self.bifurcations],
                 "hysteresis": self.hysteresis, "final": _state_dict(self.final),
+                "contact_events": [dict(e) for e in self.contact_events],
                 "units": {"tip": "x, y in rod lengths l, angle in rad", "energy": "B0/l",
                           "angles": "rad"}}
 
@@ -209,6 +215,14 @@ class LoadingPath:
         for b in self.bifurcations:
             how = f"branch sign {b.sign:+d}" if b.sign else "onto the one stable branch"
             lines.append(f"  continuous bifurcation at {self.param or 't'} = {b.param:.10g} ({how})")
+        for e in self.contact_events:
+            where = f" at s = {e['s']:.6g}" if e["s"] is not None else ""
+            how = "" if e["located"] else " (at the step; not located)"
+            when = (f"{self.param} = {e['param']:.10g}" if self.param else
+                    ", ".join(f"{k} = {v:.10g}" + (" rad" if k in ("phi", "alpha", "theta0") else "")
+                              for k, v in e["values"].items()))
+            lines.append(f"  {e['kind']} {'on' if e['kind'] == 'touch-down' else 'from'} {e['obstacle_text']} at "
+                         f"{when}{where}{how}")
         hy = self.hysteresis
         if hy.get("loops"):
             lines.append(f"  hysteresis: width {hy['width']:.8g}, loop area {hy['area']:.6g} "

@@ -6,7 +6,9 @@ equilibrium (warm-started Newton with adaptive steps); where it loses stability 
 to the stable state it lands on (IPOPT from the fold pushed along its null mode). The report lists
 every jump (where, from which state to which, energy released), continuous bifurcations, whether
 the path is snap-free, and the hysteresis loop (width in the parameter, area in the
-(parameter, tip angle) plane).
+(parameter, tip angle) plane). A scene with obstacles (scene.obstacles) is followed by contact
+equilibria, each from the state before it; every touch-down and lift-off is located (where the
+free rod just touches the obstacle) and listed with the obstacle and the touching point.
 
 NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos (dimensionless, THEORY §5), phi_deg,
 alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
@@ -28,7 +30,8 @@ energies in J — text lines (schedule, final tip, jumps, hysteresis width), JSO
 tip_y_<unit>, energy_J, value_<name>_mT / _N / _N_m / _N_per_m) and path.png's axes.
 
 JSON (--json): one object with points (param, tip {x, y, angle}, energy, stable, min_eigenvalue,
-...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops}.
+...), jumps (param, from, to, energy_released, ...), snap_free, hysteresis {width, area, loops},
+contact_events (kind touch-down/lift-off, param, values, obstacle, obstacle_text, s, located).
 --out DIR writes path.json, path.csv and path.png. Exit codes: 0 success, 2 bad input, 3 the path
 could not be followed to its end (the part computed is still reported).
 """
@@ -222,7 +225,7 @@ def _scaled_dict(path, factor: float, name: Optional[str]) -> dict:
     if name is not None:
         d["param"] = name
         if factor != 1.0:
-            for item in d["points"] + d["jumps"] + d["bifurcations"]:
+            for item in d["points"] + d["jumps"] + d["bifurcations"] + d["contact_events"]:
                 item["param"] /= factor
             hy = d["hysteresis"]
             hy["width"] /= factor
@@ -260,7 +263,8 @@ def run(args: argparse.Namespace) -> int:
         from ..parameters import parameter
 
         p = parameter(name.replace("-", "_"))
-        add_physical_values(data["points"] + data["jumps"] + data["bifurcations"], p, units, key="param")
+        add_physical_values(data["points"] + data["jumps"] + data["bifurcations"] + data["contact_events"], p, units,
+                            key="param")
     add_physical_block(data, path, units, factor)
     written = None
     if args.out is not None:
@@ -306,10 +310,36 @@ def _physical_lines(data, units=None) -> list:
         bt = b["physical"]["tip"]
         lines.append(f"  continuous bifurcation at {where(b)}: tip ({_len(bt['x'], units)}, "
                      f"{_len(bt['y'], units)}) {u}")
+    for e in data["contact_events"]:
+        at = "" if e["s"] is None else f" at s = {_len(e['s'] * units.length_m / units.metres_per_unit, units)} {u}"
+        when = where(e) if data["param"] else _values_text(e["values"], units)
+        lines.append(f"  {e['kind']} at {when}{at}" + ("" if e["located"] else " (at the step; not located)"))
     hy = phys.get("hysteresis")
     if hy:
         lines.append(f"  hysteresis width [{hy['unit']}]: {number(hy['width'], '.6g')}")
     return lines
+
+
+def _values_text(values: dict, units) -> str:
+    """Scheduled values in the user's units: fields in mT, loads in N, angles in degrees."""
+    import math
+
+    from ..parameters import parameter
+    from ..user_units import physical_value_keys
+
+    out = []
+    for name, v in values.items():
+        keys = physical_value_keys(parameter(name), v, units)
+        if "field_mT" in keys:
+            out.append(f"mu0 H = {number(keys['field_mT'])} mT")
+        elif keys:
+            (key, val), = keys.items()
+            out.append(f"{name} = {number(val)} {dict(value_N='N', value_N_m='N m', value_N_per_m='N/m')[key]}")
+        elif name in ("phi", "alpha", "theta0"):
+            out.append(f"{name} = {number(math.degrees(v))} deg")
+        else:
+            out.append(f"{name} = {number(v)}")
+    return ", ".join(out)
 
 
 def _len(x: float, units) -> str:

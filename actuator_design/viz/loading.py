@@ -1,7 +1,8 @@
 """Figures of loading paths and stiffness curves: pure drawing, never solves.
 
 :func:`path_figure` draws a :class:`~actuator_design.analysis.loading.LoadingPath` (tip angle and
-energy against the ramped parameter, jumps as dashed arrows, folds and bifurcations marked; a
+energy against the ramped parameter, jumps as dashed arrows, folds, bifurcations and contact
+touch-downs and lift-offs marked; a
 physical scene's energy in J and ramped field in mT, load in N);
 :func:`stiffness_figure` draws a :class:`~actuator_design.analysis.stiffness.StiffnessCurve` with
 THEORY §6's closed-form s(h) overlaid (physical scenes: N/m against μ0 H in mT); :func:`load_deflection_figure` draws load against tip
@@ -83,6 +84,12 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
     for b in path.bifurcations:
         ax_a.plot([b.param * xscale], [b.state.tip["angle"]], "s", color="C2", ms=6,
                   label="continuous bifurcation" if b is path.bifurcations[0] else None)
+    for kind, marker in (("touch-down", "v"), ("lift-off", "^")):  # contact events (paths with obstacles)
+        pts = [p for p in path.points if p.kind == kind]
+        for ax, key in ((ax_a, "angle"), (ax_e, None)):
+            ax.plot([p.param * xscale for p in pts], [p.tip[key] if key else p.energy for p in pts], marker,
+                    color="C4" if kind == "touch-down" else "C5", ms=7, ls="none",
+                    label=(kind if ax is ax_a and pts else None), zorder=5)
     ax_a.set_xlabel(xlabel)
     ax_a.set_ylabel("tip angle θ(1) [rad]")
     ax_e.set_xlabel(xlabel)

@@ -1,0 +1,251 @@
+"""Loading paths through contact: touch-down and lift-off as located events (issue 20 item 4).
+
+A scene with obstacles is followed along its schedule by contact equilibria
+(:func:`actuator_design.contact.solve_contact`), each warm-started from the state before it: the
+quasi-static history, not a fresh start from rest. Steps are at most ``max_step`` of a segment and
+move no nodal angle more than ``max_dtheta``; a step that moves more is halved, and a change that
+stays large as the step shrinks to :data:`MIN_STEP` is a snap (a ``Jump`` of kind ``"contact"``).
+
+**Events.** Between two states the set of obstacles in contact may change. Obstacle k's event is
+located as the root of its gap function
+
+    g_k(t) = min_s d_k(r(s; t)) − gap,
+
+r(·; t) the equilibrium at path coordinate t *without* obstacle k (the other obstacles kept). On
+the free side g_k > 0; on the contact side the rod would enter the obstacle, g_k < 0; at a
+touch-down or a lift-off the contact force is zero, so the free state just touches: g_k = 0 at
+both. g_k is smooth in t (one branch of free states), so Brent's method locates the event to
+:data:`EVENT_XTOL` in t where a bisection of the contact solves would need ~30 of them. Where g_k
+does not change sign over the step (a grazing touch) the event is reported at the step, ``located``
+False.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Dict, List, Optional
+
+import numpy as np
+from scipy.optimize import brentq, minimize_scalar
+
+from ..equilibrium import solve
+from ..options import SolverOptions
+from ..result import EquilibriumResult
+from .loading import apply_values, normalise_schedule, prepare_scene
+from .loading_results import Jump, LoadingPath, PathPoint
+
+__all__ = ["follow_contact_path", "EVENT_XTOL", "MIN_STEP"]
+
+#: an event's path coordinate is located to this (in t: fractions of a schedule segment)
+EVENT_XTOL = 1e-10
+#: the smallest step, as a fraction of a segment: a state change above max_dtheta over it is a snap
+MIN_STEP = 1e-4
+_S = np.linspace(0.0, 1.0, 401)  # arc lengths at which shapes are compared and gaps measured
+
+
+def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule=(), *,
+                        max_step: Optional[float] = None, max_dtheta: float = 0.3) -> LoadingPath:
+    """Follow the contact equilibrium of ``scene`` (with obstacles) quasi-statically along ``schedule``.
+
+    Parameters
+    ----------
+    scene : Scene
+        With at least one obstacle; values not named in the schedule stay fixed.
+    options : SolverOptions, optional
+    schedule : list of dict, or dict of lists
+        As for :func:`~.loading.follow_path` (names of the parameter lens, dimensionless, rad).
+    max_step : float, optional
+        Largest step, a fraction of a segment (0 < max_step ≤ 1); default min(1, n_segments/20).
+    max_dtheta : float
+        Largest change of θ(s) per step, rad.
+
+    Returns
+    -------
+    LoadingPath
+        Its ``points`` include the located events (``kind`` ``"touch-down"`` or ``"lift-off"``),
+        ``contact_events`` lists them (path coordinate, parameter values, obstacle, arc length of
+        the touching point, ``located``), ``jumps`` the snaps. ``success`` False names the first
+        state that could not be followed (not converged, or unstable).
+    """
+    options = options or SolverOptions()
+    names, vals = normalise_schedule(schedule)
+    if max_step is None:
+        max_step = min(1.0, (len(vals) - 1) / 20.0)
+    if not (0.0 < max_step <= 1.0):
+        raise ValueError(f"max_step: must lie in (0, 1], got {max_step!r}")
+    if not (max_dtheta > 0.0):
+        raise ValueError(f"max_dtheta: must be > 0, got {max_dtheta!r}")
+    base = prepare_scene(scene, names)
+    for i, row in enumerate(vals):
+        try:
+            apply_values(base, dict(zip(names, row)))
+        except ValueError as err:
+            raise ValueError(f"schedule[{i}].{err}") from None
+    run = _Run(base, options, names, vals)
+    return run.follow(max_step, max_dtheta)
+
+
+class _Run:
+    """One contact path: the schedule as a function of t, the states and the records."""
+
+    def __init__(self, base, options, names, vals):
+        self.base, self.options, self.names, self.vals = base, options, names, vals
+        self.n_seg = len(vals) - 1
+        moving = [n for j, n in enumerate(names) if np.ptp(vals[:, j]) > 0]
+        self.param = moving[0] if len(moving) == 1 else None
+        self.points: List[PathPoint] = []
+        self.jumps: List[Jump] = []
+        self.events: List[dict] = []
+        self.states: List[EquilibriumResult] = []
+
+    # -- the schedule ---------------------------------------------------------------------------
+    def values(self, t: float) -> Dict[str, float]:
+        k = min(int(math.floor(t)), self.n_seg - 1)
+        lam = t - k
+        row = self.vals[k] + lam * (self.vals[k + 1] - self.vals[k])
+        return dict(zip(self.names, (float(v) for v in row)))
+
+    def scene(self, t: float, without: Optional[int] = None):
+        sc = apply_values(self.base, self.values(t))
+        if without is not None:
+            sc = replace(sc, obstacles=tuple(ob for i, ob in enumerate(sc.obstacles) if i != without))
+        return sc
+
+    def direction(self, t: float) -> int:
+        if self.param is None:
+            return 0
+        j = self.names.index(self.param)
+        k = min(int(math.floor(t)), self.n_seg - 1)
+        return int(np.sign(self.vals[k + 1, j] - self.vals[k, j]))
+
+    def record(self, r: EquilibriumResult, t: float, kind: str) -> None:
+        vals = self.values(t)
+        self.points.append(PathPoint(
+            t=float(t), param=float(vals[self.param]) if self.param else float(t), values=vals,
+            tip={k: float(v) for k, v in r.tip.items()}, energy=float(r.energy), stable=bool(r.stable),
+            min_eigenvalue=float(r.eigenvalues[0]), morse_index=int(r.morse_index), branch=len(self.jumps),
+            direction=self.direction(t), kind=kind))
+
+    # -- following --------------------------------------------------------------------------------
+    def follow(self, max_step: float, max_dtheta: float) -> LoadingPath:
+        first = solve(self.scene(0.0), self.options)
+        self.record(first, 0.0, "start")
+        self.states.append(first)
+        cur, t, step, msg = first, 0.0, max_step, ""
+        ok = bool(first.success and first.stable)
+        if not ok:
+            msg = f"no stable starting state: {first.message}"
+        while ok and t < self.n_seg:
+            t_next = min(t + step, math.floor(t + 1e-12) + 1.0)
+            r = solve(self.scene(t_next), self.options, initial=cur)
+            change = _shape_change(cur, r) if r.success else math.inf
+            if (not r.success or change > max_dtheta) and step > MIN_STEP:
+                step = max(0.5 * step, MIN_STEP)
+                continue
+            if not r.success:
+                ok, msg = False, f"no contact equilibrium at t = {t_next:.6g} ({self._where(t_next)}): {r.message}"
+                break
+            if not r.stable:
+                ok, msg = False, (f"the followed state is unstable at t = {t_next:.6g} ({self._where(t_next)}): "
+                                  f"Morse index {r.morse_index}")
+                break
+            if change > max_dtheta:  # large over the smallest step: the rod snapped
+                self.jumps.append(Jump(t=t_next, param=self.points[-1].param if self.param is None
+                                       else self.values(t_next)[self.param], values=self.values(t_next),
+                                       direction=self.direction(t_next), kind="contact", from_state=cur,
+                                       to_state=r, energy_released=float(cur.energy - r.energy)))
+            else:
+                self._events(cur, r, t, t_next)
+            at_schedule = abs(t_next - round(t_next)) <= 1e-12
+            self.record(r, t_next, "schedule" if at_schedule else "step")
+            if at_schedule:
+                self.states.append(r)
+            cur, t, step = r, t_next, min(max_step, 2.0 * step)
+        if ok:
+            msg = (f"followed {self.n_seg} segment(s) with contact: {len(self.events)} contact event(s) "
+                   f"({_count(self.events, 'touch-down')} touch-down, {_count(self.events, 'lift-off')} lift-off), "
+                   f"{len(self.jumps)} jump(s)")
+        order = sorted(range(len(self.points)), key=lambda i: self.points[i].t)
+        path = LoadingPath(names=self.names, schedule=self.vals, param=self.param,
+                           points=[self.points[i] for i in order], jumps=self.jumps, bifurcations=[],
+                           snap_free=bool(ok and not self.jumps),
+                           hysteresis={"width": 0.0, "area": 0.0, "loops": [],
+                                       "note": "hysteresis is not computed for paths with contact"},
+                           states=self.states, final=cur, success=ok, message=msg)
+        path.contact_events = sorted(self.events, key=lambda e: e["t"])
+        return path
+
+    def _where(self, t: float) -> str:
+        return ", ".join(f"{k} = {v:.6g}" for k, v in self.values(t).items())
+
+    # -- events -----------------------------------------------------------------------------------
+    def _events(self, a: EquilibriumResult, b: EquilibriumResult, ta: float, tb: float) -> None:
+        before, after = _touching(a), _touching(b)
+        for k in sorted(before ^ after):
+            kind = "touch-down" if k in after else "lift-off"
+            free_side, contact_side = (a, b) if kind == "touch-down" else (b, a)
+            t_star, s_star, located = self._locate(k, ta, tb, a, free_side)
+            state = solve(self.scene(t_star), self.options, initial=a) if located else b
+            vals = self.values(t_star)
+            self.events.append({"kind": kind, "t": float(t_star),
+                                "param": float(vals[self.param]) if self.param else float(t_star),
+                                "values": vals, "obstacle": int(k),
+                                "obstacle_text": self.base.obstacles[k].describe(), "s": s_star,
+                                "located": located})
+            if state.success:
+                self.record(state, t_star, kind)
+
+    def _locate(self, k: int, ta: float, tb: float, a: EquilibriumResult, free_side: EquilibriumResult):
+        """(t*, s*, located): the root of g_k on [ta, tb] (module doc) and the touching point."""
+        warm = {"state": free_side}
+
+        def gap(t):
+            r = solve(self.scene(t, without=k), self.options, initial=warm["state"])
+            if not r.success:
+                raise _NoFreeState
+            warm["state"] = r
+            return _min_gap(self.base, k, r)
+
+        try:
+            ga, gb = gap(ta)[0], gap(tb)[0]
+            if not (ga * gb < 0):
+                raise _NoFreeState
+            t_star = brentq(lambda t: gap(t)[0], ta, tb, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)
+            return t_star, gap(t_star)[1], True
+        except _NoFreeState:
+            return tb, None, False
+
+
+class _NoFreeState(Exception):
+    """The state without the obstacle could not be followed, or its gap does not change sign."""
+
+
+def _min_gap(base, k: int, r: EquilibriumResult):
+    """(g, s): the least distance of the centre line of ``r`` to obstacle k less the gap, and where:
+    the best of :data:`_S`, refined by a bounded scalar minimisation between its neighbours."""
+    ob, gap = base.obstacles[k], base.contact_gap
+
+    def dist(s):
+        d = r.evaluate(np.atleast_1d(s))
+        return np.asarray(ob.distance(d["x"], d["y"]), float) - gap
+
+    i = int(np.argmin(dist(_S)))
+    lo, hi = _S[max(i - 1, 0)], _S[min(i + 1, _S.size - 1)]
+    best = minimize_scalar(lambda s: float(dist(s)[0]), bounds=(lo, hi), method="bounded",
+                           options={"xatol": 1e-13})
+    cands = [(float(dist(_S[i])[0]), float(_S[i])), (float(best.fun), float(best.x)), (float(dist(1.0)[0]), 1.0)]
+    return min(cands)
+
+
+def _touching(r: EquilibriumResult) -> set:
+    """Obstacles pressing on the rod (a strong contact: a positive force)."""
+    return {p["obstacle"] for p in (r.contact or {}).get("points", []) if not p["weak"]}
+
+
+def _shape_change(a: EquilibriumResult, b: EquilibriumResult) -> float:
+    """max_s |θ_b(s) − θ_a(s)| (rad)."""
+    return float(np.max(np.abs(b.evaluate(_S)["theta"] - a.evaluate(_S)["theta"])))
+
+
+def _count(events, kind: str) -> int:
+    return sum(e["kind"] == kind for e in events)
