@@ -201,6 +201,11 @@ def _solve_once(scene, opts, t0: float, initial=None):
         z0 = np.asarray(initial.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
         z0[0] = scene.theta0
     problem = _rest_state_problem(scene, nlp, z0) if initial is None else None
+    start = "the previous state" if initial is not None else "the straight rod with the loads applied"
+    if problem is not None:  # a rod that cannot lie straight in its lumen starts along its centre line
+        shaped = _lumen_start(scene, np.asarray(solver.transcription.nodes, float))
+        if shaped is not None and _rest_state_problem(scene, nlp, shaped) is None:
+            z0, problem, start = shaped, None, "the rod laid along the lumen's centre line, the loads applied"
     n_rows = len(scene.obstacles) * nlp.n_points
     lbg = np.zeros(1 + n_rows)
     ubg = np.concatenate([[0.0], np.full(n_rows, np.inf)])
@@ -213,7 +218,6 @@ def _solve_once(scene, opts, t0: float, initial=None):
         z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
         status = str(st.get("return_status"))
         iterations = int(st.get("iter_count", 0))
-        start = "the previous state" if initial is not None else "the straight rod with the loads applied"
         message = f"IPOPT: {status} (contact, from {start})"
     converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     mu = np.maximum(-lam[1:], 0.0)
@@ -240,6 +244,21 @@ def _solve_once(scene, opts, t0: float, initial=None):
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
     return result
+
+
+def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
+    """θ at arc lengths ``s`` of the rod laid along the centre line of the first lumen holding the
+    clamp (the centre line's turning from the clamp's nearest point on, added to the clamp angle),
+    or None without such a lumen."""
+    for ob in scene.obstacles:
+        if ob.kind != "lumen" or not float(ob.distance(np.array([0.0]), np.array([0.0]))[0]) > scene.contact_gap:
+            continue
+        line = ob.centreline(n=4000, extend=2.0)
+        u = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))]) - 2.0  # 0 at the start
+        u0 = u[int(np.argmin(np.hypot(line[:, 0], line[:, 1])))]
+        heading = ob.tangent_angle(u0 + s)
+        return scene.theta0 + heading - heading[0]
+    return None
 
 
 #: the centre line may come this much closer than the gap between the constrained points

@@ -1,4 +1,5 @@
-"""Rigid obstacles a rod can touch: walls (half-planes), pegs (discs) and convex polygons, frictionless.
+"""Rigid obstacles a rod can touch: walls (half-planes), pegs (discs), convex polygons and lumens
+(curved tubes the rod lies in), frictionless.
 
 Each obstacle gives a signed distance d(r) of a point r of the centre line (units of ℓ), positive on
 the free side; contact is the unilateral constraint d(r(s)) ≥ gap (the rod's half-thickness, so its
@@ -20,7 +21,7 @@ from typing import Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["Wall", "Peg", "Polygon", "Obstacle"]
+__all__ = ["Wall", "Peg", "Polygon", "Lumen", "Obstacle"]
 
 
 @dataclass(frozen=True)
@@ -150,4 +151,136 @@ def _gradient_function(obstacle) -> ca.Function:
     return lambda xs, ys: f.map(xs.size)(xs.reshape(1, -1), ys.reshape(1, -1))
 
 
-Obstacle = (Wall, Peg, Polygon)
+@dataclass(frozen=True)
+class Lumen:
+    """A curved tube the rod lies in (a vessel, a catheter, a guide): the free region is within
+    ``radius`` of its centre line, which starts at ``start`` heading at ``angle`` (rad) and runs
+    through ``pieces``, each ``("straight", length)`` or ``("arc", length, turn)`` (turn in rad,
+    positive to the left), units of ℓ. Both ends continue straight along their tangents (the tube
+    is open there), so the centre line is C¹ and the distance to it is C¹ within the tube where
+    ``radius`` is below every arc's radius of curvature (checked).
+
+    Signed distance: d = radius − dist(r, centre line), positive inside.
+    """
+
+    start: Tuple[float, float]
+    angle: float
+    radius: float
+    pieces: Tuple[Tuple[float, ...], ...]
+    kind: str = dc_field(default="lumen", init=False)
+
+    def __post_init__(self):
+        if not self.radius > 0:
+            raise ValueError(f"a lumen's radius must be > 0, got {self.radius!r}")
+        if not self.pieces:
+            raise ValueError("a lumen needs at least one piece (straight or arc)")
+        for piece in self.pieces:
+            if piece[0] not in ("straight", "arc") or not piece[1] > 0:
+                raise ValueError(f"a lumen piece is ('straight', length > 0) or ('arc', length > 0, turn), got {piece!r}")
+            if piece[0] == "arc" and piece[2] != 0 and abs(piece[1] / piece[2]) <= self.radius:
+                raise ValueError(f"an arc of length {piece[1]:.4g} turning {math.degrees(piece[2]):.4g} deg has a "
+                                 f"radius of curvature {abs(piece[1] / piece[2]):.4g} l, not above the lumen's "
+                                 f"radius {self.radius:.4g} l: its walls would fold over")
+
+    def _segments(self):
+        """The centre line as ("line", A, B, open_before, open_after) and ("arc", C, ρ, start, turn, E0, E1)
+        (start: the polar angle of E0 about the centre C; the arc sweeps ``turn`` from there)."""
+        p, a = np.array(self.start, float), float(self.angle)
+        out = [("line", p - np.array([math.cos(a), math.sin(a)]), p, True, False)]
+        for piece in self.pieces:
+            length, turn = piece[1], (piece[2] if piece[0] == "arc" else 0.0)
+            t = np.array([math.cos(a), math.sin(a)])
+            if turn == 0.0:
+                q = p + length * t
+                out.append(("line", p, q, False, False))
+            else:
+                rho = length / abs(turn)
+                side = math.copysign(1.0, turn)
+                c = p + side * rho * np.array([-t[1], t[0]])
+                start = math.atan2(p[1] - c[1], p[0] - c[0])
+                q = c + rho * np.array([math.cos(start + turn), math.sin(start + turn)])
+                out.append(("arc", c, rho, start, turn, p, q))
+            p, a = q, a + turn
+        out.append(("line", p, p + np.array([math.cos(a), math.sin(a)]), False, True))
+        return out
+
+    def distance(self, x, y):
+        """Signed distance (CasADi or numpy), positive inside the tube."""
+        sym = isinstance(x, (ca.SX, ca.MX))
+        mx, mn, where = (ca.fmax, ca.fmin, ca.if_else) if sym else (np.maximum, np.minimum, np.where)
+        sqrt, atan2, sin, cos, fabs = ((ca.sqrt, ca.atan2, ca.sin, ca.cos, ca.fabs) if sym else
+                                       (np.sqrt, np.arctan2, np.sin, np.cos, np.abs))
+        best = None
+        for seg in self._segments():
+            if seg[0] == "line":
+                _, A, B, open_before, open_after = seg
+                e = B - A
+                t = ((x - A[0]) * e[0] + (y - A[1]) * e[1]) / float(e @ e)
+                if not open_before:
+                    t = mx(t, 0.0)
+                if not open_after:
+                    t = mn(t, 1.0)
+                sq = (x - A[0] - t * e[0]) ** 2 + (y - A[1] - t * e[1]) ** 2
+            else:
+                _, C, rho, start, turn, E0, E1 = seg
+                mid, half = start + 0.5 * turn, 0.5 * abs(turn)
+                vx, vy = x - C[0], y - C[1]
+                rel = atan2(vy * cos(mid) - vx * sin(mid), vx * cos(mid) + vy * sin(mid))  # polar angle from mid
+                radial = (sqrt(vx * vx + vy * vy) - rho) ** 2
+                ends = mn((x - E0[0]) ** 2 + (y - E0[1]) ** 2, (x - E1[0]) ** 2 + (y - E1[1]) ** 2)
+                sq = where(fabs(rel) <= half, radial, ends)
+            best = sq if best is None else mn(best, sq)
+        eps2 = (1e-6 * self.radius) ** 2  # smooths the distance's kink on the centre line (unused there)
+        return self.radius - sqrt(best + eps2)
+
+    def normal(self, x, y) -> np.ndarray:
+        """∇d at points, shape (2, k) (towards the centre line)."""
+        return Polygon.normal(self, x, y)
+
+    def centreline(self, n: int = 400, extend: float = 0.0) -> np.ndarray:
+        """Points of the centre line, shape (m, 2), with ``extend`` (ℓ) of its straight continuations."""
+        pts = []
+        segs = self._segments()
+        for seg in segs:
+            if seg[0] == "line":
+                _, A, B, before, after = seg
+                if before or after:
+                    d = (B - A) / np.linalg.norm(B - A)
+                    A, B = (B - extend * d, B) if before else (A, A + extend * d)
+                pts.append(np.linspace(A, B, max(2, n // len(segs))))
+            else:
+                _, C, rho, start, turn, E0, E1 = seg
+                a = np.linspace(start, start + turn, max(8, n // len(segs)))
+                pts.append(np.column_stack([C[0] + rho * np.cos(a), C[1] + rho * np.sin(a)]))
+        return np.vstack(pts)
+
+    def tangent_angle(self, u: np.ndarray) -> np.ndarray:
+        """The centre line's heading (rad, unwrapped) at arc lengths ``u`` from its start (ℓ)."""
+        u = np.atleast_1d(np.asarray(u, float))
+        ends, heading = [0.0], [float(self.angle)]
+        for piece in self.pieces:
+            ends.append(ends[-1] + piece[1])
+            heading.append(heading[-1] + (piece[2] if piece[0] == "arc" else 0.0))
+        out = np.full(u.shape, heading[-1])
+        for k, piece in enumerate(self.pieces):
+            inside = (u >= ends[k]) & (u < ends[k + 1])
+            turn = piece[2] if piece[0] == "arc" else 0.0
+            out[inside] = heading[k] + turn * (u[inside] - ends[k]) / piece[1]
+        out[u < 0] = heading[0]
+        return out
+
+    def outline(self, span: float) -> np.ndarray:
+        """The tube's two walls, shape (m, 2): the left wall forward, then the right wall back."""
+        c = self.centreline(extend=span)
+        d = np.gradient(c, axis=0)
+        nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.hypot(d[:, 0], d[:, 1])[:, None]
+        return np.vstack([c + self.radius * nrm, (c - self.radius * nrm)[::-1]])
+
+    def describe(self) -> str:
+        parts = ", ".join(f"{p[0]} {p[1]:.4g}" + (f" turning {math.degrees(p[2]):.4g} deg" if p[0] == "arc" else "")
+                          for p in self.pieces)
+        return (f"lumen of radius {self.radius:.4g} l from ({self.start[0]:.4g}, {self.start[1]:.4g}) at "
+                f"{math.degrees(self.angle):.4g} deg: {parts} l")
+
+
+Obstacle = (Wall, Peg, Polygon, Lumen)

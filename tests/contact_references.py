@@ -49,3 +49,39 @@ def peg_reference(f, centre, radius, guess):
     a, b, nu = shoot(out.x)
     assert nu @ (a.y[2:, -1] - centre) > 0  # the peg pushes the rod away from its centre
     return out.x, b.y[:, -1], nu
+
+
+def peg_and_tip_wall_reference(centre, radius, wall_point, wall_normal, guess):
+    """The unloaded elastica pressed at one interior point against a disc (``centre``, ``radius``:
+    the rod's surface on a curved wall) and at its tip against a straight wall (the line through
+    ``wall_point`` with unit ``wall_normal`` pointing to the free side), by shooting on
+    (θ'(0), s_c, R1, ψ, R2): internal force R2 n_w + R1 ν on [0, s_c], R2 n_w beyond; conditions:
+    the contact point on the disc with the rod tangent to it and ν its normal, the tip on the wall,
+    no moment at the tip."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import root
+
+    centre, wall_point, n_w = (np.asarray(v, float) for v in (centre, wall_point, wall_normal))
+
+    def rhs(n):
+        return lambda s, u: [u[1], n[0] * math.sin(u[0]) - n[1] * math.cos(u[0]), math.cos(u[0]), math.sin(u[0])]
+
+    def shoot(v):
+        gamma, sc, R1, psi, R2 = v
+        nu = np.array([math.cos(psi), math.sin(psi)])
+        a = solve_ivp(rhs(R2 * n_w + R1 * nu), (0, sc), [0, gamma, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13)
+        b = solve_ivp(rhs(R2 * n_w), (sc, 1), a.y[:, -1], method="DOP853", rtol=1e-13, atol=1e-13)
+        return a, b, nu
+
+    def ends(v):
+        a, b, nu = shoot(v)
+        rc = a.y[2:, -1] - centre
+        t = np.array([math.cos(a.y[0, -1]), math.sin(a.y[0, -1])])
+        return [np.linalg.norm(rc) - radius, rc @ t, nu[0] * rc[1] - nu[1] * rc[0], b.y[1, -1],
+                (b.y[2:, -1] - wall_point) @ n_w]
+
+    out = root(ends, guess, method="hybr", options={"xtol": 1e-13})
+    assert max(abs(e) for e in ends(out.x)) <= 1e-10, out.message
+    a, b, nu = shoot(out.x)
+    assert nu @ (a.y[2:, -1] - centre) > 0 and out.x[4] > 0  # both walls push
+    return out.x, b.y[:, -1], nu

@@ -6,6 +6,11 @@ polygons and straight channels.
       - {type: peg, centre: {x: 0.6, y: -0.3}, radius: 0.1}
       - {type: polygon, vertices: [{x: 0.5, y: -0.3}, {x: 0.8, y: -0.3}, {x: 0.8, y: -0.2}]}
       - {type: channel, centre: {x: 0, y: 0}, angle: 0 deg, width: 0.2}  # two walls, 0.2 apart
+      - type: lumen                              # a curved tube the rod lies in
+        start: {x: 0, y: 0}
+        angle: 0 deg
+        radius: 0.08                             # the tube's half-width, centre line to wall
+        path: [{straight: 0.3}, {arc: 0.5, turn: 60 deg}, {straight: 0.5}]
 
 In a physical scene positions and radii carry lengths ("2 mm") and the rod keeps half its
 thickness from every obstacle; in a dimensionless one ``contact_gap`` (rod lengths, default 0) sets it.
@@ -13,20 +18,21 @@ thickness from every obstacle; in a dimensionless one ``contact_gap`` (rod lengt
 from __future__ import annotations
 
 import math
-from typing import List, Literal
+from typing import List, Literal, Optional
 
 from pydantic import Field, model_validator
 
-from ..obstacles import Peg, Polygon, Wall
+from ..obstacles import Lumen, Peg, Polygon, Wall
 from .base import Angle, Number, Q, StrictModel, tagged
 from .errors import error
 from .vectors import LengthXY, NumberXY
 
-__all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "PhysicalWall", "PhysicalPeg", "PhysicalPolygon",
-           "PhysicalChannel", "DimensionlessObstacle", "PhysicalObstacle", "MAX_OBSTACLES", "MAX_VERTICES"]
+__all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "LumenSpec", "PhysicalWall", "PhysicalPeg",
+           "PhysicalPolygon", "PhysicalChannel", "PhysicalLumen", "DimensionlessObstacle", "PhysicalObstacle", "MAX_OBSTACLES", "MAX_VERTICES"]
 
 MAX_OBSTACLES = 32  # bounds the constraint rows (each obstacle: one row per point of the mesh)
 MAX_VERTICES = 64  # bounds a polygon's distance expression (a few operations per edge and point)
+MAX_PIECES = 32  # bounds a lumen's distance expression (a few operations per piece and point)
 
 
 class WallSpec(StrictModel):
@@ -88,6 +94,54 @@ class ChannelSpec(StrictModel):
                 Wall((c[0] - half * n[0], c[1] - half * n[1]), a + 0.5 * math.pi))   # its right wall
 
 
+class LumenPiece(StrictModel):
+    """One piece of a lumen's centre line: ``{straight: L}`` or ``{arc: L, turn: angle}`` (rod lengths;
+    a positive turn bends to the left)."""
+
+    straight: Optional[Q("dimensionless", gt=0, le=1000)] = None
+    arc: Optional[Q("dimensionless", gt=0, le=1000)] = None
+    turn: Optional[Angle] = None
+
+    @model_validator(mode="after")
+    def _one_kind(self):
+        if (self.straight is None) == (self.arc is None) or (self.arc is None) != (self.turn is None):
+            raise error("a piece is {straight: length} or {arc: length, turn: angle}")
+        return self
+
+    def as_tuple(self, length: float) -> tuple:
+        if self.straight is not None:
+            return ("straight", float(self.straight) / length)
+        return ("arc", float(self.arc) / length, float(self.turn))
+
+
+class LumenSpec(StrictModel):
+    """A curved tube the rod lies in: its centre line from ``start`` at ``angle`` through ``path``,
+    and its ``radius`` (centre line to wall; rod lengths). Open at both ends (continued straight)."""
+
+    type: Literal["lumen"]
+    start: NumberXY = NumberXY()
+    angle: Angle = 0.0
+    radius: Q("dimensionless", gt=0, le=100)
+    path: List[LumenPiece] = Field(min_length=1, max_length=MAX_PIECES)
+
+    @model_validator(mode="after")
+    def _buildable(self):
+        try:
+            self.to_obstacle(1.0)
+        except ValueError as err:
+            raise error(str(err), "path") from None
+        return self
+
+    def to_obstacle(self, length: float = 1.0) -> Lumen:
+        return Lumen((float(self.start.x) / length, float(self.start.y) / length), float(self.angle),
+                     float(self.radius) / length, tuple(p.as_tuple(length) for p in self.path))
+
+
+class PhysicalLumenPiece(LumenPiece):
+    straight: Optional[Q("length", gt=0)] = None
+    arc: Optional[Q("length", gt=0)] = None
+
+
 class PhysicalWall(WallSpec):
     point: LengthXY
 
@@ -106,8 +160,14 @@ class PhysicalChannel(ChannelSpec):
     width: Q("length", gt=0)
 
 
-DimensionlessObstacle = tagged(("obstacles",), WallSpec, PegSpec, PolygonSpec, ChannelSpec)
-PhysicalObstacle = tagged(("obstacles",), PhysicalWall, PhysicalPeg, PhysicalPolygon, PhysicalChannel)
+class PhysicalLumen(LumenSpec):
+    start: LengthXY = LengthXY()
+    radius: Q("length", gt=0)
+    path: List[PhysicalLumenPiece] = Field(min_length=1, max_length=MAX_PIECES)
+
+
+DimensionlessObstacle = tagged(("obstacles",), WallSpec, PegSpec, PolygonSpec, ChannelSpec, LumenSpec)
+PhysicalObstacle = tagged(("obstacles",), PhysicalWall, PhysicalPeg, PhysicalPolygon, PhysicalChannel, PhysicalLumen)
 
 
 def obstacles_of(specs, length: float = 1.0) -> tuple:
@@ -132,6 +192,6 @@ def _numbers(spec):
         if isinstance(v, dict):
             yield from (c for c in v.values() if isinstance(c, (int, float)))
         elif isinstance(v, list):
-            yield from (c for item in v for c in item.values())
+            yield from (c for item in v for c in item.values() if isinstance(c, (int, float)))
         elif isinstance(v, (int, float)) and not isinstance(v, bool):
             yield v

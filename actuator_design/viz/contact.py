@@ -18,7 +18,12 @@ def draw_obstacles(ax, scene, window) -> None:
     for k, ob in enumerate(scene.obstacles):
         label = "obstacle" if k == 0 else None
         outline = ob.outline(span)
-        if ob.kind == "wall":  # a half-plane: its line, and a hatched band on the solid side
+        if ob.kind == "lumen":  # a tube: its two walls
+            half = len(outline) // 2
+            for wall in (outline[:half], outline[half:]):
+                ax.plot(wall[:, 0], wall[:, 1], color="0.3", lw=1.4, zorder=3, label=label)
+                label = None
+        elif ob.kind == "wall":  # a half-plane: its line, and a hatched band on the solid side
             ax.add_patch(Polygon(outline, closed=True, facecolor="0.85", edgecolor="0.3", hatch="////", lw=0.0,
                                  zorder=3, label=label))
             ax.plot(outline[:2, 0], outline[:2, 1], color="0.3", lw=1.2, zorder=3)
