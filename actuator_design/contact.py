@@ -137,9 +137,9 @@ def solve_contact(scene, options, initial=None):
     splits, rounds = tuple(opts.split_at), 0
     if initial is not None and initial.contact is not None:
         splits = tuple(initial.contact.get("split_at", splits))
-    previous = None  # (splits, F(splits)) of the round before
+    previous, result = None, None  # (splits, F(splits)) of the round before; its state
     while True:
-        result = _solve_once(scene, replace(opts, split_at=splits), t0, initial)
+        result = _solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result)
         rounds += 1
         interior = [p for p in result.contact["points"] if not p["weak"] and 0.0 < p["s"] < 1.0]
         if not result.success or not interior or rounds >= MAX_SPLIT_ROUNDS:
@@ -210,9 +210,10 @@ def _nearest_point(scene, result, point: dict) -> float:
     return float(minimize_scalar(dist, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}).x)
 
 
-def _solve_once(scene, opts, t0: float, initial=None):
+def _solve_once(scene, opts, t0: float, initial=None, refine=None):
     """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
-    straight rod or from ``initial``'s shape at the mesh's nodes."""
+    straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
+    boundaries from ``refine`` (the round before: its start is the one reported)."""
     from .balance import balance
     from .equilibrium import _make_result
     from .solver import RawSolution, get_solver
@@ -221,11 +222,14 @@ def _solve_once(scene, opts, t0: float, initial=None):
     nlp = contact_nlp(solver, scene)
     P = solver.parameter_vector(scene)
     z0 = np.full(solver.transcription.nodes.size, scene.theta0)
-    if initial is not None:
-        z0 = np.asarray(initial.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
+    warm = refine if refine is not None else initial
+    if warm is not None:
+        z0 = np.asarray(warm.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
         z0[0] = scene.theta0
-    problem = _rest_state_problem(scene, nlp, z0) if initial is None else None
+    problem = _rest_state_problem(scene, nlp, z0) if warm is None else None
     start = "the previous state" if initial is not None else "the straight rod with the loads applied"
+    if refine is not None:
+        start = refine.contact["start"]
     if problem is not None:  # a rod that cannot lie straight in its lumen starts along its centre line
         shaped = _lumen_start(scene, np.asarray(solver.transcription.nodes, float))
         if shaped is not None and _rest_state_problem(scene, nlp, shaped) is None:
@@ -264,6 +268,7 @@ def _solve_once(scene, opts, t0: float, initial=None):
                       iterations=iterations, stationarity=stationarity, message=message)
     result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
     result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
+    result.contact["start"] = start
     loads = _point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
