@@ -33,6 +33,11 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "CoilSource": ("field_sources", "CoilSource"),
     "source_field": ("field_sources", "source_field"),
     "constant_profile": ("profiles", "constant_profile"),
+    # obstacles the rod can touch (contact)
+    "Wall": ("obstacles", "Wall"),
+    "Peg": ("obstacles", "Peg"),
+    "Polygon": ("obstacles", "Polygon"),
+    "Lumen": ("obstacles", "Lumen"),
     "SolverOptions": ("options", "SolverOptions"),
     "load_config": ("config.model", "load_config"),
     "load_scene": ("config.model", "load_scene"),
