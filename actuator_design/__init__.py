@@ -62,6 +62,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "tip_stiffness": ("analysis.stiffness", "tip_stiffness"),
     "design": ("analysis.design", "design"),
     "design_poses": ("analysis.design_poses", "design_poses"),
+    "design_contact_force": ("analysis.contact_design", "design_contact_force"),
     "DesignSettings": ("analysis.design_types", "DesignSettings"),
     "Tolerances": ("analysis.tolerances", "Tolerances"),
     "fit": ("calibration", "fit"),

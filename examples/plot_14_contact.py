@@ -40,3 +40,15 @@ for event in path.contact_events:
 
 # %%
 path_figure(path, title="strip in a channel: touch-down, lift-off, touch-down")
+
+# %%
+# A gripper finger pressing an object: the field at which the strip of
+# ``configs/contact_tip_on_floor.yaml``, loaded from rest, presses the floor with 50 µN — verified by
+# a forward solve from rest and judged over the lab's tolerance box (field ±5 %, angle ±2°).
+floor_scene, _, _ = ad.load_scene(ROOT / "configs" / "contact_tip_on_floor.yaml")
+target = 50e-6 / floor_scene.scales.force  # 50 µN in the scene's force unit B0/l^2
+grip = ad.design_contact_force(floor_scene, target, h_max=3.0)
+mT = grip.h / floor_scene.h * 15.0  # the config's 15 mT is h = floor_scene.h
+print(f"{grip.status}: mu0 H = {mT:.4f} mT presses with {grip.force * floor_scene.scales.force * 1e6:.3f} uN; "
+      f"over the box {grip.box_force_range[0] * floor_scene.scales.force * 1e6:.2f} to "
+      f"{grip.box_force_range[1] * floor_scene.scales.force * 1e6:.2f} uN")

@@ -63,6 +63,7 @@ def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule
     -------
     LoadingPath
         Its ``points`` include the located events (``kind`` ``"touch-down"`` or ``"lift-off"``),
+        ``point_states`` holds each point's equilibrium (EquilibriumResult, in the order of ``points``),
         ``contact_events`` lists them (path coordinate, parameter values, obstacle, arc length of
         the touching point, ``located``), ``jumps`` the snaps. ``success`` False names the first
         state that could not be followed (not converged, or unstable).
@@ -97,6 +98,7 @@ class _Run:
         self.jumps: List[Jump] = []
         self.events: List[dict] = []
         self.states: List[EquilibriumResult] = []
+        self.point_states: List[EquilibriumResult] = []  # the state of each point, in record order
 
     # -- the schedule ---------------------------------------------------------------------------
     def values(self, t: float) -> Dict[str, float]:
@@ -120,6 +122,7 @@ class _Run:
 
     def record(self, r: EquilibriumResult, t: float, kind: str) -> None:
         vals = self.values(t)
+        self.point_states.append(r)
         self.points.append(PathPoint(
             t=float(t), param=float(vals[self.param]) if self.param else float(t), values=vals,
             tip={k: float(v) for k, v in r.tip.items()}, energy=float(r.energy), stable=bool(r.stable),
@@ -173,6 +176,7 @@ class _Run:
                                        "note": "hysteresis is not computed for paths with contact"},
                            states=self.states, final=cur, success=ok, message=msg)
         path.contact_events = sorted(self.events, key=lambda e: e["t"])
+        path.point_states = [self.point_states[i] for i in order]
         return path
 
     def _where(self, t: float) -> str:

@@ -1,0 +1,55 @@
+"""Design with contact, the gripper case (issue 20 item 5): the field at which a strip loaded from
+rest presses a floor with a given force, against the elastica shot with its tip on the floor (the
+reference's own Runge–Kutta; the floor's reaction and the field its unknowns), verified from rest
+and judged over the lab's tolerance box."""
+import math
+from pathlib import Path
+
+import pytest
+from scipy.optimize import brentq
+
+from actuator_design.analysis.contact_design import design_contact_force
+from actuator_design.config.model import load_scene
+from actuator_design.reference.shooting import ShootingParams, solve_shooting
+
+CONFIG = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
+
+
+def _reference_field(force, phi, tip_y, gamma_guess, bracket):
+    """h at which the elastica with the floor's reaction ``force`` on its tip has its tip at
+    ``tip_y`` (shooting; the branch of the design state through ``gamma_guess``)."""
+    def miss(h):
+        sol = solve_shooting(ShootingParams(h=h, phi=phi, fy=force), gamma_guess=gamma_guess)
+        assert sol.converged
+        return sol.tip_y - tip_y
+
+    return brentq(miss, *bracket, xtol=1e-14)
+
+
+def test_the_field_that_presses_a_floor_with_a_given_force():
+    scene, options, _ = load_scene(CONFIG)
+    d = design_contact_force(scene, 0.5, h_max=3.0)
+    assert d.success and d.verified and d.holds_over_box, d.message
+    assert abs(d.force - 0.5) <= 1e-8 and abs(d.verification_force - 0.5) <= 1e-6
+    tip_y = -0.15 + scene.contact_gap  # the floor 3 mm below a 20 mm rod, the surface touching
+    h_ref = _reference_field(0.5, scene.phi, tip_y, d.state.gamma, (0.9 * d.h, 1.1 * d.h))
+    assert abs(d.h - h_ref) <= 1e-6
+    lo, hi = d.box_force_range
+    assert lo < 0.5 < hi and len(d.box) == 4
+    assert d.to_dict()["physical"]["force_N"] == pytest.approx(0.5 * scene.scales.force)
+
+
+def test_an_unreachable_force_says_how_far_the_path_got():
+    scene, _, _ = load_scene(CONFIG)
+    d = design_contact_force(scene, 50.0, h_max=1.5)
+    assert not d.success and d.status == "unreachable"
+    assert "largest force" in d.message and "h = 1.5" in d.message
+
+
+@pytest.mark.parametrize("kwargs, words", [({"force": -1.0}, "force"), ({"force": math.nan}, "force"),
+                                           ({"force": 1.0, "obstacle": 3}, "obstacle"),
+                                           ({"force": 1.0, "h_max": 0.0}, "h_max")])
+def test_bad_requests_name_the_argument(kwargs, words):
+    scene, _, _ = load_scene(CONFIG)
+    with pytest.raises(ValueError, match=words):
+        design_contact_force(scene, **kwargs)
