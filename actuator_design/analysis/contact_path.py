@@ -31,7 +31,7 @@ from scipy.optimize import brentq, minimize_scalar
 from ..equilibrium import solve
 from ..options import SolverOptions
 from ..result import EquilibriumResult
-from .loading import apply_values, normalise_schedule, prepare_scene
+from .loading import apply_values, checked_schedule
 from .loading_results import Jump, LoadingPath, PathPoint
 
 __all__ = ["follow_contact_path", "EVENT_XTOL", "MIN_STEP"]
@@ -69,19 +69,7 @@ def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule
         state that could not be followed (not converged, or unstable).
     """
     options = options or SolverOptions()
-    names, vals = normalise_schedule(schedule)
-    if max_step is None:
-        max_step = min(1.0, (len(vals) - 1) / 20.0)
-    if not (0.0 < max_step <= 1.0):
-        raise ValueError(f"max_step: must lie in (0, 1], got {max_step!r}")
-    if not (max_dtheta > 0.0):
-        raise ValueError(f"max_dtheta: must be > 0, got {max_dtheta!r}")
-    base = prepare_scene(scene, names)
-    for i, row in enumerate(vals):
-        try:
-            apply_values(base, dict(zip(names, row)))
-        except ValueError as err:
-            raise ValueError(f"schedule[{i}].{err}") from None
+    base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
     run = _Run(base, options, names, vals)
     return run.follow(max_step, max_dtheta)
 

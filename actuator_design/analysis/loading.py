@@ -126,6 +126,31 @@ def normalise_schedule(schedule: Schedule) -> Tuple[List[str], np.ndarray]:
     return names, vals
 
 
+def checked_schedule(scene: Scene, schedule: Schedule, max_step: Optional[float], max_dtheta: float):
+    """``(base, names, values, max_step)``: the schedule normalised and checked against the scene
+    (every point applicable), the scene prepared for its names, the step defaulted to
+    min(1, n_segments/20) and both step settings checked.
+
+    Raises
+    ------
+    ValueError
+        Naming the schedule point or the setting."""
+    names, vals = normalise_schedule(schedule)
+    if max_step is None:
+        max_step = min(1.0, (len(vals) - 1) / 20.0)
+    if not (0.0 < max_step <= 1.0):
+        raise ValueError(f"max_step: must lie in (0, 1], got {max_step!r}")
+    if not (max_dtheta > 0.0):
+        raise ValueError(f"max_dtheta: must be > 0, got {max_dtheta!r}")
+    base = prepare_scene(scene, names)
+    for i, row in enumerate(vals):
+        try:
+            apply_values(base, dict(zip(names, row)))
+        except ValueError as err:
+            raise ValueError(f"schedule[{i}].{err}") from None
+    return base, names, vals, max_step
+
+
 # -- results -----------------------------------------------------------------------------------
 def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule: Schedule = (), *,
                 initial: Union[None, np.ndarray, EquilibriumResult] = None,
@@ -173,19 +198,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     if scene.obstacles:
         from .contact_path import follow_contact_path
         return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
-    names, vals = normalise_schedule(schedule)
-    if max_step is None:
-        max_step = min(1.0, (len(vals) - 1) / 20.0)
-    if not (0.0 < max_step <= 1.0):
-        raise ValueError(f"max_step: must lie in (0, 1], got {max_step!r}")
-    if not (max_dtheta > 0.0):
-        raise ValueError(f"max_dtheta: must be > 0, got {max_dtheta!r}")
-    base = prepare_scene(scene, names)
-    for i, row in enumerate(vals):
-        try:
-            apply_values(base, dict(zip(names, row)))
-        except ValueError as err:
-            raise ValueError(f"schedule[{i}].{err}") from None
+    base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
 
     prob0 = tr.problem(0)
