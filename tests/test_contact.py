@@ -131,7 +131,7 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "obstacles (contact), which only solve and path model so far" in err[0]
+    assert len(err) == 1 and "obstacles (contact), which only solve, path and design --target-force model so far" in err[0]
 
 
 def test_the_api_refuses_too():

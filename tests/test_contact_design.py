@@ -53,3 +53,43 @@ def test_bad_requests_name_the_argument(kwargs, words):
     scene, _, _ = load_scene(CONFIG)
     with pytest.raises(ValueError, match=words):
         design_contact_force(scene, **kwargs)
+
+
+def test_the_cli_designs_a_force_in_newtons(tmp_path, capsys):
+    """`design --target-force '50 uN'` on the floor config: the printed force and the JSON in N and
+    mT, the state written; the field it reports presses with 50 uN in a forward solve from rest."""
+    import json
+
+    from actuator_design.cli.main import main
+    from actuator_design.equilibrium import solve
+
+    out = tmp_path / "out"
+    assert main(["design", str(CONFIG), "--target-force", "50 uN", "--json", "--out", str(out)]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["success"] and d["physical"]["force_N"] == pytest.approx(50e-6, rel=1e-8)
+    assert {p.name for p in out.iterdir()} == {"design.json", "shape.csv", "shape.png"}
+    scene, _, _ = load_scene(CONFIG)
+    check = solve(scene.with_values(h=d["h"]))
+    f = check.contact["points"][0]["force_N"]
+    assert math.hypot(*f) == pytest.approx(50e-6, rel=1e-6)
+    assert d["physical"]["field_mT"] == pytest.approx(15.0 * d["h"] / scene.h, rel=1e-12)  # h ∝ H
+
+
+@pytest.mark.parametrize("argv, code, words", [
+    (["--target-force", "1"], 2, "no obstacles"),
+    ([str(CONFIG), "--target-force", "-1"], 2, "> 0"),
+    ([str(CONFIG), "--target-force", "2 m"], 2, "expected a force"),
+    ([str(CONFIG), "--target-force", "1", "--target-tip", "0.5,0.5"], 2, "alone"),
+    ([str(CONFIG), "--target-force", "1e-5", "--obstacle", "2"], 2, "--obstacle"),
+    ([str(CONFIG), "--target-force", "5 mN", "--h-max", "2"], 4, None),
+])
+def test_the_cli_force_design_refuses_and_fails_in_one_line(argv, code, words, capsys):
+    from actuator_design.cli.main import main
+
+    assert main(["design", *argv]) == code
+    cap = capsys.readouterr()
+    if words is not None:
+        err = cap.err.strip().splitlines()
+        assert len(err) == 1 and words in err[0]
+    else:
+        assert "UNREACHABLE" in cap.out and "largest force" in cap.out

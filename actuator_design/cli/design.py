@@ -18,6 +18,9 @@ Every design must hold over the lab's tolerance box (--tolerance, default field 
 the tool makes the target exact at the nominal field and minimises the worst-case tip error over
 the box, then follows the design's branch over the box and to the nearest snap and reports both.
 
+With obstacles in the scene, --target-force F designs instead the field magnitude at which the rod,
+loaded from rest, presses an obstacle (--obstacle K) with force F (N on a physical scene), verified by
+a forward solve from rest, with the force's range over the tolerance box.
 Exit codes: 0 verified design that holds over the tolerance box, 2 bad input, 3 reachable but not
 a verified success (no snap-free path, not stable, or the verified tip or stiffness outside the
 tolerance: the note says which), 4 unreachable target (the nearest reachable pose is reported) or
@@ -34,6 +37,7 @@ from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_di
                      load_config, parse_rates, stdout_to_stderr, table_csv_text)
 from ..display import degrees, number
 from ..parameters import designable
+from .design_force import parse_force, run_force
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -63,6 +67,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--target-stiffness", metavar="K",
                         help="target vertical tip stiffness dp/dv1: a number in units of B0/l^3, or a "
                              "quantity such as '1.2 N/m' for a physical scene; alone or with --target-tip")
+    parser.add_argument("--target-force", metavar="F",
+                        help="with obstacles in the scene: the field magnitude at which the rod, loaded from "
+                             "rest, presses an obstacle with this force (a gripper): a number in B0/l^2, or a "
+                             "quantity such as '50 uN' for a physical scene; the field angle is the scene's")
+    parser.add_argument("--obstacle", type=int, metavar="K",
+                        help="with --target-force: which obstacle of scene.obstacles (index, default 0)")
     parser.add_argument("--vary", metavar="LIST",
                         help="design variables, comma separated from: h (field magnitude), phi (field "
                              "angle), alpha (fibre layout), p (tip load), magnetization (remanent "
@@ -128,7 +138,7 @@ def _inputs(args):
         if study and study.get("type") != "design":
             raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
     study.pop("type", None)
-    allowed = {"target", "targets", "target_units", "vary", "stiffness", "rate", "rotation_rate",
+    allowed = {"target", "targets", "target_units", "vary", "stiffness", "force", "rate", "rotation_rate",
                *[f.name for f in dataclasses.fields(DesignSettings)]}
     unknown = sorted(set(study) - allowed)
     if unknown:
@@ -142,7 +152,13 @@ def _inputs(args):
         target_text = ";".join(",".join(str(v) for v in t) for t in study["targets"])
     stiffness = _parse_stiffness(args.target_stiffness if args.target_stiffness is not None
                                  else study.get("stiffness"), scene)
-    if getattr(args, "target_shape", None) is not None:
+    force = parse_force(args.target_force if args.target_force is not None else study.get("force"), scene)
+    if force is not None and (target_text is not None or stiffness is not None
+                              or getattr(args, "target_shape", None) is not None):
+        raise InputError("--target-force: give it alone (not with --target-tip, --target-stiffness or --target-shape)")
+    if force is not None:
+        pass
+    elif getattr(args, "target_shape", None) is not None:
         if target_text is not None or stiffness is not None:
             raise InputError("--target-shape: give either a shape or --target-tip/--target-stiffness, not both")
         target_text = None
@@ -165,7 +181,8 @@ def _inputs(args):
             raise InputError(f"--vary: unknown design variable {bad[0] if bad else ''!r} "
                              f"(allowed: {', '.join(_VARIABLES)})")
     settings_kw = {k: study[k] for k in study
-                   if k not in ("target", "targets", "target_units", "vary", "stiffness", "rate", "rotation_rate")}
+                   if k not in ("target", "targets", "target_units", "vary", "stiffness", "force", "rate",
+                                "rotation_rate")}
     for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
                             ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
                             ("margin", "margin", float), ("time_limit", "time_limit", float)):
@@ -180,7 +197,7 @@ def _inputs(args):
         settings = DesignSettings(**settings_kw)  # validates itself: one line naming the setting
         changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
         options = dataclasses.replace(options, **changes)
-    return scene, options, raw, target, vary, settings, stiffness
+    return scene, options, raw, target, vary, settings, stiffness, force
 
 
 def _rates(args, raw):
@@ -414,7 +431,10 @@ def _columns(rows) -> list:
 
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
-    scene, options, raw, target, vary, settings, stiffness = _inputs(args)
+    scene, options, raw, target, vary, settings, stiffness, force = _inputs(args)
+    if force is not None:
+        from ..user_units import user_units
+        return run_force(args, scene, options, raw, force, settings, user_units(scene, raw))
     if args.target_shape is not None:
         from .design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)

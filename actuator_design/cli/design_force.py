@@ -1,0 +1,86 @@
+"""``design --target-force F``: the field at which the rod, loaded from rest, presses an obstacle of
+its scene with a given force (a gripper finger on an object): :func:`~actuator_design.analysis.
+contact_design.design_contact_force`, printed in the scene's units and written as design.json,
+shape.csv and shape.png."""
+from __future__ import annotations
+
+import math
+
+from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
+from .output import emit
+
+__all__ = ["parse_force", "run_force"]
+
+
+def parse_force(value, scene):
+    """A dimensionless force (units of B0/l^2) or a quantity in N (physical scenes), or None."""
+    if value is None:
+        return None
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        if scene.scales is None:
+            raise InputError(f"--target-force: {value!r} has units, but the scene is dimensionless "
+                             "(give a number in units of B0/l^2)")
+        from ..units import parse_quantity
+        with bad_input():
+            f = parse_quantity(value, "force", "--target-force") / scene.scales.force
+    if not (math.isfinite(f) and f > 0):
+        raise InputError(f"--target-force: must be a finite force > 0, got {value!r}")
+    return f
+
+
+def run_force(args, scene, options, raw, force: float, settings, units) -> int:
+    """Design, print, write; exit 0 success, 3 not verified, 4 unreachable."""
+    from ..analysis.contact_design import design_contact_force
+    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
+
+    if not scene.obstacles:
+        raise InputError("--target-force: the scene has no obstacles to press (scene.obstacles)")
+    k = 0 if args.obstacle is None else args.obstacle
+    if not 0 <= k < len(scene.obstacles):
+        raise InputError(f"--obstacle: an index in [0, {len(scene.obstacles) - 1}] (scene.obstacles), got {k}")
+    with stdout_to_stderr(args.json), bad_input():
+        res = design_contact_force(scene, force, obstacle=k, h_max=settings.h_max, options=options,
+                                   tolerances=settings.tolerances)
+    payload = _payload(res, units)
+    emit(args, res, lambda: _files(res, payload), lambda r: _summary(r, units), payload=payload)
+    if res.success:
+        return EXIT_OK
+    return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
+
+
+def _payload(res, units) -> dict:
+    d = res.to_dict()
+    if units is not None and math.isfinite(res.h) and units.h_per_field > 0:
+        d.setdefault("physical", {}).update(field_mT=units.field_mT(res.h), field_A_per_m=units.field_A_per_m(res.h))
+    return d
+
+
+def _summary(res, units) -> str:
+    force = (lambda f: f"{f * units.force_scale:.6g} N") if units is not None else (lambda f: f"{f:.6g} B0/l^2")
+    field = f"h = {res.h:.8g}" + (f" (mu0 H = {units.field_mT(res.h):.6g} mT)" if units is not None and
+                                  math.isfinite(res.h) and units.h_per_field > 0 else "")
+    lines = ["actuator-design: design for a contact force",
+             f"  target      : {force(res.target)} on obstacle {res.obstacle}"]
+    if math.isfinite(res.h):
+        lines += [f"  design      : {field}",
+                  f"  achieved    : {force(res.force)}; from rest {force(res.verification_force)} "
+                  f"(verified {res.verified})",
+                  f"  robustness  : over the box {force(res.box_force_range[0])} to {force(res.box_force_range[1])}"
+                  f"; pressed and stable at every corner: {res.holds_over_box}"]
+    lines += [f"  note        : {res.message}",
+              f"  RESULT      : {'SUCCESS' if res.success else res.status.upper()}"]
+    return "\n".join(lines)
+
+
+def _files(res, payload) -> dict:
+    from ..io import dumps_json, shape_csv_text
+    from ..viz.shape import plot_shape
+    from ..viz.style import png_bytes
+
+    files = {"design.json": dumps_json(payload, indent=1) + "\n"}
+    if res.state is not None and res.state.success:
+        files["shape.csv"] = shape_csv_text(res.state)
+        files["shape.png"] = png_bytes(plot_shape(res.state, title="designed contact state"), dpi=150)
+    return files
