@@ -148,6 +148,11 @@ class Scales:
     h_r_per_field : float
         dh_r/dH0 = μ0 M_r A ℓ² / B0, per A/m (THEORY §9): the hard-magnetic group of a field (0 when
         the rod has no remanent magnetisation).
+    mass_per_length : float
+        ρA, kg/m (0 when the rod's density is not given): with B0 and ℓ the time scale
+        √(ρA ℓ⁴/B0) of its vibrations (:mod:`actuator_design.analysis.dynamics`).
+    damping_ratio : float
+        The material's modal damping ratio ζ (0 when not given: a default is assumed).
     """
 
     length: float
@@ -155,6 +160,8 @@ class Scales:
     field: float = 0.0
     h_per_field: float = 0.0
     h_r_per_field: float = 0.0
+    mass_per_length: float = 0.0
+    damping_ratio: float = 0.0
 
     @property
     def force(self) -> float:

@@ -33,7 +33,8 @@ __all__ = ["field_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_t
 #: Columns of a schedule table: always, for physical scenes (THEORY §5: H = h / (dh/dH), B = μ0 H),
 #: and with a rate (the time at which each step is reached).
 SCHEDULE_COLUMNS = {"always": ("step", "h", "phi_rad"),
-                    "physical": ("field_A_per_m", "field_mT", "angle_deg"), "timed": ("time_s",)}
+                    "physical": ("field_A_per_m", "field_mT", "angle_deg"), "timed": ("time_s",),
+                    "dynamics": ("relaxation_time_s", "quasi_static")}
 
 
 @dataclass

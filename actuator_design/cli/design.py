@@ -12,7 +12,9 @@ one field, and the text output says so where it prints one of them.
 
 A physical scene (`type: physical`) also speaks the user's units: target and tip in the length unit
 of the YAML, the field in mT (mu0 H) and A/m, every schedule step with field_A_per_m, field_mT and
-angle_deg, and with --rate 5mT/s and/or --rotation-rate 30deg/s the time of each step (time_s).
+angle_deg, and with --rate 5mT/s and/or --rotation-rate 30deg/s the time of each step (time_s);
+with rod.density (and rod.damping_ratio, default 0.05) each timed step is compared with the rod's
+relaxation time (relaxation_time_s, quasi_static: a step faster than it leaves the rod lagging).
 
 Every design must hold over the lab's tolerance box (--tolerance, default field ±5 %, angle ±2 deg):
 the tool makes the target exact at the nominal field and minimises the worst-case tip error over
@@ -249,7 +251,7 @@ def _parse_stiffness(value, scene):
     return k
 
 
-def _summary(res, units=None, table=None) -> str:
+def _summary(res, units=None, table=None, qs=None) -> str:
     d = res.design
     lines = [
         "actuator-design: inverse design",
@@ -275,6 +277,8 @@ def _summary(res, units=None, table=None) -> str:
     if phys:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
     lines += _physical_lines(res, units, table)
+    if table and "time_s" in table[-1]:
+        lines.append(quasi_static_line(qs))
     if res.achieved:
         lines.append(f"  achieved    : x = {number(res.achieved['x'], '.10f')}, y = {number(res.achieved['y'], '.10f')}, "
                      f"angle = {degrees(res.achieved['angle'])} deg; error {res.error:.3e}"
@@ -351,6 +355,20 @@ def _physical_lines(res, units, table) -> list:
             return lines
         lines.append(text)
     return lines
+
+
+def quasi_static_line(qs) -> str:
+    """One line: the slowest relaxation time along a timed schedule and the steps faster than it."""
+    if qs is None:
+        return ("  quasi-static: not checked (give rod.density, and rod.damping_ratio, to compare the steps "
+                "with the rod's relaxation time)")
+    zeta = f"damping ratio {qs['damping_ratio']:g}" + (", assumed" if qs["damping_assumed"] else "")
+    fast = qs["too_fast"]
+    verdict = (f"every step lasts at least {qs['factor']:g} relaxation times" if not fast else
+               f"{len(fast)} step(s) shorter than {qs['factor']:g} relaxation times (the first: step "
+               f"{fast[0]['step']}, {fast[0]['duration_s']:.3g} s): the rod lags the field there")
+    return (f"  quasi-static: slowest relaxation time {qs['slowest_relaxation_time_s']:.3g} s (step {qs['step']}; "
+            f"{zeta}); {verdict}")
 
 
 def _physical_payload(res, units, table) -> dict:
@@ -454,15 +472,20 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json):
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)
-    table = None
+    table, qs = None, None
     if res.schedule and (units is not None or rates != (None, None)):
         with bad_input():
             table = schedule_table(res.schedule, units, *rates)
+        if res.path is not None:  # a timed schedule against the rod's relaxation time
+            from ..analysis.dynamics import quasi_static
+            qs = quasi_static(res.path.states, table, scene.scales)
     payload = _physical_payload(res, units, table)
+    if table and "time_s" in table[0]:
+        payload["quasi_static"] = qs
     written = None
     if args.out is not None:
         written = write_out(args.out, _output_files(res, raw, payload, table, units), args.json)
-    print(dumps_json(payload) if args.json else _summary(res, units, table))
+    print(dumps_json(payload) if args.json else _summary(res, units, table, qs))
     if written is not None:
         print_written(written, args.json)
     return exit_code(res)

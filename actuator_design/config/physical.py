@@ -48,6 +48,10 @@ class Rod(StrictModel):
     bending_stiffness: Optional[Q("bending_stiffness", gt=0)] = None
     area: Optional[Q("area", gt=0)] = None
     stiffness_profile: Optional[StiffnessProfile] = None
+    #: mass density (kg/m³) and modal damping ratio ζ of the material: the rod's relaxation time, to
+    #: check that a timed schedule is quasi-static (:mod:`actuator_design.analysis.dynamics`)
+    density: Optional[Q("density", gt=0)] = None
+    damping_ratio: Optional[Q("dimensionless", gt=0, le=10)] = None
 
     @model_validator(mode="after")
     def _check(self):
@@ -294,7 +298,10 @@ class PhysicalScene(StrictModel):
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field,
-                          h_r_per_field=d.h_r_per_field if hard else 0.0),
+                          h_r_per_field=d.h_r_per_field if hard else 0.0,
+                          mass_per_length=(float(self.rod.density) * self.rod.cross_section_area
+                                           if self.rod.density is not None else 0.0),
+                          damping_ratio=float(self.rod.damping_ratio or 0.0)),
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
             fibres_physical=not self._isotropic_particles(),
             obstacles=obstacles_of(self.obstacles, length),
