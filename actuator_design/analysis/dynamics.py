@@ -25,7 +25,8 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
-__all__ = ["natural_frequencies", "relaxation_time", "quasi_static", "DEFAULT_DAMPING_RATIO", "QUASI_STATIC_FACTOR"]
+__all__ = ["natural_frequencies", "relaxation_time", "quasi_static", "schedule_states", "DEFAULT_DAMPING_RATIO",
+           "QUASI_STATIC_FACTOR"]
 
 #: the modal damping ratio assumed when the user gives none (a soft silicone elastomer)
 DEFAULT_DAMPING_RATIO = 0.05
@@ -107,6 +108,18 @@ def quasi_static(states, table, scales) -> Optional[dict]:
     slowest, step = max(finite) if finite else (math.nan, None)
     return {"slowest_relaxation_time_s": slowest, "step": step, "damping_ratio": zeta,
             "damping_assumed": not scales.damping_ratio, "factor": QUASI_STATIC_FACTOR, "too_fast": fast}
+
+
+def schedule_states(scene, schedule, options=None) -> list:
+    """The state at every step of a field schedule ([{"h", "phi"}, ...], from rest), by one loading
+    path through it (:func:`~actuator_design.analysis.loading.follow_path`); fewer states than
+    steps when the path stops (then :func:`quasi_static` makes no check)."""
+    from .loading import follow_path
+
+    steps = [{"h": float(q["h"]), "phi": float(q["phi"])} for q in schedule]
+    if len(steps) < 2:
+        return []
+    return list(follow_path(scene, options, steps).states)
 
 
 def _matrices(result):

@@ -364,9 +364,10 @@ def quasi_static_line(qs) -> str:
                 "with the rod's relaxation time)")
     zeta = f"damping ratio {qs['damping_ratio']:g}" + (", assumed" if qs["damping_assumed"] else "")
     fast = qs["too_fast"]
-    verdict = (f"every step lasts at least {qs['factor']:g} relaxation times" if not fast else
-               f"{len(fast)} step(s) shorter than {qs['factor']:g} relaxation times (the first: step "
-               f"{fast[0]['step']}, {fast[0]['duration_s']:.3g} s): the rod lags the field there")
+    times = "its relaxation time" if qs["factor"] == 1 else f"{qs['factor']:g} relaxation times"
+    verdict = (f"every step lasts at least {times}" if not fast else
+               f"{len(fast)} step(s) shorter than {times} (the first: step {fast[0]['step']}, "
+               f"{fast[0]['duration_s']:.3g} s): the rod lags the field there")
     return (f"  quasi-static: slowest relaxation time {qs['slowest_relaxation_time_s']:.3g} s (step {qs['step']}; "
             f"{zeta}); {verdict}")
 

@@ -14,7 +14,7 @@ import io as _io
 import math
 
 from .common import EXIT_OK, bad_input, stdout_to_stderr
-from .design import add_schedule_units, unit_labels
+from .design import add_schedule_units, quasi_static_line, unit_labels
 from .output import emit
 
 __all__ = ["run_poses", "summary"]
@@ -22,7 +22,7 @@ __all__ = ["run_poses", "summary"]
 EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
-def summary(res, units=None, table=None) -> str:
+def summary(res, units=None, table=None, qs=None) -> str:
     """The text report: the shared layout, then one block of lines per pose (targets, tips and
     fields also in the scene's units when it is physical)."""
     lines = ["actuator-design: inverse design, one actuator for several poses",
@@ -57,6 +57,8 @@ def summary(res, units=None, table=None) -> str:
         lines.append("  schedule    : " + f"{len(res.schedule)} steps from zero field through the poses in order"
                      + timed)
         lines += [f"    {t}" for t in res.transitions]
+        if table and "time_s" in table[-1]:
+            lines.append(quasi_static_line(qs))
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     lines.append(f"  note        : {res.message}")
     lines.append("  RESULT      : " + ("SUCCESS — every pose verified, stable, snap-free and holding over the box"
@@ -103,11 +105,12 @@ def _files(res, raw, payload, table=None) -> dict:
     payload["config"] = raw
     sched = _io.StringIO()
     w = csv.writer(sched)
-    extra = [c for c in ("field_A_per_m", "field_mT", "angle_deg", "time_s") if table and c in table[0]]
+    extra = [c for c in ("field_A_per_m", "field_mT", "angle_deg", "time_s", "relaxation_time_s", "quasi_static")
+             if table and c in table[0]]
     w.writerow(["step", "pose", "h", "phi_rad"] + extra)
     for k, s in enumerate(res.schedule):
         w.writerow([k, s.get("pose", ""), repr(float(s["h"])), repr(float(s["phi"]))]
-                   + [repr(float(table[k][c])) for c in extra])
+                   + [repr(table[k][c] if isinstance(table[k][c], bool) else float(table[k][c])) for c in extra])
     files = {"design.json": dumps_json(payload, indent=1) + "\n", "schedule.csv": sched.getvalue(),
              "design.png": poses_figure(res)}
     for k, p in enumerate(res.poses, start=1):
@@ -124,12 +127,17 @@ def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, sett
     with stdout_to_stderr(args.json), bad_input():
         res = design_poses(targets, scene=scene, vary=vary, options=options, settings=settings,
                            verify=not args.no_verify)
-    table = None
+    table, qs = None, None
     if res.schedule and (units is not None or rates != (None, None)):
         with bad_input():
             table = schedule_table(res.schedule, units, *rates)
+        if "time_s" in table[0] and scene.scales is not None and scene.scales.mass_per_length > 0:
+            from ..analysis.dynamics import quasi_static, schedule_states
+            qs = quasi_static(schedule_states(res.scene, res.schedule, options), table, scene.scales)
     payload = payload_of(res, units, table)
-    emit(args, res, lambda: _files(res, raw, payload, table), lambda r: summary(r, units, table),
+    if table and "time_s" in table[0]:
+        payload["quasi_static"] = qs
+    emit(args, res, lambda: _files(res, raw, payload, table), lambda r: summary(r, units, table, qs),
          payload=payload)
     if res.success:
         return EXIT_OK
