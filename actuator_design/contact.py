@@ -99,6 +99,10 @@ def contact_nlp(solver, scene) -> ContactNLP:
 
 
 def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
+    for ob in scene.obstacles:  # a tube narrower than the rod holds no state at all
+        if ob.kind == "lumen" and not ob.radius > scene.contact_gap:
+            return (f"the {ob.describe()} is not wider than the rod: its radius must exceed the rod's "
+                    f"half-thickness {scene.contact_gap:.4g} l")
     d = np.asarray(nlp.f_dist(z0), float).ravel()
     if np.all(d >= -1e-12):  # touching at rest (a rod lying on a floor) is free
         return None

@@ -86,3 +86,23 @@ def test_bad_polygons_and_channels_name_the_field(obstacle, words):
         load_config({"scene": {"type": "dimensionless", "obstacles": [obstacle]}}).to_scene()
     msg = str(err.value)
     assert "obstacles" in msg and words in msg and "\n" not in msg.strip()
+
+
+@pytest.mark.parametrize("obstacle, words", [
+    ({"type": "polygon", "vertices": [{"x": 0, "y": -1e308}, {"x": 1e308, "y": -1e308}, {"x": 1e308, "y": -1}]},
+     "within"),
+    ({"type": "wall", "point": {"x": 0, "y": -1e7}, "normal_angle": "90 deg"}, "within"),
+    ({"type": "lumen", "radius": 0.06, "start": {"x": 2e6, "y": 0}, "path": [{"straight": 1}]}, "within"),
+])
+def test_obstacles_out_of_any_reach_are_refused(obstacle, words):
+    with pytest.raises(ConfigError) as err:
+        load_config({"scene": {"type": "dimensionless", "obstacles": [obstacle]}}).to_scene()
+    assert "obstacles[0]" in str(err.value) and words in str(err.value)
+
+
+def test_a_lumen_narrower_than_the_rod_holds_no_state():
+    from actuator_design.obstacles import Lumen
+
+    r = solve(Scene(field=None, tip_force=(0.0, -1.0), contact_gap=0.01,
+                    obstacles=(Lumen((0.0, 0.0), 0.0, 0.005, (("straight", 1.0),)),)))
+    assert not r.success and r.status == "obstacle_at_rest" and "not wider than the rod" in r.message

@@ -17,6 +17,7 @@ thickness from every obstacle; in a dimensionless one ``contact_gap`` (rod lengt
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import List, Literal, Optional
 
@@ -24,7 +25,7 @@ from pydantic import Field, model_validator
 
 from ..obstacles import Lumen, Peg, Polygon, Wall
 from .base import Angle, Number, Q, StrictModel, tagged
-from .errors import error
+from .errors import ConfigError, error
 from .vectors import LengthXY, NumberXY
 
 __all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "LumenSpec", "PhysicalWall", "PhysicalPeg",
@@ -33,6 +34,9 @@ __all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "LumenSpec", "Ph
 MAX_OBSTACLES = 32  # bounds the constraint rows (each obstacle: one row per point of the mesh)
 MAX_VERTICES = 64  # bounds a polygon's distance expression (a few operations per edge and point)
 MAX_PIECES = 32  # bounds a lumen's distance expression (a few operations per piece and point)
+#: the largest coordinate, radius or length of an obstacle, in rod lengths (beyond it an obstacle is
+#: out of any rod's reach, and its distance expressions would overflow)
+MAX_EXTENT = 1e6
 
 
 class WallSpec(StrictModel):
@@ -66,8 +70,8 @@ class PolygonSpec(StrictModel):
     @model_validator(mode="after")
     def _convex(self):
         xy = [(float(v.x), float(v.y)) for v in self.vertices]
-        if not all(math.isfinite(c) for p in xy for c in p):
-            raise error("positions must be finite", "vertices")
+        if not all(math.isfinite(c) and abs(c) <= MAX_EXTENT for p in xy for c in p):
+            raise error(f"positions must be finite and within {MAX_EXTENT:g} rod lengths of the clamp", "vertices")
         try:
             Polygon(tuple(xy))
         except ValueError as err:
@@ -171,19 +175,42 @@ PhysicalObstacle = tagged(("obstacles",), PhysicalWall, PhysicalPeg, PhysicalPol
 
 
 def obstacles_of(specs, length: float = 1.0) -> tuple:
-    """The scene's obstacles (units of ℓ) from their configs (a channel gives its two walls);
-    positions must be finite and a polygon convex."""
+    """The scene's obstacles (units of ℓ) from their configs (a channel gives its two walls).
+
+    Raises
+    ------
+    ConfigError
+        Naming ``scene.obstacles[k]``: a number that is not finite, or an obstacle (after scaling to
+        rod lengths) beyond :data:`MAX_EXTENT`.
+    """
     out = []
     for k, spec in enumerate(specs or ()):
-        nums = [float(v) for v in _numbers(spec)]
-        if not all(math.isfinite(v) for v in nums):
-            raise error("positions, radii and widths must be finite", f"obstacles[{k}]")
+        where = f"scene.obstacles[{k}]"
+        if not all(math.isfinite(float(v)) for v in _numbers(spec)):
+            raise ConfigError(where, "positions, radii and widths must be finite")
         try:
             ob = spec.to_obstacle(length)
-        except ValueError as err:
-            raise error(str(err), f"obstacles[{k}]") from None
-        out.extend(ob if isinstance(ob, tuple) else (ob,))
+        except (ValueError, OverflowError) as err:
+            raise ConfigError(where, str(err)) from None
+        for o in ob if isinstance(ob, tuple) else (ob,):
+            big = max((abs(v) for v in _leaves(o)), default=0.0)
+            if not big <= MAX_EXTENT:
+                raise ConfigError(where, f"positions, radii and lengths must lie within {MAX_EXTENT:g} rod lengths "
+                                         f"of the clamp, got {big:g} rod lengths")
+            out.append(o)
     return tuple(out)
+
+
+def _leaves(obstacle):
+    """Every number of an obstacle (units of ℓ; angles in rad)."""
+    def walk(v):
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            yield float(v)
+        elif isinstance(v, (tuple, list)):
+            for x in v:
+                yield from walk(x)
+    for f in dataclasses.fields(obstacle):
+        yield from walk(getattr(obstacle, f.name))
 
 
 def _numbers(spec):
