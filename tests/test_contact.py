@@ -121,7 +121,7 @@ def test_the_shape_figure_draws_obstacles_and_contact_forces():
     assert "obstacle" in labels and "contact force (1 point)" in labels
 
 
-@pytest.mark.parametrize("argv", [["continue", "--param", "h", "--from", "0", "--to", "3"], ["stiffness"],
+@pytest.mark.parametrize("argv", [["continue", "--param", "h", "--from", "0", "--to", "3"],
                                   ["design", "--target-tip", "0.5,0.5"], ["equilibria"]])
 def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, capsys):
     from pathlib import Path
@@ -131,11 +131,34 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "obstacles (contact), which only solve, path and design --target-force model so far" in err[0]
+    assert len(err) == 1 and "obstacles (contact), which only solve, path, stiffness and design --target-force model so far" in err[0]
 
 
 def test_the_api_refuses_too():
+    from actuator_design.analysis.equilibria import find_equilibria
+
+    with pytest.raises(ValueError, match="equilibria: this scene has obstacles"):
+        find_equilibria(_floor_scene(0.1, 1.0))
+
+
+def test_stiffness_of_a_rod_over_a_peg_against_shooting():
+    """The compliance dy(1)/dfy of the elastica resting on a peg, by central differences of contact
+    solves, against the same differences of the shooting reference (its contact point sliding)."""
     from actuator_design.analysis.stiffness import tip_stiffness
 
-    with pytest.raises(ValueError, match="stiffness: this scene has obstacles"):
-        tip_stiffness(_floor_scene(0.1, 1.0))
+    f, centre, gap = np.array([0.0, -1.6]), np.array([0.6, -0.2]), 0.025
+    r = solve(Scene(field=None, tip_force=tuple(f), obstacles=(Peg(tuple(centre), 0.1),), contact_gap=gap))
+    st = tip_stiffness(r)
+    F = np.array(r.contact["total_force"])
+    big = [q for q in r.contact["points"] if np.hypot(*q["force"]) > 1e-3]
+    guess = [r.evaluate(np.array([0.0]))["dtheta"][0], big[0]["s"], np.hypot(*F), math.atan2(F[1], F[0])]
+    ys = [peg_reference(f + np.array([0.0, d]), centre, 0.1 + gap, guess)[1][3] for d in (-1e-4, 1e-4)]
+    assert st.compliance[1, 1] == pytest.approx((ys[1] - ys[0]) / 2e-4, rel=1e-5)
+    assert np.allclose(st.compliance, st.compliance.T, rtol=1e-4, atol=1e-8)  # reciprocity
+
+
+def test_a_tip_on_a_floor_is_infinitely_stiff_vertically():
+    from actuator_design.analysis.stiffness import tip_stiffness
+
+    st = tip_stiffness(solve(_floor_scene(0.1, 1.0)))
+    assert st.vertical == math.inf and st.compliance[1, 1] == 0.0 and st.compliance[0, 0] > 0
