@@ -278,7 +278,7 @@ def _summary(res, units=None, table=None, qs=None) -> str:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
     lines += _physical_lines(res, units, table)
     if table and "time_s" in table[-1]:
-        lines.append(quasi_static_line(qs))
+        lines.append(quasi_static_line(qs, res.scene.scales))
     if res.achieved:
         lines.append(f"  achieved    : x = {number(res.achieved['x'], '.10f')}, y = {number(res.achieved['y'], '.10f')}, "
                      f"angle = {degrees(res.achieved['angle'])} deg; error {res.error:.3e}"
@@ -357,9 +357,12 @@ def _physical_lines(res, units, table) -> list:
     return lines
 
 
-def quasi_static_line(qs) -> str:
+def quasi_static_line(qs, scales=None) -> str:
     """One line: the slowest relaxation time along a timed schedule and the steps faster than it."""
     if qs is None:
+        if scales is not None and scales.mass_per_length > 0:
+            return ("  quasi-static: not checked (no equilibrium at every schedule step to take the relaxation "
+                    "time of: the schedule was not followed to its end)")
         return ("  quasi-static: not checked (give rod.density, and rod.damping_ratio, to compare the steps "
                 "with the rod's relaxation time)")
     zeta = f"damping ratio {qs['damping_ratio']:g}" + (", assumed" if qs["damping_assumed"] else "")

@@ -58,7 +58,7 @@ def summary(res, units=None, table=None, qs=None) -> str:
                      + timed)
         lines += [f"    {t}" for t in res.transitions]
         if table and "time_s" in table[-1]:
-            lines.append(quasi_static_line(qs))
+            lines.append(quasi_static_line(qs, res.scene.scales))
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")
     lines.append(f"  note        : {res.message}")
     lines.append("  RESULT      : " + ("SUCCESS — every pose verified, stable, snap-free and holding over the box"
