@@ -14,7 +14,7 @@ import io as _io
 import math
 
 from .common import EXIT_OK, bad_input, stdout_to_stderr
-from .design import add_schedule_units, quasi_static_line, unit_labels
+from .design_units import add_schedule_units, quasi_static_line, unit_labels
 from .output import emit
 
 __all__ = ["run_poses", "summary"]

@@ -1,0 +1,37 @@
+"""Design outputs shared by one pose and several: the payload's unit labels, the schedule's
+physical columns and the quasi-static line of a timed schedule."""
+from __future__ import annotations
+
+__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line"]
+
+
+def unit_labels(units) -> dict:
+    """The ``physical.units`` of a design payload: what each added physical key is in."""
+    return {"target": units.length_unit, "tip": units.length_unit, "field_mT": "mT (mu0 H)",
+            "field_A_per_m": "A/m", "angle_deg": "deg", "time_s": "s"}
+
+
+def add_schedule_units(payload: dict, table) -> None:
+    """Add the schedule table's physical columns (field_A_per_m, field_mT, angle_deg, time_s) to
+    each step of ``payload["schedule"]`` in place; the existing keys stay."""
+    if table and len(table) == len(payload["schedule"]):
+        extra = [{k: v for k, v in row.items() if k not in ("step", "h", "phi_rad")} for row in table]
+        payload["schedule"] = [dict(s, **e) for s, e in zip(payload["schedule"], extra)]
+
+
+def quasi_static_line(qs, scales=None) -> str:
+    """One line: the slowest relaxation time along a timed schedule and the steps faster than it."""
+    if qs is None:
+        if scales is not None and scales.mass_per_length > 0:
+            return ("  quasi-static: not checked (no equilibrium at every schedule step to take the relaxation "
+                    "time of: the schedule was not followed to its end)")
+        return ("  quasi-static: not checked (give rod.density, and rod.damping_ratio, to compare the steps "
+                "with the rod's relaxation time)")
+    zeta = f"damping ratio {qs['damping_ratio']:g}" + (", assumed" if qs["damping_assumed"] else "")
+    fast = qs["too_fast"]
+    times = "its relaxation time" if qs["factor"] == 1 else f"{qs['factor']:g} relaxation times"
+    verdict = (f"every step lasts at least {times}" if not fast else
+               f"{len(fast)} step(s) shorter than {times} (the first: step {fast[0]['step']}, "
+               f"{fast[0]['duration_s']:.3g} s): the rod lags the field there")
+    return (f"  quasi-static: slowest relaxation time {qs['slowest_relaxation_time_s']:.3g} s (step {qs['step']}; "
+            f"{zeta}); {verdict}")
