@@ -2,8 +2,10 @@
 against the free elastica shot by the independent reference (the load at which the free rod just
 touches) and the contact states against the shooting references of :mod:`contact_references`."""
 import math
+from pathlib import Path
 
 import numpy as np
+import pytest
 from contact_references import floor_reference
 from scipy.optimize import brentq, minimize_scalar
 
@@ -104,3 +106,33 @@ def test_the_channel_config_sequence_and_its_mirror_symmetry():
 
     h_ref = brentq(lambda h: tip_y(h) + half, 0.1, 1.0, xtol=1e-14)
     assert abs(ev[0]["values"]["h"] - h_ref) <= 1e-6
+
+
+def test_a_yaml_path_schedule_may_carry_quantities(tmp_path, capsys):
+    """study.schedule rows with '… mT' and '… deg' on a physical scene: the same path as the
+    dimensionless numbers they convert to (h = 1 given as its field in mT, exactly)."""
+    import json
+
+    import yaml
+
+    from actuator_design.cli.main import main
+    from actuator_design.config.model import load_scene
+    from actuator_design.user_units import user_units
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "contact_channel_path.yaml"
+    raw = yaml.safe_load(config.read_text())
+    scene, _, loaded = load_scene(config)
+    mT = user_units(scene, loaded).field_mT(1.0)
+    raw["study"]["schedule"] = [{"h": "0 mT", "phi": "-60 deg"}, {"h": f"{mT!r} mT", "phi": "-60 deg"},
+                                {"h": f"{mT!r} mT", "phi": "60 deg"}]
+    path = tmp_path / "channel.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    assert main(["path", str(path), "--json"]) == 0
+    events = json.loads(capsys.readouterr().out)["contact_events"]
+    assert [e["kind"] for e in events] == ["touch-down", "lift-off", "touch-down"]
+    assert events[1]["values"]["h"] == pytest.approx(1.0, abs=1e-12)
+    raw["study"]["schedule"][1]["h"] = "2 kg"
+    path.write_text(yaml.safe_dump(raw))
+    assert main(["path", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "study.schedule[1].h" in err[0]

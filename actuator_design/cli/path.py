@@ -16,7 +16,8 @@ THEORY §5's cantilever with h = 0, phi = 0, p = 0, alpha = 0 unless flags set t
 carry the settings in a section
     study: {type: path, param: h, from: 0, to: 2, back: true, steps: 40}
 or  study: {type: path, schedule: [{h: 0, phi_deg: 60}, {h: 1.5, phi_deg: 60}, {h: 1.5, phi_deg: 120}]}
-(a list of settings of several parameters: a multi-parameter path); flags override it.
+(a list of settings of several parameters: a multi-parameter path; on a physical scene a value may
+be a quantity, e.g. {h: '15 mT', phi: '60 deg'}); flags override it.
 
 Units: lengths (tip x, y) in rod lengths l, energies in B0/l, loads in B0/l^2 (moments B0/l),
 stiffness in B0/l^3 (and N/m for physical scenes); angles in degrees on the command line and
@@ -102,7 +103,7 @@ def _study_model():
         model_config = ConfigDict(extra="forbid", populate_by_name=True)
         type: Literal["path"] = "path"
         param: O[str] = None
-        schedule: O[U[L[float], L[Dict[str, float]]]] = None
+        schedule: O[U[L[U[float, str]], L[Dict[str, U[float, str]]]]] = None  # numbers or quantities
         start: O[float] = Field(None, alias="from")
         to: O[float] = None
         back: StrictBool = False
@@ -179,6 +180,8 @@ def _schedule(args, study, units=None):
                 if name not in PARAMETERS:
                     raise InputError(f"study.schedule[{i}].{k}: unknown parameter (allowed: "
                                      f"{', '.join(list(PARAMETERS) + list(_DEGREE_NAMES))})")
+                if isinstance(v, str):  # a quantity ('15 mT', '30 deg'), in the parameter's CLI unit
+                    v = _value(v, k, units, f"study.schedule[{i}].{k}")
                 check_parameter_angle(k, v, f"study.schedule[{i}].{k}")
                 conv[name] = math.radians(v) if k in _DEGREE_NAMES else v
             rows.append(conv)
@@ -203,7 +206,8 @@ def _schedule(args, study, units=None):
                              f"'2 mT'), got {text!r}")
         values = [_value(v.strip(), key, units, "--schedule") for v in text.split(",")]
     elif sched_study is not None:
-        values = [float(v) for v in sched_study]
+        values = [_value(v, key, units, f"study.schedule[{i}]") if isinstance(v, str) else float(v)
+                  for i, v in enumerate(sched_study)]
         for i, v in enumerate(values):
             check_parameter_angle(key, v, f"study.schedule[{i}]")
     else:
