@@ -40,7 +40,7 @@ from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_di
 from ..display import degrees, number
 from ..parameters import designable
 from .design_force import parse_force, run_force
-from .design_units import add_schedule_units, quasi_static_line, unit_labels
+from .design_units import add_schedule_units, positive_target, quasi_static_line, unit_labels
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -236,20 +236,7 @@ def check_rates(rates, units) -> None:
 
 def _parse_stiffness(value, scene):
     """A dimensionless stiffness (units of B0/l^3) or a quantity in N/m (physical scenes)."""
-    if value is None:
-        return None
-    try:
-        k = float(value)
-    except (TypeError, ValueError):
-        if scene.scales is None:
-            raise InputError(f"--target-stiffness: {value!r} has units, but the scene is dimensionless "
-                             "(give a number in units of B0/l^3)")
-        from ..units import parse_quantity
-        with bad_input():
-            k = parse_quantity(value, "force_per_length", "--target-stiffness") / scene.scales.stiffness
-    if not (math.isfinite(k) and k > 0):
-        raise InputError(f"--target-stiffness: must be a finite number > 0, got {value!r}")
-    return k
+    return positive_target(value, scene, "--target-stiffness", "force_per_length", "stiffness", "B0/l^3")
 
 
 def _summary(res, units=None, table=None, qs=None) -> str:

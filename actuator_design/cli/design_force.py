@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
+from .design_units import positive_target
 from .output import emit
 
 __all__ = ["parse_force", "run_force"]
@@ -14,20 +15,7 @@ __all__ = ["parse_force", "run_force"]
 
 def parse_force(value, scene):
     """A dimensionless force (units of B0/l^2) or a quantity in N (physical scenes), or None."""
-    if value is None:
-        return None
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        if scene.scales is None:
-            raise InputError(f"--target-force: {value!r} has units, but the scene is dimensionless "
-                             "(give a number in units of B0/l^2)")
-        from ..units import parse_quantity
-        with bad_input():
-            f = parse_quantity(value, "force", "--target-force") / scene.scales.force
-    if not (math.isfinite(f) and f > 0):
-        raise InputError(f"--target-force: must be a finite force > 0, got {value!r}")
-    return f
+    return positive_target(value, scene, "--target-force", "force", "force", "B0/l^2")
 
 
 def run_force(args, scene, options, raw, force: float, settings, units) -> int:

@@ -2,7 +2,30 @@
 physical columns and the quasi-static line of a timed schedule."""
 from __future__ import annotations
 
-__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line"]
+import math
+
+from .common import InputError, bad_input
+
+__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target"]
+
+
+def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: str):
+    """A target > 0 given as a number (dimensionless, in ``unit``) or, on a physical scene, as a
+    quantity of ``dimension`` divided by ``scene.scales.<scale>``; None when not given."""
+    if value is None:
+        return None
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        if scene.scales is None:
+            raise InputError(f"{flag}: {value!r} has units, but the scene is dimensionless "
+                             f"(give a number in units of {unit})")
+        from ..units import parse_quantity
+        with bad_input():
+            v = parse_quantity(value, dimension, flag) / getattr(scene.scales, scale)
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"{flag}: must be a finite number > 0, got {value!r}")
+    return v
 
 
 def unit_labels(units) -> dict:
