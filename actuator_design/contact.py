@@ -27,6 +27,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
+from .clearance import constrained_points, entering
 from .options import MAX_SPLITS
 
 __all__ = ["solve_contact", "ContactVerdict"]
@@ -53,19 +54,8 @@ class ContactNLP:
         z = ca.SX.sym("z", tr.nodes.size)
         P = ca.SX.sym("P", lay.size)
         E = solver.f_energy(z, P)
-        thq, _ = tr.point_values(z)
-        xq, yq = tr.point_positions(thq)
-        xt, yt = tr.tip_position(thq)
-        sq, wq = np.asarray(tr.quadrature_points, float), np.asarray(tr.quadrature_weights, float)
-        # one row per distinct point (LGL's element ends are points of two elements, its last is
-        # the tip), none at the clamp (fixed); the weight of a point is that of all its copies
-        s_all = np.concatenate([sq, [1.0]])
-        w_all = np.concatenate([wq, [0.0]])
-        keys = np.round(s_all, 13)
-        first = [int(np.flatnonzero(keys == k)[0]) for k in np.unique(keys) if k > 0.0]
-        self.s_points = s_all[first]
-        self.w_points = np.array([w_all[keys == keys[i]].sum() for i in first])
-        X, Y = ca.vertcat(xq, xt)[first], ca.vertcat(yq, yt)[first]
+        # one row per distinct point, none at the clamp (fixed): :mod:`.clearance`
+        X, Y, self.s_points, self.w_points = constrained_points(tr, z)
         self.obstacles, self.gap = tuple(obstacles), float(gap)
         rows = [ob.distance(X, Y) - gap for ob in obstacles]
         self.n_points = X.numel()
@@ -294,21 +284,15 @@ def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
     return None
 
 
-#: the centre line may come this much closer than the gap between the constrained points
-PENETRATION_TOL = 1e-6
-
-
 def _penetration(scene, result) -> Optional[str]:
     """Whether the dense shape comes closer to an obstacle than the gap between the points where
-    contact is imposed (by more than :data:`PENETRATION_TOL` rod lengths)."""
-    d = result.evaluate(np.linspace(0.0, 1.0, 2001))
-    for k, ob in enumerate(scene.obstacles):
-        dist = np.asarray(ob.distance(d["x"], d["y"]), float) - scene.contact_gap
-        i = int(np.argmin(dist))
-        if dist[i] < -PENETRATION_TOL:
-            return (f"between the points where contact is imposed the rod enters the "
-                    f"{ob.describe()} by {-dist[i]:.2g} rod lengths at s = {d['s'][i]:.4g}")
-    return None
+    contact is imposed (by more than :data:`~.clearance.PENETRATION_TOL` rod lengths)."""
+    inside = entering(scene.obstacles, scene.contact_gap, result)
+    if inside is None:
+        return None
+    k, s, depth = inside
+    return (f"between the points where contact is imposed the rod enters the "
+            f"{scene.obstacles[k].describe()} by {depth:.2g} rod lengths at s = {s:.4g}")
 
 
 def _verdict(H: np.ndarray, A: np.ndarray, m: np.ndarray) -> ContactVerdict:

@@ -34,6 +34,10 @@ class Wall:
     normal_angle: float
     kind: str = dc_field(default="wall", init=False)
 
+    def mirrored(self) -> "Wall":
+        """The reflection in the rod's axis (y → −y)."""
+        return Wall((self.point[0], -self.point[1]), -self.normal_angle)
+
     def distance(self, x, y):
         """Signed distance (CasADi or numpy), positive on the free side."""
         return (x - self.point[0]) * math.cos(self.normal_angle) + (y - self.point[1]) * math.sin(self.normal_angle)
@@ -61,6 +65,10 @@ class Peg:
     centre: Tuple[float, float]
     radius: float
     kind: str = dc_field(default="peg", init=False)
+
+    def mirrored(self) -> "Peg":
+        """The reflection in the rod's axis (y → −y)."""
+        return Peg((self.centre[0], -self.centre[1]), self.radius)
 
     def distance(self, x, y):
         dx, dy = x - self.centre[0], y - self.centre[1]
@@ -93,6 +101,10 @@ class Polygon:
 
     vertices: Tuple[Tuple[float, float], ...]
     kind: str = dc_field(default="polygon", init=False)
+
+    def mirrored(self) -> "Polygon":
+        """The reflection in the rod's axis (y → −y; the vertices re-ordered counter-clockwise)."""
+        return Polygon(tuple((x, -y) for x, y in self.vertices))
 
     def __post_init__(self):
         v = np.asarray(self.vertices, float)
@@ -168,6 +180,11 @@ class Lumen:
     radius: float
     pieces: Tuple[Tuple[float, ...], ...]
     kind: str = dc_field(default="lumen", init=False)
+
+    def mirrored(self) -> "Lumen":
+        """The reflection in the rod's axis (y → −y): every turn of the centre line reversed."""
+        pieces = tuple(p if p[0] == "straight" else (p[0], p[1], -p[2]) for p in self.pieces)
+        return Lumen((self.start[0], -self.start[1]), -self.angle, self.radius, pieces)
 
     def __post_init__(self):
         if not self.radius > 0:

@@ -122,7 +122,9 @@ def test_the_shape_figure_draws_obstacles_and_contact_forces():
 
 
 @pytest.mark.parametrize("argv", [["continue", "--param", "h", "--from", "0", "--to", "3"],
-                                  ["design", "--target-tip", "0.5,0.5"], ["equilibria"]])
+                                  ["design", "--target-stiffness", "1.5"],
+                                  ["design", "--target-tip", "0.5,0.5;0.6,0.2"],
+                                  ["equilibria"]])
 def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, capsys):
     from pathlib import Path
 
@@ -131,14 +133,18 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "obstacles (contact), which only solve, path, stiffness and design --target-force model so far" in err[0]
+    assert len(err) == 1
+    assert "obstacles (contact), which only solve, path, stiffness and design (--target-tip, one pose" in err[0]
 
 
 def test_the_api_refuses_too():
+    from actuator_design.analysis.design_shape import design_shape
     from actuator_design.analysis.equilibria import find_equilibria
 
     with pytest.raises(ValueError, match="equilibria: this scene has obstacles"):
         find_equilibria(_floor_scene(0.1, 1.0))
+    with pytest.raises(ValueError, match="design --target-shape: this scene has obstacles"):
+        design_shape(np.array([[0.5, 0.4, 0.2], [1.0, 0.7, 0.5]]), scene=_floor_scene(0.1, 1.0))
 
 
 def test_stiffness_of_a_rod_over_a_peg_against_shooting():

@@ -52,6 +52,7 @@ from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, 
                            tip_error)
 from .design_verify import stiffness_by_differences, verify as verify_stage
 from .registry import register
+from ..clearance import clearances, entered_at_rest
 from ..contact_guard import refuse_contact
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
@@ -281,7 +282,12 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
-    refuse_contact(base, "design")
+    if base.obstacles and (stiffness is not None or not target):
+        refuse_contact(base, "design --target-stiffness")  # a pose with obstacles: the rod kept clear of them
+    rest = entered_at_rest(base)
+    if rest is not None:  # the design keeps the rod clear from rest on (a curved lumen holds it in contact)
+        raise ValueError(f"design --target-tip: {rest}; a design keeps the rod clear of the obstacles from rest "
+                         "on, so it needs a free rest state (solve and path model a rod held in contact)")
     if getattr(base.field, "kind", "") == "sources":
         raise ValueError("design: a field of magnets and coils (field type magnet or coils) cannot be designed "
                          "yet (its design NLP would take minutes to build); solve, path and continue "
@@ -389,6 +395,12 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
         notes.append(verification.label)
     else:
         stiffness_ok = _take_verified(result, problem, verification, notes)
+    state = result.path.final if result.path is not None else result.forward
+    if problem.base.obstacles and state is not None and state.success:
+        result.clearance = clearances(problem.base.obstacles, problem.base.contact_gap, state)
+    if choice.reachable and "h" in vary and best.h >= problem.settings.h_max * (1.0 - 1e-4):
+        notes.append(f"the design's field sits at its bound h = {problem.settings.h_max:g} (--h-max): "
+                     "a stronger field was not allowed")
     accept = problem.settings.accept_tol
     # a tolerance box asked for and not checked is no success (issue: a stiffness target claimed it)
     robust_ok = robust.holds if robust is not None else not problem.settings.tolerances.active

@@ -42,7 +42,7 @@ def _negated(profile: Optional[Profile]) -> Optional[Profile]:
 
 def mirror_scene(scene: Scene) -> Optional[Scene]:
     """The reflection of ``scene`` in the rod's axis, or None when the scene has no exact mirror
-    the tool can build (a non-uniform field, a plug-in energy term)."""
+    the tool can build (a non-uniform field, a plug-in energy term); obstacles are reflected too."""
     if scene.extra_terms or not (scene.field is None or isinstance(scene.field, UniformField)):
         return None
     fibres, beta = _negated(scene.fibres), _negated(scene.magnetization)
@@ -52,7 +52,8 @@ def mirror_scene(scene: Scene) -> Optional[Scene]:
     return replace(scene, field=None if scene.field is None else UniformField(phi=-scene.field.phi),
                    fibres=fibres, magnetization=beta, theta0=-scene.theta0,
                    tip_force=neg_y(scene.tip_force), distributed_load=neg_y(scene.distributed_load),
-                   tip_moment=None if scene.tip_moment is None else -float(scene.tip_moment))
+                   tip_moment=None if scene.tip_moment is None else -float(scene.tip_moment),
+                   obstacles=tuple(ob.mirrored() for ob in scene.obstacles))
 
 
 def mirrored_problem(problem: DesignProblem) -> Optional[DesignProblem]:

@@ -8,6 +8,7 @@ One CasADi NLP per (scene structure, design variables, fibre-series length):
     stability   pivots of M^-½ H_r M^-½ − μ I ≥ 0
                                             an LDLᵀ certificate that λ_min(H_r, M) ≥ μ (THEORY §7)
     tip         tip(θ) − target ∈ [lo, hi]  free in stage A, pinned in stage B
+    clearance   d_k(r(s_j)) − gap ≥ 0   at the points obstacles are imposed at (scenes with obstacles)
     bounds      0 ≤ h ≤ h_max, |α(s_q)| ≤ α_max and |β(s_q)| ≤ β_max at the quadrature points,
                 |p| ≤ p_max
     objective   w_tip·½|W (tip − target)|² + w_eff·effort
@@ -36,6 +37,7 @@ import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
+from ..clearance import clearance_rows
 from ..options import SolverOptions
 from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
@@ -178,6 +180,10 @@ class DesignNLP:
         self.gauge = has_fibre_gauge(zr, d, P0, E, self.dslices, sv.parameter_vector(scene))
         theta0 = P0[lay.slices["theta0"]]
         tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
+        # a scene with obstacles: the designed rod keeps clear of them (issue 20, :mod:`.clearance`)
+        self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap)
+        clear = clearance_rows(tr, ca.vertcat(theta0, zr), self.obstacles, self.gap)
+        self.n_clear = int(clear.numel())
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
@@ -217,7 +223,7 @@ class DesignNLP:
         self.n_alpha_rows = self.n_profile_rows * len(alpha_rows)
         self._parts = dict(x=ca.vertcat(zr, d),
                            p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
-                           eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows),
+                           eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows), clear=clear,
                            H=H, m=m, margin=margin, n=n)
         if self.has_tip_force:
             # stiffness k = 1/c: the constraint c·k_target − 1 = 0 (k_target an NLP parameter)
@@ -247,7 +253,7 @@ class DesignNLP:
                 Ms = ca.DM(1.0 / np.sqrt(q["m"]))
                 A = ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"])
                 rows.append(ca.vertcat(*_ldl_pivots(A, _bandwidth(self.solver, q["n"]))))
-            rows += [q["tip"], q["alpha"]]
+            rows += [q["tip"], q["alpha"], q["clear"]]
             opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
                     # exact Hessians, also of the pivot rows: with a quasi-Newton one the certified
                     # solve wandered and its landing point (and whether it reached) depended on the
@@ -391,8 +397,10 @@ class DesignNLP:
         n_piv = self.n if certified else 0
         n_sens = self.n + 1 if stiff else 0
         lo_prof, hi_prof = self.profile_bounds(b)
-        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf), lo_prof])
-        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf), hi_prof])
+        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf), lo_prof,
+                              np.zeros(self.n_clear)])
+        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf), hi_prof,
+                              np.full(self.n_clear, np.inf)])
         if req.stage == "B" and req.target is not None:
             k = self.n + n_sens + n_piv
             lbg[k:k + 2] = ubg[k:k + 2] = 0.0
@@ -445,7 +453,8 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
     """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
     from ..physics.terms import build_terms, structure_key
 
-    key = (structure_key(build_terms(scene)), tuple(sorted(vary)), options.transcription, options.elements,
+    obstacles = (tuple(scene.obstacles), float(scene.contact_gap)) if scene.obstacles else ()
+    key = (structure_key(build_terms(scene)), obstacles, tuple(sorted(vary)), options.transcription, options.elements,
            options.degree, options.clamp_levels, options.tip_levels, options.split_at, options.tol, options.max_iter,
            alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
     if key not in _CACHE:

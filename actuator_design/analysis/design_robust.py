@@ -40,6 +40,7 @@ import numpy as np
 from .. import parameters as lens
 from ..profiles import constant_profile
 from ..scene import Scene, default_scene
+from ..clearance import clearance_rows
 from .design_nlp import _LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots, couple_field_groups
 from .tolerances import Tolerances, apply_deltas, perturb
 
@@ -160,7 +161,8 @@ class ScenarioDesignNLP:
             Pc[sl["theta0"]] = P[sl["theta0"]] + dth
             return Pc
 
-        zs, eq, piv, nom, err, tips, sq = [], [], [], [], [], [], []
+        zs, eq, piv, nom, err, tips, sq, clear = [], [], [], [], [], [], [], []
+        obstacles, gap = base.obstacles, base.gap
         for k in range(K):
             Pk = pose_params(k)
             tgt = target[3 * k:3 * k + 3]
@@ -175,6 +177,8 @@ class ScenarioDesignNLP:
                 tip_fn = sv.f_tip(ca.vertcat(Pc[sl["theta0"]], z), Pc)
                 tip = ca.vertcat(tip_fn[1], tip_fn[2], tip_fn[0])
                 tips.append(tip)
+                # with obstacles, every scenario's rod keeps clear of them (:mod:`...clearance`)
+                clear.append(clearance_rows(sv.transcription, ca.vertcat(Pc[sl["theta0"]], z), obstacles, gap))
                 e = tip - tgt
                 if c == 0:
                     nom.append(e)
@@ -199,7 +203,8 @@ class ScenarioDesignNLP:
         # when several corners are active, which slows IPOPT down near the solution)
         f = (ca.sum1(t) + 0.1 * sum(sq) / C if C else 0) + w_eff * effort
         self._problem = {"x": x, "p": p, "f": f}
-        self._rows = (ca.vertcat(*eq), ca.vertcat(*piv), ca.vertcat(*nom, *err, *alpha_rows))
+        self.n_clear = int(sum(c.numel() for c in clear))
+        self._rows = (ca.vertcat(*eq), ca.vertcat(*piv), ca.vertcat(*nom, *err, *alpha_rows, *clear))
         self._nlps: Dict[bool, object] = {}
         self.f_tips = ca.Function("scenario_tips", [x, p], [ca.horzcat(*tips)])
         self.build_time = time.perf_counter() - t0
@@ -283,8 +288,10 @@ class ScenarioDesignNLP:
         n_eq, n_piv = K * (C + 1) * n, (K * (C + 1) * n if certified else 0)
         nom_lb = np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K)
         nom_ub = np.tile([0.0, 0.0, 0.0 if use_angle else np.inf], K)
-        lbg = np.concatenate([np.zeros(n_eq), np.zeros(n_piv), nom_lb, np.full(K * C, -np.inf), lo_prof])
-        ubg = np.concatenate([np.zeros(n_eq), np.full(n_piv, np.inf), nom_ub, np.zeros(K * C), hi_prof])
+        lbg = np.concatenate([np.zeros(n_eq), np.zeros(n_piv), nom_lb, np.full(K * C, -np.inf), lo_prof,
+                              np.zeros(self.n_clear)])
+        ubg = np.concatenate([np.zeros(n_eq), np.full(n_piv, np.inf), nom_ub, np.zeros(K * C), hi_prof,
+                              np.full(self.n_clear, np.inf)])
         zs = [np.asarray(zc, float)[1:] for zk in z0 for zc in zk]
         tips0 = np.asarray(self.f_tips(np.concatenate(zs + [d0, np.zeros(K)]), p), float)
         t0 = [self._worst(tips0, tgt, k) ** 2 + 1e-12 for k in range(K)]

@@ -4,6 +4,7 @@ the starts of the optimisation stage."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import List
 
 import numpy as np
@@ -42,6 +43,9 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
         targeted) plus |ln(k/k_target)| when a stiffness is asked for.
     """
     nlp, base, target, stiffness = candidate.nlp, candidate.base, problem.target, problem.stiffness
+    # starts are free equilibria (the rod without its obstacles): the design NLP's clearance rows
+    # move them clear of the obstacles, and no start costs a contact solve
+    base = replace(base, obstacles=())
     scored: List[ScreenedStart] = []
     prev = None
     seeded = [(nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,

@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
+from ..contact_guard import refuse_contact
 from ..options import SolverOptions
 from ..scene import Scene
 from .design import design_problem, search
@@ -214,6 +215,7 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
     settings = settings or DesignSettings()
     last = pts[-1]
     # the start: the single-pose design of the last point taken as a tip target
+    refuse_contact(scene, "design --target-shape")
     problem = design_problem((last[1], last[2]), scene, vary, options, settings, None, t0)
     vset = problem.variable_sets[-1]
     from dataclasses import replace

@@ -166,6 +166,8 @@ class DesignResult:
     #: a numerical error) when set; otherwise derived from the flags (:func:`status_of`)
     status: str = ""
     mesh: Optional[Dict[str, object]] = None  # the mesh the design was made on (design_mesh.mesh_dict)
+    #: with obstacles: how far the reported state keeps from each (:func:`~actuator_design.clearance.clearances`)
+    clearance: Optional[List[Dict[str, object]]] = None
 
     def to_dict(self) -> Dict[str, object]:
         tgt = {} if not self.target else {"x": self.target[0], "y": self.target[1]}
@@ -191,6 +193,8 @@ class DesignResult:
         out["robustness"] = None if self.robustness is None else self.robustness.to_dict()
         if self.mesh is not None:
             out["mesh"] = dict(self.mesh)
+        if self.clearance is not None:
+            out["clearance"] = [dict(c) for c in self.clearance]
         sc = self.scene.scales
         H = None
         if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):

@@ -16,6 +16,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from ..clearance import entering
 from ..equilibrium import solve
 from ..options import SolverOptions
 from ..scene import Scene, UniformField
@@ -56,23 +57,44 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     if design_p:
         start = start.with_values(p=0.0)
     steps = problem.settings.ramp_steps
+    obstacles, gap = tuple(start.obstacles), float(start.contact_gap)
+    touched: List[str] = []
+
+    def reaches(path) -> bool:
+        final = path.final
+        return (final is not None and final.success and path.snap_free and final.stable
+                and max(abs(final.tip["x"] - pt.tip[0]), abs(final.tip["y"] - pt.tip[1]),
+                        abs(final.tip["angle"] - pt.tip[2])) <= 1e-6)
 
     def attempt(schedule):
-        path = follow_path(start, options, schedule, max_step=0.25, max_dtheta=0.5)
-        final = path.final
-        ok = (final is not None and final.success and path.snap_free and final.stable
-              and max(abs(final.tip["x"] - pt.tip[0]), abs(final.tip["y"] - pt.tip[1]),
-                      abs(final.tip["angle"] - pt.tip[2])) <= 1e-6)
+        # with obstacles the rod is first followed without them: a path through states clear of
+        # them is the contact path (no constraint is active on it), found without a contact solve
+        # per step. The first schedule whose free path touches an obstacle on the way is followed
+        # again through contact (touch-down, lift-off); only that one: a rod sliding along a wall
+        # costs contact solves on new meshes at every step (issue 20)
+        path = follow_path(replace(start, obstacles=()), options, schedule, max_step=0.25, max_dtheta=0.5)
+        ok = reaches(path)
+        if ok and obstacles:
+            hit = next(((k, st) for st in path.states if st.success
+                        for k in [entering(obstacles, gap, st)] if k is not None), None)
+            if hit is not None:
+                (k, s_hit, _), st = hit
+                touched.append(f"the rod touches the {obstacles[k].describe()} at s = {s_hit:.3g} on the way")
+                ok = False
+                if len(touched) == 1:
+                    path = follow_path(start, options, schedule, max_step=0.25, max_dtheta=0.5)
+                    ok = reaches(path)
         return ok, path
 
     ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p, hard)
     if not isinstance(choice.scene.field, UniformField):  # a field without an angle to set or turn
         ok, path = attempt([{k: v for k, v in step.items() if k != "phi"} for step in ramp])
-        return (Verification(forward, path, "magnitude ramp", ramp) if ok else  # (phi = 0 in the table)
+        label = "magnitude ramp" + _contact_note(path)
+        return (Verification(forward, path, label, ramp) if ok else  # (phi = 0 in the table)
                 Verification(forward, None, "no snap-free magnitude ramp from zero field reaches the design", []))
     ok, path = attempt(ramp)
     if ok:
-        return Verification(forward, path, "magnitude ramp at the designed angle", ramp)
+        return Verification(forward, path, "magnitude ramp at the designed angle" + _contact_note(path), ramp)
     reached = path.final.tip["angle"] if path.final is not None and path.final.success else 0.0
     wind = 1.0 if pt.tip[2] >= reached else -1.0  # rotate the field the way the rod must turn
     for sign in (wind, -wind):
@@ -84,8 +106,22 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
                 phi_label = round(math.degrees(normalise_phi(phi_a, phi_period(choice.scene)))) + 0  # no "-0"
                 return Verification(forward, path, f"ramp at {phi_label:.0f} deg, then "
                                     f"rotate the field {'counter-' if sign > 0 else ''}clockwise by {delta_deg} "
-                                    f"deg to the designed angle", schedule)
+                                    f"deg to the designed angle" + _contact_note(path), schedule)
+    if touched:
+        return Verification(forward, None, "no snap-free path from zero field that keeps clear of the obstacles "
+                            f"reaches the design ({touched[0]}; followed through contact, that path did not "
+                            "reach it either)", [])
     return Verification(forward, None, "no snap-free path from zero field reaches the design", [])
+
+
+def _contact_note(path) -> str:
+    """What a verified path through contact met on the way ("" without contact events)."""
+    events = getattr(path, "contact_events", None) or []
+    if not events:
+        return ""
+    seen = ", ".join(dict.fromkeys(f"{e['kind']} on the {e['obstacle_text']}" if e["kind"] == "touch-down"
+                                   else f"{e['kind']} from the {e['obstacle_text']}" for e in events))
+    return f" (through contact on the way: {seen}; the design itself keeps clear of every obstacle)"
 
 
 def _hard_magnetic_group(scene: Scene) -> Optional[float]:

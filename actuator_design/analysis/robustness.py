@@ -26,6 +26,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..clearance import clearance_check
 from ..options import SolverOptions
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
@@ -62,7 +63,7 @@ def _newton(solver: EquilibriumSolver, z_guess: np.ndarray, z_prev: np.ndarray, 
 
 def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P_b: np.ndarray, *,
                    first_step: float = 0.125, max_step: float = 0.25, min_step: float = 1e-7,
-                   max_dtheta: float = 0.2, max_steps: int = 2000) -> Segment:
+                   max_dtheta: float = 0.2, max_steps: int = 2000, admissible=None) -> Segment:
     """Follow the equilibrium branch through ``z0`` along P(t) = (1 − t) P_a + t P_b, t ∈ [0, 1].
 
     Parameters
@@ -79,6 +80,10 @@ def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P
         Largest change of θ at any node in one accepted step, rad (larger: another branch).
     max_steps : int
         Bound on the work (accepted and rejected steps together).
+    admissible : callable, optional
+        θ at the nodes → bool: whether a state keeps clear of the scene's obstacles
+        (:func:`~actuator_design.clearance.clearance_check`); the first state that does not ends
+        the segment (reason "touches an obstacle": the free branch followed is no longer the rod's).
 
     Returns
     -------
@@ -106,6 +111,8 @@ def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P
         guess = z if z_old is None else z + (z - z_old) * ((t_new - t) / (t - t_old))
         raw = _newton(solver, guess, z, P)
         if raw.converged and np.all(np.isfinite(raw.z)) and np.max(np.abs(raw.z - z)) <= max_dtheta:
+            if admissible is not None and not admissible(raw.z):
+                return Segment(False, t, z, samples, "touches an obstacle")
             verdict = solver.stability(raw.z, P)
             if verdict.stable:
                 z_old, t_old, z, t = z, t, raw.z, t_new
@@ -120,6 +127,11 @@ def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P
     return Segment(False, t, z, samples, "work bound reached")
 
 
+#: how :meth:`FoldDistance.sentence` names a search axis
+_AXIS_WORDS = {"h_rel_up": "more field", "h_rel_down": "less field", "phi_deg_ccw": "angle counter-clockwise",
+               "phi_deg_cw": "angle clockwise"}
+
+
 @dataclass
 class FoldDistance:
     """Distance from the design to the nearest snap along each axis (None: none within ``search``).
@@ -131,6 +143,8 @@ class FoldDistance:
         or None where the snap could not be located as a fold and refined on finer meshes (then
         the distance is the last stable point of the branch following on the design mesh):
         :mod:`.snap_location`.
+    touches : the axes whose search stopped where the rod would touch an obstacle (the free
+        branch is no longer the rod's beyond; ``search`` then holds the range up to the touch).
     """
 
     h_rel_up: Optional[float]
@@ -139,6 +153,7 @@ class FoldDistance:
     phi_deg_cw: Optional[float]
     search: Dict[str, float]
     errors: Dict[str, Optional[float]] = field(default_factory=dict)
+    touches: Tuple[str, ...] = ()
 
     @property
     def h_rel(self) -> Optional[float]:
@@ -154,7 +169,7 @@ class FoldDistance:
         return {"h_rel": self.h_rel, "phi_deg": self.phi_deg, "h_rel_up": self.h_rel_up,
                 "h_rel_down": self.h_rel_down, "phi_deg_ccw": self.phi_deg_ccw,
                 "phi_deg_cw": self.phi_deg_cw, "searched": dict(self.search),
-                "errors": dict(self.errors)}
+                "errors": dict(self.errors), "touches": list(self.touches)}
 
     def sentence(self) -> str:
         """E.g. "the nearest snap is 7.1 % more field or 3.4 deg of angle (clockwise) away"."""
@@ -169,7 +184,9 @@ class FoldDistance:
             ccw = self.phi_deg_ccw is not None and self.phi_deg == self.phi_deg_ccw
             parts.append(f"{self.phi_deg:.3g} deg of angle ({'counter-clockwise' if ccw else 'clockwise'})")
         elif "phi_deg_ccw" in self.search:
-            none.append(f"{self.search['phi_deg_ccw']:.3g} deg of angle either way")
+            ccw, cw = self.search["phi_deg_ccw"], self.search.get("phi_deg_cw", self.search["phi_deg_ccw"])
+            none.append(f"{ccw:.3g} deg of angle either way" if f"{ccw:.3g}" == f"{cw:.3g}" else
+                        f"{ccw:.3g} deg of angle counter-clockwise or {cw:.3g} deg clockwise")
         text = ("the nearest snap is " + " or ".join(parts) + " away") if parts else ""
         rough = [k for k, v in (("h_rel_up", self.h_rel_up), ("h_rel_down", self.h_rel_down),
                                 ("phi_deg_ccw", self.phi_deg_ccw), ("phi_deg_cw", self.phi_deg_cw))
@@ -178,6 +195,9 @@ class FoldDistance:
             text += " (the last stable point on the design mesh: not located as a fold)"
         if none:
             text += ("; " if text else "") + "no snap within " + " nor ".join(none)
+        if self.touches:
+            text += (" (the search stops where the rod would touch an obstacle: "
+                     + ", ".join(_AXIS_WORDS[k] for k in self.touches) + ")")
         return text or "no snap searched"
 
 
@@ -306,8 +326,10 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
     corner_z: List[Optional[np.ndarray]] = []
     corner_out: List[dict] = []
     Pc = [solver.parameter_vector(perturb(scene, tolerances, c)) for c in corners]
+    # with obstacles: the free branch is the rod's only while it keeps clear of them
+    clear = clearance_check(solver, scene.obstacles, scene.contact_gap)
     for c, P in zip(corners, Pc):
-        seg = follow_segment(solver, z, P0, P)
+        seg = follow_segment(solver, z, P0, P, admissible=clear)
         all_samples += seg.samples
         corner_z.append(seg.z_end if seg.completed else None)
         last = seg.samples[-1]
@@ -322,7 +344,7 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
         for i, j in _edges(corners):
             if corner_z[i] is None:
                 continue
-            seg = follow_segment(solver, corner_z[i], Pc[i], Pc[j])
+            seg = follow_segment(solver, corner_z[i], Pc[i], Pc[j], admissible=clear)
             all_samples += seg.samples
             if not seg.completed:
                 failures.append(f"the branch is lost ({seg.reason}) on the edge from "
@@ -335,6 +357,7 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
     arr, pos, ang = errors(all_samples)
 
     search: Dict[str, float] = {}
+    touches: List[str] = []
     found: Dict[str, Optional[float]] = {}
     errors: Dict[str, Optional[float]] = {}
     if fold_search:
@@ -344,17 +367,20 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
             if attr == "field_rel" and scene.h == 0.0:
                 continue
             P_end = solver.parameter_vector(apply_deltas(scene, {attr: sign * rng}))
-            seg = follow_segment(solver, z, P0, P_end, first_step=0.01, max_step=0.05)
+            seg = follow_segment(solver, z, P0, P_end, first_step=0.01, max_step=0.05, admissible=clear)
             unit = snap_unit(attr)
             search[name] = rng * unit
-            if seg.completed:
+            if seg.completed or seg.reason == "touches an obstacle":  # searched up to the touch only
+                search[name] = (1.0 if seg.completed else seg.t_end) * rng * unit
+                if not seg.completed:
+                    touches.append(name)
                 found[name] = None
                 continue
             snap = locate_snap(scene, options, seg.z_end, seg.t_end, attr, sign, rng)
             found[name] = snap.t * rng * unit
             errors[name] = None if snap.error is None else snap.error * rng * unit
     fd = FoldDistance(found.get("h_rel_up"), found.get("h_rel_down"), found.get("phi_deg_ccw"),
-                      found.get("phi_deg_cw"), search, errors)
+                      found.get("phi_deg_cw"), search, errors, tuple(touches))
     return Robustness(tolerances=tolerances, worst_tip_error=float(pos.max()) + disc,
                       discretisation_error=disc,
                       worst_angle_error=None if ang is None else float(ang.max()),

@@ -20,6 +20,10 @@ Every design must hold over the lab's tolerance box (--tolerance, default field 
 the tool makes the target exact at the nominal field and minimises the worst-case tip error over
 the box, then follows the design's branch over the box and to the nearest snap and reports both.
 
+With obstacles in the scene (one pose, --target-tip), the design keeps the whole rod clear of them
+(its centre line half the thickness away) at the design and over the tolerance box, and is verified
+by a loading path from zero field that keeps clear of them too (or, once, through touch-down and
+lift-off): configs/contact_channel_design.yaml.
 With obstacles in the scene, --target-force F designs instead the field magnitude at which the rod,
 loaded from rest, presses an obstacle (--obstacle K) with force F (N on a physical scene), verified by
 a forward solve from rest, with the force's range over the tolerance box.
@@ -285,6 +289,10 @@ def _summary(res, units=None, table=None, qs=None) -> str:
         why = ("the target is not reached, so there is no design to hold" if not res.reachable
                else "see note")
         lines.append(f"  robustness  : NOT checked over the box ({res.tolerances.describe()}): {why}")
+    for c in res.clearance or ():
+        gap = units.length(c["min_distance"]) if units is not None else c["min_distance"]
+        lines.append(f"  clearance   : {gap:.4g} {units.length_unit if units is not None else 'rod lengths'} "
+                     f"from the {c['obstacle_text']} (nearest at s = {c['s']:.3g})")
     if res.schedule:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
@@ -360,6 +368,10 @@ def _physical_payload(res, units, table) -> dict:
             phys["tip"] = {"x": units.length(res.achieved["x"]), "y": units.length(res.achieved["y"])}
         if res.stiffness_target is not None:
             phys["target_stiffness_N_per_m"] = res.stiffness_target * units.stiffness_scale
+        if res.clearance is not None:
+            phys["clearance"] = [{"obstacle": c["obstacle"], f"min_distance_{units.length_unit}":
+                                  units.length(c["min_distance"]), f"s_{units.length_unit}": units.length(c["s"])}
+                                 for c in res.clearance]
     add_schedule_units(payload, table)
     return payload
 
