@@ -141,3 +141,34 @@ def test_a_rod_held_in_contact_at_rest_is_refused_in_one_line(capsys):
     assert main(["design", str(cfg), "--target-tip", "12,8", "--target-units", "mm"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "the straight rod at rest enters the lumen" in err[0] and "free rest state" in err[0]
+
+
+def test_a_clearance_keeps_the_design_that_far_from_the_walls(capsys):
+    """--clearance '0.25 mm' (a wall's position tolerance): the designed rod keeps 0.25 mm more from
+    both walls than half its thickness — checked on the verified shape against the wall lines."""
+    import json
+
+    from actuator_design.cli.main import main
+
+    assert main(["design", str(CONFIG), "--target-tip", "17,3", "--target-units", "mm", "--clearance", "0.25 mm",
+                 "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["success"]
+    assert all(c["min_distance"] >= 0.25 / L_MM - 1e-6 for c in d["clearance"])
+    scene, options, _ = load_scene(CONFIG)
+    from actuator_design.analysis.design_types import DesignSettings
+
+    r = design(TARGET, scene=scene, options=options, settings=DesignSettings(clearance=0.25 / L_MM))
+    assert r.success and r.design["h"] == pytest.approx(d["design"]["h"], rel=1e-9)
+    y = r.path.final.evaluate(S)["y"]
+    assert Y_LO + 0.25 / L_MM - 1e-6 <= y.min() and y.max() <= Y_HI - 0.25 / L_MM + 1e-6
+
+
+def test_a_clearance_is_checked_in_one_line(capsys):
+    from actuator_design.cli.main import main
+
+    for value, words in (("2 s", "--clearance: expected a length"), ("-1", "--clearance: must be a finite number > 0"),
+                         ("30 mm", "clearance must lie in [0, 1) rod lengths")):
+        assert main(["design", str(CONFIG), "--target-tip", "17,3", "--target-units", "mm", "--clearance", value]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0]

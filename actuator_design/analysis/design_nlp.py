@@ -138,9 +138,12 @@ class DesignNLP:
     alpha_terms : int
         Number of Legendre coefficients of α(s) when ``"alpha"`` is varied, and of β(s) when
         ``"magnetization"`` is varied.
+    clearance : float
+        Extra distance (units of ℓ) beyond the contact gap kept from every obstacle.
     """
 
-    def __init__(self, scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int = 4):
+    def __init__(self, scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int = 4,
+                 clearance: float = 0.0):
         t0 = time.perf_counter()
         self.vary = tuple(v for v in DESIGN_VARIABLES if v in vary)
         self.profiles = tuple(v for v in self.vary if v in PROFILE_VARIABLES)
@@ -181,7 +184,7 @@ class DesignNLP:
         theta0 = P0[lay.slices["theta0"]]
         tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
         # a scene with obstacles: the designed rod keeps clear of them (issue 20, :mod:`.clearance`)
-        self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap)
+        self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap) + float(clearance)
         clear = clearance_rows(tr, ca.vertcat(theta0, zr), self.obstacles, self.gap)
         self.n_clear = int(clear.numel())
 
@@ -449,16 +452,17 @@ class DesignRequest:
     stiffness: Optional[float] = None
 
 
-def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int) -> DesignNLP:
+def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int,
+                   clearance: float = 0.0) -> DesignNLP:
     """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
     from ..physics.terms import build_terms, structure_key
 
-    obstacles = (tuple(scene.obstacles), float(scene.contact_gap)) if scene.obstacles else ()
+    obstacles = (tuple(scene.obstacles), float(scene.contact_gap), float(clearance)) if scene.obstacles else ()
     key = (structure_key(build_terms(scene)), obstacles, tuple(sorted(vary)), options.transcription, options.elements,
            options.degree, options.clamp_levels, options.tip_levels, options.split_at, options.tol, options.max_iter,
            alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
     if key not in _CACHE:
-        _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms)
+        _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms, clearance if scene.obstacles else 0.0)
     return _CACHE[key]
 
 

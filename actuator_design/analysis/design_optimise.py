@@ -25,7 +25,8 @@ STRONG_REACH_PROBE = 1e-2
 def candidate(problem: DesignProblem, vary) -> Candidate:
     """The base scene prepared for the variables ``vary`` and its (cached) design NLP."""
     base = prepare_scene(problem.base, vary)
-    return Candidate(tuple(vary), base, get_design_nlp(base, vary, problem.options, problem.settings.alpha_terms))
+    return Candidate(tuple(vary), base, get_design_nlp(base, vary, problem.options, problem.settings.alpha_terms,
+                                                       clearance=problem.settings.clearance))
 
 
 def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart]) -> Optimised:

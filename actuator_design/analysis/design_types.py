@@ -43,6 +43,10 @@ class DesignSettings:
         Largest |β(s)| (rad) of a designed magnetisation profile (THEORY §9).
     margin : float
         Required stability margin μ: λ_min(H_r, M) ≥ μ.
+    clearance : float
+        With obstacles: the distance (units of ℓ) the designed rod keeps from every obstacle beyond
+        the contact gap, at the design and over the tolerance box (e.g. a wall's position
+        tolerance); 0 lets the design graze an obstacle.
     reach_tol : float
         A target is reachable when the nearest pose is within this distance (units of ℓ).
     accept_tol : float
@@ -65,6 +69,7 @@ class DesignSettings:
     alpha_terms: int = 4
     magnetization_max: float = math.pi
     margin: float = 1e-2
+    clearance: float = 0.0
     reach_tol: float = 1e-6
     accept_tol: float = 1e-3
     ramp_steps: int = 20
@@ -87,6 +92,7 @@ class DesignSettings:
             ("magnetization_max", 0 < self.magnetization_max <= math.pi + 1e-12,
              f"must lie in (0, 180] deg, got {math.degrees(self.magnetization_max):g} deg"),
             ("margin", self.margin >= 0 and math.isfinite(self.margin), "must be a finite number >= 0"),
+            ("clearance", 0 <= self.clearance < 1, "must lie in [0, 1) rod lengths"),
             ("reach_tol", 0 < self.reach_tol < 1, "must lie in (0, 1) rod lengths"),
             # (a negative acceptance is allowed: nothing meets it, a way to test the verdicts)
             ("accept_tol", math.isfinite(self.accept_tol) and self.accept_tol < 1,

@@ -21,7 +21,7 @@ the tool makes the target exact at the nominal field and minimises the worst-cas
 the box, then follows the design's branch over the box and to the nearest snap and reports both.
 
 With obstacles in the scene (one pose, --target-tip), the design keeps the whole rod clear of them
-(its centre line half the thickness away) at the design and over the tolerance box, and is verified
+(its centre line half the thickness, plus --clearance, away) at the design and over the tolerance box, and is verified
 by a loading path from zero field that keeps clear of them too (or, once, through touch-down and
 lift-off): configs/contact_channel_design.yaml.
 With obstacles in the scene, --target-force F designs instead the field magnitude at which the rod,
@@ -78,6 +78,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="with obstacles in the scene: the field magnitude at which the rod, loaded from "
                              "rest, presses an obstacle with this force (a gripper): a number in B0/l^2, or a "
                              "quantity such as '50 uN' for a physical scene; the field angle is the scene's")
+    parser.add_argument("--clearance", metavar="D",
+                        help="with obstacles and --target-tip: the distance the designed rod keeps from every "
+                             "obstacle beyond half its thickness, at the design and over the tolerance box (a "
+                             "number in rod lengths, or a length such as '0.2 mm' on a physical scene; default 0)")
     parser.add_argument("--obstacle", type=int, metavar="K",
                         help="with --target-force: which obstacle of scene.obstacles (index, default 0)")
     parser.add_argument("--vary", metavar="LIST",
@@ -195,6 +199,9 @@ def _inputs(args):
                             ("margin", "margin", float), ("time_limit", "time_limit", float)):
         if getattr(args, flag) is not None:
             settings_kw[key] = conv(getattr(args, flag))
+    if getattr(args, "clearance", None) is not None:
+        settings_kw["clearance"] = positive_target(args.clearance, scene, "--clearance", "length", "length",
+                                                   "rod lengths")
     with bad_input("design settings: "):
         from ..analysis.tolerances import parse_tolerances
         if args.tolerance is not None:
