@@ -14,7 +14,8 @@ from typing import Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["constrained_points", "clearance_rows", "entering", "clearance_check", "clearances", "entered_at_rest", "PENETRATION_TOL"]
+__all__ = ["constrained_points", "clearance_rows", "entering", "clearance_check", "clearances", "entered_at_rest",
+           "PENETRATION_TOL"]
 
 
 def constrained_points(tr, z) -> Tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
@@ -68,14 +69,10 @@ def entering(obstacles: Sequence, gap: float, state, n: int = 2001,
         The obstacle's index, the arc length (units of ℓ) and how deep (units of ℓ) the deepest
         entry is; None when the state keeps clear of every obstacle.
     """
-    d = state.evaluate(np.linspace(0.0, 1.0, n))
-    worst = None
-    for k, ob in enumerate(obstacles):
-        dist = np.asarray(ob.distance(d["x"], d["y"]), float) - gap
-        i = int(np.argmin(dist))
-        if dist[i] < -tol and (worst is None or -dist[i] > worst[2]):
-            worst = (k, float(d["s"][i]), float(-dist[i]))
-    return worst
+    worst = min(clearances(obstacles, gap, state, n), key=lambda c: c["min_distance"], default=None)
+    if worst is None or worst["min_distance"] >= -tol:
+        return None
+    return worst["obstacle"], worst["s"], -worst["min_distance"]
 
 
 def clearance_check(solver, obstacles: Sequence, gap: float, tol: float = PENETRATION_TOL):
