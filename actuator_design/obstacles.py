@@ -7,8 +7,8 @@ surface and not its centre line touches). :mod:`actuator_design.contact` imposes
 transcription's quadrature points and the tip; the contact force on the rod at a point is
 μ ∇d (μ ≥ 0 the constraint's multiplier): normal to the obstacle, pushing the rod away.
 
-Every obstacle also gives ``normal`` (∇d at points, shape (2, k)), ``describe()`` (one line, units
-of ℓ) and ``outline(span)``: the solid's drawable outline, vertices of shape (m, 2), for the figures
+Every obstacle also gives ``normal`` (∇d at points, shape (2, k)), ``describe(scale, unit)`` (one line,
+in rod lengths or, given ``scale`` of them per rod length, in a user's ``unit``) and ``outline(span)``: the solid's drawable outline, vertices of shape (m, 2), for the figures
 (a wall's as a band ``span`` long).
 """
 from __future__ import annotations
@@ -53,9 +53,10 @@ class Wall:
         a, b = p - 2 * span * t, p + 2 * span * t
         return np.array([a, b, b - 0.04 * span * n, a - 0.04 * span * n])
 
-    def describe(self) -> str:
-        return (f"wall through ({self.point[0]:.4g}, {self.point[1]:.4g}) l, free side towards "
-                f"{math.degrees(self.normal_angle):.4g} deg")
+    def describe(self, scale: float = 1.0, unit: str = "l") -> str:
+        """One line; lengths in ``unit``, ``scale`` of them per rod length (default: rod lengths)."""
+        x, y = (scale * v for v in self.point)
+        return f"wall through ({x:.4g}, {y:.4g}) {unit}, free side towards {math.degrees(self.normal_angle):.4g} deg"
 
 
 @dataclass(frozen=True)
@@ -85,8 +86,10 @@ class Peg:
         a = np.linspace(0.0, 2 * math.pi, 97)
         return np.column_stack([self.centre[0] + self.radius * np.cos(a), self.centre[1] + self.radius * np.sin(a)])
 
-    def describe(self) -> str:
-        return f"peg at ({self.centre[0]:.4g}, {self.centre[1]:.4g}) l, radius {self.radius:.4g} l"
+    def describe(self, scale: float = 1.0, unit: str = "l") -> str:
+        """One line; lengths in ``unit``, ``scale`` of them per rod length (default: rod lengths)."""
+        x, y = (scale * v for v in self.centre)
+        return f"peg at ({x:.4g}, {y:.4g}) {unit}, radius {scale * self.radius:.4g} {unit}"
 
 
 @dataclass(frozen=True)
@@ -149,9 +152,10 @@ class Polygon:
     def outline(self, span: float) -> np.ndarray:
         return np.asarray(self.vertices + self.vertices[:1], float)
 
-    def describe(self) -> str:
-        pts = ", ".join(f"({a:.4g}, {b:.4g})" for a, b in self.vertices)
-        return f"polygon with vertices {pts} l"
+    def describe(self, scale: float = 1.0, unit: str = "l") -> str:
+        """One line; lengths in ``unit``, ``scale`` of them per rod length (default: rod lengths)."""
+        pts = ", ".join(f"({scale * a:.4g}, {scale * b:.4g})" for a, b in self.vertices)
+        return f"polygon with vertices {pts} {unit}"
 
 
 @lru_cache(maxsize=64)
@@ -293,11 +297,12 @@ class Lumen:
         nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.hypot(d[:, 0], d[:, 1])[:, None]
         return np.vstack([c + self.radius * nrm, (c - self.radius * nrm)[::-1]])
 
-    def describe(self) -> str:
-        parts = ", ".join(f"{p[0]} {p[1]:.4g}" + (f" turning {math.degrees(p[2]):.4g} deg" if p[0] == "arc" else "")
-                          for p in self.pieces)
-        return (f"lumen of radius {self.radius:.4g} l from ({self.start[0]:.4g}, {self.start[1]:.4g}) at "
-                f"{math.degrees(self.angle):.4g} deg: {parts} l")
+    def describe(self, scale: float = 1.0, unit: str = "l") -> str:
+        """One line; lengths in ``unit``, ``scale`` of them per rod length (default: rod lengths)."""
+        parts = ", ".join(f"{p[0]} {scale * p[1]:.4g} {unit}" + (f" turning {math.degrees(p[2]):.4g} deg"
+                                                                 if p[0] == "arc" else "") for p in self.pieces)
+        return (f"lumen of radius {scale * self.radius:.4g} {unit} from ({scale * self.start[0]:.4g}, "
+                f"{scale * self.start[1]:.4g}) {unit} at {math.degrees(self.angle):.4g} deg: {parts}")
 
 
 Obstacle = (Wall, Peg, Polygon, Lumen)

@@ -131,6 +131,9 @@ def test_a_yaml_path_schedule_may_carry_quantities(tmp_path, capsys):
     events = json.loads(capsys.readouterr().out)["contact_events"]
     assert [e["kind"] for e in events] == ["touch-down", "lift-off", "touch-down"]
     assert events[1]["values"]["h"] == pytest.approx(1.0, abs=1e-12)
+    # the walls in the config's millimetres: y = -3 mm (pressed, then left), then y = +3 mm
+    assert [e["physical"]["obstacle_text"].split(",")[:2] for e in events] == \
+        [["wall through (0", " -3) mm"], ["wall through (0", " -3) mm"], ["wall through (0", " 3) mm"]]
     raw["study"]["schedule"][1]["h"] = "2 kg"
     path.write_text(yaml.safe_dump(raw))
     assert main(["path", str(path)]) == 2

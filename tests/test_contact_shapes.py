@@ -106,3 +106,18 @@ def test_a_lumen_narrower_than_the_rod_holds_no_state():
     r = solve(Scene(field=None, tip_force=(0.0, -1.0), contact_gap=0.01,
                     obstacles=(Lumen((0.0, 0.0), 0.0, 0.005, (("straight", 1.0),)),)))
     assert not r.success and r.status == "obstacle_at_rest" and "not wider than the rod" in r.message
+
+
+def test_an_obstacle_describes_itself_in_a_users_length_unit():
+    """describe(scale, unit): every length scaled (20 mm per rod length), angles kept."""
+    from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
+
+    assert Wall((0.0, -0.15), math.pi / 2).describe(20.0, "mm") == "wall through (0, -3) mm, free side towards 90 deg"
+    assert Peg((0.5, 0.1), 0.05).describe(20.0, "mm") == "peg at (10, 2) mm, radius 1 mm"
+    assert Polygon(((0.5, 0.0), (0.6, 0.0), (0.6, 0.1))).describe(20.0, "mm") == \
+        "polygon with vertices (10, 0), (12, 0), (12, 2) mm"
+    lumen = Lumen((0.0, 0.0), 0.0, 0.05, (("straight", 0.5), ("arc", 0.3, math.pi / 4)))
+    assert lumen.describe(20.0, "mm") == ("lumen of radius 1 mm from (0, 0) mm at 0 deg: straight 10 mm, "
+                                          "arc 6 mm turning 45 deg")
+    assert lumen.describe() == ("lumen of radius 0.05 l from (0, 0) l at 0 deg: straight 0.5 l, "
+                                "arc 0.3 l turning 45 deg")

@@ -130,6 +130,19 @@ def test_the_cli_reports_the_clearance_in_the_users_units(capsys):
     assert d["success"] and len(d["clearance"]) == 2
     for c, p in zip(d["clearance"], d["physical"]["clearance"]):
         assert c["min_distance"] >= -1e-6 and p["min_distance_mm"] == pytest.approx(L_MM * c["min_distance"])
+    # the walls as the config gives them: 4 mm either side of y = 2.4 mm
+    assert sorted(p["obstacle_text"].split(",")[1].strip() for p in d["physical"]["clearance"]) == \
+        ["-1.6) mm", "6.4) mm"]
+
+
+def test_the_text_names_the_walls_and_the_arc_length_in_the_users_unit(capsys):
+    from actuator_design.cli.main import main
+
+    assert main(["design", str(CONFIG), "--target-tip", "17,3", "--target-units", "mm"]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "clearance" in ln]
+    assert len(lines) == 2
+    for ln in lines:  # no rod lengths ("l") beside millimetres
+        assert ln.count(" mm") == 3 and " l," not in ln and ln.rstrip().endswith("mm)"), ln
 
 
 def test_a_rod_held_in_contact_at_rest_is_refused_in_one_line(capsys):

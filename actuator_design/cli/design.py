@@ -297,9 +297,14 @@ def _summary(res, units=None, table=None, qs=None) -> str:
                else "see note")
         lines.append(f"  robustness  : NOT checked over the box ({res.tolerances.describe()}): {why}")
     for c in res.clearance or ():
-        gap = units.length(c["min_distance"]) if units is not None else c["min_distance"]
-        lines.append(f"  clearance   : {gap:.4g} {units.length_unit if units is not None else 'rod lengths'} "
-                     f"from the {c['obstacle_text']} (nearest at s = {c['s']:.3g})")
+        if units is None:
+            lines.append(f"  clearance   : {c['min_distance']:.4g} rod lengths from the {c['obstacle_text']} "
+                         f"(nearest at s = {c['s']:.3g})")
+            continue
+        lu = units.length_unit
+        text = res.scene.obstacles[c["obstacle"]].describe(units.length(1.0), lu)
+        lines.append(f"  clearance   : {units.length(c['min_distance']):.4g} {lu} from the {text} "
+                     f"(nearest at s = {units.length(c['s']):.4g} {lu})")
     if res.schedule:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
@@ -376,8 +381,10 @@ def _physical_payload(res, units, table) -> dict:
         if res.stiffness_target is not None:
             phys["target_stiffness_N_per_m"] = res.stiffness_target * units.stiffness_scale
         if res.clearance is not None:
-            phys["clearance"] = [{"obstacle": c["obstacle"], f"min_distance_{units.length_unit}":
-                                  units.length(c["min_distance"]), f"s_{units.length_unit}": units.length(c["s"])}
+            lu = units.length_unit
+            phys["clearance"] = [{"obstacle": c["obstacle"], f"min_distance_{lu}": units.length(c["min_distance"]),
+                                  f"s_{lu}": units.length(c["s"]), "obstacle_text":
+                                  res.scene.obstacles[c["obstacle"]].describe(units.length(1.0), lu)}
                                  for c in res.clearance]
     add_schedule_units(payload, table)
     return payload

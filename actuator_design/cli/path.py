@@ -270,6 +270,10 @@ def run(args: argparse.Namespace) -> int:
         add_physical_values(data["points"] + data["jumps"] + data["bifurcations"] + data["contact_events"], p, units,
                             key="param")
     add_physical_block(data, path, units, factor)
+    if units is not None:  # the obstacle of each contact event, in the user's length unit
+        for e in data["contact_events"]:
+            e.setdefault("physical", {})["obstacle_text"] = scene.obstacles[e["obstacle"]].describe(
+                units.length(1.0), units.length_unit)
     written = None
     if args.out is not None:
         written = write_out(args.out, _render(path, data, raw, factor, units), args.json)
@@ -317,7 +321,8 @@ def _physical_lines(data, units=None) -> list:
     for e in data["contact_events"]:
         at = "" if e["s"] is None else f" at s = {_len(e['s'] * units.length_m / units.metres_per_unit, units)} {u}"
         when = where(e) if data["param"] else _values_text(e["values"], units)
-        lines.append(f"  {e['kind']} at {when}{at}" + ("" if e["located"] else " (at the step; not located)"))
+        on = f" {'on' if e['kind'] == 'touch-down' else 'from'} the {e['physical']['obstacle_text']}"
+        lines.append(f"  {e['kind']}{on} at {when}{at}" + ("" if e["located"] else " (at the step; not located)"))
     hy = phys.get("hysteresis")
     if hy:
         lines.append(f"  hysteresis width [{hy['unit']}]: {number(hy['width'], '.6g')}")
