@@ -85,3 +85,30 @@ def peg_and_tip_wall_reference(centre, radius, wall_point, wall_normal, guess):
     a, b, nu = shoot(out.x)
     assert nu @ (a.y[2:, -1] - centre) > 0 and out.x[4] > 0  # both walls push
     return out.x, b.y[:, -1], nu
+
+
+def free_shape(f, n: int = 2001):
+    """The contact-free elastica with tip force f (θ(0) = 0, no tip moment), by shooting on θ'(0)
+    with DOP853: arc lengths and positions (x, y) at ``n`` points."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    rhs = lambda s, u: [u[1], f[0] * math.sin(u[0]) - f[1] * math.cos(u[0]), math.cos(u[0]), math.sin(u[0])]
+    s = np.linspace(0.0, 1.0, n)
+    tip_moment = lambda g: solve_ivp(rhs, (0, 1), [0, g, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13).y[1, -1]
+    g = brentq(tip_moment, -abs(f[1]) - abs(f[0]) - 1.0, abs(f[1]) + abs(f[0]) + 1.0, xtol=1e-15)
+    sol = solve_ivp(rhs, (0, 1), [0, g, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13, t_eval=s)
+    return s, sol.y[2], sol.y[3]
+
+
+def touch_load(direction, centre, radius, lo: float, hi: float) -> float:
+    """The tip-force magnitude t (force t·direction, the rod free of contact) at which the centre
+    line first touches a disc: the root in (lo, hi) of the least distance to ``centre`` less
+    ``radius``, sampled at 2001 points (a touch at the tip, where the samples end, is exact)."""
+    from scipy.optimize import brentq
+
+    def gap(t):
+        _, x, y = free_shape(t * np.asarray(direction, float))
+        return float(np.min(np.hypot(x - centre[0], y - centre[1]))) - radius
+
+    return brentq(gap, lo, hi, xtol=1e-14)

@@ -16,8 +16,9 @@ the free side g_k > 0; on the contact side the rod would enter the obstacle, g_k
 touch-down or a lift-off the contact force is zero, so the free state just touches: g_k = 0 at
 both. g_k is smooth in t (one branch of free states), so Brent's method locates the event to
 :data:`EVENT_XTOL` in t where a bisection of the contact solves would need ~30 of them. Where g_k
-does not change sign over the step (a grazing touch) the event is reported at the step, ``located``
-False.
+has the same sign at both ends of the step (over a long step the free rod may bend past a peg), it
+is searched at :data:`SCAN` points from the free end for its first sign change; where it has none
+(a grazing touch) the event is reported at the step, ``located`` False.
 """
 from __future__ import annotations
 
@@ -40,6 +41,8 @@ __all__ = ["follow_contact_path", "EVENT_XTOL", "MIN_STEP"]
 EVENT_XTOL = 1e-10
 #: the smallest step, as a fraction of a segment: a state change above max_dtheta over it is a snap
 MIN_STEP = 1e-4
+#: samples of a step searched for the sign change of g_k when its two ends have the same sign
+SCAN = 16
 _S = np.linspace(0.0, 1.0, 401)  # arc lengths at which shapes are compared and gaps measured
 
 
@@ -199,13 +202,26 @@ class _Run:
             return _min_gap(self.base, k, r)
 
         try:
-            ga, gb = gap(ta)[0], gap(tb)[0]
-            if not (ga * gb < 0):
-                raise _NoFreeState
-            t_star = brentq(lambda t: gap(t)[0], ta, tb, xtol=EVENT_XTOL, rtol=4 * np.finfo(float).eps)
+            lo, hi = ta, tb
+            if not gap(ta)[0] * gap(tb)[0] < 0:
+                lo, hi = self._bracket(gap, ta if free_side is a else tb, tb if free_side is a else ta)
+            t_star = brentq(lambda t: gap(t)[0], min(lo, hi), max(lo, hi), xtol=EVENT_XTOL,
+                            rtol=4 * np.finfo(float).eps)
             return t_star, gap(t_star)[1], True
         except _NoFreeState:
             return tb, None, False
+
+    @staticmethod
+    def _bracket(gap, t_free: float, t_contact: float):
+        """Where g_k first changes sign walking from the free end of a step to its contact end
+        (:data:`SCAN` steps): over a long step the free rod may pass the obstacle by and keep
+        g_k > 0 at both ends (a rod bending past a peg)."""
+        g_free, prev = gap(t_free)[0], t_free
+        for t in np.linspace(t_free, t_contact, SCAN + 1)[1:]:
+            if g_free * gap(t)[0] < 0:
+                return prev, t
+            prev = t
+        raise _NoFreeState
 
 
 class _NoFreeState(Exception):
