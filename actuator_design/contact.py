@@ -63,18 +63,38 @@ class ContactNLP:
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
         self.f_dist = ca.Function("contact_rows", [z], [ca.vertcat(*rows)])
-        # bounds not relaxed: a contact point sits exactly at the gap
-        opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
-                "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive", "ipopt.bound_relax_factor": 0.0}
-        self.nlpsol = ca.nlpsol("contact", "ipopt", {"x": z, "p": P, "f": E, "g": g}, opts)
+        self._problem = {"x": z, "p": P, "f": E, "g": g}
+        self._solvers: Dict[bool, ca.Function] = {}
         # the Lagrangian's gradient and Hessian (upper triangle) and the rows' Jacobian, as IPOPT
-        # built them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
-        self.f_grad = self.nlpsol.get_function("nlp_grad")
-        self.f_hess = self.nlpsol.get_function("nlp_hess_l")
-        self.f_jac_g = self.nlpsol.get_function("nlp_jac_g")
+        # builds them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
+        self.f_grad = self.f_hess = self.f_jac_g = None
+
+    def nlpsol(self, warm: bool) -> ca.Function:
+        """IPOPT on this NLP, built on first use. Bounds are not relaxed: a contact point sits
+        exactly at the gap. ``warm`` (a start that is an equilibrium of a nearby scene on this mesh,
+        a contact point exactly at the gap) starts with a small barrier and does not push the start off the
+        constraints: with IPOPT's defaults (barrier 0.1, slacks pushed 1e-2 inside) the first step
+        lifted a tip pressed on a peg's flank off it and the rod slid past the peg, a snap reported
+        long before the contact branch's fold. A cold start (the straight rod with the loads applied)
+        keeps the defaults: their barrier keeps its first steps from jumping through an obstacle."""
+        if warm not in self._solvers:
+            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
+                    "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive", "ipopt.bound_relax_factor": 0.0}
+            if warm:
+                opts.update({"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8,
+                             "ipopt.slack_bound_push": 1e-8, "ipopt.slack_bound_frac": 1e-8,
+                             "ipopt.mu_strategy": "monotone", "ipopt.warm_start_init_point": "yes"})
+            solver = self._solvers[warm] = ca.nlpsol("contact", "ipopt", self._problem, opts)
+            if self.f_grad is None:
+                self.f_grad = solver.get_function("nlp_grad")
+                self.f_hess = solver.get_function("nlp_hess_l")
+                self.f_jac_g = solver.get_function("nlp_jac_g")
+        return self._solvers[warm]
 
     def lagrangian(self, z, P, lam_g):
         """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
+        if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
+            self.nlpsol(False)
         grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
         triu = np.asarray(ca.densify(self.f_hess(z, P, 1.0, lam_g)), float)
         H = triu + triu.T - np.diag(np.diag(triu))
@@ -243,8 +263,17 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         z, lam, status, iterations = z0, np.zeros(1 + n_rows), "obstacle_at_rest", 0
         message = problem
     else:
-        sol = nlp.nlpsol(x0=z0, p=P, lbg=lbg, ubg=ubg)
-        st = nlp.nlpsol.stats()
+        # a state of the previous scene on its own mesh is feasible: warm; a later round's start
+        # (the round before, interpolated onto new element boundaries) may enter an obstacle at a
+        # new point, and a small barrier from there jumped the rod past the peg: cold
+        warm_start = initial is not None and refine is None
+        ipopt = nlp.nlpsol(warm_start)
+        lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
+        if lam0 is not None and lam0[0] is nlp and lam0[1].size == 1 + n_rows:  # the same NLP: its
+            sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg, lam_g0=lam0[1])  # contact forces as the start
+        else:
+            sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg)
+        st = ipopt.stats()
         z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
         status = str(st.get("return_status"))
         iterations = int(st.get("iter_count", 0))
@@ -276,6 +305,7 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
     result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
     result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
     result.contact["start"] = start
+    result._contact_multipliers = (nlp, lam)  # a warm start's multipliers (the next state of a path)
     loads = _point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)

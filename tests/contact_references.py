@@ -112,3 +112,41 @@ def touch_load(direction, centre, radius, lo: float, hi: float) -> float:
         return float(np.min(np.hypot(x - centre[0], y - centre[1]))) - radius
 
     return brentq(gap, lo, hi, xtol=1e-14)
+
+
+def tip_on_peg(psi: float, centre, radius, guess):
+    """The elastica with a vertical tip load p whose tip rests on a disc at the polar angle ψ about
+    its ``centre`` (frictionless: the reaction R along (cos ψ, sin ψ)), by shooting on
+    (θ'(0), R, p): no moment at the tip and the tip at centre + radius·(cos ψ, sin ψ)."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import root
+
+    nu = np.array([math.cos(psi), math.sin(psi)])
+
+    def ends(v):
+        gamma, R, p = v
+        f = np.array([0.0, p]) + R * nu
+        rhs = lambda s, u: [u[1], f[0] * math.sin(u[0]) - f[1] * math.cos(u[0]), math.cos(u[0]), math.sin(u[0])]
+        end = solve_ivp(rhs, (0, 1), [0, gamma, 0, 0], method="DOP853", rtol=1e-13, atol=1e-13).y[:, -1]
+        return [end[1], end[2] - centre[0] - radius * nu[0], end[3] - centre[1] - radius * nu[1]]
+
+    out = root(ends, guess, method="hybr", options={"xtol": 1e-14})
+    assert max(abs(e) for e in ends(out.x)) <= 1e-10, out.message
+    return out.x
+
+
+def tip_slip_load(centre, radius, psi_guess: float, guess, width: float = 0.01) -> float:
+    """The load p at which a tip pressed down on a disc slides off it: the extreme of p over the
+    tip-on-disc branch (:func:`tip_on_peg`), the branch's fold, searched within ``width`` (rad) of
+    ``psi_guess`` from the branch point ``guess`` = (θ'(0), R, p) there."""
+    from scipy.optimize import minimize_scalar
+
+    state = {"v": tip_on_peg(psi_guess, centre, radius, guess)}
+
+    def p_of(psi):
+        state["v"] = tip_on_peg(psi, centre, radius, state["v"])
+        return state["v"][2]
+
+    res = minimize_scalar(p_of, bounds=(psi_guess - width, psi_guess + width), method="bounded",
+                          options={"xatol": 1e-12})
+    return float(res.fun)

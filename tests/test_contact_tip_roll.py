@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from contact_references import peg_reference, touch_load
+from contact_references import peg_reference, tip_slip_load, touch_load
 
 from actuator_design.analysis.contact_path import follow_contact_path
 from actuator_design.equilibrium import solve
@@ -56,3 +56,24 @@ def test_a_loading_path_locates_the_touch_down_and_follows_the_roll():
     assert event["kind"] == "touch-down" and event["located"] and event["s"] == pytest.approx(1.0, abs=1e-9)
     assert event["param"] == pytest.approx(touch_load((0.0, 1.0), CENTRE, RADIUS, 0.1, 0.6), abs=1e-6)
     _check_against_shooting(path.final, 16.0)
+
+
+def test_a_tip_sliding_off_a_peg_snaps_at_the_fold_of_the_contact_branch():
+    """Pressed down on the flank of a peg beside it, the tip slides down the flank as the load
+    grows, until the contact branch folds and the rod snaps past the peg: a jump of kind "contact"
+    located like a fold (the branch's end, to 1e-9 in the load), its lowest eigenvalue at zero there.
+    Reference: the shooting branch of tip-on-peg states, the extreme of the load along it."""
+    centre, radius = np.array([1.09, -0.05]), 0.1
+    scene = Scene(field=None, tip_force=(0.0, 0.0), obstacles=(Peg(tuple(centre), radius),))
+    path = follow_contact_path(scene, schedule={"p": [0.0, -10.0]})
+    assert path.success and len(path.jumps) == 1, path.message
+    jump = path.jumps[0]
+    before, after = jump.from_state, jump.to_state
+    assert jump.kind == "contact" and [q["s"] for q in before.contact["points"]] == [1.0]
+    assert not after.contact["points"] and after.tip["y"] < centre[1] - radius  # past the peg, below it
+    assert 0.0 < before.eigenvalues[0] <= 1e-3 * before.eigenvalues[1]  # at the fold
+    psi = math.atan2(before.tip["y"] - centre[1], before.tip["x"] - centre[0])
+    F = np.array(before.contact["total_force"])
+    guess = [before.evaluate(np.array([0.0]))["dtheta"][0], np.hypot(*F), jump.param]
+    assert jump.param == pytest.approx(tip_slip_load(centre, radius, psi, guess), abs=1e-6)
+    assert jump.energy_released > 0

@@ -4,7 +4,8 @@ A scene with obstacles is followed along its schedule by contact equilibria
 (:func:`actuator_design.contact.solve_contact`), each warm-started from the state before it: the
 quasi-static history, not a fresh start from rest. Steps are at most ``max_step`` of a segment and
 move no nodal angle more than ``max_dtheta``; a step that moves more is halved, and a change that
-stays large as the step shrinks to :data:`MIN_STEP` is a snap (a ``Jump`` of kind ``"contact"``).
+stays large as the step shrinks to :data:`MIN_STEP` is a snap (a ``Jump`` of kind ``"contact"``),
+located like a fold: the end of the followed branch, by bisection to :data:`EVENT_XTOL`.
 
 **Events.** Between two states the set of obstacles in contact may change. Obstacle k's event is
 located as the root of its gap function
@@ -41,6 +42,8 @@ __all__ = ["follow_contact_path", "EVENT_XTOL", "MIN_STEP"]
 EVENT_XTOL = 1e-10
 #: the smallest step, as a fraction of a segment: a state change above max_dtheta over it is a snap
 MIN_STEP = 1e-4
+#: steps a snap's bisection retries a solve in that overshot the end of the followed branch
+SUBSTEPS = 4
 #: samples of a step searched for the sign change of g_k when its two ends have the same sign
 SCAN = 16
 _S = np.linspace(0.0, 1.0, 401)  # arc lengths at which shapes are compared and gaps measured
@@ -144,10 +147,15 @@ class _Run:
                                   f"Morse index {r.morse_index}")
                 break
             if change > max_dtheta:  # large over the smallest step: the rod snapped
-                self.jumps.append(Jump(t=t_next, param=self.points[-1].param if self.param is None
-                                       else self.values(t_next)[self.param], values=self.values(t_next),
-                                       direction=self.direction(t_next), kind="contact", from_state=cur,
-                                       to_state=r, energy_released=float(cur.energy - r.energy)))
+                t_snap, last = self._snap(cur, t, t_next, max_dtheta)
+                if t_snap > t:
+                    self.record(last, t_snap, "step")
+                after = solve(self.scene(t_snap), self.options, initial=r)
+                after = after if after.success and _shape_change(r, after) <= max_dtheta else r
+                self.jumps.append(Jump(t=t_snap, param=self.points[-1].param if self.param is None
+                                       else self.values(t_snap)[self.param], values=self.values(t_snap),
+                                       direction=self.direction(t_snap), kind="contact", from_state=last,
+                                       to_state=after, energy_released=float(last.energy - after.energy)))
             else:
                 self._events(cur, r, t, t_next)
             at_schedule = abs(t_next - round(t_next)) <= 1e-12
@@ -169,6 +177,35 @@ class _Run:
         path.contact_events = sorted(self.events, key=lambda e: e["t"])
         path.point_states = [self.point_states[i] for i in order]
         return path
+
+    def _snap(self, cur: EquilibriumResult, ta: float, tb: float, max_dtheta: float):
+        """(t*, state): where the followed contact branch ends in [ta, tb] (its fold), by bisection
+        to :data:`EVENT_XTOL`: the last t whose contact solve, warm-started from the state before,
+        stays stable and on the branch (a change of θ within ``max_dtheta``)."""
+        def on_branch(r, prev):
+            return r.success and r.stable and _shape_change(prev, r) <= max_dtheta
+
+        def reach(t_to, state):  # near a fold one IPOPT solve may overshoot the branch's end:
+            r = solve(self.scene(t_to), self.options, initial=state)  # a miss is retried in
+            if on_branch(r, state):  # SUBSTEPS steps before t_to counts as past the fold
+                return r
+            t_from = ta
+            for t_k in np.linspace(t_from, t_to, SUBSTEPS + 1)[1:]:
+                r = solve(self.scene(t_k), self.options, initial=state)
+                if not on_branch(r, state):
+                    return None
+                state = r
+            return state
+
+        last = cur
+        while tb - ta > EVENT_XTOL * max(1.0, abs(ta)):
+            tm = 0.5 * (ta + tb)
+            r = reach(tm, last)
+            if r is not None:
+                ta, last = tm, r
+            else:
+                tb = tm
+        return ta, last
 
     def _where(self, t: float) -> str:
         return ", ".join(f"{k} = {v:.6g}" for k, v in self.values(t).items())
