@@ -139,3 +139,14 @@ def test_a_yaml_path_schedule_may_carry_quantities(tmp_path, capsys):
     assert main(["path", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "study.schedule[1].h" in err[0]
+
+
+def test_validate_names_the_channels_walls_and_gap_in_the_configs_millimetres(capsys):
+    """configs/contact_channel_path.yaml: walls 3 mm either side of the clamp, a 0.5 mm thick strip."""
+    from actuator_design.cli.main import main
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "contact_channel_path.yaml"
+    assert main(["validate", str(config)]) == 0
+    (line,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("obstacles")]
+    assert "wall through (0, 3) mm" in line and "wall through (0, -3) mm" in line
+    assert "the rod keeps 0.25 mm from them" in line and " l" not in line.replace(" lumen", "")

@@ -49,8 +49,9 @@ def run(args: argparse.Namespace) -> int:
         out["notes"] = notes
         print(dumps_json(out))
     else:
+        from ..user_units import user_units
         print(describe(scene, options, terms, source=args.config, summary=summary,
-                       notes=[n for n in notes if n != zero]))
+                       notes=[n for n in notes if n != zero], units=user_units(scene, raw)))
     return EXIT_OK
 
 
@@ -87,10 +88,11 @@ def zero_coupling(scene) -> str:
     return f"the field exerts no force or torque on the rod: {why}; the rod stays as the loads leave it"
 
 
-def describe(scene, options, terms, source: str = "", summary=None, notes=()) -> str:
+def describe(scene, options, terms, source: str = "", summary=None, notes=(), units=None) -> str:
     """A readable multi-line summary of a validated scene (no solve); ``summary`` is the physical
     scene's :class:`~actuator_design.config.magnetic_specs.MagneticSummary`, ``notes`` the reasons
-    and warnings to print."""
+    and warnings to print, ``units`` a physical scene's :class:`~actuator_design.user_units.UserUnits`
+    (obstacles in its length unit)."""
     from ..scene import DipoleField, ExpressionField, UniformField
 
     groups = f"h = {scene.h:.6g}, h^2 = {scene.h ** 2:.6g}"
@@ -130,8 +132,7 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=()) ->
         f"scene       : {scene.name}",
         f"groups      : {groups}",
         f"field       : {field_text}",
-        (f"obstacles   : {'; '.join(ob.describe() for ob in scene.obstacles)}; the rod keeps "
-         f"{scene.contact_gap:.4g} l from them (contact, frictionless)" if scene.obstacles else None),
+        (f"obstacles   : {_obstacles_text(scene, units)} (contact, frictionless)" if scene.obstacles else None),
         f"loads       : {'; '.join(loads) or 'none'}",
         f"clamp angle : {math.degrees(scene.theta0):.6g} deg",
         f"fibres      : {_profile(scene.fibres, 'alpha', deg=True)}",
@@ -149,6 +150,13 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=()) ->
          else "valid       : yes (configuration checked; nothing solved)"),
     ]
     return "\n".join(line for line in lines if line is not None)
+
+
+def _obstacles_text(scene, units) -> str:
+    """The obstacles and the gap the rod keeps from them, in rod lengths or the user's length unit."""
+    scale, unit = (1.0, "l") if units is None else (units.length(1.0), units.length_unit)
+    return (f"{'; '.join(ob.describe(scale, unit) for ob in scene.obstacles)}; the rod keeps "
+            f"{scale * scene.contact_gap:.4g} {unit} from them")
 
 
 def _profile(profile, name: str, deg: bool = False) -> str:
