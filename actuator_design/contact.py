@@ -136,8 +136,9 @@ def solve_contact(scene, options, initial=None):
     tangent to the obstacle), and the solve is repeated until those points stay put
     (at most :data:`MAX_SPLIT_ROUNDS` rounds; the residual check judges the last). The rounds are
     a fixed-point iteration s ← F(s) that converges linearly (the boundary pulls the contact point
-    a fraction of the way); from the third round on the secant step on F(s) − s (:func:`_secant`)
-    takes it there in fewer rounds, each a new mesh and a new NLP.
+    a fraction of the way); from the second round on (the first round's contact points standing in
+    for its boundaries) the secant step on F(s) − s (:func:`_secant`) takes it there in fewer
+    rounds, each a new mesh and a new NLP.
 
     Returns
     -------
@@ -169,7 +170,9 @@ def solve_contact(scene, options, initial=None):
                                      and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= SPLIT_TOL):
             break
         step = _secant(previous, splits, new)
-        previous = (splits, new)
+        # the first round has no boundaries yet: its contact points (constrained points) stand in
+        # for them, so that the secant step already starts from the second round
+        previous = (splits if splits else _merged(sorted(p["s"] for p in interior if "multiplier" in p)), new)
         splits = step
     result.contact["split_at"] = list(result.options.split_at)
     if options.accuracy is not None:
