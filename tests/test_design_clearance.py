@@ -185,3 +185,24 @@ def test_a_clearance_is_checked_in_one_line(capsys):
         assert main(["design", str(CONFIG), "--target-tip", "17,3", "--target-units", "mm", "--clearance", value]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0]
+
+
+def test_the_design_figure_shows_the_walls_and_the_box_error_in_mm(channel):
+    """The verified path of a design kept clear runs without the obstacles (no contact on it); the
+    figure draws the walls all the same, and the box panel gives the worst-case error in mm."""
+    from actuator_design.user_units import user_units
+    from actuator_design.viz.design import design_figure
+
+    scene, _, res = channel
+    _, _, raw = load_scene(CONFIG)
+    fig = design_figure(res, units=user_units(scene, raw))
+    shape_ax = fig.axes[0]
+    (box_ax,) = [ax for ax in fig.axes if ax.get_title().startswith("tip over the box")]
+    assert "obstacle" in shape_ax.get_legend_handles_labels()[1]
+    # the walls' lines, in rod lengths (the axes' data): y = -0.08 and y = 0.32
+    walls = sorted({round(float(ln.get_ydata()[0]), 12) for ln in shape_ax.get_lines()
+                    if len(ln.get_ydata()) == 2 and abs(ln.get_ydata()[0] - ln.get_ydata()[1]) <= 1e-12
+                    and ln.get_color() == "0.3"})
+    assert walls == [-0.08, 0.32]
+    err_mm = L_MM * res.robustness.robustness.worst_tip_error
+    assert f"worst-case error {err_mm:.3g} mm" in box_ax.get_legend_handles_labels()[1]

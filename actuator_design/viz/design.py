@@ -49,6 +49,12 @@ def design_figure(result, units=None):
     if state is not None and state.success:
         end_phi = result.schedule[-1].get("phi") if getattr(result, "schedule", None) else None
         plot_shape(state, ax=ax_shape, title=f"design — {verdict}", field_angle=end_phi)
+        base = getattr(result, "scene", None)
+        if base is not None and base.obstacles and not state.scene.obstacles:
+            # a design kept clear of the obstacles is verified without them (no contact on its path):
+            # the figure shows them all the same
+            from .contact import draw_obstacles
+            draw_obstacles(ax_shape, base, (*ax_shape.get_xlim(), *ax_shape.get_ylim()))
     else:
         ax_shape.set_title(f"design — {verdict} (no verified state)")
     if result.target:  # a stiffness-only design has no target pose
@@ -68,7 +74,7 @@ def design_figure(result, units=None):
             ax_shape.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none",
                           color="tab:blue", markersize=6, label="box corners")
     if rob is not None:
-        _spread_panel(axes[3], rob, result.target)
+        _spread_panel(axes[3], rob, result.target, units)
         length_axes(axes[3], units)
     length_axes(ax_shape, units)
     if ax_shape.get_legend_handles_labels()[0]:
@@ -153,10 +159,11 @@ def _corner_tips(rob) -> list:
             if c.get("reached") and all(math.isfinite(float(c["tip"][k])) for k in ("x", "y"))]
 
 
-def _spread_panel(ax, report, target) -> None:
+def _spread_panel(ax, report, target, units=None) -> None:
     """The tip over the tolerance box (every state followed on rays and edges), the box corners and
-    the reported worst-case error as a circle around the target (units of ℓ). Non-finite values
-    (an error that could not be bounded, a state that did not converge) are left out and said so."""
+    the reported worst-case error as a circle around the target (units of ℓ; the error's label in
+    the length unit of ``units`` when given). Non-finite values (an error that could not be
+    bounded, a state that did not converge) are left out and said so."""
     rob = report.robustness
     sp = _finite_rows(rob.spread)
     err = rob.worst_tip_error
@@ -177,7 +184,8 @@ def _spread_panel(ax, report, target) -> None:
         r = max(float(err), 1e-9)
         t = np.linspace(0, 2 * math.pi, 200)
         ax.plot(cx + r * np.cos(t), cy + r * np.sin(t), "--", color="crimson", lw=1,
-                label=f"worst-case error {r:.3g} l")
+                label=(f"worst-case error {r:.3g} l" if units is None else
+                       f"worst-case error {units.length(r):.3g} {units.length_unit}"))
     else:
         reach = np.hypot(sp[:, 0] - cx, sp[:, 1] - cy) if len(sp) else np.zeros(0)
         r = max(float(reach.max()) if reach.size else 0.0, 1e-3)
