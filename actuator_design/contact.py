@@ -272,7 +272,7 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         warm_start = initial is not None and refine is None
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
-        if lam0 is not None and lam0[0] is nlp and lam0[1].size == 1 + n_rows:  # the same NLP: its
+        if lam0 is not None and lam0[0] == id(nlp) and lam0[1].size == 1 + n_rows:  # the same NLP: its
             sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg, lam_g0=lam0[1])  # contact forces as the start
         else:
             sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg)
@@ -295,9 +295,9 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         converged = True
         message += " at a feasible point: judged by the residual check"
     strong = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
-    if finite:
-        strong = _one_per_contact(strong, mu, nlp.s_points, len(scene.obstacles))
-    weak = (~strong) & (d <= 1e-8)
+    merged = _one_per_contact(strong, mu, nlp.s_points, len(scene.obstacles)) if finite else strong
+    weak = ((~strong) & (d <= 1e-8)) | (strong & ~merged)  # a merged-away point: weakly active
+    strong = merged
     if finite:
         stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
         verdict = _verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
@@ -310,7 +310,8 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
     result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
     result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
     result.contact["start"] = start
-    result._contact_multipliers = (nlp, lam)  # a warm start's multipliers (the next state of a path)
+    # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
+    result._contact_multipliers = (id(nlp), lam)
     loads = _point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
