@@ -1,7 +1,8 @@
 """Which analyses know contact: ``solve`` (:mod:`actuator_design.contact`), ``path``
 (:mod:`actuator_design.analysis.contact_path`), ``design --target-force``
 (:mod:`actuator_design.analysis.contact_design`), ``design --target-tip`` for one pose (a rod
-kept clear of the obstacles, :mod:`actuator_design.clearance`), ``stiffness`` (by differences of contact solves)
+kept clear of the obstacles, :mod:`actuator_design.clearance`), ``stiffness`` (by differences of contact solves),
+``continue`` (the free branch up to its first touch, :mod:`actuator_design.analysis.continuation`)
 and ``validate`` do; the others would ignore a
 scene's obstacles (a branch through them, a stiffness without the support) and refuse such a scene
 in one line instead (issue 20: continuation and design with contact)."""
@@ -15,8 +16,9 @@ __all__ = ["refuse_contact", "no_contact"]
 def refuse_contact(scene, what: str) -> None:
     """Raise ``ValueError`` naming ``what`` when ``scene`` has obstacles."""
     if getattr(scene, "obstacles", ()):
-        raise ValueError(f"{what}: this scene has obstacles (contact), which only solve, path, stiffness and "
-                         "design (--target-tip, one pose, or --target-force) model so far; "
+        raise ValueError(f"{what}: this scene has obstacles (contact), which only solve, path, stiffness, "
+                         "continue (up to the first touch) and design (--target-tip, one pose, or --target-force) "
+                         "model so far; "
                          f"{what} would ignore them: remove scene.obstacles, or use solve")
 
 

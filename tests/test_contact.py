@@ -121,8 +121,7 @@ def test_the_shape_figure_draws_obstacles_and_contact_forces():
     assert "obstacle" in labels and "contact force (1 point)" in labels
 
 
-@pytest.mark.parametrize("argv", [["continue", "--param", "h", "--from", "0", "--to", "3"],
-                                  ["design", "--target-stiffness", "1.5"],
+@pytest.mark.parametrize("argv", [["design", "--target-stiffness", "1.5"],
                                   ["design", "--target-tip", "0.5,0.5;0.6,0.2"],
                                   ["equilibria"]])
 def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, capsys):
@@ -134,7 +133,8 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
-    assert "obstacles (contact), which only solve, path, stiffness and design (--target-tip, one pose" in err[0]
+    assert ("obstacles (contact), which only solve, path, stiffness, continue (up to the first touch) and design "
+            "(--target-tip, one pose") in err[0]
 
 
 def test_the_api_refuses_too():
@@ -168,3 +168,38 @@ def test_a_tip_on_a_floor_is_infinitely_stiff_vertically():
 
     st = tip_stiffness(solve(_floor_scene(0.1, 1.0)))
     assert st.vertical == math.inf and st.compliance[1, 1] == 0.0 and st.compliance[0, 0] > 0
+
+
+def test_continuation_follows_the_free_branch_to_the_first_touch():
+    """Tip load p from 0 down, a floor 0.1 below the clamp: the branch stops where the free tip
+    reaches the floor, at the load of the shooting reference (tip y(p) = −0.1), and says so."""
+    from scipy.optimize import brentq
+
+    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.reference.shooting import ShootingParams, solve_shooting
+
+    depth = 0.1
+    res = continue_branch(_floor_scene(depth, 0.0), "p", 0.0, -3.0)
+    br = res.branch
+    assert br.status == "touch" and "first touches an obstacle" in br.message, br.message
+    p_touch = brentq(lambda p: solve_shooting(ShootingParams(fy=p), gamma_guess=p / 2).tip_y + depth, -1.0, -0.1,
+                     xtol=1e-14)
+    assert br.lam[-1] == pytest.approx(p_touch, abs=1e-8)
+    assert br.tips[-1, 2] == pytest.approx(-depth, abs=1e-8) and np.all(br.tips[:-1, 2] > -depth)
+
+
+def test_continue_stops_at_the_touch_and_refuses_a_start_in_contact(capsys):
+    """The CLI: the branch up to the touch, a warning line and exit 3; a start already pressing the
+    floor is refused (continuation through contact is not modelled)."""
+    from pathlib import Path
+
+    from actuator_design.cli.main import main
+
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
+    assert main(["continue", str(cfg), "--param", "h", "--from", "0", "--to", "3"]) == 3
+    out, err = capsys.readouterr()
+    assert "(touch: stopped where the rod first touches an obstacle" in out
+    assert len(err.strip().splitlines()) == 1 and "continuation stopped early" in err
+    assert main(["continue", str(cfg), "--param", "h", "--from", "3", "--to", "0"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "touches or enters an obstacle" in err[0] and "use path" in err[0]

@@ -77,7 +77,8 @@ class Branch:
     folds, branch_points : list of CriticalPoint
     status : str
         Why it stopped: ``"left_window"``, ``"max_points"``, ``"closed_loop"``,
-        ``"step_too_small"``.
+        ``"step_too_small"``, or ``"touch"`` (a scene with obstacles: the rod touches one at the
+        last point, :func:`~actuator_design.analysis.continuation.continue_branch`).
     """
 
     param: str

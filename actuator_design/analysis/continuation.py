@@ -26,7 +26,7 @@ import casadi as ca
 import numpy as np
 
 from .. import parameters as lens
-from ..continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold,
+from ..continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold, UserEvent,
                             continuation)
 from ..equilibrium import solve
 from ..options import SolverOptions
@@ -38,7 +38,7 @@ from ..solver import EquilibriumSolver, get_solver
 from .branch import Branch, ContinuationResult, CriticalPoint
 from .stability_changes import insert_stability_changes
 from .registry import register
-from ..contact_guard import no_contact
+from ..clearance import clearance_rows
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
@@ -186,7 +186,7 @@ class Continuation:
     def run(self, x0: np.ndarray, window: Tuple[float, float], *, direction: float = 1.0,
             t0: Optional[np.ndarray] = None, ds: float = 0.05, ds_min: float = 1e-7,
             ds_max: float = 0.5, max_points: int = 2000, locate: bool = True,
-            origin: Optional[str] = None) -> Branch:
+            origin: Optional[str] = None, stop_events: Sequence[UserEvent] = ()) -> Branch:
         """Continue from the converged point ``x0`` until λ leaves ``window`` (the end point is
         placed on the window's edge), the branch closes, ``max_points`` is reached or the step
         underflows.
@@ -205,12 +205,14 @@ class Continuation:
             Initial, minimal and maximal arclength steps (W-norm).
         locate : bool
             Detect and locate folds and branch points.
+        stop_events : sequence of UserEvent
+            Events (made with ``stop=True``) that end the run where they are located.
         """
         settings = ContinuationSettings(
             ds=ds, ds_min=min(ds_min, ds, ds_max), ds_max=ds_max, max_steps=max(int(max_points), 2),
             window=(float(min(window)), float(max(window))), direction=1.0 if direction >= 0 else -1.0,
             tol=self.tol)
-        events = (Fold(), BranchPoint()) if locate else ()
+        events = ((Fold(), BranchPoint()) if locate else ()) + tuple(stop_events)
         res = continuation(self.problem, PALC(), settings, events, x0=x0, tangent=t0)
         n = self.n
         if locate:
@@ -225,6 +227,13 @@ class Continuation:
                     [c for c in crit if c.kind == "fold"], [c for c in crit if c.kind == "branch_point"],
                     res.status, res.message, res.stats, origin=origin)
         br._tangents = res.tangents
+        stopped = [e for e in res.events if e.kind == "user"] if res.status == "event" else []
+        if stopped:  # the branch ends at the stopping event itself (the touch), not the step before
+            e = stopped[-1]
+            idx, mu, _ = self.inertia(e.x)
+            br.lam = np.append(br.lam, e.lam)
+            br.z = np.vstack([br.z, self.full(e.x[:n], e.lam)])
+            br.morse_index, br.min_eig = np.append(br.morse_index, idx), np.append(br.min_eig, mu)
         self._decorate(br)
         return br
 
@@ -281,7 +290,37 @@ class Continuation:
         return out
 
 
-@no_contact("continue")
+def _least_clearance(cont: "Continuation", scene: Scene):
+    """θ at the nodes (rad) → the least clearance d_k(r(s_j)) − gap (units of ℓ) over the scene's
+    obstacles and the points contact is imposed at (:mod:`actuator_design.clearance`)."""
+    z = ca.SX.sym("z", cont.solver.transcription.nodes.size)
+    rows = ca.Function("clearance", [z], [clearance_rows(cont.solver.transcription, z, tuple(scene.obstacles),
+                                                         scene.contact_gap)])
+    return lambda theta: float(np.min(np.asarray(rows(np.asarray(theta, float)), float)))
+
+
+def _touch_event(least) -> UserEvent:
+    """The event where the branch's rod first touches an obstacle (``least`` changes sign)."""
+    return UserEvent("touch", lambda state: least(state.z), stop=True)
+
+
+def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, initial, least):
+    """The start of a branch on a scene with obstacles: the equilibrium without them (the branch is
+    followed while it keeps clear), which must keep clear of them (``least`` > 0); ``initial``
+    when given."""
+    if initial is None:
+        free = solve(replace(set_param(scene, param, start), obstacles=()),
+                     replace(cont.options, ensure_stable=True), solver=cont.solver)
+        if not free.success:
+            raise RuntimeError(f"continuation: no equilibrium found at {param} = {start}: {free.message}")
+        initial = free.z
+    z = np.asarray(initial.z if isinstance(initial, EquilibriumResult) else initial, float)
+    if least(z) <= 0.0:
+        raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or enters an obstacle; "
+                           "continuation through contact is not modelled: use path, which follows contact")
+    return z
+
+
 def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
                     options: Optional[SolverOptions] = None, initial=None, ds: float = 0.05,
                     ds_max: float = 0.5, max_points: int = 2000, switch: bool = False,
@@ -308,13 +347,22 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     """
     cont = Continuation(scene, param, options)
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
+    touch = ()
+    if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
+        least = _least_clearance(cont, scene)
+        initial = _free_start(cont, scene, param, start, initial, least)
+        touch = (_touch_event(least),)
     x0 = cont.start(start, initial)
     br = cont.run(x0, win, direction=1.0 if stop >= start else -1.0, ds=ds, ds_max=ds_max,
-                  max_points=max_points)
+                  max_points=max_points, stop_events=touch)
+    if touch and br.status == "event":
+        br.status = "touch"
+        br.message = (f"stopped where the rod first touches an obstacle, at {param} = {br.lam[-1]:.10g}: "
+                      "continuation through contact is not modelled (path follows contact)")
     sec = []
     if switch:
         for bp in br.branch_points:
-            sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points)
+            sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
     return ContinuationResult(param, br, sec, scene, win)
 
 

@@ -8,6 +8,10 @@ angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter;
 where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
 phi = 90 deg, p = 0); --switch also follows the branches that bifurcate there.
 
+A scene with obstacles is followed until the rod first touches one (located as an event; status
+`touch`, exit 3 with a warning: continuation through contact is not modelled, `path` follows
+contact); a start that already touches is refused.
+
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --from/--to accept units for
 parameters with a physical meaning: angles ('30 deg') always; for a physical scene fields ('2 mT',
@@ -231,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"  note        : {note}")
     if written is not None:
         print_written(written, args.json)
-    if res.branch.status == "step_too_small":
+    if res.branch.status in ("step_too_small", "touch"):
         print(f"actuator-design: warning: the continuation stopped early: {res.branch.message}",
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
