@@ -289,12 +289,15 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         grad, H, jac = nlp.lagrangian(z, P, lam)
         finite = bool(np.all(np.isfinite(grad)) and np.all(np.isfinite(H)))
     d = np.asarray(nlp.f_dist(z), float).ravel() if finite else np.full(n_rows, np.nan)
-    if status == STALLED and finite and np.min(d, initial=0.0) >= -PENETRATION_TOL:
+    pressing = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
+    if (status == STALLED and finite and np.min(d, initial=0.0) >= -PENETRATION_TOL
+            and np.max(d[pressing], initial=0.0) <= PENETRATION_TOL):
         # IPOPT stopped at round-off (an element only ~1e-3 long beside a contact point near the
-        # tip makes the system stiff): a feasible point is judged by the residual check, as any
+        # tip makes the system stiff): a feasible point whose forces all act at the gap
+        # (complementary) is judged by the residual check, as any
         converged = True
         message += " at a feasible point: judged by the residual check"
-    strong = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
+    strong = pressing
     merged = _one_per_contact(strong, mu, nlp.s_points, len(scene.obstacles)) if finite else strong
     weak = ((~strong) & (d <= 1e-8)) | (strong & ~merged)  # a merged-away point: weakly active
     strong = merged
