@@ -156,19 +156,26 @@ def solve_contact(scene, options, initial=None):
     if initial is not None and initial.contact is not None:
         splits = tuple(initial.contact.get("split_at", splits))
     previous, result = None, None  # (splits, F(splits)) of the round before; its state
+    checked = None  # (state, where it enters an obstacle or None): the dense check, made once
     while True:
         result = _solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result)
         rounds += 1
         interior = [p for p in result.contact["points"] if not p["weak"] and 0.0 < p["s"] < 1.0]
-        inside = entering(scene.obstacles, scene.contact_gap, result) if result.success else None
-        if inside is not None and 0.0 < inside[1] < 1.0:
-            interior.append({"obstacle": inside[0], "s": inside[1]})
-        if not result.success or not interior or rounds >= MAX_SPLIT_ROUNDS:
+        if not result.success or rounds >= MAX_SPLIT_ROUNDS:
             break
         new = _merged(sorted(_nearest_point(scene, result, p) for p in interior))
-        if len(new) > MAX_SPLITS or (len(new) == len(splits)
-                                     and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= SPLIT_TOL):
+        if len(new) > MAX_SPLITS:
             break
+        if not interior or (len(new) == len(splits)
+                            and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= SPLIT_TOL):
+            # the contact points stay put; a shape entering an obstacle between the constrained
+            # points (a contact rolling off the tip onto the body) gets a boundary there too
+            inside = entering(scene.obstacles, scene.contact_gap, result)
+            checked = (result, inside)
+            if inside is None or not 0.0 < inside[1] < 1.0 or len(new) >= MAX_SPLITS:
+                break
+            rolled = {"obstacle": inside[0], "s": inside[1]}
+            new = _merged(sorted(list(new) + [_nearest_point(scene, result, rolled)]))
         step = _secant(previous, splits, new)
         # the first round has no boundaries yet: its contact points (constrained points) stand in
         # for them, so that the secant step already starts from the second round
@@ -177,7 +184,7 @@ def solve_contact(scene, options, initial=None):
     result.contact["split_at"] = list(result.options.split_at)
     if options.accuracy is not None:
         result.message += "; the accuracy option is not applied to contact equilibria (the residual check is)"
-    inside = _penetration(scene, result)
+    inside = _penetration(scene, result, checked[1] if checked is not None and checked[0] is result else False)
     if inside is not None and result.success:
         result.success, result.status = False, "inaccurate"
         result.message += f"; {inside}: give more elements (solver.elements)"
@@ -336,10 +343,12 @@ def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
     return None
 
 
-def _penetration(scene, result) -> Optional[str]:
+def _penetration(scene, result, inside=False) -> Optional[str]:
     """Whether the dense shape comes closer to an obstacle than the gap between the points where
-    contact is imposed (by more than :data:`~.clearance.PENETRATION_TOL` rod lengths)."""
-    inside = entering(scene.obstacles, scene.contact_gap, result)
+    contact is imposed (by more than :data:`~.clearance.PENETRATION_TOL` rod lengths), in words;
+    ``inside``: :func:`~.clearance.entering` of ``result`` when already made (False: not yet)."""
+    if inside is False:
+        inside = entering(scene.obstacles, scene.contact_gap, result)
     if inside is None:
         return None
     k, s, depth = inside
