@@ -14,8 +14,8 @@ from typing import Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["constrained_points", "clearance_rows", "entering", "clearance_check", "clearances", "entered_at_rest",
-           "PENETRATION_TOL"]
+__all__ = ["constrained_points", "clearance_rows", "entering", "least_clearance", "clearance_check", "clearances",
+           "entered_at_rest", "PENETRATION_TOL"]
 
 
 def constrained_points(tr, z) -> Tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
@@ -75,15 +75,22 @@ def entering(obstacles: Sequence, gap: float, state, n: int = 2001,
     return worst["obstacle"], worst["s"], -worst["min_distance"]
 
 
+def least_clearance(solver, obstacles: Sequence, gap: float):
+    """θ at the nodes of ``solver``'s mesh (rad, shape (nodes,)) → the least d_k(r(s_j)) − gap over
+    the obstacles and the points contact is imposed at (units of ℓ; +inf without obstacles)."""
+    z = ca.SX.sym("z", solver.transcription.nodes.size)
+    rows = ca.Function("clearance", [z], [clearance_rows(solver.transcription, z, tuple(obstacles), gap)])
+    return lambda theta: float(np.min(np.asarray(rows(np.asarray(theta, float)), float), initial=np.inf))
+
+
 def clearance_check(solver, obstacles: Sequence, gap: float, tol: float = PENETRATION_TOL):
     """A predicate on θ at the nodes of ``solver``'s mesh (rad, shape (nodes,)): whether the rod
     keeps clear of every obstacle at the points contact is imposed at (to ``tol`` rod lengths);
     None when there are no obstacles (every state is admissible)."""
     if not obstacles:
         return None
-    z = ca.SX.sym("z", solver.transcription.nodes.size)
-    rows = ca.Function("clearance", [z], [clearance_rows(solver.transcription, z, tuple(obstacles), gap)])
-    return lambda theta: bool(np.min(np.asarray(rows(np.asarray(theta, float)), float), initial=np.inf) >= -tol)
+    least = least_clearance(solver, obstacles, gap)
+    return lambda theta: least(theta) >= -tol
 
 
 def clearances(obstacles: Sequence, gap: float, state, n: int = 2001) -> list:

@@ -185,11 +185,10 @@ class _Run:
         def on_branch(r, prev):
             return r.success and r.stable and _shape_change(prev, r) <= max_dtheta
 
-        def reach(t_to, state):  # near a fold one IPOPT solve may overshoot the branch's end:
-            r = solve(self.scene(t_to), self.options, initial=state)  # a miss is retried in
+        def reach(t_from, t_to, state):  # near a fold one IPOPT solve may overshoot the branch's
+            r = solve(self.scene(t_to), self.options, initial=state)  # end: a miss is retried in
             if on_branch(r, state):  # SUBSTEPS steps before t_to counts as past the fold
                 return r
-            t_from = ta
             for t_k in np.linspace(t_from, t_to, SUBSTEPS + 1)[1:]:
                 r = solve(self.scene(t_k), self.options, initial=state)
                 if not on_branch(r, state):
@@ -200,7 +199,7 @@ class _Run:
         last = cur
         while tb - ta > EVENT_XTOL * max(1.0, abs(ta)):
             tm = 0.5 * (ta + tb)
-            r = reach(tm, last)
+            r = reach(ta, tm, last)
             if r is not None:
                 ta, last = tm, r
             else:

@@ -38,7 +38,7 @@ from ..solver import EquilibriumSolver, get_solver
 from .branch import Branch, ContinuationResult, CriticalPoint
 from .stability_changes import insert_stability_changes
 from .registry import register
-from ..clearance import clearance_rows
+from ..clearance import least_clearance
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
@@ -290,15 +290,6 @@ class Continuation:
         return out
 
 
-def _least_clearance(cont: "Continuation", scene: Scene):
-    """θ at the nodes (rad) → the least clearance d_k(r(s_j)) − gap (units of ℓ) over the scene's
-    obstacles and the points contact is imposed at (:mod:`actuator_design.clearance`)."""
-    z = ca.SX.sym("z", cont.solver.transcription.nodes.size)
-    rows = ca.Function("clearance", [z], [clearance_rows(cont.solver.transcription, z, tuple(scene.obstacles),
-                                                         scene.contact_gap)])
-    return lambda theta: float(np.min(np.asarray(rows(np.asarray(theta, float)), float)))
-
-
 def _touch_event(least) -> UserEvent:
     """The event where the branch's rod first touches an obstacle (``least`` changes sign)."""
     return UserEvent("touch", lambda state: least(state.z), stop=True)
@@ -349,7 +340,7 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
     touch = ()
     if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
-        least = _least_clearance(cont, scene)
+        least = least_clearance(cont.solver, scene.obstacles, scene.contact_gap)
         initial = _free_start(cont, scene, param, start, initial, least)
         touch = (_touch_event(least),)
     x0 = cont.start(start, initial)
