@@ -16,9 +16,10 @@
    be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
    a result that fails is ``success=False``, ``status="inaccurate"`` (``options.accuracy``, the
    two-level estimate of :mod:`actuator_design.accuracy`, is the way to ask for refinement).
-4. **No self-intersection.** Contact is not modelled, so a shape crossing itself is not a physical
-   equilibrium: ``success=False``, ``status="self_intersecting"``, unless
-   ``options.keep_self_intersecting``.
+4. **No self-intersection.** A shape crossing itself is not a physical equilibrium:
+   ``success=False``, ``status="self_intersecting"``, unless ``options.keep_self_intersecting``;
+   :func:`~actuator_design.equilibrium.solve` then solves it with self-contact where the scene has a
+   thickness (``options.self_contact``, :mod:`actuator_design.self_contact`).
 """
 from __future__ import annotations
 
@@ -107,8 +108,10 @@ def check_physical(result):
         return result
     result.success = False
     result.status = "self_intersecting"
-    result.message += ("; the shape intersects itself, which is not a physical equilibrium (contact is "
-                       "not modelled): keep_self_intersecting (--keep-self-intersecting) accepts it")
+    how = ("self_contact is off (--no-self-contact)" if not result.options.self_contact else
+           "self-contact needs the rod's half-thickness (contact_gap > 0, set from rod.thickness on a physical scene)")
+    result.message += (f"; the shape intersects itself, which is not a physical equilibrium ({how}): "
+                       "keep_self_intersecting (--keep-self-intersecting) accepts it as it is")
     return result
 
 

@@ -25,45 +25,45 @@ from typing import Dict, List, Optional
 
 import casadi as ca
 import numpy as np
-import scipy.linalg as sla
 
 from .clearance import PENETRATION_TOL, constrained_points, entering
+from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
+from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, merged, nearest_point
 from .options import MAX_SPLITS
-from .reduced.linalg import classify_spectrum
 
-__all__ = ["solve_contact", "ContactVerdict"]
+__all__ = ["solve_contact", "solve_once", "ContactVerdict"]
 
-#: a multiplier above this (relative to max(1, |clamp force|)) is a contact; below it, with the
-#: constraint at the gap, the contact is weak (strict complementarity fails)
-ACTIVE = 1e-5
 _CACHE: Dict[tuple, "ContactNLP"] = {}
-
-
-@dataclass
-class ContactVerdict:
-    eigenvalues: np.ndarray
-    morse_index: int
-    stable: bool
-    marginal: bool = False
 
 
 class ContactNLP:
     """The contact-constrained NLP of one solver and one set of obstacles (built once)."""
 
-    def __init__(self, solver, obstacles, gap: float):
+    def __init__(self, solver, obstacles, gap: float, slots: int = 0):
         tr, lay = solver.transcription, solver.layout
         z = ca.SX.sym("z", tr.nodes.size)
         P = ca.SX.sym("P", lay.size)
         E = solver.f_energy(z, P)
         # one row per distinct point, none at the clamp (fixed): :mod:`.clearance`
         X, Y, self.s_points, self.w_points = constrained_points(tr, z)
-        self.obstacles, self.gap = tuple(obstacles), float(gap)
+        self.obstacles, self.gap, self.slots = tuple(obstacles), float(gap), int(slots)
         rows = [ob.distance(X, Y) - gap for ob in obstacles]
-        self.n_points = X.numel()
+        self.n_points = m = X.numel()
+        # self-contact: ``slots`` pairs of points chosen per solve by one-hot selection parameters
+        # (:mod:`.self_contact`), so that one NLP serves every pair set on this mesh; the clamp
+        # (fixed at the origin) is a point the rod may press on too
+        self.s_self, self.w_self = np.concatenate([[0.0], self.s_points]), np.concatenate([[0.0], self.w_points])
+        Sa, Sb = ca.SX.sym("Sa", self.slots, m + 1), ca.SX.sym("Sb", self.slots, m + 1)
+        if self.slots:
+            dx, dy = ca.mtimes(Sa - Sb, ca.vertcat(0, X)), ca.mtimes(Sa - Sb, ca.vertcat(0, Y))
+            rows.append((dx ** 2 + dy ** 2 - 4.0 * gap ** 2) / (4.0 * gap))
+        self.n_rows = len(self.obstacles) * m + self.slots
+        Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
-        self.f_dist = ca.Function("contact_rows", [z], [ca.vertcat(*rows)])
-        self._problem = {"x": z, "p": P, "f": E, "g": g}
+        self.f_dist = ca.Function("obstacle_rows", [z], [ca.vertcat(*rows[:len(self.obstacles)])])
+        self.f_rows = ca.Function("contact_rows", [z, Pall], [ca.vertcat(*rows)])
+        self._problem = {"x": z, "p": Pall, "f": E, "g": g}
         self._solvers: Dict[bool, ca.Function] = {}
         # the Lagrangian's gradient and Hessian (upper triangle) and the rows' Jacobian, as IPOPT
         # builds them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
@@ -91,6 +91,21 @@ class ContactNLP:
                 self.f_jac_g = solver.get_function("nlp_jac_g")
         return self._solvers[warm]
 
+    def parameters(self, P: np.ndarray, pairs=()) -> np.ndarray:
+        """The NLP's parameters: the solver's ``P`` and the one-hot selections of ``pairs`` (index
+        pairs into the clamp and the constrained points, ``s_self``, at most ``slots``; the unused
+        slots select nothing)."""
+        Sa, Sb = np.zeros((self.slots, self.n_points + 1)), np.zeros((self.slots, self.n_points + 1))
+        for q, (a, b) in enumerate(pairs):
+            Sa[q, a] = Sb[q, b] = 1.0
+        return np.concatenate([np.asarray(P, float), Sa.ravel(order="F"), Sb.ravel(order="F")])
+
+    def bounds(self, pairs=()):
+        """(lbg, ubg): the clamp row and the contact rows (≥ 0; an unused pair slot unbounded)."""
+        lbg = np.zeros(1 + self.n_rows)
+        lbg[1 + self.n_rows - self.slots + len(pairs):] = -np.inf
+        return lbg, np.concatenate([[0.0], np.full(self.n_rows, np.inf)])
+
     def lagrangian(self, z, P, lam_g):
         """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
         if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
@@ -102,10 +117,13 @@ class ContactNLP:
         return grad, H, jac
 
 
-def contact_nlp(solver, scene) -> ContactNLP:
-    key = (id(solver), scene.obstacles, scene.contact_gap)
+def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
+    from .self_contact import SLOTS
+
+    slots = SLOTS if self_contact else 0
+    key = (id(solver), scene.obstacles, scene.contact_gap, slots)
     if key not in _CACHE:
-        _CACHE[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap)
+        _CACHE[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
     return _CACHE[key]
 
 
@@ -122,28 +140,28 @@ def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]
             f"at s = {nlp.s_points[j]:.4g}: contact equilibria are sought from a free rest state")
 
 
-def solve_contact(scene, options, initial=None):
-    """A contact equilibrium of ``scene`` (its obstacles non-empty), or a failed result saying why.
+def solve_contact(scene, options, initial=None, self_contact: bool = False):
+    """A contact equilibrium of ``scene`` (its obstacles, and with ``self_contact`` the rod against
+    itself), or a failed result saying why.
 
     From the straight rod (the rest state) with the loads applied, or from ``initial`` (an
     ``EquilibriumResult`` of a nearby scene, e.g. the previous state of a loading path: its shape
-    interpolated onto the mesh, its contact points the first element boundaries).
+    interpolated onto the mesh, its contact points the first element boundaries; a self-contact
+    state keeps self-contact on).
 
     A point force inside an element kinks θ', which one polynomial cannot follow: every interior
     contact point becomes an element boundary (``SolverOptions.split_at``) at the point of the
-    solved shape nearest its obstacle (so does a point where the shape enters an obstacle between
-    the constrained points: a contact rolling off the tip onto the body, where the rod is nearly
-    tangent to the obstacle), and the solve is repeated until those points stay put
-    (at most :data:`MAX_SPLIT_ROUNDS` rounds; the residual check judges the last). The rounds are
-    a fixed-point iteration s ← F(s) that converges linearly (the boundary pulls the contact point
-    a fraction of the way); from the second round on (the first round's contact points standing in
-    for its boundaries) the secant step on F(s) − s (:func:`_secant`) takes it there in fewer
-    rounds, each a new mesh and a new NLP.
+    solved shape nearest its obstacle (at both points of a self-contact), and so does a point where
+    the shape enters an obstacle (or itself) between the constrained points: a contact rolling off
+    the tip onto the body, where the rod is nearly tangent to the obstacle. The solve is repeated
+    until those points stay put (at most :data:`~.contact_split.MAX_SPLIT_ROUNDS` rounds; the
+    residual check judges the last), from the second round on with Anderson's mixing
+    (:func:`~.contact_split.accelerated`), each round a new mesh and a new NLP.
 
     Returns
     -------
     EquilibriumResult
-        ``contact`` holds the contact set (module doc); accepted by the checks of
+        ``contact`` holds the contact set (:mod:`.contact_report`); accepted by the checks of
         :mod:`actuator_design.acceptance` like any equilibrium.
     """
     from dataclasses import replace
@@ -151,108 +169,130 @@ def solve_contact(scene, options, initial=None):
     from .acceptance import accept, graded_options
 
     t0 = time.perf_counter()
+    self_contact = self_contact or bool(initial is not None and (initial.contact or {}).get("self_contact"))
     opts = graded_options(scene, options) if options.adapt else options
     splits, rounds = tuple(opts.split_at), 0
     if initial is not None and initial.contact is not None:
         splits = tuple(initial.contact.get("split_at", splits))
-    previous, result = None, None  # (splits, F(splits)) of the round before; its state
-    checked = None  # (state, where it enters an obstacle or None): the dense check, made once
+    history, result = [], None  # (splits, F(splits)) of the rounds with the same points; the state
+    checked = None  # (state, where it enters an obstacle, where itself): the dense checks, made once
     while True:
-        result = _solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result)
+        result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,
+                            self_contact=self_contact)
         rounds += 1
-        interior = [p for p in result.contact["points"] if not p["weak"] and 0.0 < p["s"] < 1.0]
+        strong = [p for p in result.contact["points"] if not p["weak"]]
+        interior = [p for p in strong if 0.0 < p["s"] < 1.0]
         if not result.success or rounds >= MAX_SPLIT_ROUNDS:
             break
-        new = _merged(sorted(_nearest_point(scene, result, p) for p in interior))
+        new = merged(sorted(_boundaries(scene, result, strong)))
         if len(new) > MAX_SPLITS:
             break
         if not interior or (len(new) == len(splits)
                             and np.max(np.abs(np.subtract(new, splits)), initial=0.0) <= SPLIT_TOL):
-            # the contact points stay put; a shape entering an obstacle between the constrained
-            # points (a contact rolling off the tip onto the body) gets a boundary there too
-            inside = entering(scene.obstacles, scene.contact_gap, result)
-            checked = (result, inside)
-            if inside is None or not 0.0 < inside[1] < 1.0 or len(new) >= MAX_SPLITS:
+            # the contact points stay put; a shape entering an obstacle (or itself) between the
+            # constrained points (a contact rolling off the tip onto the body) gets boundaries there
+            checked = (result,) + _dense_checks(scene, result, self_contact)
+            extra = _entry_boundaries(scene, result, *checked[1:])
+            if not extra or len(new) >= MAX_SPLITS:
                 break
-            rolled = {"obstacle": inside[0], "s": inside[1]}
-            new = _merged(sorted(list(new) + [_nearest_point(scene, result, rolled)]))
-        step = _secant(previous, splits, new)
+            new = merged(sorted(list(new) + extra))
         # the first round has no boundaries yet: its contact points (constrained points) stand in
-        # for them, so that the secant step already starts from the second round
-        previous = (splits if splits else _merged(sorted(p["s"] for p in interior if "multiplier" in p)), new)
-        splits = step
+        # for them, so that the acceleration already starts from the second round
+        here = (splits if splits else merged(sorted(p["s"] for p in interior)), new)
+        history = history + [here] if history and len(history[-1][0]) == len(here[0]) == len(new) else [here]
+        splits = accelerated(history)
     result.contact["split_at"] = list(result.options.split_at)
     if options.accuracy is not None:
         result.message += "; the accuracy option is not applied to contact equilibria (the residual check is)"
-    inside = _penetration(scene, result, checked[1] if checked is not None and checked[0] is result else False)
+    if checked is None or checked[0] is not result:
+        checked = (result,) + _dense_checks(scene, result, self_contact)
+    inside = _penetration(scene, result, *checked[1:])
     if inside is not None and result.success:
         result.success, result.status = False, "inaccurate"
         result.message += f"; {inside}: give more elements (solver.elements)"
+    if self_contact and result.success:
+        _check_frictionless(result)
     return accept(result)
 
 
-#: IPOPT's status when its steps fell below round-off (not a failure in itself: :func:`_solve_once`)
-STALLED = "Search_Direction_Becomes_Too_Small"
-#: rounds of solve → move the element boundaries to the contact points → solve
-MAX_SPLIT_ROUNDS = 8
-#: a boundary this close (arc length) to its contact point stays: the kink it leaves is below the
-#: residual check's resolution (a force F off by δs leaves a residual ~F δs)
-SPLIT_TOL = 1e-8
-#: contact points closer than this (rod lengths of arc) are one point: one element boundary
-MERGE = 1e-6
+def _check_frictionless(result) -> None:
+    """A self-contact whose rows push off the turns' common normal (its points not yet the nearest
+    points of the two turns when the split rounds stopped) carries a tangential force; above the
+    residual check's limit (relative to the moment scale) the result is inaccurate, in place."""
+    from .acceptance import moment_scale, residual_limit
+    from .self_contact import tangential_force
+
+    worst = tangential_force(result)
+    if worst is None:
+        return
+    f, a, b = worst
+    limit = residual_limit(result.options) * moment_scale(result)
+    result.contact["tangential_force"] = f
+    if f > limit:
+        result.success, result.status = False, "inaccurate"
+        result.message += (f"; the self-contact at s = {a:.4g} against s = {b:.4g} is not yet at the nearest "
+                           f"points of the two turns: a tangential force {f:.2e} > {limit:.1e} (B0/l^2) that a "
+                           "frictionless contact cannot carry; try another mesh (solver.elements)")
 
 
-def _secant(previous, splits: tuple, new: tuple) -> tuple:
-    """The next element boundaries: the secant root of G(s) = F(s) − s through this round and the
-    one before (each point on its own), where both rounds had the same points and the step lands
-    within 10 |G| of F(s); F(s) itself otherwise."""
-    if previous is None or not (len(previous[0]) == len(previous[1]) == len(splits) == len(new)):
-        return new
-    s0, f0 = (np.asarray(v, float) for v in previous)
-    s1, f1 = np.asarray(splits, float), np.asarray(new, float)
-    g0, g1 = f0 - s0, f1 - s1
-    dg = g1 - g0
-    if np.any(np.abs(dg) <= 1e-14) or np.any(s1 == s0):
-        return new
-    step = s1 - g1 * (s1 - s0) / dg
-    if np.any(np.abs(step - f1) > 10 * np.abs(g1)) or np.any(step <= 0.0) or np.any(step >= 1.0):
-        return new
-    return _merged(sorted(step))
+def _boundaries(scene, result, strong) -> list:
+    """Element boundaries in (0, 1) at the contact points of ``strong`` (a self-contact's pair once)."""
+    from .self_contact import nearest_pair
 
-
-def _merged(points) -> tuple:
-    """Sorted arc lengths with those closer than :data:`MERGE` merged into their mean."""
-    groups = []
-    for s in points:
-        if groups and s - groups[-1][-1] <= MERGE:
-            groups[-1].append(s)
-        else:
-            groups.append([s])
-    return tuple(round(float(np.mean(g)), 12) for g in groups)
-
-
-def _nearest_point(scene, result, point: dict) -> float:
-    """The arc length of the shape's point nearest the obstacle of a contact ``point``, near it."""
-    from scipy.optimize import minimize_scalar
-
-    ob = scene.obstacles[point["obstacle"]]
     half = 0.5 / max(1, result.options.elements)
-    lo, hi = max(1e-9, point["s"] - half), min(1.0 - 1e-9, point["s"] + half)
-    dist = lambda s: float(np.asarray(ob.distance(*(result.evaluate(np.array([s]))[k] for k in ("x", "y"))))[0])
-    return float(minimize_scalar(dist, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12}).x)
+    out = []
+    for p in strong:
+        if p.get("self"):
+            if p["s"] < p["partner_s"]:
+                out += [v for v in nearest_pair(result, p["s"], p["partner_s"], half) if MERGE < v < 1.0]
+        elif 0.0 < p["s"] < 1.0:
+            out.append(nearest_point(scene, result, p))
+    return out
 
 
-def _solve_once(scene, opts, t0: float, initial=None, refine=None):
+def _dense_checks(scene, result, self_contact: bool) -> tuple:
+    """(where the dense shape enters an obstacle, where it enters itself): each None when it does not."""
+    from .self_contact import self_penetration
+
+    inside = entering(scene.obstacles, scene.contact_gap, result) if scene.obstacles else None
+    return inside, (self_penetration(result, scene.contact_gap) if self_contact else None)
+
+
+def _entry_boundaries(scene, result, inside, self_inside) -> list:
+    from .self_contact import nearest_pair
+
+    out = []
+    if inside is not None and 0.0 < inside[1] < 1.0:
+        out.append(nearest_point(scene, result, {"obstacle": inside[0], "s": inside[1]}))
+    if self_inside is not None:
+        half = 0.5 / max(1, result.options.elements)
+        out += [v for v in nearest_pair(result, self_inside[0], self_inside[1], half) if MERGE < v < 1.0]
+    return out
+
+
+#: IPOPT's status when its steps fell below round-off (not a failure in itself: :func:`solve_once`)
+STALLED = "Search_Direction_Becomes_Too_Small"
+
+
+def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: float = 1.0,
+               self_contact: bool = False, spread: int = 1, cold: bool = False):
     """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
     straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
-    boundaries from ``refine`` (the round before: its start is the one reported)."""
+    boundaries from ``refine`` (the round before: its start is the one reported). ``fraction``
+    scales every load and field (a ramp from rest); ``self_contact`` adds the rows of the pairs of
+    points near each other in the start (:func:`~.self_contact.candidate_pairs`, with ``spread``);
+    ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair)."""
     from .balance import balance
     from .equilibrium import _make_result
+    from .from_rest import load_fraction
+    from .self_contact import candidate_pairs
     from .solver import RawSolution, get_solver
 
     solver = get_solver(scene, opts)
-    nlp = contact_nlp(solver, scene)
+    nlp = contact_nlp(solver, scene, self_contact)
     P = solver.parameter_vector(scene)
+    if fraction != 1.0:
+        P = load_fraction(solver, P, fraction)
     z0 = np.full(solver.transcription.nodes.size, scene.theta0)
     warm = refine if refine is not None else initial
     if warm is not None:
@@ -266,36 +306,43 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         shaped = _lumen_start(scene, np.asarray(solver.transcription.nodes, float))
         if shaped is not None and _rest_state_problem(scene, nlp, shaped) is None:
             z0, problem, start = shaped, None, "the rod laid along the lumen's centre line, the loads applied"
-    n_rows = len(scene.obstacles) * nlp.n_points
-    lbg = np.zeros(1 + n_rows)
-    ubg = np.concatenate([[0.0], np.full(n_rows, np.inf)])
+    pairs = ()
+    if nlp.slots:
+        X0, Y0 = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z0))
+        pairs = candidate_pairs(nlp.s_self, X0, Y0, scene.contact_gap, slots=nlp.slots, spread=spread)
+        kept = _contact_boundary_pairs(nlp.s_self, opts.split_at, refine if refine is not None else initial)
+        pairs = tuple((kept + [q for q in pairs if q not in kept])[:nlp.slots])
+    Pall = nlp.parameters(P, pairs)
+    lbg, ubg = nlp.bounds(pairs)
+    used = np.isfinite(lbg[1:])
     if problem is not None:  # no rest state to start from: nothing is solved
-        z, lam, status, iterations = z0, np.zeros(1 + n_rows), "obstacle_at_rest", 0
+        z, lam, status, iterations = z0, np.zeros(1 + nlp.n_rows), "obstacle_at_rest", 0
         message = problem
     else:
         # a state of the previous scene on its own mesh is feasible: warm; a later round's start
         # (the round before, interpolated onto new element boundaries) may enter an obstacle at a
         # new point, and a small barrier from there jumped the rod past the peg: cold
-        warm_start = initial is not None and refine is None
+        warm_start = not cold and ((initial is not None and refine is None) or (self_contact and warm is not None))
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
-        if lam0 is not None and lam0[0] == id(nlp) and lam0[1].size == 1 + n_rows:  # the same NLP: its
-            sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg, lam_g0=lam0[1])  # contact forces as the start
+        if lam0 is not None and lam0[:2] == (id(nlp), pairs):  # the same NLP and pairs: its
+            sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])  # contact forces as the start
         else:
-            sol = ipopt(x0=z0, p=P, lbg=lbg, ubg=ubg)
+            sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg)
         st = ipopt.stats()
         z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
         status = str(st.get("return_status"))
         iterations = int(st.get("iter_count", 0))
         message = f"IPOPT: {status} (contact, from {start})"
     converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-    mu = np.maximum(-lam[1:], 0.0)
+    mu = np.where(used, np.maximum(-lam[1:], 0.0), 0.0)
     mass = np.asarray(solver.transcription.mass, float)
     finite = bool(np.all(np.isfinite(z)) and np.all(np.isfinite(lam)))
     if finite:
-        grad, H, jac = nlp.lagrangian(z, P, lam)
+        grad, H, jac = nlp.lagrangian(z, Pall, lam)
         finite = bool(np.all(np.isfinite(grad)) and np.all(np.isfinite(H)))
-    d = np.asarray(nlp.f_dist(z), float).ravel() if finite else np.full(n_rows, np.nan)
+    d = np.asarray(nlp.f_rows(z, Pall), float).ravel() if finite else np.full(nlp.n_rows, np.nan)
+    d[~used] = np.inf
     pressing = mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))
     if (status == STALLED and finite and np.min(d, initial=0.0) >= -PENETRATION_TOL
             and np.max(d[pressing], initial=0.0) <= PENETRATION_TOL):
@@ -305,27 +352,53 @@ def _solve_once(scene, opts, t0: float, initial=None, refine=None):
         converged = True
         message += " at a feasible point: judged by the residual check"
     strong = pressing
-    merged = _one_per_contact(strong, mu, nlp.s_points, len(scene.obstacles)) if finite else strong
-    weak = ((~strong) & (d <= 1e-8)) | (strong & ~merged)  # a merged-away point: weakly active
-    strong = merged
+    kept = one_per_contact(strong, mu, nlp.s_points, len(scene.obstacles), pairs) if finite else strong
+    weak = ((~strong) & (d <= 1e-8)) | (strong & ~kept)  # a merged-away point: weakly active
+    strong = kept
     if finite:
         stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
-        verdict = _verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
+        stability = verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
     else:  # IPOPT left no usable point: no verdict
         converged, stationarity = False, float("inf")
-        verdict = ContactVerdict(np.array([np.nan]), -1, False)
+        stability = ContactVerdict(np.array([np.nan]), -1, False)
     raw = RawSolution(z=z, converged=converged,
                       status="converged" if converged else ("obstacle_at_rest" if problem else "not_converged"),
                       iterations=iterations, stationarity=stationarity, message=message)
-    result = _make_result(scene, opts, solver, P, raw, verdict, False, [], time.perf_counter() - t0)
-    result.contact = _contact_report(scene, nlp, z, mu, strong, weak)
+    result = _make_result(scene, opts, solver, P, raw, stability, False, [], time.perf_counter() - t0)
+    X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
+    result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs)
     result.contact["start"] = start
     # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
-    result._contact_multipliers = (id(nlp), lam)
-    loads = _point_loads(result.contact)
+    result._contact_multipliers = (id(nlp), pairs, lam)
+    loads = point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
     return result
+
+
+def _contact_boundary_pairs(s_self: np.ndarray, splits, state) -> list:
+    """Index pairs (into ``s_self``: the clamp, then the constrained points) of the element
+    boundaries put at ``state``'s self-contacts (each end at the boundary, the clamp or the tip
+    nearest it): a split round constrains exactly the points it moved the boundaries to. The
+    nearest node pair of the start may be a neighbouring node (LGL nodes crowd at an element's
+    ends), and a force there lands up to ~1e-3 off its contact."""
+    if state is None or not (state.contact or {}).get("self_contact"):
+        return []
+    ends = np.concatenate([[0.0, 1.0], np.asarray(splits, float)])
+    out = []
+    for p in state.contact["points"]:
+        if not p.get("self") or p["weak"] or p["s"] > p["partner_s"]:
+            continue
+        q = []
+        for s in (p["s"], p["partner_s"]):
+            b = ends[int(np.argmin(np.abs(ends - s)))]
+            i = int(np.argmin(np.abs(s_self - b)))
+            if abs(b - s) > 1e-2 or abs(s_self[i] - b) > 1e-9:
+                break
+            q.append(i)
+        if len(q) == 2 and q[0] != q[1] and tuple(sorted(q)) not in out:
+            out.append(tuple(sorted(q)))
+    return out
 
 
 def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
@@ -343,91 +416,16 @@ def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
     return None
 
 
-def _penetration(scene, result, inside=False) -> Optional[str]:
-    """Whether the dense shape comes closer to an obstacle than the gap between the points where
-    contact is imposed (by more than :data:`~.clearance.PENETRATION_TOL` rod lengths), in words;
-    ``inside``: :func:`~.clearance.entering` of ``result`` when already made (False: not yet)."""
-    if inside is False:
-        inside = entering(scene.obstacles, scene.contact_gap, result)
-    if inside is None:
-        return None
-    k, s, depth = inside
-    return (f"between the points where contact is imposed the rod enters the "
-            f"{scene.obstacles[k].describe()} by {depth:.2g} rod lengths at s = {s:.4g}")
-
-
-#: strong contacts of one obstacle closer than this (arc length, units of ℓ) are one contact: the
-#: nodes of a short element beside a contact point (a contact rolling off the tip) both carried
-#: a force, one of them ~1e-5 of the other, and as two constraints they kept the rod from rolling
-#: on the obstacle (the lowest eigenvalue jumped from 22.8 to 57.9 where the contact left the tip)
-CONTACT_WINDOW = 1e-4
-
-
-def _one_per_contact(strong: np.ndarray, mu: np.ndarray, s_points: np.ndarray, n_obstacles: int) -> np.ndarray:
-    """``strong`` with, among strong points of one obstacle within :data:`CONTACT_WINDOW` of each
-    other, only the one of the largest multiplier kept (the others are reported weakly active)."""
-    out = strong.copy()
-    m = s_points.size
-    for k in range(n_obstacles):
-        idx = [k * m + j for j in range(m) if strong[k * m + j]]
-        group: list = []
-        for i in idx + [None]:
-            if i is not None and group and s_points[i % m] - s_points[group[-1] % m] <= CONTACT_WINDOW:
-                group.append(i)
-                continue
-            if len(group) > 1:
-                keep = max(group, key=lambda g: mu[g])
-                for g in group:
-                    out[g] = g == keep
-            group = [] if i is None else [i]
-    return out
-
-
-def _verdict(H: np.ndarray, A: np.ndarray, m: np.ndarray) -> ContactVerdict:
-    """Inertia of H on the null space of the active rows A, against the mass diag(m) (module doc)."""
-    Z = sla.null_space(A) if A.size else np.eye(H.shape[0])
-    if Z.shape[1] == 0:
-        return ContactVerdict(np.array([np.inf]), 0, True)
-    Hz, Mz = Z.T @ H @ Z, Z.T @ (m[:, None] * Z)
-    ev = sla.eigh(0.5 * (Hz + Hz.T), 0.5 * (Mz + Mz.T), eigvals_only=True)
-    # the package's one rule (scaled by the lowest eigenvalue: the largest grows without bound on a
-    # short element beside a contact near the tip, and made a stable state "marginal")
-    morse, stable, marginal = classify_spectrum(ev, 1e-9)
-    return ContactVerdict(ev[:6], morse, stable, marginal)
-
-
-def _contact_report(scene, nlp: ContactNLP, z, mu, strong, weak) -> dict:
-    X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
-    points: List[dict] = []
-    for k, ob in enumerate(scene.obstacles):
-        sl = slice(k * nlp.n_points, (k + 1) * nlp.n_points)
-        for j in np.flatnonzero(strong[sl] | weak[sl]):
-            i = k * nlp.n_points + j
-            nrm = ob.normal(X[j], Y[j])[:, 0]
-            f = mu[i] * nrm
-            w = nlp.w_points[j]
-            tip = nlp.s_points[j] == 1.0  # a point force; elsewhere the force of a quadrature weight
-            points.append({"obstacle": k, "s": float(nlp.s_points[j]), "x": float(X[j]), "y": float(Y[j]),
-                           "force": [float(f[0]), float(f[1])], "multiplier": float(mu[i]),
-                           "force_per_length": None if tip else [float(f[0] / w), float(f[1] / w)],
-                           "weak": bool(weak[i])})
-    total = np.sum([p["force"] for p in points], axis=0) if points else np.zeros(2)
-    sc = scene.scales
-    if sc is not None:  # in the scene's SI units too
-        for p in points:
-            p["force_N"] = [v * sc.force for v in p["force"]]
-            p["force_per_length_N_per_m"] = (None if p["force_per_length"] is None else
-                                             [v * sc.force / sc.length for v in p["force_per_length"]])
-            p["position_m"] = [p["x"] * sc.length, p["y"] * sc.length]
-    return {"points": points, "total_force": [float(total[0]), float(total[1])],
-            **({"total_force_N": [float(total[0] * sc.force), float(total[1] * sc.force)]} if sc else {}),
-            "obstacles": [ob.describe() for ob in scene.obstacles], "gap": scene.contact_gap,
-            "weakly_active": int(sum(p["weak"] for p in points)),
-            "units": {"force": "B0/l^2", "force_per_length": "B0/l^3", "position": "rod length"}}
-
-
-def _point_loads(contact: dict):
-    pts = contact["points"]  # weakly active points too: their (tiny) forces are part of the balance
-    if not pts:
-        return None
-    return tuple(np.array(v) for v in zip(*[(p["s"], p["force"][0], p["force"][1], p["x"], p["y"]) for p in pts]))
+def _penetration(scene, result, inside, self_inside) -> Optional[str]:
+    """Whether the dense shape comes closer to an obstacle than the gap, or to itself than twice
+    the gap, between the points where contact is imposed (by more than
+    :data:`~.clearance.PENETRATION_TOL` rod lengths), in words; the arguments from :func:`_dense_checks`."""
+    if inside is not None:
+        k, s, depth = inside
+        return (f"between the points where contact is imposed the rod enters the "
+                f"{scene.obstacles[k].describe()} by {depth:.2g} rod lengths at s = {s:.4g}")
+    if self_inside is not None:
+        s, t, depth = self_inside
+        return (f"between the points where contact is imposed the rod enters itself by {depth:.2g} rod "
+                f"lengths (s = {s:.4g} against s = {t:.4g})")
+    return None

@@ -51,18 +51,27 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     options = options or SolverOptions()
     if scene.obstacles:  # unilateral constraints: IPOPT with the contact rows
         from .contact import solve_contact
-        return solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
-    if options.accuracy is not None and solver is None:
+        result = solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
+    elif options.accuracy is not None and solver is None:
         from dataclasses import replace
 
         from .acceptance import check_physical
         from .accuracy import solve_to_tolerance
-        return check_physical(solve_to_tolerance(scene, options.accuracy,
-                                                 options=replace(options, accuracy=None), initial=initial))
-    if solver is None and not isinstance(initial, np.ndarray):
+        result = check_physical(solve_to_tolerance(scene, options.accuracy,
+                                                   options=replace(options, accuracy=None), initial=initial))
+    elif solver is None and not isinstance(initial, np.ndarray):
         from .acceptance import solve_checked
-        return solve_checked(scene, options, initial)
-    return solve_on(scene, options, initial, solver)
+        result = solve_checked(scene, options, initial)
+    else:
+        return solve_on(scene, options, initial, solver)
+    if (options.self_contact and not options.keep_self_intersecting and scene.contact_gap > 0
+            and not (result.contact or {}).get("self_contact")):
+        # a shape that crosses itself or enters its own thickness: the rod against itself, the
+        # contact equilibrium reached from rest (issue 20 item 3)
+        from .self_contact import self_penetration, solve_self_contact
+        if result.status == "self_intersecting" or (result.success and self_penetration(result, scene.contact_gap)):
+            return solve_self_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
+    return result
 
 
 def solve_on(scene: Scene, options: SolverOptions, initial=None,

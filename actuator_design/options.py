@@ -78,8 +78,13 @@ class SolverOptions:
         Extra ``lgl`` element boundaries in (0, 1) (at most 16): where a point force (a contact)
         kinks θ', so that each side is one polynomial (:mod:`actuator_design.contact` sets them).
     keep_self_intersecting : bool
-        Accept a self-intersecting shape as a result (contact is not modelled); by default it is
-        ``success=False`` with ``status="self_intersecting"``.
+        Accept a self-intersecting shape as a result (no self-contact); by default it is solved with
+        self-contact (``self_contact``) or, without, ``success=False`` with ``status="self_intersecting"``.
+    self_contact : bool
+        Solve a shape that would cross itself (or come closer to itself than the rod's thickness,
+        2·``Scene.contact_gap``) as a self-contact equilibrium reached from rest
+        (:mod:`actuator_design.self_contact`; the scene needs ``contact_gap`` > 0, the rod's
+        half-thickness); False: refuse it as ``"self_intersecting"`` (the behaviour before self-contact).
 
     Notes
     -----
@@ -104,6 +109,7 @@ class SolverOptions:
     clamp_levels: int = 0
     tip_levels: int = 0
     keep_self_intersecting: bool = False
+    self_contact: bool = True
     split_at: Tuple[float, ...] = ()
 
     def __post_init__(self):

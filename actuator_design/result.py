@@ -251,9 +251,14 @@ class EquilibriumResult:
                          "perturbed along its unstable mode to reach this stable one")
         if self.contact is not None:
             c = self.contact
-            strong = [p for p in c["points"] if not p["weak"]]
-            where = ", ".join(f"s = {p['s']:.4g} ({'tip' if p['s'] == 1.0 else 'obstacle ' + str(p['obstacle'] + 1)})"
-                              for p in strong[:4]) + (", ..." if len(strong) > 4 else "")
+            # a self-contact once (its end of lower arc length), against the other end
+            strong = [p for p in c["points"] if not p["weak"] and not (p.get("self") and p["s"] > p["partner_s"])]
+
+            def what(p):
+                if p.get("self"):
+                    return f"against the rod at s = {p['partner_s']:.4g}"
+                return "tip" if p["s"] == 1.0 else "obstacle " + str(p["obstacle"] + 1)
+            where = ", ".join(f"s = {p['s']:.4g} ({what(p)})" for p in strong[:4]) + (", ..." if len(strong) > 4 else "")
             lines.append(f"  contact     : {len(strong)} point(s) in contact{': ' + where if strong else ''}; "
                          f"total contact force ({number(c['total_force'][0])}, {number(c['total_force'][1])}) "
                          f"[B0/l^2]" + (f" = ({number(c['total_force_N'][0], '.4g')}, "
@@ -261,7 +266,7 @@ class EquilibriumResult:
                          + (f"; {c['weakly_active']} weakly active (no force at the gap)"
                                         if c["weakly_active"] else ""))
         if self.self_intersecting:
-            lines.append("  warning     : the shape intersects itself; contact is not modelled")
+            lines.append("  warning     : the shape intersects itself")
         phys = self.physical()
         if phys:
             lines.append(f"  physical    : tip = ({number(1e3 * phys['tip_x_m'])}, {number(1e3 * phys['tip_y_m'])}) mm, "

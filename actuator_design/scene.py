@@ -265,8 +265,9 @@ class Scene:
         Rigid frictionless obstacles (:mod:`actuator_design.obstacles`); ``solve`` then finds a
         contact equilibrium (:mod:`actuator_design.contact`).
     contact_gap : float
-        The distance the centre line keeps from an obstacle, units of ℓ (the rod's half-thickness
-        for a physical scene).
+        The rod's half-thickness, units of ℓ (set from ``rod.thickness`` for a physical scene): the
+        distance its centre line keeps from an obstacle, and half the distance it keeps from itself
+        (self-contact, :mod:`actuator_design.self_contact`); 0: no self-contact.
     """
 
     field: Optional[Field] = dc_field(default_factory=UniformField)

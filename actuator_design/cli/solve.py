@@ -36,7 +36,8 @@ DEFAULTS = {"h": 1.0, "phi_deg": 45.0, "p": 0.0, "alpha_deg": 0.0}
 _SOLVER_FLAGS = {"transcription": "--transcription", "elements": "--elements",
                  "degree": "--degree", "method": "--method", "tol": "--tol", "accuracy": "--accuracy",
                  "start": "--start", "residual_tol": "--residual-tol",
-                 "keep_self_intersecting": "--keep-self-intersecting", "adapt": "--no-adapt"}
+                 "keep_self_intersecting": "--keep-self-intersecting", "adapt": "--no-adapt",
+                 "self_contact": "--no-self-contact"}
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -85,7 +86,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="keep the mesh as given (no grading towards the clamp, no refinement); the "
                         "residual is still checked")
     s.add_argument("--keep-self-intersecting", action="store_true", default=None,
-                   help="accept a self-intersecting shape (contact is not modelled; default: exit 3)")
+                   help="accept a self-intersecting shape as it is (no self-contact)")
+    s.add_argument("--no-self-contact", dest="self_contact", action="store_false", default=None,
+                   help="refuse a shape that crosses itself (exit 3) instead of solving it with "
+                        "self-contact (default: self-contact, with the rod's half-thickness as gap)")
     s.add_argument("--no-ensure-stable", dest="ensure_stable", action="store_false", default=None,
                    help="do not leave an unstable equilibrium along its unstable mode")
     o = parser.add_argument_group("output")

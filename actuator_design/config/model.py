@@ -48,6 +48,9 @@ class SolverSpec(StrictModel):
     residual_tol: Q("dimensionless", gt=0, lt=1) = _DEFAULTS.residual_tol
     adapt: StrictBool = _DEFAULTS.adapt
     keep_self_intersecting: StrictBool = _DEFAULTS.keep_self_intersecting
+    #: issue 20: a shape that would cross itself (or enter its own thickness) is solved with
+    #: self-contact; false: refused as before
+    self_contact: StrictBool = _DEFAULTS.self_contact
 
     @model_validator(mode="after")
     def _check_mesh(self):

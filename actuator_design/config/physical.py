@@ -216,6 +216,9 @@ class PhysicalScene(StrictModel):
                                                or self.magnetics.remanent_magnetization is None):
             raise error("needs magnetics.remanence or magnetics.remanent_flux_density "
                         "(a hard-magnetic rod, THEORY §9)", "magnetization")
+        if self.obstacles and self.rod.thickness is None:  # the gap to an obstacle is half of it
+            raise error("required with obstacles (the rod's surface touches them, its centre line half "
+                        "the thickness away); give rod.width and rod.thickness", "rod.thickness")
         if isinstance(self.field, PhysicalDipole):  # the position check needs ℓ
             self.field.to_field(self.rod.length, where="field.position")
         derived = self._derived()
@@ -305,7 +308,7 @@ class PhysicalScene(StrictModel):
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
             fibres_physical=not self._isotropic_particles(),
             obstacles=obstacles_of(self.obstacles, length),
-            contact_gap=0.5 * float(self.rod.thickness) / length if self.obstacles else 0.0)
+            contact_gap=0.5 * float(self.rod.thickness) / length if self.rod.thickness is not None else 0.0)
 
     def _isotropic_particles(self) -> bool:
         """Spherical (or otherwise isotropic) particles: χ̄ = 0 of the particles alone (THEORY §2),

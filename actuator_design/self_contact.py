@@ -1,0 +1,206 @@
+"""Self-contact (issue 20 item 3): a rod that would cross itself, solved with |r(s) − r(t)| ≥ 2·gap.
+
+The rod's centre line keeps twice its half-thickness (``Scene.contact_gap``) from itself between
+points that are not neighbours along it: arc lengths |s − t| ≥ :func:`neighbour_arc` apart. Two
+points closer in arc than π·gap cannot be 2·gap apart without the rod bending tighter than its own
+half-thickness, so those pairs are never constrained.
+
+The constraint is imposed between pairs of the contact NLP's constrained points and the clamp
+(:mod:`actuator_design.contact`), chosen from the state the solve starts from
+(:func:`candidate_pairs`: where the rod comes within 2·gap + :data:`REACH` of itself, the nearest
+pair of each place, at most :data:`SLOTS`; in a split round, the points the boundaries were moved
+to). A pair's row
+
+    c(a, b) = (|r_a − r_b|² − (2 gap)²) / (4 gap) ≥ 0
+
+has the unit normal as its gradient at contact, so its multiplier is the contact force (units of
+B0/ℓ²), pushing r_a away from r_b and r_b away from r_a. As with obstacles, a contact point inside
+an element becomes an element boundary on *both* sides (:func:`nearest_pair`), and the solve is
+repeated until the pair stays put, so the point-to-point rows meet the point-to-curve contact;
+what tangential force a pair still carries (:func:`tangential_force`) is checked against the
+residual limit.
+
+A state reached from rest is what a user builds on: the loads are ramped from zero
+(:func:`solve_self_contact`), each step warm-started from the one before with the pairs near it
+constrained, so the rod stays on the side of itself it came from.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import List, Optional, Tuple
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.spatial import cKDTree
+
+__all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
+           "solve_self_contact", "SLOTS", "REACH"]
+
+#: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
+SLOTS = 8
+#: pairs closer than 2·gap + REACH (rod lengths) in the start state are constrained
+REACH = 0.1
+
+
+def neighbour_arc(gap: float) -> float:
+    """Arc length (units of ℓ) below which two points of the rod are neighbours, never a contact
+    pair: 2π·gap (a hairpin of radius gap brings points π·gap apart in arc to 2·gap)."""
+    return 2.0 * math.pi * gap
+
+
+def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, reach: float = REACH,
+                    slots: int = SLOTS, spread: int = 0) -> List[Tuple[int, int]]:
+    """Index pairs (i < j) of points (arc lengths ``s``, increasing; positions ``x, y``, units of ℓ)
+    to constrain: the local minima of the distance over the grid of non-neighbouring pairs closer
+    than 2·gap + ``reach``, one per :func:`neighbour_arc` of arc on both sides (one pair per place
+    where the rod comes near itself: the rows of nearby pairs are nearly dependent, and as separate
+    constraints they split one contact force between them and over-constrain the stability
+    verdict), each with the pairs ``spread`` points along either side (a contact sliding within a
+    step stays constrained), the closest first, at most ``slots``."""
+    pts = np.column_stack([x, y])
+    if not np.all(np.isfinite(pts)) or len(pts) < 2:
+        return []
+    cand = cKDTree(pts).query_pairs(2.0 * gap + reach, output_type="ndarray")
+    if cand.size == 0:
+        return []
+    cand = np.sort(cand[np.abs(s[cand[:, 0]] - s[cand[:, 1]]) >= neighbour_arc(gap)], axis=1)
+    dist = {(int(i), int(j)): float(np.hypot(*(pts[i] - pts[j]))) for i, j in cand}
+    near_arc = neighbour_arc(gap)
+
+    def beside(q):  # a grid neighbour's distance: out of reach is far; a pair of neighbours along
+        if q in dist:  # the rod is nearer (the distance falls towards them: no minimum at the edge)
+            return dist[q]
+        inside = 0 <= q[0] < len(s) and 0 <= q[1] < len(s)
+        return -np.inf if inside and abs(s[q[0]] - s[q[1]]) < near_arc else np.inf
+
+    minima = [p for p, d in dist.items()
+              if all(d <= beside(q) for q in ((p[0] - 1, p[1]), (p[0] + 1, p[1]), (p[0], p[1] - 1), (p[0], p[1] + 1)))]
+    chosen: List[Tuple[int, int]] = []
+    centres: List[Tuple[int, int]] = []
+    window = neighbour_arc(gap)
+    for i, j in sorted(minima, key=dist.get):
+        # along a valley of the distance (two turns side by side) every node pair is a minimum:
+        # one per stretch of ``window`` of arc on both sides
+        if any(abs(s[i] - s[a]) < window and abs(s[j] - s[b]) < window for a, b in centres):
+            continue
+        centres.append((i, j))
+        for q in [(i, j)] + [(i + k, j) for k in range(-spread, spread + 1) if k] \
+                + [(i, j + k) for k in range(-spread, spread + 1) if k]:
+            if q in dist and q not in chosen:
+                chosen.append(q)
+    return chosen[:slots]
+
+
+def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Optional[Tuple[float, float, float]]:
+    """Where a solved ``state`` comes closer to itself than 2·gap (by more than ``tol``) between
+    non-neighbouring points, sampled at ``n`` points: (s, t, depth) of the deepest such pair (arc
+    lengths s < t and the depth, units of ℓ), or None."""
+    d = state.evaluate(np.linspace(0.0, 1.0, n))
+    pts = np.column_stack([d["x"], d["y"]])
+    if not np.all(np.isfinite(pts)):
+        return None
+    cand = cKDTree(pts).query_pairs(2.0 * gap - tol, output_type="ndarray")
+    if cand.size == 0:
+        return None
+    cand = cand[np.abs(d["s"][cand[:, 0]] - d["s"][cand[:, 1]]) >= neighbour_arc(gap)]
+    if cand.size == 0:
+        return None
+    dist = np.hypot(*(pts[cand[:, 0]] - pts[cand[:, 1]]).T)
+    i, j = sorted(cand[int(np.argmin(dist))])
+    return float(d["s"][i]), float(d["s"][j]), float(2.0 * gap - dist.min())
+
+
+def nearest_pair(result, s_a: float, s_b: float, half: float) -> Tuple[float, float]:
+    """The pair of arc lengths nearest each other on ``result``'s shape, each within ``half`` of
+    ``s_a`` < ``s_b`` (the tip stays the tip): where a self-contact's two element boundaries go."""
+    def dist2(v):  # |r(σa) − r(σb)|² and its exact gradient (r' = t): finite differences left
+        e = result.evaluate(np.asarray(v, float))  # the valley between two turns flat to ~1e-6
+        d = np.array([e["x"][0] - e["x"][1], e["y"][0] - e["y"][1]])
+        t = np.array([np.cos(e["theta"]), np.sin(e["theta"])])
+        return float(d @ d), np.array([2.0 * d @ t[:, 0], -2.0 * d @ t[:, 1]])
+
+    bounds = [(max(1e-9, s_a - half), min(1.0, s_a + half)), (max(1e-9, s_b - half), min(1.0, s_b + half))]
+    out = minimize(dist2, [s_a, s_b], jac=True, method="L-BFGS-B", bounds=bounds,
+                   options={"ftol": 1e-16, "gtol": 1e-15, "maxiter": 500})
+    a, b = (float(v) for v in out.x)
+    return (a, b) if a <= b else (b, a)
+
+
+def tangential_force(result) -> Optional[Tuple[float, float, float]]:
+    """The largest tangential (friction-like) force of ``result``'s self-contacts (units of B0/ℓ²)
+    and where (s_a, s_b), or None without self-contacts.
+
+    A pair's row pushes along the line between its two points, which is the normal of both turns
+    only where they are the nearest points of the two (frictionless contact); off it, the force
+    has a tangential part |F| max(|d̂·t_a|, |d̂·t_b|) (only the body's tangent at a tip) that the
+    moment balance cannot see, as it balances the force it is given."""
+    pts = [p for p in (result.contact or {}).get("points", [])
+           if p.get("self") and not p["weak"] and p["s"] < p["partner_s"]]
+    worst = None
+    for p in pts:
+        e = result.evaluate(np.array([p["s"], p["partner_s"]]))
+        d = np.array([e["x"][1] - e["x"][0], e["y"][1] - e["y"][0]])
+        d /= max(float(np.hypot(*d)), 1e-300)
+        ends = [0] if p["partner_s"] == 1.0 else [0, 1]
+        if p["s"] == 0.0:  # the clamp end: only the other turn's tangent
+            ends = [1]
+        tau = max(abs(d @ [np.cos(e["theta"][k]), np.sin(e["theta"][k])]) for k in ends)
+        f = abs(p["multiplier"]) * tau
+        if worst is None or f > worst[0]:
+            worst = (f, p["s"], p["partner_s"])
+    return worst
+
+
+#: the ramp from rest: first, largest and smallest load-fraction steps
+RAMP_FIRST, RAMP_MAX, RAMP_MIN = 0.125, 0.25, 1.0 / 1024
+#: a ramp step that moves a nodal angle more than this (rad) is halved
+RAMP_DTHETA = 0.6
+
+
+def solve_self_contact(scene, options, initial=None):
+    """The equilibrium of ``scene`` with self-contact (and its obstacles, if any), reached from rest.
+
+    The loads (every field and load slot, :func:`~actuator_design.from_rest.load_fraction`) are
+    ramped from zero on the graded mesh with the self-contact rows of the pairs near each step's
+    start; a step that fails, moves a nodal angle more than :data:`RAMP_DTHETA` or leaves the rod
+    inside itself is halved, down to :data:`RAMP_MIN` (then the result says where the ramp
+    stopped). At full load the contact solve's split rounds (:func:`~actuator_design.contact.solve_contact`)
+    put element boundaries at both points of each contact. With ``initial`` (an equilibrium of a
+    nearby scene) the ramp is skipped.
+    """
+    from .acceptance import graded_options
+    from .contact import solve_once, solve_contact
+
+    if initial is not None:
+        return solve_contact(scene, options, initial, self_contact=True)
+    t0 = time.perf_counter()
+    opts = graded_options(scene, options) if options.adapt else options
+    opts = replace(opts, split_at=())
+    state, t, dt, steps = None, 0.0, RAMP_FIRST, 0
+    while t < 1.0:
+        tn = min(1.0, t + dt)
+        r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True)
+        if not r.success and state is not None:  # the start violates a newly chosen pair: IPOPT's
+            r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True, cold=True)  # barrier
+        steps += 1
+        # the ramp keeps the rod on its side of itself (centre lines a gap apart); the contact
+        # points' element boundaries, and with them the accuracy, come at full load
+        ok = r.success and self_penetration(r, scene.contact_gap, tol=scene.contact_gap) is None
+        change = float(np.max(np.abs(r.theta - state.theta))) if state is not None else 0.0
+        if ok and change <= RAMP_DTHETA:
+            # the next step aims at 0.7 of the largest change (at most double, RAMP_MAX)
+            grow = 2.0 if change <= 0.35 * RAMP_DTHETA else 0.7 * RAMP_DTHETA / change
+            state, t, dt = r, tn, min(grow * dt, RAMP_MAX)
+            continue
+        dt *= 0.5
+        if dt < RAMP_MIN:
+            r.success, r.status = False, "not_converged"
+            r.message += (f"; the load ramp from rest with self-contact stopped at {100 * t:.4g} % of the "
+                          f"loads (a snap, or a contact the ramp cannot follow)")
+            return r
+    result = solve_contact(scene, options, state, self_contact=True)
+    result.contact["start"] = f"rest, the loads ramped in {steps} steps with self-contact"
+    result.message = result.message.replace("from the previous state", "from rest (loads ramped)")
+    return result

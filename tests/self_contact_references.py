@@ -1,0 +1,93 @@
+"""Independent reference for self-contact tests: a coiled strip (bending stiffness b(s), tip moment
+M) whose turns press on each other, by shooting with the contact conditions written out (scipy's
+DOP853 and a root finder; nothing of the package's transcription).
+
+Along the rod m = b θ', m' = −t × n, r' = t, with n(s) the sum of the contact forces beyond s. A
+self-contact is a pair of points (a, b) a distance 2·gap apart along their common normal: the force
+F ν on b and −F ν on a, ν = (r_b − r_a)/(2 gap) the normal of the rod at a and at b (frictionless;
+at a tip only at the point on the body). Each pair's forces are equal, opposite and along the line
+joining them, so m(0) = M and the pairs add nothing to the tip's moment balance.
+"""
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import root
+
+
+def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
+    """Shooting for a strip with the given self-contact pairs.
+
+    Parameters
+    ----------
+    stiffness : callable s -> b(s)
+    M : float
+        Tip moment (counter-clockwise; the strip coils to its left).
+    gap : float
+        Half-thickness: a contact pair is 2·gap apart.
+    pairs : sequence of (bool,)
+        Per contact, whether its inner end is the tip (``True``: unknowns s_a only) or an interior
+        point (``False``: s_a and s_b).
+    guess_s : sequence of float
+        Arc lengths of the contact points, in the order (s_a, [s_b]) per pair.
+    guess_f : sequence of float
+        Force magnitudes per pair.
+
+    Returns
+    -------
+    dict with ``s`` (the contact arc lengths, as in ``guess_s``), ``force`` (per pair), ``tip``
+    (x, y, θ at s = 1) and the residual of the conditions.
+    """
+    n_s = len(guess_s)
+
+    def unpack(v):
+        s, f, out, k = v[:n_s], v[n_s:], [], 0
+        for tip in pairs:
+            out.append((s[k], 1.0 if tip else s[k + 1], f[len(out)]))
+            k += 1 if tip else 2
+        return out
+
+    def shoot(v):
+        contacts = unpack(v)
+        # events in order of arc length: at a, the pair's normal ν is fixed (the rod's left normal);
+        # between a and b the internal force carries F ν (the force on b; −F ν at a cancels it below a)
+        marks = sorted([(a, "a", q) for q, (a, b, f) in enumerate(contacts)]
+                       + [(b, "b", q) for q, (a, b, f) in enumerate(contacts) if b < 1.0])
+        normals, state, n = {}, np.array([0.0, M, 0.0, 0.0]), np.zeros(2)
+        s0, at = 0.0, {}
+
+        def rhs(s, u):
+            th, m = u[0], u[1]
+            t = (math.cos(th), math.sin(th))
+            return [m / stiffness(s), -(t[0] * n[1] - t[1] * n[0]), t[0], t[1]]
+
+        for s1, kind, q in marks + [(1.0, "end", None)]:
+            if s1 > s0:
+                sol = solve_ivp(rhs, (s0, s1), state, method="DOP853", rtol=1e-13, atol=1e-13)
+                state = sol.y[:, -1]
+            s0 = s1
+            at[(kind, q)] = state.copy()
+            if kind == "a":
+                th = state[0]
+                normals[q] = np.array([-math.sin(th), math.cos(th)])
+                n = n + contacts[q][2] * normals[q]
+            elif kind == "b":
+                n = n - contacts[q][2] * normals[q]
+        return contacts, normals, at
+
+    def residual(v):
+        contacts, normals, at = shoot(v)
+        out = []
+        for q, (a, b, f) in enumerate(contacts):
+            ra = at[("a", q)][2:]
+            ub = at[("end", None)] if b == 1.0 else at[("b", q)]
+            out += list(ub[2:] - ra - 2.0 * gap * normals[q])
+            if b < 1.0:  # an interior point: the rod at b is tangent to the rod at a
+                out.append(math.cos(ub[0]) * normals[q][0] + math.sin(ub[0]) * normals[q][1])
+        return out
+
+    sol = root(residual, list(guess_s) + list(guess_f), method="hybr", options={"xtol": 1e-14})
+    contacts, _, at = shoot(sol.x)
+    end = at[("end", None)]
+    return {"s": list(sol.x[:n_s]), "force": list(sol.x[n_s:]), "tip": (end[2], end[3], end[0]),
+            "moment_at_tip": end[1], "residual": float(np.max(np.abs(residual(sol.x))))}

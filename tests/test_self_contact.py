@@ -1,0 +1,161 @@
+"""Self-contact (issue 20 item 3): a coiled strip whose turns press on each other, against shooting
+with the contact conditions written out (tests/self_contact_references.py), and against the energy
+of its admissible neighbours."""
+import math
+
+import numpy as np
+import pytest
+
+from actuator_design.equilibrium import solve
+from actuator_design.options import SolverOptions
+from actuator_design.profiles import expression_profile
+from actuator_design.scene import Scene
+from actuator_design.self_contact import candidate_pairs, neighbour_arc, self_penetration
+from self_contact_references import coil_reference
+
+GAP, M = 0.01, 8.5
+
+
+def coil(**kw):
+    """A strip thinning as exp(−s), coiled by a tip moment (configs/self_contact_coil.yaml)."""
+    return Scene(field=None, tip_moment=M, stiffness=expression_profile("exp(-s)"), contact_gap=GAP, **kw)
+
+
+@pytest.fixture(scope="module")
+def coiled():
+    return solve(coil())
+
+
+def _pairs(result):
+    """Each self-contact once, as (s_a, s_b, force) with s_a < s_b."""
+    return sorted((p["s"], p["partner_s"], p["multiplier"]) for p in result.contact["points"]
+                  if p.get("self") and not p["weak"] and p["s"] < p["partner_s"])
+
+
+def test_coiled_strip_presses_on_itself_as_shooting_says(coiled):
+    r = coiled
+    assert r.success and r.stable and r.contact["self_contact"], r.message
+    pairs = _pairs(r)
+    # the middle turn on the outer one, and the tip on the middle turn
+    assert len(pairs) == 2 and pairs[1][1] == 1.0 and pairs[0][1] < 1.0
+    (a1, b1, f1), (a2, _, f2) = pairs
+    ref = coil_reference(lambda s: math.exp(-s), M, GAP, [True, False], [a2, a1, b1], [f2, f1])
+    assert ref["residual"] < 1e-12 and abs(ref["moment_at_tip"] - M) < 1e-9
+    assert abs(r.tip["x"] - ref["tip"][0]) < 1e-8 and abs(r.tip["y"] - ref["tip"][1]) < 1e-8
+    assert abs(r.tip["angle"] - ref["tip"][2]) < 1e-7
+    assert np.allclose([a2, a1, b1], ref["s"], atol=1e-7)
+    assert abs(f2 - ref["force"][0]) < 1e-6 * ref["force"][0]
+    assert abs(f1 - ref["force"][1]) < 1e-6 * ref["force"][1]
+    # frictionless: the rows push along the turns' common normal (the split rounds converged)
+    assert r.contact["tangential_force"] < 1e-6
+    # a pair's forces are equal and opposite: no force reaches the clamp
+    assert np.allclose(r.contact["total_force"], 0.0, atol=1e-12)
+    assert np.allclose(r.clamp_force, 0.0, atol=1e-6) and abs(r.clamp_moment + M) < 1e-6
+
+
+def test_coiled_strip_is_below_every_admissible_neighbour(coiled):
+    """A constrained minimum: θ + ε δθ (smooth, zero at the clamp) that keeps the rod out of its own
+    thickness costs energy, computed here by quadrature on the dense shape (E = ∫ ½ b θ'² − M θ(1))
+    and positions integrated from θ; those that would enter it are not admissible."""
+    s = np.linspace(0.0, 1.0, 8001)
+    th = coiled.evaluate(s)["theta"]
+    b = np.exp(-s)
+
+    def energy_and_clear(theta):
+        dth = np.gradient(theta, s, edge_order=2)
+        e = np.trapezoid(0.5 * b * dth ** 2, s) - M * theta[-1]
+        x = np.concatenate([[0.0], np.cumsum(0.5 * (np.cos(theta[1:]) + np.cos(theta[:-1])) * np.diff(s))])
+        y = np.concatenate([[0.0], np.cumsum(0.5 * (np.sin(theta[1:]) + np.sin(theta[:-1])) * np.diff(s))])
+        pts = np.column_stack([x, y])[::4]
+        ss = s[::4]
+        far = np.abs(ss[:, None] - ss[None, :]) >= neighbour_arc(GAP)
+        d = np.hypot(pts[:, None, 0] - pts[None, :, 0], pts[:, None, 1] - pts[None, :, 1])
+        return e, float(np.min(d[far]))
+
+    e0, d0 = energy_and_clear(th)
+    assert d0 > 2 * GAP - 1e-5
+    rng = np.random.default_rng(7)
+    admissible = 0
+    for _ in range(60):
+        c = rng.normal(size=6)
+        delta = sum(ck * np.sin((k + 0.5) * math.pi * s) for k, ck in enumerate(c))
+        for eps in (1e-3, -1e-3, 1e-2, -1e-2):
+            e, d = energy_and_clear(th + eps * delta / np.max(np.abs(delta)))
+            if d >= d0:
+                admissible += 1
+                assert e > e0, (eps, e - e0)
+    assert admissible >= 20
+
+
+def test_without_self_contact_the_old_answer_enters_its_own_thickness():
+    old = solve(coil(), SolverOptions(self_contact=False))
+    assert old.success and old.contact is None
+    s, t, depth = self_penetration(old, GAP)
+    assert depth > 1e-3 and t == 1.0  # the free spiral's tip sinks into the middle turn
+
+
+def test_a_curl_the_ramp_cannot_follow_is_no_success():
+    """A uniform strip with tip moment 7 winds past 2π: its tip comes back to the (point) clamp,
+    slips over it and jumps. The ramp from rest stops there and says so; it never reports the
+    crossing shape, and without a thickness (or with self-contact off) the crossing is refused."""
+    sc = Scene(field=None, tip_moment=7.0, contact_gap=GAP)
+    r = solve(sc)
+    assert not r.success and "ramp from rest with self-contact stopped" in r.message, r.message
+    for sc2, opts in ((Scene(field=None, tip_moment=7.0), SolverOptions()),
+                      (sc, SolverOptions(self_contact=False))):
+        refused = solve(sc2, opts)
+        assert refused.status == "self_intersecting" and not refused.success
+    assert "half-thickness" in solve(Scene(field=None, tip_moment=7.0)).message
+
+
+def test_candidate_pairs_one_per_stretch_and_never_neighbours():
+    """Two parallel strands 2·gap + 0.01 apart, each 40 points long: the distance is a valley
+    along them, one pair per neighbour_arc of it; points of one strand are never paired."""
+    n = 40
+    s = np.linspace(0.01, 1.0, 2 * n)
+    x = np.concatenate([np.linspace(0, 0.3, n), np.linspace(0.3, 0, n)])
+    y = np.concatenate([np.zeros(n), np.full(n, 2 * GAP + 0.01)])
+    pairs = candidate_pairs(s, x, y, GAP, reach=0.05, slots=50, spread=0)
+    assert pairs and all(j >= n > i for i, j in pairs)
+    starts = sorted(s[i] for i, _ in pairs)
+    assert all(b - a >= neighbour_arc(GAP) for a, b in zip(starts, starts[1:]))
+    assert len(pairs) <= math.ceil(0.3 / neighbour_arc(GAP)) + 1
+    with_spread = candidate_pairs(s, x, y, GAP, reach=0.05, slots=50, spread=1)
+    assert set(pairs) <= set(with_spread) and len(with_spread) > len(pairs)
+
+
+def test_cli_reports_the_rod_against_itself_and_the_switch_restores_the_refusal(capsys, tmp_path):
+    import json
+    from pathlib import Path
+
+    from actuator_design.cli.main import main
+    from actuator_design.config import load_config
+
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "self_contact_coil.yaml"
+    assert main(["solve", str(cfg), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    ends = [p for p in data["contact"]["points"] if p["self"]]
+    assert data["contact"]["self_contact"] and len(ends) == 4
+    assert {p["partner_s"] for p in ends} == {p["s"] for p in ends}  # each end names the other
+    moment7 = tmp_path / "m7.yaml"
+    moment7.write_text("scene:\n  type: dimensionless\n  tip_moment: 7\n  contact_gap: 0.01\n"
+                       "solver:\n  self_contact: false\n")
+    assert load_config(moment7).solver.to_options().self_contact is False
+    assert main(["solve", str(moment7)]) == 3
+    err = capsys.readouterr().err
+    assert "self_intersecting" in err and "--no-self-contact" in err
+
+
+def test_a_physical_rod_has_its_half_thickness_as_gap_and_obstacles_need_a_thickness(tmp_path):
+    from actuator_design.config import load_config
+    from actuator_design.config.errors import ConfigError
+
+    rod = "  rod: {length: 20 mm, width: 5 mm, thickness: 0.5 mm, youngs_modulus: 1 MPa}\n"
+    f = tmp_path / "strip.yaml"
+    f.write_text("scene:\n  type: physical\n" + rod + "  loads: {tip_force: {x: 0, y: -1 mN}}\n")
+    assert load_config(f).to_scene().contact_gap == pytest.approx(0.25 / 20, rel=1e-12)
+    g = tmp_path / "walled.yaml"
+    g.write_text("scene:\n  type: physical\n  rod: {length: 20 mm, bending_stiffness: 8e-7 N m^2, area: 1e-5 m^2}\n"
+                 "  obstacles:\n    - {type: wall, point: {x: 0, y: -5 mm}, normal_angle: 90 deg}\n")
+    with pytest.raises(ConfigError, match="rod.thickness: required with obstacles"):
+        load_config(g)
