@@ -49,8 +49,10 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         Never raises on non-convergence: ``success``/``status``/``message`` say what happened.
     """
     options = options or SolverOptions()
-    if scene.obstacles:  # unilateral constraints: IPOPT with the contact rows
-        from .contact import solve_contact
+    warm_self = (isinstance(initial, EquilibriumResult) and options.self_contact
+                 and bool((initial.contact or {}).get("self_contact")))
+    if scene.obstacles or warm_self:  # unilateral constraints: IPOPT with the contact rows (a start
+        from .contact import solve_contact  # pressing on itself keeps its self-contact rows)
         result = solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
     elif options.accuracy is not None and solver is None:
         from dataclasses import replace

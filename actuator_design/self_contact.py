@@ -36,7 +36,7 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
-           "solve_self_contact", "SLOTS", "REACH"]
+           "least_self_clearance", "solve_self_contact", "SLOTS", "REACH"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
@@ -151,6 +151,27 @@ def tangential_force(result) -> Optional[Tuple[float, float, float]]:
         if worst is None or f > worst[0]:
             worst = (f, p["s"], p["partner_s"])
     return worst
+
+
+def least_self_clearance(solver, gap: float):
+    """θ at the nodes of ``solver``'s mesh (rad, shape (nodes,)) → the least |r(s) − r(t)| − 2·gap
+    over the non-neighbouring pairs of its constrained points and the clamp (units of ℓ; +inf when
+    no pair is far enough apart along the rod): the event function of a branch's first self-touch."""
+    import casadi as ca
+
+    from .clearance import constrained_points
+
+    z = ca.SX.sym("z", solver.transcription.nodes.size)
+    X, Y, s_points, _ = constrained_points(solver.transcription, z)
+    f_xy = ca.Function("points", [z], [X, Y])
+    s = np.concatenate([[0.0], s_points])
+    far = np.triu(np.abs(s[:, None] - s[None, :]) >= neighbour_arc(gap), 1)
+
+    def least(theta) -> float:
+        x, y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in f_xy(np.asarray(theta, float)))
+        d = np.hypot(x[:, None] - x[None, :], y[:, None] - y[None, :])[far]
+        return float(np.min(d, initial=np.inf)) - 2.0 * gap
+    return least
 
 
 #: the ramp from rest: first, largest and smallest load-fraction steps

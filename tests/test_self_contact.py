@@ -2,6 +2,7 @@
 with the contact conditions written out (tests/self_contact_references.py), and against the energy
 of its admissible neighbours."""
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -159,3 +160,33 @@ def test_a_physical_rod_has_its_half_thickness_as_gap_and_obstacles_need_a_thick
                  "  obstacles:\n    - {type: wall, point: {x: 0, y: -5 mm}, normal_angle: 90 deg}\n")
     with pytest.raises(ConfigError, match="rod.thickness: required with obstacles"):
         load_config(g)
+
+
+def test_a_loading_path_through_itself_is_no_success():
+    """A uniform strip with the tip moment ramped 0 → 8 winds past 2π and passes through itself:
+    paths do not follow self-contact, so the path fails at that schedule point and says why."""
+    from actuator_design.analysis.loading import follow_path
+
+    sc = Scene(field=None, tip_moment=0.0, contact_gap=GAP)
+    path = follow_path(sc, SolverOptions(), {"m_tip": [0.0, 4.0, 8.0]})
+    assert not path.success and "schedule point 2 (m_tip = 8) the rod crosses itself" in path.message, path.message
+    assert follow_path(sc, SolverOptions(), {"m_tip": [0.0, 4.0]}).success  # one loop short of closing
+    # at 6 the tip comes back within 0.047 of the clamp: inside a rod 0.1 thick, outside one 0.02 thick
+    assert follow_path(sc, SolverOptions(), {"m_tip": [0.0, 6.0]}).success
+    thick = follow_path(replace(sc, contact_gap=0.05), SolverOptions(), {"m_tip": [0.0, 6.0]})
+    assert not thick.success and "passes through its own thickness" in thick.message, thick.message
+
+
+def test_continuation_stops_where_the_rod_first_touches_itself():
+    """A uniform strip under a tip moment M is a circle of curvature M; its tip comes back to the
+    clamp, 2 sin(M/2)/M away, and touches the rod (2·gap) at the root of that closed form."""
+    from scipy.optimize import brentq
+
+    from actuator_design.analysis.continuation import continue_branch
+
+    res = continue_branch(Scene(field=None, tip_moment=0.0, contact_gap=GAP), "m_tip", 0.0, 8.0)
+    exact = brentq(lambda m: 2.0 / m * math.sin(m / 2.0) - 2 * GAP, 5.5, 2 * math.pi, xtol=1e-15)
+    assert res.branch.status == "touch" and "touches itself" in res.branch.message
+    assert abs(res.branch.lam[-1] - exact) < 1e-9
+    with pytest.raises(RuntimeError, match="touches or passes through itself"):
+        continue_branch(Scene(field=None, tip_moment=6.2, contact_gap=GAP), "m_tip", 6.2, 8.0)

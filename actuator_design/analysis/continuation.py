@@ -39,6 +39,7 @@ from .branch import Branch, ContinuationResult, CriticalPoint
 from .stability_changes import insert_stability_changes
 from .registry import register
 from ..clearance import least_clearance
+from ..self_contact import least_self_clearance
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
@@ -338,18 +339,27 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     """
     cont = Continuation(scene, param, options)
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
-    touch = ()
+    touch, itself = (), None
     if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
         least = least_clearance(cont.solver, scene.obstacles, scene.contact_gap)
         initial = _free_start(cont, scene, param, start, initial, least)
         touch = (_touch_event(least),)
+    if scene.contact_gap > 0 and not cont.options.keep_self_intersecting:  # ... or itself
+        itself = least_self_clearance(cont.solver, scene.contact_gap)
+        touch += (UserEvent("self-touch", lambda state: itself(state.z), stop=True),)
     x0 = cont.start(start, initial)
+    z0 = np.concatenate([[cont._theta0 if cont.theta0_fixed else x0[-1]], x0[:-1]])  # θ at the nodes
+    if itself is not None and itself(z0) <= 0.0:
+        raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or passes through "
+                           "itself; continuation through self-contact is not modelled (solve finds the "
+                           "self-contact state at one load)")
     br = cont.run(x0, win, direction=1.0 if stop >= start else -1.0, ds=ds, ds_max=ds_max,
                   max_points=max_points, stop_events=touch)
     if touch and br.status == "event":
         br.status = "touch"
-        br.message = (f"stopped where the rod first touches an obstacle, at {param} = {br.lam[-1]:.10g}: "
-                      "continuation through contact is not modelled (path follows contact)")
+        what = "itself" if itself is not None and itself(br.z[-1]) <= 1e-9 else "an obstacle"
+        br.message = (f"stopped where the rod first touches {what}, at {param} = {br.lam[-1]:.10g}: "
+                      "continuation through contact is not modelled (path follows contact with obstacles)")
     sec = []
     if switch:
         for bp in br.branch_points:

@@ -220,12 +220,34 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     if ok:
         msg = (f"followed {len(vals) - 1} segment(s): {len(tr.jumps)} jump(s), "
                f"{len(tr.bifs)} continuous bifurcation(s)")
+        through = None if options.keep_self_intersecting else _through_itself(tr.states, names, vals)
+        if through is not None:
+            ok, msg = False, through
     hyst = _hysteresis(tr) if tr.param is not None else {
         "width": 0.0, "area": 0.0, "loops": [],
         "note": "hysteresis is defined for one-parameter schedules only"}
     return LoadingPath(names=names, schedule=vals, param=tr.param, points=tr.points, jumps=tr.jumps,
                        bifurcations=tr.bifs, snap_free=bool(ok and not tr.jumps), hysteresis=hyst,
                        states=tr.states, final=cur, success=ok, message=msg)
+
+
+def _through_itself(states, names, vals) -> Optional[str]:
+    """Where the first of the path's schedule ``states`` crosses itself, or (a rod with a thickness,
+    ``contact_gap`` > 0) passes through its own thickness, in words; None when none does. A path
+    does not follow self-contact: such a state is not physical (THEORY's rod cannot pass through
+    itself), and the path says so instead of reporting it."""
+    from ..self_contact import self_penetration
+
+    for k, r in enumerate(states):
+        gap = r.scene.contact_gap
+        inside = self_penetration(r, gap) if gap > 0 and r.success else None
+        if r.self_intersecting or inside is not None:
+            at = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, vals[k]))
+            how = ("crosses itself" if r.self_intersecting else
+                   f"passes through its own thickness (s = {inside[0]:.4g} against s = {inside[1]:.4g})")
+            return (f"at schedule point {k} ({at}) the rod {how}: loading paths do not follow self-contact "
+                    "yet (solve finds the self-contact state at one load; keep_self_intersecting accepts it)")
+    return None
 
 
 def _hysteresis(tr: _Tracker) -> dict:

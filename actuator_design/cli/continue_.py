@@ -10,7 +10,8 @@ phi = 90 deg, p = 0); --switch also follows the branches that bifurcate there.
 
 A scene with obstacles is followed until the rod first touches one (located as an event; status
 `touch`, exit 3 with a warning: continuation through contact is not modelled, `path` follows
-contact); a start that already touches is refused.
+contact); a start that already touches is refused. So is a rod with a thickness (contact_gap > 0,
+always on a physical scene) at its first touch of itself.
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --from/--to accept units for
