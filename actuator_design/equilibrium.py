@@ -50,7 +50,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     """
     options = options or SolverOptions()
     warm_self = (isinstance(initial, EquilibriumResult) and options.self_contact
-                 and bool((initial.contact or {}).get("self_contact")))
+                 and not options.keep_self_intersecting and scene.contact_gap > 0 and _near_itself(initial))
     if scene.obstacles or warm_self:  # unilateral constraints: IPOPT with the contact rows (a start
         from .contact import solve_contact  # pressing on itself keeps its self-contact rows)
         result = solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
@@ -74,6 +74,18 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         if result.status == "self_intersecting" or (result.success and self_penetration(result, scene.contact_gap)):
             return solve_self_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
     return result
+
+
+def _near_itself(state: EquilibriumResult) -> bool:
+    """Whether a warm start presses on itself, or comes within reach of it
+    (:data:`~actuator_design.self_contact.REACH`): a step from it keeps the self-contact rows, which
+    keep the rod on its side of itself (a free step could pass through the rod's thickness)."""
+    from .self_contact import REACH, self_penetration
+
+    if (state.contact or {}).get("self_contact"):
+        return True
+    gap = state.scene.contact_gap
+    return bool(state.success and gap > 0 and self_penetration(state, gap, n=401, tol=-REACH) is not None)
 
 
 def solve_on(scene: Scene, options: SolverOptions, initial=None,

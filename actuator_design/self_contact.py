@@ -134,8 +134,8 @@ def tangential_force(result) -> Optional[Tuple[float, float, float]]:
 
     A pair's row pushes along the line between its two points, which is the normal of both turns
     only where they are the nearest points of the two (frictionless contact); off it, the force
-    has a tangential part |F| max(|d̂·t_a|, |d̂·t_b|) (only the body's tangent at a tip) that the
-    moment balance cannot see, as it balances the force it is given."""
+    has a tangential part |F| max(|d̂·t|) over its interior ends (the tip and the clamp are corners)
+    that the moment balance cannot see, as it balances the force it is given."""
     pts = [p for p in (result.contact or {}).get("points", [])
            if p.get("self") and not p["weak"] and p["s"] < p["partner_s"]]
     worst = None
@@ -143,10 +143,9 @@ def tangential_force(result) -> Optional[Tuple[float, float, float]]:
         e = result.evaluate(np.array([p["s"], p["partner_s"]]))
         d = np.array([e["x"][1] - e["x"][0], e["y"][1] - e["y"][0]])
         d /= max(float(np.hypot(*d)), 1e-300)
-        ends = [0] if p["partner_s"] == 1.0 else [0, 1]
-        if p["s"] == 0.0:  # the clamp end: only the other turn's tangent
-            ends = [1]
-        tau = max(abs(d @ [np.cos(e["theta"][k]), np.sin(e["theta"][k])]) for k in ends)
+        # the force is normal to the rod at an interior end; the tip and the clamp are corners
+        ends = [k for k, s in enumerate((p["s"], p["partner_s"])) if 0.0 < s < 1.0]
+        tau = max((abs(d @ [np.cos(e["theta"][k]), np.sin(e["theta"][k])]) for k in ends), default=0.0)
         f = abs(p["multiplier"]) * tau
         if worst is None or f > worst[0]:
             worst = (f, p["s"], p["partner_s"])

@@ -91,3 +91,33 @@ def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
     end = at[("end", None)]
     return {"s": list(sol.x[:n_s]), "force": list(sol.x[n_s:]), "tip": (end[2], end[3], end[0]),
             "moment_at_tip": end[1], "residual": float(np.max(np.abs(residual(sol.x))))}
+
+
+def free_coil_touch(stiffness_rate: float, gap: float, lo: float, hi: float) -> float:
+    """The tip moment at which the free coil b(s) = exp(−k s) (no contact: θ(s) = M (e^{k s} − 1)/k)
+    first comes within 2·gap of itself, between points at least 2π·gap apart along it: Brent's
+    method on the least distance of the curve, integrated by DOP853 and minimised over both points."""
+    from scipy.optimize import brentq, minimize
+    from scipy.spatial import cKDTree
+
+    k = stiffness_rate
+    s = np.linspace(0.0, 1.0, 4001)
+
+    def least(M):
+        sol = solve_ivp(lambda u, r: [math.cos(M * (math.exp(k * u) - 1) / k), math.sin(M * (math.exp(k * u) - 1) / k)],
+                        (0.0, 1.0), [0.0, 0.0], method="DOP853", rtol=1e-13, atol=1e-14, dense_output=True)
+        pts = sol.sol(s).T
+        pairs = cKDTree(pts).query_pairs(0.2, output_type="ndarray")
+        pairs = pairs[np.abs(s[pairs[:, 0]] - s[pairs[:, 1]]) >= 2 * math.pi * gap]
+        d = np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T)
+        i, j = pairs[int(np.argmin(d))]
+
+        def d2(v):
+            a, b = sol.sol(v[0]), sol.sol(v[1])
+            return float(np.sum((a - b) ** 2))
+        h = 2.0 / (s.size - 1)
+        out = minimize(d2, [s[i], s[j]], method="L-BFGS-B", options={"ftol": 1e-16, "gtol": 1e-15},
+                       bounds=[(max(0.0, s[i] - h), min(1.0, s[i] + h)), (max(0.0, s[j] - h), min(1.0, s[j] + h))])
+        return math.sqrt(out.fun) - 2 * gap
+
+    return brentq(least, lo, hi, xtol=1e-13)

@@ -163,18 +163,46 @@ def test_a_physical_rod_has_its_half_thickness_as_gap_and_obstacles_need_a_thick
 
 
 def test_a_loading_path_through_itself_is_no_success():
-    """A uniform strip with the tip moment ramped 0 → 8 winds past 2π and passes through itself:
-    paths do not follow self-contact, so the path fails at that schedule point and says why."""
+    """A uniform strip with the tip moment ramped 0 → 8 winds past 2π. Without self-contact the
+    path fails at the schedule point where it passes through itself and says why; with it, the tip
+    touches down on the (point) clamp where the closed form 2 sin(M/2)/M = 2·gap says, and the path
+    stops where pressing on that corner turns unstable (as the ramp from rest does)."""
+    from scipy.optimize import brentq
+
     from actuator_design.analysis.loading import follow_path
 
     sc = Scene(field=None, tip_moment=0.0, contact_gap=GAP)
-    path = follow_path(sc, SolverOptions(), {"m_tip": [0.0, 4.0, 8.0]})
+    off = SolverOptions(self_contact=False)
+    path = follow_path(sc, off, {"m_tip": [0.0, 4.0, 8.0]})
     assert not path.success and "schedule point 2 (m_tip = 8) the rod crosses itself" in path.message, path.message
-    assert follow_path(sc, SolverOptions(), {"m_tip": [0.0, 4.0]}).success  # one loop short of closing
     # at 6 the tip comes back within 0.047 of the clamp: inside a rod 0.1 thick, outside one 0.02 thick
-    assert follow_path(sc, SolverOptions(), {"m_tip": [0.0, 6.0]}).success
-    thick = follow_path(replace(sc, contact_gap=0.05), SolverOptions(), {"m_tip": [0.0, 6.0]})
+    assert follow_path(sc, off, {"m_tip": [0.0, 6.0]}).success
+    thick = follow_path(replace(sc, contact_gap=0.05), off, {"m_tip": [0.0, 6.0]})
     assert not thick.success and "passes through its own thickness" in thick.message, thick.message
+    on = follow_path(sc, SolverOptions(), {"m_tip": [0.0, 8.0]})
+    exact = brentq(lambda m: 2.0 / m * math.sin(m / 2.0) - 2 * GAP, 5.5, 2 * math.pi, xtol=1e-15)
+    (touch,) = on.contact_events
+    assert touch["kind"] == "touch-down" and touch["obstacle"] is None and abs(touch["param"] - exact) < 1e-7
+    assert not on.success and "unstable" in on.message and 6.3 < on.points[-1].param < 7.0, on.message
+
+
+def test_a_path_follows_the_coil_onto_itself():
+    """The coil's tip moment ramped 0 → 8.5: the tip touches down on the middle turn where the free
+    spiral θ = M (e^s − 1) first comes 2·gap near itself (Brent on the integrated curve), and the
+    path ends on the state shooting gives (the one solve finds from rest)."""
+    from actuator_design.analysis.loading import follow_path
+    from self_contact_references import free_coil_touch
+
+    path = follow_path(replace(coil(), tip_moment=0.0), SolverOptions(), {"m_tip": [0.0, M]})
+    assert path.success and not path.jumps, path.message
+    (touch,) = path.contact_events
+    assert touch["kind"] == "touch-down" and touch["obstacle_text"] == "rod itself"
+    assert abs(touch["param"] - free_coil_touch(1.0, GAP, 7.0, 8.0)) < 1e-8
+    end = path.final
+    pairs = _pairs(end)
+    (a1, b1, f1), (a2, _, f2) = pairs
+    ref = coil_reference(lambda s: math.exp(-s), M, GAP, [True, False], [a2, a1, b1], [f2, f1])
+    assert abs(end.tip["x"] - ref["tip"][0]) < 1e-8 and abs(end.tip["y"] - ref["tip"][1]) < 1e-8
 
 
 def test_continuation_stops_where_the_rod_first_touches_itself():

@@ -212,7 +212,7 @@ class _Run:
     # -- events -----------------------------------------------------------------------------------
     def _events(self, a: EquilibriumResult, b: EquilibriumResult, ta: float, tb: float) -> None:
         before, after = _touching(a), _touching(b)
-        for k in sorted(before ^ after):
+        for k in sorted(before ^ after, key=str):
             kind = "touch-down" if k in after else "lift-off"
             free_side, contact_side = (a, b) if kind == "touch-down" else (b, a)
             t_star, s_star, located = self._locate(k, ta, tb, a, free_side)
@@ -220,9 +220,9 @@ class _Run:
             vals = self.values(t_star)
             self.events.append({"kind": kind, "t": float(t_star),
                                 "param": float(vals[self.param]) if self.param else float(t_star),
-                                "values": vals, "obstacle": int(k),
-                                "obstacle_text": self.base.obstacles[k].describe(), "s": s_star,
-                                "located": located})
+                                "values": vals, "obstacle": None if k == SELF else int(k),
+                                "obstacle_text": "rod itself" if k == SELF else self.base.obstacles[k].describe(),
+                                "s": s_star, "located": located})
             if state.success:
                 self.record(state, t_star, kind)
 
@@ -231,11 +231,15 @@ class _Run:
         warm = {"state": free_side}
 
         def gap(t):
-            r = solve(self.scene(t, without=k), self.options, initial=warm["state"])
+            if k == SELF:  # the rod solved without self-contact, the free branch through the event
+                r = solve(self.scene(t), replace(self.options, self_contact=False, keep_self_intersecting=True),
+                          initial=warm["state"])
+            else:
+                r = solve(self.scene(t, without=k), self.options, initial=warm["state"])
             if not r.success:
                 raise _NoFreeState
             warm["state"] = r
-            return _min_gap(self.base, k, r)
+            return _min_self_gap(r, self.base.contact_gap) if k == SELF else _min_gap(self.base, k, r)
 
         try:
             lo, hi = ta, tb
@@ -281,9 +285,29 @@ def _min_gap(base, k: int, r: EquilibriumResult):
     return min(cands)
 
 
+#: the key of the rod's contact with itself among the obstacles' indices (:func:`_touching`)
+SELF = "self"
+
+
 def _touching(r: EquilibriumResult) -> set:
-    """Obstacles pressing on the rod (a strong contact: a positive force)."""
-    return {p["obstacle"] for p in (r.contact or {}).get("points", []) if not p["weak"]}
+    """Obstacles pressing on the rod (a strong contact: a positive force), and :data:`SELF` where
+    the rod presses on itself."""
+    return {SELF if p.get("self") else p["obstacle"] for p in (r.contact or {}).get("points", []) if not p["weak"]}
+
+
+def _min_self_gap(r: EquilibriumResult, gap: float):
+    """(g, s): the least distance between non-neighbouring points of ``r``'s centre line less twice
+    the gap, and where (the point of lower arc length): the nearest pair of :data:`_S` (the clamp
+    included), refined to the nearest points of the two curves; (REACH, None) when no pair is
+    within 2·gap + REACH."""
+    from ..self_contact import REACH, nearest_pair, self_penetration
+
+    near = self_penetration(r, gap, n=_S.size, tol=-REACH)
+    if near is None:
+        return REACH, None
+    a, b = nearest_pair(r, near[0], near[1], 2.0 / (_S.size - 1))
+    d = r.evaluate(np.array([a, b]))
+    return float(np.hypot(d["x"][1] - d["x"][0], d["y"][1] - d["y"][0])) - 2.0 * gap, float(a)
 
 
 def _shape_change(a: EquilibriumResult, b: EquilibriumResult) -> float:

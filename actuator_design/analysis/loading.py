@@ -221,6 +221,10 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         msg = (f"followed {len(vals) - 1} segment(s): {len(tr.jumps)} jump(s), "
                f"{len(tr.bifs)} continuous bifurcation(s)")
         through = None if options.keep_self_intersecting else _through_itself(tr.states, names, vals)
+        if through is not None and options.self_contact and scene.contact_gap > 0:
+            # the rod meets itself on the way: followed again by contact equilibria with self-contact
+            from .contact_path import follow_contact_path
+            return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
         if through is not None:
             ok, msg = False, through
     hyst = _hysteresis(tr) if tr.param is not None else {
@@ -245,8 +249,8 @@ def _through_itself(states, names, vals) -> Optional[str]:
             at = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, vals[k]))
             how = ("crosses itself" if r.self_intersecting else
                    f"passes through its own thickness (s = {inside[0]:.4g} against s = {inside[1]:.4g})")
-            return (f"at schedule point {k} ({at}) the rod {how}: loading paths do not follow self-contact "
-                    "yet (solve finds the self-contact state at one load; keep_self_intersecting accepts it)")
+            return (f"at schedule point {k} ({at}) the rod {how}: a path follows self-contact only with the "
+                    "rod's thickness (contact_gap > 0) and self_contact on; keep_self_intersecting accepts it")
     return None
 
 

@@ -8,7 +8,8 @@ every jump (where, from which state to which, energy released), continuous bifur
 the path is snap-free, and the hysteresis loop (width in the parameter, area in the
 (parameter, tip angle) plane). A scene with obstacles (scene.obstacles) is followed by contact
 equilibria, each from the state before it; every touch-down and lift-off is located (where the
-free rod just touches the obstacle) and listed with the obstacle and the touching point.
+free rod just touches the obstacle) and listed with the obstacle and the touching point; so is a
+rod with a thickness that meets itself on the way (self-contact, "rod itself").
 
 NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos (dimensionless, THEORY §5), phi_deg,
 alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
@@ -272,8 +273,9 @@ def run(args: argparse.Namespace) -> int:
     add_physical_block(data, path, units, factor)
     if units is not None:  # the obstacle of each contact event, in the user's length unit
         for e in data["contact_events"]:
-            e.setdefault("physical", {})["obstacle_text"] = scene.obstacles[e["obstacle"]].describe(
-                units.length(1.0), units.length_unit)
+            e.setdefault("physical", {})["obstacle_text"] = ("rod itself" if e["obstacle"] is None else
+                                                             scene.obstacles[e["obstacle"]].describe(
+                                                                 units.length(1.0), units.length_unit))
     written = None
     if args.out is not None:
         written = write_out(args.out, _render(path, data, raw, factor, units), args.json)
