@@ -19,7 +19,7 @@ GAP, M = 0.01, 8.5
 
 def coil(**kw):
     """A strip thinning as exp(−s), coiled by a tip moment (configs/self_contact_coil.yaml)."""
-    return Scene(field=None, tip_moment=M, stiffness=expression_profile("exp(-s)"), contact_gap=GAP, **kw)
+    return Scene(**{"field": None, "tip_moment": M, "stiffness": expression_profile("exp(-s)"), "contact_gap": GAP, **kw})
 
 
 @pytest.fixture(scope="module")
@@ -34,14 +34,14 @@ def _pairs(result):
 
 
 def test_coiled_strip_presses_on_itself_as_shooting_says(coiled):
-    r = coiled
+    r, moment = coiled, M
     assert r.success and r.stable and r.contact["self_contact"], r.message
     pairs = _pairs(r)
     # the middle turn on the outer one, and the tip on the middle turn
     assert len(pairs) == 2 and pairs[1][1] == 1.0 and pairs[0][1] < 1.0
     (a1, b1, f1), (a2, _, f2) = pairs
-    ref = coil_reference(lambda s: math.exp(-s), M, GAP, [True, False], [a2, a1, b1], [f2, f1])
-    assert ref["residual"] < 1e-12 and abs(ref["moment_at_tip"] - M) < 1e-9
+    ref = coil_reference(lambda s: math.exp(-s), moment, GAP, [True, False], [a2, a1, b1], [f2, f1])
+    assert ref["residual"] < 1e-12 and abs(ref["moment_at_tip"] - moment) < 1e-9
     assert abs(r.tip["x"] - ref["tip"][0]) < 1e-8 and abs(r.tip["y"] - ref["tip"][1]) < 1e-8
     assert abs(r.tip["angle"] - ref["tip"][2]) < 1e-7
     assert np.allclose([a2, a1, b1], ref["s"], atol=1e-7)
@@ -51,7 +51,7 @@ def test_coiled_strip_presses_on_itself_as_shooting_says(coiled):
     assert r.contact["tangential_force"] < 1e-6
     # a pair's forces are equal and opposite: no force reaches the clamp
     assert np.allclose(r.contact["total_force"], 0.0, atol=1e-12)
-    assert np.allclose(r.clamp_force, 0.0, atol=1e-6) and abs(r.clamp_moment + M) < 1e-6
+    assert np.allclose(r.clamp_force, 0.0, atol=1e-6) and abs(r.clamp_moment + moment) < 1e-6
 
 
 def test_coiled_strip_is_below_every_admissible_neighbour(coiled):
