@@ -20,6 +20,7 @@ What a contact equilibrium reports, beyond an ordinary one:
 from __future__ import annotations
 
 import time
+import weakref
 from dataclasses import dataclass
 from typing import Dict, List, Optional
 
@@ -32,9 +33,6 @@ from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, merg
 from .options import MAX_SPLITS
 
 __all__ = ["solve_contact", "solve_once", "ContactVerdict"]
-
-_CACHE: Dict[tuple, "ContactNLP"] = {}
-
 
 class ContactNLP:
     """The contact-constrained NLP of one solver and one set of obstacles (built once)."""
@@ -118,13 +116,16 @@ class ContactNLP:
 
 
 def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
+    """The contact NLP of ``solver``'s mesh for the scene's obstacles (and self-contact), kept on the
+    solver: it lives as long as the solver stays in :func:`~.solver.get_solver`'s cache."""
     from .self_contact import SLOTS
 
     slots = SLOTS if self_contact else 0
-    key = (id(solver), scene.obstacles, scene.contact_gap, slots)
-    if key not in _CACHE:
-        _CACHE[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
-    return _CACHE[key]
+    cache = solver.__dict__.setdefault("_contact_nlps", {})
+    key = (scene.obstacles, scene.contact_gap, slots)
+    if key not in cache:
+        cache[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
+    return cache[key]
 
 
 def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
@@ -325,7 +326,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         warm_start = not cold and ((initial is not None and refine is None) or (self_contact and warm is not None))
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
-        if lam0 is not None and lam0[:2] == (id(nlp), pairs):  # the same NLP and pairs: its
+        if lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs:  # the same NLP and pairs: its
             sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])  # contact forces as the start
         else:
             sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg)
@@ -369,7 +370,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs)
     result.contact["start"] = start
     # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
-    result._contact_multipliers = (id(nlp), pairs, lam)
+    result._contact_multipliers = (weakref.ref(nlp), pairs, lam)
     loads = point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)

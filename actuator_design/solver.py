@@ -25,6 +25,8 @@ Re-solving with new values is a parameter change and a warm start, never a rebui
 """
 from __future__ import annotations
 
+from collections import OrderedDict
+
 import time
 from dataclasses import dataclass
 from typing import Dict, Optional
@@ -45,7 +47,10 @@ from .transcription import make_transcription
 
 __all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict", "FastKernel"]
 
-_CACHE: Dict[tuple, "EquilibriumSolver"] = {}
+#: solvers kept built (least recently used dropped first): each contact split round and each new
+#: mesh builds one, and an unbounded cache grew a test session past 3 GB
+SOLVER_CACHE_SIZE = 32
+_CACHE: "OrderedDict[tuple, EquilibriumSolver]" = OrderedDict()
 
 
 @dataclass
@@ -413,6 +418,9 @@ def get_solver(scene: Scene, options: SolverOptions) -> EquilibriumSolver:
     if solver is None:
         solver = _CACHE[key] = EquilibriumSolver(scene, options)
         solver.cached = False
+        while len(_CACHE) > SOLVER_CACHE_SIZE:
+            _CACHE.popitem(last=False)
     else:
         solver.cached = True
+        _CACHE.move_to_end(key)
     return solver
