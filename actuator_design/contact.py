@@ -141,14 +141,14 @@ def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]
             f"at s = {nlp.s_points[j]:.4g}: contact equilibria are sought from a free rest state")
 
 
-def solve_contact(scene, options, initial=None, self_contact: bool = False):
+def solve_contact(scene, options, initial=None, self_contact: bool = False, start: Optional[str] = None):
     """A contact equilibrium of ``scene`` (its obstacles, and with ``self_contact`` the rod against
     itself), or a failed result saying why.
 
     From the straight rod (the rest state) with the loads applied, or from ``initial`` (an
     ``EquilibriumResult`` of a nearby scene, e.g. the previous state of a loading path: its shape
     interpolated onto the mesh, its contact points the first element boundaries; a self-contact
-    state keeps self-contact on).
+    state keeps self-contact on; ``start`` names it in the message).
 
     A point force inside an element kinks θ', which one polynomial cannot follow: every interior
     contact point becomes an element boundary (``SolverOptions.split_at``) at the point of the
@@ -179,7 +179,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False):
     checked = None  # (state, where it enters an obstacle, where itself): the dense checks, made once
     while True:
         result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,
-                            self_contact=self_contact)
+                            self_contact=self_contact, start=start)
         rounds += 1
         strong = [p for p in result.contact["points"] if not p["weak"]]
         interior = [p for p in strong if 0.0 < p["s"] < 1.0]
@@ -276,7 +276,7 @@ STALLED = "Search_Direction_Becomes_Too_Small"
 
 
 def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: float = 1.0,
-               self_contact: bool = False, spread: int = 1, cold: bool = False):
+               self_contact: bool = False, spread: int = 1, cold: bool = False, start: Optional[str] = None):
     """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
     straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
     boundaries from ``refine`` (the round before: its start is the one reported). ``fraction``
@@ -300,7 +300,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         z0 = np.asarray(warm.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
         z0[0] = scene.theta0
     problem = _rest_state_problem(scene, nlp, z0) if warm is None else None
-    start = "the previous state" if initial is not None else "the straight rod with the loads applied"
+    start = (start or "the previous state") if initial is not None else "the straight rod with the loads applied"
     if refine is not None:
         start = refine.contact["start"]
     if problem is not None:  # a rod that cannot lie straight in its lumen starts along its centre line

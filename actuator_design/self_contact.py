@@ -220,7 +220,5 @@ def solve_self_contact(scene, options, initial=None):
             r.message += (f"; the load ramp from rest with self-contact stopped at {100 * t:.4g} % of the "
                           f"loads (a snap, or a contact the ramp cannot follow)")
             return r
-    result = solve_contact(scene, options, state, self_contact=True)
-    result.contact["start"] = f"rest, the loads ramped in {steps} steps with self-contact"
-    result.message = result.message.replace("from the previous state", "from rest (loads ramped)")
-    return result
+    return solve_contact(scene, options, state, self_contact=True,
+                         start=f"rest, the loads ramped in {steps} steps with self-contact")
