@@ -27,9 +27,10 @@ from typing import Dict, List, Optional
 import casadi as ca
 import numpy as np
 
+from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
 from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
-from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, merged, nearest_point
+from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
 from .options import MAX_SPLITS
 
 __all__ = ["solve_contact", "solve_once", "ContactVerdict"]
@@ -83,10 +84,10 @@ class ContactNLP:
                              "ipopt.slack_bound_push": 1e-8, "ipopt.slack_bound_frac": 1e-8,
                              "ipopt.mu_strategy": "monotone", "ipopt.warm_start_init_point": "yes"})
             solver = self._solvers[warm] = ca.nlpsol("contact", "ipopt", self._problem, opts)
+            built = [solver.get_function(name) for name in ("nlp_grad", "nlp_hess_l", "nlp_jac_g")]
             if self.f_grad is None:
-                self.f_grad = solver.get_function("nlp_grad")
-                self.f_hess = solver.get_function("nlp_hess_l")
-                self.f_jac_g = solver.get_function("nlp_jac_g")
+                self.f_grad, self.f_hess, self.f_jac_g = built
+            contact_cache.charge(self, built)
         return self._solvers[warm]
 
     def parameters(self, P: np.ndarray, pairs=()) -> np.ndarray:
@@ -117,7 +118,8 @@ class ContactNLP:
 
 def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
     """The contact NLP of ``solver``'s mesh for the scene's obstacles (and self-contact), kept on the
-    solver: it lives as long as the solver stays in :func:`~.solver.get_solver`'s cache."""
+    solver: it lives as long as the solver stays in :func:`~.solver.get_solver`'s cache and the
+    memory budget of :mod:`.contact_cache` keeps it."""
     from .self_contact import SLOTS
 
     slots = SLOTS if self_contact else 0
@@ -125,6 +127,7 @@ def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
     key = (scene.obstacles, scene.contact_gap, slots)
     if key not in cache:
         cache[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
+    contact_cache.keep(solver, key, cache[key])
     return cache[key]
 
 
@@ -200,7 +203,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
         # the first round has no boundaries yet: its contact points (constrained points) stand in
         # for them, so that the acceleration already starts from the second round
         here = (splits if splits else merged(sorted(p["s"] for p in interior)), new)
-        history = history + [here] if history and len(history[-1][0]) == len(here[0]) == len(new) else [here]
+        history = extended(history, here)
         splits = accelerated(history)
     result.contact["split_at"] = list(result.options.split_at)
     if options.accuracy is not None:

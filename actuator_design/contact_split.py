@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["accelerated", "merged", "nearest_point", "MAX_SPLIT_ROUNDS", "SPLIT_TOL", "MERGE", "DEPTH"]
+__all__ = ["accelerated", "extended", "merged", "nearest_point", "MAX_SPLIT_ROUNDS", "SPLIT_TOL", "MERGE", "DEPTH"]
 
 #: rounds of solve → move the element boundaries to the contact points → solve (a safeguard: the
 #: rounds stop when the points stay put; obstacles take 1–5, the self-contact coil 10 at tip moment
@@ -48,6 +48,16 @@ def accelerated(history) -> tuple:
             or np.max(np.abs(step - f1)) > 10 * np.max(np.abs(g1))):
         return merged(sorted(f1))
     return merged(sorted(step))
+
+
+def extended(history, here) -> list:
+    """The rounds :func:`accelerated` mixes once ``here`` = (s, F(s)) is done: ``history`` continued
+    while every round has as many points in its start as in its answer, and as the rounds before
+    (a contact appearing or leaving starts a new history), else ``here`` alone."""
+    s, f = here
+    if history and len(history[-1][0]) == len(history[-1][1]) == len(s) == len(f):
+        return history + [here]
+    return [here]
 
 
 def merged(points) -> tuple:

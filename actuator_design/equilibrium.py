@@ -71,7 +71,11 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         # a shape that crosses itself or enters its own thickness: the rod against itself, the
         # contact equilibrium reached from rest (issue 20 item 3)
         from .self_contact import self_penetration, solve_self_contact
-        if result.status == "self_intersecting" or (result.success and self_penetration(result, scene.contact_gap)):
+        # (also a contact result judged inaccurate for entering an obstacle: the rod wound round a
+        # peg onto itself enters the peg because it passes through its own turn)
+        through = result.status == "self_intersecting" or (
+            (result.success or result.status == "inaccurate") and self_penetration(result, scene.contact_gap))
+        if through:
             return solve_self_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
     return result
 
