@@ -218,3 +218,21 @@ def test_continuation_stops_where_the_rod_first_touches_itself():
     assert abs(res.branch.lam[-1] - exact) < 1e-9
     with pytest.raises(RuntimeError, match="touches or passes through itself"):
         continue_branch(Scene(field=None, tip_moment=6.2, contact_gap=GAP), "m_tip", 6.2, 8.0)
+
+
+@pytest.mark.parametrize("chord", [0.05, 0.0205, 0.0195])
+def test_self_penetration_of_a_circular_strip_against_its_closed_form(chord):
+    """A uniform strip under a tip moment M is a circle arc of radius 1/M; its ends are the nearest
+    far-apart points, 2 sin(M/2)/M apart. Far (0.05), just clear (0.0205: the coarse pass cannot
+    decide, the fine one does) and just inside twice the half-thickness 0.01 (0.0195)."""
+    from scipy.optimize import brentq
+
+    moment = brentq(lambda m: 2 * math.sin(m / 2) / m - chord, 5.0, 2 * math.pi - 1e-9, xtol=1e-15)
+    r = solve(Scene(field=None, tip_moment=moment, contact_gap=GAP), SolverOptions(keep_self_intersecting=True))
+    assert r.success and abs(math.hypot(r.tip["x"], r.tip["y"]) - chord) < 1e-9
+    found = self_penetration(r, GAP)
+    if chord > 2 * GAP:
+        assert found is None
+    else:
+        s, t, depth = found
+        assert (s, t) == (0.0, 1.0) and abs(depth - (2 * GAP - chord)) < 1e-9
