@@ -15,8 +15,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import root
 
 
-def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
-    """Shooting for a strip with the given self-contact pairs.
+def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f, walls=(), guess_walls=()):
+    """Shooting for a strip with the given self-contact pairs (and wall contacts).
 
     Parameters
     ----------
@@ -24,7 +24,7 @@ def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
     M : float
         Tip moment (counter-clockwise; the strip coils to its left).
     gap : float
-        Half-thickness: a contact pair is 2·gap apart.
+        Half-thickness: a contact pair is 2·gap apart, and the centre line a gap from a wall.
     pairs : sequence of (bool,)
         Per contact, whether its inner end is the tip (``True``: unknowns s_a only) or an interior
         point (``False``: s_a and s_b).
@@ -32,28 +32,39 @@ def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
         Arc lengths of the contact points, in the order (s_a, [s_b]) per pair.
     guess_f : sequence of float
         Force magnitudes per pair.
+    walls : sequence of ((px, py), normal_angle)
+        Walls the rod presses on at one interior point each: a force F ν along the wall's normal ν
+        at s_w, where the centre line is a gap from the wall and tangent to it; the clamp moment
+        m(0) is then an unknown too (m(1) = M).
+    guess_walls : sequence of (s_w, F_w)
 
     Returns
     -------
-    dict with ``s`` (the contact arc lengths, as in ``guess_s``), ``force`` (per pair), ``tip``
-    (x, y, θ at s = 1) and the residual of the conditions.
+    dict with ``s`` (the contact arc lengths, as in ``guess_s``), ``force`` (per pair), ``walls``
+    ((s_w, F_w) per wall), ``tip`` (x, y, θ at s = 1), ``moment_at_tip`` and the residual of the
+    conditions.
     """
-    n_s = len(guess_s)
+    n_s, n_f = len(guess_s), len(guess_f)
+    nus = [np.array([math.cos(a), math.sin(a)]) for _, a in walls]
 
     def unpack(v):
-        s, f, out, k = v[:n_s], v[n_s:], [], 0
+        s, f, out, k = v[:n_s], v[n_s:n_s + n_f], [], 0
         for tip in pairs:
             out.append((s[k], 1.0 if tip else s[k + 1], f[len(out)]))
             k += 1 if tip else 2
-        return out
+        w = v[n_s + n_f:n_s + n_f + 2 * len(walls)]
+        return out, [(w[2 * j], w[2 * j + 1]) for j in range(len(walls))], (v[-1] if walls else M)
 
     def shoot(v):
-        contacts = unpack(v)
+        contacts, at_walls, m0 = unpack(v)
         # events in order of arc length: at a, the pair's normal ν is fixed (the rod's left normal);
-        # between a and b the internal force carries F ν (the force on b; −F ν at a cancels it below a)
+        # between a and b the internal force carries F ν (the force on b; −F ν at a cancels it below a);
+        # a wall's force F_w ν_w acts on everything before s_w
         marks = sorted([(a, "a", q) for q, (a, b, f) in enumerate(contacts)]
-                       + [(b, "b", q) for q, (a, b, f) in enumerate(contacts) if b < 1.0])
-        normals, state, n = {}, np.array([0.0, M, 0.0, 0.0]), np.zeros(2)
+                       + [(b, "b", q) for q, (a, b, f) in enumerate(contacts) if b < 1.0]
+                       + [(sw, "w", j) for j, (sw, fw) in enumerate(at_walls)])
+        n = sum((fw * nus[j] for j, (_, fw) in enumerate(at_walls)), np.zeros(2))
+        normals, state = {}, np.array([0.0, m0, 0.0, 0.0])
         s0, at = 0.0, {}
 
         def rhs(s, u):
@@ -73,6 +84,8 @@ def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
                 n = n + contacts[q][2] * normals[q]
             elif kind == "b":
                 n = n - contacts[q][2] * normals[q]
+            elif kind == "w":
+                n = n - at_walls[q][1] * nus[q]
         return contacts, normals, at
 
     def residual(v):
@@ -84,12 +97,21 @@ def coil_reference(stiffness, M: float, gap: float, pairs, guess_s, guess_f):
             out += list(ub[2:] - ra - 2.0 * gap * normals[q])
             if b < 1.0:  # an interior point: the rod at b is tangent to the rod at a
                 out.append(math.cos(ub[0]) * normals[q][0] + math.sin(ub[0]) * normals[q][1])
+        for j, ((px, py), _) in enumerate(walls):
+            u = at[("w", j)]
+            out += [(u[2] - px) * nus[j][0] + (u[3] - py) * nus[j][1] - gap,
+                    math.cos(u[0]) * nus[j][0] + math.sin(u[0]) * nus[j][1]]
+        if walls:
+            out.append(at[("end", None)][1] - M)
         return out
 
-    sol = root(residual, list(guess_s) + list(guess_f), method="hybr", options={"xtol": 1e-14})
+    guess = list(guess_s) + list(guess_f) + [v for w in guess_walls for v in w] + ([M] if walls else [])
+    sol = root(residual, guess, method="hybr", options={"xtol": 1e-14})
     contacts, _, at = shoot(sol.x)
     end = at[("end", None)]
-    return {"s": list(sol.x[:n_s]), "force": list(sol.x[n_s:]), "tip": (end[2], end[3], end[0]),
+    w = sol.x[n_s + n_f:n_s + n_f + 2 * len(walls)]
+    return {"s": list(sol.x[:n_s]), "force": list(sol.x[n_s:n_s + n_f]),
+            "walls": [(w[2 * j], w[2 * j + 1]) for j in range(len(walls))], "tip": (end[2], end[3], end[0]),
             "moment_at_tip": end[1], "residual": float(np.max(np.abs(residual(sol.x))))}
 
 

@@ -236,3 +236,28 @@ def test_self_penetration_of_a_circular_strip_against_its_closed_form(chord):
     else:
         s, t, depth = found
         assert (s, t) == (0.0, 1.0) and abs(depth - (2 * GAP - chord)) < 1e-9
+
+
+def test_the_coil_pressed_on_a_wall_and_on_itself_against_shooting():
+    """Self-contact and an obstacle at once: a wall left of the coil presses its outer turn in (the
+    centre line 0.04 from x = 0); the shooting reference carries the wall's force and its tangency."""
+    from actuator_design.obstacles import Wall
+
+    r = solve(coil(obstacles=(Wall((-0.05, 0.0), 0.0),)))
+    assert r.success and r.stable and r.contact["self_contact"], r.message
+    pairs = _pairs(r)
+    wall = [p for p in r.contact["points"] if p.get("obstacle") == 0 and not p["weak"]]
+    assert len(pairs) == 2 and pairs[1][1] == 1.0 and len(wall) == 1
+    (a1, b1, f1), (a2, _, f2) = pairs
+    ref = coil_reference(lambda s: math.exp(-s), M, GAP, [True, False], [a2, a1, b1], [f2, f1],
+                         walls=[((-0.05, 0.0), 0.0)], guess_walls=[(wall[0]["s"], wall[0]["multiplier"])])
+    assert ref["residual"] < 1e-11 and abs(ref["moment_at_tip"] - M) < 1e-9
+    assert abs(r.tip["x"] - ref["tip"][0]) < 1e-8 and abs(r.tip["y"] - ref["tip"][1]) < 1e-8
+    assert abs(r.tip["angle"] - ref["tip"][2]) < 1e-7
+    assert np.allclose([a2, a1, b1], ref["s"], atol=1e-6)
+    assert abs(f2 - ref["force"][0]) < 1e-6 * ref["force"][0] and abs(f1 - ref["force"][1]) < 1e-6 * ref["force"][1]
+    (sw, fw), = ref["walls"]
+    assert abs(wall[0]["s"] - sw) < 1e-6 and abs(wall[0]["multiplier"] - fw) < 1e-5 * fw
+    # the wall's push is the only external force: the clamp holds it
+    assert np.allclose(r.contact["total_force"], (fw, 0.0), atol=1e-5 * fw)
+    assert np.allclose(r.clamp_force, (-fw, 0.0), atol=1e-5 * fw)
