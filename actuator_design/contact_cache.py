@@ -22,8 +22,9 @@ __all__ = ["BUDGET", "BYTES_PER_INSTRUCTION", "keep", "charge", "kept_bytes"]
 #: bytes per instruction of the derivative functions (measured 105–117: the process's peak memory
 #: against the instructions of nlp_hess_l, nlp_jac_g and nlp_grad at 8, 16 and 24 elements)
 BYTES_PER_INSTRUCTION = 120
-#: estimated bytes of contact NLPs kept beyond the one in use
-BUDGET = 1.0e9
+#: estimated bytes of contact NLPs kept (a self-contact path on the default mesh keeps ~33 NLPs, ~1.1 GB
+#: by this estimate; at 1 GB it rebuilt them, 35 % slower)
+BUDGET = 2.0e9
 
 # id(nlp) → [weak reference to its solver, its key in the solver's cache, bytes]; an entry leaves
 # with its NLP (weakref.finalize), so an id is never reused while its entry is here
