@@ -229,10 +229,13 @@ def solve_self_contact(scene, options, initial=None):
             state, t, dt = r, tn, min(grow * dt, RAMP_MAX)
             continue
         dt *= 0.5
-        if dt < RAMP_MIN:
-            r.success, r.status = False, "not_converged"
-            r.message += (f"; the load ramp from rest with self-contact stopped at {100 * t:.4g} % of the "
-                          f"loads (a snap, or a contact the ramp cannot follow)")
-            return r
+        if dt < RAMP_MIN:  # reported: the last state reached (an equilibrium at that fraction), not
+            out = state if state is not None else r  # the rejected trial beyond it
+            out.success, out.status = False, "not_converged"
+            out.message += (f"; the load ramp from rest with self-contact stopped at {100 * t:.4g} % of the "
+                            f"loads (a snap, or a contact the ramp cannot follow)"
+                            + (f": the shape is the last state reached, at {100 * t:.10g} % of every load"
+                               if state is not None else ""))
+            return out
     return solve_contact(scene, options, state, self_contact=True,
                          start=f"rest, the loads ramped in {steps} steps with self-contact")

@@ -102,6 +102,11 @@ def test_a_curl_the_ramp_cannot_follow_is_no_success():
     sc = Scene(field=None, tip_moment=7.0, contact_gap=GAP)
     r = solve(sc)
     assert not r.success and "ramp from rest with self-contact stopped" in r.message, r.message
+    # the shape reported is the last state reached: the tip pressed on the clamp 2·gap away, the
+    # force between them along the line through the clamp, so the clamp holds the applied moment alone
+    fraction = float(r.message.split("the last state reached, at ")[1].split(" %")[0]) / 100
+    assert 0.9 < fraction < 0.95 and abs(math.hypot(r.tip["x"], r.tip["y"]) - 2 * GAP) < 1e-9
+    assert abs(r.clamp_moment + fraction * 7.0) < 1e-6 * 7.0, (r.clamp_moment, fraction)
     for sc2, opts in ((Scene(field=None, tip_moment=7.0), SolverOptions()),
                       (sc, SolverOptions(self_contact=False))):
         refused = solve(sc2, opts)
