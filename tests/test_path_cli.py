@@ -47,6 +47,17 @@ def test_path_in_degrees_is_mirror_symmetric_about_90(capsys):
     assert 90 < up < 150
 
 
+def test_path_over_h_r_small_field_is_the_linear_closed_form(capsys):
+    """`--param h_r` (listed in --help): a hard-magnetic strip in a transverse field, h_r ramped to
+    1e-3. Linearised, θ'' = −h_r gives θ = h_r (s − s²/2) and a tip rising by h_r/3 (O(h_r³) off)."""
+    code, d, _ = run_json(capsys, ["path", "--param", "h_r", "--from", "0", "--to", "1e-3", "--steps", "4",
+                                   "--h-r", "0", "--phi-deg", "90"])
+    assert code == 0 and d["param"] == "h_r"
+    tip = d["points"][-1]["tip"]
+    assert d["points"][-1]["param"] == pytest.approx(1e-3, rel=1e-12)
+    assert tip["y"] == pytest.approx(1e-3 / 3, abs=1e-9) and tip["angle"] == pytest.approx(1e-3 / 2, abs=1e-9)
+
+
 def test_path_out_writes_files_atomically(tmp_path, capsys):
     out = tmp_path / "res"
     code = main(["path", "--param", "h", "--from", "0", "--to", "2", "--steps", "10", "--p", "0.2",

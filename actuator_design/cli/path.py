@@ -11,8 +11,8 @@ equilibria, each from the state before it; every touch-down and lift-off is loca
 free rod just touches the obstacle) and listed with the obstacle and the touching point; so is a
 rod with a thickness that meets itself on the way (self-contact, "rod itself").
 
-NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos (dimensionless, THEORY §5), phi_deg,
-alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
+NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos, h_r (dimensionless, THEORY §5 and §9),
+phi_deg, alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
 THEORY §5's cantilever with h = 0, phi = 0, p = 0, alpha = 0 unless flags set them. A CONFIG may
 carry the settings in a section
     study: {type: path, param: h, from: 0, to: 2, back: true, steps: 40}
@@ -124,7 +124,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="scene (and optional `study: {type: path, ...}`); omit for the default scene")
     g = parser.add_argument_group("path")
     g.add_argument("--param", metavar="NAME",
-                   help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, phi_deg, alpha_deg, "
+                   help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, h_r, phi_deg, alpha_deg, "
                         "theta0_deg (degrees) or phi, alpha, theta0 (radians)")
     g.add_argument("--schedule", metavar="A,B,C,...", help="values of NAME in order (e.g. up and back down)")
     g.add_argument("--from", dest="start", metavar="A", help="first value of NAME (units allowed, e.g. '2 mT')")
