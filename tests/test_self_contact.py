@@ -170,8 +170,7 @@ def test_a_physical_rod_has_its_half_thickness_as_gap_and_obstacles_need_a_thick
 def test_a_loading_path_through_itself_is_no_success():
     """A uniform strip with the tip moment ramped 0 → 8 winds past 2π. Without self-contact the
     path fails at the schedule point where it passes through itself and says why; with it, the tip
-    touches down on the (point) clamp where the closed form 2 sin(M/2)/M = 2·gap says, and the path
-    stops where pressing on that corner turns unstable (as the ramp from rest does)."""
+    touches down on the (point) clamp where the closed form 2 sin(M/2)/M = 2·gap says and presses on it."""
     from scipy.optimize import brentq
 
     from actuator_design.analysis.loading import follow_path
@@ -184,10 +183,22 @@ def test_a_loading_path_through_itself_is_no_success():
     assert follow_path(sc, off, {"m_tip": [0.0, 6.0]}).success
     thick = follow_path(replace(sc, contact_gap=0.05), off, {"m_tip": [0.0, 6.0]})
     assert not thick.success and "passes through its own thickness" in thick.message, thick.message
-    on = follow_path(sc, SolverOptions(), {"m_tip": [0.0, 8.0]})
+    # with it, up to 6.4 (pressing on the corner), then on to where that turns unstable (slow test below)
+    on = follow_path(sc, SolverOptions(), {"m_tip": [0.0, 6.4]})
     exact = brentq(lambda m: 2.0 / m * math.sin(m / 2.0) - 2 * GAP, 5.5, 2 * math.pi, xtol=1e-15)
     (touch,) = on.contact_events
     assert touch["kind"] == "touch-down" and touch["obstacle"] is None and abs(touch["param"] - exact) < 1e-7
+    assert on.success and on.final.contact["self_contact"], on.message
+
+
+@pytest.mark.slow
+def test_a_path_pressing_the_tip_on_the_clamp_stops_where_it_turns_unstable():
+    """The same strip's path on to 8 stops where the tip pressing on the clamp's corner turns unstable,
+    between 6.3 and 7 (the ramp from rest stops at 93.3 % of 7, 6.53); ~65 s of small steps near it."""
+    from actuator_design.analysis.loading import follow_path
+
+    on = follow_path(Scene(field=None, tip_moment=0.0, contact_gap=GAP), SolverOptions(), {"m_tip": [0.0, 8.0]})
+    assert len(on.contact_events) == 1
     assert not on.success and "unstable" in on.message and 6.3 < on.points[-1].param < 7.0, on.message
 
 
