@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from actuator_design.equilibrium import solve
+from actuator_design.obstacles import Peg
 from actuator_design.options import SolverOptions
 from actuator_design.profiles import expression_profile
 from actuator_design.scene import Scene
@@ -277,3 +278,23 @@ def test_the_coil_pressed_on_a_wall_and_on_itself_against_shooting():
     # the wall's push is the only external force: the clamp holds it
     assert np.allclose(r.contact["total_force"], (fw, 0.0), atol=1e-5 * fw)
     assert np.allclose(r.clamp_force, (-fw, 0.0), atol=1e-5 * fw)
+
+
+def test_a_contact_result_judged_inaccurate_while_passing_through_itself_gets_self_contact(monkeypatch):
+    """A rod wound round a peg onto itself enters the peg where it passes through its own turn: that
+    contact result (inaccurate) is solved again with self-contact, not reported as it is."""
+    import actuator_design.contact as contact
+    import actuator_design.self_contact as self_contact
+
+    coil = Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01,
+                 obstacles=(Peg((5.0, 5.0), 0.1),))
+    through = solve(replace(coil, obstacles=()), SolverOptions(keep_self_intersecting=True))
+    assert self_contact.self_penetration(through, coil.contact_gap) is not None
+    through.success, through.status = False, "inaccurate"
+    calls = []
+    monkeypatch.setattr(contact, "solve_contact", lambda *a, **k: through)
+    monkeypatch.setattr(self_contact, "solve_self_contact", lambda *a, **k: calls.append(a) or "with self-contact")
+    assert solve(coil) == "with self-contact" and len(calls) == 1
+    # a result that fails for another reason is reported as it is
+    through.status = "not_converged"
+    assert solve(coil) is through and len(calls) == 1
