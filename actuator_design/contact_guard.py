@@ -17,7 +17,7 @@ def refuse_contact(scene, what: str) -> None:
     """Raise ``ValueError`` naming ``what`` when ``scene`` has obstacles."""
     if getattr(scene, "obstacles", ()):
         raise ValueError(f"{what}: this scene has obstacles (contact), which only solve, path, stiffness, "
-                         "continue (up to the first touch) and design (--target-tip, one pose, or --target-force) "
+                         "continue (on from the first touch by a loading path) and design (--target-tip, one pose, or --target-force) "
                          "model so far; "
                          f"{what} would ignore them: remove scene.obstacles, or use solve")
 

@@ -133,7 +133,7 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
     assert main([argv[0], str(cfg), *argv[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
-    assert ("obstacles (contact), which only solve, path, stiffness, continue (up to the first touch) and design "
+    assert ("obstacles (contact), which only solve, path, stiffness, continue (on from the first touch by a loading path) and design "
             "(--target-tip, one pose") in err[0]
 
 
@@ -170,9 +170,11 @@ def test_a_tip_on_a_floor_is_infinitely_stiff_vertically():
     assert st.vertical == math.inf and st.compliance[1, 1] == 0.0 and st.compliance[0, 0] > 0
 
 
-def test_continuation_follows_the_free_branch_to_the_first_touch():
+def test_continuation_follows_the_free_branch_to_the_first_touch_and_on_with_contact():
     """Tip load p from 0 down, a floor 0.1 below the clamp: the branch stops where the free tip
-    reaches the floor, at the load of the shooting reference (tip y(p) = −0.1), and says so."""
+    reaches the floor, at the load of the shooting reference (tip y(p) = −0.1), and says so; the
+    loading path with contact goes on from there to p = −3, where the tip rests on the floor with
+    the floor reference's reaction."""
     from scipy.optimize import brentq
 
     from actuator_design.analysis.continuation import continue_branch
@@ -186,19 +188,47 @@ def test_continuation_follows_the_free_branch_to_the_first_touch():
                      xtol=1e-14)
     assert br.lam[-1] == pytest.approx(p_touch, abs=1e-8)
     assert br.tips[-1, 2] == pytest.approx(-depth, abs=1e-8) and np.all(br.tips[:-1, 2] > -depth)
+    cp = res.contact_path
+    assert cp.success and res.complete and "followed on with contact to p = -3" in br.message, br.message
+    # the touch-down is the continuation's located touch, not a second event one step later
+    (ev,) = cp.contact_events
+    assert ev["kind"] == "touch-down" and ev["located"] and ev["obstacle"] == 0 and ev["s"] == 1.0
+    assert ev["param"] == pytest.approx(p_touch, abs=1e-8)
+    assert cp.points[0].param == br.lam[-1] and cp.points[-1].param == -3.0
+    R, ref = floor_reference(3.0, depth)
+    end = cp.final
+    assert abs(end.contact["total_force"][1] - R) <= 1e-4 and abs(end.tip["x"] - ref.tip_x) <= 1e-6
+    assert end.tip["y"] == pytest.approx(-depth, abs=1e-9) and all(q.stable for q in cp.points)
+    # stopped at the touch on request
+    off = continue_branch(_floor_scene(depth, 0.0), "p", 0.0, -3.0, through_contact=False)
+    assert off.contact_path is None and not off.complete and "not followed" in off.branch.message
 
 
-def test_continue_stops_at_the_touch_and_refuses_a_start_in_contact(capsys):
-    """The CLI: the branch up to the touch, a warning line and exit 3; a start already pressing the
-    floor is refused (continuation through contact is not modelled)."""
+def test_continue_goes_on_with_contact_and_refuses_a_start_in_contact(capsys, tmp_path):
+    """The CLI: the branch up to the touch, then the loading path with contact to the window's end
+    (exit 0; its states in branch.csv with with_contact = 1, its events in the JSON); with
+    --stop-at-touch the branch ends at the touch with a warning line and exit 3; a start already
+    pressing the floor is refused (a start in contact is not continued)."""
+    import json
     from pathlib import Path
 
     from actuator_design.cli.main import main
 
     cfg = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
-    assert main(["continue", str(cfg), "--param", "h", "--from", "0", "--to", "3"]) == 3
+    assert main(["continue", str(cfg), "--param", "h", "--from", "0", "--to", "3", "--out", str(tmp_path)]) == 0
     out, err = capsys.readouterr()
-    assert "(touch: stopped where the rod first touches an obstacle" in out
+    assert "(touch: stopped where the rod first touches an obstacle" in out and not err.strip()
+    assert "touch-down on the wall" in out and "mu0 H = 5.9864 mT" in out and "touch state :" in out
+    rows = [r.split(",") for r in (tmp_path / "branch.csv").read_text().splitlines()[2:]]
+    last = [r for r in rows if r[-1] == "1"]
+    assert last and all(r[0] == "1" for r in last) and float(last[-1][1]) == 3.0
+    data = json.loads((tmp_path / "branch.json").read_text())
+    assert data["complete"] and data["contact_path"]["success"]
+    (ev,) = data["contact_path"]["contact_events"]
+    assert ev["field_mT"] == pytest.approx(5.9864, abs=1e-4) and ev["located"]
+    assert main(["continue", str(cfg), "--param", "h", "--from", "0", "--to", "3", "--stop-at-touch"]) == 3
+    out, err = capsys.readouterr()
+    assert "with contact" not in out
     assert len(err.strip().splitlines()) == 1 and "continuation stopped early" in err
     assert main(["continue", str(cfg), "--param", "h", "--from", "3", "--to", "0"]) == 3
     err = capsys.readouterr().err.strip().splitlines()

@@ -222,17 +222,27 @@ def test_a_path_follows_the_coil_onto_itself():
     assert abs(end.tip["x"] - ref["tip"][0]) < 1e-8 and abs(end.tip["y"] - ref["tip"][1]) < 1e-8
 
 
-def test_continuation_stops_where_the_rod_first_touches_itself():
+def test_continuation_stops_where_the_rod_first_touches_itself_and_goes_on_pressing_the_clamp():
     """A uniform strip under a tip moment M is a circle of curvature M; its tip comes back to the
-    clamp, 2 sin(M/2)/M away, and touches the rod (2·gap) at the root of that closed form."""
+    clamp, 2 sin(M/2)/M away, and touches the rod (2·gap) at the root of that closed form. On with
+    contact, the tip presses on the clamp point: it stays 2·gap from it, and the contact force
+    passes through the clamp, so the clamp takes the whole applied moment (to M = 6.4: pressing on
+    that corner turns unstable near 6.54, where the path stops and says so, a slow test of path)."""
     from scipy.optimize import brentq
 
     from actuator_design.analysis.continuation import continue_branch
 
-    res = continue_branch(Scene(field=None, tip_moment=0.0, contact_gap=GAP), "m_tip", 0.0, 8.0)
+    res = continue_branch(Scene(field=None, tip_moment=0.0, contact_gap=GAP), "m_tip", 0.0, 6.4)
     exact = brentq(lambda m: 2.0 / m * math.sin(m / 2.0) - 2 * GAP, 5.5, 2 * math.pi, xtol=1e-15)
     assert res.branch.status == "touch" and "touches itself" in res.branch.message
     assert abs(res.branch.lam[-1] - exact) < 1e-9
+    cp = res.contact_path
+    (ev,) = cp.contact_events
+    assert ev["kind"] == "touch-down" and ev["obstacle"] is None and ev["located"] and abs(ev["param"] - exact) < 1e-9
+    assert cp.success and res.complete and cp.points[-1].param == 6.4, cp.message
+    for q, r in zip(cp.points[1:], cp.point_states[1:]):
+        assert abs(math.hypot(r.tip["x"], r.tip["y"]) - 2 * GAP) < 1e-9
+        assert abs(r.clamp_moment + q.param) < 1e-6 and r.stable
     with pytest.raises(RuntimeError, match="touches or passes through itself"):
         continue_branch(Scene(field=None, tip_moment=6.2, contact_gap=GAP), "m_tip", 6.2, 8.0)
 

@@ -8,7 +8,7 @@ contract). Built by :class:`~.continuation.Continuation` from the engine's
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -132,13 +132,25 @@ class ContinuationResult:
     secondary: List[Branch]
     scene: Scene
     window: tuple
+    contact_path: Optional[Any] = None  # LoadingPath on from the first touch (status "touch")
+
+    @property
+    def complete(self) -> bool:
+        """Whether the window was covered: the branch ended at its end (not at a step too small),
+        or at a touch followed on with contact by a successful loading path."""
+        if self.branch.status == "touch":
+            return self.contact_path is not None and bool(self.contact_path.success)
+        return self.branch.status != "step_too_small"
 
     def to_dict(self) -> dict:
         """The ``continue --json`` contract: ``branch`` (points with the parameter value, tip angle,
-        stable), ``folds`` and ``branch_points`` (value and tip angle each)."""
+        stable), ``folds`` and ``branch_points`` (value and tip angle each); ``contact_path``: the
+        loading path with contact on from the first touch (``path --json``'s contract), or None."""
         b = self.branch.to_dict()
         return {"param": self.param, "window": list(self.window), "branch": b["points"],
                 "folds": b["folds"], "branch_points": b["branch_points"], "status": b["status"],
                 "message": b["message"], "stats": b["stats"],
                 "secondary_branches": [s.to_dict() for s in self.secondary],
-                "groups": self.scene.describe_groups()}
+                "groups": self.scene.describe_groups(),
+                "contact_path": None if self.contact_path is None else self.contact_path.to_dict(),
+                "complete": self.complete}

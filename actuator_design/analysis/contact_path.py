@@ -46,11 +46,15 @@ MIN_STEP = 1e-4
 SUBSTEPS = 4
 #: samples of a step searched for the sign change of g_k when its two ends have the same sign
 SCAN = 16
+#: a free state whose gap function is within this of zero touches (rod lengths): a path started
+#: at a continuation's located touch has its touch-down there
+TOUCH_GTOL = 1e-9
 _S = np.linspace(0.0, 1.0, 401)  # arc lengths at which shapes are compared and gaps measured
 
 
 def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule=(), *,
-                        max_step: Optional[float] = None, max_dtheta: float = 0.3) -> LoadingPath:
+                        max_step: Optional[float] = None, max_dtheta: float = 0.3,
+                        initial=None) -> LoadingPath:
     """Follow the contact equilibrium of ``scene`` (with obstacles) quasi-statically along ``schedule``.
 
     Parameters
@@ -64,6 +68,9 @@ def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule
         Largest step, a fraction of a segment (0 < max_step ≤ 1); default min(1, n_segments/20).
     max_dtheta : float
         Largest change of θ(s) per step, rad.
+    initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
+        Warm start of the first state (a continuation's state where the rod touches, so the path
+        goes on from that branch); default: the first state is solved from rest.
 
     Returns
     -------
@@ -77,7 +84,7 @@ def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule
     options = options or SolverOptions()
     base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
     run = _Run(base, options, names, vals)
-    return run.follow(max_step, max_dtheta)
+    return run.follow(max_step, max_dtheta, initial)
 
 
 class _Run:
@@ -124,8 +131,8 @@ class _Run:
             direction=self.direction(t), kind=kind))
 
     # -- following --------------------------------------------------------------------------------
-    def follow(self, max_step: float, max_dtheta: float) -> LoadingPath:
-        first = solve(self.scene(0.0), self.options)
+    def follow(self, max_step: float, max_dtheta: float, initial=None) -> LoadingPath:
+        first = solve(self.scene(0.0), self.options, initial=initial)
         self.record(first, 0.0, "start")
         self.states.append(first)
         cur, t, step, msg = first, 0.0, max_step, ""
@@ -242,6 +249,10 @@ class _Run:
             return _min_self_gap(r, self.base.contact_gap) if k == SELF else _min_gap(self.base, k, r)
 
         try:
+            t_free = ta if free_side is a else tb
+            g_free = gap(t_free)
+            if abs(g_free[0]) <= TOUCH_GTOL:  # the step starts (or ends) touching: the event is there
+                return t_free, g_free[1], True
             lo, hi = ta, tb
             if not gap(ta)[0] * gap(tb)[0] < 0:
                 lo, hi = self._bracket(gap, ta if free_side is a else tb, tb if free_side is a else ta)

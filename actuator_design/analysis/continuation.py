@@ -309,16 +309,25 @@ def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, in
     z = np.asarray(initial.z if isinstance(initial, EquilibriumResult) else initial, float)
     if least(z) <= 0.0:
         raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or enters an obstacle; "
-                           "continuation through contact is not modelled: use path, which follows contact")
+                           "a start in contact is not continued: use path, which follows contact from rest")
     return z
 
 
 def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
                     options: Optional[SolverOptions] = None, initial=None, ds: float = 0.05,
                     ds_max: float = 0.5, max_points: int = 2000, switch: bool = False,
-                    window: Optional[Sequence[float]] = None) -> ContinuationResult:
+                    window: Optional[Sequence[float]] = None, through_contact: bool = True) -> ContinuationResult:
     """Continue the equilibrium at ``param = start`` towards ``stop`` (through folds), within the
     window [min(start, stop), max(start, stop)] unless ``window`` is given.
+
+    On a scene with obstacles, or a rod with a thickness, the branch of free states is continued
+    until the rod first touches an obstacle or itself (located as an event, branch status
+    ``touch``). From there, with ``through_contact``, the rest of the window is followed by a
+    loading path of contact equilibria warm-started from the touching state
+    (:func:`.contact_path.follow_contact_path`: touch-down and lift-off located as events, snaps
+    located at the contact branch's fold), the result's ``contact_path``. That path follows stable
+    states in the direction the branch was moving; it does not turn round folds as the
+    arclength continuation does.
 
     Parameters
     ----------
@@ -331,7 +340,9 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     initial : ndarray (n_nodes,) or EquilibriumResult, optional
         Start equilibrium guess; default: :func:`~actuator_design.equilibrium.solve` at ``start``.
     switch : bool
-        Also continue every branch bifurcating at a branch point found.
+        Also continue every branch bifurcating at a branch point found (each up to its first touch).
+    through_contact : bool
+        Follow on with contact after the first touch (default); False stops there.
 
     Returns
     -------
@@ -351,20 +362,39 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     z0 = np.concatenate([[cont._theta0 if cont.theta0_fixed else x0[-1]], x0[:-1]])  # θ at the nodes
     if itself is not None and itself(z0) <= 0.0:
         raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or passes through "
-                           "itself; continuation through self-contact is not modelled (solve finds the "
-                           "self-contact state at one load)")
+                           "itself; a start in contact is not continued (solve finds the self-contact state "
+                           "at one load, path follows it from rest)")
     br = cont.run(x0, win, direction=1.0 if stop >= start else -1.0, ds=ds, ds_max=ds_max,
                   max_points=max_points, stop_events=touch)
+    contact = None
     if touch and br.status == "event":
         br.status = "touch"
         what = "itself" if itself is not None and itself(br.z[-1]) <= 1e-9 else "an obstacle"
-        br.message = (f"stopped where the rod first touches {what}, at {param} = {br.lam[-1]:.10g}: "
-                      "continuation through contact is not modelled (path follows contact with obstacles)")
+        where = f"stopped where the rod first touches {what}, at {param} = {br.lam[-1]:.10g}"
+        if through_contact:
+            contact = _on_with_contact(scene, cont.options, param, br, win)
+            br.message = (f"{where}; followed on with contact to {param} = "
+                          f"{contact.schedule[-1, 0]:.10g} by a loading path of stable states "
+                          f"({'converged' if contact.success else 'FAILED'}: {contact.message})")
+        else:
+            br.message = f"{where} (through_contact off: the rod's contact states are not followed)"
     sec = []
     if switch:
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
-    return ContinuationResult(param, br, sec, scene, win)
+    return ContinuationResult(param, br, sec, scene, win, contact)
+
+
+def _on_with_contact(scene: Scene, options: SolverOptions, param: str, br: Branch, win):
+    """The loading path with contact from the branch's touching state to the window's end the
+    branch was heading for (``LoadingPath``)."""
+    from .contact_path import follow_contact_path
+
+    lam = float(br.lam[-1])
+    heading_up = len(br) < 2 or br.lam[-1] >= br.lam[-2]
+    end = float(win[1] if heading_up else win[0])
+    return follow_contact_path(set_param(scene, param, lam), options, {param: [lam, end]},
+                               initial=np.asarray(br.z[-1], float))
 
 
 @register("continuation")

@@ -8,10 +8,16 @@ angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter;
 where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
 phi = 90 deg, p = 0); --switch also follows the branches that bifurcate there.
 
-A scene with obstacles is followed until the rod first touches one (located as an event; status
-`touch`, exit 3 with a warning: continuation through contact is not modelled, `path` follows
-contact); a start that already touches is refused. So is a rod with a thickness (contact_gap > 0,
-always on a physical scene) at its first touch of itself.
+A scene with obstacles, or a rod with a thickness (contact_gap > 0, always on a physical scene),
+is continued until the rod first touches an obstacle or itself (located as an event; the branch's
+status `touch`). From there the rest of the window is followed by a loading path of contact
+equilibria (as `path` does: touch-down and lift-off located as events, snaps located at the
+contact branch's fold), warm-started from the touching state: the JSON's `contact_path` (the
+contract of `path --json`), the CSV's last branch (column with_contact = 1), the figure's dotted
+line. That path follows stable states only, in the direction the branch was moving; it does not
+turn round folds. Exit 0 when it reaches the window's end, 3 when it fails (the message says
+where). --stop-at-touch stops at the touch instead (exit 3). A start that already touches is
+refused (`path` follows contact from rest).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --from/--to accept units for
@@ -62,6 +68,7 @@ class ContinuationStudy(StudyBase):
     max_points: int = Field(2000, ge=2, le=10**6)
     switch: bool = False
     straight: bool = False
+    stop_at_touch: bool = False
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -78,6 +85,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="also follow the branches bifurcating at branch points")
     c.add_argument("--straight", action="store_true", default=None,
                    help="start from the straight rod (Newton, no saddle escape) instead of the stable state")
+    c.add_argument("--stop-at-touch", action="store_true", default=None,
+                   help="stop where the rod first touches an obstacle or itself (default: follow on with contact)")
     add_output_args(parser, "branch.json, branch.csv and branch.png")
 
 
@@ -97,7 +106,10 @@ def _csv(res, units=None) -> str:
                         if unit is not None else "") + state_csv_note(units))
     lines = [f"# branch in {res.param}; tip x, y in rod lengths l, angle in rad, energy in B0/l" + note,
              "branch,value,tip_angle,tip_x,tip_y,energy,morse_index,stable"
-             + "".join("," + c for c in extra)]
+             + "".join("," + c for c in extra) + ",with_contact"]
+    if res.contact_path is not None:
+        lines[0] += ("; the last branch (with_contact = 1) is the loading path with contact on from the "
+                     "first touch")
     for k, br in enumerate([res.branch] + res.secondary):
         for i in range(len(br)):
             # float(): numpy scalars' repr is "np.float64(…)" since numpy 2
@@ -109,7 +121,17 @@ def _csv(res, units=None) -> str:
                 vals = ([parameter_physical(p, float(br.lam[i]), units)] if unit is not None else [])
                 vals += state_values(tip, float(br.energy[i]), float(br.gamma[i]), units)
                 row += "".join("," + repr(float(v)) for v in vals)
-            lines.append(row)
+            lines.append(row + ",0")
+    if res.contact_path is not None:
+        k = 1 + len(res.secondary)
+        for q, state in zip(res.contact_path.points, res.contact_path.point_states):
+            row = (f"{k},{q.param!r},{q.tip['angle']!r},{q.tip['x']!r},{q.tip['y']!r},{q.energy!r},"
+                   f"{q.morse_index},{int(q.stable)}")
+            if units is not None:
+                vals = ([parameter_physical(p, q.param, units)] if unit is not None else [])
+                vals += state_values(q.tip, q.energy, state.gamma, units)
+                row += "".join("," + repr(float(v)) for v in vals)
+            lines.append(row + ",1")
     return "\n".join(lines) + "\n"
 
 
@@ -123,6 +145,16 @@ def add_units(payload: dict, res, units) -> None:
 
     payload["physical"] = command_physical(res.scene, units, [res.param])
     add_point_units(payload["branch"] + payload["folds"] + payload["branch_points"], res.param, units)
+    if payload.get("contact_path"):
+        cp = payload["contact_path"]
+        for item in cp["points"] + cp["contact_events"] + cp["jumps"]:
+            value_keys = {"value": item["param"]}
+            add_point_units([value_keys], res.param, units)
+            item.update({k: v for k, v in value_keys.items() if k != "value"})
+        for q in cp["points"]:
+            tip_units = {"tip": q["tip"], "energy": q["energy"]}
+            add_point_units([tip_units], res.param, units)
+            q["physical"] = tip_units["physical"]
     for sec in payload.get("secondary_branches", []):
         add_point_units(sec["points"] + sec["folds"] + sec["branch_points"], res.param, units)
 
@@ -168,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--max-points: must be >= 2, got {max_points}")
     switch = bool(_pick(args.switch, study, "switch", False))
     straight = bool(_pick(args.straight, study, "straight", False))
+    stop_at_touch = bool(_pick(args.stop_at_touch, study, "stop_at_touch", False))
 
     from ..analysis.continuation import continue_branch
     from ..parameters import set_value as set_param
@@ -186,7 +219,8 @@ def run(args: argparse.Namespace) -> int:
             initial = np.full(n, theta0)
         try:
             res = continue_branch(scene, param, start, stop, options=options, initial=initial, ds=ds,
-                                  ds_max=ds_max, max_points=max_points, switch=switch)
+                                  ds_max=ds_max, max_points=max_points, switch=switch,
+                                  through_contact=not stop_at_touch)
         except RuntimeError as err:
             print(f"actuator-design: error: {err}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
@@ -199,7 +233,11 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.landscape import plot_branches
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
-            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
+            cp = res.contact_path
+            with_contact = ([([q.param for q in cp.points], [q.tip["angle"] for q in cp.points],
+                              "with contact (loading path from the touch)")] if cp is not None else None)
+            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}",
+                               reference=with_contact)
             from ..viz.units import parameter_axis  # h in mT, loads in N, ...
             parameter_axis(ax, parameter(param), units, param, "x",
                            data_max=max(float(np.max(b.lam)) for b in [res.branch] + res.secondary))
@@ -226,18 +264,44 @@ def run(args: argparse.Namespace) -> int:
         for s in res.secondary:
             print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}"
                   f"{mT(s.lam[-1])}")
+        for line in _contact_lines(res, param, mT, units):
+            print(line)
         if units is not None:
             from ..unit_results import physical_header, scene_text, state_text, units_line
             k = len(br) - 1
-            print(f"  end state   : {state_text({'x': br.tips[k, 1], 'y': br.tips[k, 2]}, br.energy[k], units, br.gamma[k])}")
+            print(f"  {'touch state' if res.contact_path is not None else 'end state  '} : {state_text({'x': br.tips[k, 1], 'y': br.tips[k, 2]}, br.energy[k], units, br.gamma[k])}")
             given = scene_text(res.scene, units)
             print(f"  user units  : {units_line(units)}" + (f"; start scene: {given}" if given else ""))
             for note in physical_header(units, [param])["notes"]:
                 print(f"  note        : {note}")
     if written is not None:
         print_written(written, args.json)
-    if res.branch.status in ("step_too_small", "touch"):
+    if not res.complete:
         print(f"actuator-design: warning: the continuation stopped early: {res.branch.message}",
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def _contact_lines(res, param: str, value_text, units) -> list:
+    """The text of the loading path with contact on from the first touch: its events, snaps and
+    end (``value_text(v)`` the parameter value in the user's unit, " (...)" or "")."""
+    cp = res.contact_path
+    if cp is None:
+        return []
+    u, length = ("l", float) if units is None else (units.length_unit, units.length)
+    lines = [f"  with contact: {len(cp.points)} states from {param} = {cp.points[0].param:.10g}"
+             f"{value_text(cp.points[0].param)} to {cp.points[-1].param:.10g}{value_text(cp.points[-1].param)} "
+             f"({'converged' if cp.success else 'FAILED'}: {cp.message})"]
+    for e in cp.contact_events:
+        on = "on" if e["kind"] == "touch-down" else "from"
+        at = "" if e["s"] is None else f" at s = {length(e['s']):.6g} {u}"
+        lines.append(f"    {e['kind']} {on} the {e['obstacle_text']} at {param} = {e['param']:.10g}"
+                     f"{value_text(e['param'])}{at}" + ("" if e["located"] else " (at the step; not located)"))
+    for j in cp.jumps:
+        lines.append(f"    snap ({j.kind}) at {param} = {j.param:.10g}{value_text(j.param)}: tip angle "
+                     f"{j.from_state.tip['angle']:+.8f} -> {j.to_state.tip['angle']:+.8f} rad")
+    end = cp.points[-1]
+    lines.append(f"    end: tip ({length(end.tip['x']):.6g}, {length(end.tip['y']):.6g}) {u}, angle "
+                 f"{end.tip['angle']:+.8f} rad, {'stable' if end.stable else f'Morse index {end.morse_index}'}")
+    return lines
