@@ -26,6 +26,8 @@ MERGE = 1e-6
 DEPTH = 3
 #: points of the grid :func:`nearest_point` brackets the least distance on (one vectorised evaluation)
 GRID = 65
+#: narrowings of the slope's bracket in :func:`nearest_point` (each by GRID − 1)
+REFINE = 2
 
 
 def accelerated(history) -> tuple:
@@ -77,23 +79,39 @@ def nearest_point(scene, result, point: dict) -> float:
     """The arc length of the shape's point nearest the obstacle of a contact ``point``, within half
     an element of it: the root of the distance's slope ∇d(r(s))·t(s) next to the least distance on a
     grid (a sign change, from approaching to leaving), else (the least distance at an end of the
-    interval, a kink) the bounded minimum of the distance near that grid point."""
-    from scipy.optimize import brentq, minimize_scalar
+    interval, a kink) the bounded minimum of the distance near that grid point.
+
+    The root is bracketed on the grid, the bracket narrowed :data:`REFINE` times on grids of its own
+    (each GRID − 1 times narrower, one evaluation of the shape each), and the root interpolated
+    linearly in the last bracket: an error of order (bracket)² ≈ 1e-13 of arc, for three
+    evaluations where a scalar root finder to round-off took about ten."""
+    from scipy.optimize import minimize_scalar
 
     ob = scene.obstacles[point["obstacle"]]
     half = 0.5 / max(1, result.options.elements)
     lo, hi = max(1e-9, point["s"] - half), min(1.0 - 1e-9, point["s"] + half)
+
+    def slopes(s: np.ndarray):
+        v = result.evaluate(s)
+        n = np.asarray(ob.normal(v["x"], v["y"]), float)
+        return v, n[0] * np.cos(v["theta"]) + n[1] * np.sin(v["theta"])
+
     grid = np.linspace(lo, hi, GRID)
-    e = result.evaluate(grid)
+    e, f = slopes(grid)
     i = int(np.argmin(np.asarray(ob.distance(e["x"], e["y"]), float)))
-    a, b = grid[max(i - 1, 0)], grid[min(i + 1, GRID - 1)]
-
-    def slope(s: float) -> float:
-        v = result.evaluate(np.array([s]))
-        n = ob.normal(v["x"], v["y"])[:, 0]
-        return float(n[0] * np.cos(v["theta"][0]) + n[1] * np.sin(v["theta"][0]))
-
-    if slope(a) < 0.0 < slope(b):
-        return float(brentq(slope, a, b, xtol=1e-15, rtol=8.9e-16))
+    ia, ib = max(i - 1, 0), min(i + 1, GRID - 1)
+    a, b = grid[ia], grid[ib]
+    if f[ia] < 0.0 < f[ib]:
+        k = ia + 1 + int(np.argmax(f[ia + 1:ib + 1] >= 0.0))  # the first point past the crossing
+        a, b, fa, fb = grid[k - 1], grid[k], f[k - 1], f[k]
+        for _ in range(REFINE):
+            if fb == 0.0:
+                return float(b)
+            s = np.linspace(a, b, GRID)
+            fs = slopes(s)[1]
+            fs[0], fs[-1] = fa, fb
+            k = 1 + int(np.argmax(fs[1:] >= 0.0))
+            a, b, fa, fb = s[k - 1], s[k], fs[k - 1], fs[k]
+        return float(b if fb == 0.0 else a - fa * (b - a) / (fb - fa))
     dist = lambda s: float(np.asarray(ob.distance(*(result.evaluate(np.array([s]))[k] for k in ("x", "y"))))[0])
     return float(minimize_scalar(dist, bounds=(a, b), method="bounded", options={"xatol": 1e-12}).x)

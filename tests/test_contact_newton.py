@@ -1,0 +1,51 @@
+"""Newton's method on the KKT system of a guessed contact set (actuator_design/contact_newton.py)
+against IPOPT on the same NLP (a second method), and its refusals: a guessed set with a row that
+would have to pull the rod onto an obstacle, and answers IPOPT would not give (tested through the
+paths that need them in tests/test_contact_tip_roll.py and tests/test_self_contact.py)."""
+import numpy as np
+
+from actuator_design.contact import contact_nlp, pressing_rows
+from actuator_design.contact_newton import newton_on_contact_set
+from actuator_design.equilibrium import solve
+from actuator_design.obstacles import Peg
+from actuator_design.scene import Scene
+from actuator_design.solver import get_solver
+
+
+def _peg_problem():
+    scene = Scene(field=None, tip_force=(0.0, -1.6), obstacles=(Peg((0.6, -0.2), 0.1),), contact_gap=0.025)
+    r = solve(scene)
+    assert r.success and len(r.contact["points"]) == 1, r.message
+    solver = get_solver(scene, r.options)  # the mesh with the element boundary at the contact
+    nlp = contact_nlp(solver, scene)
+    P = nlp.parameters(solver.parameter_vector(scene))
+    lbg, ubg = nlp.bounds()
+    sol = nlp.nlpsol(False)(x0=np.zeros(solver.transcription.nodes.size), p=P, lbg=lbg, ubg=ubg)
+    z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
+    return solver, nlp, P, lbg, z, lam
+
+
+def test_newton_on_the_contact_set_lands_on_ipopts_minimum():
+    solver, nlp, P, lbg, z_ip, lam_ip = _peg_problem()
+    rows = pressing_rows(nlp, lam_ip, None, ())
+    assert len(rows) == 1
+    s = np.asarray(solver.transcription.nodes, float)
+    start = z_ip + 0.05 * np.sin(np.pi * s)  # a shape a load step away, clear of the peg
+    start[0] = 0.0
+    mass = np.asarray(solver.transcription.mass, float)
+    z, lam, iterations, (grad, _, _) = newton_on_contact_set(nlp, start, P, lbg, rows, mass, 1e-10)
+    assert iterations <= 8
+    assert np.max(np.abs(z - z_ip)) < 1e-10
+    assert np.max(np.abs(lam - lam_ip)) < 1e-8 * np.max(np.abs(lam_ip))
+    assert np.max(np.abs(grad[1:] / mass[1:])) < 1e-10
+
+
+def test_a_guessed_row_that_would_pull_is_refused():
+    """The tip row added to the set: holding the free tip at the gap from the peg needs a pulling
+    force (μ < 0), which no contact gives: no answer (the caller solves with IPOPT)."""
+    solver, nlp, P, lbg, z_ip, lam_ip = _peg_problem()
+    tip_row = 1 + nlp.n_points - 1  # the last constrained point of the peg's rows is the tip
+    assert nlp.s_points[-1] == 1.0
+    rows = pressing_rows(nlp, lam_ip, None, ()) + [tip_row]
+    mass = np.asarray(solver.transcription.mass, float)
+    assert newton_on_contact_set(nlp, z_ip, P, lbg, rows, mass, 1e-10) is None
