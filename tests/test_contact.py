@@ -204,11 +204,11 @@ def test_continuation_follows_the_free_branch_to_the_first_touch_and_on_with_con
     assert off.contact_path is None and not off.complete and "not followed" in off.branch.message
 
 
-def test_continue_goes_on_with_contact_and_refuses_a_start_in_contact(capsys, tmp_path):
+def test_continue_goes_on_with_contact_and_from_a_start_in_contact(capsys, tmp_path):
     """The CLI: the branch up to the touch, then the loading path with contact to the window's end
     (exit 0; its states in branch.csv with with_contact = 1, its events in the JSON); with
-    --stop-at-touch the branch ends at the touch with a warning line and exit 3; a start already
-    pressing the floor is refused (a start in contact is not continued)."""
+    --stop-at-touch the branch ends at the touch with a warning line and exit 3, and a start already
+    pressing the floor is refused; without it, that start is followed with contact down to 0."""
     import json
     from pathlib import Path
 
@@ -224,12 +224,20 @@ def test_continue_goes_on_with_contact_and_refuses_a_start_in_contact(capsys, tm
     assert last and all(r[0] == "1" for r in last) and float(last[-1][1]) == 3.0
     data = json.loads((tmp_path / "branch.json").read_text())
     assert data["complete"] and data["contact_path"]["success"]
-    (ev,) = data["contact_path"]["contact_events"]
-    assert ev["field_mT"] == pytest.approx(5.9864, abs=1e-4) and ev["located"]
+    (touch,) = data["contact_path"]["contact_events"]
+    assert touch["field_mT"] == pytest.approx(5.9864, abs=1e-4) and touch["located"]
     assert main(["continue", str(cfg), "--param", "h", "--from", "0", "--to", "3", "--stop-at-touch"]) == 3
     out, err = capsys.readouterr()
     assert "with contact" not in out
     assert len(err.strip().splitlines()) == 1 and "continuation stopped early" in err
-    assert main(["continue", str(cfg), "--param", "h", "--from", "3", "--to", "0"]) == 3
+    assert main(["continue", str(cfg), "--param", "h", "--from", "3", "--to", "0", "--stop-at-touch"]) == 3
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "touches or enters an obstacle" in err[0] and "use path" in err[0]
+    # a start pressing the floor: followed with contact from there; it lifts off where the way up
+    # touched down (no friction, one branch: no hysteresis)
+    assert main(["continue", str(cfg), "--param", "h", "--from", "3", "--to", "0", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["complete"] and len(data["branch"]) == 1 and data["status"] == "touch"
+    (ev,) = data["contact_path"]["contact_events"]
+    assert ev["kind"] == "lift-off" and ev["located"] and ev["field_mT"] == pytest.approx(5.9864, abs=1e-4)
+    assert abs(ev["param"] - touch["param"]) < 1e-8

@@ -244,7 +244,12 @@ def test_continuation_stops_where_the_rod_first_touches_itself_and_goes_on_press
         assert abs(math.hypot(r.tip["x"], r.tip["y"]) - 2 * GAP) < 1e-9
         assert abs(r.clamp_moment + q.param) < 1e-6 and r.stable
     with pytest.raises(RuntimeError, match="touches or passes through itself"):
-        continue_branch(Scene(field=None, tip_moment=6.2, contact_gap=GAP), "m_tip", 6.2, 8.0)
+        continue_branch(Scene(field=None, tip_moment=6.2, contact_gap=GAP), "m_tip", 6.2, 8.0, through_contact=False)
+    # a start pressing the clamp, unloaded: it lifts off where it touched down
+    down = continue_branch(Scene(field=None, tip_moment=6.3, contact_gap=GAP), "m_tip", 6.3, 5.0)
+    (ev,) = down.contact_path.contact_events
+    assert down.complete and len(down.branch) == 1 and "touches itself" in down.branch.message
+    assert ev["kind"] == "lift-off" and ev["located"] and abs(ev["param"] - exact) < 1e-8
 
 
 @pytest.mark.parametrize("chord", [0.05, 0.0205, 0.0195])

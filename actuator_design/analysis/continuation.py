@@ -19,6 +19,7 @@ branch data and figures switch from stable to unstable exactly there.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 from typing import List, Optional, Sequence, Tuple
 
@@ -296,10 +297,11 @@ def _touch_event(least) -> UserEvent:
     return UserEvent("touch", lambda state: least(state.z), stop=True)
 
 
-def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, initial, least):
+def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, initial, least,
+                through_contact: bool = False):
     """The start of a branch on a scene with obstacles: the equilibrium without them (the branch is
     followed while it keeps clear), which must keep clear of them (``least`` > 0); ``initial``
-    when given."""
+    when given. None when it does not and ``through_contact``: the start is in contact."""
     if initial is None:
         free = solve(replace(set_param(scene, param, start), obstacles=()),
                      replace(cont.options, ensure_stable=True), solver=cont.solver)
@@ -308,6 +310,8 @@ def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, in
         initial = free.z
     z = np.asarray(initial.z if isinstance(initial, EquilibriumResult) else initial, float)
     if least(z) <= 0.0:
+        if through_contact:
+            return None
         raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or enters an obstacle; "
                            "a start in contact is not continued: use path, which follows contact from rest")
     return z
@@ -353,7 +357,10 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     touch, itself = (), None
     if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
         least = least_clearance(cont.solver, scene.obstacles, scene.contact_gap)
-        initial = _free_start(cont, scene, param, start, initial, least)
+        free = _free_start(cont, scene, param, start, initial, least, through_contact)
+        if free is None:  # the start presses on an obstacle: the whole window with contact
+            return _in_contact_from_start(scene, cont.options, param, start, stop, win, initial, "an obstacle")
+        initial = free
         touch = (_touch_event(least),)
     if scene.contact_gap > 0 and not cont.options.keep_self_intersecting:  # ... or itself
         itself = least_self_clearance(cont.solver, scene.contact_gap)
@@ -361,6 +368,8 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     x0 = cont.start(start, initial)
     z0 = np.concatenate([[cont._theta0 if cont.theta0_fixed else x0[-1]], x0[:-1]])  # θ at the nodes
     if itself is not None and itself(z0) <= 0.0:
+        if through_contact:
+            return _in_contact_from_start(scene, cont.options, param, start, stop, win, initial, "itself")
         raise RuntimeError(f"continuation: the equilibrium at {param} = {start} touches or passes through "
                            "itself; a start in contact is not continued (solve finds the self-contact state "
                            "at one load, path follows it from rest)")
@@ -383,6 +392,29 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
     return ContinuationResult(param, br, sec, scene, win, contact)
+
+
+def _in_contact_from_start(scene: Scene, options: SolverOptions, param: str, start: float, stop: float,
+                           win, initial, what: str) -> ContinuationResult:
+    """A start that touches ``what`` (an obstacle, or itself): the loading path with contact over the window from the
+    contact equilibrium at ``start`` (from rest, or warm-started from ``initial``); the branch is
+    that one state (status ``touch``)."""
+    from .contact_path import follow_contact_path
+
+    t0 = time.perf_counter()
+    path = follow_contact_path(set_param(scene, param, start), options, {param: [start, float(stop)]},
+                               initial=initial)
+    r = path.point_states[0]
+    br = Branch(param=param, lam=np.array([float(start)]), z=np.asarray(r.z, float)[None, :],
+                morse_index=np.array([int(r.morse_index)]), min_eig=np.array([float(r.eigenvalues[0])]),
+                folds=[], branch_points=[], status="touch",
+                message=(f"the start at {param} = {start:.10g} touches {what}; followed with contact to "
+                         f"{param} = {float(stop):.10g} by a loading path of stable states "
+                         f"({'converged' if path.success else 'FAILED'}: {path.message})"),
+                stats={"time_s": time.perf_counter() - t0},
+                tips=np.array([[r.tip["angle"], r.tip["x"], r.tip["y"]]], float),
+                energy=np.array([float(r.energy)]), gamma=np.array([float(r.gamma)]))
+    return ContinuationResult(param, br, [], scene, win, path)
 
 
 def _on_with_contact(scene: Scene, options: SolverOptions, param: str, br: Branch, win):

@@ -16,8 +16,9 @@ contact branch's fold), warm-started from the touching state: the JSON's `contac
 contract of `path --json`), the CSV's last branch (column with_contact = 1), the figure's dotted
 line. That path follows stable states only, in the direction the branch was moving; it does not
 turn round folds. Exit 0 when it reaches the window's end, 3 when it fails (the message says
-where). --stop-at-touch stops at the touch instead (exit 3). A start that already touches is
-refused (`path` follows contact from rest).
+where). A start that already touches is followed with contact over the whole window from its
+contact equilibrium (from rest; the branch is that one state). --stop-at-touch stops at the touch
+instead, and refuses a start in contact (exit 3).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --from/--to accept units for
@@ -289,19 +290,23 @@ def _contact_lines(res, param: str, value_text, units) -> list:
     cp = res.contact_path
     if cp is None:
         return []
+    from ..display import number
+
     u, length = ("l", float) if units is None else (units.length_unit, units.length)
+    noise = length(1e-12)
     lines = [f"  with contact: {len(cp.points)} states from {param} = {cp.points[0].param:.10g}"
              f"{value_text(cp.points[0].param)} to {cp.points[-1].param:.10g}{value_text(cp.points[-1].param)} "
              f"({'converged' if cp.success else 'FAILED'}: {cp.message})"]
     for e in cp.contact_events:
         on = "on" if e["kind"] == "touch-down" else "from"
-        at = "" if e["s"] is None else f" at s = {length(e['s']):.6g} {u}"
+        at = "" if e["s"] is None else f" at s = {number(length(e['s']), '.6g', noise=length(1e-8))} {u}"
         lines.append(f"    {e['kind']} {on} the {e['obstacle_text']} at {param} = {e['param']:.10g}"
                      f"{value_text(e['param'])}{at}" + ("" if e["located"] else " (at the step; not located)"))
     for j in cp.jumps:
         lines.append(f"    snap ({j.kind}) at {param} = {j.param:.10g}{value_text(j.param)}: tip angle "
                      f"{j.from_state.tip['angle']:+.8f} -> {j.to_state.tip['angle']:+.8f} rad")
     end = cp.points[-1]
-    lines.append(f"    end: tip ({length(end.tip['x']):.6g}, {length(end.tip['y']):.6g}) {u}, angle "
-                 f"{end.tip['angle']:+.8f} rad, {'stable' if end.stable else f'Morse index {end.morse_index}'}")
+    lines.append(f"    end: tip ({number(length(end.tip['x']), '.6g', noise)}, {number(length(end.tip['y']), '.6g', noise)})"
+                 f" {u}, angle {number(end.tip['angle'], '.8f', 1e-12)} rad, "
+                 f"{'stable' if end.stable else f'Morse index {end.morse_index}'}")
     return lines
