@@ -30,15 +30,11 @@ import numpy as np
 from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
 from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
-from .contact_newton import newton_on_contact_set
+from .contact_newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
 from .options import MAX_SPLITS
 
 __all__ = ["solve_contact", "solve_once", "ContactVerdict"]
-
-#: the spacing (rod lengths of the largest point motion) at which Newton's way from its start to
-#: its answer is checked against the obstacles (:func:`_kept_clear`)
-SWEEP = 0.005
 
 class ContactNLP:
     """The contact-constrained NLP of one solver and one set of obstacles (built once)."""
@@ -339,8 +335,8 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
         newton = None if rows is None else newton_on_contact_set(
             nlp, z0, Pall, lbg, rows, np.asarray(solver.transcription.mass, float), opts.tol)
-        if newton is not None and not (_kept_clear(nlp, z0, Pall, newton)
-                                       and _strict_minimum(nlp, Pall, newton, solver)):
+        if newton is not None and not (kept_clear(nlp, z0, Pall, newton)
+                                       and strict_minimum(nlp, newton, np.asarray(solver.transcription.mass, float))):
             newton = None  # a jump past an obstacle, or a saddle (past a fold): IPOPT decides
         if newton is not None:  # the contact set of the step or round before still holds
             z, lam, iterations, derivatives = newton
@@ -396,56 +392,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
     return result
-
-
-def _kept_clear(nlp: ContactNLP, z0: np.ndarray, P: np.ndarray, newton) -> bool:
-    """Whether the rows off the contact set stay clear along the straight way from the start to
-    Newton's answer, sampled every :data:`SWEEP` of the largest motion of a constrained point
-    (each row at least where it started, if that was inside by round-off). Newton's one long step
-    may jump a rod past a peg, where IPOPT's interior point keeps every iterate on the free side."""
-    z, lam = newton[:2]
-    free = lam[1:] == 0.0
-    X0, Y0 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z0))
-    X1, Y1 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
-    steps = int(min(64, np.ceil(np.max(np.hypot(X1 - X0, Y1 - Y0), initial=0.0) / SWEEP)))
-    floor = np.minimum(np.asarray(nlp.f_rows(z0, P), float).ravel()[free], 0.0) - 1e-12
-    for t in np.arange(1, steps + 1) / steps:
-        if np.any(np.asarray(nlp.f_rows(z0 + t * (z - z0), P), float).ravel()[free] < floor):
-            return False
-    return True
-
-
-def _strict_minimum(nlp: ContactNLP, P: np.ndarray, newton, solver) -> bool:
-    """Whether Newton's KKT point is a stable constrained minimum (the Lagrangian's Hessian positive
-    definite on the tangent space of its rows): what IPOPT, a descent method, converges to."""
-    z, lam, _, (_, H, jac) = newton
-    rows = np.flatnonzero(lam[1:] != 0.0)
-    mass = np.asarray(solver.transcription.mass, float)
-    return bool(verdict(H[1:, 1:], jac[rows][:, 1:], mass[1:]).stable)
-
-
-def pressing_rows(nlp: ContactNLP, lam_before, refine, splits) -> Optional[List[int]]:
-    """The rows (indices into g) guessed to press: those with a force in ``lam_before`` (the
-    multipliers of the state before, on this NLP), or the rows at the obstacle contacts of
-    ``refine`` (the round before, on another mesh: each interior contact now an element boundary of
-    ``splits``, a tip contact the tip); None when there is no guess (a self-contact round)."""
-    if lam_before is not None:
-        mu = -np.asarray(lam_before, float)[1:]
-        return list(1 + np.flatnonzero(mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))))
-    if refine is None:
-        return None
-    rows, s_pts, m = [], np.asarray(nlp.s_points, float), nlp.n_points
-    for p in refine.contact["points"]:
-        if p["weak"]:
-            continue
-        if p.get("self") or p["obstacle"] is None:
-            return None
-        target = 1.0 if p["s"] == 1.0 else min(splits, key=lambda b: abs(b - p["s"]), default=None)
-        j = int(np.argmin(np.abs(s_pts - target))) if target is not None else -1
-        if target is None or abs(s_pts[j] - target) > 1e-12 or abs(target - p["s"]) > 0.05:
-            return None
-        rows.append(1 + p["obstacle"] * m + j)
-    return rows
 
 
 def _contact_boundary_pairs(s_self: np.ndarray, splits, state) -> list:

@@ -18,16 +18,20 @@ released, Newton not converging) the caller solves with IPOPT.
 """
 from __future__ import annotations
 
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
-import casadi as ca
 import numpy as np
 
-__all__ = ["newton_on_contact_set", "MAX_ITER"]
+from .contact_report import ACTIVE, verdict
+
+__all__ = ["newton_on_contact_set", "pressing_rows", "kept_clear", "strict_minimum", "MAX_ITER", "SWEEP"]
 
 #: Newton iterations before the guess is given up (quadratic convergence from a start within
 #: a path step or a boundary move needs 3–6)
 MAX_ITER = 12
+#: the spacing (rod lengths of the largest point motion) at which Newton's way from its start to
+#: its answer is checked against the obstacles (:func:`kept_clear`)
+SWEEP = 0.005
 #: how far a row may be off its bound at the answer (rod lengths): round-off of d, not penetration
 ROW_TOL = 1e-12
 #: a multiplier this far below zero (relative to the largest force, and at least to 1) pulls:
@@ -99,3 +103,52 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
     if np.any(mu < -PULL_TOL * max(1.0, float(np.max(mu, initial=0.0)))):  # a row pulls the rod on
         return None
     return z, lam, it, (grad, H, jac)
+
+
+def kept_clear(nlp, z0: np.ndarray, P: np.ndarray, newton) -> bool:
+    """Whether the rows off the contact set stay clear along the straight way from the start to
+    Newton's answer, sampled every :data:`SWEEP` of the largest motion of a constrained point
+    (each row at least where it started, if that was inside by round-off). Newton's one long step
+    may jump a rod past a peg, where IPOPT's interior point keeps every iterate on the free side."""
+    z, lam = newton[:2]
+    free = lam[1:] == 0.0
+    X0, Y0 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z0))
+    X1, Y1 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
+    steps = int(min(64, np.ceil(np.max(np.hypot(X1 - X0, Y1 - Y0), initial=0.0) / SWEEP)))
+    floor = np.minimum(np.asarray(nlp.f_rows(z0, P), float).ravel()[free], 0.0) - 1e-12
+    for t in np.arange(1, steps + 1) / steps:
+        if np.any(np.asarray(nlp.f_rows(z0 + t * (z - z0), P), float).ravel()[free] < floor):
+            return False
+    return True
+
+
+def strict_minimum(nlp, newton, mass: np.ndarray) -> bool:
+    """Whether Newton's KKT point is a stable constrained minimum (the Lagrangian's Hessian positive
+    definite on the tangent space of its rows): what IPOPT, a descent method, converges to."""
+    z, lam, _, (_, H, jac) = newton
+    rows = np.flatnonzero(lam[1:] != 0.0)
+    return bool(verdict(H[1:, 1:], jac[rows][:, 1:], mass[1:]).stable)
+
+
+def pressing_rows(nlp, lam_before, refine, splits) -> Optional[List[int]]:
+    """The rows (indices into g) guessed to press: those with a force in ``lam_before`` (the
+    multipliers of the state before, on this NLP), or the rows at the obstacle contacts of
+    ``refine`` (the round before, on another mesh: each interior contact now an element boundary of
+    ``splits``, a tip contact the tip); None when there is no guess (a self-contact round)."""
+    if lam_before is not None:
+        mu = -np.asarray(lam_before, float)[1:]
+        return list(1 + np.flatnonzero(mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))))
+    if refine is None:
+        return None
+    rows, s_pts, m = [], np.asarray(nlp.s_points, float), nlp.n_points
+    for p in refine.contact["points"]:
+        if p["weak"]:
+            continue
+        if p.get("self") or p["obstacle"] is None:
+            return None
+        target = 1.0 if p["s"] == 1.0 else min(splits, key=lambda b: abs(b - p["s"]), default=None)
+        j = int(np.argmin(np.abs(s_pts - target))) if target is not None else -1
+        if target is None or abs(s_pts[j] - target) > 1e-12 or abs(target - p["s"]) > 0.05:
+            return None
+        rows.append(1 + p["obstacle"] * m + j)
+    return rows

@@ -4,8 +4,8 @@ would have to pull the rod onto an obstacle, and answers IPOPT would not give (t
 paths that need them in tests/test_contact_tip_roll.py and tests/test_self_contact.py)."""
 import numpy as np
 
-from actuator_design.contact import contact_nlp, pressing_rows
-from actuator_design.contact_newton import newton_on_contact_set
+from actuator_design.contact import contact_nlp
+from actuator_design.contact_newton import newton_on_contact_set, pressing_rows
 from actuator_design.equilibrium import solve
 from actuator_design.obstacles import Peg
 from actuator_design.scene import Scene
