@@ -13,7 +13,7 @@ is continued until the rod first touches an obstacle or itself (located as an ev
 status `touch`). From there the rest of the window is followed by a loading path of contact
 equilibria (as `path` does: touch-down and lift-off located as events, snaps located at the
 contact branch's fold), warm-started from the touching state: the JSON's `contact_path` (the
-contract of `path --json`), the CSV's last branch (column with_contact = 1), the figure's dotted
+contract of `path --json`), the CSV's last branch (column with_contact = 1), the figure's red
 line. That path follows stable states only, in the direction the branch was moving; it does not
 turn round folds. Exit 0 when it reaches the window's end, 3 when it fails (the message says
 where). A start that already touches is followed with contact over the whole window from its
@@ -235,13 +235,15 @@ def run(args: argparse.Namespace) -> int:
         from ..viz.style import png_bytes
         with stdout_to_stderr(args.json):
             cp = res.contact_path
-            with_contact = ([([q.param for q in cp.points], [q.tip["angle"] for q in cp.points],
-                              "with contact (loading path from the touch)")] if cp is not None else None)
-            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}",
-                               reference=with_contact)
+            ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
+            if cp is not None:  # the contact states, a line of their own
+                ax.plot([q.param for q in cp.points], [q.tip["angle"] for q in cp.points], color="C3", lw=1.8,
+                        label="with contact (loading path from the touch)")
+                ax.legend(fontsize="small")
             from ..viz.units import parameter_axis  # h in mT, loads in N, ...
             parameter_axis(ax, parameter(param), units, param, "x",
-                           data_max=max(float(np.max(b.lam)) for b in [res.branch] + res.secondary))
+                           data_max=max([float(np.max(b.lam)) for b in [res.branch] + res.secondary]
+                                        + ([q.param for q in cp.points] if cp is not None else [])))
             files = {"branch.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
                      "branch.csv": _csv(res, units), "branch.png": png_bytes(ax, dpi=150)}
         written = write_out(args.out, files, args.json)
