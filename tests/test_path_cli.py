@@ -7,6 +7,7 @@ import math
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from actuator_design.cli.main import main
@@ -56,6 +57,32 @@ def test_path_over_h_r_small_field_is_the_linear_closed_form(capsys):
     tip = d["points"][-1]["tip"]
     assert d["points"][-1]["param"] == pytest.approx(1e-3, rel=1e-12)
     assert tip["y"] == pytest.approx(1e-3 / 3, abs=1e-9) and tip["angle"] == pytest.approx(1e-3 / 2, abs=1e-9)
+
+
+def test_path_help_lists_every_name_of_the_lens_and_a_magnetization_ramp_lands_on_solve_bvp(capsys):
+    """The help lists what the parameter lens accepts (each angle also in degrees); a ramp of the
+    magnetisation angle β to 30° at h_r = 1 in a transverse field ends on the strip of scipy's
+    solve_bvp: θ'' = h_r sin(θ + β − φ), θ(0) = 0, θ'(1) = 0 (THEORY §9), x' = cos θ, y' = sin θ."""
+    from scipy.integrate import solve_bvp
+
+    from actuator_design.parameters import degree_aliases, names
+
+    assert main(["path", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    listed = text.split("parameter to ramp:")[1].split("--schedule")[0]
+    assert all(f" {n}," in listed or f" {n} " in listed for n in list(names()) + list(degree_aliases()))
+    code, d, _ = run_json(capsys, ["path", "--param", "magnetization_deg", "--from", "0", "--to", "30",
+                                   "--h-r", "1", "--phi-deg", "90"])
+    assert code == 0 and d["param"] == "magnetization_deg"
+    shift = math.radians(30.0) - math.radians(90.0)  # β − φ
+    s = np.linspace(0.0, 1.0, 201)
+    bvp = solve_bvp(lambda s, u: np.vstack([u[1], np.sin(u[0] + shift), np.cos(u[0]), np.sin(u[0])]),
+                    lambda a, b: np.array([a[0], b[1], a[2], a[3]]), s, np.zeros((4, s.size)), tol=1e-12,
+                    max_nodes=100000)
+    assert bvp.success
+    tip = d["points"][-1]["tip"]
+    assert tip["angle"] == pytest.approx(bvp.sol(1.0)[0], abs=1e-8)
+    assert tip["x"] == pytest.approx(bvp.sol(1.0)[2], abs=1e-8) and tip["y"] == pytest.approx(bvp.sol(1.0)[3], abs=1e-8)
 
 
 def test_path_out_writes_files_atomically(tmp_path, capsys):

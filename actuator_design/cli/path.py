@@ -11,8 +11,8 @@ equilibria, each from the state before it; every touch-down and lift-off is loca
 free rod just touches the obstacle) and listed with the obstacle and the touching point; so is a
 rod with a thickness that meets itself on the way (self-contact, "rod itself").
 
-NAME is one of h, h2, p, fx, fy, m_tip, qx, qy, h_pos, h_r (dimensionless, THEORY §5 and §9),
-phi_deg, alpha_deg, theta0_deg (degrees) or phi, alpha, theta0 (radians). Without CONFIG the scene is
+NAME is one of <dimensionless> (dimensionless, THEORY §5 and §9),
+<degrees> (degrees) or <radians> (radians). Without CONFIG the scene is
 THEORY §5's cantilever with h = 0, phi = 0, p = 0, alpha = 0 unless flags set them. A CONFIG may
 carry the settings in a section
     study: {type: path, param: h, from: 0, to: 2, back: true, steps: 40}
@@ -48,7 +48,7 @@ import sys
 from typing import Dict, Optional, Union
 
 from ..display import number
-from ..parameters import degree_aliases
+from ..parameters import degree_aliases, names as parameter_names
 from .scene_args import add_scene_args, build_scene, validate_study
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
                      check_out_dir, check_parameter_angle, finite_float, load_config,
@@ -64,7 +64,12 @@ HELP = "quasi-static loading path: follow the stable state, snaps, hysteresis"
 DEFAULTS = {"h": 0.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
 
 #: Command-line names in degrees and the API name they map to.
-_DEGREE_NAMES = degree_aliases()  # the lens angles: phi_deg, alpha_deg, theta0_deg
+_DEGREE_NAMES = degree_aliases()  # the lens angles: phi_deg, alpha_deg, theta0_deg, ...
+#: the names NAME may take, from the parameter lens (so the help lists what the lens accepts)
+_NAME_LISTS = {"dimensionless": ", ".join(n for n in parameter_names() if n not in _DEGREE_NAMES.values()),
+               "degrees": ", ".join(_DEGREE_NAMES), "radians": ", ".join(_DEGREE_NAMES.values())}
+for _key, _names in _NAME_LISTS.items():
+    __doc__ = __doc__.replace(f"<{_key}>", _names)
 
 
 # -- helpers shared by path, stiffness and phase ---------------------------------------------------
@@ -124,8 +129,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="scene (and optional `study: {type: path, ...}`); omit for the default scene")
     g = parser.add_argument_group("path")
     g.add_argument("--param", metavar="NAME",
-                   help="parameter to ramp: h, h2, p, fx, fy, m_tip, qx, qy, h_pos, h_r, phi_deg, alpha_deg, "
-                        "theta0_deg (degrees) or phi, alpha, theta0 (radians)")
+                   help="parameter to ramp: {dimensionless}, {degrees} (degrees) or {radians} (radians)".format(
+                       **_NAME_LISTS))
     g.add_argument("--schedule", metavar="A,B,C,...", help="values of NAME in order (e.g. up and back down)")
     g.add_argument("--from", dest="start", metavar="A", help="first value of NAME (units allowed, e.g. '2 mT')")
     g.add_argument("--to", metavar="B", help="turning value of NAME (units allowed, e.g. '6 mT')")
