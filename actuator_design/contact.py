@@ -108,13 +108,17 @@ class ContactNLP:
 
     def lagrangian(self, z, P, lam_g):
         """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
+        return self.kkt(z, P, lam_g)[:3]
+
+    def kkt(self, z, P, lam_g):
+        """(∇_z L, ∇²_z L, ∂rows/∂z, g): :meth:`lagrangian` and the rows' values (the clamp row first)."""
         if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
             self.nlpsol(False)
         grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
-        triu = np.asarray(ca.densify(self.f_hess(z, P, 1.0, lam_g)), float)
+        triu = self.f_hess(z, P, 1.0, lam_g).full()
         H = triu + triu.T - np.diag(np.diag(triu))
-        jac = np.asarray(ca.densify(self.f_jac_g(z, P)[1]), float)[1:]
-        return grad, H, jac
+        g, jac = self.f_jac_g(z, P)
+        return grad, H, jac.full()[1:], g.full().ravel()
 
 
 def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:

@@ -32,6 +32,9 @@ MAX_ITER = 12
 #: the spacing (rod lengths of the largest point motion) at which Newton's way from its start to
 #: its answer is checked against the obstacles (:func:`kept_clear`)
 SWEEP = 0.005
+#: a KKT point whose stationarity is this fraction of the requested ``tol`` is solved (Newton's
+#: next step would be below round-off)
+SOLVED = 0.1
 #: how far a row may be off its bound at the answer (rod lengths): round-off of d, not penetration
 ROW_TOL = 1e-12
 #: a multiplier this far below zero (relative to the largest force, and at least to 1) pulls:
@@ -74,9 +77,11 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
     used = np.isfinite(lbg)
     small = False
     for it in range(MAX_ITER + 1):
-        grad, H, jac = nlp.lagrangian(z, P, lam)
-        g = np.asarray(nlp.f_jac_g(z, P)[0], float).ravel()
-        if small or it == MAX_ITER:  # the answer's derivatives, evaluated once more after the last step
+        grad, H, jac, g = nlp.kkt(z, P, lam)
+        if (small or it == MAX_ITER  # the answer's derivatives, evaluated once more after the last step
+                or (it > 0 and np.max(np.abs(grad[1:] / mass[1:])) <= SOLVED * tol
+                    and np.max(np.abs(g[A] - lbg[A])) <= ROW_TOL)):
+            small = True
             break
         K = np.zeros((n + m, n + m))
         J = np.vstack([np.eye(1, n), jac[A[1:] - 1]])  # the clamp row's gradient, then the contacts'
