@@ -324,6 +324,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     Pall = nlp.parameters(P, pairs)
     lbg, ubg = nlp.bounds(pairs)
     used = np.isfinite(lbg[1:])
+    mass = np.asarray(solver.transcription.mass, float)
     newton = None
     if problem is not None:  # no rest state to start from: nothing is solved
         z, lam, status, iterations = z0, np.zeros(1 + nlp.n_rows), "obstacle_at_rest", 0
@@ -337,10 +338,8 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs  # the same NLP and pairs
         rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
-        newton = None if rows is None else newton_on_contact_set(
-            nlp, z0, Pall, lbg, rows, np.asarray(solver.transcription.mass, float), opts.tol)
-        if newton is not None and not (kept_clear(nlp, z0, Pall, newton)
-                                       and strict_minimum(nlp, newton, np.asarray(solver.transcription.mass, float))):
+        newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
+        if newton is not None and not (kept_clear(nlp, z0, Pall, newton) and strict_minimum(nlp, newton, mass)):
             newton = None  # a jump past an obstacle, or a saddle (past a fold): IPOPT decides
         if newton is not None:  # the contact set of the step or round before still holds
             z, lam, iterations, derivatives = newton
@@ -358,7 +357,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
             message = f"IPOPT: {status} (contact, from {start})"
     converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     mu = np.where(used, np.maximum(-lam[1:], 0.0), 0.0)
-    mass = np.asarray(solver.transcription.mass, float)
     finite = bool(np.all(np.isfinite(z)) and np.all(np.isfinite(lam)))
     if finite:
         grad, H, jac = derivatives if newton is not None else nlp.lagrangian(z, Pall, lam)

@@ -209,8 +209,8 @@ def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
 
     def dense(s):
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
+        th, dth = tr.theta_dense(z, s)
         if s.ndim == 1 and s.size >= _MANY and np.all(np.diff(s) >= 0.0):
-            th, dth = tr.theta_dense(z, s)
             knots = np.union1d(s, bp)  # the breakpoints too: no kink of θ inside a piece
             if np.max(np.diff(knots)) * np.max(np.abs(dth)) <= _SHORT:
                 # a dense grid: positions by short Gauss rules between neighbouring samples, summed
@@ -231,7 +231,6 @@ def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
         th_p, _ = tr.theta_dense(z, pts.ravel())
         th_p = th_p.reshape(pts.shape)
         half = 0.5 * (s - lo)[:, None] * _GL_W[None, :]
-        th, dth = tr.theta_dense(z, s)
         return th, dth, X0[k] + (half * np.cos(th_p)).sum(1), Y0[k] + (half * np.sin(th_p)).sum(1)
     return dense
 

@@ -146,16 +146,16 @@ def add_units(payload: dict, res, units) -> None:
 
     payload["physical"] = command_physical(res.scene, units, [res.param])
     add_point_units(payload["branch"] + payload["folds"] + payload["branch_points"], res.param, units)
-    if payload.get("contact_path"):
+    if payload.get("contact_path"):  # the path's items carry their value as "param"
+        from ..parameters import parameter
+        from ..unit_results import point_physical
+        from ..user_units import physical_value_keys
+
         cp = payload["contact_path"]
         for item in cp["points"] + cp["contact_events"] + cp["jumps"]:
-            value_keys = {"value": item["param"]}
-            add_point_units([value_keys], res.param, units)
-            item.update({k: v for k, v in value_keys.items() if k != "value"})
+            item.update(physical_value_keys(parameter(res.param), item["param"], units))
         for q in cp["points"]:
-            tip_units = {"tip": q["tip"], "energy": q["energy"]}
-            add_point_units([tip_units], res.param, units)
-            q["physical"] = tip_units["physical"]
+            q["physical"] = point_physical(q["tip"], q["energy"], units)
     for sec in payload.get("secondary_branches", []):
         add_point_units(sec["points"] + sec["folds"] + sec["branch_points"], res.param, units)
 
