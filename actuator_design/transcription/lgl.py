@@ -176,16 +176,12 @@ class LGL(Transcription):
         else:
             e = np.clip(np.searchsorted(self._bp, s, side="right") - 1, 0, self.E - 1)
             t = (s - self._bp[e]) / self._J[e] - 1.0
-        theta = np.empty_like(s)
-        dtheta = np.empty_like(s)
-        D = differentiation_matrix(self.d)
-        for k in np.unique(e):
-            sel = e == k
-            ze = np.asarray(z)[k * self.d:(k + 1) * self.d + 1]
-            M = _interp_matrix(self.d, t[sel])
-            theta[sel] = M @ ze
-            dtheta[sel] = M @ ((D / self._J[k]) @ ze)
-        return theta, dtheta
+        # every point at once: its element's nodal values and their derivative, weighted by the
+        # barycentric row of its local coordinate (no loop over elements: few points are common)
+        zel = np.asarray(z, float)[np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]]
+        dzel = (zel @ differentiation_matrix(self.d).T) / self._J[:, None]
+        M = _interp_matrix(self.d, t)
+        return np.einsum("ij,ij->i", M, zel[e]), np.einsum("ij,ij->i", M, dzel[e])
 
 
 def graded_breakpoints(elements: int, clamp_levels: int = 0, tip_levels: int = 0) -> np.ndarray:
