@@ -294,7 +294,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     from .balance import balance
     from .equilibrium import _make_result
     from .from_rest import load_fraction
-    from .self_contact import candidate_pairs
+    from .self_contact import GROW_ROUNDS, candidate_pairs, grown_pairs
     from .solver import RawSolution, get_solver
 
     solver = get_solver(scene, opts)
@@ -325,7 +325,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     lbg, ubg = nlp.bounds(pairs)
     used = np.isfinite(lbg[1:])
     mass = np.asarray(solver.transcription.mass, float)
-    newton = None
+    newton = minimum = None
     if problem is not None:  # no rest state to start from: nothing is solved
         z, lam, status, iterations = z0, np.zeros(1 + nlp.n_rows), "obstacle_at_rest", 0
         message = problem
@@ -339,19 +339,31 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs  # the same NLP and pairs
         rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
         newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
-        if newton is not None and not (kept_clear(nlp, z0, Pall, newton) and strict_minimum(nlp, newton, mass)):
+        minimum = None if newton is None or not kept_clear(nlp, z0, Pall, newton) else strict_minimum(nlp, newton, mass)
+        if minimum is None:
             newton = None  # a jump past an obstacle, or a saddle (past a fold): IPOPT decides
         if newton is not None:  # the contact set of the step or round before still holds
             z, lam, iterations, derivatives = newton
             status = "Solve_Succeeded"
             message = f"Newton on the contact set of the {'round' if refine is not None else 'state'} before (contact, from {start})"
         else:
-            if same:  # its contact forces as the start
-                sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])
-            else:
-                sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg)
+            for _ in range(GROW_ROUNDS + 1):
+                if same:  # its contact forces as the start
+                    sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])
+                else:
+                    sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg)
+                z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
+                grown = grown_pairs(nlp, scene.contact_gap, z, pairs) if nlp.slots and refine is not None else None
+                if grown is None:
+                    break
+                # a split round (the same loads, the boundaries moved) passed the rod through itself
+                # where no pair held it: those pairs are constrained too, and it is solved again from
+                # the same start (a ramp step that does so is halved instead: :mod:`.self_contact`)
+                pairs, same = grown, False
+                Pall = nlp.parameters(P, pairs)
+                lbg, ubg = nlp.bounds(pairs)
+                used = np.isfinite(lbg[1:])
             st = ipopt.stats()
-            z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
             status = str(st.get("return_status"))
             iterations = int(st.get("iter_count", 0))
             message = f"IPOPT: {status} (contact, from {start})"
@@ -377,7 +389,10 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     strong = kept
     if finite:
         stationarity = float(np.max(np.abs(grad.ravel()[1:] / mass[1:])))
-        stability = verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
+        if newton is not None and np.array_equal(np.flatnonzero(strong), minimum[1]):
+            stability = minimum[0]  # Newton's acceptance judged these very rows already
+        else:
+            stability = verdict(H[1:, 1:], jac[strong][:, 1:], mass[1:])
     else:  # IPOPT left no usable point: no verdict
         converged, stationarity = False, float("inf")
         stability = ContactVerdict(np.array([np.nan]), -1, False)

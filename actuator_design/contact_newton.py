@@ -127,12 +127,14 @@ def kept_clear(nlp, z0: np.ndarray, P: np.ndarray, newton) -> bool:
     return True
 
 
-def strict_minimum(nlp, newton, mass: np.ndarray) -> bool:
-    """Whether Newton's KKT point is a stable constrained minimum (the Lagrangian's Hessian positive
-    definite on the tangent space of its rows): what IPOPT, a descent method, converges to."""
+def strict_minimum(nlp, newton, mass: np.ndarray):
+    """The stability verdict of Newton's KKT point on the tangent space of its rows, and those rows
+    (indices into the contact rows), when it is a stable constrained minimum (the Lagrangian's
+    Hessian positive definite there: what IPOPT, a descent method, converges to); else None."""
     z, lam, _, (_, H, jac) = newton
     rows = np.flatnonzero(lam[1:] != 0.0)
-    return bool(verdict(H[1:, 1:], jac[rows][:, 1:], mass[1:]).stable)
+    found = verdict(H[1:, 1:], jac[rows][:, 1:], mass[1:])
+    return (found, rows) if found.stable else None
 
 
 def pressing_rows(nlp, lam_before, refine, splits) -> Optional[List[int]]:

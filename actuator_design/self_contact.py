@@ -36,7 +36,7 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
-           "least_self_clearance", "solve_self_contact", "SLOTS", "REACH"]
+           "least_self_clearance", "solve_self_contact", "grown_pairs", "SLOTS", "REACH", "GROW_ROUNDS"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
@@ -93,6 +93,24 @@ def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, rea
             if q in dist and q not in chosen:
                 chosen.append(q)
     return chosen[:slots]
+
+
+#: times a self-contact solve is repeated with the pairs it passed through added (:func:`grown_pairs`)
+GROW_ROUNDS = 3
+
+
+def grown_pairs(nlp, gap: float, z: np.ndarray, pairs) -> Optional[tuple]:
+    """``pairs`` with those of the solved constrained points ``z`` that came closer than 2·gap
+    without a row (the solve moved the rod through itself where its start was clear: the start's
+    pairs are only those near each other there, :func:`candidate_pairs`), or None
+    when there are none or no free slot."""
+    X, Y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z))
+    inside = [q for q in candidate_pairs(nlp.s_self, X, Y, gap, reach=0.0, slots=nlp.slots)
+              if q not in pairs and np.hypot(X[q[0]] - X[q[1]], Y[q[0]] - Y[q[1]]) < 2.0 * gap * (1.0 - 1e-6)]
+    room = nlp.slots - len(pairs)
+    if not inside or room <= 0:
+        return None
+    return tuple(pairs) + tuple(inside[:room])
 
 
 def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Optional[Tuple[float, float, float]]:

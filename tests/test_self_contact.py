@@ -313,3 +313,35 @@ def test_a_contact_result_judged_inaccurate_while_passing_through_itself_gets_se
     # a result that fails for another reason is reported as it is
     through.status = "not_converged"
     assert solve(coil) is through and len(calls) == 1
+
+
+def test_a_round_that_passed_through_itself_gets_the_crossing_pairs():
+    """The split rounds' rule (self_contact.grown_pairs): two straight strands of constrained points
+    that cross at (0.25, 0) with no row between them get the pair nearest the crossing (the one
+    closer than 2·gap, never neighbours along the rod), after the rows they had; strands kept
+    farther apart than 2·gap get none, and no slot is used twice."""
+    from types import SimpleNamespace
+
+    from actuator_design.self_contact import grown_pairs
+
+    n = 41  # strand a: s in (0, 0.5] along the x axis; strand b: s in (0.5, 1], crossing it at x = 0.25
+    s = np.concatenate([[0.0], np.linspace(0.0125, 0.5, n - 1), np.linspace(0.5125, 1.0, n)])
+
+    def nlp(offset):  # offset 0: strand b crosses a; else b runs back above a, ``offset`` away
+        xb = np.full(n, 0.25) if offset == 0.0 else np.linspace(0.5, 0.0, n)
+        yb = np.linspace(0.25, -0.25, n) if offset == 0.0 else np.full(n, offset)
+        X = np.concatenate([np.linspace(0.0125, 0.5, n - 1), xb])
+        Y = np.concatenate([np.zeros(n - 1), yb])
+        return SimpleNamespace(f_xy=lambda z: (X, Y), s_self=s, slots=3), X, Y
+
+    crossing, X, Y = nlp(0.0)
+    grown = grown_pairs(crossing, GAP, None, ((1, 2),))
+    assert grown is not None and grown[0] == (1, 2) and len(grown) >= 2
+    for a, b in grown[1:]:
+        xa, ya = np.r_[0.0, X][a], np.r_[0.0, Y][a]
+        xb, yb = np.r_[0.0, X][b], np.r_[0.0, Y][b]
+        assert math.hypot(xa - xb, ya - yb) < 2 * GAP and abs(s[a] - s[b]) >= neighbour_arc(GAP)
+        assert abs(xa - 0.25) < 0.02 and abs(xb - 0.25) < 0.02
+    assert grown_pairs(crossing, GAP, None, ((1, 2), (3, 4), (5, 6))) is None  # no free slot
+    apart, _, _ = nlp(3 * GAP)  # strand b parallel to a, 3·gap above it: clear
+    assert grown_pairs(apart, GAP, None, ()) is None
