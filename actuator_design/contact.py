@@ -30,6 +30,7 @@ import numpy as np
 from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
 from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
+from .contact_kkt import RowDerivatives
 from .contact_newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
 from .options import MAX_SPLITS
@@ -58,6 +59,8 @@ class ContactNLP:
             dx, dy = ca.mtimes(Sa - Sb, ca.vertcat(0, X)), ca.mtimes(Sa - Sb, ca.vertcat(0, Y))
             rows.append((dx ** 2 + dy ** 2 - 4.0 * gap ** 2) / (4.0 * gap))
         self.n_rows = len(self.obstacles) * m + self.slots
+        self._kernel, self._n_params, self._theta0 = solver.kernel, lay.size, lay.slices["theta0"].start
+        self._row_parts, self._row_derivatives = (z, X, Y), None
         Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
@@ -115,10 +118,20 @@ class ContactNLP:
         if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
             self.nlpsol(False)
         grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
-        triu = self.f_hess(z, P, 1.0, lam_g).full()
-        H = triu + triu.T - np.diag(np.diag(triu))
-        g, jac = self.f_jac_g(z, P)
-        return grad, H, jac.full()[1:], g.full().ravel()
+        # the Hessian and the Jacobian from their parts (:mod:`.contact_kkt`): IPOPT's own took ~1 ms
+        # a call for a curved lumen
+        if self._row_derivatives is None:
+            self._row_derivatives = RowDerivatives(*self._row_parts, self.obstacles, self.gap, self.slots)
+        P = np.asarray(P, float).ravel()
+        k = self.slots * (self.n_points + 1)
+        pairs = (P[self._n_params:self._n_params + k] - P[self._n_params + k:]).reshape(
+            (self.slots, self.n_points + 1), order="F")
+        H, jac, rows = self._row_derivatives.rows_hessian_jacobian(np.asarray(z, float), pairs,
+                                                                   np.asarray(lam_g, float)[1:])
+        self._kernel.set_params(P[:self._n_params])
+        self._kernel.evaluate(np.asarray(z, float)[1:])
+        H[1:, 1:] += self._kernel.hessian_dense()
+        return grad, H, jac, np.concatenate([[z[0] - P[self._theta0]], rows])
 
 
 def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
