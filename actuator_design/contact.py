@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import time
 import weakref
-from dataclasses import dataclass
-from typing import Dict, List, Optional
+from typing import Dict, Optional
 
 import casadi as ca
 import numpy as np
@@ -30,7 +29,7 @@ import numpy as np
 from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
 from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
-from .contact_kkt import RowDerivatives
+from .contact_kkt import HessianCallback, RowDerivatives, _Buffered
 from .contact_newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
 from .options import MAX_SPLITS
@@ -61,6 +60,13 @@ class ContactNLP:
         self.n_rows = len(self.obstacles) * m + self.slots
         self._kernel, self._n_params, self._theta0 = solver.kernel, lay.size, lay.slices["theta0"].start
         self._row_parts, self._row_derivatives = (z, X, Y), None
+        # IPOPT's Hessian assembled from its parts (:mod:`.contact_kkt`), except for an energy that
+        # reads positions (a non-uniform field), whose own Hessian is structured (kernel) and
+        # expensive to build symbolically: IPOPT then differentiates the whole Lagrangian itself
+        self._energy_parts, self._f_energy_hessian = (z, P, E), None
+        self._hess_callback = None if solver.hessian_mapped else HessianCallback(
+            "contact_hess_lag", z.numel(), lay.size + 2 * self.slots * (m + 1), 1 + self.n_rows,
+            self.lagrangian_hessian)
         Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
@@ -70,7 +76,7 @@ class ContactNLP:
         self._solvers: Dict[bool, ca.Function] = {}
         # the Lagrangian's gradient and Hessian (upper triangle) and the rows' Jacobian, as IPOPT
         # builds them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
-        self.f_grad = self.f_hess = self.f_jac_g = None
+        self.f_grad = self.f_jac_g = None
 
     def nlpsol(self, warm: bool) -> ca.Function:
         """IPOPT on this NLP, built on first use. Bounds are not relaxed: a contact point sits
@@ -87,11 +93,14 @@ class ContactNLP:
                 opts.update({"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8,
                              "ipopt.slack_bound_push": 1e-8, "ipopt.slack_bound_frac": 1e-8,
                              "ipopt.mu_strategy": "monotone", "ipopt.warm_start_init_point": "yes"})
+            if self._hess_callback is not None:
+                opts["hess_lag"] = self._hess_callback
             solver = self._solvers[warm] = ca.nlpsol("contact", "ipopt", self._problem, opts)
-            built = [solver.get_function(name) for name in ("nlp_grad", "nlp_hess_l", "nlp_jac_g")]
+            built = [solver.get_function(name) for name in ("nlp_grad", "nlp_jac_g")]
             if self.f_grad is None:
-                self.f_grad, self.f_hess, self.f_jac_g = built
-            contact_cache.charge(self, built)
+                self.f_grad, self.f_jac_g = built
+            contact_cache.charge(self, built if self._hess_callback is not None
+                                 else built + [solver.get_function("nlp_hess_l")])
         return self._solvers[warm]
 
     def parameters(self, P: np.ndarray, pairs=()) -> np.ndarray:
@@ -109,6 +118,27 @@ class ContactNLP:
         lbg[1 + self.n_rows - self.slots + len(pairs):] = -np.inf
         return lbg, np.concatenate([[0.0], np.full(self.n_rows, np.inf)])
 
+    def _pairs(self, P: np.ndarray) -> np.ndarray:
+        """Sa − Sb of the self-contact pair rows, shape (slots, m + 1), from the NLP's parameters."""
+        k = self.slots * (self.n_points + 1)
+        return (P[self._n_params:self._n_params + k] - P[self._n_params + k:]).reshape(
+            (self.slots, self.n_points + 1), order="F")
+
+    def _rows(self) -> RowDerivatives:
+        if self._row_derivatives is None:
+            self._row_derivatives = RowDerivatives(*self._row_parts, self.obstacles, self.gap, self.slots)
+        return self._row_derivatives
+
+    def lagrangian_hessian(self, z, P, sigma: float, lam_g) -> np.ndarray:
+        """σ∇²Ê + ∇²(λᵀg) at ``z`` (all nodes, the clamp's included), dense, shape (n, n): IPOPT's
+        ``hess_lag`` (:class:`~.contact_kkt.HessianCallback`)."""
+        z, P = np.asarray(z, float), np.asarray(P, float)
+        H = self._rows().rows_hessian_jacobian(z, self._pairs(P), np.asarray(lam_g, float)[1:], jacobian=False)[0]
+        if self._f_energy_hessian is None:
+            z_sym, P_sym, E = self._energy_parts
+            self._f_energy_hessian = _Buffered(ca.Function("energy_hessian", [z_sym, P_sym], [ca.hessian(E, z_sym)[0]]))
+        return H + sigma * self._f_energy_hessian(z, P[:self._n_params])[0]
+
     def lagrangian(self, z, P, lam_g):
         """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
         return self.kkt(z, P, lam_g)[:3]
@@ -120,14 +150,9 @@ class ContactNLP:
         grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
         # the Hessian and the Jacobian from their parts (:mod:`.contact_kkt`): IPOPT's own took ~1 ms
         # a call for a curved lumen
-        if self._row_derivatives is None:
-            self._row_derivatives = RowDerivatives(*self._row_parts, self.obstacles, self.gap, self.slots)
         P = np.asarray(P, float).ravel()
-        k = self.slots * (self.n_points + 1)
-        pairs = (P[self._n_params:self._n_params + k] - P[self._n_params + k:]).reshape(
-            (self.slots, self.n_points + 1), order="F")
-        H, jac, rows = self._row_derivatives.rows_hessian_jacobian(np.asarray(z, float), pairs,
-                                                                   np.asarray(lam_g, float)[1:])
+        H, jac, rows = self._rows().rows_hessian_jacobian(np.asarray(z, float), self._pairs(P),
+                                                          np.asarray(lam_g, float)[1:])
         self._kernel.set_params(P[:self._n_params])
         self._kernel.evaluate(np.asarray(z, float)[1:])
         H[1:, 1:] += self._kernel.hessian_dense()
@@ -307,7 +332,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     from .balance import balance
     from .equilibrium import _make_result
     from .from_rest import load_fraction
-    from .self_contact import GROW_ROUNDS, candidate_pairs, grown_pairs
+    from .self_contact import GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs
     from .solver import RawSolution, get_solver
 
     solver = get_solver(scene, opts)
@@ -332,7 +357,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     if nlp.slots:
         X0, Y0 = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z0))
         pairs = candidate_pairs(nlp.s_self, X0, Y0, scene.contact_gap, slots=nlp.slots, spread=spread)
-        kept = _contact_boundary_pairs(nlp.s_self, opts.split_at, refine if refine is not None else initial)
+        kept = boundary_pairs(nlp.s_self, opts.split_at, refine if refine is not None else initial)
         pairs = tuple((kept + [q for q in pairs if q not in kept])[:nlp.slots])
     Pall = nlp.parameters(P, pairs)
     lbg, ubg = nlp.bounds(pairs)
@@ -422,31 +447,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
     return result
-
-
-def _contact_boundary_pairs(s_self: np.ndarray, splits, state) -> list:
-    """Index pairs (into ``s_self``: the clamp, then the constrained points) of the element
-    boundaries put at ``state``'s self-contacts (each end at the boundary, the clamp or the tip
-    nearest it): a split round constrains exactly the points it moved the boundaries to. The
-    nearest node pair of the start may be a neighbouring node (LGL nodes crowd at an element's
-    ends), and a force there lands up to ~1e-3 off its contact."""
-    if state is None or not (state.contact or {}).get("self_contact"):
-        return []
-    ends = np.concatenate([[0.0, 1.0], np.asarray(splits, float)])
-    out = []
-    for p in state.contact["points"]:
-        if not p.get("self") or p["weak"] or p["s"] > p["partner_s"]:
-            continue
-        q = []
-        for s in (p["s"], p["partner_s"]):
-            b = ends[int(np.argmin(np.abs(ends - s)))]
-            i = int(np.argmin(np.abs(s_self - b)))
-            if abs(b - s) > 1e-2 or abs(s_self[i] - b) > 1e-9:
-                break
-            q.append(i)
-        if len(q) == 2 and q[0] != q[1] and tuple(sorted(q)) not in out:
-            out.append(tuple(sorted(q)))
-    return out
 
 
 def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:

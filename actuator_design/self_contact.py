@@ -36,7 +36,7 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
-           "least_self_clearance", "solve_self_contact", "grown_pairs", "SLOTS", "REACH", "GROW_ROUNDS"]
+           "least_self_clearance", "solve_self_contact", "grown_pairs", "boundary_pairs", "SLOTS", "REACH", "GROW_ROUNDS"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
@@ -111,6 +111,31 @@ def grown_pairs(nlp, gap: float, z: np.ndarray, pairs) -> Optional[tuple]:
     if not inside or room <= 0:
         return None
     return tuple(pairs) + tuple(inside[:room])
+
+
+def boundary_pairs(s_self: np.ndarray, splits, state) -> list:
+    """Index pairs (into ``s_self``: the clamp, then the constrained points) of the element
+    boundaries put at ``state``'s self-contacts (each end at the boundary, the clamp or the tip
+    nearest it): a split round constrains exactly the points it moved the boundaries to. The
+    nearest node pair of the start may be a neighbouring node (LGL nodes crowd at an element's
+    ends), and a force there lands up to ~1e-3 off its contact."""
+    if state is None or not (state.contact or {}).get("self_contact"):
+        return []
+    ends = np.concatenate([[0.0, 1.0], np.asarray(splits, float)])
+    out = []
+    for p in state.contact["points"]:
+        if not p.get("self") or p["weak"] or p["s"] > p["partner_s"]:
+            continue
+        q = []
+        for s in (p["s"], p["partner_s"]):
+            b = ends[int(np.argmin(np.abs(ends - s)))]
+            i = int(np.argmin(np.abs(s_self - b)))
+            if abs(b - s) > 1e-2 or abs(s_self[i] - b) > 1e-9:
+                break
+            q.append(i)
+        if len(q) == 2 and q[0] != q[1] and tuple(sorted(q)) not in out:
+            out.append(tuple(sorted(q)))
+    return out
 
 
 def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Optional[Tuple[float, float, float]]:

@@ -1,9 +1,11 @@
 """The contact NLP's Hessian and Jacobian assembled from their parts (actuator_design.contact_kkt)
-against CasADi's own derivatives of the whole Lagrangian (IPOPT's nlp_hess_l and nlp_jac_g),
-with a multiplier on every row (not only the pressing ones): a wall, a polygon, a peg, a curved
-lumen and self-contact pairs."""
+against CasADi's own derivatives of the whole Lagrangian σÊ + λᵀg (built here from the NLP's
+expressions), with a multiplier on every row (not only the pressing ones), on and off the
+solution: a wall, a polygon, a peg, a curved lumen and self-contact pairs; and IPOPT with the
+assembled Hessian lands where it does with its own."""
 import math
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -25,6 +27,15 @@ SCENES = {
 }
 
 
+def _reference(nlp):
+    """[z, P, σ, λ] -> (∇²(σÊ + λᵀg), ∂g/∂z, g) by CasADi's symbolic derivatives of the NLP."""
+    prob = nlp._problem
+    sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam", prob["g"].numel())
+    lag = sigma * prob["f"] + ca.dot(lam, prob["g"])
+    return ca.Function("reference", [prob["x"], prob["p"], sigma, lam],
+                       [ca.hessian(lag, prob["x"])[0], ca.jacobian(prob["g"], prob["x"]), prob["g"]])
+
+
 @pytest.mark.parametrize("name", list(SCENES))
 def test_assembled_kkt_matches_casadi_derivatives_of_the_lagrangian(name):
     sc = SCENES[name]
@@ -32,6 +43,7 @@ def test_assembled_kkt_matches_casadi_derivatives_of_the_lagrangian(name):
     assert r.success, r.message
     solver = get_solver(sc, r.options)
     nlp = contact_nlp(solver, sc, bool(r.contact.get("self_contact")))
+    reference = _reference(nlp)
     _, pairs, lam = r._contact_multipliers
     P = nlp.parameters(solver.parameter_vector(sc), pairs)
     used = np.isfinite(nlp.bounds(pairs)[0])
@@ -39,12 +51,38 @@ def test_assembled_kkt_matches_casadi_derivatives_of_the_lagrangian(name):
     for mult in (lam, np.where(used, rng.normal(size=lam.size), 0.0)):
         z = r.z + 0.01 * rng.normal(size=r.z.size) * (np.arange(r.z.size) > 0)  # off the solution too
         for at in (r.z, z):
+            sigma = 0.5 + rng.uniform()
+            H_ref, jac_ref, g_ref = (m.full() for m in reference(at, P, sigma, mult))
+            H_unit = reference(at, P, 1.0, mult)[0].full()
             _, H, jac, g = nlp.kkt(at, P, mult)
-            triu = nlp.f_hess(at, P, 1.0, mult).full()
-            H_ref = triu + triu.T - np.diag(np.diag(triu))
-            g_ref, jac_ref = (m.full() for m in nlp.f_jac_g(at, P))
-            # row and column 0 (the clamp's θ, fixed by its own row) are not assembled: module doc
-            scale = np.max(np.abs(H_ref[1:, 1:]))
-            assert np.max(np.abs(H[1:, 1:] - H_ref[1:, 1:])) <= 1e-8 * scale, name
+            # kkt: row and column 0 (the clamp's θ, fixed by its own row) carry no energy (module doc)
+            scale = np.max(np.abs(H_unit[1:, 1:]))
+            assert np.max(np.abs(H[1:, 1:] - H_unit[1:, 1:])) <= 1e-8 * scale, name
             assert np.max(np.abs(jac - jac_ref[1:])) <= 1e-12 * max(1.0, np.max(np.abs(jac_ref))), name
             assert np.max(np.abs(g - g_ref.ravel())) <= 1e-13, name
+            # IPOPT's hess_lag: the whole matrix, the objective weighted by IPOPT's σ
+            H_ipopt = nlp.lagrangian_hessian(at, P, sigma, mult)
+            assert np.max(np.abs(H_ipopt - H_ref)) <= 1e-8 * np.max(np.abs(H_ref)), name
+
+
+def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own():
+    """The lumen's first contact round from the rod laid along the lumen: the same iterations and
+    the same minimiser as IPOPT with CasADi's own Hessian of the Lagrangian."""
+    from actuator_design.contact import _lumen_start
+
+    sc = SCENES["lumen"]
+    r = solve(sc)
+    solver = get_solver(sc, r.options)
+    nlp = contact_nlp(solver, sc)
+    P = nlp.parameters(solver.parameter_vector(sc))
+    lbg, ubg = nlp.bounds()
+    z0 = _lumen_start(sc, np.asarray(solver.transcription.nodes, float))
+    own = ca.nlpsol("own", "ipopt", nlp._problem, {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
+                                                    "ipopt.tol": 1e-12, "ipopt.mu_strategy": "adaptive",
+                                                    "ipopt.bound_relax_factor": 0.0})
+    a = own(x0=z0, p=P, lbg=lbg, ubg=ubg)
+    assembled = nlp.nlpsol(False)
+    b = assembled(x0=z0, p=P, lbg=lbg, ubg=ubg)
+    assert own.stats()["success"] and assembled.stats()["success"]
+    assert abs(own.stats()["iter_count"] - assembled.stats()["iter_count"]) <= 1
+    assert np.max(np.abs(np.asarray(a["x"]) - np.asarray(b["x"]))) < 1e-10
