@@ -249,6 +249,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
         history = extended(history, here)
         splits = accelerated(history)
     result.contact["split_at"] = list(result.options.split_at)
+    result.contact["boundary_rounds"] = rounds
     if options.accuracy is not None:
         result.message += "; the accuracy option is not applied to contact equilibria (the residual check is)"
     if checked is None or checked[0] is not result:
@@ -256,7 +257,9 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     inside = _penetration(scene, result, *checked[1:])
     if inside is not None and result.success:
         result.success, result.status = False, "inaccurate"
-        result.message += f"; {inside}: give more elements (solver.elements)"
+        result.message += (f"; {inside}: the contact points were still moving after {rounds} boundary rounds "
+                           "(the element boundaries chase a contact that slides, e.g. a tip along the rod's "
+                           "body)" if rounds >= MAX_SPLIT_ROUNDS else f"; {inside}: give more elements (solver.elements)")
     if self_contact and result.success:
         _check_frictionless(result)
     return accept(result)
