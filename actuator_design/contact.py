@@ -29,7 +29,7 @@ import numpy as np
 from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
 from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
-from .contact_kkt import HessianCallback, RowDerivatives, _Buffered
+from .contact_kkt import Buffered, HessianCallback, RowDerivatives
 from .contact_newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
 from .options import MAX_SPLITS
@@ -61,10 +61,11 @@ class ContactNLP:
         self._kernel, self._n_params, self._theta0 = solver.kernel, lay.size, lay.slices["theta0"].start
         self._row_parts, self._row_derivatives = (z, X, Y), None
         # IPOPT's Hessian assembled from its parts (:mod:`.contact_kkt`), except for an energy that
-        # reads positions (a non-uniform field), whose own Hessian is structured (kernel) and
-        # expensive to build symbolically: IPOPT then differentiates the whole Lagrangian itself
+        # reads positions (a non-uniform field), whose own Hessian is dense and expensive to build
+        # symbolically (a dipole on 12 elements: 0.8 s, ~130 MB): IPOPT then differentiates the
+        # whole Lagrangian itself, as before
         self._energy_parts, self._f_energy_hessian = (z, P, E), None
-        self._hess_callback = None if solver.hessian_mapped else HessianCallback(
+        self._hess_callback = None if solver.discrete.uses_positions else HessianCallback(
             "contact_hess_lag", z.numel(), lay.size + 2 * self.slots * (m + 1), 1 + self.n_rows,
             self.lagrangian_hessian)
         Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
@@ -118,6 +119,11 @@ class ContactNLP:
         lbg[1 + self.n_rows - self.slots + len(pairs):] = -np.inf
         return lbg, np.concatenate([[0.0], np.full(self.n_rows, np.inf)])
 
+    def raise_callback_error(self) -> None:
+        """Raise what the Hessian callback raised during the last IPOPT solve, if anything."""
+        if self._hess_callback is not None:
+            self._hess_callback.raise_error()
+
     def _pairs(self, P: np.ndarray) -> np.ndarray:
         """Sa − Sb of the self-contact pair rows, shape (slots, m + 1), from the NLP's parameters."""
         k = self.slots * (self.n_points + 1)
@@ -127,20 +133,25 @@ class ContactNLP:
     def _rows(self) -> RowDerivatives:
         if self._row_derivatives is None:
             self._row_derivatives = RowDerivatives(*self._row_parts, self.obstacles, self.gap, self.slots)
+            contact_cache.charge(self, self._row_derivatives.functions())
         return self._row_derivatives
 
     def lagrangian_hessian(self, z, P, sigma: float, lam_g) -> np.ndarray:
         """σ∇²Ê + ∇²(λᵀg) at ``z`` (all nodes, the clamp's included), dense, shape (n, n): IPOPT's
         ``hess_lag`` (:class:`~.contact_kkt.HessianCallback`)."""
         z, P = np.asarray(z, float), np.asarray(P, float)
-        H = self._rows().rows_hessian_jacobian(z, self._pairs(P), np.asarray(lam_g, float)[1:], jacobian=False)[0]
+        lam = np.asarray(lam_g, float)[1:]
+        H = self._rows().rows_hessian_jacobian(z, self._pairs(P), lam, jacobian=False)[0]
         if self._f_energy_hessian is None:
             z_sym, P_sym, E = self._energy_parts
-            self._f_energy_hessian = _Buffered(ca.Function("energy_hessian", [z_sym, P_sym], [ca.hessian(E, z_sym)[0]]))
+            self._f_energy_hessian = Buffered(ca.Function("energy_hessian", [z_sym, P_sym],
+                                                          [ca.hessian(E, z_sym)[0]]))
+            contact_cache.charge(self, [self._f_energy_hessian.source])
         return H + sigma * self._f_energy_hessian(z, P[:self._n_params])[0]
 
     def lagrangian(self, z, P, lam_g):
-        """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution (the clamp row's multiplier included: linear)."""
+        """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution, as :meth:`kkt` gives them (∇²_z L without the
+        energy's row and column 0: :mod:`.contact_kkt`)."""
         return self.kkt(z, P, lam_g)[:3]
 
     def kkt(self, z, P, lam_g):
@@ -388,13 +399,17 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
             status = "Solve_Succeeded"
             message = f"Newton on the contact set of the {'round' if refine is not None else 'state'} before (contact, from {start})"
         else:
-            for _ in range(GROW_ROUNDS + 1):
+            iterations = 0
+            for attempt in range(GROW_ROUNDS + 1):
                 if same:  # its contact forces as the start
                     sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])
                 else:
                     sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg)
+                nlp.raise_callback_error()
+                iterations += int(ipopt.stats().get("iter_count", 0))
                 z, lam = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
-                grown = grown_pairs(nlp, scene.contact_gap, z, pairs) if nlp.slots and refine is not None else None
+                grow = nlp.slots and refine is not None and attempt < GROW_ROUNDS
+                grown = grown_pairs(nlp, scene.contact_gap, z, pairs) if grow else None
                 if grown is None:
                     break
                 # a split round (the same loads, the boundaries moved) passed the rod through itself
@@ -404,9 +419,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                 Pall = nlp.parameters(P, pairs)
                 lbg, ubg = nlp.bounds(pairs)
                 used = np.isfinite(lbg[1:])
-            st = ipopt.stats()
-            status = str(st.get("return_status"))
-            iterations = int(st.get("iter_count", 0))
+            status = str(ipopt.stats().get("return_status"))
             message = f"IPOPT: {status} (contact, from {start})"
     converged = problem is None and status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     mu = np.where(used, np.maximum(-lam[1:], 0.0), 0.0)

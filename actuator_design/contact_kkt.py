@@ -9,28 +9,40 @@ matrices follow from the chain rule with small pieces (:mod:`actuator_design.con
     ∇²(Σ λ_j row_j) = Σ_j λ_j (∂r_j/∂θ)ᵀ ∇²d(r_j) (∂r_j/∂θ) + ∇²_θ(wᵀX + vᵀY),  w = λ ∂d/∂x, v = λ ∂d/∂y,
 
 with the positions' Jacobian and the last term (diagonal for the spectral and midpoint
-transcriptions: positions are sums of cos θ and sin θ) from one small function each, d and its
-first and second derivatives at the m points from the obstacle's own expression, and the energy's
-Hessian from the solver's kernel. A self-contact pair row (|r_a − r_b|² − 4 gap²)/(4 gap) is the
-same with d the half squared distance over 2 gap. Row and column 0 (the clamp's θ, fixed by its
-own row) carry only the energy's part there: they change the clamp row's multiplier, never a step.
+transcriptions: positions are sums of cos θ and sin θ) from one small function each, and d with
+its first and second derivatives at the m points from the obstacle's own expression. A self-contact
+pair row (|r_a − r_b|² − 4 gap²)/(4 gap) is the same with d the squared distance over 4 gap.
+
+Newton's KKT matrix (:meth:`ContactNLP.kkt`) adds the energy's Hessian from the solver's kernel,
+which has the clamp's θ eliminated: its row and column 0 carry the rows' part only. The clamp's
+own row fixes that θ, so they change the clamp row's multiplier, never a step. IPOPT's
+``hess_lag`` (:class:`HessianCallback`) adds the whole energy Hessian.
+
+The buffers of these functions are shared, as the kernel's are: not thread-safe (each process
+builds its own solvers).
 """
 from __future__ import annotations
 
+import weakref
 from typing import Tuple
 
 import casadi as ca
 import numpy as np
 
-__all__ = ["RowDerivatives", "HessianCallback"]
+__all__ = ["Buffered", "RowDerivatives", "HessianCallback"]
 
 
-class _Buffered:
+class Buffered:
     """A CasADi function with dense outputs called through its buffer interface: arguments copied
     into, and results read from, preallocated float64 arrays (a sparse result converted with
-    ``.full()`` cost ~0.2 ms a call, more than the evaluation)."""
+    ``.full()`` cost ~0.2 ms a call, more than the evaluation).
+
+    Calling it returns its own result arrays (shapes of the outputs, column-major): the next call
+    overwrites them. ``source`` is the function given (its instructions are what it costs).
+    """
 
     def __init__(self, f: ca.Function):
+        self.source = f
         ins = f.mx_in()
         f = ca.Function(f.name(), ins, [ca.densify(o) for o in f.call(ins)])
         self.args = [np.zeros(f.nnz_in(i)) for i in range(f.n_in())]
@@ -42,8 +54,13 @@ class _Buffered:
             self._buf.set_res(i, memoryview(r.reshape(-1, order="F")))
 
     def __call__(self, *args):
+        if len(args) != len(self.args):
+            raise TypeError(f"{self.source.name()} takes {len(self.args)} arguments, {len(args)} given")
         for a, v in zip(self.args, args):
-            a[:] = np.asarray(v, float).ravel(order="F")
+            v = np.asarray(v, float)
+            if v.size != a.size:
+                raise ValueError(f"{self.source.name()}: an argument of {v.size} values where {a.size} are expected")
+            a[:] = v.ravel(order="F")
         self._eval()
         return self.res
 
@@ -65,17 +82,22 @@ class RowDerivatives:
 
     def __init__(self, z, X, Y, obstacles, gap: float, slots: int):
         self.m, self.n, self.gap, self.slots = int(X.numel()), int(z.numel()), float(gap), int(slots)
-        self.f_pos = _Buffered(ca.Function("contact_positions", [z], [X, Y, ca.jacobian(X, z), ca.jacobian(Y, z)]))
+        self.f_pos = Buffered(ca.Function("contact_positions", [z], [X, Y, ca.jacobian(X, z), ca.jacobian(Y, z)]))
         w, v = ca.SX.sym("w", self.m), ca.SX.sym("v", self.m)
-        self.f_pos_hess = _Buffered(ca.Function("positions_hessian", [z, w, v],
+        self.f_pos_hess = Buffered(ca.Function("positions_hessian", [z, w, v],
                                                 [ca.hessian(ca.dot(w, X) + ca.dot(v, Y), z)[0]]))
         x, y = ca.SX.sym("x"), ca.SX.sym("y")
-        self.f_obstacles = []
+        self.f_obstacles, self._jets = [], []
         for ob in obstacles:
             d = ob.distance(x, y)
             hd = ca.hessian(d, ca.vertcat(x, y))[0]
             f = ca.Function("obstacle_jet", [x, y], [d, ca.gradient(d, ca.vertcat(x, y)), ca.vec(hd)])
-            self.f_obstacles.append(_Buffered(f.map(self.m)))
+            self.f_obstacles.append(Buffered(f.map(self.m)))
+            self._jets.append(f)
+
+    def functions(self):
+        """The CasADi functions built (for :func:`~.contact_cache.charge`)."""
+        return [self.f_pos.source, self.f_pos_hess.source, *self._jets]  # a map shares its function
 
     def rows_hessian_jacobian(self, z: np.ndarray, pairs: np.ndarray, lam: np.ndarray,
                               jacobian: bool = True) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -139,17 +161,22 @@ class HessianCallback(ca.Callback):
     point's distance (a peg's NLP built in 26 ms instead of 106, a curved lumen's in 92 instead of
     334, self-contact's in 45 instead of 350), and each evaluation its cost.
 
+    An exception inside (a bug, memory, Ctrl-C) would reach IPOPT only as a failed evaluation: it
+    is kept and raised again by :meth:`raise_error`, which the caller runs after each solve.
+
     Parameters
     ----------
     name : str
     n, n_p, n_g : int
         Unknowns, parameters and rows of the NLP.
-    assemble : callable (z, P, sigma, lam_g) -> ndarray, shape (n, n)
+    assemble : bound method (z, P, sigma, lam_g) -> ndarray, shape (n, n)
+        Held weakly (its object holds this callback: no reference cycle).
     """
 
     def __init__(self, name: str, n: int, n_p: int, n_g: int, assemble):
         ca.Callback.__init__(self)
-        self.n, self.n_p, self.n_g, self.assemble = int(n), int(n_p), int(n_g), assemble
+        self.n, self.n_p, self.n_g = int(n), int(n_p), int(n_g)
+        self.assemble, self.error = weakref.WeakMethod(assemble), None
         upper = ca.Sparsity.upper(self.n)
         self._upper = (np.asarray(upper.row(), int), np.asarray(upper.get_col(), int))
         self.construct(name, {})
@@ -176,6 +203,16 @@ class HessianCallback(ca.Callback):
         return True
 
     def eval_buffer(self, arg, res):
-        z, P, sigma, lam = (np.frombuffer(a, dtype=float) for a in arg)
-        np.frombuffer(res[0], dtype=float)[:] = self.assemble(z, P, float(sigma[0]), lam)[self._upper]
-        return 0
+        try:
+            z, P, sigma, lam = (np.frombuffer(a, dtype=float) for a in arg)
+            np.frombuffer(res[0], dtype=float)[:] = self.assemble()(z, P, float(sigma[0]), lam)[self._upper]
+            return 0
+        except BaseException as exc:  # noqa: BLE001 -- kept for raise_error, IPOPT sees a failure
+            self.error = exc
+            return 1
+
+    def raise_error(self) -> None:
+        """Raise what an evaluation since the last call raised, if anything."""
+        if self.error is not None:
+            exc, self.error = self.error, None
+            raise exc

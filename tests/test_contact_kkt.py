@@ -1,8 +1,9 @@
 """The contact NLP's Hessian and Jacobian assembled from their parts (actuator_design.contact_kkt)
 against CasADi's own derivatives of the whole Lagrangian σÊ + λᵀg (built here from the NLP's
 expressions), with a multiplier on every row (not only the pressing ones), on and off the
-solution: a wall, a polygon, a peg, a curved lumen and self-contact pairs; and IPOPT with the
-assembled Hessian lands where it does with its own."""
+solution: a wall, a polygon, a peg, a curved lumen, self-contact pairs and a wall in a dipole's
+field (an energy that reads positions); IPOPT with the assembled Hessian lands where it does with
+its own, and an error inside the assembly is raised, not taken for a failed solve."""
 import math
 
 import casadi as ca
@@ -13,7 +14,7 @@ from actuator_design.contact import contact_nlp
 from actuator_design.equilibrium import solve
 from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
 from actuator_design.profiles import expression_profile
-from actuator_design.scene import Scene
+from actuator_design.scene import DipoleField, Scene
 from actuator_design.solver import get_solver
 
 SCENES = {
@@ -24,6 +25,8 @@ SCENES = {
     "lumen": Scene(field=None, contact_gap=0.01, obstacles=(
         Lumen((-0.1, 0.0), 0.0, 0.06, (("straight", 0.3), ("arc", 0.5, math.radians(70)), ("straight", 0.6))),)),
     "self-contact": Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01),
+    "dipole": Scene(field=DipoleField(x0=0.5, y0=0.8, moment_angle=0.5 * math.pi), h=0.5, contact_gap=0.01,
+                    obstacles=(Wall((0.0, 0.1), -0.5 * math.pi),)),
 }
 
 
@@ -65,18 +68,23 @@ def test_assembled_kkt_matches_casadi_derivatives_of_the_lagrangian(name):
             assert np.max(np.abs(H_ipopt - H_ref)) <= 1e-8 * np.max(np.abs(H_ref)), name
 
 
-def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own():
-    """The lumen's first contact round from the rod laid along the lumen: the same iterations and
-    the same minimiser as IPOPT with CasADi's own Hessian of the Lagrangian."""
+@pytest.mark.parametrize("name", ["lumen", "self-contact"])
+def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own(name):
+    """A first contact round (the lumen from the rod laid along it; the coil with its contact pairs
+    from the straight rod): the same iterations and the same minimiser as IPOPT with CasADi's own
+    Hessian of the Lagrangian."""
     from actuator_design.contact import _lumen_start
 
-    sc = SCENES["lumen"]
+    sc = SCENES[name]
     r = solve(sc)
     solver = get_solver(sc, r.options)
-    nlp = contact_nlp(solver, sc)
-    P = nlp.parameters(solver.parameter_vector(sc))
-    lbg, ubg = nlp.bounds()
-    z0 = _lumen_start(sc, np.asarray(solver.transcription.nodes, float))
+    nlp = contact_nlp(solver, sc, bool(r.contact.get("self_contact")))
+    assert nlp._hess_callback is not None
+    pairs = r._contact_multipliers[1]
+    P = nlp.parameters(solver.parameter_vector(sc), pairs)
+    lbg, ubg = nlp.bounds(pairs)
+    z0 = (_lumen_start(sc, np.asarray(solver.transcription.nodes, float)) if name == "lumen"
+          else np.asarray(r.z, float) * 0.9)
     own = ca.nlpsol("own", "ipopt", nlp._problem, {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes",
                                                     "ipopt.tol": 1e-12, "ipopt.mu_strategy": "adaptive",
                                                     "ipopt.bound_relax_factor": 0.0})
@@ -86,3 +94,26 @@ def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own():
     assert own.stats()["success"] and assembled.stats()["success"]
     assert abs(own.stats()["iter_count"] - assembled.stats()["iter_count"]) <= 1
     assert np.max(np.abs(np.asarray(a["x"]) - np.asarray(b["x"]))) < 1e-10
+
+
+def test_an_error_inside_the_hessian_callback_is_raised_after_the_solve(monkeypatch):
+    """IPOPT sees a failed evaluation; the error itself comes back from raise_callback_error, once."""
+    from actuator_design.contact_kkt import RowDerivatives
+
+    sc = SCENES["peg"]
+    r = solve(sc)
+    solver = get_solver(sc, r.options)
+    nlp = contact_nlp(solver, sc)
+    P = nlp.parameters(solver.parameter_vector(sc))
+    lbg, ubg = nlp.bounds()
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("boom in the assembly")
+
+    monkeypatch.setattr(RowDerivatives, "rows_hessian_jacobian", boom)
+    ipopt = nlp.nlpsol(False)
+    ipopt(x0=np.zeros(r.z.size), p=P, lbg=lbg, ubg=ubg)
+    assert not ipopt.stats()["success"]
+    with pytest.raises(RuntimeError, match="boom in the assembly"):
+        nlp.raise_callback_error()
+    nlp.raise_callback_error()  # reported once

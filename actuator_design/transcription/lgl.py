@@ -169,7 +169,8 @@ class LGL(Transcription):
         return ca.vertcat(*xs), ca.vertcat(*ys)
 
     def theta_dense(self, z, s):
-        s = np.clip(np.asarray(s, float), 0.0, 1.0)
+        shape = np.shape(s)
+        s = np.clip(np.atleast_1d(np.asarray(s, float)).ravel(), 0.0, 1.0)
         if self.uniform:
             e = np.minimum((s * self.E).astype(int), self.E - 1)
             t = (s - e / self.E) / self.J - 1.0
@@ -181,7 +182,8 @@ class LGL(Transcription):
         zel = np.asarray(z, float)[np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]]
         dzel = (zel @ differentiation_matrix(self.d).T) / self._J[:, None]
         M = _interp_matrix(self.d, t)
-        return np.einsum("ij,ij->i", M, zel[e]), np.einsum("ij,ij->i", M, dzel[e])
+        return (np.einsum("ij,ij->i", M, zel[e]).reshape(shape),
+                np.einsum("ij,ij->i", M, dzel[e]).reshape(shape))
 
 
 def graded_breakpoints(elements: int, clamp_levels: int = 0, tip_levels: int = 0) -> np.ndarray:
