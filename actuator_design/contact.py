@@ -28,7 +28,8 @@ import numpy as np
 
 from . import contact_cache
 from .clearance import PENETRATION_TOL, constrained_points, entering
-from .contact_report import ACTIVE, ContactVerdict, contact_report, one_per_contact, point_loads, verdict
+from .contact_report import (ACTIVE, ContactVerdict, contact_report, one_per_contact, penetration_text,
+                             point_loads, verdict)
 from .contact_kkt import Buffered, HessianCallback, RowDerivatives
 from .contact_newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from .contact_split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged, nearest_point
@@ -75,8 +76,8 @@ class ContactNLP:
         self.f_rows = ca.Function("contact_rows", [z, Pall], [ca.vertcat(*rows)])
         self._problem = {"x": z, "p": Pall, "f": E, "g": g}
         self._solvers: Dict[bool, ca.Function] = {}
-        # the Lagrangian's gradient and Hessian (upper triangle) and the rows' Jacobian, as IPOPT
-        # builds them: L = Ê + λᵀ g with λ_j = −μ_j ≤ 0 on the contact rows
+        # the Lagrangian's gradient and the rows' Jacobian, as IPOPT builds them: L = Ê + λᵀ g with
+        # λ_j = −μ_j ≤ 0 on the contact rows (its Hessian: :meth:`lagrangian_hessian`, :meth:`kkt`)
         self.f_grad = self.f_jac_g = None
 
     def nlpsol(self, warm: bool) -> ca.Function:
@@ -265,12 +266,15 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
         result.message += "; the accuracy option is not applied to contact equilibria (the residual check is)"
     if checked is None or checked[0] is not result:
         checked = (result,) + _dense_checks(scene, result, self_contact)
-    inside = _penetration(scene, result, *checked[1:])
+    inside = penetration_text(scene, *checked[1:])
     if inside is not None and result.success:
         result.success, result.status = False, "inaccurate"
-        result.message += (f"; {inside}: the contact points were still moving after {rounds} boundary rounds "
-                           "(the element boundaries chase a contact that slides, e.g. a tip along the rod's "
-                           "body)" if rounds >= MAX_SPLIT_ROUNDS else f"; {inside}: give more elements (solver.elements)")
+        if rounds >= MAX_SPLIT_ROUNDS:
+            result.message += (f"; {inside}: the contact points were still moving after {rounds} boundary "
+                               "rounds (the element boundaries chase a contact that slides, e.g. a tip along "
+                               "the rod's body)")
+        else:
+            result.message += f"; {inside}: give more elements (solver.elements)"
     if self_contact and result.success:
         _check_frictionless(result)
     return accept(result)
@@ -391,7 +395,8 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs  # the same NLP and pairs
         rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
         newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
-        minimum = None if newton is None or not kept_clear(nlp, z0, Pall, newton) else strict_minimum(nlp, newton, mass)
+        if newton is not None and kept_clear(nlp, z0, Pall, newton):
+            minimum = strict_minimum(nlp, newton, mass)
         if minimum is None:
             newton = None  # a jump past an obstacle, or a saddle (past a fold): IPOPT decides
         if newton is not None:  # the contact set of the step or round before still holds
@@ -477,19 +482,4 @@ def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:
         u0 = u[int(np.argmin(np.hypot(line[:, 0], line[:, 1])))]
         heading = ob.tangent_angle(u0 + s)
         return scene.theta0 + heading - heading[0]
-    return None
-
-
-def _penetration(scene, result, inside, self_inside) -> Optional[str]:
-    """Whether the dense shape comes closer to an obstacle than the gap, or to itself than twice
-    the gap, between the points where contact is imposed (by more than
-    :data:`~.clearance.PENETRATION_TOL` rod lengths), in words; the arguments from :func:`_dense_checks`."""
-    if inside is not None:
-        k, s, depth = inside
-        return (f"between the points where contact is imposed the rod enters the "
-                f"{scene.obstacles[k].describe()} by {depth:.2g} rod lengths at s = {s:.4g}")
-    if self_inside is not None:
-        s, t, depth = self_inside
-        return (f"between the points where contact is imposed the rod enters itself by {depth:.2g} rod "
-                f"lengths (s = {s:.4g} against s = {t:.4g})")
     return None

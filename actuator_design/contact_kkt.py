@@ -6,7 +6,8 @@ about 1 ms, and Newton's rounds on the contact set call it 10–20 times per sol
 matrices follow from the chain rule with small pieces (:mod:`actuator_design.contact`):
 
     ∂row_j/∂θ = ∇d(r_j) · ∂r_j/∂θ,
-    ∇²(Σ λ_j row_j) = Σ_j λ_j (∂r_j/∂θ)ᵀ ∇²d(r_j) (∂r_j/∂θ) + ∇²_θ(wᵀX + vᵀY),  w = λ ∂d/∂x, v = λ ∂d/∂y,
+    ∇²(Σ λ_j row_j) = Σ_j λ_j (∂r_j/∂θ)ᵀ ∇²d(r_j) (∂r_j/∂θ) + ∇²_θ(wᵀX + vᵀY),
+                      w = λ ∂d/∂x, v = λ ∂d/∂y,
 
 with the positions' Jacobian and the last term (diagonal for the spectral and midpoint
 transcriptions: positions are sums of cos θ and sin θ) from one small function each, and d with

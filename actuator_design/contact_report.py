@@ -7,7 +7,7 @@ k·m + j, m points) followed by the self-contact pairs (:mod:`actuator_design.se
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -15,7 +15,7 @@ import scipy.linalg as sla
 from .reduced.linalg import classify_spectrum
 
 __all__ = ["ContactVerdict", "ACTIVE", "CONTACT_WINDOW", "verdict", "one_per_contact", "contact_report",
-           "point_loads"]
+           "point_loads", "penetration_text"]
 
 #: a multiplier above this (relative to max(1, the largest multiplier)) is a contact; below it,
 #: with the constraint at the gap, the contact is weak (strict complementarity fails)
@@ -135,3 +135,19 @@ def point_loads(contact: dict):
     if not pts:
         return None
     return tuple(np.array(v) for v in zip(*[(p["s"], p["force"][0], p["force"][1], p["x"], p["y"]) for p in pts]))
+
+
+def penetration_text(scene, inside, self_inside) -> Optional[str]:
+    """Whether the dense shape comes closer to an obstacle than the gap, or to itself than twice
+    the gap, between the points where contact is imposed (by more than
+    :data:`~.clearance.PENETRATION_TOL` rod lengths), in words: ``inside`` (obstacle index, s,
+    depth) and ``self_inside`` (s, t, depth), each None when it does not (:mod:`.contact`'s dense checks)."""
+    if inside is not None:
+        k, s, depth = inside
+        return (f"between the points where contact is imposed the rod enters the "
+                f"{scene.obstacles[k].describe()} by {depth:.2g} rod lengths at s = {s:.4g}")
+    if self_inside is not None:
+        s, t, depth = self_inside
+        return (f"between the points where contact is imposed the rod enters itself by {depth:.2g} rod "
+                f"lengths (s = {s:.4g} against s = {t:.4g})")
+    return None

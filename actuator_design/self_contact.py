@@ -36,7 +36,8 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
-           "least_self_clearance", "solve_self_contact", "grown_pairs", "boundary_pairs", "SLOTS", "REACH", "GROW_ROUNDS"]
+           "least_self_clearance", "solve_self_contact", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
+           "GROW_ROUNDS"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
