@@ -2,24 +2,19 @@
 from __future__ import annotations
 
 import time
+from functools import partial
 from typing import Optional, Union
 
 import numpy as np
 
-from .balance import balance
+from .dense_shape import (Balance, DenseShape, clamp_curvature, nan_balance, nan_shape, never_intersects,
+                          self_intersecting)
 from .options import SolverOptions
 from .result import EquilibriumResult
 from .scene import Scene
 from .solver import EquilibriumSolver, RawSolution, get_solver
 
 __all__ = ["solve", "solve_on"]
-
-_GL_T, _GL_W = np.polynomial.legendre.leggauss(12)
-_GL4_T, _GL4_W = np.polynomial.legendre.leggauss(4)
-#: a sorted grid of at least this many points is integrated piece by piece (:func:`_dense_shape`)
-_MANY = 200
-#: ... when no piece turns by more than this (rad): piece length × max |θ'|
-_SHORT = 0.25
 
 
 def solve(scene: Scene, options: Optional[SolverOptions] = None,
@@ -180,81 +175,6 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str, strict: bool
     return raw
 
 
-def _dense_shape(solver: EquilibriumSolver, z: np.ndarray):
-    """A callable s -> (θ, θ', x, y): the transcription's interpolant, positions by Gauss
-    quadrature of (cos θ, sin θ) between the breakpoints (exact to rounding for LGL)."""
-    tr = solver.transcription
-    bp = tr.breakpoints
-    if tr.name == "midpoint":  # the midpoint rod is the polygon through its nodes
-        th_q = 0.5 * (z[1:] + z[:-1])
-        xn = np.concatenate(([0.0], np.cumsum(tr.h * np.cos(th_q))))
-        yn = np.concatenate(([0.0], np.cumsum(tr.h * np.sin(th_q))))
-
-        def dense(s):
-            th, dth = tr.theta_dense(z, s)
-            return th, dth, np.interp(s, tr.nodes, xn), np.interp(s, tr.nodes, yn)
-        return dense
-
-    a, b = bp[:-1], bp[1:]
-    cache = {}
-
-    def breakpoint_positions():  # x, y at the breakpoints, computed on first use
-        if not cache:
-            sg = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]
-            thg, _ = tr.theta_dense(z, sg.ravel())
-            wg = 0.5 * (b - a)[:, None] * _GL_W[None, :]
-            cache["X0"] = np.concatenate(([0.0], np.cumsum((wg * np.cos(thg.reshape(sg.shape))).sum(1))))
-            cache["Y0"] = np.concatenate(([0.0], np.cumsum((wg * np.sin(thg.reshape(sg.shape))).sum(1))))
-        return cache["X0"], cache["Y0"]
-
-    def dense(s):
-        s = np.clip(np.asarray(s, float), 0.0, 1.0)
-        th, dth = tr.theta_dense(z, s)
-        if s.ndim == 1 and s.size >= _MANY and np.all(np.diff(s) >= 0.0):
-            knots = np.union1d(s, bp)  # the breakpoints too: no kink of θ inside a piece
-            if np.max(np.diff(knots)) * np.max(np.abs(dth)) <= _SHORT:
-                # a dense grid: positions by short Gauss rules between neighbouring samples, summed
-                # (4 angles per sample instead of 12: the pieces turn by ≤ 0.25 rad, the rule's
-                # error ~ 0.25^8/3.5e6 of a piece's length, below rounding)
-                lo, hi = knots[:-1], knots[1:]
-                thg = tr.theta_dense(z, (0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GL4_T).ravel())[0]
-                w = 0.5 * (hi - lo)[:, None] * _GL4_W
-                thg = thg.reshape(w.shape)
-                at = np.searchsorted(knots, s)
-                X = np.concatenate(([0.0], np.cumsum((w * np.cos(thg)).sum(1))))
-                Y = np.concatenate(([0.0], np.cumsum((w * np.sin(thg)).sum(1))))
-                return th, dth, X[at], Y[at]
-        X0, Y0 = breakpoint_positions()
-        k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
-        lo = bp[k]
-        pts = lo[:, None] + 0.5 * (s - lo)[:, None] * (_GL_T[None, :] + 1.0)
-        th_p, _ = tr.theta_dense(z, pts.ravel())
-        th_p = th_p.reshape(pts.shape)
-        half = 0.5 * (s - lo)[:, None] * _GL_W[None, :]
-        return th, dth, X0[k] + (half * np.cos(th_p)).sum(1), Y0[k] + (half * np.sin(th_p)).sum(1)
-    return dense
-
-
-def _self_intersecting(x: np.ndarray, y: np.ndarray) -> bool:
-    """Whether the polyline through the nodes crosses itself (non-adjacent segments)."""
-    p = np.stack([x, y], 1)
-    if len(p) > 400:
-        p = p[np.linspace(0, len(p) - 1, 400).astype(int)]
-    A, B = p[:-1], p[1:]
-    d = B - A
-    n = len(A)
-    for i in range(n - 2):
-        Ai, di = A[i], d[i]
-        Aj, dj = A[i + 2:], d[i + 2:]
-        den = di[0] * dj[:, 1] - di[1] * dj[:, 0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((Aj[:, 0] - Ai[0]) * dj[:, 1] - (Aj[:, 1] - Ai[1]) * dj[:, 0]) / den
-            u = ((Aj[:, 0] - Ai[0]) * di[1] - (Aj[:, 1] - Ai[1]) * di[0]) / den
-        if np.any((den != 0) & (t > 0) & (t < 1) & (u > 0) & (u < 1)):
-            return True
-    return False
-
-
 def _make_result(scene, options, solver, params, raw: RawSolution, verdict, escaped, notes, solve_time):
     z = raw.z
     finite = bool(np.all(np.isfinite(z)))
@@ -269,11 +189,10 @@ def _make_result(scene, options, solver, params, raw: RawSolution, verdict, esca
             message=message + "; the iterate is not finite", scene=scene, options=options,
             s=solver.transcription.nodes.copy(), theta=nan, tip={"x": np.nan, "y": np.nan, "angle": np.nan},
             energy=np.nan, stationarity=np.inf, eigenvalues=np.full(1, np.nan), morse_index=-1,
-            stable=False, stats=stats, z=z, _dense=lambda s: (np.full(np.shape(s), np.nan),) * 4,
-            _balance=lambda: (np.full(2, np.nan), np.nan, np.nan), _intersects=lambda x, y: False)
+            stable=False, stats=stats, z=z, _dense=nan_shape, _balance=nan_balance, _intersects=never_intersects)
     if verdict is None:
         verdict = solver.stability(z, params)
-    dense = _dense_shape(solver, z)
+    dense = DenseShape(solver.transcription, z)
     energy, tip_theta, tip_x, tip_y = solver.summary(z, params)
     if solver.jit_note:
         stats["jit"] = solver.jit_note
@@ -284,5 +203,5 @@ def _make_result(scene, options, solver, params, raw: RawSolution, verdict, esca
         energy=energy, stationarity=raw.stationarity,
         eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
         marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
-        _balance=lambda: balance(solver, params, dense, scene, z), _intersects=_self_intersecting,
-        _clamp_curvature=lambda: solver.transcription.theta_dense(z, np.array([0.0]))[1][0])
+        _balance=Balance(solver, params, dense, scene, options, z), _intersects=self_intersecting,
+        _clamp_curvature=partial(clamp_curvature, solver.transcription, z))

@@ -13,7 +13,8 @@ import pytest
 from actuator_design.acceptance import graded_options
 from actuator_design.balance import BalanceOperator, balance
 from actuator_design.config import load_config
-from actuator_design.equilibrium import _dense_shape, solve
+from actuator_design.dense_shape import DenseShape
+from actuator_design.equilibrium import solve
 from actuator_design.options import SolverOptions
 from actuator_design.pointwise import NotVectorisable, VectorisedSX
 from actuator_design.reference.closed_forms import critical_field_transverse
@@ -182,7 +183,7 @@ def test_balance_operator_against_the_dense_shape(config, transcription):
     if solver.transcription.nodes.size != result.z.size:
         pytest.skip("the solve chose another mesh")
     params = solver.parameter_vector(scene)
-    dense = _dense_shape(solver, result.z)
+    dense = DenseShape(solver.transcription, result.z)
     stored = balance(solver, params, dense, scene, result.z)
     saved, B.MAX_NODES_STORED = B.MAX_NODES_STORED, 0
     try:
