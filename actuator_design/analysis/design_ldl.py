@@ -7,8 +7,9 @@ from functools import lru_cache
 from typing import List
 
 import casadi as ca
+import numpy as np
 
-__all__ = ["_ldl_function", "_ldl_pivots", "_bandwidth"]
+__all__ = ["SegmentedLDL", "_ldl_function", "_ldl_pivots", "_bandwidth"]
 
 
 @lru_cache(maxsize=32)
@@ -44,3 +45,85 @@ def _bandwidth(sv, n: int) -> int:
     sp = sv.f_grad_hess.sparsity_out(2)
     rows, cols = sp.get_triplet()
     return int(max((abs(r - c) for r, c in zip(rows, cols)), default=0))
+
+
+#: A cut lifts the Schur complement when at most this many of its entries were changed since the
+#: last cut (1 at an element boundary of the LGL transcription: the shared node's diagonal)...
+LIFT_MAX_ENTRIES = 1
+#: ... and at least this many columns were eliminated since the last cut.
+LIFT_MIN_COLUMNS = 4
+
+
+class SegmentedLDL:
+    """The pivots of A = L D Lᵀ (no pivoting) on A's own sparsity, with the Schur complement
+    lifted at cuts: the certificate of :class:`~.design_nlp.DesignNLP`.
+
+    On the LGL transcription the reduced Hessian is a chain of dense element blocks that share one
+    node (THEORY §4). Eliminating a block's interior changes only the shared node's diagonal entry
+    of what is left, so every later pivot depends on every earlier block through it: written as one
+    expression (:func:`_ldl_pivots`) the Lagrangian's Hessian of the pivot rows is dense in all
+    unknowns and CasADi takes ~0.4 s to build it (n = 40, issue 17). Here that entry becomes an NLP
+    unknown v with the row v − S(…) = 0 wherever few entries were changed (a cut): each pivot
+    then depends on one block and the v before it, and the Hessian is block sparse. The feasible
+    set is unchanged (v is the Schur entry; the pivots are A's). A dense A has no cut: its pivots
+    are the plain nested expressions.
+
+    Parameters
+    ----------
+    A : casadi.SX, shape (n, n)
+        Symmetric; its structural zeros are used (no fill is assumed beyond what elimination makes).
+
+    Attributes
+    ----------
+    pivots : casadi.SX, shape (n,)
+        D_j, each ≥ 0 ⇔ A ⪰ 0 (Sylvester, with the v rows satisfied).
+    v : casadi.SX, shape (m,)
+        The lifted Schur entries (m = 0 without cuts).
+    schur : casadi.SX, shape (m,)
+        S(A, earlier v): what each v stands for.
+    rows : casadi.SX, shape (m,)
+        v − S, pinned to 0.
+    """
+
+    def __init__(self, A: ca.SX):
+        n = A.shape[0]
+        rows_nz, cols_nz = A.sparsity().get_triplet()
+        S = {(i, k): A[i, k] for i, k in zip(rows_nz, cols_nz) if i >= k}
+        below = {j: set() for j in range(n)}  # column j's rows i > j that are nonzero (with fill)
+        for i, k in S:
+            if i > k:
+                below[k].add(i)
+        pivots, v, schur, changed, last_cut = [], [], [], set(), -1
+        for j in range(n):
+            d = S.pop((j, j), ca.SX(0))
+            pivots.append(d)
+            col = sorted(below.pop(j))
+            for a, i in enumerate(col):  # S_ik −= S_ij S_kj / d over the column's pairs
+                s_ij = S.pop((i, j))
+                for k in col[a:]:
+                    upd = s_ij * S[(k, j)] / d if k != i else s_ij * s_ij / d
+                    lo, hi = (k, i) if k > i else (i, k)
+                    S[(lo, hi)] = S.get((lo, hi), ca.SX(0)) - upd
+                    changed.add((lo, hi))
+                    if lo > hi:
+                        below[hi].add(lo)
+            changed = {e for e in changed if e in S}
+            if changed and len(changed) <= LIFT_MAX_ENTRIES and j - last_cut >= LIFT_MIN_COLUMNS and j < n - 2:
+                for e in sorted(changed):
+                    u = ca.SX.sym(f"schur_{e[0]}_{e[1]}")
+                    v.append(u)
+                    schur.append(S[e])
+                    S[e] = u
+                changed, last_cut = set(), j
+        self.pivots, self.v, self.schur = ca.vertcat(*pivots), ca.vertcat(*v), ca.vertcat(*schur)
+        self.rows = self.v - self.schur
+        self.m = len(v)
+
+    def start(self, schur: ca.Function, *args) -> np.ndarray:
+        """The lifted unknowns at a point, shape (m,): ``schur(*args, v)`` evaluates
+        :attr:`schur` (each entry a function of the earlier v only, so m substitutions give all
+        of them exactly)."""
+        u = np.zeros(self.m)
+        for _ in range(self.m):
+            u = np.asarray(schur(*args, u), float).ravel()
+        return u

@@ -42,8 +42,9 @@ from ..options import SolverOptions
 from ..profiles import constant_profile, legendre_profile
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
+from .design_field_groups import couple_field_groups, coupled_scene, remanence_only  # noqa: F401 (re-exported)
 from .design_gauge import has_fibre_gauge
-from .design_ldl import _bandwidth, _ldl_function, _ldl_pivots  # noqa: F401 (importers use them from here)
+from .design_ldl import SegmentedLDL, _bandwidth, _ldl_function, _ldl_pivots  # noqa: F401 (importers use them)
 
 __all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
@@ -75,35 +76,6 @@ def effort_scale(nlp: "DesignNLP", d0: np.ndarray) -> float:
 #: Stage A's effort weights w_eff (objective ½|tip − target|² + w_eff·effort): regularised, then
 #: near zero from the regularised minimiser (see :meth:`DesignNLP._solve`).
 STAGE_A_EFFORT = (1e-4, 1e-10)
-
-
-#: the groups driven by the field besides h, each ∝ H (THEORY §5, §9)
-_FIELD_DRIVEN = ("h_r", "h_pos")
-
-
-def couple_field_groups(P, P0, h, slices) -> None:
-    """Write the groups the field drives besides h into the NLP parameter vector ``P`` (CasADi SX,
-    in place): g = h·g0/h0 for g in (h_r, h_pos), with g0, h0 the base scene's values in ``P0``
-    (unchanged where h0 = 0)."""
-    h0 = P0[slices["h"]]
-    for g in _FIELD_DRIVEN:
-        if g in slices:
-            P[slices[g]] = ca.if_else(h0 > 0, h * P0[slices[g]] / h0, P0[slices[g]])
-
-
-def remanence_only(scene: Scene) -> bool:
-    """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
-    so it has no h to design (THEORY §9)."""
-    return scene.h_r > 0 and not scene.h > 0
-
-
-def coupled_scene(base: Scene, sc: Scene) -> Scene:
-    """``sc`` (``base`` with a designed h) with h_r and h_pos moved with h like the field they share,
-    as :func:`couple_field_groups` does in the NLP."""
-    if not base.h > 0:
-        return sc
-    k = sc.h / base.h
-    return replace(sc, h_r=base.h_r * k, h_pos=base.h_pos * k)
 
 
 @dataclass
@@ -233,7 +205,7 @@ class DesignNLP:
             self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
                                k_target=stiffness_target)
             self.f_sensitivity = ca.Function("sensitivity", [zr, d, P0], [H, dg_dfy, ca.gradient(tip[1], zr)])
-        self._nlp = {}
+        self._nlp, self._certificates = {}, {}
         self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
         self.build_time = time.perf_counter() - t0
 
@@ -252,10 +224,12 @@ class DesignNLP:
                 x = ca.vertcat(x, q["w_sens"])
                 p = ca.vertcat(p, q["k_target"])
                 rows += [q["sens"], q["stiff"]]
-            if certified:
+            if certified:  # the pivots, and the Schur entries lifted at the element joints
                 Ms = ca.DM(1.0 / np.sqrt(q["m"]))
-                A = ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"])
-                rows.append(ca.vertcat(*_ldl_pivots(A, _bandwidth(self.solver, q["n"]))))
+                cert = SegmentedLDL(ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"]))
+                self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
+                x = ca.vertcat(x, cert.v)
+                rows += [cert.pivots, cert.rows]
             rows += [q["tip"], q["alpha"], q["clear"]]
             opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
                     # exact Hessians, also of the pivot rows: with a quasi-Newton one the certified
@@ -386,7 +360,10 @@ class DesignNLP:
             p = np.concatenate([p, [req.stiffness]])
 
         nx = self.n + self.nd + (self.n if stiff else 0)
-        lbx, ubx = np.full(nx, -np.inf), np.full(nx, np.inf)
+        nlp = self.nlpsol(certified, stiff)
+        cert, schur = self._certificates.get((certified, stiff), (None, None))
+        n_lift = cert.m if cert is not None else 0
+        lbx, ubx = np.full(nx + n_lift, -np.inf), np.full(nx + n_lift, np.inf)
         b = req.bounds
         if "h" in self.vary:
             lbx[self.n + self.dslices["h"].start] = 0.0
@@ -400,12 +377,12 @@ class DesignNLP:
         n_piv = self.n if certified else 0
         n_sens = self.n + 1 if stiff else 0
         lo_prof, hi_prof = self.profile_bounds(b)
-        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv), np.full(3, -np.inf), lo_prof,
-                              np.zeros(self.n_clear)])
-        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.full(3, np.inf), hi_prof,
-                              np.full(self.n_clear, np.inf)])
+        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv + n_lift), np.full(3, -np.inf),
+                              lo_prof, np.zeros(self.n_clear)])
+        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.zeros(n_lift),
+                              np.full(3, np.inf), hi_prof, np.full(self.n_clear, np.inf)])
         if req.stage == "B" and req.target is not None:
-            k = self.n + n_sens + n_piv
+            k = self.n + n_sens + n_piv + n_lift
             lbg[k:k + 2] = ubg[k:k + 2] = 0.0
             if use_angle:
                 lbg[k + 2] = ubg[k + 2] = 0.0
@@ -413,7 +390,8 @@ class DesignNLP:
             d0 = self.fix_gauge(d0)
             lbx[self.n + self.dslices["alpha"].start] = ubx[self.n + self.dslices["alpha"].start] = 0.0
         x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
-        nlp = self.nlpsol(certified, stiff)
+        if n_lift:
+            x0 = np.concatenate([x0, cert.start(schur, x0[:self.n + self.nd], p[:self._parts["p"].numel()])])
         sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = nlp.stats()
         x = np.asarray(sol["x"], float).ravel()
