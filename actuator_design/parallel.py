@@ -19,7 +19,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, List, Optional, TypeVar
 
-__all__ = ["map_parallel", "default_workers", "die_with_parent", "single_threaded_blas"]
+__all__ = ["map_parallel", "default_workers", "die_with_parent", "single_threaded_blas", "in_worker"]
 
 #: environment variables by which a user chooses the BLAS/OpenMP thread count themselves
 _THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -56,6 +56,15 @@ def single_threaded_blas() -> None:
     threadpool_limits(limits=1)
 
 
+_IN_WORKER = False
+
+
+def in_worker() -> bool:
+    """Whether this process is a worker of :func:`map_parallel` (its cores are the pool's: it forks
+    no further work, :mod:`actuator_design.forked`)."""
+    return _IN_WORKER
+
+
 def _exit_now() -> None:
     os._exit(1)  # no clean-up: the parent that would use this worker's results is gone
 
@@ -82,6 +91,8 @@ def die_with_parent(parent_pid: int, poll_s: float = 1.0) -> None:
     poll_s : float
         Seconds between two checks of the watchdog thread.
     """
+    global _IN_WORKER
+    _IN_WORKER = True
     if sys.platform.startswith("linux"):
         try:
             import ctypes

@@ -61,12 +61,12 @@ def test_the_summary_of_an_inaccurate_design_says_so(capsys):
 def test_a_numerical_failure_in_the_screen_is_a_failed_design_not_bad_input(capsys, monkeypatch, tmp_path):
     """A LinAlgError is a ValueError: raised inside the screen it used to come out as "bad input"
     (exit 2). The request was fine; the design failed (exit 3), and the message names the stage."""
-    from actuator_design.analysis import design as design_module
+    from actuator_design.analysis import design_optimise
 
     def broken(problem, candidate, keep=4):
         raise np.linalg.LinAlgError("Singular matrix")
 
-    monkeypatch.setattr(design_module, "screen", broken)
+    monkeypatch.setattr(design_optimise, "screen", broken)
     out = tmp_path / "f"
     code = main(["design", "--target-tip", "0.3,0.5", "--json", "--out", str(out)])
     cap = capsys.readouterr()

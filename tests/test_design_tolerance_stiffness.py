@@ -84,7 +84,7 @@ def test_a_tolerance_box_not_checked_is_never_a_success(monkeypatch):
     not a success (the stage is replaced by one that evaluates nothing)."""
     from actuator_design.analysis import design as design_module
 
-    monkeypatch.setattr(design_module, "robust_stage", lambda problem, choice: (choice, None))
+    monkeypatch.setattr(design_module, "robust_stage", lambda problem, choice, follow=None: (choice, None, None))
     res = design(None, scene=default_scene(h=0.0), stiffness=10.0, settings=DesignSettings(tolerances=BOX))
     assert res.verified and not res.success
     assert "not checked over the tolerance box" in res.message

@@ -34,19 +34,20 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
+from functools import partial
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from .. import forked
 from ..options import SolverOptions
 from ..scene import Scene, UniformField, default_scene
 from .design_choose import choose
 from .design_mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from .design_mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from .design_nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
-from .design_optimise import candidate, design_vector, optimise
+from .design_optimise import candidate, design_vector, search_set, warm_robust_nlp
 from .design_robust_stage import RobustReport, robust_stage
-from .design_screen import screen
 from .design_types import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,  # noqa: F401
                            canonical_target, check_h_max, normalise_phi, normalise_tip_angle, phi_period,
                            tip_error)
@@ -134,16 +135,18 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
                             f"mesh the design did not meet the accuracy of solve")
     stage[0] = "robustness"
     tr = time.perf_counter()
+    # the verification of a moved design starts beside the robust stage's own branch following
+    follow = partial(verify_stage, problem) if verify else None
     if mirror is None:
-        choice, robust = robust_stage(problem, choice)
+        choice, robust, verifying = robust_stage(problem, choice, follow)
     else:  # the robust design of the mirror problem, reflected; its report made on the user's problem
-        choice, robust = robust_by_mirror(problem, mirror, choice)
+        choice, robust, verifying = robust_by_mirror(problem, mirror, choice, follow)
     timings["robustness"] = time.perf_counter() - tr
     verification = None
     if verify:
         stage[0] = "verification"
         tv = time.perf_counter()
-        verification = verify_stage(problem, choice)
+        verification = verifying.result() if verifying is not None else verify_stage(problem, choice)
         timings["verify"] = time.perf_counter() - tv
     result = result_of(problem, choice, verification, timings, robust)
     result.mesh = mesh
@@ -337,21 +340,27 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
     list of Optimised
         One per variable set tried; ``timings`` gets ``build_<set>`` and ``optimise_<set>`` (s).
     """
+    sets = problem.variable_sets
     searched: List[Optimised] = []
-    for vset in problem.variable_sets:
-        name = "+".join(vset)
-        tb = time.perf_counter()
-        cand = candidate(problem, vset)
-        timings[f"build_{name}"] = time.perf_counter() - tb
-        to = time.perf_counter()
-        searched.append(optimise(problem, cand, screen(problem, cand)))
-        timings[f"optimise_{name}"] = time.perf_counter() - to
-        if any(opt.reaches(problem) for opt in searched):
-            break
-        # the best stable optimum (an uncertified probe is not what the choice reports)
-        best = [pt for pt in searched[-1].optima if getattr(pt, "certified", True)][:1]
-        if best and vset != problem.variable_sets[-1] and unresolved(cand, best[0], problem.options):
-            break  # more variables on a mesh that does not resolve this set's best: regrade first
+    ahead = None  # the next set's search, computed beside this one (:mod:`...forked`)
+    try:
+        for k, vset in enumerate(sets):
+            current = ahead
+            ahead = (forked.start(partial(search_set, problem, sets[k + 1]),
+                                  while_waiting=[partial(warm_robust_nlp, problem, sets[k + 1])])
+                     if k + 1 < len(sets) else None)
+            optima, out_of_time, times = current.result() if current is not None else search_set(problem, vset)
+            searched.append(Optimised(candidate(problem, vset), optima, out_of_time))
+            timings.update(times)
+            if any(opt.reaches(problem) for opt in searched):
+                break
+            # the best stable optimum (an uncertified probe is not what the choice reports)
+            best = [pt for pt in searched[-1].optima if getattr(pt, "certified", True)][:1]
+            if best and vset != sets[-1] and unresolved(searched[-1].candidate, best[0], problem.options):
+                break  # more variables on a mesh that does not resolve this set's best: regrade first
+    finally:
+        if ahead is not None:
+            ahead.cancel()
     return searched
 
 

@@ -103,32 +103,41 @@ def mirror_choice(choice: Choice, period: float) -> Choice:
                   optima=[_mirror_optimum(o, period) for o in choice.optima])
 
 
-def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choice):
+def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choice, follow=None):
     """The robust stage run on the mirror problem (whose box corners are the user's, reflected), its
     design reflected back, and the robustness report made again on the user's own problem by
     branch following (:func:`~.robustness.evaluate_robustness`): the report's corners and fold
     directions are the user's, and a design that held only in the mirror would say so.
 
+    ``follow`` (the verification, a function of the user's design) is started as
+    :func:`~.design_robust_stage.robust_stage` starts it, on the reflected design.
+
     Returns
     -------
-    (Choice, RobustReport or None)
+    (Choice, RobustReport or None, Forked or None)
     """
     from .design_robust_stage import RobustReport, robust_stage
     from .robustness import evaluate_robustness
 
     period = phi_period(problem.base)
-    moved, report = robust_stage(mirror, choice)
+    reflected = (lambda ch: follow(mirror_choice(ch, period))) if follow is not None else None
+    moved, report, ahead = robust_stage(mirror, choice, reflected)
     out = mirror_choice(moved, period)
     if report is None:
-        return out, None
+        return out, None, ahead
     tol, options = problem.settings.tolerances, problem.options
-    rob = evaluate_robustness(out.scene, out.point.z, problem.target, tol, options)
-    nominal = None
-    if report.nominal is not None:
-        before = mirror_choice(choice, period)
-        nominal = evaluate_robustness(before.scene, before.point.z, problem.target, tol, options,
-                                      fold_search=False)
+    try:
+        rob = evaluate_robustness(out.scene, out.point.z, problem.target, tol, options)
+        nominal = None
+        if report.nominal is not None:
+            before = mirror_choice(choice, period)
+            nominal = evaluate_robustness(before.scene, before.point.z, problem.target, tol, options,
+                                          fold_search=False)
+    except BaseException:
+        if ahead is not None:
+            ahead.cancel()
+        raise
     largest = report.largest_box if rob.holds or report.largest_box < 1.0 else 0.0
     # the vertical stiffness dp/dv1 is invariant under the reflection (p and v1 both change sign)
     return out, RobustReport(rob, largest, nominal, list(report.attempts), stiffness=report.stiffness,
-                             pose_target=report.pose_target)
+                             pose_target=report.pose_target), ahead

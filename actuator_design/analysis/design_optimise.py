@@ -5,14 +5,17 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from functools import partial
 from typing import List
 
 import numpy as np
 
+from .. import forked
 from .design_nlp import STRONG_FIELD, DesignNLP, DesignPoint, DesignRequest, get_design_nlp, prepare_scene
+from .design_screen import screen
 from .design_types import Candidate, DesignProblem, Optimised, ScreenedStart, normalise_phi, phi_period, tip_error
 
-__all__ = ["candidate", "optimise", "design_vector", "STRONG_REACH_PROBE"]
+__all__ = ["candidate", "optimise", "search_set", "warm_robust_nlp", "design_vector", "STRONG_REACH_PROBE"]
 
 #: In a strong field (h > STRONG_FIELD) stage A's least squares is ill-conditioned in h: the tip
 #: moves like 1/h (the clamp layer, THEORY §5), so ∂f/∂h ~ miss/h² falls below IPOPT's acceptable
@@ -46,16 +49,34 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
         Distinct optima sorted by :meth:`DesignProblem.rank`; ``out_of_time`` when the time limit
         stopped the loop before every start was optimised (at least one always is).
     """
+    # the second half of the starts is optimised beside the first (:mod:`...forked`); the optima
+    # are then those of the starts in order, as one process would find them
+    half = (len(starts) + 1) // 2
+    beside = forked.start(partial(_from_starts, problem, cand, starts[half:], half)) if half < len(starts) else None
+    try:
+        optima, out_of_time = _from_starts(problem, cand, starts[:half], 0)
+        if beside is not None and not out_of_time:
+            rest, out_of_time = beside.result()
+            optima += rest
+        elif beside is not None:
+            out_of_time = True  # (the first half already ran out of time: the second is not waited for)
+    finally:
+        if beside is not None:
+            beside.cancel()
+    return Optimised(cand, sorted(_distinct(cand.nlp, cand.base, optima), key=problem.rank), out_of_time)
+
+
+def _from_starts(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart], first: int):
+    """The optima from ``starts`` (the multi-start's starts ``first``, ``first`` + 1, …) in order,
+    and whether the time limit stopped the loop (never before the multi-start's first start)."""
     nlp, base, target, settings, stiffness = cand.nlp, cand.base, problem.target, problem.settings, problem.stiffness
     reach_probe = 10 * settings.reach_tol + 1e-7
     optima: List[DesignPoint] = []
     req_a = DesignRequest(target=target or None, stage="A", margin=settings.margin, bounds=settings.bounds())
     req_b = replace(req_a, stage="B", stiffness=stiffness)
-    out_of_time = False
-    for k, start in enumerate(starts):
+    for k, start in enumerate(starts, start=first):
         if k > 0 and time.perf_counter() > problem.deadline:
-            out_of_time = True
-            break
+            return optima, True
         d0, z0 = start.d, start.z
         best, strong = None, False
         if target:
@@ -87,7 +108,32 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
             if stiffness is not None:
                 best.stiffness = nlp.stiffness(base, best)
             optima.append(best)
-    return Optimised(cand, sorted(_distinct(nlp, base, optima), key=problem.rank), out_of_time)
+    return optima, False
+
+
+def search_set(problem: DesignProblem, vset) -> tuple:
+    """Screen and optimise one variable set: its optima (best first), whether the time limit cut
+    the optimisation short, and the timings ``build_<set>``, ``optimise_<set>`` (s). Picklable, so
+    that it can run in a forked process (:func:`~.design.search`)."""
+    name = "+".join(vset)
+    tb = time.perf_counter()
+    cand = candidate(problem, vset)
+    times = {f"build_{name}": time.perf_counter() - tb}
+    to = time.perf_counter()
+    opt = optimise(problem, cand, screen(problem, cand))
+    times[f"optimise_{name}"] = time.perf_counter() - to
+    return opt.optima, opt.out_of_time, times
+
+
+def warm_robust_nlp(problem: DesignProblem, vset) -> None:
+    """Build the robust stage's NLP of the variable set ``vset`` (:mod:`.design_robust`), e.g. while
+    that set's search runs beside (:func:`~.design.search`): the earlier sets did not reach the
+    target, so its design is the one likely to be made robust."""
+    from .design_robust import get_scenario_nlp
+
+    tol = problem.settings.tolerances
+    if problem.target and tol.active:
+        get_scenario_nlp(candidate(problem, vset).nlp, 1, len(tol.corners())).nlpsol(False)
 
 
 def design_vector(nlp: DesignNLP, pt: DesignPoint) -> np.ndarray:

@@ -23,10 +23,12 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from .. import forked
 from ..options import SolverOptions
 from ..scene import Scene
 from .design import design_problem, search
@@ -339,41 +341,53 @@ def _joint_nominal(nlp, base, d_list, z_list, targets, settings, first_step=0.25
 
 
 def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, timings) -> List[PoseResult]:
-    """Per pose: robustness by branch following and, with ``verify``, a loading path from rest."""
-    out = []
-    sv = nlp.solver
-    for k, (sc, tgt) in enumerate(zip(scenes, targets)):
-        z = point.z[k][0]
-        _, th, x, y = sv.summary(z, sv.parameter_vector(sc))
-        dv = snlp.pose_vector(point.d, k)
-        get = lambda v, default: float(dv[nlp.dslices[v]][0]) if v in nlp.vary else default
-        dp = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi),
-                         coefficients=np.asarray(dv[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else
-                         np.zeros(0), p=get("p", sc.p), z=z, tip=np.array([x, y, th]), converged=True,
-                         status="joint", stage="poses",
-                         magnetization=(np.asarray(dv[nlp.dslices["magnetization"]])
-                                        if "magnetization" in nlp.vary else np.zeros(0)))
-        rob = evaluate_robustness(sc, z, tgt, tol, problem.options) if tol.active else None
-        verified, stable, snap_free, label, sched, ach = False, False, False, "not verified (skipped)", [], \
-            {"x": x, "y": y, "angle": th}
-        state = None
-        if verify:
-            tv = time.perf_counter()
-            v = verify_stage(problem, Choice(point=dp, candidate=ch1.candidate, scene=sc, reachable=True,
-                                             notes=[], alternatives={}, optima=[]))
-            timings[f"verify_pose_{k + 1}"] = time.perf_counter() - tv
-            label = v.label
-            if v.path is not None:
-                final = v.path.final
-                state = final
-                verified, stable, snap_free = True, bool(final.stable), bool(v.path.snap_free)
-                ach = {"x": final.tip["x"], "y": final.tip["y"], "angle": final.tip["angle"]}
-                sched = [{"h": float(q["h"]), "phi": float(q["phi"]),
-                          **{k_: float(q[k_]) for k_ in ("h_r", "p") if k_ in q}} for q in v.schedule]
-        out.append(PoseResult(tgt, ach, tip_error((ach["x"], ach["y"], ach["angle"]), tgt),
-                              {"h": dp.h, "phi": normalise_phi(dp.phi, phi_period(sc)), "p": dp.p}, rob, verified, stable,
-                              snap_free, sched, label, z, state))
-    return out
+    """Per pose: robustness by branch following and, with ``verify``, a loading path from rest;
+    the poses after the first are checked beside it (:mod:`...forked`)."""
+    check = partial(_check_pose, snlp, nlp, scenes, point, targets, tol, problem, ch1, verify)
+    beside = [forked.start(partial(check, k)) for k in range(1, len(targets))]
+    try:
+        checked = [check(0)] + [job.result() for job in beside]
+    finally:
+        for job in beside:
+            job.cancel()
+    for _, times in checked:
+        timings.update(times)
+    return [pose for pose, _ in checked]
+
+
+def _check_pose(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, k):
+    """Pose k's check (see :func:`_check_poses`): ``(PoseResult, timings)``."""
+    sv, sc, tgt, timings = nlp.solver, scenes[k], targets[k], {}
+    z = point.z[k][0]
+    _, th, x, y = sv.summary(z, sv.parameter_vector(sc))
+    dv = snlp.pose_vector(point.d, k)
+    get = lambda v, default: float(dv[nlp.dslices[v]][0]) if v in nlp.vary else default
+    dp = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi),
+                     coefficients=np.asarray(dv[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else
+                     np.zeros(0), p=get("p", sc.p), z=z, tip=np.array([x, y, th]), converged=True,
+                     status="joint", stage="poses",
+                     magnetization=(np.asarray(dv[nlp.dslices["magnetization"]])
+                                    if "magnetization" in nlp.vary else np.zeros(0)))
+    rob = evaluate_robustness(sc, z, tgt, tol, problem.options) if tol.active else None
+    verified, stable, snap_free, label, sched, ach = False, False, False, "not verified (skipped)", [], \
+        {"x": x, "y": y, "angle": th}
+    state = None
+    if verify:
+        tv = time.perf_counter()
+        v = verify_stage(problem, Choice(point=dp, candidate=ch1.candidate, scene=sc, reachable=True,
+                                         notes=[], alternatives={}, optima=[]))
+        timings[f"verify_pose_{k + 1}"] = time.perf_counter() - tv
+        label = v.label
+        if v.path is not None:
+            final = v.path.final
+            state = final
+            verified, stable, snap_free = True, bool(final.stable), bool(v.path.snap_free)
+            ach = {"x": final.tip["x"], "y": final.tip["y"], "angle": final.tip["angle"]}
+            sched = [{"h": float(q["h"]), "phi": float(q["phi"]),
+                      **{k_: float(q[k_]) for k_ in ("h_r", "p") if k_ in q}} for q in v.schedule]
+    return PoseResult(tgt, ach, tip_error((ach["x"], ach["y"], ach["angle"]), tgt),
+                      {"h": dp.h, "phi": normalise_phi(dp.phi, phi_period(sc)), "p": dp.p}, rob, verified, stable,
+                      snap_free, sched, label, z, state), timings
 
 
 def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timings):

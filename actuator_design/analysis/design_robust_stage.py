@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import List, Optional, Tuple
+from functools import partial
+from typing import Any, Callable, List, Optional, Tuple
 
 import numpy as np
 
+from .. import forked
 from .design_nlp import DesignPoint
 from .design_optimise import design_vector
 from .design_robust import robustify
@@ -95,21 +97,29 @@ def _holds(rob: Robustness) -> bool:
     return bool(rob.holds and math.isfinite(rob.worst_tip_error))
 
 
-def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Optional[RobustReport]]:
+def robust_stage(problem: DesignProblem, choice: Choice,
+                 follow: Optional[Callable[[Choice], object]] = None) -> Tuple[Choice, Optional[RobustReport], Any]:
     """Make the chosen design hold over ``problem.settings.tolerances`` and report how it holds.
 
-    Skipped (returns ``(choice, None)``) when the box is empty or the target is not reachable. A
-    design with a stiffness target is not moved: its branch is followed over the box and its
-    stiffness taken there (:func:`~.design_stiffness_box.stiffness_over_box`).
+    Skipped (returns ``(choice, None, None)``) when the box is empty or the target is not
+    reachable. A design with a stiffness target is not moved: its branch is followed over the box
+    and its stiffness taken there (:func:`~.design_stiffness_box.stiffness_over_box`).
+
+    Parameters
+    ----------
+    follow : callable, optional
+        The stage after this one (the verification, a function of the design): started beside
+        the branch following of the moved design (:mod:`...forked`) as soon as it is proposed.
 
     Returns
     -------
-    (Choice, RobustReport or None)
-        The (possibly moved) design and its report; its notes say what happened.
+    (Choice, RobustReport or None, Forked or None)
+        The (possibly moved) design and its report, whose notes say what happened, and ``follow``
+        of that design when it was started (None: call ``follow`` on it).
     """
     tol = problem.settings.tolerances
     if not tol.active or not choice.reachable or not (problem.target or problem.stiffness is not None):
-        return choice, None
+        return choice, None, None
     cand, pt, target, s = choice.candidate, choice.point, problem.target, problem.settings
     nlp, options = cand.nlp, problem.options
     if problem.stiffness is not None:
@@ -122,31 +132,29 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
         report.largest_box = 1.0 if report.holds else 0.0
         if not report.holds:
             choice.notes.append(report.sentence())
-        return choice, report
-    nominal = evaluate_robustness(choice.scene, pt.z, target, tol, options, fold_search=False)
-    out = robustify(nlp, cand.base, [design_vector(nlp, pt)], [pt.z], [target], tol, margin=s.margin,
-                    bounds=s.bounds())
-    best_choice, best_rob, largest = choice, None, 0.0
-    if out.point is not None:
-        d = out.nlp.pose_vector(out.point.d, 0)
-        z = out.point.z[0][0]
-        scene = nlp.scene_for(cand.base, d)
-        sv = nlp.solver
-        _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
-        moved = DesignPoint(h=float(d[nlp.dslices["h"]][0]) if "h" in nlp.vary else pt.h,
-                            phi=float(d[nlp.dslices["phi"]][0]) if "phi" in nlp.vary else pt.phi,
-                            coefficients=(np.asarray(d[nlp.dslices["alpha"]]) if "alpha" in nlp.vary
-                                          else pt.coefficients),
-                            p=float(d[nlp.dslices["p"]][0]) if "p" in nlp.vary else pt.p,
-                            z=z, tip=np.array([x, y, th]), converged=True, status=out.point.status,
-                            stage="robust",
-                            magnetization=(np.asarray(d[nlp.dslices["magnetization"]])
-                                           if "magnetization" in nlp.vary else pt.magnetization))
-        if tip_error(moved.tip, target) <= s.reach_tol:
-            rob = evaluate_robustness(scene, z, target, tol, options)
-            if _holds(rob) or not _holds(nominal):
-                best_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))
-                best_rob, largest = rob, out.scale
+        return choice, report, None
+    # how the nominal design holds (for the report) is computed beside the robust design (forked)
+    nominal_beside = forked.start(partial(evaluate_robustness, choice.scene, pt.z, target, tol, options,
+                                          fold_search=False))
+    try:
+        out = robustify(nlp, cand.base, [design_vector(nlp, pt)], [pt.z], [target], tol, margin=s.margin,
+                        bounds=s.bounds())
+        nominal = nominal_beside.result()
+    finally:
+        nominal_beside.cancel()  # (nothing left to end once its result is in)
+    best_choice, best_rob, largest, ahead = _moved(problem, choice, out, nominal, follow)
+    try:
+        return _report(problem, choice, best_choice, best_rob, largest, nominal, out.attempts) + (ahead,)
+    except BaseException:
+        if ahead is not None:
+            ahead.cancel()
+        raise
+
+
+def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts):
+    """The report of the robust stage's outcome: ``(choice, RobustReport)``."""
+    tol, options, target, pt = problem.settings.tolerances, problem.options, problem.target, choice.point
+    nlp = choice.candidate.nlp
     if best_rob is None:  # keep the nominal design; report how it holds (with its nearest snap)
         best_rob = evaluate_robustness(choice.scene, pt.z, target, tol, options)
         largest = 1.0 if _holds(best_rob) else 0.0
@@ -155,7 +163,7 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
         sc, zz = best_choice.scene, best_choice.point.z
         if not _holds(evaluate_robustness(sc, zz, target, tol.scaled(largest), options, fold_search=False)):
             largest = 0.0
-    report = RobustReport(best_rob, largest, nominal, out.attempts)
+    report = RobustReport(best_rob, largest, nominal, attempts)
     if not report.holds:
         best_choice.notes.append(report.sentence())
     elif best_choice is not choice and np.max(np.abs(design_vector(nlp, best_choice.point)
@@ -164,3 +172,43 @@ def robust_stage(problem: DesignProblem, choice: Choice) -> Tuple[Choice, Option
         best_choice.notes.append(f"moved off the least-effort design to one that holds over the tolerance "
                                  f"box ({tol.describe()}; see robustness)")
     return best_choice, report
+
+
+def _moved(problem: DesignProblem, choice: Choice, out, nominal: Robustness, follow):
+    """The robust NLP's design (``out``) when it reaches the target and holds over the box by
+    branch following (or the nominal design does not hold either), with ``follow`` of it started
+    beside that check: ``(choice, robustness, largest box, Forked)``, or ``(choice, None, 0, None)``
+    when the nominal design is kept."""
+    if out.point is None:
+        return choice, None, 0.0, None
+    cand, pt, target, s = choice.candidate, choice.point, problem.target, problem.settings
+    nlp, tol, options = cand.nlp, problem.settings.tolerances, problem.options
+    d = out.nlp.pose_vector(out.point.d, 0)
+    z = out.point.z[0][0]
+    scene = nlp.scene_for(cand.base, d)
+    sv = nlp.solver
+    _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
+    moved = DesignPoint(h=float(d[nlp.dslices["h"]][0]) if "h" in nlp.vary else pt.h,
+                        phi=float(d[nlp.dslices["phi"]][0]) if "phi" in nlp.vary else pt.phi,
+                        coefficients=(np.asarray(d[nlp.dslices["alpha"]]) if "alpha" in nlp.vary
+                                      else pt.coefficients),
+                        p=float(d[nlp.dslices["p"]][0]) if "p" in nlp.vary else pt.p,
+                        z=z, tip=np.array([x, y, th]), converged=True, status=out.point.status,
+                        stage="robust",
+                        magnetization=(np.asarray(d[nlp.dslices["magnetization"]])
+                                       if "magnetization" in nlp.vary else pt.magnetization))
+    if tip_error(moved.tip, target) > s.reach_tol:
+        return choice, None, 0.0, None
+    moved_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))
+    ahead = forked.start(partial(follow, moved_choice)) if follow is not None else None
+    try:
+        rob = evaluate_robustness(scene, z, target, tol, options)
+    except BaseException:
+        if ahead is not None:
+            ahead.cancel()
+        raise
+    if _holds(rob) or not _holds(nominal):
+        return moved_choice, rob, out.scale, ahead
+    if ahead is not None:
+        ahead.cancel()
+    return choice, None, 0.0, None
