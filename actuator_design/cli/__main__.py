@@ -1,6 +1,4 @@
 """``python -m actuator_design.cli``: the ``actuator-design`` command line."""
-import sys
+from .main import run
 
-from .main import main
-
-sys.exit(main())
+run()

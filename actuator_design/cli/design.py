@@ -455,6 +455,10 @@ def run(args: argparse.Namespace) -> int:
     from ..io import dumps_json
     with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
         design_problem(target, scene, vary, options, settings, stiffness, 0.0)
+    if args.out is not None:  # the figure's modules load while the design waits for a forked search
+        from ..forked import while_waiting
+        from ..viz.style import preload
+        while_waiting(preload)
     with stdout_to_stderr(args.json):
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)

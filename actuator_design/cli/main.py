@@ -158,6 +158,21 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return _main(argv)
 
 
+def run() -> None:
+    """The ``actuator-design`` console script: :func:`main`, then the process ends with its exit
+    code without tearing the interpreter down. The clean-up frees every CasADi expression graph
+    and solver one by one (0.3–0.4 s after a design, measured, issue 17); the operating system
+    frees the memory at once. Output streams are flushed and ``atexit`` handlers run first."""
+    import atexit
+
+    code = main()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    atexit._run_exitfuncs()
+    os._exit(code)
+
+
 def _one_line_warning(seen: set):
     """A :func:`warnings.showwarning` that prints each distinct warning once, as one line
     ``actuator-design: warning: <message>`` on stderr (no file path, no source line)."""

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
 from .problem import BifurcationProblem
@@ -98,6 +97,7 @@ def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, 
     fold where H does not change sign, the user function for user events); a fold is then finished
     by the Moore–Spence locator of :mod:`actuator_design.reduced.fold` (the project's one fold
     locator) where the problem offers it."""
+    from scipy.optimize import brentq  # here: importing scipy.optimize costs 0.1 s at start-up
     n = problem.n
     row = algorithm.row(problem, t)
     cache = {}
