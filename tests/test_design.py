@@ -106,6 +106,44 @@ def test_stability_certificate_pivots_match_eigenvalues():
         assert np.prod(piv) == pytest.approx(np.linalg.det(A), rel=1e-9)
 
 
+def test_segmented_certificate_pivots_are_the_ldl_pivots_of_a_chain_of_blocks():
+    """The certified design NLP's pivots (SegmentedLDL: the Schur entry at each element joint an
+    unknown) are A's LDLᵀ pivots — against a dense elimination in numpy — on a chain of dense
+    blocks sharing one node (the LGL reduced Hessian's pattern) and on a dense matrix (no cut);
+    their signs follow the smallest eigenvalue (Sylvester)."""
+    import casadi as ca
+
+    from actuator_design.analysis.design_ldl import SegmentedLDL
+
+    rng = np.random.default_rng(3)
+
+    def chain(blocks, size):
+        n = blocks * (size - 1) + 1
+        A = np.zeros((n, n))
+        for b in range(blocks):
+            i = b * (size - 1)
+            Q = rng.normal(size=(size, size))
+            A[i:i + size, i:i + size] += Q @ Q.T / size
+        return A
+
+    for A0 in (chain(4, 8)[1:, 1:], rng.normal(size=(9, 9))):
+        A0 = A0 + A0.T if A0.shape == (9, 9) else A0
+        for shift in (-0.3, 0.4, 1.5):
+            A = A0 - (np.linalg.eigvalsh(A0)[0] - shift) * np.eye(len(A0))
+            a = ca.sparsify(ca.DM(A))  # A on its own pattern
+            X = ca.SX.sym("A", a.sparsity())
+            cert = SegmentedLDL(X)
+            v = cert.start(ca.Function("s", [X, cert.v], [cert.schur]), a)
+            piv = np.asarray(ca.Function("p", [X, cert.v], [cert.pivots])(a, v)).ravel()
+            M, ref = A.copy(), np.zeros(len(A))
+            for j in range(len(A)):
+                ref[j] = M[j, j]
+                M[j + 1:, j + 1:] -= np.outer(M[j + 1:, j], M[j, j + 1:]) / M[j, j]
+            np.testing.assert_allclose(piv, ref, rtol=1e-9, atol=1e-12)
+            assert np.all(piv > 0) == (shift > 0)
+        assert (cert.m > 0) == (A0.shape != (9, 9))  # cuts at the joints of the chain only
+
+
 @pytest.mark.parametrize("h_true", [0.4, 1.7])
 def test_stiffness_target_in_low_load_regime_matches_s_of_h(h_true):
     """φ = 0, p = 0: the straight rod's tip stiffness is s(h) (THEORY §6, closed form evaluated
