@@ -15,7 +15,7 @@ from .design_types import Choice, DesignProblem, Optimised, normalise_phi, phi_p
 __all__ = ["choose", "optimum_dict"]
 
 
-def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice]:
+def choose(problem: DesignProblem, searched: List[Optimised], hints: bool = True) -> Optional[Choice]:
     """Pick the design to verify.
 
     Parameters
@@ -23,6 +23,10 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
     problem : DesignProblem
     searched : list of Optimised
         One per variable set tried, in the order tried.
+    hints : bool
+        For an unreachable target with the fibre layout fixed, search with the layout too to say
+        whether varying it would reach the target (``alternatives``; a whole search: off where
+        only the design point is used, e.g. a multi-pose design's other poses).
 
     Returns
     -------
@@ -79,9 +83,8 @@ def choose(problem: DesignProblem, searched: List[Optimised]) -> Optional[Choice
                             else "") + "): in a strong field the tip nears the field's axis like 1/h")
         if target and math.hypot(target[0], target[1]) > 1.0:
             notes.append("the target lies beyond the rod's length from the clamp (|r| > 1)")
-        elif (problem.user_vary or problem.fibres_fixed) and problem.base.fibres_physical \
-                and "alpha" not in cand.vary and target \
-                and stiffness is None:
+        elif (hints and (problem.user_vary or problem.fibres_fixed) and problem.base.fibres_physical
+              and "alpha" not in cand.vary and target and stiffness is None):
             alternatives = _try_alternative(problem, cand.vary)
             if alternatives.get("with_fibre_layout"):
                 notes.append(f"adding the fibre layout would reach it: --vary {','.join(cand.vary)},alpha")

@@ -35,9 +35,9 @@ from .design import design_problem, search
 from .design_choose import choose
 from .design_mesh import check_mesh, check_state
 from .design_nlp import PROFILE_VARIABLES, DesignPoint
-from .design_optimise import design_vector
-from .design_robust import pose_designs, robustify
-from .design_types import Choice, DesignSettings, normalise_phi, phi_period, tip_error
+from .design_optimise import candidate, design_vector, search_set
+from .design_robust import get_scenario_nlp, pose_designs, robustify
+from .design_types import Choice, DesignSettings, Optimised, normalise_phi, phi_period, tip_error
 from .design_verify import verify as verify_stage
 from .robustness import Robustness, evaluate_robustness
 from .tolerances import Tolerances
@@ -177,7 +177,16 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     targets = [first.target] + [design_problem(t, scene, vset, options, settings, None, t0).target
                                 for t in targets[1:]]
     tol = settings.tolerances
-    searched = search(first, timings)
+    # pose 1's search runs beside; meanwhile the joint design's NLPs are built here
+    ahead = forked.start(partial(search_set, first, vset),
+                         while_waiting=[partial(_warm_joint_nlp, first, vset, len(targets), c)
+                                        for c in sorted({0, len(tol.corners()) if tol.active else 0})])
+    try:
+        optima, out_of_time, times = ahead.result()
+    finally:
+        ahead.cancel()
+    timings.update(times)
+    searched = [Optimised(candidate(first, vset), optima, out_of_time)]
     ch1 = choose(first, searched)
     check = check_mesh(ch1, first.options) if ch1 is not None else _best_attempt_check(first, searched)
     o = first.options
@@ -219,6 +228,16 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     return first_failure
 
 
+def _warm_joint_nlp(problem, vset, n_poses: int, n_corners: int) -> None:
+    """Build the joint design's scenario NLP for ``n_poses`` poses and ``n_corners`` box corners
+    (:mod:`.design_robust`; with no corners also its certified variant, which the homotopy to the
+    targets needs), e.g. while pose 1's search runs beside."""
+    snlp = get_scenario_nlp(candidate(problem, vset).nlp, n_poses, n_corners)
+    snlp.nlpsol(False)
+    if n_corners == 0:
+        snlp.nlpsol(True)
+
+
 def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t0) -> MultiPoseResult:
     """The joint design (shared profiles, one field per pose) from pose 1's single-pose design
     ``ch1``: pose k > 1 designed with its layout, the homotopy to every target, the box, checks."""
@@ -231,7 +250,7 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
     per_pose = tuple(v for v in vset if v not in PROFILE_VARIABLES)  # the profiles are shared
     for k, tgt in enumerate(targets[1:], start=2):
         pk = design_problem(tgt, fixed, per_pose, options, replace(settings, tolerances=no_box), None, t0)
-        ck = choose(pk, search(pk, timings))
+        ck = choose(pk, search(pk, timings), hints=False)  # (its point only: no hint is reported)
         if ck is None:
             return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings, t0)
         pt = ck.point
