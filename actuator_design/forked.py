@@ -15,7 +15,8 @@ with one worker or two. ``ACTUATOR_DESIGN_WORKERS=N`` (a whole number ≥ 1; def
 this process may use) caps the processes of the family; with 1 every task runs in this process,
 when its result is asked for.
 
-The task runs here instead of in a child when forking is unavailable (no ``os.fork``), when only
+The task runs here instead of in a child off Linux (macOS's system libraries are not fork-safe;
+Windows has no fork), when only
 one CPU is usable, when the family already runs as many processes as it may, when this process
 already runs threads (forking a multi-threaded process can deadlock the child) or is itself a
 worker of :func:`actuator_design.parallel.map_parallel`.
@@ -64,7 +65,9 @@ def fork_allowed() -> bool:
     """Whether :func:`start` may fork (see the module docstring for when it does not)."""
     from .parallel import in_worker
 
-    return hasattr(os, "fork") and _workers() > 1 and threading.active_count() == 1 and not in_worker()
+    # Linux only: macOS's system libraries are not safe to use in a forked child
+    return (sys.platform.startswith("linux") and _workers() > 1 and threading.active_count() == 1
+            and not in_worker())
 
 
 #: The process family's free slots, as bytes in a pipe every forked process inherits (a make
@@ -111,6 +114,8 @@ class Forked(Generic[T]):
             code = 0
             try:
                 signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C: the parent reports it
+                from .parallel import end_with_parent
+                end_with_parent()  # a parent killed outright leaves no child computing for nobody
                 quiet = os.open(os.devnull, os.O_WRONLY)  # what the task says, the parent says
                 os.dup2(quiet, 1)
                 os.dup2(quiet, 2)

@@ -16,10 +16,9 @@ import signal
 import sys
 import threading
 import time
-from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, List, Optional, TypeVar
 
-__all__ = ["map_parallel", "default_workers", "die_with_parent", "single_threaded_blas", "in_worker"]
+__all__ = ["map_parallel", "default_workers", "die_with_parent", "single_threaded_blas", "in_worker", "end_with_parent"]
 
 #: environment variables by which a user chooses the BLAS/OpenMP thread count themselves
 _THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
@@ -69,6 +68,18 @@ def _exit_now() -> None:
     os._exit(1)  # no clean-up: the parent that would use this worker's results is gone
 
 
+def end_with_parent() -> None:
+    """On Linux, ask the kernel to send this process SIGKILL when its parent dies
+    (``prctl(PR_SET_PDEATHSIG)`` through ctypes); elsewhere, nothing."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):
+            pass
+
+
 def _watch_parent(parent_pid: int, poll_s: float) -> None:
     while True:
         time.sleep(poll_s)
@@ -93,13 +104,7 @@ def die_with_parent(parent_pid: int, poll_s: float = 1.0) -> None:
     """
     global _IN_WORKER
     _IN_WORKER = True
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
-        except (OSError, AttributeError):
-            pass  # the watchdog below still holds
+    end_with_parent()  # (the watchdog below holds where it cannot)
     if os.getppid() != parent_pid:
         _exit_now()
     threading.Thread(target=_watch_parent, args=(parent_pid, poll_s), name="die-with-parent",
@@ -149,6 +154,8 @@ def map_parallel(fn: Callable[[T], R], items: Iterable[T], workers: Optional[int
                 out.append(fn(x))
                 bar.update(1)
             return out
+        from concurrent.futures import ProcessPoolExecutor  # (35 ms: imported when a pool is made)
+
         if chunksize is None:
             chunksize = max(1, len(items) // (4 * workers))
         out = []

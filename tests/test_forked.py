@@ -126,3 +126,23 @@ def test_the_main_job_is_the_same_with_one_worker_or_two(targets):
     one = _fresh(code, env={forked.WORKERS_ENV: "1"})
     assert two["success"] and one["success"]
     assert two == one
+
+
+def test_an_equilibrium_result_travels_whole():
+    """A result pickles (as a forked task sends it back): the copy's dense shape, clamp curvature
+    and force balance are the original's, the balance's solver built again for its scene."""
+    import pickle
+
+    import numpy as np
+
+    from actuator_design.equilibrium import solve
+    from actuator_design.scene import default_scene
+
+    r = solve(default_scene(h=3.0, phi=1.0))
+    copy = pickle.loads(pickle.dumps(r))
+    s = np.linspace(0.0, 1.0, 301)
+    for a, b in zip(r._dense(s), copy._dense(s)):
+        np.testing.assert_array_equal(a, b)
+    assert copy._clamp_curvature() == r._clamp_curvature()
+    for a, b in zip(r._balance(), copy._balance()):
+        np.testing.assert_allclose(b, a, rtol=0, atol=1e-14)
