@@ -23,20 +23,68 @@ dimensionless  the ``type: dimensionless`` scene (THEORY §5 groups given direct
 physical       the ``type: physical`` scene (SI quantities, non-dimensionalised by ℓ, B0, H0)
 model          the top-level Config, SolverSpec, load_config and load_scene
 """
-from .base import Angle, Number, Positive, Q, StrictModel, tagged
-from .checks import (check_mesh, check_profiles_at, check_profiles_on_mesh, check_scene_and_options,
-                     check_scene_groups)
-from .dimensionless import DimensionlessScene
-from .errors import ConfigError
-from .field_specs import (DimensionlessField, DipoleSpec, ExpressionSpec, ForceXY, LengthXY,
-                          LineLoadXY, NumberXY, PhysicalDipole, PhysicalExpression, PhysicalField,
-                          PhysicalUniform, UniformSpec)
-from .limits import GROUP_RANGES, MAX_BANDED_ENTRIES, MAX_DENSE_UNKNOWNS
-from .model import Config, SceneSpec, SolverSpec, load_config, load_scene
-from .magnetic_specs import Magnetics, MagneticSummary, Particles
-from .physical import Clamp, Loads, PhysicalScene, Rod, Weight, magnetic_group, remanent_group
-from .profile_specs import (FibreConstant, FibreExpression, FibreProfile, FibreTable,
-                            StiffnessConstant, StiffnessExpression, StiffnessProfile, StiffnessTable)
+import importlib
+
+#: Each public name and the module that defines it: loaded on first use (PEP 562), so that
+#: importing one module of the package (e.g. ``config.limits`` during a design) does not build
+#: every pydantic model (0.13 s at start-up).
+_HOME = {
+    "Angle": "base",
+    "Number": "base",
+    "Positive": "base",
+    "Q": "base",
+    "StrictModel": "base",
+    "tagged": "base",
+    "check_mesh": "checks",
+    "check_profiles_at": "checks",
+    "check_profiles_on_mesh": "checks",
+    "check_scene_and_options": "checks",
+    "check_scene_groups": "checks",
+    "DimensionlessScene": "dimensionless",
+    "ConfigError": "errors",
+    "DimensionlessField": "field_specs",
+    "DipoleSpec": "field_specs",
+    "ExpressionSpec": "field_specs",
+    "ForceXY": "field_specs",
+    "LengthXY": "field_specs",
+    "LineLoadXY": "field_specs",
+    "NumberXY": "field_specs",
+    "PhysicalDipole": "field_specs",
+    "PhysicalExpression": "field_specs",
+    "PhysicalField": "field_specs",
+    "PhysicalUniform": "field_specs",
+    "UniformSpec": "field_specs",
+    "GROUP_RANGES": "limits",
+    "MAX_BANDED_ENTRIES": "limits",
+    "MAX_DENSE_UNKNOWNS": "limits",
+    "Config": "model",
+    "SceneSpec": "model",
+    "SolverSpec": "model",
+    "load_config": "model",
+    "load_scene": "model",
+    "Magnetics": "magnetic_specs",
+    "MagneticSummary": "magnetic_specs",
+    "Particles": "magnetic_specs",
+    "Clamp": "physical",
+    "Loads": "physical",
+    "PhysicalScene": "physical",
+    "Rod": "physical",
+    "Weight": "physical",
+    "magnetic_group": "physical",
+    "remanent_group": "physical",
+}
+
+
+def __getattr__(name):
+    if name in _HOME:
+        value = getattr(importlib.import_module(f".{_HOME[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_HOME))
 
 __all__ = ["ConfigError", "Config", "load_config", "load_scene", "magnetic_group", "StrictModel",
            "check_scene_groups", "check_mesh", "check_profiles_at", "check_profiles_on_mesh",
