@@ -254,7 +254,12 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
         if ck is None:
             return _fail(f"pose {k}: no stable state of the rod near {tgt}", base, vset, tol, timings, t0)
         pt = ck.point
-        d_list.append(nlp.design_vector(h=pt.h, phi=pt.phi, p=pt.p, coefficients=coeffs, magnetization=beta))
+        # the field axis's representative nearest pose 1's (φ and φ + period are one field): which
+        # one the search lands on is round-off, and the joint NLP's φ bounds (±2π) are not periodic
+        # (on another BLAS kernel pose 2 started at φ + π and the joint design changed, issue 17)
+        period = phi_period(base)
+        phi = pt.phi + period * round((ch1.point.phi - pt.phi) / period)
+        d_list.append(nlp.design_vector(h=pt.h, phi=phi, p=pt.p, coefficients=coeffs, magnetization=beta))
         z_list.append(pt.z)
     timings["single_poses"] = time.perf_counter() - t0
     s = settings
