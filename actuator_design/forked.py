@@ -94,6 +94,15 @@ def _give_slot() -> None:
     os.write(_SLOTS[1], b"x")
 
 
+def _quietly(fn: Callable[[], None]) -> None:
+    """Run work done ahead of need; a failure is not this task's: the work runs again, and fails
+    where it is needed (if it is)."""
+    try:
+        fn()
+    except Exception:  # noqa: BLE001
+        pass
+
+
 class Forked(Generic[T]):
     """A task started by :func:`start`: its result, once, by :meth:`result`; :meth:`cancel` ends it."""
 
@@ -102,13 +111,21 @@ class Forked(Generic[T]):
         self._idle = list(while_waiting)
         self._value: Optional[tuple] = None
         if fork_allowed() and _take_slot():
-            self._fork()
+            try:
+                self._fork()
+            except OSError:  # no process or pipe to be had (EAGAIN, EMFILE): the task runs here
+                _give_slot()
 
     def _fork(self) -> None:
         read_fd, write_fd = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(read_fd)
+            os.close(write_fd)
+            raise
         if pid == 0:  # the child: compute, send, leave without running the parent's clean-up
             os.close(read_fd)
             code = 0
@@ -146,14 +163,10 @@ class Forked(Generic[T]):
                 for fn in self._idle:
                     if self._finished():
                         break
-                    fn()
+                    _quietly(fn)
                 while _IDLE and not self._finished():
-                    _IDLE.pop(0)()
-                with os.fdopen(self._fd, "rb") as fh:
-                    data = fh.read()
-                os.waitpid(self._pid, 0)
-                self._pid = None
-                _give_slot()
+                    _quietly(_IDLE.pop(0))
+                data = self._collect()
                 # a child that ended without a result (killed) leaves the task to this process
                 self._value, caught = pickle.loads(data) if data else (("inline", None), [])
                 for message, category in caught:
@@ -166,6 +179,38 @@ class Forked(Generic[T]):
             raise RuntimeError("the result of a cancelled task was asked for")
         return value
 
+    def _collect(self) -> bytes:
+        """Read the child's payload, reap it, give its slot back (also when interrupted)."""
+        chunks = []
+        try:
+            while True:
+                chunk = os.read(self._fd, 1 << 20)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+        except BaseException:  # interrupted: the child's result is not wanted any more
+            self._end_child(kill=True)
+            raise
+        self._end_child(kill=False)
+        return b"".join(chunks)
+
+    def _end_child(self, kill: bool) -> None:
+        """Reap the child (killed first when ``kill``), close its pipe, give its slot back."""
+        if self._pid is None:
+            return
+        pid, self._pid = self._pid, None
+        try:
+            if kill:
+                os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        except OSError:
+            pass
+        try:
+            os.close(self._fd)
+        except OSError:
+            pass
+        _give_slot()
+
     def _finished(self) -> bool:
         """The child has sent its result (or ended): its pipe is readable."""
         return bool(select.select([self._fd], [], [], 0.0)[0])
@@ -173,15 +218,7 @@ class Forked(Generic[T]):
     def cancel(self) -> None:
         """End the task if it still runs in a child (its result is not wanted); after
         :meth:`result`, nothing."""
-        if self._pid is not None:
-            try:
-                os.kill(self._pid, signal.SIGKILL)
-                os.waitpid(self._pid, 0)
-            except OSError:
-                pass
-            os.close(self._fd)
-            self._pid = None
-            _give_slot()
+        self._end_child(kill=True)
         if not self._done:
             self._done, self._task, self._value = True, None, ("cancelled", None)
 
