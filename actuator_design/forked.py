@@ -23,6 +23,7 @@ worker of :func:`actuator_design.parallel.map_parallel`.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import select
@@ -38,8 +39,11 @@ T = TypeVar("T")
 
 #: environment variable: the number of processes a design may use (1: none forked)
 WORKERS_ENV = "ACTUATOR_DESIGN_WORKERS"
+#: at most this many processes in a family, whatever is asked
+MAX_WORKERS = 256
 
 _IDLE: List[Callable[[], None]] = []
+_IN_CHILD = False
 
 
 def while_waiting(fn: Callable[[], None]) -> None:
@@ -66,8 +70,10 @@ def fork_allowed() -> bool:
     from .parallel import in_worker
 
     # Linux only: macOS's system libraries are not safe to use in a forked child
-    return (sys.platform.startswith("linux") and _workers() > 1 and threading.active_count() == 1
-            and not in_worker())
+    # a forked child forks no further: it dies with its parent (PR_SET_PDEATHSIG), and a
+    # grandchild killed that way could not give its slot back
+    return (sys.platform.startswith("linux") and not _IN_CHILD and _workers() > 1
+            and threading.active_count() == 1 and not in_worker())
 
 
 #: The process family's free slots, as bytes in a pipe every forked process inherits (a make
@@ -82,7 +88,7 @@ def _take_slot() -> bool:
     if _SLOTS is None:
         read_fd, write_fd = os.pipe()
         os.set_blocking(read_fd, False)
-        os.write(write_fd, b"x" * (_workers() - 1))
+        os.write(write_fd, b"x" * (min(_workers(), MAX_WORKERS) - 1))  # (a pipe holds 64 KiB)
         _SLOTS = (read_fd, write_fd)
     try:
         return len(os.read(_SLOTS[0], 1)) == 1
@@ -110,16 +116,20 @@ class Forked(Generic[T]):
         self._task, self._pid, self._fd, self._done = task, None, None, False
         self._idle = list(while_waiting)
         self._value: Optional[tuple] = None
-        if fork_allowed() and _take_slot():
-            try:
-                self._fork()
-            except OSError:  # no process or pipe to be had (EAGAIN, EMFILE): the task runs here
-                _give_slot()
+        try:
+            if fork_allowed() and _take_slot():
+                try:
+                    self._fork()
+                except OSError:  # no process or pipe to be had (EAGAIN, EMFILE): the task runs here
+                    _give_slot()
+        except OSError:  # no pipe for the slots: the task runs here
+            pass
 
     def _fork(self) -> None:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(OSError, ValueError):
+                stream.flush()
         read_fd, write_fd = os.pipe()
-        sys.stdout.flush()
-        sys.stderr.flush()
         try:
             pid = os.fork()
         except OSError:
@@ -127,6 +137,8 @@ class Forked(Generic[T]):
             os.close(write_fd)
             raise
         if pid == 0:  # the child: compute, send, leave without running the parent's clean-up
+            global _IN_CHILD
+            _IN_CHILD = True
             os.close(read_fd)
             code = 0
             try:
@@ -160,15 +172,22 @@ class Forked(Generic[T]):
             else:
                 # this task's own work for the wait, then everyone's, one at a time while the child
                 # still computes (what is left runs when it is needed)
-                for fn in self._idle:
-                    if self._finished():
-                        break
-                    _quietly(fn)
-                while _IDLE and not self._finished():
-                    _quietly(_IDLE.pop(0))
-                data = self._collect()
-                # a child that ended without a result (killed) leaves the task to this process
-                self._value, caught = pickle.loads(data) if data else (("inline", None), [])
+                try:
+                    for fn in self._idle:
+                        if self._finished():
+                            break
+                        _quietly(fn)
+                    while _IDLE and not self._finished():
+                        _quietly(_IDLE.pop(0))
+                except BaseException:  # interrupted while waiting: the child is not wanted any more
+                    self._end_child(kill=True)
+                    raise
+                data, ok = self._collect()
+                # a child that did not end cleanly (killed mid-write) leaves the task to this process
+                try:
+                    self._value, caught = pickle.loads(data) if ok and data else (("inline", None), [])
+                except Exception:  # noqa: BLE001 - a truncated payload
+                    self._value, caught = ("inline", None), []
                 for message, category in caught:
                     warnings.warn(message, category, stacklevel=2)
                 if self._value[0] == "inline":  # its own exception, with its traceback, or its value
@@ -180,7 +199,8 @@ class Forked(Generic[T]):
         return value
 
     def _collect(self) -> bytes:
-        """Read the child's payload, reap it, give its slot back (also when interrupted)."""
+        """Read the child's payload, reap it, give its slot back (also when interrupted):
+        ``(payload, whether the child exited cleanly)``."""
         chunks = []
         try:
             while True:
@@ -191,18 +211,19 @@ class Forked(Generic[T]):
         except BaseException:  # interrupted: the child's result is not wanted any more
             self._end_child(kill=True)
             raise
-        self._end_child(kill=False)
-        return b"".join(chunks)
+        return b"".join(chunks), self._end_child(kill=False)
 
-    def _end_child(self, kill: bool) -> None:
-        """Reap the child (killed first when ``kill``), close its pipe, give its slot back."""
+    def _end_child(self, kill: bool) -> bool:
+        """Reap the child (killed first when ``kill``), close its pipe, give its slot back; whether
+        it exited with status 0."""
         if self._pid is None:
-            return
+            return False
         pid, self._pid = self._pid, None
+        clean = False
         try:
             if kill:
                 os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
+            clean = os.waitpid(pid, 0)[1] == 0
         except OSError:
             pass
         try:
@@ -210,6 +231,7 @@ class Forked(Generic[T]):
         except OSError:
             pass
         _give_slot()
+        return clean
 
     def _finished(self) -> bool:
         """The child has sent its result (or ended): its pipe is readable."""

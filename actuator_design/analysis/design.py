@@ -146,7 +146,11 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
     if verify:
         stage[0] = "verification"
         tv = time.perf_counter()
-        verification = verifying.result() if verifying is not None else verify_stage(problem, choice)
+        try:
+            verification = verifying.result() if verifying is not None else verify_stage(problem, choice)
+        finally:
+            if verifying is not None:
+                verifying.cancel()
         timings["verify"] = time.perf_counter() - tv
     result = result_of(problem, choice, verification, timings, robust)
     result.mesh = mesh
@@ -342,7 +346,7 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
     """
     sets = problem.variable_sets
     searched: List[Optimised] = []
-    ahead = None  # the next set's search, computed beside this one (:mod:`...forked`)
+    ahead = current = None  # the next set's search, computed beside this one (:mod:`...forked`)
     try:
         for k, vset in enumerate(sets):
             current = ahead
@@ -359,8 +363,9 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
             if best and vset != sets[-1] and unresolved(searched[-1].candidate, best[0], problem.options):
                 break  # more variables on a mesh that does not resolve this set's best: regrade first
     finally:
-        if ahead is not None:
-            ahead.cancel()
+        for job in (current, ahead):
+            if job is not None:
+                job.cancel()
     return searched
 
 

@@ -259,6 +259,8 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
         # (on another BLAS kernel pose 2 started at φ + π and the joint design changed, issue 17)
         period = phi_period(base)
         phi = pt.phi + period * round((ch1.point.phi - pt.phi) / period)
+        phi -= period * math.ceil((abs(phi) - 2 * math.pi) / period) * math.copysign(1.0, phi) \
+            if abs(phi) > 2 * math.pi else 0.0  # (and within the NLP's bounds, ±2π)
         d_list.append(nlp.design_vector(h=pt.h, phi=phi, p=pt.p, coefficients=coeffs, magnetization=beta))
         z_list.append(pt.z)
     timings["single_poses"] = time.perf_counter() - t0
@@ -368,8 +370,10 @@ def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, t
     """Per pose: robustness by branch following and, with ``verify``, a loading path from rest;
     the poses after the first are checked beside it (:mod:`...forked`)."""
     check = partial(_check_pose, snlp, nlp, scenes, point, targets, tol, problem, ch1, verify)
-    beside = [forked.start(partial(check, k)) for k in range(1, len(targets))]
+    beside = []
     try:
+        for k in range(1, len(targets)):
+            beside.append(forked.start(partial(check, k)))
         checked = [check(0)] + [job.result() for job in beside]
     finally:
         for job in beside:

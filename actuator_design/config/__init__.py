@@ -29,6 +29,14 @@ import importlib
 #: importing one module of the package (e.g. ``config.limits`` during a design) does not build
 #: every pydantic model (0.13 s at start-up).
 _HOME = {
+    "FibreConstant": "profile_specs",
+    "FibreExpression": "profile_specs",
+    "FibreProfile": "profile_specs",
+    "FibreTable": "profile_specs",
+    "StiffnessConstant": "profile_specs",
+    "StiffnessExpression": "profile_specs",
+    "StiffnessProfile": "profile_specs",
+    "StiffnessTable": "profile_specs",
     "Angle": "base",
     "Number": "base",
     "Positive": "base",
