@@ -1,13 +1,14 @@
 """Work computed beside this process, in a forked copy of it (issue 17: the main job's wall time).
 
 A design runs stages whose parts do not depend on each other: the search of the next variable
-set while this one is searched, half of the starts of a multi-start, the robustness report of the
-nominal design while the robust one is sought, the verification while the robust design's branch
-is followed. :func:`start` forks the process (a copy-on-write image: the built solvers, caches and
-inputs are the parent's, nothing is pickled on the way in), runs the task in the child and sends
-its return value back through a pipe; :meth:`Forked.result` returns it. A task that raises, or
-whose value does not pickle, is run again here when its result is asked for, so its exception
-(with its traceback) or its value is this process's own.
+set while this one is searched, half of the starts of a multi-start, the robust design while the
+nominal one's robustness is reported, the verification while the robust design's branch is
+followed, half of a figure while the other half is drawn. :func:`start` forks the process (a
+copy-on-write image: the built solvers, caches and inputs are the parent's, nothing is pickled on
+the way in), runs the task in the child and sends its return value back through a pipe;
+:meth:`Forked.result` returns it. A task that raises, or whose value does not pickle, is run again
+here when its result is asked for, so its exception (with its traceback) or its value is this
+process's own.
 
 The child computes exactly what this process would (the same code on the same state), so a
 result does not depend on whether the task was forked: the same request gives the same answer

@@ -32,8 +32,6 @@ from dataclasses import replace
 from typing import List, Optional, Tuple
 
 import numpy as np
-from scipy.optimize import minimize
-from scipy.spatial import cKDTree
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
            "least_self_clearance", "solve_self_contact", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
@@ -65,7 +63,7 @@ def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, rea
     pts = np.column_stack([x, y])
     if not np.all(np.isfinite(pts)) or len(pts) < 2:
         return []
-    cand = cKDTree(pts).query_pairs(2.0 * gap + reach, output_type="ndarray")
+    cand = _kdtree(pts).query_pairs(2.0 * gap + reach, output_type="ndarray")
     if cand.size == 0:
         return []
     cand = np.sort(cand[np.abs(s[cand[:, 0]] - s[cand[:, 1]]) >= neighbour_arc(gap)], axis=1)
@@ -151,7 +149,7 @@ def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Opt
     pts = np.column_stack([coarse["x"], coarse["y"]])
     if np.all(np.isfinite(pts)):
         h = 1.0 / (COARSE - 1)
-        cand = cKDTree(pts).query_pairs(2.0 * gap - tol + h, output_type="ndarray")
+        cand = _kdtree(pts).query_pairs(2.0 * gap - tol + h, output_type="ndarray")
         if cand.size == 0 or not np.any(np.abs(coarse["s"][cand[:, 0]] - coarse["s"][cand[:, 1]])
                                         >= neighbour_arc(gap) - h):
             return None
@@ -159,7 +157,7 @@ def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Opt
     pts = np.column_stack([d["x"], d["y"]])
     if not np.all(np.isfinite(pts)):
         return None
-    cand = cKDTree(pts).query_pairs(2.0 * gap - tol, output_type="ndarray")
+    cand = _kdtree(pts).query_pairs(2.0 * gap - tol, output_type="ndarray")
     if cand.size == 0:
         return None
     cand = cand[np.abs(d["s"][cand[:, 0]] - d["s"][cand[:, 1]]) >= neighbour_arc(gap)]
@@ -180,6 +178,8 @@ def nearest_pair(result, s_a: float, s_b: float, half: float) -> Tuple[float, fl
         return float(d @ d), np.array([2.0 * d @ t[:, 0], -2.0 * d @ t[:, 1]])
 
     bounds = [(max(1e-9, s_a - half), min(1.0, s_a + half)), (max(1e-9, s_b - half), min(1.0, s_b + half))]
+    from scipy.optimize import minimize
+
     out = minimize(dist2, [s_a, s_b], jac=True, method="L-BFGS-B", bounds=bounds,
                    options={"ftol": 1e-16, "gtol": 1e-15, "maxiter": 500})
     a, b = (float(v) for v in out.x)
@@ -283,3 +283,11 @@ def solve_self_contact(scene, options, initial=None):
             return out
     return solve_contact(scene, options, state, self_contact=True,
                          start=f"rest, the loads ramped in {steps} steps with self-contact")
+
+
+def _kdtree(points: np.ndarray):
+    """scipy's k-d tree of ``points``, shape (n, 2); imported on first use, since most scenes never
+    come near themselves and scipy.spatial would otherwise be loaded with every continuation."""
+    from scipy.spatial import cKDTree
+
+    return cKDTree(points)

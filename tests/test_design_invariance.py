@@ -80,6 +80,8 @@ def test_an_iteration_cap_in_the_box_homotopy_does_not_change_the_design(monkeyp
     from actuator_design.analysis import design_robust
     from actuator_design.scene import default_scene
 
+    # the robust NLP runs in a forked process with two workers: the spy below must see its solves
+    monkeypatch.setenv("ACTUATOR_DESIGN_WORKERS", "1")
     free = design((0.232, 0.498), scene=default_scene())
     real, forced = design_robust.ScenarioDesignNLP.solve, []
 

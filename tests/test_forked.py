@@ -108,7 +108,8 @@ def test_cancel_ends_the_child_and_the_family_never_outgrows_its_workers():
 
 @pytest.mark.parametrize("targets", [[(0.3, 0.5)], [(0.3, 0.5), (0.6, 0.2)]])
 def test_the_main_job_is_the_same_with_one_worker_or_two(targets):
-    """The search of the next variable set, half of each multi-start, the nominal robustness, the
+    """The search of the next variable set, half of each multi-start, the robust design (while
+    this process reports the nominal one and builds the fold search's solvers ahead), the
     verification and the poses' checks run beside the design; with ACTUATOR_DESIGN_WORKERS=1
     everything runs in one process. The designs, robustness reports and verified schedules agree
     to the last bit: the same computations on the same state."""

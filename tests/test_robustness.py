@@ -109,6 +109,28 @@ def test_field_fold_distance_against_shooting_and_continuation():
     assert folds and min(folds, key=lambda v: abs(v - h_fold)) == pytest.approx(h_fold, rel=1e-7)
 
 
+def test_fold_search_builds_run_ahead_are_bounded_and_change_no_fold():
+    """The design runs the fold search's solver builds while it waits for a forked task: with them
+    run first the fold is still the shooting reference's; only meshes of at most
+    AHEAD_MAX_NODES nodes are offered (a step on a finer one takes seconds)."""
+    from dataclasses import replace
+
+    from actuator_design.analysis.robustness import fold_search_builds
+    from actuator_design.analysis.snap_location import AHEAD_MAX_NODES
+
+    sc, r = _buckled_against_load()
+    steps = fold_search_builds(sc, OPTS)
+    assert [(st.args[2], st.args[3]) for st in steps] == [(a, k) for a in ("field_rel", "angle") for k in (1, 2, 4)]
+    for step in steps:
+        step()
+    rob = evaluate_robustness(sc, r.z, None, Tolerances(field_rel=0.05, angle=0.0), OPTS)
+    _, h_fold = shooting_fold(lambda hh: ShootingParams(h=hh, phi=HALF_PI, fy=-0.2), 1.1 * r.gamma, 1.4)
+    assert rob.fold_distance.h_rel_down == pytest.approx(1.0 - abs(h_fold) / 2.0, abs=1e-6)
+    fine = replace(OPTS, elements=AHEAD_MAX_NODES // OPTS.degree)
+    assert [st.args[3] for st in fold_search_builds(sc, fine)] == [1, 1]
+    assert fold_search_builds(replace(sc, h=0.0), OPTS) and not fold_search_builds(sc, replace(fine, elements=64))
+
+
 def test_angle_fold_distance_against_shooting():
     """Rotating a strong field across the rod: the fold angle of the shooting family in φ."""
     h, phi0 = 1.5, 0.5

@@ -22,7 +22,7 @@ from .design_optimise import design_vector
 from .design_robust import robustify
 from .design_stiffness_box import StiffnessOverBox, stiffness_over_box
 from .design_types import Choice, DesignProblem, tip_error
-from .robustness import Robustness, evaluate_robustness
+from .robustness import Robustness, evaluate_robustness, fold_search_builds
 
 __all__ = ["RobustReport", "robust_stage"]
 
@@ -133,16 +133,18 @@ def robust_stage(problem: DesignProblem, choice: Choice,
         if not report.holds:
             choice.notes.append(report.sentence())
         return choice, report, None
-    # how the nominal design holds (for the report) is computed beside the robust design (forked)
-    nominal_beside = forked.start(partial(evaluate_robustness, choice.scene, pt.z, target, tol, options,
-                                          fold_search=False))
+    # the robust design is sought beside (forked) while this process says how the nominal design
+    # holds and then builds what the fold search of the design's branch will need: the verification
+    # forked later inherits those builds, and this process follows the branch without building
+    beside = forked.start(partial(_robust_design, nlp, cand.base, design_vector(nlp, pt), pt.z, target, tol,
+                                  s.margin, s.bounds()),
+                          while_waiting=fold_search_builds(choice.scene, options))
     try:
-        out = robustify(nlp, cand.base, [design_vector(nlp, pt)], [pt.z], [target], tol, margin=s.margin,
-                        bounds=s.bounds())
-        nominal = nominal_beside.result()
+        nominal = evaluate_robustness(choice.scene, pt.z, target, tol, options, fold_search=False)
+        out, d = beside.result()
     finally:
-        nominal_beside.cancel()  # (nothing left to end once its result is in)
-    best_choice, best_rob, largest, ahead = _moved(problem, choice, out, nominal, follow)
+        beside.cancel()  # (nothing left to end once its result is in)
+    best_choice, best_rob, largest, ahead = _moved(problem, choice, out, d, nominal, follow)
     try:
         return _report(problem, choice, best_choice, best_rob, largest, nominal, out.attempts) + (ahead,)
     except BaseException:
@@ -174,16 +176,23 @@ def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts):
     return best_choice, report
 
 
-def _moved(problem: DesignProblem, choice: Choice, out, nominal: Robustness, follow):
-    """The robust NLP's design (``out``) when it reaches the target and holds over the box by
-    branch following (or the nominal design does not hold either), with ``follow`` of it started
-    beside that check: ``(choice, robustness, largest box, Forked)``, or ``(choice, None, 0, None)``
-    when the nominal design is kept."""
+def _robust_design(nlp, base, d0: np.ndarray, z0: np.ndarray, target, tol, margin: float, bounds):
+    """:func:`~.design_robust.robustify` of one pose, and its design vector (None without a
+    point), shape (nlp.nd,): ``(RobustOutcome without its NLP, d)``, which pickles (a forked task)."""
+    out = robustify(nlp, base, [d0], [z0], [target], tol, margin=margin, bounds=bounds)
+    d = out.nlp.pose_vector(out.point.d, 0) if out.point is not None else None
+    return replace(out, nlp=None), d
+
+
+def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, follow):
+    """The robust NLP's design (``out``, design vector ``d``) when it reaches the target and holds
+    over the box by branch following (or the nominal design does not hold either), with ``follow``
+    of it started beside that check: ``(choice, robustness, largest box, Forked)``, or
+    ``(choice, None, 0, None)`` when the nominal design is kept."""
     if out.point is None:
         return choice, None, 0.0, None
     cand, pt, target, s = choice.candidate, choice.point, problem.target, problem.settings
     nlp, tol, options = cand.nlp, problem.settings.tolerances, problem.options
-    d = out.nlp.pose_vector(out.point.d, 0)
     z = out.point.z[0][0]
     scene = nlp.scene_for(cand.base, d)
     sv = nlp.solver

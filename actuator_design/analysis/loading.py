@@ -35,8 +35,6 @@ from dataclasses import replace
 from typing import Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
-from scipy.integrate import trapezoid as _trapezoid
-from scipy.interpolate import PchipInterpolator
 
 from .. import parameters as lens
 from ..equilibrium import solve
@@ -297,6 +295,8 @@ def _branch_interp(points, grid):
     y = np.bincount(idx, weights=arr[:, 1]) / np.bincount(idx)
     covered = x[0] <= grid[0] + 1e-9 * (1 + abs(grid[0])) and x[-1] >= grid[-1] - 1e-9 * (1 + abs(grid[-1]))
     if x.size >= 3:  # shape-preserving cubic through the branch points
+        from scipy.interpolate import PchipInterpolator
+
         return PchipInterpolator(x, y, extrapolate=False)(np.clip(grid, x[0], x[-1])), bool(covered)
     return np.interp(grid, x, y), bool(covered)
 
@@ -311,3 +311,11 @@ def run_path(scene, options, param: str = "h", schedule: Sequence[float] = (), *
            "hysteresis_width": path.hysteresis["width"], "hysteresis_area": path.hysteresis["area"],
            "final_tip_angle": path.final.tip["angle"]}
     return out
+
+
+def _trapezoid(y: np.ndarray, x: np.ndarray) -> float:
+    """scipy's trapezoid rule (numpy's is ``trapz`` before 2.0, ``trapezoid`` after); scipy.integrate
+    is imported here, not with this module: it loads scipy.optimize (0.1 s) into every design."""
+    from scipy.integrate import trapezoid
+
+    return trapezoid(y, x)

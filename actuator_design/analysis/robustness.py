@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -33,7 +33,7 @@ from ..solver import EquilibriumSolver, get_solver
 from .snap_location import locate_snap, snap_unit
 from .tolerances import Tolerances, apply_deltas, perturb
 
-__all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness"]
+__all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness", "fold_search_builds"]
 
 
 @dataclass
@@ -265,6 +265,21 @@ class Robustness:
         return f"{head}; {self.fold_distance.sentence()}"
 
 
+def _fold_axes(scene: Scene) -> List[str]:
+    """The axes the fold search follows: the field magnitude (unless there is no field) and, in a
+    uniform field, its angle."""
+    return [attr for attr, searched in (("field_rel", scene.h != 0.0), ("angle", isinstance(scene.field, UniformField)))
+            if searched]
+
+
+def fold_search_builds(scene: Scene, options: Optional[SolverOptions] = None) -> List[Callable[[], None]]:
+    """The solver builds of :func:`evaluate_robustness`'s fold search of ``scene``, as steps to
+    run ahead of need (:func:`~.snap_location.snap_builds`)."""
+    from .snap_location import snap_builds
+
+    return snap_builds(scene, options or SolverOptions(), _fold_axes(scene))
+
+
 def _axis_offsets(tol: Tolerances) -> Dict[str, Tuple[str, float, float]]:
     """Fold searches: name -> (tolerance attribute, sign, search range in that attribute's unit)."""
     out = {"h_rel_up": ("field_rel", 1.0, 1.0), "h_rel_down": ("field_rel", -1.0, 0.9)}
@@ -362,9 +377,7 @@ def evaluate_robustness(scene: Scene, z: np.ndarray, target: Optional[Sequence[f
     errors: Dict[str, Optional[float]] = {}
     if fold_search:
         for name, (attr, sign, rng) in _axis_offsets(tolerances).items():
-            if attr == "angle" and not isinstance(scene.field, UniformField):
-                continue
-            if attr == "field_rel" and scene.h == 0.0:
+            if attr not in _fold_axes(scene):
                 continue
             P_end = solver.parameter_vector(apply_deltas(scene, {attr: sign * rng}))
             seg = follow_segment(solver, z, P0, P_end, first_step=0.01, max_step=0.05, admissible=clear)

@@ -405,8 +405,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
     """design.json, schedule.csv, design.png and (with a converged state) shape.csv, in memory."""
     from ..analysis.schedule import schedule_table
     from ..io import dumps_json, scene_to_dict, shape_csv_text
-    from ..viz.design import design_figure
-    from ..viz.style import png_bytes
+    from ..viz.design import design_png
 
     payload = dict(payload)
     payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
@@ -420,7 +419,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
         if max(abs(state.tip["x"] - res.achieved["x"]), abs(state.tip["y"] - res.achieved["y"])) > 1e-6:
             state = None
     files = {"design.json": text, "schedule.csv": table_csv_text(rows, _columns(rows)),
-             "design.png": png_bytes(design_figure(res, units=units), dpi=150)}
+             "design.png": design_png(res, units=units, dpi=150)}
     if state is not None and state.success:
         files["shape.csv"] = shape_csv_text(state)
     return files
@@ -457,8 +456,9 @@ def run(args: argparse.Namespace) -> int:
         design_problem(target, scene, vary, options, settings, stiffness, 0.0)
     if args.out is not None:  # the figure's modules load while the design waits for a forked search
         from ..forked import while_waiting
-        from ..viz.style import preload
-        while_waiting(preload)
+        from ..viz.style import preload_steps
+        for step in preload_steps():
+            while_waiting(step)
     with stdout_to_stderr(args.json):
         res = design(target, scene=scene, vary=vary, options=options, settings=settings,
                      verify=not args.no_verify, stiffness=stiffness)

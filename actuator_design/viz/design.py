@@ -18,28 +18,62 @@ from .shape import plot_shape
 from .style import gif_bytes, new_figure
 from .units import field_axis, length_axes
 
-__all__ = ["design_figure", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
+__all__ = ["design_figure", "design_png", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
            "shape_fit_figure"]
 
 
-def design_figure(result, units=None):
-    """A figure with three panels: shape and target, α(s), field schedule (h and φ along the path).
+def design_figure(result, units=None, part: str = "whole"):
+    """A figure with three or four panels: shape and target, α(s), field schedule (h and φ along
+    the path) and, with a robustness report, the tip over the tolerance box.
 
     Parameters
     ----------
     result : DesignResult
     units : actuator_design.user_units.UserUnits, optional
         A physical scene's units: lengths in its length unit, the field in mT.
+    part : {"whole", "left", "right"}
+        The whole figure, or its left (shape, α) or right (schedule, box) panels alone, at the
+        sizes they have in the whole: drawn side by side they are the whole figure
+        (:func:`design_png`).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     rob = getattr(result, "robustness", None)
-    panels = 4 if rob is not None else 3
-    fig = new_figure((13.5 + 4.2 * (panels - 3), 4.8))
-    axes = fig.subplots(1, panels, gridspec_kw={"width_ratios": [1.35, 1, 1, 1][:panels]})
-    ax_shape, ax_alpha, ax_sched = axes[:3]
+    ratios = [1.35, 1, 1, 1][:4 if rob is not None else 3]
+    width = 13.5 + 4.2 * (len(ratios) - 3)  # inches, for the whole figure
+    span = {"whole": slice(None), "left": slice(0, 2), "right": slice(2, None)}[part]
+    mine = ratios[span]
+    fig = new_figure((width * sum(mine) / sum(ratios), 4.8))
+    axes = list(np.atleast_1d(fig.subplots(1, len(mine), gridspec_kw={"width_ratios": mine})))
+    if part != "right":
+        _shape_panel(axes.pop(0), result, rob, units)
+        _alpha_panel(axes.pop(0), result.design.get("alpha", {}),
+                     "fibre layout" + (" (designed)" if "alpha" in result.vary else " (given)"))
+    if part != "left":
+        _schedule_panel(axes.pop(0), result.schedule, "step of the verified schedule",
+                        "field schedule from zero field", units)
+        if rob is not None:
+            _spread_panel(axes[0], rob, result.target, units)
+            length_axes(axes[0], units)
+    return fig
+
+
+def design_png(result, units=None, dpi: int = 150):
+    """:func:`design_figure` encoded as PNG (:class:`~.style.FigureBytes`), its two halves drawn at
+    once (:func:`~.style.png_side_by_side`; with a vector format asked for, the whole figure)."""
+    from functools import partial
+
+    from .style import png_side_by_side
+
+    return png_side_by_side([partial(design_figure, result, units, "left"),
+                             partial(design_figure, result, units, "right")], dpi=dpi,
+                            whole=partial(design_figure, result, units))
+
+
+def _shape_panel(ax_shape, result, rob, units) -> None:
+    """The verified shape with the target, the tips over the tolerance box and the field."""
     state = result.path.final if result.path is not None else result.forward
     status = getattr(result, "status", "")
     verdict = ("INACCURATE: the mesh does not resolve the design" if status == "inaccurate" else
@@ -73,18 +107,9 @@ def design_figure(result, units=None):
         if corners:
             ax_shape.plot([c["x"] for c in corners], [c["y"] for c in corners], "s", mfc="none",
                           color="tab:blue", markersize=6, label="box corners")
-    if rob is not None:
-        _spread_panel(axes[3], rob, result.target, units)
-        length_axes(axes[3], units)
     length_axes(ax_shape, units)
     if ax_shape.get_legend_handles_labels()[0]:
         ax_shape.legend(loc="best", fontsize=8)
-
-    _alpha_panel(ax_alpha, result.design.get("alpha", {}),
-                 "fibre layout" + (" (designed)" if "alpha" in result.vary else " (given)"))
-    _schedule_panel(ax_sched, result.schedule, "step of the verified schedule", "field schedule from zero field",
-                    units)
-    return fig
 
 
 def poses_figure(result):
