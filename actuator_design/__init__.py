@@ -63,6 +63,9 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "design": ("analysis.design", "design"),
     "design_poses": ("analysis.design_poses", "design_poses"),
     "design_contact_force": ("analysis.contact_design", "design_contact_force"),
+    "field_schedule": ("analysis.schedule", "field_schedule"),
+    "optimal_schedule": ("analysis.schedule_ocp", "optimal_schedule"),
+    "RateLimits": ("analysis.schedule_ocp", "RateLimits"),
     "DesignSettings": ("analysis.design_types", "DesignSettings"),
     "Tolerances": ("analysis.tolerances", "Tolerances"),
     "fit": ("calibration", "fit"),
@@ -73,6 +76,8 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "EquilibriumResult": ("result", "EquilibriumResult"),
     "EquilibriaResult": ("analysis.equilibria", "EquilibriaResult"),
     "DesignResult": ("analysis.design_types", "DesignResult"),
+    "ScheduleResult": ("analysis.schedule", "ScheduleResult"),
+    "OptimalSchedule": ("analysis.schedule_ocp", "OptimalSchedule"),
     "FitResult": ("calibration", "FitResult"),
     "StudyReport": ("study.runner", "StudyReport"),
 }

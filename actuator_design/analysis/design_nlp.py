@@ -243,6 +243,15 @@ class DesignNLP:
                                        opts)
         return self._nlp[key]
 
+    def state_function(self) -> ca.Function:
+        """One state of this NLP, for NLPs that carry many (:mod:`.schedule_ocp_nlp`):
+        ``(θ (n,), d (nd,), P0) -> (g/m (n,), M^-1/2 H M^-1/2 (n, n))``, the mass-scaled
+        stationarity rows and reduced Hessian (the certificate's matrix before the margin)."""
+        q = self._parts
+        Ms = ca.DM(1.0 / np.sqrt(q["m"]))
+        return ca.Function("design_state", [q["x"][:self.n], q["x"][self.n:], q["p"][:self.solver.layout.size]],
+                           [q["eq"], ca.diag(Ms) @ q["H"] @ ca.diag(Ms)])
+
     # -- helpers --------------------------------------------------------------------------------
     def design_vector(self, h=None, phi=None, coefficients=None, p=None, magnetization=None) -> np.ndarray:
         """The design vector, shape (nd,), from the design values (``coefficients``: α's Legendre

@@ -28,7 +28,7 @@ from .design import DesignSettings, design
 from .design_types import normalise_phi, tip_error
 from .design_nlp import DesignRequest, get_design_nlp, prepare_scene
 
-__all__ = ["field_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
+__all__ = ["field_schedule", "verify_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
 
 #: Columns of a schedule table: always, for physical scenes (THEORY §5: H = h / (dh/dH), B = μ0 H),
 #: and with a rate (the time at which each step is reached).
@@ -41,12 +41,19 @@ SCHEDULE_COLUMNS = {"always": ("step", "h", "phi_rad"),
 class ScheduleResult:
     """A field schedule through tip waypoints (dimensionless; angles in rad).
 
-    rows : one per waypoint: target, achieved tip (from the verifying path), h, φ, error, margin.
-    schedule : the full verified schedule from zero field, a list of {"h", "phi"} (φ continuous).
-    waypoint_index : position of each waypoint's field in ``schedule``.
-    states : the loading path's state at every schedule point (for figures and animations).
-    verified : the independent loading path confirms every claim (no snap, all stable, waypoints
-        hit); it equals ``success``.
+    Attributes
+    ----------
+    rows : list of dict
+        One per waypoint: target, achieved tip (from the verifying path), h, φ, error, margin.
+    schedule : list of dict
+        The full verified schedule from zero field, ``{"h", "phi"}`` per step (φ continuous).
+    waypoint_index : list of int
+        Position of each waypoint's field in ``schedule``.
+    states : list of EquilibriumResult
+        The loading path's state at every schedule point (for figures and animations).
+    verified : bool
+        The independent loading path confirms every claim (no snap, all stable, waypoints hit);
+        it equals ``success``.
     """
 
     success: bool
@@ -137,11 +144,30 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
         h_prev, phi_prev, z_prev = pt.h, phi_next, pt.z
     timings["waypoints"] = time.perf_counter() - t1
 
+    t2 = time.perf_counter()
+    result = verify_schedule(wps, base, options, schedule, index)
+    timings["verify"] = time.perf_counter() - t2
+    timings["total"] = time.perf_counter() - t0
+    result.timings = timings
+    return result
+
+
+def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: SolverOptions,
+                    schedule: Sequence[Dict[str, float]], index: Sequence[int]) -> ScheduleResult:
+    """Check a schedule by one quasi-static loading path from zero field through its points
+    (:func:`~.loading.follow_path`): no snap, every state stable, the state at each waypoint's
+    field (``schedule[index[k]]``) on waypoint k to 1e-6.
+
+    Returns
+    -------
+    ScheduleResult
+        ``success`` (= ``verified``) when every check passes; the message says which failed.
+    """
     from .loading import follow_path  # independent verification along the whole schedule
 
-    t2 = time.perf_counter()
+    wps = [tuple(float(v) for v in w) for w in waypoints]
+    schedule, index = [dict(s) for s in schedule], list(index)
     path = follow_path(replace(base, h=0.0), options, schedule, max_step=0.25, max_dtheta=0.5)
-    timings["verify"] = time.perf_counter() - t2
     states = list(path.states)
     ok_path = bool(path.success and len(states) == len(schedule))
     all_stable = ok_path and all(s.stable for s in states)
@@ -162,10 +188,9 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
     msg = ("every waypoint reached, continuously, without a snap, every state stable" if success else
            f"verification failed: path {'ok' if ok_path else 'did not converge'}, snap-free {path.snap_free}, "
            f"all stable {all_stable}, waypoints on target {on_target}; {path.message}")
-    timings["total"] = time.perf_counter() - t0
     return ScheduleResult(success=success, verified=success, snap_free=bool(path.snap_free),
                           all_stable=all_stable, waypoints=wps, rows=rows, schedule=schedule, waypoint_index=index,
-                          message=msg, scene=base, states=states, path=path, timings=timings)
+                          message=msg, scene=base, states=states, path=path)
 
 
 def nearest_axis_angle(phi: float, reference: float) -> float:

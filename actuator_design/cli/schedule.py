@@ -20,6 +20,7 @@ import argparse
 import csv
 import io as _io
 import math
+import sys
 from pathlib import Path
 
 from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
@@ -44,6 +45,15 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--substeps", type=int, default=None,
                         help="schedule points between consecutive waypoints (default 8)")
     add_rate_args(parser)
+    o = parser.add_argument_group("optimal control (the whole schedule as one NLP over time nodes)")
+    o.add_argument("--optimal-control", choices=("time", "energy"), default=None,
+                   help="minimise the schedule's duration, or its field effort (integral of h^2 dt, the coils' "
+                        "energy up to their constant), under the rate limits: needs --rotation-rate and "
+                        "--rate (physical scenes) or --h-rate (dimensionless ones); reported only when "
+                        "verified from rest and no worse than the greedy schedule")
+    o.add_argument("--h-rate", metavar="RATE",
+                   help="largest rate of change of the field group h, per second, e.g. '2/s' (dimensionless scenes)")
+    o.add_argument("--nodes", type=int, default=None, help="time nodes of the optimal-control problem (default 40)")
     parser.add_argument("--json", action="store_true", help="print exactly one JSON object")
     parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv")
 
@@ -104,7 +114,7 @@ def _payload(res, units, table) -> dict:
     return payload
 
 
-def _output_files(res, raw, payload, table, units=None) -> dict:
+def _output_files(res, raw, payload, table, units=None, optimal=None) -> dict:
     """schedule.json, schedule.csv, waypoints.csv, schedule.png and (with states) schedule.gif,
     in memory."""
     from ..io import dumps_json
@@ -130,7 +140,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
         wr.writeheader()
         wr.writerows(res.rows)
     files = {"schedule.json": text, "schedule.csv": table_csv_text(steps, columns), "waypoints.csv": rows.getvalue(),
-             "schedule.png": png_bytes(schedule_figure(res, units=units), dpi=150)}
+             "schedule.png": png_bytes(schedule_figure(res, units=units, optimal=optimal), dpi=150)}
     if res.states:
         files["schedule.gif"] = schedule_gif_bytes(res)
     return files
@@ -168,10 +178,11 @@ def run(args: argparse.Namespace) -> int:
         if study and study.get("type") != "schedule":
             raise InputError(f"study.type: expected 'schedule' for this command, got {study.get('type')!r}")
         study.pop("type", None)
-        unknown = sorted(set(study) - {"waypoints", "rate_weight", "substeps", "rate", "rotation_rate"})
+        allowed = ("waypoints", "rate_weight", "substeps", "rate", "rotation_rate", "optimal_control", "h_rate",
+                   "nodes")
+        unknown = sorted(set(study) - set(allowed))
         if unknown:
-            raise InputError(f"study.{unknown[0]}: unknown key (allowed: waypoints, rate_weight, substeps, "
-                             "rate, rotation_rate)")
+            raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(allowed)})")
     if args.waypoints and args.path_csv:
         raise InputError("--waypoints and --path-csv: give one of them, not both")
     if args.waypoints:
@@ -198,14 +209,28 @@ def run(args: argparse.Namespace) -> int:
     units = user_units(scene, raw)
     with bad_input():
         schedule_table([], units, *rates)  # a field rate needs a physical scene: say so before solving
+    ocp = _optimal_control_request(args, study, units, rates)
     with stdout_to_stderr(args.json), bad_input():
         res = field_schedule(wps, scene=scene, options=options, rate_weight=rate, substeps=sub)
+        if ocp is not None:
+            from ..analysis.schedule_ocp import optimal_schedule
+            say = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+            ocp = optimal_schedule(wps, ocp["limits"], options=options, objective=ocp["objective"],
+                                   nodes=ocp["nodes"], greedy=res, progress=say)
+            res = ocp.result
     with bad_input():
-        table = schedule_table(res.schedule, units, *rates)
+        table = schedule_table(res.schedule, units, *(rates if ocp is None else (None, None)))
+    if ocp is not None:  # each step's time is the optimal-control problem's (the greedy rule's for the greedy one)
+        table = [dict(row, time_s=t) for row, t in zip(table, ocp.times)]
     payload = _payload(res, units, table)
+    if ocp is not None:
+        payload["optimal_control"] = ocp.to_dict()["optimal_control"]
+        if units is not None and units.has_field:  # ∫B² dt in the lab's units (B = μ0 H ∝ h)
+            mT2 = units.field_mT(1.0) ** 2
+            payload["optimal_control"].update(effort_mT2_s=ocp.effort * mT2, greedy_effort_mT2_s=ocp.greedy_effort * mT2)
     written = None
     if args.out is not None:
-        written = write_out(args.out, _output_files(res, raw, payload, table, units), args.json)
+        written = write_out(args.out, _output_files(res, raw, payload, table, units, ocp), args.json)
     if args.json:
         print(dumps_json(payload))
     else:
@@ -217,7 +242,49 @@ def run(args: argparse.Namespace) -> int:
         for line in _physical_lines(payload, table):
             print(line)
         print(f"  schedule: {len(res.schedule)} points from zero field; {res.message}")
+        if ocp is not None:
+            oc = payload["optimal_control"]
+            key, unit, what = (("effort_mT2_s", "mT^2 s", "B^2") if "effort_mT2_s" in oc else
+                               ("effort_h2_s", "h^2 s", "h^2"))
+            print(f"  optimal control ({ocp.objective}, {ocp.nodes} nodes): reported schedule {ocp.time_s:.4g} s, "
+                  f"field effort (integral of {what} dt) {oc[key]:.4g} {unit}; greedy schedule "
+                  f"{ocp.greedy_time_s:.4g} s, {oc['greedy_' + key]:.4g} {unit}; {ocp.message}")
         print(f"  time: {res.timings.get('total', float('nan')):.2f} s")
     if written is not None:
         print_written(written, args.json)
     return EXIT_OK if res.success else EXIT_NOT_VERIFIED
+
+
+def _optimal_control_request(args, study, units, rates):
+    """``{"objective", "limits", "nodes"}`` of ``--optimal-control`` (or the study's
+    ``optimal_control``), or None; one line naming the missing or bad flag."""
+    objective = args.optimal_control or study.get("optimal_control")
+    if objective is None:
+        return None
+    if objective not in ("time", "energy"):
+        raise InputError(f"study.optimal_control: must be 'time' or 'energy', got {objective!r}")
+    from ..analysis.schedule_ocp import MAX_NODES, RateLimits
+
+    field_rate, rotation_rate = rates
+    h_rate_text = args.h_rate if args.h_rate is not None else study.get("h_rate")
+    if rotation_rate is None:
+        raise InputError("--rotation-rate: --optimal-control needs the largest rotation rate of the field, e.g. 30deg/s")
+    if field_rate is not None and h_rate_text is not None:
+        raise InputError("--h-rate: give --rate (a physical field rate) or --h-rate (the group h per second), not both")
+    if field_rate is not None:
+        h_rate = field_rate * units.h_per_field  # h ∝ H (THEORY §5)
+    elif h_rate_text is not None:
+        text = str(h_rate_text).replace(" ", "")
+        try:
+            h_rate = float(text[:-2] if text.endswith("/s") else text)
+        except ValueError:
+            raise InputError(f"--h-rate: expected a rate per second such as '2/s', got {h_rate_text!r}")
+        if not (math.isfinite(h_rate) and h_rate > 0):
+            raise InputError(f"--h-rate: must be a finite rate > 0 per second, got {h_rate_text!r}")
+    else:
+        raise InputError("--rate: --optimal-control needs the field's largest rate of change: --rate (e.g. 5mT/s, "
+                         "physical scenes) or --h-rate (e.g. 2/s, the group h per second)")
+    nodes = args.nodes if args.nodes is not None else study.get("nodes", 40)
+    if not (isinstance(nodes, int) and 2 <= nodes <= MAX_NODES):
+        raise InputError(f"--nodes: must be a whole number in [2, {MAX_NODES}], got {nodes!r}")
+    return {"objective": objective, "limits": RateLimits(h_rate, rotation_rate), "nodes": nodes}

@@ -235,7 +235,7 @@ def _rod_xy(state, n: int = 150):
     return d["x"], d["y"]
 
 
-def schedule_figure(result, units=None):
+def schedule_figure(result, units=None, optimal=None):
     """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule.
 
     Parameters
@@ -243,6 +243,9 @@ def schedule_figure(result, units=None):
     result : ScheduleResult
     units : actuator_design.user_units.UserUnits, optional
         A physical scene's units: lengths in its length unit, the field in mT.
+    optimal : OptimalSchedule, optional
+        An optimal-control schedule (``result`` is its ``result``): h and φ are drawn against time
+        (s), with the greedy schedule dashed when the optimised one is reported.
 
     Returns
     -------
@@ -268,17 +271,25 @@ def schedule_figure(result, units=None):
     length_axes(ax, units)
     ax.set_title("rod at the waypoints — " + ("verified, snap-free" if result.success else "NOT verified"))
     ax.legend(fontsize=8, loc="best")
-    k = np.arange(len(result.schedule))
-    ax_s.plot(k, [s["h"] for s in result.schedule], color="tab:green")
-    ax_s.set_xlabel("schedule step (from zero field)")
+    ax2 = ax_s.twinx()
+    curves = [(optimal.times if optimal is not None else np.arange(len(result.schedule)), result.schedule, "-")]
+    if optimal is not None and optimal.optimal:
+        curves.append((optimal.greedy_times, optimal.greedy_schedule, "--"))
+    for t, sched, style in curves:
+        ax_s.plot(t, [s["h"] for s in sched], style, color="tab:green")
+        ax2.plot(t, np.degrees([s["phi"] for s in sched]), style, color="tab:orange")
     ax_s.set_ylabel("field group h", color="tab:green")
     field_axis(ax_s.yaxis, units)
-    ax2 = ax_s.twinx()
-    ax2.plot(k, np.degrees([s["phi"] for s in result.schedule]), color="tab:orange")
     ax2.set_ylabel("field angle φ / deg", color="tab:orange")
     for i in result.waypoint_index:
-        ax_s.axvline(i, color="crimson", lw=0.8, ls="--")
-    ax_s.set_title("field schedule (dashed: waypoints)")
+        ax_s.axvline(curves[0][0][i], color="crimson", lw=0.8, ls="--")
+    if optimal is None:
+        ax_s.set_xlabel("schedule step (from zero field)")
+        ax_s.set_title("field schedule (dashed: waypoints)")
+    else:
+        ax_s.set_xlabel("time / s")
+        ax_s.set_title(f"least {optimal.objective} schedule" + (" (dashed: greedy)" if optimal.optimal else
+                                                                " NOT used: the greedy one"), fontsize=10)
     return fig
 
 
