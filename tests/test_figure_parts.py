@@ -42,6 +42,15 @@ def test_one_draw_gives_the_pixels_savefig_writes():
     np.testing.assert_array_equal(_pixels(png_bytes(_part(3.0, "savefig"), dpi=60)), _pixels(buf.getvalue()))
 
 
+def test_the_pixels_do_not_follow_the_users_image_settings():
+    """imsave reads rcParams["image.origin"]: a user's "lower" must not flip the figure."""
+    import matplotlib
+
+    reference = _pixels(png_bytes(_part(2.0, "rc"), dpi=40))
+    with matplotlib.rc_context({"image.origin": "lower"}):
+        np.testing.assert_array_equal(_pixels(png_bytes(_part(2.0, "rc"), dpi=40)), reference)
+
+
 def _expected(dpi: int) -> np.ndarray:
     left, right = _pixels(png_bytes(_part(3.0, "left"), dpi)), _pixels(png_bytes(_part(2.0, "right"), dpi))
     pad = np.full((left.shape[0] - right.shape[0], right.shape[1], 4), 255, np.uint8)

@@ -33,12 +33,18 @@ def greedy():
     return g
 
 
+def _effort(schedule, times):
+    """∫h² dt with h linear in time within each step: ∫₀^Δt (a + (b − a) t/Δt)² dt = Δt (a² + ab + b²)/3."""
+    h = np.array([s["h"] for s in schedule])
+    return float(np.sum(np.diff(times) * (h[:-1] ** 2 + h[:-1] * h[1:] + h[1:] ** 2) / 3))
+
+
 def _by_hand(schedule, limits):
     """Duration and ∫h² dt of a schedule timed by the rate rule."""
     h = np.array([s["h"] for s in schedule])
     phi = np.array([s["phi"] for s in schedule])
     dt = np.maximum(np.abs(np.diff(h)) / limits.h_rate, np.abs(np.diff(phi)) / limits.rotation_rate)
-    return float(dt.sum()), float(np.sum(dt * 0.5 * (h[1:] ** 2 + h[:-1] ** 2)))
+    return float(dt.sum()), _effort(schedule, np.concatenate([[0.0], np.cumsum(dt)]))
 
 
 def _check_limits_and_path(res, limits):
@@ -66,12 +72,14 @@ def test_never_slower_or_hungrier_than_greedy_and_within_limits(greedy, objectiv
     g_time, g_effort = _by_hand(greedy.schedule, limits)
     assert res.greedy_time_s == pytest.approx(g_time, rel=1e-12)
     assert res.greedy_effort == pytest.approx(g_effort, rel=1e-12)
+    effort = _effort(res.result.schedule, res.times)  # the reported schedule's, by hand
+    assert res.effort == pytest.approx(effort, rel=1e-12) and res.time_s == res.times[-1]
     if objective == "time":
-        assert res.time_s <= g_time * (1 + 1e-6)
+        assert res.time_s <= g_time * (1 + 1e-6) and effort <= g_effort * (1 + 1e-6)
     else:
-        # rotating at a low field before ramping up (the rotation is the slow change here):
-        # the greedy schedule ramps first and rotates at full field
-        assert res.effort < 0.5 * g_effort
+        # the field switched off while it turns (the rotation is the slow change here): the greedy
+        # schedule keeps it at full strength while it rotates from waypoint to waypoint
+        assert effort < 0.5 * g_effort
     _check_limits_and_path(res, limits)
 
 
@@ -98,7 +106,10 @@ def test_cli_optimal_control_reports_both_schedules(tmp_path, capsys):
     assert times[0] == 0.0 and times[-1] == pytest.approx(oc["time_s"])
     for bad, words in ((["--optimal-control", "time", "--h-rate", "2/s"], "--rotation-rate"),
                        (["--optimal-control", "time", "--rotation-rate", "10deg/s"], "--rate"),
-                       (["--optimal-control", "time", "--h-rate", "-1/s", "--rotation-rate", "1deg/s"], "--h-rate")):
+                       (["--optimal-control", "time", "--h-rate", "-1/s", "--rotation-rate", "1deg/s"], "--h-rate"),
+                       (["--optimal-control", "time", "--h-rate", "1/s", "--rotation-rate", "1deg/s", "--nodes", "4"],
+                        "--nodes"),
+                       (["--h-rate", "1/s"], "--h-rate: only with --optimal-control")):
         assert main(["schedule", CONFIG, *bad]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0]

@@ -103,7 +103,8 @@ class ScheduleOCP:
         # BLAS kernels' round-off picked efforts 14 and 75 h²·s at the same T); the second solve
         # picks its one least-effort member.
         self.p = ca.SX.sym("p", 3)  # w_T, w_E, T_cap
-        effort = sum(dt[k] * 0.5 * (h[k] ** 2 + h[k + 1] ** 2) for k in range(N - 1))
+        # ∫h² dt with h linear in time within each step (as the loading path follows it)
+        effort = sum(dt[k] * (h[k] ** 2 + h[k] * h[k + 1] + h[k + 1] ** 2) / 3 for k in range(N - 1))
         f = self.p[0] * ca.sum1(T) + self.p[1] * effort
         rows.append(ca.sum1(T) - self.p[2])
         lo.append(np.array([-np.inf])), hi.append(np.zeros(1))
@@ -121,7 +122,7 @@ class ScheduleOCP:
         self.lbx[off:] = 0.0  # leg durations
         opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
                 "ipopt.acceptable_tol": 1e-7, "ipopt.max_iter": MAX_ITER,
-                # the start is a feasible stable schedule: a small barrier keeps it near
+                # the start is a stable schedule within the limits: a small barrier keeps it near
                 "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
         self.solver = ca.nlpsol("schedule_ocp", "ipopt", {"x": self.x, "p": self.p, "f": f, "g": ca.vertcat(*rows)},
                                 opts)
@@ -145,16 +146,21 @@ class ScheduleOCP:
             xs = self._solve(np.concatenate(x0), [ENERGY_TIME_WEIGHT, 1.0, NO_CAP])
         else:
             xs = self._solve(np.concatenate(x0), [1.0, 0.0, NO_CAP])
-            if xs is not None:  # the least effort among the fastest
+            if xs is not None:  # the least effort among the fastest (else the fastest found first)
                 fastest = float(np.sum(xs[-len(self.legs):]))
-                xs = self._solve(xs, [0.0, 1.0, fastest * (1 + TIME_SLACK)])
+                least = self._solve(xs, [0.0, 1.0, fastest * (1 + TIME_SLACK)])
+                if least is None:
+                    self.status = f"{self.status} (least-effort solve; the fastest schedule is kept)"
+                xs = least if least is not None else xs
         if xs is None:
             return None
         out = {"h": [], "phi": [], "theta": []}
         for k, off in enumerate(self.offsets):
             d = xs[off + self.n: off + self.n + self.nd]
             out["theta"].append(xs[off: off + self.n])
-            out["h"].append(float(d[self.ih])), out["phi"].append(float(d[self.iphi]))
+            # (IPOPT relaxes bounds by ~1e-8: h = −1e-8 where the field is off is h = 0)
+            out["h"].append(float(np.clip(d[self.ih], self.lbx[off + self.n + self.ih], self.ubx[off + self.n + self.ih])))
+            out["phi"].append(float(d[self.iphi]))
         T = xs[-len(self.legs):]
         out["dt"] = np.concatenate([np.full(int(n), T[j] / int(n)) for j, n in enumerate(self.legs)])
         return {k: np.asarray(v) for k, v in out.items()}

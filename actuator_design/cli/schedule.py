@@ -209,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
     units = user_units(scene, raw)
     with bad_input():
         schedule_table([], units, *rates)  # a field rate needs a physical scene: say so before solving
-    ocp = _optimal_control_request(args, study, units, rates)
+    ocp = _optimal_control_request(args, study, units, rates, len(wps))
     with stdout_to_stderr(args.json), bad_input():
         res = field_schedule(wps, scene=scene, options=options, rate_weight=rate, substeps=sub)
         if ocp is not None:
@@ -255,11 +255,14 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK if res.success else EXIT_NOT_VERIFIED
 
 
-def _optimal_control_request(args, study, units, rates):
+def _optimal_control_request(args, study, units, rates, n_waypoints: int):
     """``{"objective", "limits", "nodes"}`` of ``--optimal-control`` (or the study's
     ``optimal_control``), or None; one line naming the missing or bad flag."""
     objective = args.optimal_control or study.get("optimal_control")
     if objective is None:
+        for flag, value in (("--h-rate", args.h_rate), ("--nodes", args.nodes)):
+            if value is not None:
+                raise InputError(f"{flag}: only with --optimal-control (time or energy)")
         return None
     if objective not in ("time", "energy"):
         raise InputError(f"study.optimal_control: must be 'time' or 'energy', got {objective!r}")
@@ -285,6 +288,7 @@ def _optimal_control_request(args, study, units, rates):
         raise InputError("--rate: --optimal-control needs the field's largest rate of change: --rate (e.g. 5mT/s, "
                          "physical scenes) or --h-rate (e.g. 2/s, the group h per second)")
     nodes = args.nodes if args.nodes is not None else study.get("nodes", 40)
-    if not (isinstance(nodes, int) and 2 <= nodes <= MAX_NODES):
-        raise InputError(f"--nodes: must be a whole number in [2, {MAX_NODES}], got {nodes!r}")
+    if not (isinstance(nodes, int) and n_waypoints + 1 <= nodes <= MAX_NODES):
+        raise InputError(f"--nodes: must be a whole number in [{n_waypoints + 1}, {MAX_NODES}] (one more than the "
+                         f"{n_waypoints} waypoints at least), got {nodes!r}")
     return {"objective": objective, "limits": RateLimits(h_rate, rotation_rate), "nodes": nodes}

@@ -33,8 +33,8 @@ def design_figure(result, units=None, part: str = "whole"):
         A physical scene's units: lengths in its length unit, the field in mT.
     part : {"whole", "left", "right"}
         The whole figure, or its left (shape, α) or right (schedule, box) panels alone, at the
-        sizes they have in the whole: drawn side by side they are the whole figure
-        (:func:`design_png`).
+        sizes they have in the whole (each half laid out on its own): drawn side by side they show
+        what the whole figure shows (:func:`design_png`).
 
     Returns
     -------
@@ -43,7 +43,10 @@ def design_figure(result, units=None, part: str = "whole"):
     rob = getattr(result, "robustness", None)
     ratios = [1.35, 1, 1, 1][:4 if rob is not None else 3]
     width = 13.5 + 4.2 * (len(ratios) - 3)  # inches, for the whole figure
-    span = {"whole": slice(None), "left": slice(0, 2), "right": slice(2, None)}[part]
+    spans = {"whole": slice(None), "left": slice(0, 2), "right": slice(2, None)}
+    if part not in spans:
+        raise ValueError(f"part: must be one of {', '.join(spans)}, got {part!r}")
+    span = spans[part]
     mine = ratios[span]
     fig = new_figure((width * sum(mine) / sum(ratios), 4.8))
     axes = list(np.atleast_1d(fig.subplots(1, len(mine), gridspec_kw={"width_ratios": mine})))

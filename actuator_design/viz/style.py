@@ -175,7 +175,9 @@ def png_side_by_side(parts: Sequence[Callable[[], object]], dpi: int = 150,
     """
     from .. import forked
 
-    if _VECTOR_FORMAT.get() is not None and whole is not None:
+    if _VECTOR_FORMAT.get() is not None:
+        if whole is None:
+            raise ValueError("png_side_by_side: a vector format was asked for (vector_format): give `whole`")
         return png_bytes(whole(), dpi)
     beside = [forked.start(partial(_part_rgba, part, dpi)) for part in parts[1:]]
     try:
@@ -218,7 +220,7 @@ def _encode_png(rgba: np.ndarray, dpi: int) -> bytes:
     import matplotlib.image
 
     buf = io.BytesIO()
-    matplotlib.image.imsave(buf, rgba, format="png", dpi=dpi)
+    matplotlib.image.imsave(buf, rgba, format="png", dpi=dpi, origin="upper")  # (not rcParams' image.origin)
     return buf.getvalue()
 
 
