@@ -43,6 +43,21 @@ def test_schedule_rejects_bad_waypoints():
         field_schedule([(0.5, float("nan")), (0.2, 0.3)])
 
 
+def test_a_purely_hard_magnetic_rod_is_refused_in_schedule_words(capsys):
+    """The schedule varies h and φ; a rod with remanence and no soft coupling has no h to vary.
+    The refusal names the command, not the design flag --vary the user never gave."""
+    from dataclasses import replace
+
+    from actuator_design.cli.main import main
+
+    with pytest.raises(ValueError, match="schedule: this rod has no soft-magnetic coupling"):
+        field_schedule([(0.7, 0.6), (0.3, 0.8)], scene=replace(default_scene(h=0.0), h_r=3.0))
+    config = str(Path(__file__).resolve().parents[1] / "configs" / "hard_magnetic_cantilever.yaml")
+    assert main(["schedule", config, "--waypoints", "0.68,0.66;0.3,0.8"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "schedule: this rod has no soft-magnetic coupling" in err[0] and "--vary" not in err[0]
+
+
 # -- issue 9 item 5: schedules the rod can follow ----------------------------------------------------
 import json
 import os

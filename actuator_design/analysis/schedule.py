@@ -26,7 +26,7 @@ from ..result import EquilibriumResult
 from ..scene import Scene, default_scene
 from .design import DesignSettings, design
 from .design_types import normalise_phi, tip_error
-from .design_nlp import DesignRequest, get_design_nlp, prepare_scene
+from .design_nlp import DesignRequest, get_design_nlp, prepare_scene, remanence_only
 
 __all__ = ["field_schedule", "verify_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
 
@@ -110,6 +110,10 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
     options = options or SolverOptions()
     settings = settings or DesignSettings()
     vary = ("h", "phi")
+    if scene is not None and remanence_only(scene):
+        raise ValueError("schedule: this rod has no soft-magnetic coupling (h = 0; its field acts through the "
+                         "remanence alone, h_r): a schedule varies the soft-magnetic group h and the angle phi, so "
+                         "a purely hard-magnetic rod cannot be scheduled yet")
     base = prepare_scene(scene or default_scene(h=0.0), vary)
     timings: Dict[str, float] = {}
 
