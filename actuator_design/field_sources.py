@@ -56,7 +56,10 @@ class MagnetSource:
 class CoilSource:
     """Coaxial circular windings (SI): kind "loop" (``turns`` turns at one place), "solenoid"
     (``turns`` loops spread evenly over ``length``), "helmholtz" or "maxwell" (two windings of
-    ``turns`` turns ``spacing`` apart, currents equal or opposite). ``current`` in A per turn."""
+    ``turns`` turns ``spacing`` apart, currents equal or opposite). ``current`` in A per turn.
+    Hardware, for a design over currents (:mod:`actuator_design.analysis.current_design`):
+    ``max_current`` (A, the driver's limit; inf: not given) and ``resistance`` (Ω of the whole
+    coil; nan: not given)."""
 
     kind: str
     radius: float
@@ -66,6 +69,8 @@ class CoilSource:
     turns: int = 1
     length: float = 0.0
     spacing: float = 0.0
+    max_current: float = math.inf
+    resistance: float = math.nan
 
 
 def _loops(src: CoilSource) -> List[Tuple[float, float]]:
@@ -319,4 +324,4 @@ def source_field(sources, length: float, tol: float = FIT_TOLERANCE):
     sources = tuple(sources)
     fit = fit_sources(sources, float(length), float(tol))
     return SourceField(terms=fit.terms, sources=sources, length=float(length), fit_error=fit.fit_error,
-                       gradient_error=fit.gradient_error), fit.h0
+                       gradient_error=fit.gradient_error, fit_tolerance=float(tol)), fit.h0

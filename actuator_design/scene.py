@@ -99,6 +99,16 @@ class SourceField:
         ℓ (m) the fit was made for.
     fit_error, gradient_error : float
         Largest errors of ĥ and ∇ĥ ℓ against magpylib at random points of the reach (relative to H0).
+    weights : tuple of float
+        w_k: ĥ = Σ_k w_k ĥ_k, source k's fitted field scaled by w_k (a coil's current I_k = w_k × the
+        current it was fitted at); empty: every w_k = 1. NLP parameters, so a design over coil
+        currents re-solves without rebuilding (:mod:`actuator_design.analysis.current_design`).
+    fit_tolerance : float
+        The tolerance the fit was made to (relative to H0), for a refit at other currents.
+    max_power : float
+        Largest total power Σ R_k I_k² of the coils, W (inf: no limit given).
+    max_field : float
+        Largest |H| the rod may see, A/m (μ0 H in T; inf: no limit given).
     """
 
     terms: Tuple[Any, ...]
@@ -106,6 +116,10 @@ class SourceField:
     length: float = 1.0
     fit_error: float = 0.0
     gradient_error: float = 0.0
+    weights: Tuple[float, ...] = ()
+    fit_tolerance: float = 1e-7
+    max_power: float = math.inf
+    max_field: float = math.inf
     kind: str = dc_field(default="sources", init=False)
     is_uniform: bool = dc_field(default=False, init=False)
 
@@ -119,6 +133,10 @@ class SourceField:
                          f"holds {region} of its centre)")
         return (f"{', '.join(names)} by magpylib, fitted with zonal harmonics; fit error {self.fit_error:.2g} "
                 f"(field), {self.gradient_error:.2g} (gradient) relative to H0")
+
+    def source_weights(self) -> Tuple[float, ...]:
+        """w_k of every source (1 where ``weights`` is empty)."""
+        return tuple(float(w) for w in self.weights) if self.weights else (1.0,) * len(self.terms)
 
     def region_problem(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
         """Why points (units of ℓ) of a state lie where the fit does not hold, or None."""

@@ -130,6 +130,8 @@ DIMENSIONS = {
     "magnetic_field": _Dimension("a magnetic field", "5 kA/m' or '10 mT", "A/m"),
     "magnetic_moment": _Dimension("a magnetic moment", "0.05 A m^2", "A m^2"),
     "current": _Dimension("an electric current", "2.5 A", "A"),
+    "resistance": _Dimension("an electrical resistance", "1.5 ohm", "ohm"),
+    "power": _Dimension("a power", "50 W", "W"),
     "density": _Dimension("a density", "1100 kg/m^3", "kg/m^3"),
     "acceleration": _Dimension("an acceleration", "9.81 m/s^2", "m/s^2"),
     "angle": _Dimension("an angle", "30 deg", "rad"),
@@ -188,6 +190,7 @@ COMMON_UNITS = {
     "N": ("force", 1.0), "mN": ("force", 1e-3), "uN": ("force", 1e-6), "µN": ("force", 1e-6),
     "A/m": ("magnetic_field", 1.0), "kA/m": ("magnetic_field", 1e3), "MA/m": ("magnetic_field", 1e6),
     "A": ("current", 1.0), "mA": ("current", 1e-3),
+    "ohm": ("resistance", 1.0), "W": ("power", 1.0), "kW": ("power", 1e3),
     "T": ("flux_density", 1.0), "mT": ("flux_density", 1e-3), "uT": ("flux_density", 1e-6),
     "µT": ("flux_density", 1e-6),
 }

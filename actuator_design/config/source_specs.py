@@ -17,6 +17,7 @@ The field scale H0 is the largest |H| over the part of the reach outside the sou
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import List, Literal, Optional
 
 from pydantic import Field, StrictInt, model_validator
@@ -72,7 +73,8 @@ class PhysicalMagnet(StrictModel):
                             float(self.remanence))
 
     def to_field(self, length: float, where: str = "field"):
-        return _fitted([self.source()], length, float(self.fit_tolerance), where)
+        field, h0 = _fitted([self.source()], length, float(self.fit_tolerance), where)
+        return replace(field, fit_tolerance=float(self.fit_tolerance)), h0
 
 
 class CoilSpec(StrictModel):
@@ -88,9 +90,14 @@ class CoilSpec(StrictModel):
     axis_angle: Angle = 0.0
     length: Optional[Q("length", gt=0)] = None
     spacing: Optional[Q("length", gt=0)] = None
+    max_current: Optional[Q("current", gt=0, le=1e5)] = None
+    resistance: Optional[Q("resistance", gt=0, le=1e6)] = None
 
     @model_validator(mode="after")
     def _check(self):
+        if self.max_current is not None and abs(self.current) > self.max_current:
+            raise error(f"the current {self.current:g} A exceeds the coil's max_current {self.max_current:g} A",
+                        "current")
         if self.kind == "solenoid" and self.length is None:
             raise error("a solenoid needs its length (e.g. '40 mm')", "length")
         if self.kind != "solenoid" and self.length is not None:
@@ -105,21 +112,35 @@ class CoilSpec(StrictModel):
             spacing = self.radius * (1.0 if self.kind == "helmholtz" else math.sqrt(3.0))
         return CoilSource(self.kind, float(self.radius), (float(self.position.x), float(self.position.y)),
                           float(self.axis_angle), float(self.current), int(self.turns),
-                          float(self.length or 0.0), float(spacing or 0.0))
+                          float(self.length or 0.0), float(spacing or 0.0),
+                          math.inf if self.max_current is None else float(self.max_current),
+                          math.nan if self.resistance is None else float(self.resistance))
 
 
 class PhysicalCoils(StrictModel):
-    """One or more coils (each :class:`CoilSpec`), their fields added."""
+    """One or more coils (each :class:`CoilSpec`), their fields added; ``max_power`` (W, the total
+    Σ R I² of coils with a ``resistance``) and ``max_field`` (|μ0 H| at the rod) limit a design
+    over the currents."""
 
     type: Literal["coils"]
     coils: List[CoilSpec] = Field(min_length=1, max_length=16)
     fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
+    max_power: Optional[Q("power", gt=0, le=1e9)] = None
+    max_field: Optional[Q("magnetic_field", gt=0, le=1e9)] = None
 
     @model_validator(mode="after")
     def _check(self):
         if all(c.current == 0.0 for c in self.coils):
             raise error("every coil's current is zero: there is no field", "coils")
+        if self.max_power is not None and any(c.resistance is None for c in self.coils):
+            k = next(i for i, c in enumerate(self.coils) if c.resistance is None)
+            raise error(f"max_power needs every coil's resistance (coil {k + 1} has none, e.g. "
+                        "'resistance: 2 ohm')", "max_power")
         return self
 
     def to_field(self, length: float, where: str = "field"):
-        return _fitted([c.source() for c in self.coils], length, float(self.fit_tolerance), where)
+        field, h0 = _fitted([c.source() for c in self.coils], length, float(self.fit_tolerance), where)
+        limits = {"fit_tolerance": float(self.fit_tolerance),
+                  "max_power": math.inf if self.max_power is None else float(self.max_power),
+                  "max_field": math.inf if self.max_field is None else float(self.max_field)}
+        return replace(field, **limits), h0

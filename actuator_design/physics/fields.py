@@ -43,6 +43,10 @@ class FieldModel:
     def parameter_values(self, field) -> Dict[str, float]:
         return {}
 
+    def default_values(self) -> Dict[str, float]:
+        """Values :meth:`evaluate` and :func:`check_current_free` take for parameters not given."""
+        return {}
+
     def jet(self, x, y, P: Dict[str, ca.SX]):
         """ĥ and its first and second derivatives at one point (scalar SX ``x``, ``y``).
 
@@ -78,6 +82,7 @@ class FieldModel:
         syms = {k: ca.SX.sym(k) for k in self.params}
         hx, hy = self.value(xs, ys, syms)
         f = ca.Function("h", [xs, ys] + list(syms.values()), [ca.vertcat(hx, hy)])
+        values = {**self.default_values(), **values}
         out = f(x, y, *[values[k] for k in self.params])
         return np.asarray(out, float).reshape(2, x.size)
 
@@ -166,21 +171,35 @@ class ExpressionFieldModel(FieldModel):
 
 
 class SourceFieldModel(FieldModel):
-    """Magnets and coils: ĥ = −∇ψ of the fitted zonal harmonics (:mod:`.harmonic`), exact
-    derivatives by automatic differentiation; the numbers are constants of the expression."""
+    """Magnets and coils: ĥ = −Σ_k w_k ∇ψ_k of the fitted zonal harmonics (:mod:`.harmonic`), exact
+    derivatives by automatic differentiation; the fits are constants of the expression, the source
+    weights w_k (``SourceField.weights``) NLP parameters ``source_weight_k``."""
 
     def __init__(self, field: SourceField):
         from .harmonic import field_function
 
         self.terms = tuple(field.terms)
-        self._f = field_function(self.terms)
+        self.params = tuple(f"source_weight_{k}" for k in range(len(self.terms)))
+        self._f = [field_function((t,)) for t in self.terms]
 
     def value(self, x, y, P):
         n = x.numel() if hasattr(x, "numel") else 1
-        if n == 1:
-            return self._f(x, y)
-        hx, hy = self._f.map(n)(ca.reshape(x, 1, n), ca.reshape(y, 1, n))
-        return ca.reshape(hx, x.shape), ca.reshape(hy, x.shape)
+        hx = hy = 0
+        for name, f in zip(self.params, self._f):
+            if n == 1:
+                fx, fy = f(x, y)
+            else:
+                fx, fy = f.map(n)(ca.reshape(x, 1, n), ca.reshape(y, 1, n))
+                fx, fy = ca.reshape(fx, x.shape), ca.reshape(fy, x.shape)
+            w = P.get(name, 1.0)  # callers evaluating the fitted field itself pass no weights
+            hx, hy = hx + w * fx, hy + w * fy
+        return hx, hy
+
+    def parameter_values(self, field):
+        return dict(zip(self.params, field.source_weights()))
+
+    def default_values(self):
+        return dict.fromkeys(self.params, 1.0)
 
     def structure(self):
         return (type(self).__name__,) + self.terms
@@ -211,7 +230,7 @@ def check_current_free(model: FieldModel, values=None, radius: float = 1.0, n: i
     FieldCheckError
         Naming ``name``, the worst point and the size of div and curl relative to |∇ĥ|.
     """
-    values = values or {}
+    values = {**model.default_values(), **(values or {})}
     xs, ys = ca.SX.sym("x"), ca.SX.sym("y")
     syms = {k: ca.SX.sym(k) for k in model.params}
     hx, hy = model.value(xs, ys, syms)
