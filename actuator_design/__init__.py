@@ -63,6 +63,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "design": ("analysis.design", "design"),
     "design_poses": ("analysis.design_poses", "design_poses"),
     "design_contact_force": ("analysis.contact_design", "design_contact_force"),
+    "design_currents": ("analysis.current_design", "design_currents"),
     "field_schedule": ("analysis.schedule", "field_schedule"),
     "optimal_schedule": ("analysis.schedule_ocp", "optimal_schedule"),
     "RateLimits": ("analysis.schedule_ocp", "RateLimits"),
@@ -78,6 +79,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "DesignResult": ("analysis.design_types", "DesignResult"),
     "ScheduleResult": ("analysis.schedule", "ScheduleResult"),
     "OptimalSchedule": ("analysis.schedule_ocp", "OptimalSchedule"),
+    "CurrentDesign": ("analysis.current_design", "CurrentDesign"),
     "FitResult": ("calibration", "FitResult"),
     "StudyReport": ("study.runner", "StudyReport"),
 }

@@ -441,6 +441,9 @@ def run(args: argparse.Namespace) -> int:
     if args.target_shape is not None:
         from .design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)
+    from .design_currents import is_coil_scene, run_currents
+    if is_coil_scene(scene) and stiffness is None and target is not None and not isinstance(target, list):
+        return run_currents(args, scene, options, raw, target, vary, settings)
     from ..user_units import user_units
 
     rates = _rates(args, raw)

@@ -10,7 +10,7 @@ from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
 from .design_units import positive_target
 from .output import emit
 
-__all__ = ["parse_force", "run_force"]
+__all__ = ["parse_force", "run_force", "state_files"]
 
 
 def parse_force(value, scene):
@@ -63,12 +63,17 @@ def _summary(res, units) -> str:
 
 
 def _files(res, payload) -> dict:
+    return state_files(payload, res.state, "designed contact state")
+
+
+def state_files(payload: dict, state, title: str) -> dict:
+    """design.json, and the designed state's shape.csv and shape.png when it converged."""
     from ..io import dumps_json, shape_csv_text
     from ..viz.shape import plot_shape
     from ..viz.style import png_bytes
 
     files = {"design.json": dumps_json(payload, indent=1) + "\n"}
-    if res.state is not None and res.state.success:
-        files["shape.csv"] = shape_csv_text(res.state)
-        files["shape.png"] = png_bytes(plot_shape(res.state, title="designed contact state"), dpi=150)
+    if state is not None and state.success:
+        files["shape.csv"] = shape_csv_text(state)
+        files["shape.png"] = png_bytes(plot_shape(state, title=title), dpi=150)
     return files

@@ -1,0 +1,96 @@
+"""``design --target-tip X,Y`` on a scene whose field comes from coils: the least-power coil currents
+(A) within each driver's limit that put the tip on the target
+(:func:`~actuator_design.analysis.current_design.design_currents`), printed in A, W, mT and the
+rod's length unit, and written as design.json, shape.csv and shape.png."""
+from __future__ import annotations
+
+import math
+import sys
+
+from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
+from .output import emit
+
+__all__ = ["run_currents", "is_coil_scene"]
+
+
+def is_coil_scene(scene) -> bool:
+    """Whether the scene's field comes from coils only (their currents are then the design)."""
+    from ..field_sources import CoilSource
+
+    f = scene.field
+    return getattr(f, "kind", "") == "sources" and all(isinstance(s, CoilSource) for s in f.sources)
+
+
+def run_currents(args, scene, options, raw, target, vary, settings) -> int:
+    """Design, print, write; exit 0 success, 3 not verified or not robust, 4 unreachable."""
+    from ..analysis.current_design import design_currents
+    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
+
+    from ..analysis.current_design import coil_problem
+
+    if vary is not None:
+        raise InputError("--vary: on a scene of coils the design varies the coils' currents (each within its "
+                         "max_current); leave --vary out")
+    for flag in ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
+                 "rotation_rate"):
+        if getattr(args, flag, None) is not None:
+            raise InputError(f"--{flag.replace('_', '-')}: does not apply to a design over coil currents (the "
+                             "coils' max_current, resistance, max_power and max_field are its limits)")
+    with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
+        coil_problem(scene, target)
+    progress = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+    with stdout_to_stderr(args.json):
+        res = design_currents(scene, target, tolerances=settings.tolerances, options=options,
+                              verify=not args.no_verify, progress=progress)
+    length = scene.scales.length
+    payload = res.to_dict()
+    payload["physical"] = {"tip_mm": [v * length * 1e3 for v in res.tip[:2]],
+                           "target_mm": [v * length * 1e3 for v in res.target[:2]],
+                           "tip_error_mm": res.tip_error * length * 1e3,
+                           "worst_tip_error_mm": res.worst_tip_error * length * 1e3}
+    emit(args, res, lambda: _files(res, payload), lambda r: _summary(r, length), payload=payload)
+    if res.success:
+        return EXIT_OK
+    return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
+
+
+def _summary(res, length: float) -> str:
+    mm = lambda v: f"{v * length * 1e3:.6g} mm"
+    amps = ", ".join(f"{i:.6g} A" for i in res.currents) if res.currents else "none"
+    limits = ", ".join(f"{i:.4g} A" for i in res.max_current)
+    if not res.currents:  # no design: what failed, and nothing else
+        return "\n".join(["actuator-design: coil currents for a tip position",
+                          f"  note        : {res.message}", f"  RESULT      : {res.status.upper()}"])
+    effort = (f"power {res.power:.6g} W" if res.effort == "power" else
+              f"sum of squared currents {sum(i * i for i in res.currents):.6g} A^2")
+    lines = ["actuator-design: coil currents for a tip position",
+             f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g} rod lengths "
+             f"({mm(res.target[0])}, {mm(res.target[1])})",
+             f"  currents    : {amps}  (limits {limits}; started from "
+             + ", ".join(f"{i:.4g} A" for i in res.start_currents) + ")",
+             f"  effort      : {effort}" + ("  (least found)" if res.least_effort else ""),
+             f"  field       : mu0 H = {res.field_at_clamp[0] * 1e3:.6g} mT at the clamp, at "
+             f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod"]
+    if math.isfinite(res.tip[0]):
+        lines.append(f"  achieved    : x = {res.tip[0]:.10g}, y = {res.tip[1]:.10g} rod lengths "
+                     f"(miss {res.tip_error:.2g}; {mm(res.tip[0])}, {mm(res.tip[1])})")
+    if res.verification:
+        v = res.verification
+        lines.append(f"  verified    : {res.verified} (refitted field, from rest: miss {v['error']:.2g}, "
+                     f"stable {v['stable']})")
+    if res.box:
+        lines.append(f"  robustness  : {len(res.box)} corners ({res.tolerances.describe()}; currents each, the mount "
+                     f"by the angle): worst tip miss {res.worst_tip_error:.3g} rod lengths "
+                     f"({mm(res.worst_tip_error)}); on the designed branch at every corner: {res.holds_over_box}")
+    if res.limits_active:
+        lines.append(f"  limits      : at {', '.join(res.limits_active)}")
+    lines += [f"  note        : {res.message}",
+              f"  time        : {res.seconds:.2f} s ({res.solves} solves)",
+              f"  RESULT      : {'SUCCESS' if res.success else res.status.upper()}"]
+    return "\n".join(lines)
+
+
+def _files(res, payload) -> dict:
+    from .design_force import state_files
+
+    return state_files(payload, res.state, "designed state (coil currents)")
