@@ -104,6 +104,7 @@ def test_a_current_limit_below_the_need_is_unreachable_and_named(tmp_path, capsy
     assert out["tip_error"] > 1e-3 and "coil 2 current at the limit" in out["message"]
 
 
+@pytest.mark.slow  # ~28 s: the search crawls along the field limit
 def test_the_field_limit_holds_on_the_whole_rod_by_magpylib(tmp_path, capsys):
     """The target needs 12.2 mT; with max_field 11 mT the nearest tip found keeps |mu0 H| <= 11 mT
     at every point of the reported shape, by magpylib at the designed currents."""
@@ -162,6 +163,7 @@ def test_currents_from_a_forward_solve_are_found_again_at_no_more_power():
     assert np.allclose(d.currents, given, atol=1e-6)
 
 
+@pytest.mark.slow  # a second whole design (~8 s)
 def test_the_design_does_not_depend_on_the_configured_start_currents(designed, tmp_path):
     """The configured currents only start the search: -2 A and 0.5 A give the design of 2 A and
     2 A (the first coil's current positive: ±I hold the same state of a soft rod)."""
