@@ -64,6 +64,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "design_poses": ("analysis.design_poses", "design_poses"),
     "design_contact_force": ("analysis.contact_design", "design_contact_force"),
     "design_currents": ("analysis.current_design", "design_currents"),
+    "design_pose": ("analysis.pose_design", "design_pose"),
     "field_schedule": ("analysis.schedule", "field_schedule"),
     "optimal_schedule": ("analysis.schedule_ocp", "optimal_schedule"),
     "RateLimits": ("analysis.schedule_ocp", "RateLimits"),
@@ -80,6 +81,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "ScheduleResult": ("analysis.schedule", "ScheduleResult"),
     "OptimalSchedule": ("analysis.schedule_ocp", "OptimalSchedule"),
     "CurrentDesign": ("analysis.current_design", "CurrentDesign"),
+    "PoseDesign": ("analysis.pose_design", "PoseDesign"),
     "FitResult": ("calibration", "FitResult"),
     "StudyReport": ("study.runner", "StudyReport"),
 }

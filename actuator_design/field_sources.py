@@ -30,6 +30,8 @@ __all__ = ["MagnetSource", "CoilSource", "FittedField", "fit_sources", "source_f
 #: Default fit tolerance per source, relative to H0 (the total over a few sources stays ≤ 1e-6).
 FIT_TOLERANCE = 1e-7
 MAX_ORDER = 60  # highest Legendre order of a fit
+#: highest order of a magnet with travel: its fit holds down to ~1.2 R_v (R_v the sphere holding it)
+MAX_TRAVEL_ORDER = 120
 _NODES = 240  # Gauss–Legendre nodes of the projection (exact for orders ≪ 2 × 240)
 _MAX_LOOPS = 2000  # bounds the work of a solenoid: one magpylib loop per turn
 
@@ -41,7 +43,11 @@ class MagnetSource:
     shape : "cylinder" or "sphere"; diameter, height (cylinder only) in m; position (x, y) of its
     centre in m (the clamp at the origin, the rod along +x, the magnet centred in the rod's plane);
     axis_angle : direction of its axis and magnetisation, rad from the rod axis; magnetization : M, A/m
-    (a remanence B_r in tesla is M = B_r/μ0).
+    (a remanence B_r in tesla is M = B_r/μ0). travel : how far its stage can move it, for a design
+    over its pose (:mod:`actuator_design.analysis.pose_design`): ((x_lo, x_hi), (y_lo, y_hi),
+    (angle_lo, angle_hi)) in m and rad, ``None`` for a coordinate held; empty: the magnet is fixed. A
+    magnet with travel is fitted down to its own body (not only over the rod's reach from where it
+    is), so that its fitted field, moved rigidly, holds wherever the stage takes it.
     """
 
     shape: str
@@ -50,6 +56,7 @@ class MagnetSource:
     position: Tuple[float, float]
     axis_angle: float
     magnetization: float
+    travel: Tuple = ()
 
 
 @dataclass(frozen=True)
@@ -193,7 +200,11 @@ def _fit_one(src, length: float, h0_guess: float, tol: float) -> Tuple[HarmonicT
     c, rv, ri, kind, d = _geometry(src, length)
     e = np.array([math.cos(src.axis_angle), math.sin(src.axis_angle)])
     n = np.array([-e[1], e[0]])
-    if kind == "exterior":
+    top = MAX_ORDER
+    if getattr(src, "travel", ()):  # a moving magnet: projected next to its body (exterior), to the
+        # orders that reach it (nearer, the body's high orders alias onto the projection)
+        kind, rho_s, top = "exterior", 1.2 * rv, MAX_TRAVEL_ORDER
+    elif kind == "exterior":
         rho_s = max(d - 1.0, 1.05 * rv)
     else:
         rho_s = min(d + 1.0, 0.95 * ri)
@@ -203,32 +214,32 @@ def _fit_one(src, length: float, h0_guess: float, tol: float) -> Tuple[HarmonicT
     radial = np.outer(t, e) + np.outer(sin, n)
     H = magpylib_field([src], np.column_stack([pts * length, np.zeros(len(pts))]))[:, :2]
     h_rho = np.sum(H * radial, 1)
-    P = np.polynomial.legendre.legvander(t, MAX_ORDER)  # P_l(t), l = 0..MAX_ORDER
-    proj = (2 * np.arange(MAX_ORDER + 1) + 1) / 2.0 * ((w * h_rho) @ P)
-    ls = np.arange(1, MAX_ORDER + 1)
+    P = np.polynomial.legendre.legvander(t, top)  # P_l(t), l = 0..top
+    proj = (2 * np.arange(top + 1) + 1) / 2.0 * ((w * h_rho) @ P)
+    ls = np.arange(1, top + 1)
     a = proj[1:] * rho_s / (ls + 1) if kind == "exterior" else -proj[1:] * rho_s / ls
     # the smallest order meeting the tolerance on the part of the reach where the source is not
-    grid = _reach_grid()
+    grid = _reach_grid() if not getattr(src, "travel", ()) else _travel_grid(src, c, rv, length)
     rho = np.hypot(grid[:, 0] - c[0], grid[:, 1] - c[1])
     inside = rho > 1.02 * rv if kind == "exterior" else rho < 0.98 * ri
     grid, rho = grid[inside], rho[inside]
     Htrue = magpylib_field([src], np.column_stack([grid * length, np.zeros(len(grid))]))[:, :2]
-    B, G = _basis_values(_basis(kind, c, src.axis_angle, rho_s, MAX_ORDER), grid)
+    B, G = _basis_values(_basis(kind, c, src.axis_angle, rho_s, top), grid)
     # the truncation error of order L: the field (and gradient) of the terms above L, and what
     # even the highest order misses against magpylib
     miss = np.linalg.norm(np.einsum("nil,l->ni", B, a) - Htrue, axis=1) / h0_guess
     tail_h = np.cumsum((B * a)[:, :, ::-1], axis=2)[:, :, ::-1] / h0_guess  # Σ_{l ≥ L}
     tail_g = np.cumsum((G * a)[:, :, ::-1], axis=2)[:, :, ::-1] / h0_guess
-    order, valid = MAX_ORDER, None
+    order, valid = top, None
     if miss.max() <= tol:
-        for L in range(1, MAX_ORDER):
+        for L in range(1, top):
             if (np.linalg.norm(tail_h[:, :, L], axis=1).max() <= 0.1 * tol
                     and np.abs(tail_g[:, :, L]).max() <= tol):
                 order = L
                 break
     else:  # even the highest order misses near the sources: the region where it holds shrinks to
         # where the field and its gradient (magpylib's by differences) are met
-        g_true = _gradient_fd([src], grid, length).transpose(0, 2, 1).reshape(len(grid), 4)
+        g_true = _gradient_fd([src], grid, length, delta=2.5e-4).transpose(0, 2, 1).reshape(len(grid), 4)
         miss = np.maximum(miss, np.abs(np.einsum("nil,l->ni", G, a) - g_true).max(axis=1) / h0_guess)
         rings = np.sort(np.unique(np.round(rho, 12)))
         ok = [r for r in rings if np.all(miss[(rho >= r) if kind == "exterior" else (rho <= r)] <= tol)]
@@ -238,12 +249,27 @@ def _fit_one(src, length: float, h0_guess: float, tol: float) -> Tuple[HarmonicT
                              f"{miss.min():.2g} of the field scale (far sources: magpylib's own rounding; "
                              "raise fit_tolerance, or use a uniform field)")
         valid = min(ok) if kind == "exterior" else max(ok)
+    if valid is None and getattr(src, "travel", ()):  # checked all round the magnet, down to its body
+        valid = 1.02 * rv
     if valid is None:  # where it was checked: the part of the reach outside the sources
         # (less a hair: a straight rod pointing at the centre ends exactly at d − 1)
         valid = max(1.02 * rv, d - 1.0 - 1e-9) if kind == "exterior" else min(0.98 * ri, d + 1.0 + 1e-9)
     term = HarmonicTerm(kind, c, float(src.axis_angle), float(rho_s), tuple(float(v) for v in a[:order]),
                         float(valid))
     return term, order
+
+
+def _travel_grid(src, c, rv: float, length: float, n_r: int = 48, n_a: int = 96) -> np.ndarray:
+    """Points (units of ℓ) all round a moving magnet's centre ``c``, from next to its body (1.02 R_v)
+    out to the farthest the clamp's reach gets from it anywhere in its travel (the clamp's distance
+    plus ℓ), shape (n_r n_a, 2): the fit of a magnet that moves is checked where the rod can be
+    relative to it, graded towards the body where the field varies fastest."""
+    xs = src.travel[0] or (src.position[0], src.position[0])
+    ys = src.travel[1] or (src.position[1], src.position[1])
+    far = max(math.hypot(x, y) for x in xs for y in ys) / length + 1.0
+    r = 1.02 * rv + (far - 1.02 * rv) * np.linspace(0.0, 1.0, n_r) ** 2
+    a = np.linspace(0.0, 2 * np.pi, n_a, endpoint=False)
+    return np.asarray(c) + np.stack([np.outer(r, np.cos(a)).ravel(), np.outer(r, np.sin(a)).ravel()], 1)
 
 
 def _gradient_fd(sources, pts: np.ndarray, length: float, delta: float = 1e-3) -> np.ndarray:

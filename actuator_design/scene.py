@@ -109,6 +109,11 @@ class SourceField:
         Largest total power Σ R_k I_k² of the coils, W (inf: no limit given).
     max_field : float
         Largest |H| the rod may see, A/m (μ0 H in T; inf: no limit given).
+    placements : tuple of (float, float, float)
+        Per source a rigid move of its fitted field: (dx, dy) in units of ℓ and a turn (rad) about its
+        own centre; empty: none. NLP parameters ``source_dx_k``, ``source_dy_k``, ``source_turn_k``, so a
+        design over a magnet's pose re-solves without rebuilding
+        (:mod:`actuator_design.analysis.pose_design`).
     """
 
     terms: Tuple[Any, ...]
@@ -120,6 +125,7 @@ class SourceField:
     fit_tolerance: float = 1e-7
     max_power: float = math.inf
     max_field: float = math.inf
+    placements: Tuple[Tuple[float, float, float], ...] = ()
     kind: str = dc_field(default="sources", init=False)
     is_uniform: bool = dc_field(default=False, init=False)
 
@@ -138,11 +144,26 @@ class SourceField:
         """w_k of every source (1 where ``weights`` is empty)."""
         return tuple(float(w) for w in self.weights) if self.weights else (1.0,) * len(self.terms)
 
+    def source_placements(self) -> Tuple[Tuple[float, float, float], ...]:
+        """(dx, dy, turn) of every source ((0, 0, 0) where ``placements`` is empty)."""
+        if not self.placements:
+            return ((0.0, 0.0, 0.0),) * len(self.terms)
+        return tuple(tuple(float(v) for v in p) for p in self.placements)
+
+    def placed_terms(self) -> Tuple[Any, ...]:
+        """The fitted expansions where the sources are: each centre moved by (dx, dy), each axis
+        turned by its turn (:meth:`source_placements`)."""
+        from dataclasses import replace as _replace
+
+        return tuple(t if (dx, dy, turn) == (0.0, 0.0, 0.0) else
+                     _replace(t, centre=(t.centre[0] + dx, t.centre[1] + dy), axis_angle=t.axis_angle + turn)
+                     for t, (dx, dy, turn) in zip(self.terms, self.source_placements()))
+
     def region_problem(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
         """Why points (units of ℓ) of a state lie where the fit does not hold, or None."""
         from .physics.harmonic import outside_region
 
-        return outside_region(self.terms, np.asarray(x, float), np.asarray(y, float))
+        return outside_region(self.placed_terms(), np.asarray(x, float), np.asarray(y, float))
 
 
 Field = Union[UniformField, DipoleField, ExpressionField, SourceField]

@@ -83,8 +83,8 @@ def test_weights_are_currents_and_their_derivatives_are_the_finite_differences()
         e[k] = step
         fd = (cmap.evaluate(w + e)["tip"] - cmap.evaluate(w - e)["tip"]) / (2 * step)
         assert np.allclose(pt["tip_jac"][:, k], fd, rtol=1e-6, atol=1e-8), (k, pt["tip_jac"][:, k], fd)
-        fd_h2 = (cmap.evaluate(w + e)["h2"] - cmap.evaluate(w - e)["h2"]) / (2 * step)
-        assert np.allclose(pt["h2_jac"][:, k], fd_h2, rtol=1e-6, atol=1e-9)
+        fd_h2 = (cmap.evaluate(w + e)["limit"] - cmap.evaluate(w - e)["limit"]) / (2 * step)
+        assert np.allclose(pt["limit_jac"][:, k], fd_h2, rtol=1e-6, atol=1e-9)
 
 
 def _config(tmp_path, edit):
@@ -146,7 +146,7 @@ def test_vary_and_a_magnet_scene_are_refused_in_one_line(capsys):
     magnet = CONFIG.parent / "magnet_cylinder_hard_strip.yaml"
     assert main(["design", str(magnet), "--target-tip", "0.8,0.5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "a magnet's pose" in err[0]
+    assert len(err) == 1 and "a magnet with a `travel`" in err[0]  # (its pose is then designed)
 
 
 def test_currents_from_a_forward_solve_are_found_again_at_no_more_power():

@@ -45,6 +45,7 @@ def legendre(coefficients):
     return lambda s: np.polynomial.legendre.legval(2 * np.asarray(s) - 1, c)
 
 
+@pytest.mark.slow  # ~45 s: a whole design with its robustness box (benchmarks)
 def test_a_hard_magnetic_design_reproduces_its_tip_at_the_reported_field(tmp_path, capsys):
     """The design's field in mT and angle, written into the user's config with the designed β(s),
     gives the reported tip by an independent shooting solve; h_r/h is the scene's at every field."""

@@ -203,6 +203,7 @@ def test_a_path_pressing_the_tip_on_the_clamp_stops_where_it_turns_unstable():
     assert not on.success and "unstable" in on.message and 6.3 < on.points[-1].param < 7.0, on.message
 
 
+@pytest.mark.slow  # ~28 s: a loading path through self-contact (benchmarks)
 def test_a_path_follows_the_coil_onto_itself():
     """The coil's tip moment ramped 0 → 8.5: the tip touches down on the middle turn where the free
     spiral θ = M (e^s − 1) first comes 2·gap near itself (Brent on the integrated curve), and the

@@ -23,7 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Callable, List, Optional, Sequence
 
 import numpy as np
@@ -36,13 +36,14 @@ from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene
 from .current_map import CurrentMap, at_weights
-from .current_sqp import CurrentProblem, least_effort_currents, within_limits
+from .current_sqp import CurrentProblem, within_limits
+from .hardware_design import HardwareDesign, judge, run_starts, verify as verify_on
 from .tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem"]
 
-#: the design's tip tolerance (rod lengths) and the independent verification's
-TIP_TOL, VERIFY_TOL = 1e-8, 1e-6
+#: the design's tip tolerance (rod lengths)
+TIP_TOL = 1e-8
 #: with more tolerance axes than this, the currents' corners are the linearised worst ones
 MAX_FULL_AXES = 6
 #: fractions of the way to the current limit at which each screening ramp is sampled
@@ -54,77 +55,40 @@ PAIRED_COILS = 4
 
 
 @dataclass
-class CurrentDesign:
-    """The result of :func:`design_currents` (currents in A, the tip in rod lengths).
+class CurrentDesign(HardwareDesign):
+    """The result of :func:`design_currents` (currents in A, the tip in rod lengths; the common
+    attributes: :class:`~.hardware_design.HardwareDesign`).
 
     Attributes
     ----------
-    success : bool
-        The target met to ``tip_tol`` within every limit, stable, verified from rest, and stable
-        at every corner of the tolerance box.
     status : str
-        ``"success"``, ``"unreachable"`` (no currents within the limits meet the target: the
-        nearest tip is reported), ``"not_verified"``, ``"not_robust"`` or ``"not_converged"``.
+        ``"unreachable"``: no currents within the limits meet the target (the nearest tip is
+        reported); else as :class:`~.hardware_design.HardwareDesign`.
     currents, start_currents, max_current : tuple of float
         A, per coil.
     power : float
         Σ R_k I_k², W (nan without resistances); ``effort`` names what was minimised.
-    field_at_clamp : (float, float)
-        |μ0 H| (T) and its angle (rad) at the clamp.
-    max_rod_field : float
-        Largest |μ0 H| (T) over the rod.
-    tip, tip_error : ndarray (3,), float
-        The design state's tip (x, y, angle) and its miss of the target (rod lengths).
-    verification : dict
-        The independent solve from rest on the refitted field: ``tip``, ``error``, ``stable``.
-    box : list of dict
-        Every corner: its offsets, tip, miss, ``success`` and ``stable``.
-    worst_tip_error : float
-        Largest miss over the box (rod lengths).
+    least_effort : bool
+        The SQP ended at a least-effort point (not only a feasible one).
     """
 
-    success: bool
-    status: str
-    message: str
-    target: tuple
     currents: tuple = ()
     start_currents: tuple = ()
     max_current: tuple = ()
     resistance: tuple = ()
     power: float = math.nan
     effort: str = "power"
-    field_at_clamp: tuple = (math.nan, math.nan)
-    max_rod_field: float = math.nan
-    tip: np.ndarray = field(default_factory=lambda: np.full(3, math.nan))
-    tip_error: float = math.nan
-    state: Optional[EquilibriumResult] = None
-    verified: bool = False
-    verification: dict = field(default_factory=dict)
-    box: List[dict] = field(default_factory=list)
-    worst_tip_error: float = math.nan
-    holds_over_box: bool = False
     least_effort: bool = False
-    iterations: int = 0
-    solves: int = 0
-    seconds: float = 0.0
-    limits_active: List[str] = field(default_factory=list)
-    tolerances: Optional[Tolerances] = None
-    notes: List[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """Plain data: the JSON contract of ``design --json`` on a coil scene."""
-        out = {k: getattr(self, k) for k in ("success", "status", "message", "effort", "verified", "holds_over_box",
-                                             "least_effort", "iterations", "solves", "limits_active", "notes")}
+        out = self.common_dict()
         out.update({
-            "target": list(self.target), "currents_A": list(self.currents), "start_currents_A": list(self.start_currents),
+            "effort": self.effort, "least_effort": self.least_effort,
+            "currents_A": list(self.currents), "start_currents_A": list(self.start_currents),
             "max_current_A": list(self.max_current),
             "resistance_ohm": [None if not math.isfinite(r) else r for r in self.resistance],
-            "power_W": None if not math.isfinite(self.power) else self.power,
-            "field_at_clamp_mT": self.field_at_clamp[0] * 1e3, "field_at_clamp_deg": math.degrees(self.field_at_clamp[1]),
-            "max_rod_field_mT": self.max_rod_field * 1e3,
-            "tip": {"x": self.tip[0], "y": self.tip[1], "angle": self.tip[2]}, "tip_error": self.tip_error,
-            "verification": self.verification, "box": self.box, "worst_tip_error": self.worst_tip_error,
-            "tolerances": None if self.tolerances is None else self.tolerances.to_dict(), "time_s": self.seconds})
+            "power_W": None if not math.isfinite(self.power) else self.power})
         return out
 
 
@@ -158,7 +122,7 @@ def coil_problem(scene: Scene, target, tip_tol: float = TIP_TOL) -> CurrentProbl
     power = resist * i0 ** 2 if with_r else None
     return CurrentProblem(target=np.asarray(target, float), cost=power if with_r else i0 ** 2,
                           bound=np.array([c.max_current for c in coils]) / np.abs(i0), power=power,
-                          max_power=f.max_power, max_h2=(f.max_field / scene.scales.field) ** 2, tip_tol=tip_tol)
+                          max_power=f.max_power, max_limit=(f.max_field / scene.scales.field) ** 2, tip_tol=tip_tol)
 
 
 def scene_at_currents(scene: Scene, currents: Sequence[float]) -> Scene:
@@ -269,21 +233,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     cmap = CurrentMap(scene, start, w0)
     starts = _screen(cmap, prob, _even(scene), progress)
 
-    def run(ws):  # one SQP, here or in a forked copy of this process (the same answer either way),
-        n0 = cmap.solves  # with the solves it took
-        p0 = cmap.evaluate(ws)
-        if p0 is None or not within_limits(prob, ws, p0):  # the configured currents may not keep them
-            return None, cmap.solves - n0
-        return least_effort_currents(prob, cmap.evaluate, ws, progress), cmap.solves - n0
-
-    base = cmap.solves
-    beside = [forked.start(lambda ws=ws: run(ws)) for ws in starts[1:]]
-    runs = [run(starts[0])] + [b.result() for b in beside]
-    cmap.solves = base + sum(n for _, n in runs)  # each task's own count, wherever it ran
-    sqp = None
-    for run_k, _ in runs:  # in the order of the starts: equal efforts keep the first
-        if run_k is not None and (sqp is None or _better(prob, run_k, sqp)):
-            sqp = run_k
+    sqp = run_starts(cmap, prob, starts, lambda a, b: _better(prob, a, b), progress)
     if sqp is None:
         out.message = ("no start currents within the limits gave a stable state from rest (the configured "
                        "currents and the screen's ramps)")
@@ -298,7 +248,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     out.tip_error = float(np.max(np.abs(pt["tip"][:target.size] - target)))
     out.iterations, out.least_effort = sqp.iterations, bool(sqp.converged)
     out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
-    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["h2"])
+    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
     out.limits_active = _active(prob, w, pt)
     if not sqp.reached:
         out.status = "unreachable"
@@ -308,17 +258,8 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
                                                                  if out.limits_active else ""))
         return out
     if verify:
-        r = solve(scene_at_currents(scene, w * i0), options)
-        vt = np.array([r.tip["x"], r.tip["y"], r.tip["angle"]])
-        err = float(np.max(np.abs(vt[:target.size] - target)))
-        out.verification = {"tip": {"x": vt[0], "y": vt[1], "angle": vt[2]}, "error": err,
-                            "success": bool(r.success), "stable": bool(r.stable), "status": r.status}
-        out.verified = bool(r.success and r.stable and err <= VERIFY_TOL)
-    out.box = _box(cmap, w, out.state, tol, target, pt["tip_jac"], i0)
-    out.worst_tip_error = max([c["tip_error"] for c in out.box], default=out.tip_error)
-    out.holds_over_box = all(c["success"] and c["stable"] and c["same_branch"] for c in out.box)
-    out.success = bool(out.verified and out.holds_over_box)
-    out.status = "success" if out.success else ("not_verified" if not out.verified else "not_robust")
+        verify_on(out, scene_at_currents(scene, w * i0), options)
+    judge(out, _box(cmap, w, out.state, tol, target, pt["tip_jac"], i0))
     out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
     out.message = _message(out)
     return out
@@ -352,10 +293,10 @@ def _screen(cmap: CurrentMap, prob: CurrentProblem, even: bool, progress=None) -
         progress(f"screen: {len(found) - 1} states from rest, nearest tip {ranked[0][1]:.3g} rod lengths off")
     chosen = [found[0][0]]
     p1 = cmap.evaluate(chosen[0])
-    if p1 is not None and math.isfinite(prob.max_h2) and float(np.max(p1["h2"])) > prob.max_h2:
+    if p1 is not None and math.isfinite(prob.max_limit) and float(np.max(p1["limit"])) > prob.max_limit:
         # the configured currents see more field than allowed: scaled into the limit (|h| ∝ the scale,
         # up to the rod's move), they start the search instead
-        chosen[0] = chosen[0] * 0.9 * math.sqrt(prob.max_h2 / float(np.max(p1["h2"])))
+        chosen[0] = chosen[0] * 0.9 * math.sqrt(prob.max_limit / float(np.max(p1["limit"])))
     for w, _ in ranked:
         if len(chosen) >= STARTS:
             break
@@ -401,22 +342,11 @@ def _active(prob: CurrentProblem, w: np.ndarray, pt: dict) -> List[str]:
     act = [f"coil {k + 1} current" for k in range(w.size) if abs(w[k]) >= prob.bound[k] * (1 - 1e-6)]
     if prob.power is not None and float(np.dot(prob.power, w * w)) >= prob.max_power * (1 - 1e-6):
         act.append("max_power")
-    if math.isfinite(prob.max_h2) and float(np.max(pt["h2"])) >= prob.max_h2 * (1 - 1e-6):
+    if math.isfinite(prob.max_limit) and float(np.max(pt["limit"])) >= prob.max_limit * (1 - 1e-6):
         act.append("max_field")
     return act
 
 
 def _message(out: CurrentDesign) -> str:
     cur = ", ".join(f"{i:.6g} A" for i in out.currents)
-    text = f"currents {cur} put the tip on the target (miss {out.tip_error:.2g} rod lengths)"
-    if not out.verified:
-        v = out.verification
-        return text + (f"; NOT verified: the refitted field solved from rest gives a tip {v.get('error', math.nan):.3g} "
-                       f"rod lengths off ({v.get('status', 'not run')}, stable {v.get('stable')})" if v else
-                       "; not verified (verification off)")
-    text += f"; verified from rest on the refitted field (miss {out.verification['error']:.2g})"
-    if not out.holds_over_box:
-        bad = sum(not (c["success"] and c["stable"] and c["same_branch"]) for c in out.box)
-        return text + (f"; NOT robust: at {bad} of {len(out.box)} corners of the tolerance box the rod, switched on "
-                       "from rest, is not on the designed branch (or not stable)")
-    return text + f"; over the box ({len(out.box)} corners) the tip misses by at most {out.worst_tip_error:.3g} rod lengths"
+    return out.closing_message(f"currents {cur} put the tip on the target (miss {out.tip_error:.2g} rod lengths)")

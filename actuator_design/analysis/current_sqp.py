@@ -1,13 +1,15 @@
-"""The least-effort currents that put the tip on a target: a trust-region SQP over the forward map
-(:class:`~.current_map.CurrentMap`), each step a small quadratic programme (issue 19 item 2).
+"""The least-effort hardware setting that puts the tip on a target: a trust-region SQP over the
+forward map (:class:`~.hardware_map.HardwareMap`), each step a small quadratic programme (issue 19
+item 2). Written for coil currents; a magnet's pose (:mod:`.pose_design`) is the same problem with
+its travel as the box, the least move as the effort and its clearance as the pointwise limit.
 
 Unknowns: the coil weights w (n,), I_k = w_k I_k⁰. Problem:
 
-    min  Σ c_k w_k²                          (c_k = R_k I_k⁰² : the coils' power, W; or I_k⁰²)
+    min  Σ c_k (w_k − w̄_k)²                  (c_k = R_k I_k⁰² : the coils' power, W; or I_k⁰²; w̄ = 0)
     s.t. tip(w) = target                     (m = 2 or 3 equations)
-         |w_k| ≤ I_max,k / |I_k⁰|            (each driver's limit)
+         lo_k ≤ w_k ≤ hi_k                   (each driver's limit: ±I_max,k / |I_k⁰|)
          Σ R_k I_k⁰² w_k² ≤ P_max            (total power, when given)
-         |ĥ(r_q; w)|² ≤ ĥ_max²               (the field the rod sees, at its quadrature points)
+         c(r_q; w) ≤ c_max                   (|ĥ|² ≤ ĥ_max²: the field the rod sees, at its quadrature points)
 
 Each step linearises the tip and the field at the current w (exact derivatives from the map) and
 solves the quadratic programme in the step d, inside a trust region |d|∞ ≤ Δ; where the linearised
@@ -39,6 +41,18 @@ STEP_TOL = 1e-8
 #: away from the target, the SQP stops once the miss shrank by less than this fraction over
 #: this many iterations (it crawls along the edge of what the limits and the branch allow)
 STALL_FRACTION, STALL_ITERATIONS = 1e-3, 6
+#: evaluations of the Levenberg–Marquardt projection onto the target; iterations of the feasible
+#: descent along it (each bounds the work; the verdict rests on the tip, limits and stability)
+PROJECTION_STEPS, DESCENT_ITERATIONS = 60, 60
+#: the projection gives up after this many refused steps in a row (each must cut the miss by 0.1 %)
+PROJECTION_REFUSALS = 6
+#: the feasible descent aims along the tip's singular directions with σ ≥ this × σ1 only
+RESOLVED = 1e-4
+#: first-order optimality of the feasible descent's end point (relative residual of the gradient:
+#: where the tip's Jacobian is nearly singular, σ2/σ1 ~ 1e-3, the tip tolerance leaves ~1e-4)
+KKT_TOL = 1e-3
+#: on the target with the trust region below this, the SQP hands over to the feasible descent
+SWITCH_DELTA = 1e-3
 
 
 @dataclass
@@ -50,15 +64,19 @@ class CurrentProblem:
     target : ndarray, shape (m,)
         Tip x, y (and angle) in rod lengths (rad).
     cost : ndarray, shape (n,)
-        c_k of the effort Σ c_k w_k².
+        c_k of the effort Σ c_k (w_k − w̄_k)².
     bound : ndarray, shape (n,)
-        |w_k| ≤ bound_k.
+        |w_k| ≤ bound_k (when ``lower`` and ``upper`` are not given).
     power : ndarray, shape (n,) or None
         R_k I_k⁰² (W at w = 1), with ``max_power`` (W); None: no power limit.
-    max_h2 : float
-        ĥ_max² (inf: no field limit).
+    max_limit : float
+        The cap on the map's pointwise quantity (ĥ_max² for currents; inf: no limit).
     tip_tol : float
         The tip must meet the target to this (rod lengths, rad).
+    lower, upper : ndarray, shape (n,), optional
+        lo_k ≤ w_k ≤ hi_k instead of ±bound_k.
+    centre : ndarray, shape (n,), optional
+        w̄ of the effort (zero when not given).
     """
 
     target: np.ndarray
@@ -66,8 +84,17 @@ class CurrentProblem:
     bound: np.ndarray
     power: Optional[np.ndarray] = None
     max_power: float = math.inf
-    max_h2: float = math.inf
+    max_limit: float = math.inf
     tip_tol: float = 1e-8
+    lower: Optional[np.ndarray] = None
+    upper: Optional[np.ndarray] = None
+    centre: Optional[np.ndarray] = None
+
+    def __post_init__(self):
+        self.lo = -np.asarray(self.bound, float) if self.lower is None else np.asarray(self.lower, float)
+        self.hi = np.asarray(self.bound, float) if self.upper is None else np.asarray(self.upper, float)
+        self.half = (self.hi - self.lo) / 2  # the scale of each unknown: its trust region is a fraction of it
+        self.mid = np.zeros_like(self.hi) if self.centre is None else np.asarray(self.centre, float)
 
 
 @dataclass
@@ -86,46 +113,51 @@ class SQPOutcome:
 
 
 def _effort(prob: CurrentProblem, w: np.ndarray) -> float:
-    return float(np.dot(prob.cost, w * w))
+    return float(np.dot(prob.cost, (w - prob.mid) ** 2))
 
 
 def within_limits(prob: CurrentProblem, w: np.ndarray, pt: dict, slack: float = 1e-9) -> bool:
-    """Whether the weights ``w`` and the field ``pt["h2"]`` they give the rod keep every limit (to
+    """Whether the weights ``w`` and the field ``pt["limit"]`` they give the rod keep every limit (to
     ``slack``, relative)."""
-    if np.any(np.abs(w) > prob.bound * (1 + slack)):
+    if np.any(w > prob.hi + slack * prob.half) or np.any(w < prob.lo - slack * prob.half):
         return False
     if prob.power is not None and float(np.dot(prob.power, w * w)) > prob.max_power * (1 + slack):
         return False
-    return not (math.isfinite(prob.max_h2) and float(np.max(pt["h2"])) > prob.max_h2 * (1 + slack))
+    return not (math.isfinite(prob.max_limit) and float(np.max(pt["limit"])) > prob.max_limit * (1 + slack))
 
 
-def _qp_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float, exact: bool) -> Optional[np.ndarray]:
+def _qp_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float, exact: bool,
+             hess: Optional[np.ndarray] = None, lin: Optional[tuple] = None) -> Optional[np.ndarray]:
     """The step d of the linearised problem within the trust region |d_k| ≤ delta·bound_k: least
     effort meeting the target (``exact``, SLSQP), or least tip miss (not ``exact``: bounded linear
     least squares, then shortened to keep the linearised power and field limits); None if there is
-    no such step."""
+    no such step. With ``hess`` (n, n) the effort is modelled as ∇f·d + ½ dᵀ hess d (the
+    Lagrangian's curvature, :func:`_feasible_descent`) instead of itself; with ``lin`` = (J, e) the
+    tip's linearisation is J d + e = 0 instead of the map's own."""
     from scipy.optimize import minimize
 
     if not exact:
         return _least_miss_step(prob, w, pt, delta)
     m = prob.target.size
-    e = pt["tip"][:m] - prob.target
-    J = pt["tip_jac"][:m]
+    J, e = lin if lin is not None else (pt["tip_jac"][:m], pt["tip"][:m] - prob.target)
     scale = max(float(np.sum(prob.cost)), 1e-300)
     cons = []
     cons.append({"type": "eq", "fun": lambda d: J @ d + e, "jac": lambda d: J})
 
     def fun(d):
-        v = w + d
+        if hess is not None:
+            g = 2 * prob.cost * (w - prob.mid)
+            return (float(g @ d) + 0.5 * float(d @ hess @ d)) / scale, (g + hess @ d) / scale
+        v = w + d - prob.mid
         return float(np.dot(prob.cost, v * v)) / scale, 2 * prob.cost * v / scale
     if prob.power is not None:
         cons.append({"type": "ineq", "fun": lambda d: (prob.max_power - float(np.dot(prob.power, (w + d) ** 2))) / prob.max_power,
                      "jac": lambda d: -2 * prob.power * (w + d) / prob.max_power})
-    if math.isfinite(prob.max_h2):
-        h2, G = pt["h2"], pt["h2_jac"]
-        cap = prob.max_h2 * (1 - FIELD_MARGIN)
-        cons.append({"type": "ineq", "fun": lambda d: (cap - h2 - G @ d) / prob.max_h2,
-                     "jac": lambda d: -G / prob.max_h2})
+    if math.isfinite(prob.max_limit):
+        h2, G = pt["limit"], pt["limit_jac"]
+        cap = prob.max_limit * (1 - FIELD_MARGIN)
+        cons.append({"type": "ineq", "fun": lambda d: (cap - h2 - G @ d) / prob.max_limit,
+                     "jac": lambda d: -G / prob.max_limit})
     bounds = _box(prob, w, delta)
     d0 = np.clip(np.zeros_like(w), [lo for lo, _ in bounds], [hi for _, hi in bounds])
     res = minimize(fun, d0, jac=True, method="SLSQP", bounds=bounds, constraints=cons,
@@ -139,8 +171,8 @@ def _qp_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float, exact:
 
 
 def _box(prob: CurrentProblem, w: np.ndarray, delta: float) -> list:
-    """Bounds of the step: the current limits and the trust region (a fraction of each limit)."""
-    return [(max(-b - wk, -delta * b), min(b - wk, delta * b)) for wk, b in zip(w, prob.bound)]
+    """Bounds of the step: the limits and the trust region (a fraction of each unknown's scale)."""
+    return [(max(lo - wk, -delta * b), min(hi - wk, delta * b)) for wk, lo, hi, b in zip(w, prob.lo, prob.hi, prob.half)]
 
 
 def _least_miss_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float) -> Optional[np.ndarray]:
@@ -158,9 +190,9 @@ def _least_miss_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float
                    float(np.dot(prob.power, w * w)) - prob.max_power)
         if a > 0 and a + b + c > 0:
             t = min(t, max(0.0, (-b + math.sqrt(max(b * b - 4 * a * c, 0.0))) / (2 * a)))
-    if math.isfinite(prob.max_h2):
-        rate = pt["h2_jac"] @ d
-        room = prob.max_h2 * (1 - FIELD_MARGIN) - pt["h2"]
+    if math.isfinite(prob.max_limit):
+        rate = pt["limit_jac"] @ d
+        room = prob.max_limit * (1 - FIELD_MARGIN) - pt["limit"]
         grow = rate > 0
         if np.any(grow):
             t = min(t, max(0.0, float(np.min(room[grow] / rate[grow]))))
@@ -171,29 +203,42 @@ def _least_miss_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float
 def _merit_weight(prob: CurrentProblem, w: np.ndarray, J: np.ndarray, mu: float) -> float:
     """The ℓ2 merit's penalty μ ≥ 2‖λ‖ (λ: least-squares multipliers of the tip equations,
     ∇f + Jᵀλ ≈ 0), never decreased."""
-    grad = 2 * prob.cost * w / max(float(np.sum(prob.cost)), 1e-300)
+    grad = 2 * prob.cost * (w - prob.mid) / max(float(np.sum(prob.cost)), 1e-300)
     lam = np.linalg.lstsq(J.T, -grad, rcond=None)[0]
     return max(mu, 2.0 * float(np.linalg.norm(lam)) + 1e-3)
 
 
 def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray], Optional[dict]],
-                          w0: np.ndarray, progress: Optional[Callable[[str], None]] = None) -> SQPOutcome:
+                          w0: np.ndarray, progress: Optional[Callable[[str], None]] = None,
+                          restore_first: bool = False) -> SQPOutcome:
     """Run the SQP from ``w0`` (whose evaluation must succeed, within the limits); see the module
     docstring. Every step taken keeps the limits, so the point returned does.
 
-    ``evaluate(w)`` returns the map's point at w (``tip``, ``tip_jac``, ``h2``, ``h2_jac``) or None
+    ``evaluate(w)`` returns the map's point at w (``tip``, ``tip_jac``, ``limit``, ``limit_jac``) or None
     where the equilibrium cannot be followed there. Steps are judged by the ℓ2 merit
     φ = f + μ‖tip − target‖ (actual against predicted decrease), with one second-order correction
-    (the tip equations re-linearised at the trial point) before a step is refused."""
+    (the tip equations re-linearised at the trial point) before a step is refused. Where the SQP
+    stops short of the target, a Levenberg–Marquardt projection (:func:`_project`) tries to meet it;
+    where it is on the target but has not settled (its trust region collapsed), the feasible
+    descent (:func:`_feasible_descent`) lowers the effort along the target. With ``restore_first``
+    the projection comes first, and where it meets the target the feasible descent follows without
+    the SQP (for maps whose tip Jacobian is nearly singular, where the merit's linear model fails:
+    a magnet's pose, :mod:`.pose_design`)."""
     m = prob.target.size
     scale = max(float(np.sum(prob.cost)), 1e-300)
-    f = lambda w: float(np.dot(prob.cost, w * w)) / scale
+    f = lambda w: _effort(prob, w) / scale
     resid = lambda p: p["tip"][:m] - prob.target
     phi = lambda w, p, mu: f(w) + mu * float(np.linalg.norm(resid(p)))
     w = np.asarray(w0, float).copy()
     pt = evaluate(w)
-    delta, mu, history, converged = DELTA_START, 0.0, [], False
-    it = 0
+    history, converged, it = [], False, 0
+    if restore_first:
+        w, pt, _ = _project(prob, evaluate, w, pt)
+        if float(np.max(np.abs(resid(pt)))) <= prob.tip_tol:
+            w, pt, it, converged = _feasible_descent(prob, evaluate, w, pt, it, history, progress)
+            return SQPOutcome(w=w, point=pt, reached=True, iterations=it, converged=converged, history=history)
+    # the SQP; then, where it did not settle on the target, a projection onto it and the feasible descent
+    delta, mu = DELTA_START, 0.0
     for it in range(1, MAX_ITERATIONS + 1):
         e, J = resid(pt), pt["tip_jac"][:m]
         err = float(np.max(np.abs(e)))
@@ -201,6 +246,8 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
         if err > prob.tip_tol and len(history) > STALL_ITERATIONS and \
                 err > (1 - STALL_FRACTION) * history[-1 - STALL_ITERATIONS][0]:
             break  # the target is out of reach here: the miss no longer shrinks (the nearest found)
+        if err <= prob.tip_tol and delta < SWITCH_DELTA:
+            break  # on the target, the trust region collapsed: the merit's linear model fails here
         if progress is not None:
             progress(f"  iteration {it}: tip miss {err:.3g}, effort {_effort(prob, w):.6g}")
         d = _qp_step(prob, w, pt, delta, exact=True)
@@ -209,12 +256,15 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
             d = _qp_step(prob, w, pt, delta, exact=False)
         if d is None:
             break
-        step = float(np.max(np.abs(d) / prob.bound))
+        step = float(np.max(np.abs(d) / prob.half))
         if step <= STEP_TOL:
             converged = exact and err <= prob.tip_tol
             break
         mu = _merit_weight(prob, w, J, mu)
-        pred = f(w) - f(w + d) + mu * (float(np.linalg.norm(e)) - float(np.linalg.norm(e + J @ d)))
+        closer = float(np.linalg.norm(e)) - float(np.linalg.norm(e + J @ d))
+        if closer > 0 and f(w + d) > f(w):  # a step towards the target that costs effort: μ large enough
+            mu = max(mu, 2 * (f(w + d) - f(w)) / closer)  # that the model predicts ≥ μ/2 of its approach
+        pred = f(w) - f(w + d) + mu * closer
         if pred <= 1e-15 * (1.0 + abs(phi(w, pt, mu))):
             converged = exact and err <= prob.tip_tol
             break
@@ -225,7 +275,7 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
                 if new is None or np.linalg.norm(resid(new)) > 2 * max(np.linalg.norm(e), np.linalg.norm(J @ d)):
                     break
                 trial = d - np.linalg.lstsq(J, resid(new), rcond=None)[0]  # back onto the tip equations
-                trial = np.clip(trial, -prob.bound - w, prob.bound - w)
+                trial = np.clip(trial, prob.lo - w, prob.hi - w)
             new = evaluate(w + trial)
             if new is None:
                 continue
@@ -244,5 +294,142 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
             delta = min(2 * delta, DELTA_MAX)
         elif ared < 0.25 * pred:
             delta = step / 2
+    if float(np.max(np.abs(resid(pt)))) > prob.tip_tol:
+        w, pt, _ = _project(prob, evaluate, w, pt)
+    if float(np.max(np.abs(resid(pt)))) <= prob.tip_tol and not converged:
+        w, pt, it, converged = _feasible_descent(prob, evaluate, w, pt, it, history, progress)
     reached = float(np.max(np.abs(resid(pt)))) <= prob.tip_tol
     return SQPOutcome(w=w, point=pt, reached=reached, iterations=it, converged=converged, history=history)
+
+
+def _feasible_descent(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, it: int, history: list,
+                      progress=None):
+    """Lower the effort while staying on the target: each step is the QP step of the linearised
+    problem (the tip's linearised miss kept at zero, the limits, a trust region; the effort
+    modelled with the Lagrangian's curvature, damped BFGS — on a strongly bent target set the
+    constraint's curvature, times its large multiplier, dominates), followed by a
+    projection back onto the target (:func:`_project`); it is taken when the projected point meets
+    the target to ``tip_tol``, keeps every limit and lowers the effort by at least a tenth of the
+    step's predicted decrease. Where the tip's Jacobian is nearly singular (the tips a rod can
+    reach form a thin band) the SQP's merit mistakes the curvature of the thin direction for a
+    miss and its trust region collapses; here the miss is never traded. Ends (``converged``) when
+    the step falls below :data:`STEP_TOL`. Returns (w, pt, iterations, converged)."""
+    delta, converged, last = DELTA_START, False, it + DESCENT_ITERATIONS
+    m = prob.target.size
+    grad = lambda v: 2 * prob.cost * (v - prob.mid)
+    B = np.diag(2 * prob.cost).astype(float)  # the Lagrangian's Hessian, by damped BFGS
+    while it < last:
+        it += 1
+        history.append((float(np.max(np.abs(pt["tip"][:m] - prob.target))), _effort(prob, w)))
+        if progress is not None:
+            progress(f"  iteration {it}: on the target, effort {_effort(prob, w):.6g}")
+        d = _qp_step(prob, w, pt, delta, exact=True, hess=B, lin=_resolved(prob, pt))
+        if d is None:
+            delta /= 4
+            if delta < DELTA_MIN:
+                break
+            continue
+        step = float(np.max(np.abs(d) / prob.half))
+        if step <= STEP_TOL:
+            converged = True
+            break
+        pred = -(float(grad(w) @ d) + 0.5 * float(d @ B @ d))
+        new = evaluate(w + d)
+        taken = None
+        if new is not None and pred > 0:
+            # (onto the target well inside the tolerance: a point left at its edge would slide
+            # along it, lowering the effort by the tolerance's worth, and never be stationary)
+            w2, p2, _ = _project(prob, evaluate, w + d, new, goal=1e-2 * prob.tip_tol)
+            if float(np.max(np.abs(p2["tip"][:m] - prob.target))) <= prob.tip_tol and within_limits(prob, w2, p2) \
+                    and _effort(prob, w) - _effort(prob, w2) >= 0.1 * pred:
+                taken = (w2, p2)
+        if taken is None:
+            delta = step / 4
+            if delta < DELTA_MIN:
+                break
+            continue
+        (w2, p2), s_ = taken, taken[0] - w
+        lam = np.linalg.lstsq(p2["tip_jac"][:m].T, -grad(w2), rcond=None)[0]
+        y = grad(w2) - grad(w) + (p2["tip_jac"][:m] - pt["tip_jac"][:m]).T @ lam
+        B = _bfgs(B, s_, y)
+        w, pt = w2, p2
+        if step >= 0.99 * delta:
+            delta = min(2 * delta, DELTA_MAX)
+    return w, pt, it, converged or _stationary(prob, w, pt)
+
+
+def _resolved(prob: CurrentProblem, pt: dict) -> tuple:
+    """The tip's linearisation (J, e) kept to the directions it resolves: J's singular directions
+    (over the unknowns' scales) with σ ≥ :data:`RESOLVED` σ1. Along the others the tip moves too
+    little for a step to aim at — the projection onto the target (:func:`_project`) walks them."""
+    m = prob.target.size
+    J, e = pt["tip_jac"][:m], pt["tip"][:m] - prob.target
+    U, sv, _ = np.linalg.svd(J * prob.half, full_matrices=False)
+    keep = sv >= RESOLVED * sv[0]
+    return U[:, keep].T @ J, U[:, keep].T @ e
+
+
+def _bfgs(B: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Powell's damped BFGS update of ``B`` by the step ``s`` and the change ``y`` of the
+    Lagrangian's gradient (kept positive definite)."""
+    Bs = B @ s
+    sBs = float(s @ Bs)
+    if sBs <= 0:
+        return B
+    sy = float(s @ y)
+    if sy < 0.2 * sBs:
+        theta = 0.8 * sBs / (sBs - sy)
+        y, sy = theta * y + (1 - theta) * Bs, 0.2 * sBs
+    return B + np.outer(y, y) / sy - np.outer(Bs, Bs) / sBs
+
+
+def _stationary(prob: CurrentProblem, w: np.ndarray, pt: dict) -> bool:
+    """First-order optimality on the target: the effort's gradient (each unknown over its scale)
+    lies, to :data:`KKT_TOL` relative, in the span of the tip's and the active limits' gradients,
+    over the unknowns not held at a bound. Where the feasible descent's trust region has shrunk
+    away (its projections no longer meet the target to ``tip_tol`` within the steps it tries),
+    this says whether it stopped at a least-effort point."""
+    m = prob.target.size
+    free = (w > prob.lo + 1e-9 * prob.half) & (w < prob.hi - 1e-9 * prob.half)
+    grad = (2 * prob.cost * (w - prob.mid) * prob.half)[free]
+    if not np.any(free) or np.linalg.norm(grad) == 0.0:
+        return True
+    rows = [pt["tip_jac"][:m] * prob.half]
+    if math.isfinite(prob.max_limit):
+        active = pt["limit"] >= prob.max_limit * (1 - 1e-6)
+        rows.append(pt["limit_jac"][active] * prob.half)
+    if prob.power is not None and float(np.dot(prob.power, w * w)) >= prob.max_power * (1 - 1e-6):
+        rows.append((2 * prob.power * w * prob.half)[None, :])
+    A = np.vstack(rows)[:, free]
+    lam = np.linalg.lstsq(A.T, grad, rcond=None)[0]
+    return bool(np.linalg.norm(A.T @ lam - grad) <= KKT_TOL * np.linalg.norm(grad))
+
+
+def _project(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, goal: Optional[float] = None):
+    """Levenberg–Marquardt onto the target: steps d = S u with (AᵀA + λI) u = −Aᵀe (A = J S, S the
+    unknowns' scales, e the tip's miss), clipped to the limits, taken where the miss shrinks (λ
+    then falls), refused otherwise (λ rises), for at most :data:`PROJECTION_STEPS` evaluations.
+    Where the tip's Jacobian is nearly singular — a rod whose reachable tips form a thin band —
+    the damping walks the thin direction only as far as its linearisation holds; the SQP's trust
+    region, judged by a merit that mistakes that curvature for a miss, collapses there instead.
+    Aims at a miss of ``goal`` (default ``tip_tol``). Returns (w, pt, moved)."""
+    m = prob.target.size
+    miss = lambda p: float(np.max(np.abs(p["tip"][:m] - prob.target)))
+    goal = prob.tip_tol if goal is None else goal
+    moved, lam, refused = False, None, 0
+    for _ in range(PROJECTION_STEPS):
+        if miss(pt) <= goal or refused >= PROJECTION_REFUSALS:
+            break
+        e, A = pt["tip"][:m] - prob.target, pt["tip_jac"][:m] * prob.half
+        G = A.T @ A
+        lam = 1e-3 * float(np.trace(G)) if lam is None else lam
+        u = np.linalg.solve(G + lam * np.eye(G.shape[0]), -A.T @ e)
+        d = np.clip(prob.half * u, prob.lo - w, prob.hi - w)
+        new = evaluate(w + d)
+        if new is not None and within_limits(prob, w + d, new) and \
+                np.linalg.norm(new["tip"][:m] - prob.target) < (1 - 1e-3) * np.linalg.norm(e):
+            w, pt, moved, refused = w + d, new, True, 0
+            lam /= 4
+        else:
+            lam, refused = lam * 4, refused + 1
+    return w, pt, moved

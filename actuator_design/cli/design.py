@@ -43,6 +43,7 @@ from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_di
                      load_config, parse_rates, stdout_to_stderr, table_csv_text)
 from ..display import degrees, number
 from ..parameters import designable
+from .design_currents import add_hardware_args
 from .design_force import parse_force, run_force
 from .design_units import add_schedule_units, positive_target, quasi_static_line, unit_labels
 from .output import print_written, write_out
@@ -111,7 +112,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     s.add_argument("--degree", type=int, metavar="D", help="degree per element")
     s.add_argument("--no-verify", action="store_true",
                    help="skip the independent verification (the result is then never 'success')")
-    add_rate_args(parser)
+    add_rate_args(parser), add_hardware_args(parser)
     o = parser.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print exactly one JSON object (the design contract)")
     o.add_argument("--out", metavar="DIR", help="write design.json, schedule.csv, shape.csv and design.png")
@@ -441,9 +442,9 @@ def run(args: argparse.Namespace) -> int:
     if args.target_shape is not None:
         from .design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)
-    from .design_currents import is_coil_scene, run_currents
-    if is_coil_scene(scene) and stiffness is None and target is not None and not isinstance(target, list):
-        return run_currents(args, scene, options, raw, target, vary, settings)
+    from .design_currents import hardware_design
+    if (rc := hardware_design(args, scene, options, raw, target, vary, settings, stiffness)) is not None:
+        return rc
     from ..user_units import user_units
 
     rates = _rates(args, raw)

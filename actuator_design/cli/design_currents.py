@@ -10,7 +10,51 @@ import sys
 from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
 from .output import emit
 
-__all__ = ["run_currents", "is_coil_scene"]
+__all__ = ["run_currents", "is_coil_scene", "hardware_design", "add_hardware_args", "tail_lines", "finish",
+           "progress_line"]
+
+_NOT_FOR_HARDWARE = ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
+                     "rotation_rate")
+
+
+def add_hardware_args(parser) -> None:
+    """The flags of a design over hardware (a magnet's pose)."""
+    parser.add_argument("--position-tolerance", metavar="LENGTH",
+                        help="a design over a magnet's pose (a magnet with a travel): half-width of the magnet's "
+                             "position error in x and y, e.g. '0.5 mm' (the default; 0 for none)")
+
+
+def hardware_design(args, scene, options, raw, target, vary, settings, stiffness):
+    """Route a design over hardware: coil currents on a scene of coils, a magnet's pose on a scene
+    with a moving magnet (one tip target); the exit code, or None for every other design."""
+    if getattr(args, "position_tolerance", None) is not None and not has_moving_magnet(scene):
+        raise InputError("--position-tolerance: applies to a design over a magnet's pose (a magnet with a "
+                         "travel) only")
+    if stiffness is not None or target is None or isinstance(target, list):
+        return None
+    if is_coil_scene(scene):
+        return run_currents(args, scene, options, raw, target, vary, settings)
+    if has_moving_magnet(scene):
+        from .design_pose import run_pose
+        return run_pose(args, scene, options, raw, target, vary, settings)
+    return None
+
+
+def has_moving_magnet(scene) -> bool:
+    """Whether a magnet of the scene's field has a travel (its pose is then the design)."""
+    from ..field_sources import MagnetSource
+
+    f = scene.field
+    return getattr(f, "kind", "") == "sources" and any(isinstance(s, MagnetSource) and s.travel for s in f.sources)
+
+
+def refuse_flags(args, vary, what: str, limits: str) -> None:
+    """--vary and the flags of an ideal-field design do not apply to a design over hardware."""
+    if vary is not None:
+        raise InputError(f"--vary: on this scene the design varies {what}; leave --vary out")
+    for flag in _NOT_FOR_HARDWARE:
+        if getattr(args, flag, None) is not None:
+            raise InputError(f"--{flag.replace('_', '-')}: does not apply to a design over {what} ({limits})")
 
 
 def is_coil_scene(scene) -> bool:
@@ -23,32 +67,35 @@ def is_coil_scene(scene) -> bool:
 
 def run_currents(args, scene, options, raw, target, vary, settings) -> int:
     """Design, print, write; exit 0 success, 3 not verified or not robust, 4 unreachable."""
-    from ..analysis.current_design import design_currents
-    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
+    from ..analysis.current_design import coil_problem, design_currents
 
-    from ..analysis.current_design import coil_problem
-
-    if vary is not None:
-        raise InputError("--vary: on a scene of coils the design varies the coils' currents (each within its "
-                         "max_current); leave --vary out")
-    for flag in ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
-                 "rotation_rate"):
-        if getattr(args, flag, None) is not None:
-            raise InputError(f"--{flag.replace('_', '-')}: does not apply to a design over coil currents (the "
-                             "coils' max_current, resistance, max_power and max_field are its limits)")
+    refuse_flags(args, vary, "the coils' currents (each within its max_current)",
+                 "the coils' max_current, resistance, max_power and max_field are its limits")
     with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
         coil_problem(scene, target)
-    progress = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
     with stdout_to_stderr(args.json):
         res = design_currents(scene, target, tolerances=settings.tolerances, options=options,
-                              verify=not args.no_verify, progress=progress)
-    length = scene.scales.length
+                              verify=not args.no_verify, progress=progress_line())
+    return finish(args, res, scene.scales.length, _summary, "designed state (coil currents)")
+
+
+def progress_line():
+    """Progress on stderr, one line a stage, when it is a terminal (else None)."""
+    return (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+
+
+def finish(args, res, length: float, summary, title: str) -> int:
+    """Print (or write, with --json) a design over hardware with its tip in the rod's unit, write
+    its files, and give the exit code: 0 success, 3 not verified or not robust, 4 unreachable."""
+    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
+    from .design_force import state_files
+
     payload = res.to_dict()
     payload["physical"] = {"tip_mm": [v * length * 1e3 for v in res.tip[:2]],
                            "target_mm": [v * length * 1e3 for v in res.target[:2]],
                            "tip_error_mm": res.tip_error * length * 1e3,
                            "worst_tip_error_mm": res.worst_tip_error * length * 1e3}
-    emit(args, res, lambda: _files(res, payload), lambda r: _summary(r, length), payload=payload)
+    emit(args, res, lambda: state_files(payload, res.state, title), lambda r: summary(r, length), payload=payload)
     if res.success:
         return EXIT_OK
     return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
@@ -71,6 +118,15 @@ def _summary(res, length: float) -> str:
              f"  effort      : {effort}" + ("  (least found)" if res.least_effort else ""),
              f"  field       : mu0 H = {res.field_at_clamp[0] * 1e3:.6g} mT at the clamp, at "
              f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod"]
+    axes = f"{res.tolerances.describe()}; currents each, the mount by the angle" if res.tolerances else ""
+    return "\n".join(lines + tail_lines(res, length, axes))
+
+
+def tail_lines(res, length: float, box_axes: str) -> list:
+    """The lines a design over hardware ends with: the tip achieved, the verification, the box (its
+    axes named by ``box_axes``), the limits at work, the note, the time and the verdict."""
+    mm = lambda v: f"{v * length * 1e3:.6g} mm"
+    lines = []
     if math.isfinite(res.tip[0]):
         lines.append(f"  achieved    : x = {res.tip[0]:.10g}, y = {res.tip[1]:.10g} rod lengths "
                      f"(miss {res.tip_error:.2g}; {mm(res.tip[0])}, {mm(res.tip[1])})")
@@ -79,18 +135,10 @@ def _summary(res, length: float) -> str:
         lines.append(f"  verified    : {res.verified} (refitted field, from rest: miss {v['error']:.2g}, "
                      f"stable {v['stable']})")
     if res.box:
-        lines.append(f"  robustness  : {len(res.box)} corners ({res.tolerances.describe()}; currents each, the mount "
-                     f"by the angle): worst tip miss {res.worst_tip_error:.3g} rod lengths "
-                     f"({mm(res.worst_tip_error)}); on the designed branch at every corner: {res.holds_over_box}")
+        lines.append(f"  robustness  : {len(res.box)} corners ({box_axes}): worst tip miss {res.worst_tip_error:.3g} "
+                     f"rod lengths ({mm(res.worst_tip_error)}); on the designed branch at every corner: "
+                     f"{res.holds_over_box}")
     if res.limits_active:
         lines.append(f"  limits      : at {', '.join(res.limits_active)}")
-    lines += [f"  note        : {res.message}",
-              f"  time        : {res.seconds:.2f} s ({res.solves} solves)",
-              f"  RESULT      : {'SUCCESS' if res.success else res.status.upper()}"]
-    return "\n".join(lines)
-
-
-def _files(res, payload) -> dict:
-    from .design_force import state_files
-
-    return state_files(payload, res.state, "designed state (coil currents)")
+    return lines + [f"  note        : {res.message}", f"  time        : {res.seconds:.2f} s ({res.solves} solves)",
+                    f"  RESULT      : {'SUCCESS' if res.success else res.status.upper()}"]

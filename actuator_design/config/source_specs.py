@@ -27,7 +27,7 @@ from .base import Angle, Q, StrictModel
 from .errors import error
 from .vectors import LengthXY
 
-__all__ = ["PhysicalMagnet", "PhysicalCoils", "CoilSpec"]
+__all__ = ["PhysicalMagnet", "MagnetTravel", "PhysicalCoils", "CoilSpec"]
 
 _MAX_TURNS = 2000
 
@@ -46,6 +46,33 @@ def _fitted(sources, length: float, tol: float, where: str):
     return field, h0
 
 
+class MagnetTravel(StrictModel):
+    """How far the magnet's stage can move it, for a design over its pose: each coordinate a range
+    ``[low, high]`` that holds the configured value; a coordinate not given is held where it is.
+
+        travel:
+          x: [15 mm, 40 mm]
+          y: [-30 mm, -10 mm]
+          angle: [45 deg, 135 deg]
+    """
+
+    x: Optional[List[Q("length")]] = Field(default=None, min_length=2, max_length=2)
+    y: Optional[List[Q("length")]] = Field(default=None, min_length=2, max_length=2)
+    angle: Optional[List[Angle]] = Field(default=None, min_length=2, max_length=2)
+
+    @model_validator(mode="after")
+    def _check(self):
+        for name in ("x", "y", "angle"):
+            lo_hi = getattr(self, name)
+            if lo_hi is not None and not lo_hi[0] < lo_hi[1]:
+                raise error(f"the range must be [low, high] with low < high, got {list(lo_hi)}", name)
+        if self.angle is not None and self.angle[1] - self.angle[0] > 2 * math.pi + 1e-12:
+            raise error("the range spans more than 360 deg", "angle")
+        if self.x is None and self.y is None and self.angle is None:
+            raise error("give at least one of x, y, angle (each a range [low, high])", "travel")
+        return self
+
+
 class PhysicalMagnet(StrictModel):
     """A permanent magnet magnetised along its axis: a cylinder or a sphere, centred in the rod's
     plane at ``position`` (m) with its axis (and north pole) at ``axis_angle`` to the rod axis."""
@@ -58,9 +85,18 @@ class PhysicalMagnet(StrictModel):
     axis_angle: Angle = 0.0
     remanence: Q("magnetic_field", gt=0)
     fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
+    travel: Optional[MagnetTravel] = None
 
     @model_validator(mode="after")
     def _check(self):
+        t = self.travel
+        if t is not None:
+            for name, value, lo_hi in (("x", self.position.x, t.x), ("y", self.position.y, t.y),
+                                       ("angle", self.axis_angle, t.angle)):
+                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
+                    shown = (f"{math.degrees(value):.6g} deg" if name == "angle" else f"{value * 1e3:.6g} mm")
+                    raise error(f"the configured {'axis_angle' if name == 'angle' else 'position ' + name} "
+                                f"({shown}) lies outside its travel range", f"travel.{name}")
         if self.shape == "cylinder" and self.height is None:
             raise error("a cylinder magnet needs its height (e.g. '10 mm')", "height")
         if self.shape == "sphere" and self.height is not None:
@@ -68,9 +104,12 @@ class PhysicalMagnet(StrictModel):
         return self
 
     def source(self) -> MagnetSource:
+        t = self.travel
+        travel = () if t is None else tuple(None if r is None else (float(r[0]), float(r[1]))
+                                            for r in (t.x, t.y, t.angle))
         return MagnetSource(self.shape, float(self.diameter), float(self.height or 0.0),
                             (float(self.position.x), float(self.position.y)), float(self.axis_angle),
-                            float(self.remanence))
+                            float(self.remanence), travel)
 
     def to_field(self, length: float, where: str = "field"):
         field, h0 = _fitted([self.source()], length, float(self.fit_tolerance), where)

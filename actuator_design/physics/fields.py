@@ -173,33 +173,54 @@ class ExpressionFieldModel(FieldModel):
 class SourceFieldModel(FieldModel):
     """Magnets and coils: ĥ = −Σ_k w_k ∇ψ_k of the fitted zonal harmonics (:mod:`.harmonic`), exact
     derivatives by automatic differentiation; the fits are constants of the expression, the source
-    weights w_k (``SourceField.weights``) NLP parameters ``source_weight_k``."""
+    weights w_k (``SourceField.weights``) NLP parameters ``source_weight_k``, and each source's rigid
+    move (``SourceField.placements``) the parameters ``source_dx_k``, ``source_dy_k`` (units of ℓ) and
+    ``source_turn_k`` (rad, about the source's own fitted centre c):
+
+        ĥ_k(r) = Q(β) ĥ⁰_k(c + Qᵀ(β)(r − c − d)),    Q(β) the rotation by β,
+
+    with ĥ⁰_k the field as fitted. It is written as r − d + (Q − I)ᵀ(...) so that at d = 0, β = 0 the
+    numbers are those of the fit itself, to the last bit."""
 
     def __init__(self, field: SourceField):
         from .harmonic import field_function
 
         self.terms = tuple(field.terms)
-        self.params = tuple(f"source_weight_{k}" for k in range(len(self.terms)))
+        n = len(self.terms)
+        self.weight_params = tuple(f"source_weight_{k}" for k in range(n))
+        self.placement_params = tuple((f"source_dx_{k}", f"source_dy_{k}", f"source_turn_{k}") for k in range(n))
+        self.params = self.weight_params + tuple(name for names in self.placement_params for name in names)
         self._f = [field_function((t,)) for t in self.terms]
 
     def value(self, x, y, P):
         n = x.numel() if hasattr(x, "numel") else 1
         hx = hy = 0
-        for name, f in zip(self.params, self._f):
+        for k, (name, f) in enumerate(zip(self.weight_params, self._f)):
+            c = self.terms[k].centre
+            dx, dy, turn = (P.get(p, 0.0) for p in self.placement_params[k])
+            cm1 = -2 * ca.sin(turn / 2) ** 2 if isinstance(turn, (ca.SX, ca.MX)) else -2 * math.sin(turn / 2) ** 2
+            sn = ca.sin(turn) if isinstance(turn, (ca.SX, ca.MX)) else math.sin(turn)
+            ux, uy = x - c[0] - dx, y - c[1] - dy  # r − c − d
+            xl, yl = x - dx + cm1 * ux + sn * uy, y - dy - sn * ux + cm1 * uy  # c + Qᵀ(r − c − d)
             if n == 1:
-                fx, fy = f(x, y)
+                fx, fy = f(xl, yl)
             else:
-                fx, fy = f.map(n)(ca.reshape(x, 1, n), ca.reshape(y, 1, n))
+                fx, fy = f.map(n)(ca.reshape(xl, 1, n), ca.reshape(yl, 1, n))
                 fx, fy = ca.reshape(fx, x.shape), ca.reshape(fy, x.shape)
+            fx, fy = fx + cm1 * fx - sn * fy, fy + sn * fx + cm1 * fy  # Q ĥ⁰
             w = P.get(name, 1.0)  # callers evaluating the fitted field itself pass no weights
             hx, hy = hx + w * fx, hy + w * fy
         return hx, hy
 
     def parameter_values(self, field):
-        return dict(zip(self.params, field.source_weights()))
+        values = dict(zip(self.weight_params, field.source_weights()))
+        for names, place in zip(self.placement_params, field.source_placements()):
+            values.update(zip(names, place))
+        return values
 
     def default_values(self):
-        return dict.fromkeys(self.params, 1.0)
+        return {**dict.fromkeys(self.weight_params, 1.0),
+                **{name: 0.0 for names in self.placement_params for name in names}}
 
     def structure(self):
         return (type(self).__name__,) + self.terms

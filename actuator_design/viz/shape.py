@@ -164,11 +164,11 @@ def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None
 
 def _draw_sources(ax, field) -> None:
     """Magnets (their section in the plane, the north pole's arrow) and coils (their windings'
-    sections, two dots a loop), in units of ℓ."""
+    sections, two dots a loop), in units of ℓ, where the field's placements put them."""
     from matplotlib.patches import Circle, Polygon
-    for k, src in enumerate(field.sources):
-        c = np.array(src.position) / field.length
-        e = np.array([math.cos(src.axis_angle), math.sin(src.axis_angle)])
+    for k, (src, (dx, dy, turn)) in enumerate(zip(field.sources, field.source_placements())):
+        c = np.array(src.position) / field.length + (dx, dy)
+        e = np.array([math.cos(src.axis_angle + turn), math.sin(src.axis_angle + turn)])
         n = np.array([-e[1], e[0]])
         label = "magnet" if k == 0 else None
         if hasattr(src, "shape"):

@@ -1,0 +1,65 @@
+"""``design --target-tip X,Y`` on a scene with a magnet on a stage (a magnet with a ``travel``): the
+pose within the travel nearest the configured one that puts the tip on the target
+(:func:`~actuator_design.analysis.pose_design.design_pose`), printed in mm, deg, mT and the rod's
+length unit, and written as design.json, shape.csv and shape.png."""
+from __future__ import annotations
+
+import math
+
+from .common import InputError, bad_input, stdout_to_stderr
+from .design_currents import finish, progress_line, refuse_flags, tail_lines
+
+__all__ = ["run_pose"]
+
+
+def run_pose(args, scene, options, raw, target, vary, settings) -> int:
+    """Design, print, write; exit 0 success, 3 not verified or not robust, 4 unreachable."""
+    from ..analysis.pose_design import POSITION_TOLERANCE, design_pose, pose_problem
+    from ..units import parse_quantity
+
+    refuse_flags(args, vary, "the magnet's pose (within its travel)", "the magnet's travel is its limit")
+    position_tolerance = POSITION_TOLERANCE
+    if args.position_tolerance is not None:
+        try:
+            position_tolerance = parse_quantity(args.position_tolerance, "length", "--position-tolerance")
+        except ValueError as exc:
+            raise InputError(f"--position-tolerance: {exc}") from None
+    with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
+        pose_problem(scene, target)
+        if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):
+            raise ValueError(f"--position-tolerance: must be in [0, {0.1 * scene.field.length * 1e3:g} mm] (a tenth "
+                             f"of the rod), got {position_tolerance * 1e3:g} mm")
+    with stdout_to_stderr(args.json):
+        res = design_pose(scene, target, tolerances=settings.tolerances, position_tolerance=position_tolerance,
+                          options=options, verify=not args.no_verify, progress=progress_line())
+    return finish(args, res, scene.scales.length, _summary, "designed state (magnet pose)")
+
+
+def _summary(res, length: float) -> str:
+    mm = lambda v: f"{v * length * 1e3:.6g} mm"
+    head = "actuator-design: a magnet's pose for a tip position"
+    if not math.isfinite(res.position[0]):  # no design: what failed, and nothing else
+        return "\n".join([head, f"  note        : {res.message}", f"  RESULT      : {res.status.upper()}"])
+    travel = ", ".join(f"{k.rsplit('_', 1)[0]} {v[0]:.6g} to {v[1]:.6g} {k.rsplit('_', 1)[1]}"
+                       for k, v in res.travel.items())
+    lines = [head,
+             f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g} rod lengths "
+             f"({mm(res.target[0])}, {mm(res.target[1])})",
+             f"  magnet      : at ({res.position[0] * 1e3:.6g}, {res.position[1] * 1e3:.6g}) mm, axis "
+             f"{math.degrees(res.axis_angle):.6g} deg  (started from ({res.start_position[0] * 1e3:.6g}, "
+             f"{res.start_position[1] * 1e3:.6g}) mm, {math.degrees(res.start_axis_angle):.6g} deg; travel {travel})",
+             f"  move        : {res.move:.6g} (each coordinate's move over its half travel, squared and summed)"
+             + ("  (least found)" if res.least_move else ""),
+             f"  field       : mu0 H = {res.field_at_clamp[0] * 1e3:.6g} mT at the clamp, at "
+             f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod"]
+    axes = (f"position ±{res.position_tolerance * 1e3:g} mm, axis ±{math.degrees(res.tolerances.angle):g} deg, "
+            f"remanence ±{100 * res.tolerances.field_rel:g} %{_others(res.tolerances)}") if res.tolerances else ""
+    return "\n".join(lines + tail_lines(res, length, axes))
+
+
+def _others(tol) -> str:
+    from ..analysis.tolerances import Tolerances
+
+    rest = Tolerances(field_rel=0.0, angle=0.0, youngs_rel=tol.youngs_rel, chi_rel=tol.chi_rel,
+                      fibre_angle=tol.fibre_angle, clamp_angle=tol.clamp_angle)
+    return "" if not rest.active else ", " + rest.describe()
