@@ -171,24 +171,39 @@ def test_a_target_off_the_band_is_unreachable_with_the_nearest_tip_in_json(tmp_p
     assert out["tip_error"] > 1e-3
 
 
-@pytest.mark.parametrize("travel, where", [
-    ({"x": ["30 mm", "20 mm"]}, "travel.x"),           # low above high
-    ({"y": ["-30 mm", "-20 mm"]}, "travel.y"),         # the configured y (-15 mm) outside it
-    ({"angle": ["0 deg", "400 deg"]}, "angle"),        # more than a turn
-    ({}, "travel"),                                    # nothing moves
-    ({"x": ["20 mm"]}, "travel.x"),                    # not a range
-    ({"z": ["0 mm", "1 mm"]}, "z"),                    # no such coordinate
+@pytest.mark.parametrize("travel, words", [
+    ({"x": ["30 mm", "20 mm"]}, "scene.field.travel.x: the range must be [low, high] with low < high, got [30 mm, 20 mm]"),
+    ({"y": ["-30 mm", "-20 mm"]}, "scene.field.travel.y: the configured position y (-15 mm) lies outside"),
+    ({"angle": ["0 deg", "400 deg"]}, "scene.field.travel.angle: the range spans more than 360 deg"),
+    ({}, "scene.field.travel: give at least one of x, y, angle"),
+    ({"x": ["20 mm"]}, "scene.field.travel.x"),
+    ({"z": ["0 mm", "1 mm"]}, "scene.field.travel.z: unknown key (allowed: x, y, angle)"),
+    ({"angle": ["100 deg", "180 deg"]}, "scene.field.travel.angle: the configured axis_angle (90 deg) lies outside"),
 ])
-def test_a_bad_travel_names_the_field(tmp_path, travel, where):
+def test_a_bad_travel_names_the_field(tmp_path, travel, words):
     with pytest.raises(ConfigError) as err:
         load_scene(_one_axis(tmp_path, **travel))
-    assert where in str(err.value)
+    assert words in str(err.value), str(err.value)
+
+
+def test_an_axis_angle_is_the_same_a_turn_apart_and_a_whole_turn_is_both_ways_about_it(tmp_path):
+    from actuator_design.analysis.pose_problem import angle_offsets, pose_variables
+
+    raw = yaml.safe_load(CONFIG.read_text())
+    raw["scene"]["field"]["axis_angle"] = "270 deg"  # = -90 deg, inside [-180, 180]
+    path = tmp_path / "turned.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    var = pose_variables(load_scene(path)[0])
+    assert var.lower[2] == pytest.approx(-math.pi) and var.upper[2] == pytest.approx(math.pi)  # the short way
+    lo, hi = angle_offsets((math.radians(-180), math.radians(-100)), math.radians(200))  # 200 = -160 deg
+    assert (math.degrees(lo), math.degrees(hi)) == pytest.approx((-20.0, 60.0))
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["--vary", "h"], "varies the magnet's pose"),
-    (["--h-max", "3"], "does not apply to a design over the magnet's pose"),
-    (["--position-tolerance", "banana"], "--position-tolerance"),
+    (["--vary", "h"], "--vary: on this scene the design varies the magnet's pose"),
+    (["--h-max", "3"], "--h-max: does not apply to a design over the magnet's pose"),
+    (["--position-tolerance", "banana"], "error: --position-tolerance: expected a number with a unit"),
+    (["--position-tolerance", "nan mm"], "error: --position-tolerance: must be a finite number"),
     (["--position-tolerance", "5 mm"], "--position-tolerance: must be in [0, 2 mm]"),
 ])
 def test_flags_that_do_not_apply_are_refused_in_one_line(argv, words, capsys):
@@ -205,8 +220,45 @@ def test_a_position_tolerance_on_coils_is_refused(capsys):
 
 def test_the_box_moves_the_magnet_turns_its_axis_and_scales_its_remanence(scene, designed):
     _, d = designed
-    assert len(d.box) == 16 and d.tolerances == Tolerances()
+    assert d.tolerances == Tolerances()
     offsets = [c["offsets"] for c in d.box]
-    assert {tuple(sorted(o)) for o in offsets} == {("dx", "dy", "remanence", "turn")}
-    assert np.allclose([abs(o["dx"]) * scene.scales.length for o in offsets], 0.5e-3, rtol=1e-12)
-    assert d.worst_tip_error > 0  # the tip does move over the box
+    axes = ("dx_mm", "dy_mm", "remanence_rel", "turn_deg")
+    assert len(d.box) == 2 ** len(axes) and {tuple(sorted(o)) for o in offsets} == {axes}
+    assert {(o["dx_mm"], o["dy_mm"], o["turn_deg"], o["remanence_rel"]) for o in offsets} == {
+        (a, b, c, e) for a in (-0.5, 0.5) for b in (-0.5, 0.5) for c in (-2.0, 2.0) for e in (-0.05, 0.05)}
+    payload = d.to_dict()["tolerances"]
+    assert payload["position_mm"] == 0.5 and payload["axis_deg"] == pytest.approx(2.0)
+
+
+def test_the_maps_pointwise_derivatives_hold_for_several_values_a_point(scene):
+    var, _ = pose_problem(scene, (0.96, 0.25))
+    at = at_pose(var)
+    v = np.array([-0.1, 0.05, 0.3])
+    three = lambda x, y, w: ca.vertcat(x * w[0], y * y + w[2], x * y * w[1])
+    pmap = HardwareMap(scene, solve(at(scene, v)), v, var.names, at, three)
+    pt = pmap.evaluate(v)
+    assert pt["limit"].size == 3 * pt["limit_jac"].shape[0] // 3 and pt["limit_jac"].shape[1] == 3
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-5
+        fd = (pmap.evaluate(v + e)["limit"] - pmap.evaluate(v - e)["limit"]) / 2e-5
+        assert np.allclose(pt["limit_jac"][:, k], fd, rtol=1e-5, atol=1e-8)
+    # the values, point by point, are the function's at the quadrature points
+    z = pt["z"]
+    xq, yq, _, _ = (np.asarray(a, float).ravel() for a in pmap._points(z))
+    assert np.allclose(pt["limit"].reshape(-1, 3), np.column_stack([xq * v[0], yq ** 2 + v[2], xq * yq * v[1]]))
+
+
+def test_optimality_weighs_bounds_and_limits_by_their_sign():
+    from actuator_design.analysis.current_sqp import CurrentProblem, _stationary
+
+    prob = CurrentProblem(target=np.array([0.0]), cost=np.ones(2), bound=np.ones(2), max_limit=1.0, tip_tol=1e-7,
+                          lower=-np.ones(2), upper=np.ones(2), centre=np.zeros(2))
+    tip_y = np.array([[0.0, 1.0], [0, 0], [0, 0]])  # the tip depends on the second unknown only
+    at_bound = {"tip": np.zeros(3), "tip_jac": tip_y, "limit": np.array([0.5]), "limit_jac": np.zeros((1, 2))}
+    assert not _stationary(prob, np.array([1.0, 0.0]), at_bound)  # x at its upper bound: moving it back is free
+    assert _stationary(prob, np.array([0.0, 0.0]), at_bound)
+    pushing = {"tip": np.zeros(3), "tip_jac": tip_y, "limit": np.array([1.0]), "limit_jac": np.array([[1.0, 0.0]])}
+    assert not _stationary(prob, np.array([0.5, 0.0]), pushing)  # lowering x lowers both: not held by the limit
+    holding = dict(pushing, limit_jac=np.array([[-1.0, 0.0]]))
+    assert _stationary(prob, np.array([0.5, 0.0]), holding)  # the limit stops x from falling

@@ -251,11 +251,8 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
     out.limits_active = _active(prob, w, pt)
     if not sqp.reached:
-        out.status = "unreachable"
+        out.missed(sqp, "setting of the currents within the limits")
         out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
-        out.message = (f"no currents within the limits put the tip on the target: the nearest tip found (a local "
-                       f"search, not certified the nearest) misses it by {out.tip_error:.3g} rod lengths" + (f" ({', '.join(out.limits_active)} at the limit)"
-                                                                 if out.limits_active else ""))
         return out
     if verify:
         verify_on(out, scene_at_currents(scene, w * i0), options)

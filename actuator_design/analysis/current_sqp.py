@@ -48,6 +48,9 @@ PROJECTION_STEPS, DESCENT_ITERATIONS = 60, 60
 PROJECTION_REFUSALS = 6
 #: the feasible descent aims along the tip's singular directions with σ ≥ this × σ1 only
 RESOLVED = 1e-4
+#: the tips within reach form a thin band where σ_min < THIN_BAND σ1 (the tip's Jacobian over the
+#: unknowns' scales): a search that ends there off the target, no limit binding, stopped short
+THIN_BAND = 1e-2
 #: first-order optimality of the feasible descent's end point (relative residual of the gradient:
 #: where the tip's Jacobian is nearly singular, σ2/σ1 ~ 1e-3, the tip tolerance leaves ~1e-4)
 KKT_TOL = 1e-3
@@ -100,15 +103,19 @@ class CurrentProblem:
 @dataclass
 class SQPOutcome:
     """Where the SQP ended: ``w``, the evaluation there (``point``: tip, derivatives, state),
-    ``reached`` (the tip within ``tip_tol``), ``iterations``, ``converged`` (the last step was
-    below :data:`STEP_TOL` in every weight: a least-effort point, not only a feasible one), and ``history``
-    (per iteration: the tip error and the effort)."""
+    ``reached`` (the tip within ``tip_tol``), ``iterations``, ``converged`` (a least-effort point,
+    not only a feasible one: the SQP's last step was below :data:`STEP_TOL` in every unknown, or
+    the feasible descent ended at a KKT point, :func:`_stationary`), ``stopped_short`` (the search
+    ended off the target in a thin band with no limit binding, :func:`_stopped_short`: the target
+    may be reachable), and
+    ``history`` (per iteration: the tip error and the effort)."""
 
     w: np.ndarray
     point: dict
     reached: bool
     iterations: int
     converged: bool
+    stopped_short: bool = False
     history: List[tuple] = field(default_factory=list)
 
 
@@ -294,12 +301,35 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
             delta = min(2 * delta, DELTA_MAX)
         elif ared < 0.25 * pred:
             delta = step / 2
-    if float(np.max(np.abs(resid(pt)))) > prob.tip_tol:
-        w, pt, _ = _project(prob, evaluate, w, pt)
+    if float(np.max(np.abs(resid(pt)))) > prob.tip_tol and not _limits_bind(prob, w, pt):
+        w, pt, _ = _project(prob, evaluate, w, pt)  # (its steps keep the box only: not where a limit binds)
     if float(np.max(np.abs(resid(pt)))) <= prob.tip_tol and not converged:
         w, pt, it, converged = _feasible_descent(prob, evaluate, w, pt, it, history, progress)
     reached = float(np.max(np.abs(resid(pt)))) <= prob.tip_tol
-    return SQPOutcome(w=w, point=pt, reached=reached, iterations=it, converged=converged, history=history)
+    return SQPOutcome(w=w, point=pt, reached=reached, iterations=it, converged=converged, history=history,
+                      stopped_short=not reached and _stopped_short(prob, w, pt))
+
+
+def _stopped_short(prob: CurrentProblem, w: np.ndarray, pt: dict) -> bool:
+    """Whether a search that ended off the target may have stopped short of it: no limit binds
+    (the unknowns' bounds included) and the tips within reach form a thin band there (the tip's
+    Jacobian over the unknowns' scales has σ_min < :data:`THIN_BAND` σ1), across which the search
+    creeps — rather than ending at a nearest tip that limits or the rod's own reach explain."""
+    if _limits_bind(prob, w, pt, bounds=True):
+        return False
+    m = prob.target.size
+    sv = np.linalg.svd(pt["tip_jac"][:m] * prob.half, compute_uv=False)
+    return bool(sv.size >= 2 and sv[-1] < THIN_BAND * sv[0])
+
+
+def _limits_bind(prob: CurrentProblem, w: np.ndarray, pt: dict, bounds: bool = False) -> bool:
+    """Whether the power or the pointwise limit (and with ``bounds`` an unknown's bound) is active
+    at ``w`` (to 1e-6, relative)."""
+    if prob.power is not None and float(np.dot(prob.power, w * w)) >= prob.max_power * (1 - 1e-6):
+        return True
+    if math.isfinite(prob.max_limit) and float(np.max(pt["limit"])) >= prob.max_limit * (1 - 1e-6):
+        return True
+    return bounds and bool(np.any(w >= prob.hi - 1e-6 * prob.half) or np.any(w <= prob.lo + 1e-6 * prob.half))
 
 
 def _feasible_descent(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, it: int, history: list,
@@ -384,25 +414,37 @@ def _bfgs(B: np.ndarray, s: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def _stationary(prob: CurrentProblem, w: np.ndarray, pt: dict) -> bool:
-    """First-order optimality on the target: the effort's gradient (each unknown over its scale)
-    lies, to :data:`KKT_TOL` relative, in the span of the tip's and the active limits' gradients,
-    over the unknowns not held at a bound. Where the feasible descent's trust region has shrunk
-    away (its projections no longer meet the target to ``tip_tol`` within the steps it tries),
-    this says whether it stopped at a least-effort point."""
+    """First-order (KKT) optimality on the target, each unknown over its scale: the effort's
+    gradient g is balanced, to :data:`KKT_TOL` relative, by the tip's gradients (multipliers of
+    either sign), the active limits' (power, pointwise: multipliers ≥ 0) and the bounds an unknown
+    sits at (≥ 0, pushing outwards only):
+
+        g + Jᵀλ + Σ μ_i ∇c_i − ν_lo + ν_hi = 0,   μ, ν ≥ 0.
+
+    Where the feasible descent's trust region has shrunk away (its projections no longer meet the
+    target to ``tip_tol`` within the steps it tries), this says whether it stopped at a
+    least-effort point."""
+    from scipy.optimize import lsq_linear
+
     m = prob.target.size
-    free = (w > prob.lo + 1e-9 * prob.half) & (w < prob.hi - 1e-9 * prob.half)
-    grad = (2 * prob.cost * (w - prob.mid) * prob.half)[free]
-    if not np.any(free) or np.linalg.norm(grad) == 0.0:
+    grad = 2 * prob.cost * (w - prob.mid) * prob.half
+    if np.linalg.norm(grad) == 0.0:
         return True
-    rows = [pt["tip_jac"][:m] * prob.half]
+    cols, lo = [(pt["tip_jac"][:m] * prob.half).T], [np.full(m, -np.inf)]
     if math.isfinite(prob.max_limit):
         active = pt["limit"] >= prob.max_limit * (1 - 1e-6)
-        rows.append(pt["limit_jac"][active] * prob.half)
+        cols.append((pt["limit_jac"][active] * prob.half).T)
+        lo.append(np.zeros(int(np.sum(active))))
     if prob.power is not None and float(np.dot(prob.power, w * w)) >= prob.max_power * (1 - 1e-6):
-        rows.append((2 * prob.power * w * prob.half)[None, :])
-    A = np.vstack(rows)[:, free]
-    lam = np.linalg.lstsq(A.T, grad, rcond=None)[0]
-    return bool(np.linalg.norm(A.T @ lam - grad) <= KKT_TOL * np.linalg.norm(grad))
+        cols.append((2 * prob.power * w * prob.half)[:, None])
+        lo.append(np.zeros(1))
+    eye = np.eye(w.size)
+    at_lo, at_hi = w <= prob.lo + 1e-9 * prob.half, w >= prob.hi - 1e-9 * prob.half
+    cols += [-eye[:, at_lo], eye[:, at_hi]]
+    lo += [np.zeros(int(np.sum(at_lo))), np.zeros(int(np.sum(at_hi)))]
+    A, lower = np.hstack(cols), np.concatenate(lo)
+    x = lsq_linear(A, -grad, bounds=(lower, np.full(lower.size, np.inf))).x
+    return bool(np.linalg.norm(A @ x + grad) <= KKT_TOL * np.linalg.norm(grad))
 
 
 def _project(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, goal: Optional[float] = None):

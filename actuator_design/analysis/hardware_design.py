@@ -36,8 +36,9 @@ class HardwareDesign:
         The target met to the design's tip tolerance within every limit, stable, verified from
         rest on a refitted field, and on the designed branch and stable at every corner of the box.
     status : str
-        ``"success"``, ``"unreachable"`` (the nearest tip found is reported), ``"not_verified"``,
-        ``"not_robust"`` or ``"not_converged"``.
+        ``"success"``, ``"unreachable"`` (the search ended at a nearest tip, which is reported
+        with the limits that bind there), ``"not_verified"``, ``"not_robust"`` or
+        ``"not_converged"`` (no start, or the search stopped short in a thin band of tips).
     field_at_clamp : (float, float)
         |μ0 H| (T) and its angle (rad) at the clamp.
     max_rod_field : float
@@ -85,6 +86,22 @@ class HardwareDesign:
             "verification": self.verification, "box": self.box, "worst_tip_error": self.worst_tip_error,
             "tolerances": None if self.tolerances is None else self.tolerances.to_dict(), "time_s": self.seconds})
         return out
+
+    def missed(self, sqp: SQPOutcome, what: str, extra: str = "") -> None:
+        """Record that the search ended off the target: ``"unreachable"`` at a nearest tip (a
+        local search, not certified the nearest), ``"not_converged"`` where it stopped short in a
+        thin band of tips with no limit binding (the target may be reachable). ``what`` names the
+        hardware."""
+        binds = f" ({', '.join(self.limits_active)} at the limit)" if self.limits_active else ""
+        if sqp.stopped_short:
+            self.status = "not_converged"
+            self.message = (f"the search stopped {self.tip_error:.3g} rod lengths short of the target, in a thin band "
+                            f"of reachable tips with no limit binding: the target may be reachable by a {what}, but "
+                            "none was found" + extra)
+        else:
+            self.status = "unreachable"
+            self.message = (f"no {what} puts the tip on the target: the nearest tip found (a local search, not "
+                            f"certified the nearest) misses it by {self.tip_error:.3g} rod lengths{binds}" + extra)
 
     def closing_message(self, text: str) -> str:
         """``text`` (what the design is and its miss) with the verification's and the box's verdicts."""

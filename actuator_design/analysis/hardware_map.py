@@ -114,9 +114,10 @@ class HardwareMap:
     def corner(self, scene: Scene, z_design: np.ndarray) -> dict:
         """A perturbed scene (same structure: other weights, E, clamp angle) seen two ways: the
         state reached from rest there, and the design state followed to it by one warm solve.
-        Returns ``tip`` (3,) of the state from rest (nan if none), ``reached``, ``stable`` and
-        ``same_branch`` (the two states agree to 1e-6 rad: switching on at the corner lands on the
-        designed branch)."""
+        Returns ``tip`` (3,) of the state from rest (nan if none), ``reached`` (a state from rest
+        that keeps to where every source's fit holds, at the rod's quadrature points — else
+        ``region`` says why), ``stable`` and ``same_branch`` (the two states agree to 1e-6 rad:
+        switching on at the corner lands on the designed branch)."""
         P = self.solver.parameter_vector(scene)
         path = path_from_rest(self.solver, P)
         self.solves += path.solves + 1
@@ -124,6 +125,11 @@ class HardwareMap:
             return {"tip": np.full(3, np.nan), "reached": False, "stable": False, "same_branch": False}
         z = np.asarray(path.z, float)
         tip_theta, tip_x, tip_y = (float(v) for v in self.solver.f_tip(z, P))
+        x, y, _, _ = (np.asarray(v, float).ravel() for v in self._points(z))
+        region = scene.field.region_problem(x, y) if hasattr(scene.field, "region_problem") else None
+        if region is not None:
+            return {"tip": np.array([tip_x, tip_y, tip_theta]), "reached": False, "stable": False,
+                    "same_branch": False, "region": region}
         followed = solve(scene, self.options, initial=np.asarray(z_design, float), solver=self.solver)
         same = bool(followed.success and float(np.max(np.abs(np.asarray(followed.z) - z))) <= 1e-6)
         return {"tip": np.array([tip_x, tip_y, tip_theta]), "reached": True,

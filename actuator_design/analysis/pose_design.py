@@ -94,8 +94,10 @@ class PoseDesign(HardwareDesign):
             "least_move": self.least_move, "position_mm": mm(self.position),
             "axis_angle_deg": math.degrees(self.axis_angle), "start_position_mm": mm(self.start_position),
             "start_axis_angle_deg": math.degrees(self.start_axis_angle), "travel": self.travel, "move": self.move})
-        if self.tolerances is not None:
-            out["tolerances"]["position_mm"] = self.position_tolerance * 1e3
+        if self.tolerances is not None:  # (h_rel and phi_deg as everywhere; here they are these)
+            out["tolerances"].update(position_mm=self.position_tolerance * 1e3,
+                                     remanence_rel=self.tolerances.field_rel,
+                                     axis_deg=math.degrees(self.tolerances.angle))
         return out
 
 
@@ -164,12 +166,8 @@ def design_pose(scene: Scene, target, *, tolerances: Optional[Tolerances] = None
     out.field_at_clamp, out.max_rod_field = _field_report(at(scene, v), out.state)
     out.limits_active = _active(var, prob, v, pt)
     if not sqp.reached:
-        out.status = "unreachable"
+        out.missed(sqp, "pose within the travel", _band(pt["tip_jac"][:2] * prob.half))
         out.solves, out.seconds = pmap.solves, time.perf_counter() - t0
-        out.message = (f"no pose within the travel puts the tip on the target: the nearest tip found (a local search, "
-                       f"not certified the nearest) misses it by {out.tip_error:.3g} rod lengths"
-                       + (f" ({', '.join(out.limits_active)} at the limit)" if out.limits_active else "")
-                       + _band(pt["tip_jac"][:2] * prob.half))
         return out
     if verify:
         verify_on(out, scene_at_pose(scene, out.position, out.axis_angle), options)
@@ -302,11 +300,23 @@ def _box(pmap: HardwareMap, var: PoseVariables, v: np.ndarray, state: Equilibriu
         sc = replace(sc, theta0=sc.theta0 + s.get("mount", 0.0) * axes.get("mount", 0.0))
         c = pmap.corner(sc, state.z)
         tip = c["tip"]
-        out.append({"offsets": {a: s[a] * (axes.get(a) if a in axes else others[a]) for a in names},
-                    "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]},
+        offsets = {}
+        for a in names:  # in the outputs' units: mm, deg, fractions
+            value = s[a] * (axes[a] if a in axes else others[a])
+            key, convert = _OFFSET_UNITS.get(a, (a, lambda x, _: x))
+            offsets[key] = convert(value, var.length)
+        out.append({"offsets": offsets, "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]},
                     "tip_error": float(np.max(np.abs(tip[:2] - target[:2]))),
-                    "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"]})
+                    "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"],
+                    **({"region": c["region"]} if "region" in c else {})})
     return out
+
+
+#: a box offset's key and value in the outputs' units (from rod lengths, rad)
+_OFFSET_UNITS = {"dx": ("dx_mm", lambda v, ell: v * ell * 1e3), "dy": ("dy_mm", lambda v, ell: v * ell * 1e3),
+                 "turn": ("turn_deg", lambda v, _: math.degrees(v)), "remanence": ("remanence_rel", lambda v, _: v),
+                 "mount": ("mount_deg", lambda v, _: math.degrees(v)),
+                 "fibre_angle": ("fibre_deg", lambda v, _: math.degrees(v))}
 
 
 def _message(out: PoseDesign) -> str:

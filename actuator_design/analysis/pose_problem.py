@@ -5,6 +5,7 @@ pointwise quantity, the SQP data (the least move, each coordinate over its half 
 verification's scene (magpylib refitted with the magnet placed there)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -14,7 +15,7 @@ from ..scene import Scene
 from .current_sqp import CurrentProblem
 
 __all__ = ["PoseVariables", "pose_variables", "at_pose", "clearance", "pose_problem", "scene_at_pose", "TIP_TOL",
-           "COORDS"]
+           "COORDS", "angle_offsets"]
 
 #: the design's tip tolerance (rod lengths; 2 nm on a 20 mm strip, where the stage's ±0.5 mm moves
 #: the tip by ~1e-2): the tips a bent strip reaches form a thin band across which the tip moves up
@@ -86,10 +87,21 @@ def pose_variables(scene: Scene) -> PoseVariables:
     magnet, length = f.sources[k], f.length
     configured = (magnet.position[0], magnet.position[1], magnet.axis_angle)
     coords = tuple(c for c in range(3) if magnet.travel[c] is not None)
-    scale = lambda c: 1.0 if c == 2 else 1.0 / length
-    lower = np.array([(magnet.travel[c][0] - configured[c]) * scale(c) for c in coords])
-    upper = np.array([(magnet.travel[c][1] - configured[c]) * scale(c) for c in coords])
-    return PoseVariables(k, coords, lower, upper, float(length))
+    ranges = [angle_offsets(magnet.travel[c], configured[c]) if c == 2 else
+              ((magnet.travel[c][0] - configured[c]) / length, (magnet.travel[c][1] - configured[c]) / length)
+              for c in coords]
+    return PoseVariables(k, coords, np.array([r[0] for r in ranges]), np.array([r[1] for r in ranges]), float(length))
+
+
+def angle_offsets(travel, angle: float) -> tuple:
+    """The axis angle's travel as offsets (rad) from the configured ``angle``: a whole turn is
+    ±π about it (every axis once, each reached the short way); a shorter range is taken in the
+    turn that holds the configured angle (angles are equal modulo 2π)."""
+    lo, hi = travel
+    if hi - lo >= 2 * math.pi - 1e-9:
+        return -math.pi, math.pi
+    shift = 2 * math.pi * math.floor((angle - lo) / (2 * math.pi))
+    return lo + shift - angle, hi + shift - angle
 
 
 def at_pose(variables: PoseVariables):

@@ -23,7 +23,7 @@ def run_pose(args, scene, options, raw, target, vary, settings) -> int:
         try:
             position_tolerance = parse_quantity(args.position_tolerance, "length", "--position-tolerance")
         except ValueError as exc:
-            raise InputError(f"--position-tolerance: {exc}") from None
+            raise InputError(str(exc)) from None
     with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
         pose_problem(scene, target)
         if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):

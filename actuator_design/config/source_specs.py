@@ -65,11 +65,12 @@ class MagnetTravel(StrictModel):
         for name in ("x", "y", "angle"):
             lo_hi = getattr(self, name)
             if lo_hi is not None and not lo_hi[0] < lo_hi[1]:
-                raise error(f"the range must be [low, high] with low < high, got {list(lo_hi)}", name)
+                shown = ", ".join(f"{math.degrees(v):.6g} deg" if name == "angle" else f"{v * 1e3:.6g} mm" for v in lo_hi)
+                raise error(f"the range must be [low, high] with low < high, got [{shown}]", name)
         if self.angle is not None and self.angle[1] - self.angle[0] > 2 * math.pi + 1e-12:
             raise error("the range spans more than 360 deg", "angle")
         if self.x is None and self.y is None and self.angle is None:
-            raise error("give at least one of x, y, angle (each a range [low, high])", "travel")
+            raise error("give at least one of x, y, angle (each a range [low, high])")
         return self
 
 
@@ -93,8 +94,10 @@ class PhysicalMagnet(StrictModel):
         if t is not None:
             for name, value, lo_hi in (("x", self.position.x, t.x), ("y", self.position.y, t.y),
                                        ("angle", self.axis_angle, t.angle)):
-                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1]:
-                    shown = (f"{math.degrees(value):.6g} deg" if name == "angle" else f"{value * 1e3:.6g} mm")
+                shown = (f"{math.degrees(value):.6g} deg" if name == "angle" else f"{value * 1e3:.6g} mm")
+                if name == "angle" and lo_hi is not None:  # angles are equal modulo a turn
+                    value = lo_hi[0] + (value - lo_hi[0]) % (2 * math.pi)
+                if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1] + 1e-12:
                     raise error(f"the configured {'axis_angle' if name == 'angle' else 'position ' + name} "
                                 f"({shown}) lies outside its travel range", f"travel.{name}")
         if self.shape == "cylinder" and self.height is None:

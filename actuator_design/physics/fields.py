@@ -180,7 +180,8 @@ class SourceFieldModel(FieldModel):
         ĥ_k(r) = Q(β) ĥ⁰_k(c + Qᵀ(β)(r − c − d)),    Q(β) the rotation by β,
 
     with ĥ⁰_k the field as fitted. It is written as r − d + (Q − I)ᵀ(...) so that at d = 0, β = 0 the
-    numbers are those of the fit itself, to the last bit."""
+    field's values are those of the fit itself, to the last bit (its derivatives inside the NLP may
+    differ at round-off: ~1e-20 in a Hessian)."""
 
     def __init__(self, field: SourceField):
         from .harmonic import field_function
