@@ -174,6 +174,9 @@ class EquilibriumSolver:
                 "ipopt.tol": max(self.options.tol, 1e-14),
                 "ipopt.max_iter": int(self.options.max_iter),
                 "ipopt.hessian_constant": "no",
+                # a trial point where the energy is not finite (a rod point on a source's centre)
+                # is IPOPT's to step back from, not a warning on the user's terminal
+                "show_eval_warnings": False,
             }
             if self.hessian_mapped:  # the exact Hessian of the whole energy would take seconds to
                 # build (a fitted field's jet at every point, O(n³)): quasi-Newton, then the Newton

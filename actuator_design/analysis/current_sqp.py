@@ -464,8 +464,11 @@ def _project(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, goal: Opti
             break
         e, A = pt["tip"][:m] - prob.target, pt["tip_jac"][:m] * prob.half
         G = A.T @ A
-        lam = 1e-3 * float(np.trace(G)) if lam is None else lam
-        u = np.linalg.solve(G + lam * np.eye(G.shape[0]), -A.T @ e)
+        size = float(np.trace(G))
+        if not (size > 0 and math.isfinite(size)):
+            break  # the tip does not move with the unknowns here
+        lam = 1e-3 * size if lam is None else min(max(lam, 1e-14 * size), 1e14 * size)
+        u = np.linalg.lstsq(G + lam * np.eye(G.shape[0]), -A.T @ e, rcond=None)[0]
         d = np.clip(prob.half * u, prob.lo - w, prob.hi - w)
         new = evaluate(w + d)
         if new is not None and within_limits(prob, w + d, new) and \
