@@ -30,14 +30,14 @@ import numpy as np
 
 from .. import forked
 from ..equilibrium import solve
-from ..field_sources import CoilSource, source_field
+from ..field_sources import CoilSource
 from ..units import MU0
 from ..options import SolverOptions
 from ..result import EquilibriumResult
 from ..scene import Scene
 from .current_map import CurrentMap, at_weights
 from .current_sqp import CurrentProblem, within_limits
-from .hardware_design import HardwareDesign, judge, run_starts, verify as verify_on
+from .hardware_design import HardwareDesign, judge, refitted, run_starts, verify as verify_on
 from .tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem"]
@@ -128,13 +128,7 @@ def coil_problem(scene: Scene, target, tip_tol: float = TIP_TOL) -> CurrentProbl
 def scene_at_currents(scene: Scene, currents: Sequence[float]) -> Scene:
     """The coil scene at ``currents`` (A) built anew: magpylib's field refitted, its own H0, and the
     groups h, h_pos, h_r (each ∝ H0, THEORY §5, §9) rescaled — the verification's scene."""
-    f = scene.field
-    sources = tuple(replace(s, current=float(i)) for s, i in zip(f.sources, currents))
-    new, h0 = source_field(sources, f.length, f.fit_tolerance)
-    new = replace(new, fit_tolerance=f.fit_tolerance, max_power=f.max_power, max_field=f.max_field)
-    k = h0 / scene.scales.field
-    return replace(scene, field=new, h=scene.h * k, h_pos=scene.h_pos * k, h_r=scene.h_r * k,
-                   scales=replace(scene.scales, field=h0))
+    return refitted(scene, (replace(s, current=float(i)) for s, i in zip(scene.field.sources, currents)))
 
 
 def _field_report(scene: Scene, w: np.ndarray, h2: np.ndarray):

@@ -20,7 +20,7 @@ from .current_sqp import CurrentProblem, SQPOutcome, least_effort_currents, with
 from .hardware_map import HardwareMap
 from .tolerances import Tolerances
 
-__all__ = ["HardwareDesign", "run_starts", "verify", "judge", "VERIFY_TOL"]
+__all__ = ["HardwareDesign", "run_starts", "verify", "judge", "refitted", "VERIFY_TOL"]
 
 #: the independent verification's tip tolerance (rod lengths)
 VERIFY_TOL = 1e-6
@@ -117,6 +117,22 @@ class HardwareDesign:
                            "on from rest, is not on the designed branch (or not stable)")
         return text + (f"; over the box ({len(self.box)} corners) the tip misses by at most {self.worst_tip_error:.3g} "
                        "rod lengths")
+
+
+def refitted(scene, sources, weights: tuple = ()):
+    """``scene`` with its field built anew from ``sources`` (SI): magpylib's field refitted (its own
+    H0; the fit tolerance and the limits kept, the source weights set to ``weights``) and the groups
+    h, h_pos, h_r (each ∝ H0, THEORY §5, §9) rescaled — a verification's scene."""
+    from dataclasses import replace
+
+    from ..field_sources import source_field
+
+    f = scene.field
+    new, h0 = source_field(tuple(sources), f.length, f.fit_tolerance)
+    new = replace(new, fit_tolerance=f.fit_tolerance, max_power=f.max_power, max_field=f.max_field, weights=weights)
+    k = h0 / scene.scales.field
+    return replace(scene, field=new, h=scene.h * k, h_pos=scene.h_pos * k, h_r=scene.h_r * k,
+                   scales=replace(scene.scales, field=h0))
 
 
 def run_starts(hmap: HardwareMap, prob: CurrentProblem, starts: Sequence[np.ndarray],

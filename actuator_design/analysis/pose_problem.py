@@ -10,9 +10,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..field_sources import MagnetSource, source_field
+from ..field_sources import MagnetSource
 from ..scene import Scene
 from .current_sqp import CurrentProblem
+from .hardware_design import refitted
 
 __all__ = ["PoseVariables", "pose_variables", "at_pose", "clearance", "pose_problem", "scene_at_pose", "TIP_TOL",
            "COORDS", "angle_offsets"]
@@ -155,9 +156,4 @@ def scene_at_pose(scene: Scene, position, axis_angle: float) -> Scene:
     sources = list(f.sources)
     sources[var.source] = replace(sources[var.source], position=(float(position[0]), float(position[1])),
                                   axis_angle=float(axis_angle), travel=())
-    new, h0 = source_field(tuple(sources), f.length, f.fit_tolerance)
-    new = replace(new, fit_tolerance=f.fit_tolerance, max_power=f.max_power, max_field=f.max_field,
-                  weights=f.weights)
-    k = h0 / scene.scales.field
-    return replace(scene, field=new, h=scene.h * k, h_pos=scene.h_pos * k, h_r=scene.h_r * k,
-                   scales=replace(scene.scales, field=h0))
+    return refitted(scene, sources, f.weights)
