@@ -67,6 +67,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "design_pose": ("analysis.pose_design", "design_pose"),
     "field_schedule": ("analysis.schedule", "field_schedule"),
     "optimal_schedule": ("analysis.schedule_ocp", "optimal_schedule"),
+    "current_schedule": ("analysis.current_schedule", "current_schedule"),
     "RateLimits": ("analysis.schedule_ocp", "RateLimits"),
     "DesignSettings": ("analysis.design_types", "DesignSettings"),
     "Tolerances": ("analysis.tolerances", "Tolerances"),
@@ -82,6 +83,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "OptimalSchedule": ("analysis.schedule_ocp", "OptimalSchedule"),
     "CurrentDesign": ("analysis.current_design", "CurrentDesign"),
     "PoseDesign": ("analysis.pose_design", "PoseDesign"),
+    "CurrentSchedule": ("analysis.current_schedule", "CurrentSchedule"),
     "FitResult": ("calibration", "FitResult"),
     "StudyReport": ("study.runner", "StudyReport"),
 }

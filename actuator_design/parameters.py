@@ -170,6 +170,36 @@ def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
                      upper=upper, residual=residual, field_power=field_power, ensure=ensure)
 
 
+def _source_weight(k: int) -> Parameter:
+    """The weight w_k of source k of a field from magnets and coils (``SourceField.weights``: coil
+    k's current over the current its field was fitted at), NLP slot ``source_weight_k``."""
+    def has(sc: Scene) -> bool:
+        return getattr(sc.field, "kind", "") == "sources" and k < len(sc.field.terms)
+
+    def write(sc: Scene, v: float) -> Scene:
+        w = list(sc.field.source_weights())
+        w[k] = v
+        return replace(sc, field=replace(sc.field, weights=tuple(w)))
+
+    def ensure(sc: Scene) -> Scene:
+        if not has(sc):
+            raise ValueError(f"source_weight_{k}: the scene's field has no source {k + 1} (a field from magnets "
+                             "or coils, `field: {type: coils}`)")
+        return sc
+
+    return Parameter(f"source_weight_{k}", f"weight of field source {k + 1} (its current over the current it was "
+                     "fitted at)", "1", f"source_weight_{k}", read=lambda sc: sc.field.source_weights()[k] if has(sc)
+                     else 0.0, write=write, ensure=ensure)
+
+
+def _source_weight_entry(name: str) -> Optional[Parameter]:
+    """``source_weight_k`` for any k: lens entries that :func:`parameter` finds (loading paths over
+    coil currents, :mod:`.analysis.current_schedule`) but that are not listed among the scene
+    parameters a user names (their number depends on the scene)."""
+    head, _, k = name.rpartition("_")
+    return _source_weight(int(k)) if head == "source_weight" and k.isdigit() else None
+
+
 # -- the registry --------------------------------------------------------------------------------
 _CACHE: Dict[str, object] = {"version": None, "registry": {}}
 
@@ -196,7 +226,7 @@ def names() -> List[str]:
 def parameter(name: str, what: str = "parameter") -> Parameter:
     """The parameter called ``name``; ValueError ``unknown <what> 'name' (allowed: …)`` otherwise."""
     reg = parameters()
-    p = reg.get(name)
+    p = reg.get(name) or _source_weight_entry(name)
     if p is None:
         raise ValueError(f"unknown {what} {name!r} (allowed: {', '.join(reg)})")
     return p

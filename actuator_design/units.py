@@ -137,6 +137,7 @@ DIMENSIONS = {
     "angle": _Dimension("an angle", "30 deg", "rad"),
     "field_rate": _Dimension("a rate of change of the field", "5 mT/s' or '4 kA/m/s", "A/m/s"),
     "angular_rate": _Dimension("a rotation rate", "30 deg/s", "rad/s"),
+    "current_rate": _Dimension("a rate of change of a current (a driver's slew rate)", "20 A/s", "A/s"),
     "dimensionless": _Dimension("a plain number", "0.25", ""),
 }
 """Supported dimensions: name → description, example and the SI unit returned."""

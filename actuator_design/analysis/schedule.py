@@ -157,10 +157,12 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
 
 
 def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: SolverOptions,
-                    schedule: Sequence[Dict[str, float]], index: Sequence[int]) -> ScheduleResult:
+                    schedule: Sequence[Dict[str, float]], index: Sequence[int], max_step: float = 0.25) -> ScheduleResult:
     """Check a schedule by one quasi-static loading path from zero field through its points
-    (:func:`~.loading.follow_path`): no snap, every state stable, the state at each waypoint's
-    field (``schedule[index[k]]``) on waypoint k to 1e-6.
+    (:func:`~.loading.follow_path`; the points name lens parameters: ``h``, ``phi``, or the coils'
+    ``source_weight_k``): no snap, every state stable, the state at each waypoint's
+    field (``schedule[index[k]]``) on waypoint k to 1e-6. ``max_step``: the path's largest step, a
+    fraction of a schedule segment (the engine's step control and the angle bound refine further).
 
     Returns
     -------
@@ -171,7 +173,8 @@ def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: 
 
     wps = [tuple(float(v) for v in w) for w in waypoints]
     schedule, index = [dict(s) for s in schedule], list(index)
-    path = follow_path(replace(base, h=0.0), options, schedule, max_step=0.25, max_dtheta=0.5)
+    start = replace(base, h=0.0) if "h" in schedule[0] else base  # (a schedule over coils starts them at 0)
+    path = follow_path(start, options, schedule, max_step=max_step, max_dtheta=0.5)
     states = list(path.states)
     ok_path = bool(path.success and len(states) == len(schedule))
     all_stable = ok_path and all(s.stable for s in states)
@@ -184,8 +187,8 @@ def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: 
         nan = float("nan")
         rows.append({"waypoint": k, "target_x": wp[0], "target_y": wp[1],
                      "x": float(st.tip["x"]) if st else nan, "y": float(st.tip["y"]) if st else nan,
-                     "angle": float(st.tip["angle"]) if st else nan, "h": float(schedule[i]["h"]),
-                     "phi": float(schedule[i]["phi"]), "error": float(err),
+                     "angle": float(st.tip["angle"]) if st else nan,
+                     **{name: float(v) for name, v in schedule[i].items()}, "error": float(err),
                      "margin": float(st.eigenvalues[0]) if st else nan})
     # verified = the independent path confirms every claim of the schedule, so it equals success
     success = bool(ok_path and path.snap_free and all_stable and on_target)

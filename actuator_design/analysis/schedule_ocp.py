@@ -43,7 +43,8 @@ from .design_types import DesignSettings
 from .schedule import ScheduleResult, field_schedule, verify_schedule
 from .schedule_ocp_nlp import ScheduleOCP
 
-__all__ = ["RateLimits", "OptimalSchedule", "optimal_schedule", "schedule_times", "field_effort",
+__all__ = ["RateLimits", "OptimalSchedule", "optimal_schedule", "schedule_times", "field_effort", "control_effort",
+           "resample_nodes", "node_grid",
            "OBJECTIVES", "MAX_NODES"]
 
 #: What the optimal-control schedule minimises.
@@ -90,8 +91,16 @@ def schedule_times(schedule: Sequence[Dict[str, float]], limits: RateLimits) -> 
 def field_effort(schedule: Sequence[Dict[str, float]], times: np.ndarray) -> float:
     """∫ h² dt over the schedule (field group² · s), exact for h linear in time within each step
     (as the schedule is followed): Δt (h_a² + h_a h_b + h_b²) / 3 per step."""
-    h = np.array([s["h"] for s in schedule], float)
-    return float(np.sum(np.diff(times) * (h[:-1] ** 2 + h[:-1] * h[1:] + h[1:] ** 2) / 3.0))
+    return control_effort(np.array([[s["h"]] for s in schedule], float), times, [1.0])
+
+
+def control_effort(u: np.ndarray, times: np.ndarray, weights) -> float:
+    """∫ Σ_i c_i u_i² dt over a schedule of controls ``u`` (n_steps, nu) reached at ``times`` (s),
+    exact for u linear in time within each step: Δt (u_a² + u_a u_b + u_b²) / 3 per step and control,
+    weighted by ``weights`` c (nu,)."""
+    u = np.asarray(u, float).reshape(len(times), -1)
+    per = (u[:-1] ** 2 + u[:-1] * u[1:] + u[1:] ** 2) / 3.0 @ np.asarray(weights, float)
+    return float(np.sum(np.diff(times) * per))
 
 
 @dataclass
@@ -216,9 +225,12 @@ def optimal_schedule(waypoints: Sequence[Sequence[float]], limits: RateLimits, s
                       f"no greedy schedule to start from: {greedy.message}")
     base = greedy.scene
     nlp = get_design_nlp(base, ("h", "phi"), options, settings.alpha_terms)
-    start = _resample(greedy, g_times, nodes, nlp, options)
+    steps = np.array([nlp.design_vector(h=s["h"], phi=s["phi"]) for s in greedy.schedule])
+    start = resample_nodes(greedy, g_times, nodes, steps, lambda d: nlp.scene_for(base, d), nlp.solver, options)
     say(f"optimal control: building the NLP over {nodes} time nodes")
     t1 = time.perf_counter()
+    ih, iphi = nlp.dslices["h"].start, nlp.dslices["phi"].start
+    start.update(h=[u[ih] for u in start["u"]], phi=[u[iphi] for u in start["u"]])
     problem = ScheduleOCP(nlp, base, len(start["h"]), start["waypoint_nodes"], greedy.waypoints, limits,
                           settings.margin, settings.h_max, objective)
     timings["build"] = time.perf_counter() - t1
@@ -249,14 +261,13 @@ def optimal_schedule(waypoints: Sequence[Sequence[float]], limits: RateLimits, s
                   "schedule under the same limits")
 
 
-def _resample(greedy: ScheduleResult, times: np.ndarray, nodes: int, nlp, options) -> Dict[str, object]:
-    """The greedy schedule on ``nodes`` nodes: the same field path, each leg (zero field to the
-    first waypoint, then waypoint to waypoint) given steps in proportion to its duration, at least
-    one; each node's state solved on the design NLP's mesh from the greedy path's state at the
-    greedy step before it (that path's own warm start)."""
-    from ..equilibrium import solve_on
-
-    ends = [0] + list(greedy.waypoint_index)
+def node_grid(waypoint_index: Sequence[int], times: np.ndarray, nodes: int, controls: np.ndarray) -> Dict[str, object]:
+    """A schedule's controls (``controls``: its steps', (n_steps, nu), each step a straight line in
+    them, reached at ``times``) on ``nodes`` time nodes: each leg (the start to the first waypoint,
+    then waypoint to waypoint) given steps in proportion to its duration, at least one, each
+    waypoint's own controls exactly. Returns ``u`` (nodes, nu), ``dt`` (nodes − 1,), ``t`` (nodes,)
+    and ``waypoint_nodes``."""
+    ends = [0] + list(waypoint_index)
     span = np.diff(times[ends])
     steps = np.ones(len(span), int)
     for _ in range(nodes - 1 - len(span)):  # one more step to the leg whose steps are longest
@@ -266,15 +277,25 @@ def _resample(greedy: ScheduleResult, times: np.ndarray, nodes: int, nlp, option
         t_nodes += list(np.linspace(times[a], times[b], n + 1)[1:])
         wp_nodes.append(len(t_nodes) - 1)
     t_nodes = np.array(t_nodes)
-    # (h, φ) along the greedy path in time: each greedy step is a straight line in (h, φ)
-    h = np.interp(t_nodes, times, [s["h"] for s in greedy.schedule])
-    phi = np.interp(t_nodes, times, [s["phi"] for s in greedy.schedule])
-    for k, i in zip(wp_nodes, greedy.waypoint_index):  # each waypoint's own field, exactly
-        h[k], phi[k] = greedy.schedule[i]["h"], greedy.schedule[i]["phi"]
-    before = np.clip(np.searchsorted(times, t_nodes, side="right") - 1, 0, len(times) - 1)
+    controls = np.asarray(controls, float)
+    u = np.column_stack([np.interp(t_nodes, times, c) for c in controls.T])
+    for k, i in zip(wp_nodes, waypoint_index):
+        u[k] = controls[i]
+    return {"u": u, "dt": np.diff(t_nodes), "t": t_nodes, "waypoint_nodes": wp_nodes}
+
+
+def resample_nodes(greedy: ScheduleResult, times: np.ndarray, nodes: int, controls: np.ndarray,
+                   scene_at: Callable[[np.ndarray], Scene], solver, options) -> Dict[str, object]:
+    """The greedy schedule on ``nodes`` nodes (:func:`node_grid`), the optimal-control NLP's start,
+    with each node's state ``theta`` solved on ``solver``'s mesh (``scene_at(u)``: the scene at
+    controls u) from the greedy path's state at the greedy step before it (that path's own warm
+    start)."""
+    from ..equilibrium import solve_on
+
+    grid = node_grid(greedy.waypoint_index, times, nodes, controls)
+    before = np.clip(np.searchsorted(times, grid["t"], side="right") - 1, 0, len(times) - 1)
     theta = []
-    for k in range(len(t_nodes)):
-        d = nlp.design_vector(h=float(h[k]), phi=float(phi[k]))
-        r = solve_on(nlp.scene_for(greedy.scene, d), options, greedy.states[before[k]].z, nlp.solver)
+    for k, u in enumerate(grid["u"]):
+        r = solve_on(scene_at(u), options, greedy.states[before[k]].z, solver)
         theta.append(r.z if r.success and r.stable else greedy.states[before[k]].z)
-    return {"h": h, "phi": phi, "theta": theta, "dt": np.diff(t_nodes), "waypoint_nodes": wp_nodes}
+    return {**grid, "u": list(grid["u"]), "theta": theta}

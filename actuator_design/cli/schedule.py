@@ -12,7 +12,10 @@ Physical scenes (`type: physical` CONFIG) speak the user's units too: every sche
 field_A_per_m, field_mT (mu0 H) and angle_deg, the text shows waypoints and tips in the length unit
 of the YAML and the field in mT, and --rate 5mT/s / --rotation-rate 30deg/s add the time of each
 step (the slower of the field change and the rotation governs).
-Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why).
+On a scene whose field comes from coils (`field: {type: coils}`) the coils' currents are scheduled
+instead, within each driver's --slew-rate (A/s) and current limit (:mod:`.schedule_currents`).
+Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why), 4 (coils)
+a waypoint no currents within the limits reach.
 """
 from __future__ import annotations
 
@@ -49,13 +52,19 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     o.add_argument("--optimal-control", choices=("time", "energy"), default=None,
                    help="minimise the schedule's duration, or its field effort (integral of h^2 dt, the coils' "
                         "energy up to their constant), under the rate limits: needs --rotation-rate and "
-                        "--rate (physical scenes) or --h-rate (dimensionless ones); reported only when "
-                        "verified from rest and no worse than the greedy schedule")
+                        "--rate (physical scenes) or --h-rate (dimensionless ones); on a scene of coils, "
+                        "the currents' duration or energy (J) under --slew-rate (default energy); reported "
+                        "only when verified from rest and no worse than the greedy schedule")
     o.add_argument("--h-rate", metavar="RATE",
                    help="largest rate of change of the field group h, per second, e.g. '2/s' (dimensionless scenes)")
     o.add_argument("--nodes", type=int, default=None, help="time nodes of the optimal-control problem (default 40)")
+    o.add_argument("--slew-rate", metavar="RATE",
+                   help="a scene whose field comes from coils: each driver's largest |dI/dt|, e.g. '20A/s' (one for "
+                        "all coils, or one per coil: '20A/s,10A/s'); the currents (A) are scheduled, with the least "
+                        "energy (default) or, with --optimal-control time, in the least time")
     parser.add_argument("--json", action="store_true", help="print exactly one JSON object")
-    parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv")
+    parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv "
+                                                     "(no .gif for a scene of coils)")
 
 
 def _points(items, source: str):
@@ -178,6 +187,11 @@ def run(args: argparse.Namespace) -> int:
         if study and study.get("type") != "schedule":
             raise InputError(f"study.type: expected 'schedule' for this command, got {study.get('type')!r}")
         study.pop("type", None)
+    coils = getattr(scene.field, "kind", "") == "sources" and any(hasattr(s, "max_current") for s in scene.field.sources)
+    if args.slew_rate is not None and not coils:
+        raise InputError("--slew-rate: only for a scene whose field comes from coils (`field: {type: coils}`); "
+                         "an ideal field's schedule takes --rate and --rotation-rate")
+    if study and not coils:
         allowed = ("waypoints", "rate_weight", "substeps", "rate", "rotation_rate", "optimal_control", "h_rate",
                    "nodes")
         unknown = sorted(set(study) - set(allowed))
@@ -193,6 +207,9 @@ def run(args: argparse.Namespace) -> int:
         wps = _parse_waypoints(";".join(f"{p[0]},{p[1]}" for p in study["waypoints"]))
     else:
         raise InputError("--waypoints: required (or --path-csv, or `study: {type: schedule, waypoints: ...}`)")
+    if coils:  # the coils' currents are scheduled
+        from .schedule_currents import run_currents
+        return run_currents(args, scene, options, raw, study, wps)
     rate = args.rate_weight if args.rate_weight is not None else float(study.get("rate_weight", 1.0))
     sub = args.substeps if args.substeps is not None else int(study.get("substeps", 8))
     if not (rate >= 0):

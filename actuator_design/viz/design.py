@@ -238,6 +238,31 @@ def _rod_xy(state, n: int = 150):
     return d["x"], d["y"]
 
 
+def waypoint_panel(ax, result, units=None, verified=None) -> None:
+    """The rod at every waypoint of a verified schedule (``result``: a ScheduleResult), its tip path
+    and the waypoints, on ``ax`` (rod lengths, or the scene's length unit with ``units``);
+    ``verified`` (default ``result.success``) titles it."""
+    from matplotlib import cm
+
+    colours = cm.viridis(np.linspace(0, 0.9, len(result.waypoint_index)))
+    for k, i in enumerate(result.waypoint_index):
+        if i < len(result.states):
+            x, y = _rod_xy(result.states[i])
+            ax.plot(x, y, color=colours[k], lw=2, label=f"waypoint {k}")
+    tips = [(s.tip["x"], s.tip["y"]) for s in result.states]
+    if tips:
+        ax.plot(*zip(*tips), color="0.6", lw=1, ls=":", label="tip path")
+    ax.plot(*zip(*result.waypoints), "x", color="crimson", ms=10, mew=2, label="waypoints")
+    ax.plot([0, 0], [-0.12, 0.12], color="k", lw=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x / l")
+    ax.set_ylabel("y / l")
+    length_axes(ax, units)
+    ok = result.success if verified is None else verified
+    ax.set_title("rod at the waypoints — " + ("verified, snap-free" if ok else "NOT verified"))
+    ax.legend(fontsize=8, loc="best")
+
+
 def schedule_figure(result, units=None, optimal=None):
     """The rod at every waypoint along a field schedule, the waypoints, and h, φ along the schedule.
 
@@ -254,26 +279,9 @@ def schedule_figure(result, units=None, optimal=None):
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib import cm
-
     fig = new_figure((11, 4.8))
     ax, ax_s = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
-    colours = cm.viridis(np.linspace(0, 0.9, len(result.waypoint_index)))
-    for k, i in enumerate(result.waypoint_index):
-        if i < len(result.states):
-            x, y = _rod_xy(result.states[i])
-            ax.plot(x, y, color=colours[k], lw=2, label=f"waypoint {k}")
-    tips = [(s.tip["x"], s.tip["y"]) for s in result.states]
-    if tips:
-        ax.plot(*zip(*tips), color="0.6", lw=1, ls=":", label="tip path")
-    ax.plot(*zip(*result.waypoints), "x", color="crimson", ms=10, mew=2, label="waypoints")
-    ax.plot([0, 0], [-0.12, 0.12], color="k", lw=3)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x / l")
-    ax.set_ylabel("y / l")
-    length_axes(ax, units)
-    ax.set_title("rod at the waypoints — " + ("verified, snap-free" if result.success else "NOT verified"))
-    ax.legend(fontsize=8, loc="best")
+    waypoint_panel(ax, result, units)
     ax2 = ax_s.twinx()
     curves = [(optimal.times if optimal is not None else np.arange(len(result.schedule)), result.schedule, "-")]
     if optimal is not None and optimal.optimal:
