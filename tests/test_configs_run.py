@@ -23,7 +23,12 @@ def _commands():
     return out
 
 
-COMMANDS = _commands()
+#: Configs whose run is long and whose analysis a dedicated test covers in the default run: their
+#: Run comment is checked with the slow set (benchmarks), keeping the default run within budget.
+SLOW = {"magnet_pose_design": "tests/test_pose_design.py",
+        "study_schedule_optimal_control": "tests/test_schedule_ocp.py"}
+COMMANDS = [pytest.param(path, command, marks=pytest.mark.slow) if path.stem in SLOW else (path, command)
+            for path, command in _commands()]
 
 
 def test_the_run_comments_are_found():
