@@ -185,3 +185,33 @@ def test_obstacles_and_flags_that_do_not_apply_are_refused_in_one_line(tmp_path,
         assert main(["design", *argv, "--target-tip", "0.83,0.5"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], err
+
+
+def test_the_qp_step_with_as_many_coils_as_tip_equations_is_the_newton_step_and_prunes_exactly():
+    """Two unknowns, two tip equations: the step is −J⁻¹e (the linearised target fixes it), with or
+    without a field limit the box cannot reach (its rows are dropped exactly); three unknowns: the
+    least-effort step of the equality-constrained quadratic programme (its KKT system by hand)."""
+    from actuator_design.analysis.current_sqp import CurrentProblem, _qp_step
+
+    J = np.array([[1.0, 0.3], [0.2, 1.0]])
+    e = np.array([0.05, -0.02])
+    pt = {"tip": e + np.array([0.3, 0.2]), "tip_jac": J, "limit": np.array([0.1, 0.2]),
+          "limit_jac": np.array([[0.1, 0.0], [0.0, 0.1]])}
+    w = np.array([0.2, 0.1])
+    for cap in (math.inf, 1.0):  # 1.0: the box (|d| ≤ 0.25) reaches at most 0.2 + 0.025 < 1
+        prob = CurrentProblem(target=np.array([0.3, 0.2]), cost=np.array([1.0, 2.0]), bound=np.ones(2),
+                              tip_tol=1e-9, max_limit=cap)
+        d, solved = _qp_step(prob, w, pt, 0.25, exact=True)
+        assert solved
+        np.testing.assert_allclose(d, -np.linalg.solve(J, e), rtol=1e-14)
+    A = np.array([[1.0, 0.3, -0.5], [0.2, 1.0, 0.7]])
+    c = np.array([1.0, 3.0, 0.5])
+    prob = CurrentProblem(target=np.zeros(2), cost=c, bound=np.ones(3), tip_tol=1e-9)
+    w = np.array([0.1, -0.05, 0.02])
+    e = A @ w - np.array([0.02, 0.01])
+    pt = {"tip": e, "tip_jac": A, "limit": np.zeros(1), "limit_jac": np.zeros((1, 3))}
+    d, solved = _qp_step(prob, w, pt, 1.0, exact=True)
+    K = np.block([[2 * np.diag(c), A.T], [A, np.zeros((2, 2))]])  # min Σ c (w + d)² s.t. A d = −e
+    ref = np.linalg.solve(K, np.concatenate([-2 * c * w, -e]))[:3]
+    assert solved
+    np.testing.assert_allclose(d, ref, atol=1e-8)

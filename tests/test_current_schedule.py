@@ -178,6 +178,15 @@ def test_shipped_coil_schedule(objective, capsys, tmp_path):
         h = _field_on(refit, r)  # |μ0 H| on the rod there, from the refitted field, within max_field
         assert h <= 40.0
     assert {"schedule.json", "schedule.csv", "waypoints.csv", "schedule.png"} <= {p.name for p in tmp_path.iterdir()}
+    # issue 19 item 4: step 0 (coils off, the straight strip) relaxes in 1/(ζ β₁²) √(ρA ℓ⁴/B), β₁² = 3.51602;
+    # a step is flagged exactly when it is shorter than its state's relaxation time
+    B, rho_a = 1e6 * 5e-3 * 0.5e-3 ** 3 / 12, 1780.0 * 5e-3 * 0.5e-3
+    steps = payload["schedule"]
+    assert steps[0]["relaxation_time_s"] == pytest.approx(1 / (0.1 * 3.5160152) * math.sqrt(rho_a * 0.02 ** 4 / B),
+                                                          rel=1e-6)
+    for a, b in zip(steps, steps[1:]):
+        assert b["quasi_static"] == (b["time_s"] - a["time_s"] >= b["relaxation_time_s"])
+    assert payload["quasi_static"]["slowest_relaxation_time_s"] == max(s["relaxation_time_s"] for s in steps)
 
 
 def _field_on(scene, state) -> float:
@@ -206,6 +215,7 @@ def test_a_failed_optimal_control_reports_the_greedy_schedule_verified(monkeypat
     assert payload["success"] and not payload["optimal"]
     assert payload["ocp_status"] == "Maximum_Iterations_Exceeded"
     assert "did not converge (Maximum_Iterations_Exceeded): the greedy schedule is reported" in payload["message"]
-    assert payload["schedule"] == payload["greedy"]["schedule"]
+    keys = ("step", "time_s", "currents_A")  # (the reported steps add their relaxation times)
+    assert [{k: s[k] for k in keys} for s in payload["schedule"]] == payload["greedy"]["schedule"]
     _check_limits(payload, CONFIG)
     assert payload["extremes"]["least_eigenvalue"] >= 1e-2

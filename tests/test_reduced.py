@@ -205,3 +205,28 @@ def test_moore_spence_jacobian_by_blocks_converges_at_second_order():
     errs = [np.max(np.abs((F(X + d * dX) - F(X - d * dX)) / (2 * d) - J @ dX)) for d in (2e-2, 1e-2)]
     assert errs[1] < 1e-9 or 3.0 < errs[0] / errs[1] < 5.0
     assert np.max(np.abs(J[2 * n, n + 1:] - system.mass * c)) == 0.0
+
+
+@pytest.mark.parametrize("names, lam", [(["h"], [0.4]), (["h2"], [0.2]), (["h", "h_pos"], [0.4, 0.2]),
+                                        (["theta0"], [0.3])])
+def test_the_kernel_evaluator_equals_the_symbolic_system(names, lam):
+    """In a position-reading energy (a point dipole with loads) the continuation's (g, H, G_λ) come
+    from the solver's structured kernel; they equal the symbolic reduced system's (automatic
+    differentiation of the whole reduced energy: a second method) to round-off, in every lens."""
+    from actuator_design.reduced.system import KernelSystemEvaluator, SystemEvaluator, reduced_system
+    from actuator_design.scene import DipoleField, Scene
+
+    scene = Scene(field=DipoleField(x0=0.5, y0=0.8, moment_angle=0.5 * math.pi), h=0.3, h_pos=0.1,
+                  tip_force=(0.2, -0.4), tip_moment=0.3, distributed_load=(0.1, -0.5))
+    sv = get_solver(scene, SolverOptions(elements=1, degree=8))
+    P = sv.parameter_vector(scene)
+    system = reduced_system(sv, names)
+    fast = system.evaluator(P)
+    assert isinstance(fast, KernelSystemEvaluator)
+    u = 0.3 * np.sin(2 * sv.transcription.nodes[1:])
+    g1, H1, l1 = (np.array(v) for v in fast(u, lam))
+    g2, H2, l2 = (np.array(v) for v in SystemEvaluator(system.f_system, P)(u, lam))
+    assert l1.shape == l2.shape
+    np.testing.assert_allclose(g1, g2, rtol=0, atol=1e-12 * np.abs(g2).max())
+    np.testing.assert_allclose(H1, H2, rtol=0, atol=1e-12 * np.abs(H2).max())
+    np.testing.assert_allclose(l1, l2, rtol=0, atol=1e-12 * max(np.abs(l2).max(), 1.0))

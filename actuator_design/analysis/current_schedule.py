@@ -20,6 +20,9 @@ of a rod in the field of coils through waypoints, within the drivers' limits, wi
    max_field on the rod, are checked at every step on the replayed states. The optimised schedule is reported only when it is verified
    and no worse than the greedy one (to :data:`~.schedule_ocp.NOT_WORSE_TOL`); otherwise the
    greedy one, and the message says why.
+4. **Quasi-static?** With the rod's density, each replayed state's relaxation time
+   (:mod:`.dynamics`) is compared with its step's duration (issue 19 item 4): a step shorter than
+   it leaves the rod lagging the currents, and the result says so (it is still reported).
 
 Power along a straight line in the currents is convex in time, so its largest value is at a step's
 ends: checking it at the steps checks it everywhere. The field on the rod is checked at the steps.
@@ -42,6 +45,7 @@ from .current_design import _better, _coils, _even, _screen, coil_problem
 from .current_map import CurrentMap, at_weights
 from .current_schedule_nlp import CurrentOCP
 from .design_types import DesignSettings
+from .dynamics import quasi_static
 from .hardware_design import run_starts
 from .schedule import ScheduleResult, verify_schedule
 from .schedule_ocp import MAX_NODES, NOT_WORSE_TOL, OBJECTIVES, control_effort, node_grid
@@ -87,6 +91,12 @@ class CurrentSchedule:
         Over the reported schedule's steps: the largest |I_k| / max_current, power / max_power,
         |μ0 H| on the rod (mT) / max_field, |dI_k/dt| / slew; the least eigenvalue of the replayed
         states (each must be ≥ the margin).
+    quasi_static : dict or None
+        The rod's slowest relaxation time along the reported schedule and the steps shorter than it
+        (:func:`~.dynamics.quasi_static`; issue 19 item 4); None without the rod's density.
+    step_dynamics : list of dict
+        Per step, ``relaxation_time_s`` of the state it arrives at, ``quasi_static`` (the step lasts
+        at least that long) and ``tip_lag`` (rod lengths); empty without the density.
     """
 
     success: bool
@@ -114,6 +124,8 @@ class CurrentSchedule:
     ocp_status: str = "not_solved"
     verification: Optional[ScheduleResult] = None
     extremes: Dict[str, float] = field(default_factory=dict)
+    quasi_static: Optional[dict] = None
+    step_dynamics: List[dict] = field(default_factory=list)
     timings: Dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -130,7 +142,8 @@ class CurrentSchedule:
             "waypoints": [{"x": w[0], "y": w[1]} for w in self.waypoints],
             "rows": [{k: v for k, v in r.items() if not k.startswith("source_weight_")}
                      | {"currents_A": self.currents[i]} for r, i in zip(rows, self.waypoint_index)],
-            "schedule": [{"step": k, "time_s": t, "currents_A": c} for k, (t, c) in enumerate(zip(self.times, self.currents))],
+            "schedule": [{"step": k, "time_s": t, "currents_A": c, **self.step_relaxation(k)}
+                         for k, (t, c) in enumerate(zip(self.times, self.currents))],
             "waypoint_index": self.waypoint_index, "duration_s": finite(self.duration), f"energy_{unit}": finite(self.energy),
             "energy": finite(self.energy), "energy_unit": "J" if unit == "J" else "A^2 s",
             "greedy": {"schedule": [{"step": k, "time_s": t, "currents_A": c}
@@ -139,9 +152,19 @@ class CurrentSchedule:
                        f"energy_{unit}": finite(self.greedy_energy)},
             "limits": {"slew_A_per_s": self.slew, "max_current_A": self.max_current,
                        "max_power_W": finite(self.max_power), "max_field_mT": finite(self.max_field_mT)},
-            "extremes": self.extremes, "timings_s": self.timings,
+            "extremes": self.extremes, "quasi_static": self.quasi_static, "timings_s": self.timings,
             "verification": self.verification.message if self.verification is not None else None,
             "units": {"length": "rod length", "angle": "rad", "current": "A", "time": "s"}}
+
+    def step_relaxation(self, k: int) -> dict:
+        """Step ``k``'s relaxation time (s; None when unstable), whether it lasts at least that long,
+        and the tip lag (rod lengths), when known."""
+        if k >= len(self.step_dynamics):
+            return {}
+        row = self.step_dynamics[k]
+        tau = row["relaxation_time_s"]
+        return {"relaxation_time_s": tau if math.isfinite(tau) else None, "quasi_static": row["quasi_static"],
+                "tip_lag": row["tip_lag"] if math.isfinite(row["tip_lag"]) else None}
 
 
 def current_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], slew, *, objective: str = "energy",
@@ -254,7 +277,7 @@ def current_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], slew, *
         greedy = verify_schedule(wps, scene, options, as_steps(ws), index, max_step=VERIFY_STEP)
         out.timings["greedy_verify"] = time.perf_counter() - t1
         ok, greedy_why = _checked(greedy, scene, ws, g_times, i0, slew, out, settings.margin)
-        _report(out, ws, g_times, index, greedy, i0, out.greedy_energy, False,
+        _report(out, scene, ws, g_times, index, greedy, i0, out.greedy_energy, False,
                 f"{why}: the greedy schedule is reported" + ("" if ok else f", and it was not verified: {greedy_why}"))
         out.success = out.success and ok
         out.status = "success" if out.success else "not_verified"
@@ -285,7 +308,7 @@ def current_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], slew, *
         elif value > reference + NOT_WORSE_TOL * max(1.0, abs(reference)):
             keep_greedy(f"the optimised schedule's {objective} {value:.6g} exceeds the greedy one's {reference:.6g}")
         else:
-            _report(out, wo, times, grid["waypoint_nodes"], verified, i0,
+            _report(out, scene, wo, times, grid["waypoint_nodes"], verified, i0,
                     control_effort(wo, times, weight_effort), True,
                     f"the optimised schedule's {objective} {value:.6g} against {reference:.6g} for the greedy "
                     "schedule under the same limits")
@@ -324,14 +347,19 @@ def _best_signs(problem: CurrentOCP, grid: dict, pinned: np.ndarray, even: bool,
     return best
 
 
-def _report(out: CurrentSchedule, w: np.ndarray, times: np.ndarray, index, verified: ScheduleResult, i0: np.ndarray,
-            energy: float, optimal: bool, message: str) -> None:
-    """Record the reported schedule (weights ``w`` (n_steps, n_coils) at ``times``) in ``out``."""
+def _report(out: CurrentSchedule, scene: Scene, w: np.ndarray, times: np.ndarray, index, verified: ScheduleResult,
+            i0: np.ndarray, energy: float, optimal: bool, message: str) -> None:
+    """Record the reported schedule (weights ``w`` (n_steps, n_coils) at ``times``) in ``out``, with
+    each replayed state's relaxation time against its step's duration (when the density is known)."""
     out.currents, out.times, out.waypoint_index = (w * i0).tolist(), [float(t) for t in times], list(index)
     out.duration, out.energy = float(times[-1]), float(energy)
     out.optimal, out.verification, out.message = optimal, verified, message
     out.success = bool(verified.success)
     out.status = "success" if out.success else "not_verified"
+    table = [{"time_s": t} for t in out.times]
+    out.quasi_static = quasi_static(verified.states, table, scene.scales)
+    out.step_dynamics = [{k: v for k, v in row.items() if k != "time_s"} for row in table] \
+        if out.quasi_static is not None else []
 
 
 def _checked(verified: ScheduleResult, scene: Scene, w: np.ndarray, times: np.ndarray, i0: np.ndarray,

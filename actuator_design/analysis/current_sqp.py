@@ -16,7 +16,8 @@ solves the quadratic programme in the step d, inside a trust region |d|∞ ≤ �
 target cannot be met within the limits it takes the step that comes nearest (least squares). A
 step is taken only where the map can follow the equilibrium to it (stable all the way) and it
 brings the tip nearer, or keeps it within tolerance and lowers the effort; otherwise Δ shrinks.
-The quadratic programmes are solved by scipy's SLSQP (a few unknowns, no forward solves).
+The quadratic programmes are solved by scipy's SLSQP (a few unknowns, no forward solves); with as
+many unknowns as tip equations the linearised target alone fixes the step.
 """
 from __future__ import annotations
 
@@ -56,6 +57,9 @@ THIN_BAND = 1e-2
 KKT_TOL = 1e-3
 #: on the target with the trust region below this, the SQP hands over to the feasible descent
 SWITCH_DELTA = 1e-3
+#: SLSQP's tolerance on the scaled effort (O(1)) and iteration cap on each step's programme; its
+#: last iterate is taken if it keeps the constraints (the SQP's merit test judges every step)
+QP_FTOL, QP_ITERATIONS = 1e-12, 200
 
 
 @dataclass
@@ -134,17 +138,19 @@ def within_limits(prob: CurrentProblem, w: np.ndarray, pt: dict, slack: float = 
 
 
 def _qp_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float, exact: bool,
-             hess: Optional[np.ndarray] = None, lin: Optional[tuple] = None) -> Optional[np.ndarray]:
+             hess: Optional[np.ndarray] = None, lin: Optional[tuple] = None) -> tuple:
     """The step d of the linearised problem within the trust region |d_k| ≤ delta·bound_k: least
-    effort meeting the target (``exact``, SLSQP), or least tip miss (not ``exact``: bounded linear
-    least squares, then shortened to keep the linearised power and field limits); None if there is
-    no such step. With ``hess`` (n, n) the effort is modelled as ∇f·d + ½ dᵀ hess d (the
+    effort meeting the target (``exact``: solved directly when there are as many unknowns as tip
+    equations, else by SLSQP), or least tip miss (not ``exact``: bounded linear least squares, then
+    shortened to keep the linearised power and field limits). Returns (d, solved): d None if there
+    is no such step; ``solved`` when d is the programme's optimum (SLSQP converged), not only a
+    feasible point of it. With ``hess`` (n, n) the effort is modelled as ∇f·d + ½ dᵀ hess d (the
     Lagrangian's curvature, :func:`_feasible_descent`) instead of itself; with ``lin`` = (J, e) the
     tip's linearisation is J d + e = 0 instead of the map's own."""
     from scipy.optimize import minimize
 
     if not exact:
-        return _least_miss_step(prob, w, pt, delta)
+        return _least_miss_step(prob, w, pt, delta), False
     m = prob.target.size
     J, e = lin if lin is not None else (pt["tip_jac"][:m], pt["tip"][:m] - prob.target)
     scale = max(float(np.sum(prob.cost)), 1e-300)
@@ -160,21 +166,36 @@ def _qp_step(prob: CurrentProblem, w: np.ndarray, pt: dict, delta: float, exact:
     if prob.power is not None:
         cons.append({"type": "ineq", "fun": lambda d: (prob.max_power - float(np.dot(prob.power, (w + d) ** 2))) / prob.max_power,
                      "jac": lambda d: -2 * prob.power * (w + d) / prob.max_power})
-    if math.isfinite(prob.max_limit):
-        h2, G = pt["limit"], pt["limit_jac"]
-        cap = prob.max_limit * (1 - FIELD_MARGIN)
-        cons.append({"type": "ineq", "fun": lambda d: (cap - h2 - G @ d) / prob.max_limit,
-                     "jac": lambda d: -G / prob.max_limit})
     bounds = _box(prob, w, delta)
-    d0 = np.clip(np.zeros_like(w), [lo for lo, _ in bounds], [hi for _, hi in bounds])
-    res = minimize(fun, d0, jac=True, method="SLSQP", bounds=bounds, constraints=cons,
-                   options={"ftol": 1e-15, "maxiter": 200})
-    d = np.asarray(res.x, float)
-    if not np.all(np.isfinite(d)):
-        return None
-    if not res.success or np.max(np.abs(J @ d + e)) > 1e-9 + 1e-6 * np.max(np.abs(e)):
-        return None
-    return d
+    if math.isfinite(prob.max_limit):
+        h2, G = np.asarray(pt["limit"], float), np.asarray(pt["limit_jac"], float)
+        cap = prob.max_limit * (1 - FIELD_MARGIN)
+        # only rows the box can bring to the cap (max of G_i·d over it: Σ_k max(G_ik lo_k, G_ik hi_k))
+        lo, hi = (np.array(v, float) for v in zip(*bounds))
+        reach = h2 + np.sum(np.maximum(G * lo, G * hi), axis=1)
+        rows = np.flatnonzero(reach >= cap)
+        if rows.size:
+            h2, G = h2[rows], G[rows]
+            cons.append({"type": "ineq", "fun": lambda d: (cap - h2 - G @ d) / prob.max_limit,
+                         "jac": lambda d: -G / prob.max_limit})
+    lo, hi = (np.array(v, float) for v in zip(*bounds))
+    if J.shape[0] == J.shape[1] and np.linalg.cond(J) < 1e12:
+        d = np.linalg.solve(J, -e)  # as many unknowns as equations: the step is the linearised target's
+        solved = True
+    else:
+        res = minimize(fun, np.clip(np.zeros_like(w), lo, hi), jac=True, method="SLSQP", bounds=bounds,
+                       constraints=cons, options={"ftol": QP_FTOL, "maxiter": QP_ITERATIONS})
+        d, solved = np.asarray(res.x, float), bool(res.success)
+    # a step that keeps the linearised problem's constraints is taken, optimal or not (SLSQP at its
+    # iteration limit included: the SQP judges it by its merit); only an optimal one may end the SQP
+    if not np.all(np.isfinite(d)) or np.max(np.abs(J @ d + e)) > 1e-9 + 1e-6 * np.max(np.abs(e)):
+        return None, False
+    span = np.maximum(hi - lo, 1e-300)
+    if np.any(d < lo - 1e-12 * span) or np.any(d > hi + 1e-12 * span):
+        return None, False
+    if any(np.min(np.atleast_1d(c["fun"](d))) < -1e-12 for c in cons if c["type"] == "ineq"):
+        return None, False
+    return np.clip(d, lo, hi), solved
 
 
 def _box(prob: CurrentProblem, w: np.ndarray, delta: float) -> list:
@@ -257,10 +278,9 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
             break  # on the target, the trust region collapsed: the merit's linear model fails here
         if progress is not None:
             progress(f"  iteration {it}: tip miss {err:.3g}, effort {_effort(prob, w):.6g}")
-        d = _qp_step(prob, w, pt, delta, exact=True)
-        exact = d is not None
+        d, exact = _qp_step(prob, w, pt, delta, exact=True)
         if d is None:
-            d = _qp_step(prob, w, pt, delta, exact=False)
+            d, _ = _qp_step(prob, w, pt, delta, exact=False)
         if d is None:
             break
         step = float(np.max(np.abs(d) / prob.half))
@@ -353,7 +373,7 @@ def _feasible_descent(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, i
         history.append((float(np.max(np.abs(pt["tip"][:m] - prob.target))), _effort(prob, w)))
         if progress is not None:
             progress(f"  iteration {it}: on the target, effort {_effort(prob, w):.6g}")
-        d = _qp_step(prob, w, pt, delta, exact=True, hess=B, lin=_resolved(prob, pt))
+        d, solved = _qp_step(prob, w, pt, delta, exact=True, hess=B, lin=_resolved(prob, pt))
         if d is None:
             delta /= 4
             if delta < DELTA_MIN:
@@ -361,7 +381,7 @@ def _feasible_descent(prob: CurrentProblem, evaluate, w: np.ndarray, pt: dict, i
             continue
         step = float(np.max(np.abs(d) / prob.half))
         if step <= STEP_TOL:
-            converged = True
+            converged = solved  # a least-effort point only when the step's programme was solved
             break
         pred = -(float(grad(w) @ d) + 0.5 * float(d @ B @ d))
         new = evaluate(w + d)

@@ -56,5 +56,9 @@ def quasi_static_line(qs, scales=None) -> str:
     verdict = (f"every step lasts at least {times}" if not fast else
                f"{len(fast)} step(s) shorter than {times} (the first: step {fast[0]['step']}, "
                f"{fast[0]['duration_s']:.3g} s): the rod lags the field there")
+    lag = qs.get("largest_tip_lag", math.nan)
+    trail = ("" if not (math.isfinite(lag) and lag > 0) else
+             f"; the tip strays from its quasi-static path by up to {lag:.3g} rod lengths "
+             f"({qs['largest_tip_lag_m'] * 1e3:.3g} mm, step {qs['tip_lag_step']}: the slowest mode driven along the steps)")
     return (f"  quasi-static: slowest relaxation time {qs['slowest_relaxation_time_s']:.3g} s (step {qs['step']}; "
-            f"{zeta}); {verdict}")
+            f"{zeta}); {verdict}{trail}")

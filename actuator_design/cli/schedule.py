@@ -28,6 +28,7 @@ from pathlib import Path
 
 from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
                      parse_rates, stdout_to_stderr, table_csv_text)
+from .design_units import quasi_static_line
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -239,7 +240,14 @@ def run(args: argparse.Namespace) -> int:
         table = schedule_table(res.schedule, units, *(rates if ocp is None else (None, None)))
     if ocp is not None:  # each step's time is the optimal-control problem's (the greedy rule's for the greedy one)
         table = [dict(row, time_s=t) for row, t in zip(table, ocp.times)]
+    timed = bool(table) and "time_s" in table[-1]
+    qs = None
+    if timed:  # each step against the rod's relaxation time (issue 19 item 4): adds the table's columns
+        from ..analysis.dynamics import quasi_static
+        qs = quasi_static(res.states, table, scene.scales)
     payload = _payload(res, units, table)
+    if timed:
+        payload["quasi_static"] = qs
     if ocp is not None:
         payload["optimal_control"] = ocp.to_dict()["optimal_control"]
         if units is not None and units.has_field:  # ∫B² dt in the lab's units (B = μ0 H ∝ h)
@@ -258,6 +266,8 @@ def run(args: argparse.Namespace) -> int:
                   f"{math.degrees(r['phi']):>9.3f} {r['error']:>9.2e} {r['margin']:>8.4g}")
         for line in _physical_lines(payload, table):
             print(line)
+        if timed:
+            print(quasi_static_line(qs, scene.scales))
         print(f"  schedule: {len(res.schedule)} points from zero field; {res.message}")
         if ocp is not None:
             oc = payload["optimal_control"]

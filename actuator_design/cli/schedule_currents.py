@@ -15,6 +15,7 @@ import math
 import sys
 
 from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr, table_csv_text
+from .design_units import quasi_static_line
 from .output import print_written, write_out
 
 __all__ = ["run_currents", "STUDY_KEYS"]
@@ -132,6 +133,8 @@ def _summary(res, payload) -> list:
         parts += [f"{k} {e[k]:.3g}" for k in ("power", "field") if k in e]
         lines.append(f"  limits used (largest over the steps, 1 = at the limit): {', '.join(parts)}; largest field "
                      f"on the rod {e['largest_field_mT']:.4g} mT")
+    if res.verification is not None:
+        lines.append(quasi_static_line(res.quasi_static, res.verification.scene.scales))
     lines.append(f"  note: {res.message}")
     lines.append(f"  time: {res.timings.get('total', float('nan')):.2f} s")
     lines.append(f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}")
@@ -158,6 +161,7 @@ def _files(res, payload, raw, units) -> dict:
             if units is not None:
                 row[f"tip_x_{units.length_unit}"] = units.length(st.tip["x"])
                 row[f"tip_y_{units.length_unit}"] = units.length(st.tip["y"])
+        row.update(res.step_relaxation(k))
         steps.append(row)
     if steps:
         files["schedule.csv"] = table_csv_text(steps, list(steps[-1]))
