@@ -104,6 +104,9 @@ def test_cli_optimal_control_reports_both_schedules(tmp_path, capsys):
     assert oc["optimal"] and oc["effort_h2_s"] < oc["greedy_effort_h2_s"] and oc["nodes"] == 12
     times = [s["time_s"] for s in out["schedule"]]
     assert times[0] == 0.0 and times[-1] == pytest.approx(oc["time_s"])
+    assert out["quasi_static"] is None  # timed, but a dimensionless scene has no mass: not checked, and said so
+    assert main(args[:-1]) == 0
+    assert "quasi-static: not checked (a dimensionless scene has no mass" in capsys.readouterr().out
     for bad, words in ((["--optimal-control", "time", "--h-rate", "2/s"], "--rotation-rate"),
                        (["--optimal-control", "time", "--rotation-rate", "10deg/s"], "--rate"),
                        (["--optimal-control", "time", "--h-rate", "-1/s", "--rotation-rate", "1deg/s"], "--h-rate"),

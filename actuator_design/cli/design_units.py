@@ -45,7 +45,10 @@ def add_schedule_units(payload: dict, table) -> None:
 def quasi_static_line(qs, scales=None) -> str:
     """One line: the slowest relaxation time along a timed schedule and the steps faster than it."""
     if qs is None:
-        if scales is not None and scales.mass_per_length > 0:
+        if scales is None:
+            return ("  quasi-static: not checked (a dimensionless scene has no mass: give the scene in physical "
+                    "units, with rod.density, to compare the steps with the rod's relaxation time)")
+        if scales.mass_per_length > 0:
             return ("  quasi-static: not checked (no equilibrium at every schedule step to take the relaxation "
                     "time of: the schedule was not followed to its end)")
         return ("  quasi-static: not checked (give rod.density, and rod.damping_ratio, to compare the steps "
