@@ -86,19 +86,20 @@ class ExpressionField:
 @dataclass(frozen=True)
 class SourceField:
     """The field of magnets and coils (:mod:`actuator_design.field_sources`), computed by magpylib and
-    represented over the rod's reach by fitted zonal solid harmonics (divergence- and curl-free by
+    represented over the rod's reach by fitted solid harmonics (divergence- and curl-free by
     construction; :mod:`actuator_design.physics.harmonic`). Dimensionless: ĥ = H/H0, positions in ℓ.
 
     Parameters
     ----------
-    terms : tuple of HarmonicTerm
-        One fitted expansion per source (its region: :meth:`HarmonicTerm.contains`).
+    terms : tuple of HarmonicTerm or TesseralTerm
+        One fitted expansion per source (its region: its ``contains``).
     sources : tuple
         The SI source descriptions the fit was made from (MagnetSource, CoilSource).
     length : float
         ℓ (m) the fit was made for.
     fit_error, gradient_error : float
-        Largest errors of ĥ and ∇ĥ ℓ against magpylib at random points of the reach (relative to H0).
+        Largest errors of ĥ and ∇ĥ ℓ against magpylib at random points of the reach and on
+        the edges of the reach and of each fit's region (relative to H0).
     weights : tuple of float
         w_k: ĥ = Σ_k w_k ĥ_k, source k's fitted field scaled by w_k (a coil's current I_k = w_k × the
         current it was fitted at); empty: every w_k = 1. NLP parameters, so a design over coil
@@ -135,9 +136,10 @@ class SourceField:
         for src, t in zip(self.sources, self.terms):
             kind = getattr(src, "shape", None) or getattr(src, "kind", "source")
             region = ("beyond" if t.kind == "exterior" else "within") + f" {t.valid_radius * self.length * 1e3:.4g} mm"
-            names.append(f"{kind} {'magnet' if hasattr(src, 'shape') else 'coil'} (order {len(t.coefficients)}, "
+            names.append(f"{kind} {'magnet' if hasattr(src, 'shape') else 'coil'} (order {t.order}, "
                          f"holds {region} of its centre)")
-        return (f"{', '.join(names)} by magpylib, fitted with zonal harmonics; fit error {self.fit_error:.2g} "
+        harmonics = "solid" if any(hasattr(t, "modes") for t in self.terms) else "zonal"
+        return (f"{', '.join(names)} by magpylib, fitted with {harmonics} harmonics; fit error {self.fit_error:.2g} "
                 f"(field), {self.gradient_error:.2g} (gradient) relative to H0")
 
     def source_weights(self) -> Tuple[float, ...]:

@@ -26,7 +26,8 @@ def _commands():
 #: Configs whose run is long and whose analysis a dedicated test covers in the default run: their
 #: Run comment is checked with the slow set (benchmarks), keeping the default run within budget.
 SLOW = {"magnet_pose_design": "tests/test_pose_design.py",
-        "study_schedule_optimal_control": "tests/test_schedule_ocp.py"}
+        "study_schedule_optimal_control": "tests/test_schedule_ocp.py",
+        "magnet_cuboid_hard_strip": "tests/test_field_sources_solve.py"}
 COMMANDS = [pytest.param(path, command, marks=pytest.mark.slow) if path.stem in SLOW else (path, command)
             for path, command in _commands()]
 

@@ -53,6 +53,21 @@ def test_hard_magnetic_strip_beside_a_cylinder_magnet_against_shooting():
     assert abs(ours[1]) > 0.05  # the field does bend the rod
 
 
+def test_hard_magnetic_strip_beside_a_block_magnet_against_shooting():
+    """The shipped cuboid scene: its field (tesseral harmonics) is not axisymmetric; the reference
+    calls magpylib's cuboid, built unrotated (x wide, y along the magnetisation, z thick)."""
+    scene = _scene("magnet_cuboid_hard_strip.yaml")
+    assert scene.field.terms[0].order > 1 and scene.field.fit_error <= 1e-6
+    res = solve(scene)
+    assert res.success and res.stable
+    block = magpy.magnet.Cuboid(dimension=(10e-3, 5e-3, 10e-3), magnetization=(0, 1.2 / MU0, 0),
+                                position=(25e-3, -15e-3, 0))
+    ref = _reference_tip(scene, [block], res)
+    ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
+    assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
+    assert ours[1] > 0.1  # the field does bend the rod
+
+
 def test_soft_strip_between_helmholtz_coils_against_shooting():
     scene = _scene("helmholtz_soft_strip.yaml")
     res = solve(scene)
@@ -87,6 +102,15 @@ def test_a_state_outside_the_fitted_region_is_not_a_success():
       "position": {"x": "3 mm", "y": "0 mm"}, "remanence": "1 T"}, "scene.field", "the clamp lies within"),
     ({"type": "magnet", "diameter": "10 mm", "height": "1 A", "position": {"x": "25 mm"}, "remanence": "1 T"},
      "scene.field.height", "length"),
+    ({"type": "magnet", "shape": "cuboid", "height": "5 mm", "width": "10 mm", "position": {"x": "25 mm"},
+      "remanence": "1 T"}, "scene.field.thickness", "needs its thickness"),
+    ({"type": "magnet", "shape": "diametric_cylinder", "diameter": "5 mm", "position": {"x": "25 mm"},
+      "remanence": "1 T"}, "scene.field.height", "a diametric_cylinder magnet needs its height"),
+    ({"type": "magnets", "magnets": [{"diameter": "5 mm", "height": "5 mm", "position": {"x": "25 mm"},
+                                      "remanence": "1 T", "travel": {"x": ["20 mm", "30 mm"]}}] * 2},
+     "scene.field.magnets[1].travel", "both have a travel"),
+    ({"type": "magnet", "shape": "sphere", "diameter": "5 mm", "width": "10 mm", "position": {"x": "25 mm"},
+      "remanence": "1 T"}, "scene.field.width", "has no width; give its diameter"),
     ({"type": "coils", "coils": [{"kind": "solenoid", "radius": "5 mm", "current": "1 A",
                                   "position": {"x": "30 mm"}}]}, "scene.field.coils[0].length", "needs its length"),
     ({"type": "coils", "coils": [{"radius": "5 mm", "current": "0 A", "position": {"x": "30 mm"}}]},
@@ -145,3 +169,38 @@ def test_a_rod_pulled_onto_a_magnet_says_it_left_the_fitted_region():
     r = solve(Scene(field=field, h_r=5.0, magnetization=constant_profile(math.pi)))
     assert not r.success and r.status == "outside_field_region"
     assert "closer to source 1's centre than its field representation holds" in r.message
+
+
+def test_several_magnets_in_a_config_add_their_fields():
+    """``type: magnets``: a cylinder below the rod and a block above it, each fitted on its own; the
+    scene's field at random points of the reach where both fits hold against magpylib's sum of the
+    two (built here by hand), relative to H0, and the bending it causes is solved."""
+    from actuator_design.physics.fields import field_model
+
+    magnets = [{"shape": "cylinder", "diameter": "10 mm", "height": "10 mm",
+                "position": {"x": "25 mm", "y": "-15 mm"}, "axis_angle": "90 deg", "remanence": "1.2 T"},
+               {"shape": "cuboid", "height": "4 mm", "width": "8 mm", "thickness": "6 mm",
+                "position": {"x": "10 mm", "y": "22 mm"}, "axis_angle": "0 deg", "remanence": "1 T"}]
+    cfg = {"scene": {"type": "physical", "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm",
+                                                  "youngs_modulus": "1 MPa"},
+                     "magnetics": {"remanent_flux_density": "0.01 T"}, "magnetization": "0 deg",
+                     "field": {"type": "magnets", "magnets": magnets}}}
+    scene = load_config(cfg).to_scene()
+    field, h0 = scene.field, scene.scales.field
+    assert len(field.terms) == 2 and field.fit_error <= 1e-6
+    objs = [magpy.magnet.Cylinder(dimension=(10e-3, 10e-3), magnetization=(0, 0, 1.2 / MU0),
+                                  position=(25e-3, -15e-3, 0),
+                                  orientation=Rotation.from_rotvec([-0.5 * math.pi, 0, 0])),
+            magpy.magnet.Cuboid(dimension=(4e-3, 8e-3, 6e-3), magnetization=(1.0 / MU0, 0, 0),
+                                position=(10e-3, 22e-3, 0))]
+    rng = np.random.default_rng(4)
+    pts = rng.uniform(-1, 1, (2000, 2))
+    inside = np.all([t.contains(pts[:, 0], pts[:, 1]) for t in field.terms], 0)
+    pts = pts[(np.hypot(pts[:, 0], pts[:, 1]) <= 1) & inside]
+    H = np.asarray(magpy.getH(objs, np.column_stack([pts * 20e-3, np.zeros(len(pts))]), sumup=True))[:, :2] / h0
+    h = field_model(field).evaluate(pts[:, 0], pts[:, 1], {}).T
+    assert len(pts) >= 100 and np.max(np.linalg.norm(h - H, axis=1)) <= 2 * field.fit_error + 1e-12
+    with pytest.raises(ConfigError) as err:
+        broken = [magnets[0], {**magnets[1], "width": None}]
+        load_config({"scene": {**cfg["scene"], "field": {"type": "magnets", "magnets": broken}}})
+    assert err.value.field == "scene.field.magnets[1].width" and "needs its width" in err.value.detail

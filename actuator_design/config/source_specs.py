@@ -9,6 +9,13 @@
       axis_angle: 90 deg     # its north pole      current: 2 A
       remanence: 1.2 T                             position: {x: 10 mm, y: 0 mm}
                                                    axis_angle: 90 deg
+    A cuboid (a block magnet, magnetised along one edge): ``shape: cuboid`` with ``height`` (along
+    its axis and magnetisation), ``width`` (across it, in the rod's plane) and ``thickness`` (out of
+    the plane) instead of a diameter. A disc or cylinder standing on the rod's plane and magnetised
+    across a diameter: ``shape: diametric_cylinder``, ``diameter``, ``height`` (out of the plane);
+    its ``axis_angle`` is the magnetisation's direction.
+
+Several magnets: ``type: magnets`` with ``magnets: [...]``, each as above without ``type``.
 
 Every source is centred in the rod's plane with its axis in that plane. magpylib computes the
 field; :mod:`actuator_design.field_sources` fits it over the rod's reach and reports the fit error.
@@ -27,9 +34,13 @@ from .base import Angle, Q, StrictModel
 from .errors import error
 from .vectors import LengthXY
 
-__all__ = ["PhysicalMagnet", "MagnetTravel", "PhysicalCoils", "CoilSpec"]
+__all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec"]
 
 _MAX_TURNS = 2000
+
+
+def _listed(names) -> str:
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
 
 
 def _fitted(sources, length: float, tol: float, where: str):
@@ -40,9 +51,14 @@ def _fitted(sources, length: float, tol: float, where: str):
     except ValueError as exc:
         raise error(str(exc), where) from None
     for k, t in enumerate(field.terms):
+        if not t.contains([0.0], [0.0])[0] and t.kind == "interior":
+            raise error(f"the clamp lies farther than {t.valid_radius * length * 1e3:.4g} mm from source {k + 1}'s "
+                        "centre, beyond where its field inside the windings meets fit_tolerance", where)
         if not t.contains([0.0], [0.0])[0]:
             raise error(f"the clamp lies within {t.valid_radius * length * 1e3:.4g} mm of source {k + 1}'s "
-                        "centre, where its field cannot be represented (inside or next to the source)", where)
+                        "centre, where its field cannot be represented (its series about the centre holds only "
+                        "outside the sphere that holds the whole source, and there only where it meets "
+                        "fit_tolerance)", where)
     return field, h0
 
 
@@ -65,7 +81,8 @@ class MagnetTravel(StrictModel):
         for name in ("x", "y", "angle"):
             lo_hi = getattr(self, name)
             if lo_hi is not None and not lo_hi[0] < lo_hi[1]:
-                shown = ", ".join(f"{math.degrees(v):.6g} deg" if name == "angle" else f"{v * 1e3:.6g} mm" for v in lo_hi)
+                shown = ", ".join(f"{math.degrees(v):.6g} deg" if name == "angle" else f"{v * 1e3:.6g} mm"
+                                  for v in lo_hi)
                 raise error(f"the range must be [low, high] with low < high, got [{shown}]", name)
         if self.angle is not None and self.angle[1] - self.angle[0] > 2 * math.pi + 1e-12:
             raise error("the range spans more than 360 deg", "angle")
@@ -74,18 +91,21 @@ class MagnetTravel(StrictModel):
         return self
 
 
-class PhysicalMagnet(StrictModel):
-    """A permanent magnet magnetised along its axis: a cylinder or a sphere, centred in the rod's
-    plane at ``position`` (m) with its axis (and north pole) at ``axis_angle`` to the rod axis."""
+class MagnetSpec(StrictModel):
+    """A permanent magnet magnetised along its axis: a cylinder (diameter, height), a sphere
+    (diameter) or a cuboid (height along the axis, width across it in the plane, thickness out of
+    it), centred in the rod's plane at ``position`` (m) with its axis (and north pole) at
+    ``axis_angle`` to the rod axis; or a diametric cylinder (diameter, height out of the plane)
+    magnetised at ``axis_angle``."""
 
-    type: Literal["magnet"]
-    shape: Literal["cylinder", "sphere"] = "cylinder"
-    diameter: Q("length", gt=0)
+    shape: Literal["cylinder", "sphere", "cuboid", "diametric_cylinder"] = "cylinder"
+    diameter: Optional[Q("length", gt=0)] = None
     height: Optional[Q("length", gt=0)] = None
+    width: Optional[Q("length", gt=0)] = None
+    thickness: Optional[Q("length", gt=0)] = None
     position: LengthXY
     axis_angle: Angle = 0.0
     remanence: Q("magnetic_field", gt=0)
-    fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
     travel: Optional[MagnetTravel] = None
 
     @model_validator(mode="after")
@@ -100,22 +120,55 @@ class PhysicalMagnet(StrictModel):
                 if lo_hi is not None and not lo_hi[0] <= value <= lo_hi[1] + 1e-12:
                     raise error(f"the configured {'axis_angle' if name == 'angle' else 'position ' + name} "
                                 f"({shown}) lies outside its travel range", f"travel.{name}")
-        if self.shape == "cylinder" and self.height is None:
-            raise error("a cylinder magnet needs its height (e.g. '10 mm')", "height")
-        if self.shape == "sphere" and self.height is not None:
-            raise error("a sphere has no height; give its diameter only", "height")
+        needs = {"cylinder": ("diameter", "height"), "sphere": ("diameter",),
+                 "cuboid": ("height", "width", "thickness"), "diametric_cylinder": ("diameter", "height")}[self.shape]
+        for name in ("diameter", "height", "width", "thickness"):
+            given = getattr(self, name) is not None
+            if name in needs and not given:
+                raise error(f"a {self.shape} magnet needs its {name} (e.g. '10 mm')", name)
+            if name not in needs and given:
+                hint = " (shape: cuboid?)" if name in ("width", "thickness") and self.shape == "cylinder" else ""
+                raise error(f"a {self.shape} magnet has no {name}; give its {_listed(needs)}{hint}", name)
         return self
 
     def source(self) -> MagnetSource:
         t = self.travel
         travel = () if t is None else tuple(None if r is None else (float(r[0]), float(r[1]))
                                             for r in (t.x, t.y, t.angle))
-        return MagnetSource(self.shape, float(self.diameter), float(self.height or 0.0),
+        return MagnetSource(self.shape, float(self.diameter or 0.0), float(self.height or 0.0),
                             (float(self.position.x), float(self.position.y)), float(self.axis_angle),
-                            float(self.remanence), travel)
+                            float(self.remanence), travel, float(self.width or 0.0), float(self.thickness or 0.0))
+
+
+class PhysicalMagnet(MagnetSpec):
+    """One permanent magnet (:class:`MagnetSpec`) as the scene's field."""
+
+    type: Literal["magnet"]
+    fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
 
     def to_field(self, length: float, where: str = "field"):
         field, h0 = _fitted([self.source()], length, float(self.fit_tolerance), where)
+        return replace(field, fit_tolerance=float(self.fit_tolerance)), h0
+
+
+class PhysicalMagnets(StrictModel):
+    """Several permanent magnets (each a :class:`MagnetSpec`), their fields added; at most one has
+    a ``travel`` for a design over its pose."""
+
+    type: Literal["magnets"]
+    magnets: List[MagnetSpec] = Field(min_length=1, max_length=16)
+    fit_tolerance: Q("dimensionless", gt=1e-12, le=1e-3) = FIT_TOLERANCE
+
+    @model_validator(mode="after")
+    def _check(self):
+        moving = [k for k, m in enumerate(self.magnets) if m.travel is not None]
+        if len(moving) > 1:
+            raise error(f"magnets {moving[0] + 1} and {moving[1] + 1} both have a travel; a design moves one "
+                        "magnet (give the others none)", f"magnets[{moving[1]}].travel")
+        return self
+
+    def to_field(self, length: float, where: str = "field"):
+        field, h0 = _fitted([m.source() for m in self.magnets], length, float(self.fit_tolerance), where)
         return replace(field, fit_tolerance=float(self.fit_tolerance)), h0
 
 

@@ -17,17 +17,22 @@ recurrence multiplied out, so no square root is taken in the interior form:
 
     interior  R_l = ϱ^l P_l:        (l+1) R_{l+1} = (2l+1) u R_l − l q R_{l−1},  R_0 = 1, R_1 = u
     exterior  I_l = ϱ^−(l+1) P_l:  (l+1) I_{l+1} = ((2l+1) u I_l − l I_{l−1}) / q,  I_0 = 1/ϱ, I_1 = u/ϱ³
+
+A magnet that is not axisymmetric about an axis in the plane (a cuboid, a diametric cylinder) has
+the tesseral expansion of :mod:`.tesseral`; :func:`potential` and :func:`field_function` take both.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import Optional, Sequence, Tuple, Union
 
 import casadi as ca
 import numpy as np
 
-__all__ = ["HarmonicTerm", "basis_potentials", "potential", "field_function", "outside_region"]
+from .tesseral import TesseralTerm, distance_from, tesseral_in_plane, tesseral_potentials
+
+__all__ = ["HarmonicTerm", "TesseralTerm", "basis_potentials", "potential", "field_function", "outside_region"]
 
 
 @dataclass(frozen=True)
@@ -57,9 +62,14 @@ class HarmonicTerm:
     coefficients: Tuple[float, ...]
     valid_radius: float
 
+    @property
+    def order(self) -> int:
+        """The highest Legendre degree l of the expansion."""
+        return len(self.coefficients)
+
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Whether the points (units of ℓ) lie where the fit holds; boolean array."""
-        rho = np.hypot(np.asarray(x, float) - self.centre[0], np.asarray(y, float) - self.centre[1])
+        rho = distance_from(self.centre, x, y)
         return rho >= self.valid_radius if self.kind == "exterior" else rho <= self.valid_radius
 
 
@@ -86,13 +96,20 @@ def basis_potentials(kind: str, centre, axis_angle: float, radius: float, order:
     return out
 
 
-def potential(term: HarmonicTerm, x, y, z=0.0):
-    """ψ of one term at (x, y, z) (CasADi scalars or numbers, units of ℓ)."""
-    basis = basis_potentials(term.kind, term.centre, term.axis_angle, term.radius, len(term.coefficients), x, y, z)
+def potential(term, x, y, z=0.0):
+    """ψ of one term (:class:`HarmonicTerm` or :class:`TesseralTerm`) at (x, y, z) (CasADi scalars or
+    numbers, units of ℓ)."""
+    if isinstance(term, TesseralTerm) and isinstance(z, (int, float)) and z == 0:
+        return tesseral_in_plane(term, x, y)
+    if isinstance(term, TesseralTerm):
+        basis = tesseral_potentials(term.centre, term.axis_angle, term.radius, term.modes, x, y, z)
+    else:
+        basis = basis_potentials(term.kind, term.centre, term.axis_angle, term.radius, len(term.coefficients),
+                                 x, y, z)
     return sum((a * b for a, b in zip(term.coefficients, basis)), 0)
 
 
-def field_function(terms: Sequence[HarmonicTerm], with_z: bool = False) -> ca.Function:
+def field_function(terms: Sequence[Union[HarmonicTerm, TesseralTerm]], with_z: bool = False) -> ca.Function:
     """ĥ = −∇ψ summed over ``terms`` as a CasADi function of scalars (x, y) → (hx, hy), or with
     ``with_z`` of (x, y, z) → (hx, hy, hz) (for checks off the plane)."""
     x, y, z = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("z")
@@ -103,7 +120,7 @@ def field_function(terms: Sequence[HarmonicTerm], with_z: bool = False) -> ca.Fu
     return ca.Function("harmonic_field", ins, [h[i] for i in range(h.numel())])
 
 
-def outside_region(terms: Sequence[HarmonicTerm], x: np.ndarray, y: np.ndarray) -> Optional[str]:
+def outside_region(terms: Sequence[Union[HarmonicTerm, TesseralTerm]], x: np.ndarray, y: np.ndarray) -> Optional[str]:
     """Why the points (x, y) (units of ℓ) are not all where every fit holds, or None."""
     for k, t in enumerate(terms):
         inside = t.contains(x, y)

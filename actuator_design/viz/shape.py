@@ -173,20 +173,21 @@ def _draw_sources(ax, field) -> None:
         label = "magnet" if k == 0 else None
         if hasattr(src, "shape"):
             r = 0.5 * src.diameter / field.length
-            if src.shape == "sphere":
+            if src.shape in ("sphere", "diametric_cylinder"):  # its section in the plane: a disc
                 ax.add_patch(Circle(c, r, facecolor="0.85", edgecolor="C3", lw=1.2, zorder=4, label=label))
                 half = r
-            else:
+            else:  # a cylinder's or a cuboid's section: height along its axis, diameter or width across
                 half = 0.5 * src.height / field.length
+                r = 0.5 * src.width / field.length if src.shape == "cuboid" else r
                 box = [c + a * half * e + b * r * n for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
                 ax.add_patch(Polygon(box, closed=True, facecolor="0.85", edgecolor="C3", lw=1.2, zorder=4,
                                      label=label))
             ax.annotate("", xy=c + 0.8 * half * e, xytext=c - 0.8 * half * e,
                         arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.4), zorder=6)
             continue
-        from ..field_sources import _loops
+        from ..sources import loops
         pts = np.array([c + off / field.length * e + side * src.radius / field.length * n
-                        for off, _ in _loops(src) for side in (-1, 1)])
+                        for off, _ in loops(src) for side in (-1, 1)])
         ax.plot(pts[:, 0], pts[:, 1], ls="none", marker="s", ms=4, color="C1", zorder=4,
                 label=f"{src.kind} windings")
 
