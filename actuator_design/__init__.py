@@ -86,6 +86,10 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "CurrentSchedule": ("analysis.current_schedule", "CurrentSchedule"),
     "FitResult": ("calibration", "FitResult"),
     "StudyReport": ("study.runner", "StudyReport"),
+    # saved results read back
+    "read_result": ("saved", "read_result"),
+    "scene_from_dict": ("saved", "scene_from_dict"),
+    "SavedResult": ("saved", "SavedResult"),
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -77,9 +77,11 @@ def dumps_json(obj, indent: Optional[int] = None) -> str:
 
 
 def scene_to_dict(scene) -> Dict[str, object]:
-    """All fields of a :class:`~actuator_design.scene.Scene` as plain data.
+    """All fields of a :class:`~actuator_design.scene.Scene` as plain data, enough to rebuild it
+    (:func:`actuator_design.saved.scene_from_dict`).
 
-    Profiles via ``Profile.as_dict``, scales via ``Scales.as_dict``; angles in rad, lengths in ℓ.
+    Profiles via ``Profile.as_dict``, scales via ``Scales.as_dict`` (derived SI units) and, exactly,
+    ``scales_fields`` (the dataclass's own fields); angles in rad, lengths in ℓ.
     """
     field = None
     if scene.field is not None:
@@ -96,6 +98,14 @@ def scene_to_dict(scene) -> Dict[str, object]:
         "distributed_load": None if scene.distributed_load is None else list(scene.distributed_load),
         "theta0": scene.theta0,
         "scales": None if scene.scales is None else scene.scales.as_dict(),
+        "h_r": scene.h_r,
+        "magnetization": None if scene.magnetization is None else scene.magnetization.as_dict(),
+        "fibres_given": scene.fibres_given,
+        "fibres_physical": scene.fibres_physical,
+        "extra_terms": [{"name": t.name, "values": [[k, v] for k, v in t.values]} for t in scene.extra_terms],
+        "obstacles": list(scene.obstacles),
+        "contact_gap": scene.contact_gap,
+        "scales_fields": scene.scales,
     })
 
 
