@@ -14,7 +14,8 @@ from typing import List, Tuple
 
 import numpy as np
 
-__all__ = ["MagnetSource", "CoilSource", "TESSERAL_SHAPES", "loops", "radii", "magpylib_objects", "magpylib_field"]
+__all__ = ["MagnetSource", "CoilSource", "TESSERAL_SHAPES", "loops", "radii", "plane_section",
+           "sections_overlap", "magpylib_objects", "magpylib_field"]
 
 #: magnets whose field is not axisymmetric about an axis in the plane: fitted by tesseral harmonics
 TESSERAL_SHAPES = ("cuboid", "diametric_cylinder")
@@ -80,6 +81,37 @@ def loops(src: CoilSource) -> List[Tuple[float, float]]:
         return [(float(o), src.current) for o in offs]
     sign = -1.0 if src.kind == "maxwell" else 1.0
     return [(-0.5 * src.spacing, src.current * src.turns), (0.5 * src.spacing, sign * src.current * src.turns)]
+
+
+def plane_section(src: MagnetSource) -> np.ndarray:
+    """The magnet's section by the rod's plane, a convex polygon (m), shape (k, 2): a rectangle for
+    a cylinder (height × diameter) or a cuboid (height × width), an inscribed 180-gon for a sphere or a
+    diametric cylinder. The magnets are convex and symmetric in the plane, so two of them overlap
+    exactly when their sections do (a common point (x, y, z) gives (x, y, −z), and the midpoint)."""
+    c = np.asarray(src.position, float)
+    e = np.array([math.cos(src.axis_angle), math.sin(src.axis_angle)])
+    n = np.array([-e[1], e[0]])
+    if src.shape in ("sphere", "diametric_cylinder"):
+        a = np.linspace(0.0, 2 * np.pi, 180, endpoint=False)
+        return c + 0.5 * src.diameter * np.column_stack([np.cos(a), np.sin(a)])
+    half_across = 0.5 * (src.width if src.shape == "cuboid" else src.diameter)
+    corners = ((-1, -1), (1, -1), (1, 1), (-1, 1))
+    return np.array([c + i * 0.5 * src.height * e + j * half_across * n for i, j in corners])
+
+
+def sections_overlap(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """Whether two convex polygons (k, 2) overlap by more than ``tol`` (m) along every separating
+    axis candidate (their edges' normals): touching faces do not overlap."""
+    for poly in (a, b):
+        edges = np.roll(poly, -1, axis=0) - poly
+        for nx, ny in np.column_stack([-edges[:, 1], edges[:, 0]]):
+            norm = math.hypot(nx, ny)
+            if norm == 0.0:
+                continue
+            pa, pb = a @ (nx / norm, ny / norm), b @ (nx / norm, ny / norm)
+            if min(pa.max(), pb.max()) - max(pa.min(), pb.min()) <= tol:
+                return False
+    return True
 
 
 def radii(src) -> Tuple[float, float]:

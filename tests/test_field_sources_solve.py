@@ -106,8 +106,8 @@ def test_a_state_outside_the_fitted_region_is_not_a_success():
       "remanence": "1 T"}, "scene.field.thickness", "needs its thickness"),
     ({"type": "magnet", "shape": "diametric_cylinder", "diameter": "5 mm", "position": {"x": "25 mm"},
       "remanence": "1 T"}, "scene.field.height", "a diametric_cylinder magnet needs its height"),
-    ({"type": "magnets", "magnets": [{"diameter": "5 mm", "height": "5 mm", "position": {"x": "25 mm"},
-                                      "remanence": "1 T", "travel": {"x": ["20 mm", "30 mm"]}}] * 2},
+    ({"type": "magnets", "magnets": [{"diameter": "5 mm", "height": "5 mm", "position": {"x": f"{x} mm"},
+                                      "remanence": "1 T", "travel": {"x": ["20 mm", "50 mm"]}} for x in (25, 40)]},
      "scene.field.magnets[1].travel", "both have a travel"),
     ({"type": "magnet", "shape": "sphere", "diameter": "5 mm", "width": "10 mm", "position": {"x": "25 mm"},
       "remanence": "1 T"}, "scene.field.width", "has no width; give its diameter"),
@@ -204,3 +204,30 @@ def test_several_magnets_in_a_config_add_their_fields():
         broken = [magnets[0], {**magnets[1], "width": None}]
         load_config({"scene": {**cfg["scene"], "field": {"type": "magnets", "magnets": broken}}})
     assert err.value.field == "scene.field.magnets[1].width" and "needs its width" in err.value.detail
+
+
+def test_magnets_whose_bodies_intersect_are_refused_and_touching_ones_are_not():
+    """Two discs overlap exactly when their centres are closer than the sum of their radii; two
+    blocks stacked face to face touch and are accepted, pushed 0.1 mm into each other they are not."""
+    from actuator_design.sources import MagnetSource, plane_section, sections_overlap
+
+    disc = MagnetSource("diametric_cylinder", 4e-3, 2e-3, (0.0, 0.0), 0.0, 1.0)
+    for gap, overlapping in ((-1e-4, True), (1e-7, False), (1e-3, False)):
+        other = MagnetSource("sphere", 6e-3, 0.0, (math.sqrt(0.5) * (5e-3 + gap),) * 2, 0.0, 1.0)  # at 45°
+        distance = math.hypot(*other.position)
+        assert (distance < 5e-3) == overlapping
+        assert sections_overlap(plane_section(disc), plane_section(other), 1e-9) == overlapping
+
+    def block(y):
+        return {"shape": "cuboid", "height": "4 mm", "width": "8 mm", "thickness": "6 mm",
+                "position": {"x": "25 mm", "y": f"{y} mm"}, "axis_angle": "90 deg", "remanence": "1 T"}
+
+    def scene(magnets):
+        return {"scene": {"type": "physical", "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm",
+                                                      "youngs_modulus": "1 MPa"},
+                          "magnetics": {"remanent_flux_density": "0.01 T"}, "magnetization": "0 deg",
+                          "field": {"type": "magnets", "magnets": magnets}}}
+    assert len(load_config(scene([block(-14), block(-18)])).to_scene().field.terms) == 2  # stacked
+    with pytest.raises(ConfigError) as err:
+        load_config(scene([block(-14), block(-17.9)]))
+    assert err.value.field == "scene.field.magnets[1].position" and "overlap" in err.value.detail

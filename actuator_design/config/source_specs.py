@@ -27,9 +27,11 @@ import math
 from dataclasses import replace
 from typing import List, Literal, Optional
 
+import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
 from ..field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
+from ..sources import plane_section, sections_overlap
 from .base import Angle, Q, StrictModel
 from .errors import error
 from .vectors import LengthXY
@@ -152,8 +154,8 @@ class PhysicalMagnet(MagnetSpec):
 
 
 class PhysicalMagnets(StrictModel):
-    """Several permanent magnets (each a :class:`MagnetSpec`), their fields added; at most one has
-    a ``travel`` for a design over its pose."""
+    """Several permanent magnets (each a :class:`MagnetSpec`), their fields added; their bodies may
+    touch but not intersect, and at most one has a ``travel`` for a design over its pose."""
 
     type: Literal["magnets"]
     magnets: List[MagnetSpec] = Field(min_length=1, max_length=16)
@@ -161,6 +163,13 @@ class PhysicalMagnets(StrictModel):
 
     @model_validator(mode="after")
     def _check(self):
+        sections = [plane_section(m.source()) for m in self.magnets]
+        for j in range(len(sections)):
+            for k in range(j):
+                size = min(np.ptp(sections[j], axis=0).max(), np.ptp(sections[k], axis=0).max())
+                if sections_overlap(sections[k], sections[j], 1e-6 * size):
+                    raise error(f"magnets {k + 1} and {j + 1} overlap (their bodies intersect in the rod's plane); "
+                                "move one (touching is fine)", f"magnets[{j}].position")
         moving = [k for k, m in enumerate(self.magnets) if m.travel is not None]
         if len(moving) > 1:
             raise error(f"magnets {moving[0] + 1} and {moving[1] + 1} both have a travel; a design moves one "
