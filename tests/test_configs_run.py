@@ -27,7 +27,8 @@ def _commands():
 #: Run comment is checked with the slow set (benchmarks), keeping the default run within budget.
 SLOW = {"magnet_pose_design": "tests/test_pose_design.py",
         "study_schedule_optimal_control": "tests/test_schedule_ocp.py",
-        "magnet_cuboid_hard_strip": "tests/test_field_sources_solve.py"}
+        "magnet_cuboid_hard_strip": "tests/test_field_sources_solve.py",
+        "coils_schedule": "tests/test_current_schedule.py"}
 COMMANDS = [pytest.param(path, command, marks=pytest.mark.slow) if path.stem in SLOW else (path, command)
             for path, command in _commands()]
 
