@@ -45,8 +45,9 @@ def _tuples(value):
 
 
 def _build(cls, data: Dict[str, Any], **converted):
-    """``cls`` from the plain data of its init fields; ``converted`` given already built. A null
-    where the field's default is a non-finite float is that default."""
+    """``cls`` from the plain data of its init fields; ``converted`` given already built. A null in a
+    float field (JSON's NaN or ±inf) is the field's default where that is not finite (no limit, an
+    unknown resistance), NaN otherwise; a float field holding anything but a number is a TypeError."""
     kwargs = {}
     for f in dataclasses.fields(cls):
         if not f.init or f.name not in data and f.name not in converted:
