@@ -23,9 +23,9 @@ import numpy as np
 from .physics.harmonic import HarmonicTerm, field_function
 from .physics.tesseral import TesseralTerm
 from .source_fit import checked_gradient, fit_one, geometry, outside_sources, reach_grid
-from .sources import CoilSource, MagnetSource, magpylib_field, magpylib_objects
+from .sources import CoilSource, MagnetSource, MappedCoil, magpylib_field, magpylib_objects
 
-__all__ = ["MagnetSource", "CoilSource", "FittedField", "fit_sources", "source_field", "magpylib_field", "magpylib_objects",
+__all__ = ["MagnetSource", "CoilSource", "MappedCoil", "FittedField", "fit_sources", "source_field", "magpylib_field", "magpylib_objects",
            "FIT_TOLERANCE"]
 
 #: Default fit tolerance per source, relative to H0 (the total over a few sources stays ≤ 1e-6).
@@ -39,7 +39,7 @@ class FittedField:
     terms: Tuple[Union[HarmonicTerm, TesseralTerm], ...]
     h0: float
     fit_error: float  # max |ĥ_fit − H/H0| at random and edge points of the reach where the fit holds
-    gradient_error: float  # max |∇ĥ_fit − ∇(H/H0)| ℓ there (magpylib's by extrapolated differences)
+    gradient_error: float  # max |∇ĥ_fit − ∇(H/H0)| ℓ there (magpylib's by extrapolated differences; NaN: a map's)
     orders: Tuple[int, ...]
 
 
@@ -50,7 +50,7 @@ def fit_sources(sources: Tuple, length: float, tol: float = FIT_TOLERANCE, check
 
     Parameters
     ----------
-    sources : tuple of MagnetSource or CoilSource
+    sources : tuple of MagnetSource or CoilSource, or of MappedCoil (:func:`~actuator_design.coil_map.fit_map`)
     length : float
         ℓ, m.
     tol : float
@@ -67,6 +67,12 @@ def fit_sources(sources: Tuple, length: float, tol: float = FIT_TOLERANCE, check
     """
     import casadi as ca
 
+    if any(isinstance(s, MappedCoil) for s in sources):
+        if not all(isinstance(s, MappedCoil) for s in sources):
+            raise ValueError("coils from a calibration map cannot be mixed with magnets or modelled coils")
+        from .coil_map import fit_map
+
+        return fit_map(sources, length, tol)
     geo = [geometry(s, length) for s in sources]
     grid = reach_grid()
     grid = grid[outside_sources(grid, geo)]

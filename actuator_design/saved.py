@@ -29,7 +29,7 @@ from .physics.harmonic import HarmonicTerm
 from .physics.tesseral import TesseralTerm
 from .profiles import Profile, constant_profile, expression_profile, legendre_profile, table_profile
 from .scene import DipoleField, ExpressionField, Scales, Scene, SourceField, TermValues, UniformField
-from .sources import CoilSource, MagnetSource
+from .sources import CoilSource, MagnetSource, MappedCoil
 
 __all__ = ["scene_from_dict", "read_result", "SavedResult"]
 
@@ -89,7 +89,8 @@ def _field_from_dict(data: Optional[Dict[str, Any]]):
     if kind != "sources":
         return _build(_FIELDS[kind], data)
     terms = tuple(_build(TesseralTerm if "modes" in t else HarmonicTerm, t) for t in data["terms"])
-    sources = tuple(_build(MagnetSource if "shape" in s else CoilSource, s) for s in data["sources"])
+    sources = tuple(_build(MagnetSource if "shape" in s else MappedCoil if "field_per_amp" in s else CoilSource, s)
+                    for s in data["sources"])
     field = _build(SourceField, data, terms=terms, sources=sources)
     if not (len(sources) == len(terms) and len(field.weights) in (0, len(terms))
             and len(field.placements) in (0, len(terms))):

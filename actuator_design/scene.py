@@ -132,6 +132,14 @@ class SourceField:
 
     def describe(self) -> str:
         """One line: the sources, the fits' orders and regions, the errors against magpylib."""
+        if any(hasattr(src, "field_per_amp") for src in self.sources):  # coils of a calibration map
+            t = self.terms[0]
+            orders = ", ".join(f"{getattr(src, 'name', '?')} {t.order}" for src, t in zip(self.sources, self.terms))
+            centre = ", ".join(f"{v * self.length * 1e3:.4g}" for v in t.centre)
+            return (f"{len(self.sources)} coil{'s' if len(self.sources) > 1 else ''} of a calibration map, fitted with "
+                    f"solid harmonics (orders {orders}), holding within {t.valid_radius * self.length * 1e3:.4g} mm "
+                    f"of ({centre}) mm; fit error {self.fit_error:.2g} on held-out samples (field, relative to H0), "
+                    "gradient not measured (a map has no gradient samples)")
         names = []
         for src, t in zip(self.sources, self.terms):
             kind = getattr(src, "shape", None) or getattr(src, "kind", "source")

@@ -14,7 +14,7 @@ from typing import List, Tuple
 
 import numpy as np
 
-__all__ = ["MagnetSource", "CoilSource", "TESSERAL_SHAPES", "loops", "radii", "plane_section",
+__all__ = ["MagnetSource", "CoilSource", "MappedCoil", "TESSERAL_SHAPES", "loops", "radii", "plane_section",
            "sections_overlap", "magpylib_objects", "magpylib_field"]
 
 #: magnets whose field is not axisymmetric about an axis in the plane: fitted by tesseral harmonics
@@ -69,6 +69,25 @@ class CoilSource:
     spacing: float = 0.0
     max_current: float = math.inf
     resistance: float = math.nan
+
+
+@dataclass(frozen=True)
+class MappedCoil(CoilSource):
+    """A coil known by its measured field per ampere (a calibration map, :mod:`actuator_design.coil_map`),
+    not by its windings: ``name`` its column prefix in the map file, ``points`` the map's sample
+    positions (x, y, z) in m in the rod's frame (clamp at the origin, rod along +x, z = 0 its plane),
+    ``field_per_amp`` H per ampere at each point, (Hx, Hy, Hz) in A/m per A (Hz NaN where the map
+    has none). ``current``, ``max_current`` and ``resistance`` as for :class:`CoilSource`; magpylib
+    has no part in its field (the map is its truth)."""
+
+    kind: str = "map"
+    radius: float = 0.0
+    position: Tuple[float, float] = (0.0, 0.0)
+    axis_angle: float = 0.0
+    current: float = 0.0
+    name: str = ""
+    points: Tuple[Tuple[float, float, float], ...] = ()
+    field_per_amp: Tuple[Tuple[float, float, float], ...] = ()
 
 
 def loops(src: CoilSource) -> List[Tuple[float, float]]:

@@ -28,7 +28,9 @@ def _commands():
 SLOW = {"magnet_pose_design": "tests/test_pose_design.py",
         "study_schedule_optimal_control": "tests/test_schedule_ocp.py",
         "magnet_cuboid_hard_strip": "tests/test_field_sources_solve.py",
-        "coils_schedule": "tests/test_current_schedule.py"}
+        "coils_schedule": "tests/test_current_schedule.py",
+        "emns_8coil_map": "tests/test_coil_map.py",
+        "coils_two_pairs_design": "tests/test_current_design.py"}
 COMMANDS = [pytest.param(path, command, marks=pytest.mark.slow) if path.stem in SLOW else (path, command)
             for path, command in _commands()]
 

@@ -66,6 +66,8 @@ class CurrentDesign(HardwareDesign):
         reported); else as :class:`~.hardware_design.HardwareDesign`.
     currents, start_currents, max_current : tuple of float
         A, per coil.
+    coils : tuple of str
+        Each coil's name: a calibration map's column name, else "coil k" (k from 1).
     power : float
         Σ R_k I_k², W (nan without resistances); ``effort`` names what was minimised.
     least_effort : bool
@@ -73,6 +75,7 @@ class CurrentDesign(HardwareDesign):
     """
 
     currents: tuple = ()
+    coils: tuple = ()
     start_currents: tuple = ()
     max_current: tuple = ()
     resistance: tuple = ()
@@ -85,6 +88,7 @@ class CurrentDesign(HardwareDesign):
         out = self.common_dict()
         out.update({
             "effort": self.effort, "least_effort": self.least_effort,
+            "coils": list(self.coils),
             "currents_A": list(self.currents), "start_currents_A": list(self.start_currents),
             "max_current_A": list(self.max_current),
             "resistance_ohm": [None if not math.isfinite(r) else r for r in self.resistance],
@@ -213,6 +217,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     coils = scene.field.sources
     i0 = np.array([c.current for c in coils])
     out = CurrentDesign(success=False, status="not_converged", message="", target=tuple(target.tolist()),
+                        coils=tuple(getattr(c, "name", "") or f"coil {k + 1}" for k, c in enumerate(coils)),
                         start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                         resistance=tuple(c.resistance for c in coils), tolerances=tol,
                         effort="power" if prob.power is not None else "current_squared")

@@ -17,7 +17,7 @@ from ..scene import DipoleField, ExpressionField, SourceField, UniformField
 from .base import Angle, Number, Q, StrictModel, tagged
 from .errors import error
 from .profile_specs import GRID
-from .source_specs import PhysicalCoils, PhysicalMagnet, PhysicalMagnets
+from .source_specs import PhysicalCoilMap, PhysicalCoils, PhysicalMagnet, PhysicalMagnets
 from .vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
 
 __all__ = ["NumberXY", "LengthXY", "ForceXY", "LineLoadXY", "UniformSpec", "DipoleSpec",
@@ -121,13 +121,13 @@ class PhysicalExpression(_ExpressionFieldBase):
 
 DimensionlessField = tagged(("field",), UniformSpec, DipoleSpec, ExpressionSpec)
 PhysicalField = tagged(("field",), PhysicalUniform, PhysicalDipole, PhysicalExpression, PhysicalMagnet,
-                       PhysicalMagnets, PhysicalCoils)
+                       PhysicalMagnets, PhysicalCoils, PhysicalCoilMap)
 
 
 def is_non_uniform(field_spec) -> bool:
     """A dipole or expression field: every node interacts with every other (dense Hessian)."""
     return isinstance(field_spec, (DipoleSpec, ExpressionSpec, PhysicalDipole, PhysicalExpression, PhysicalMagnet,
-                                   PhysicalMagnets, PhysicalCoils))
+                                   PhysicalMagnets, PhysicalCoils, PhysicalCoilMap))
 
 
 def max_shape_on_rod(field) -> float:

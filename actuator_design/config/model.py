@@ -133,6 +133,15 @@ class Config(StrictModel):
         return self.solver.to_options()
 
 
+def _files_beside(data, folder: Path) -> None:
+    """A relative ``scene.field.file`` (a coil map) is read beside the YAML file: made absolute."""
+    scene = data.get("scene") if isinstance(data, dict) else None
+    field = scene.get("field") if isinstance(scene, dict) else None
+    if isinstance(field, dict) and isinstance(field.get("file"), str) and field["file"]:
+        if not Path(field["file"]).is_absolute():
+            field["file"] = str((folder / field["file"]).absolute())
+
+
 def load_config(source: Union[str, Path, dict]) -> Config:
     """Read and validate a configuration.
 
@@ -140,7 +149,9 @@ def load_config(source: Union[str, Path, dict]) -> Config:
     ----------
     source : str, Path or dict
         A YAML file path (at most 1 MiB of UTF-8, bounded nesting and aliases, no duplicate keys:
-        :mod:`actuator_design.config.yaml_source`), or the configuration as a dict.
+        :mod:`actuator_design.config.yaml_source`), or the configuration as a dict. A file the
+        YAML names (``scene.field.file``) is read beside the YAML file; from a dict, beside the
+        working directory.
 
     Returns
     -------
@@ -156,6 +167,7 @@ def load_config(source: Union[str, Path, dict]) -> Config:
         data = copy.deepcopy(source)
     else:
         data = read_yaml(Path(source))
+        _files_beside(data, Path(source).parent)
     if not isinstance(data, dict):
         raise ConfigError("config", f"expected a mapping with a 'scene' key, got {type(data).__name__}")
     bad = first_non_finite(data)

@@ -17,6 +17,14 @@
 
 Several magnets: ``type: magnets`` with ``magnets: [...]``, each as above without ``type``.
 
+Coils known by a calibration map (an electromagnetic navigation system, :mod:`actuator_design.coil_map`):
+
+    field:
+      type: coil_map
+      file: emns_map.csv       # relative to this YAML file; columns x, y[, z], <coil>_bx, _by[, _bz]
+      coils:
+        - {name: c1, current: 2 A, max_current: 10 A, resistance: 1.2 ohm}
+
 Every source is centred in the rod's plane with its axis in that plane. magpylib computes the
 field; :mod:`actuator_design.field_sources` fits it over the rod's reach and reports the fit error.
 The field scale H0 is the largest |H| over the part of the reach outside the sources.
@@ -31,12 +39,17 @@ import numpy as np
 from pydantic import Field, StrictInt, model_validator
 
 from ..field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
-from ..sources import plane_section, sections_overlap
+from ..sources import MappedCoil, plane_section, sections_overlap
 from .base import Angle, Q, StrictModel
 from .errors import error
 from .vectors import LengthXY
 
-__all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec"]
+__all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec",
+           "MappedCoilSpec", "PhysicalCoilMap", "MAP_FIT_TOLERANCE"]
+
+#: Default fit tolerance of a calibration map (relative to each coil's largest field): a measured
+#: map's noise, not magpylib's rounding, sets what a fit can meet.
+MAP_FIT_TOLERANCE = 1e-3
 
 _MAX_TURNS = 2000
 
@@ -53,6 +66,10 @@ def _fitted(sources, length: float, tol: float, where: str):
     except ValueError as exc:
         raise error(str(exc), where) from None
     for k, t in enumerate(field.terms):
+        if not t.contains([0.0], [0.0])[0] and t.kind == "interior" and hasattr(t, "modes"):
+            raise error(f"the clamp lies outside the calibration map's region (the disc of "
+                        f"{t.valid_radius * length * 1e3:.4g} mm about ({t.centre[0] * length * 1e3:.4g}, "
+                        f"{t.centre[1] * length * 1e3:.4g}) mm inscribed in the map's points)", where)
         if not t.contains([0.0], [0.0])[0] and t.kind == "interior":
             raise error(f"the clamp lies farther than {t.valid_radius * length * 1e3:.4g} mm from source {k + 1}'s "
                         "centre, beyond where its field inside the windings meets fit_tolerance", where)
@@ -181,7 +198,22 @@ class PhysicalMagnets(StrictModel):
         return replace(field, fit_tolerance=float(self.fit_tolerance)), h0
 
 
-class CoilSpec(StrictModel):
+class _CoilHardware(StrictModel):
+    """A coil's current and its driver's limits (A, Ω)."""
+
+    current: Q("current")
+    max_current: Optional[Q("current", gt=0, le=1e5)] = None
+    resistance: Optional[Q("resistance", gt=0, le=1e6)] = None
+
+    @model_validator(mode="after")
+    def _check_current(self):
+        if self.max_current is not None and abs(self.current) > self.max_current:
+            raise error(f"the current {self.current:g} A exceeds the coil's max_current {self.max_current:g} A",
+                        "current")
+        return self
+
+
+class CoilSpec(_CoilHardware):
     """Circular windings: ``loop`` (``turns`` turns at one place), ``solenoid`` (``turns`` loops
     spread over ``length``), ``helmholtz`` / ``maxwell`` (two windings of ``turns`` turns,
     ``spacing`` apart — default the radius / √3 × the radius — with equal / opposite currents)."""
@@ -189,19 +221,13 @@ class CoilSpec(StrictModel):
     kind: Literal["loop", "solenoid", "helmholtz", "maxwell"] = "loop"
     radius: Q("length", gt=0)
     turns: StrictInt = Field(default=1, ge=1, le=_MAX_TURNS)
-    current: Q("current")
     position: LengthXY
     axis_angle: Angle = 0.0
     length: Optional[Q("length", gt=0)] = None
     spacing: Optional[Q("length", gt=0)] = None
-    max_current: Optional[Q("current", gt=0, le=1e5)] = None
-    resistance: Optional[Q("resistance", gt=0, le=1e6)] = None
 
     @model_validator(mode="after")
     def _check(self):
-        if self.max_current is not None and abs(self.current) > self.max_current:
-            raise error(f"the current {self.current:g} A exceeds the coil's max_current {self.max_current:g} A",
-                        "current")
         if self.kind == "solenoid" and self.length is None:
             raise error("a solenoid needs its length (e.g. '40 mm')", "length")
         if self.kind != "solenoid" and self.length is not None:
@@ -234,17 +260,78 @@ class PhysicalCoils(StrictModel):
 
     @model_validator(mode="after")
     def _check(self):
-        if all(c.current == 0.0 for c in self.coils):
-            raise error("every coil's current is zero: there is no field", "coils")
-        if self.max_power is not None and any(c.resistance is None for c in self.coils):
-            k = next(i for i, c in enumerate(self.coils) if c.resistance is None)
-            raise error(f"max_power needs every coil's resistance (coil {k + 1} has none, e.g. "
-                        "'resistance: 2 ohm')", "max_power")
+        _check_coil_set(self, [str(k + 1) for k in range(len(self.coils))])
         return self
 
     def to_field(self, length: float, where: str = "field"):
-        field, h0 = _fitted([c.source() for c in self.coils], length, float(self.fit_tolerance), where)
-        limits = {"fit_tolerance": float(self.fit_tolerance),
-                  "max_power": math.inf if self.max_power is None else float(self.max_power),
-                  "max_field": math.inf if self.max_field is None else float(self.max_field)}
-        return replace(field, **limits), h0
+        return _with_limits(self, *_fitted([c.source() for c in self.coils], length, float(self.fit_tolerance), where))
+
+
+def _check_coil_set(spec, labels) -> None:
+    """Some current flows, and ``max_power`` has every coil's resistance (coils named by ``labels``)."""
+    if all(c.current == 0.0 for c in spec.coils):
+        raise error("every coil's current is zero: there is no field", "coils")
+    if spec.max_power is not None and any(c.resistance is None for c in spec.coils):
+        k = next(i for i, c in enumerate(spec.coils) if c.resistance is None)
+        raise error(f"max_power needs every coil's resistance (coil {labels[k]} has none, e.g. "
+                    "'resistance: 2 ohm')", "max_power")
+
+
+def _with_limits(spec, field, h0):
+    """(the scene field with the spec's fit tolerance and hardware limits (inf: none), H0)."""
+    limits = {"fit_tolerance": float(spec.fit_tolerance),
+              "max_power": math.inf if spec.max_power is None else float(spec.max_power),
+              "max_field": math.inf if spec.max_field is None else float(spec.max_field)}
+    return replace(field, **limits), h0
+
+
+class MappedCoilSpec(_CoilHardware):
+    """A coil of a calibration map: its ``name`` (the prefix of its columns, ``<name>_bx``), its
+    current, and optionally its driver's ``max_current`` and its ``resistance``."""
+
+    name: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9]*$", max_length=32)
+
+
+class PhysicalCoilMap(StrictModel):
+    """Coils known by their field per ampere on a grid (a calibration map file,
+    :mod:`actuator_design.coil_map`): the listed coils carry their currents, the others none;
+    ``max_power`` and ``max_field`` as for ``type: coils``."""
+
+    type: Literal["coil_map"]
+    file: str = Field(min_length=1, max_length=4096)
+    coils: List[MappedCoilSpec] = Field(min_length=1, max_length=16)
+    fit_tolerance: Q("dimensionless", gt=1e-12, le=0.1) = MAP_FIT_TOLERANCE
+    max_power: Optional[Q("power", gt=0, le=1e9)] = None
+    max_field: Optional[Q("magnetic_field", gt=0, le=1e9)] = None
+
+    @model_validator(mode="after")
+    def _check(self):
+        from ..coil_map import read_coil_map
+
+        try:
+            cmap = read_coil_map(self.file)
+        except ValueError as exc:
+            raise error(str(exc), "file") from None
+        names = [c.name for c in self.coils]
+        for k, name in enumerate(names):
+            if name not in cmap.fields:
+                raise error(f"no coil '{name}' in {cmap.source} (its coils: {', '.join(cmap.names)})",
+                            f"coils[{k}].name")
+            if names.index(name) != k:
+                raise error(f"coil '{name}' is listed twice", f"coils[{k}].name")
+        _check_coil_set(self, [f"'{n}'" for n in names])
+        return self
+
+    def sources(self):
+        from ..coil_map import read_coil_map
+
+        cmap = read_coil_map(self.file)
+        points = tuple(tuple(float(v) for v in p) for p in cmap.points)
+        return [MappedCoil(current=float(c.current), name=c.name, points=points,
+                           field_per_amp=tuple(tuple(float(v) for v in f) for f in cmap.fields[c.name]),
+                           max_current=math.inf if c.max_current is None else float(c.max_current),
+                           resistance=math.nan if c.resistance is None else float(c.resistance))
+                for c in self.coils]
+
+    def to_field(self, length: float, where: str = "field"):
+        return _with_limits(self, *_fitted(self.sources(), length, float(self.fit_tolerance), where))

@@ -181,7 +181,11 @@ class SourceFieldModel(FieldModel):
 
     with ĥ⁰_k the field as fitted. It is written as r − d + (Q − I)ᵀ(...) so that at d = 0, β = 0 the
     field's values are those of the fit itself, to the last bit (its derivatives inside the NLP may
-    differ at round-off: ~1e-20 in a Hessian)."""
+    differ at round-off: ~1e-20 in a Hessian).
+
+    The coils of a calibration map share one expansion's geometry (centre, axis, radius): they form
+    one rig, evaluated once as Σ_j (Σ_k w_k a_kj) ψ_j with the first coil's placement for the rig
+    (eight coils: one basis instead of eight)."""
 
     def __init__(self, field: SourceField):
         from .harmonic import field_function
@@ -191,26 +195,32 @@ class SourceFieldModel(FieldModel):
         self.weight_params = tuple(f"source_weight_{k}" for k in range(n))
         self.placement_params = tuple((f"source_dx_{k}", f"source_dy_{k}", f"source_turn_{k}") for k in range(n))
         self.params = self.weight_params + tuple(name for names in self.placement_params for name in names)
-        self._f = [field_function((t,)) for t in self.terms]
+        self._groups = _rigs(self.terms)
+        self._f = [field_function((self.terms[g[0]],)) if len(g) == 1 else _rig_function([self.terms[k] for k in g])
+                   for g in self._groups]
 
     def value(self, x, y, P):
         n = x.numel() if hasattr(x, "numel") else 1
         hx = hy = 0
-        for k, (name, f) in enumerate(zip(self.weight_params, self._f)):
+        for group, f in zip(self._groups, self._f):
+            k = group[0]
             c = self.terms[k].centre
             dx, dy, turn = (P.get(p, 0.0) for p in self.placement_params[k])
             cm1 = -2 * ca.sin(turn / 2) ** 2 if isinstance(turn, (ca.SX, ca.MX)) else -2 * math.sin(turn / 2) ** 2
             sn = ca.sin(turn) if isinstance(turn, (ca.SX, ca.MX)) else math.sin(turn)
             ux, uy = x - c[0] - dx, y - c[1] - dy  # r − c − d
             xl, yl = x - dx + cm1 * ux + sn * uy, y - dy - sn * ux + cm1 * uy  # c + Qᵀ(r − c − d)
+            # callers evaluating the fitted field itself pass no weights
+            w = [P.get(self.weight_params[j], 1.0) for j in group]
+            extra = [] if len(group) == 1 else [ca.vertcat(*w)]
             if n == 1:
-                fx, fy = f(xl, yl)
+                fx, fy = f(xl, yl, *extra)
             else:
-                fx, fy = f.map(n)(ca.reshape(xl, 1, n), ca.reshape(yl, 1, n))
+                fx, fy = f.map(n)(ca.reshape(xl, 1, n), ca.reshape(yl, 1, n), *extra)
                 fx, fy = ca.reshape(fx, x.shape), ca.reshape(fy, x.shape)
             fx, fy = fx + cm1 * fx - sn * fy, fy + sn * fx + cm1 * fy  # Q ĥ⁰
-            w = P.get(name, 1.0)  # callers evaluating the fitted field itself pass no weights
-            hx, hy = hx + w * fx, hy + w * fy
+            scale = w[0] if len(group) == 1 else 1.0
+            hx, hy = hx + scale * fx, hy + scale * fy
         return hx, hy
 
     def evaluate(self, x, y, values: Dict[str, float]) -> np.ndarray:
@@ -235,6 +245,39 @@ class SourceFieldModel(FieldModel):
 
     def structure(self):
         return (type(self).__name__,) + self.terms
+
+
+def _rigs(terms) -> list:
+    """Indices of ``terms`` in groups: the interior tesseral expansions (a calibration map's coils)
+    sharing centre, axis and radius together, every other term alone."""
+    groups, seen = [], {}
+    for k, t in enumerate(terms):
+        key = (t.centre, t.axis_angle, t.radius) if getattr(t, "modes", None) and t.kind == "interior" else None
+        if key is not None and key in seen:
+            groups[seen[key]].append(k)
+            continue
+        if key is not None:
+            seen[key] = len(groups)
+        groups.append([k])
+    return groups
+
+
+def _rig_function(terms) -> ca.Function:
+    """(x, y, w) → ĥ of Σ_k w_k ĥ_k for expansions of one geometry (:func:`_rigs`), one basis."""
+    from dataclasses import replace
+
+    from .tesseral import interior_modes, tesseral_in_plane
+
+    x, y, w = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("w", len(terms))
+    modes = interior_modes(max(t.order for t in terms))
+    combined = [0] * len(modes)
+    index = {m: j for j, m in enumerate(modes)}
+    for k, t in enumerate(terms):
+        for mode, a in zip(t.modes, t.coefficients):
+            combined[index[mode]] = combined[index[mode]] + w[k] * a
+    psi = tesseral_in_plane(replace(terms[0], coefficients=tuple(combined), modes=modes), x, y)
+    h = -ca.gradient(psi, ca.vertcat(x, y))
+    return ca.Function("rig_field", [x, y, w], [h[0], h[1]])
 
 
 def field_model(field) -> FieldModel:

@@ -102,7 +102,7 @@ def potential(term, x, y, z=0.0):
     if isinstance(term, TesseralTerm) and isinstance(z, (int, float)) and z == 0:
         return tesseral_in_plane(term, x, y)
     if isinstance(term, TesseralTerm):
-        basis = tesseral_potentials(term.centre, term.axis_angle, term.radius, term.modes, x, y, z)
+        basis = tesseral_potentials(term.centre, term.axis_angle, term.radius, term.modes, x, y, z, term.kind)
     else:
         basis = basis_potentials(term.kind, term.centre, term.axis_angle, term.radius, len(term.coefficients),
                                  x, y, z)

@@ -20,6 +20,14 @@ l − m even the mirror in the plane (w → −w); each term is again a solid ha
 divergence- and curl-free by construction. A diametric cylinder's potential is −M ∂Φ/∂u of its
 body's axisymmetric (about z) potential Φ: only m = 1. The coefficients are fitted to magpylib
 (:mod:`actuator_design.source_fit`); here is their evaluation (CasADi expressions or NumPy).
+
+A coil's field measured over a workspace free of sources (a calibration map,
+:mod:`actuator_design.coil_map`) has the interior expansion, the regular solid harmonics themselves,
+
+    ψ = Σ a_lm Q_l^m(w, |x|²) Re((u + i v)^m)   (m ≥ 0),   a_l,−m Q_l^m(w, |x|²) Im((u + i v)^m),
+
+with l − |m| even (the field mirror symmetric in the rod's plane: no normal component in it) and
+a negative m naming the sine term sin |m|φ.
 """
 from __future__ import annotations
 
@@ -30,7 +38,7 @@ from typing import Optional, Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["TesseralTerm", "tesseral_modes", "tesseral_potentials", "tesseral_in_plane", "distance_from"]
+__all__ = ["TesseralTerm", "tesseral_modes", "interior_modes", "tesseral_potentials", "tesseral_in_plane", "distance_from"]
 
 
 def distance_from(centre, x, y) -> np.ndarray:
@@ -45,7 +53,8 @@ class TesseralTerm:
 
     Attributes
     ----------
-    kind : "exterior"
+    kind : {"exterior", "interior"}
+        Outside the circumscribed sphere (a magnet), or inside a ball free of sources (a map).
     centre : (float, float)
         c, units of ℓ.
     axis_angle : float
@@ -55,9 +64,11 @@ class TesseralTerm:
     coefficients : tuple of float
         a_lm in the order of ``modes``.
     valid_radius : float
-        The fit holds to its reported error for ρ ≥ valid_radius, units of ℓ.
+        The fit holds to its reported error for ρ ≥ valid_radius (exterior) or ρ ≤ valid_radius
+        (interior), units of ℓ.
     modes : tuple of (int, int)
-        (l, m) of each coefficient, l and m odd, m ≤ l.
+        (l, m) of each coefficient, |m| ≤ l: l and m odd (a magnet), or l − |m| even with m < 0 the
+        sine term (a map).
     """
 
     kind: str
@@ -74,14 +85,21 @@ class TesseralTerm:
         return max((l for l, _ in self.modes), default=0)
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Whether the points (units of ℓ) lie where the fit holds (ρ ≥ valid_radius); boolean array."""
-        return distance_from(self.centre, x, y) >= self.valid_radius
+        """Whether the points (units of ℓ) lie where the fit holds; boolean array."""
+        rho = distance_from(self.centre, x, y)
+        return rho >= self.valid_radius if self.kind == "exterior" else rho <= self.valid_radius
 
 
 def tesseral_modes(order: int, m_max: Optional[int] = None) -> Tuple[Tuple[int, int], ...]:
     """(l, m), l and m odd, m ≤ min(l, ``m_max``), l ≤ ``order``, sorted by l then m."""
     top_m = order if m_max is None else m_max
     return tuple((l, m) for l in range(1, order + 1, 2) for m in range(1, min(l, top_m) + 1, 2))
+
+
+def interior_modes(order: int) -> Tuple[Tuple[int, int], ...]:
+    """(l, m) of the interior terms mirror symmetric in the plane: 1 ≤ l ≤ ``order``, l − |m| even,
+    m = −l, −l + 2, …, l (m < 0 the sine terms), sorted by l then m; l(l + 3)/2 modes up to l."""
+    return tuple((l, m) for l in range(1, order + 1) for m in range(-l, l + 1, 2))
 
 
 def _sqrt(v):
@@ -106,39 +124,49 @@ def _in_plane_step(l: int, m: int) -> float:
 
 
 def _by_order(modes, values=None) -> dict:
-    """{m: {l: value}} (value: True when ``values`` is None)."""
+    """{m: {l: value}} (value: True when ``values`` is None), m signed (negative: the sine term)."""
     out = {}
     for k, (l, m) in enumerate(modes):
         out.setdefault(m, {})[l] = True if values is None else values[k]
     return out
 
 
-def tesseral_potentials(centre, axis_angle: float, radius: float, modes, x, y, z=0.0) -> list:
-    """The unit-coefficient exterior potentials P̄_l^m(cos ϑ) cos mφ / |x|^(l+1) of ``modes`` at
-    (x, y, z) (CasADi scalars, numbers or NumPy arrays, units of ℓ), by the recurrence of the module
-    docstring. In the plane (``z`` the number 0) a mode with l − m odd is 0."""
+def _angular(by_m: dict, u, v):
+    """(|m|, signed m, Re or Im of (u + i v)^|m|) for every signed m of ``by_m``, by increasing |m|."""
+    re, im = 1.0, 0.0
+    for m in range(0, max((abs(k) for k in by_m), default=-1) + 1):
+        if m > 0:
+            re, im = re * u - im * v, re * v + im * u
+        for signed, part in (((0, re),) if m == 0 else ((m, re), (-m, im))):
+            if signed in by_m:
+                yield m, signed, part
+
+
+def tesseral_potentials(centre, axis_angle: float, radius: float, modes, x, y, z=0.0,
+                        kind: str = "exterior") -> list:
+    """The unit-coefficient potentials of ``modes`` at (x, y, z) (CasADi scalars, numbers or NumPy
+    arrays, units of ℓ): exterior P̄_l^m(cos ϑ) cos mφ / |x|^(l+1), or interior |x|^l P̄_l^m(cos ϑ)
+    (cos or sin) |m|φ, by the recurrence of the module docstring. In the plane (``z`` the number 0) a
+    mode with l − |m| odd is 0."""
     u, v = _local(centre, axis_angle, radius, x, y)
     in_plane = isinstance(z, (int, float)) and z == 0
     w = 0.0 if in_plane else z / radius
     q = u * u + v * v + w * w
-    inv_q = 1 / q
     top = max((l for l, _ in modes), default=0)
-    inv_r = [_sqrt(inv_q)]  # 1/|x|^(2l+1), l = 0..top
-    for _ in range(top):
-        inv_r.append(inv_r[-1] * inv_q)
+    inv_r = [1.0] * (top + 1)
+    if kind == "exterior":
+        inv_q = 1 / q
+        inv_r = [_sqrt(inv_q)]  # 1/|x|^(2l+1), l = 0..top
+        for _ in range(top):
+            inv_r.append(inv_r[-1] * inv_q)
     wanted = _by_order(modes)
     values = {}
-    re, im = 1.0, 0.0  # Re, Im of (u + i v)^m
-    for m in range(0, max(wanted, default=-1) + 1):
-        if m > 0:
-            re, im = re * u - im * v, re * v + im * u
-        if m not in wanted:
-            continue
+    for m, signed, part in _angular(wanted, u, v):
         q_cur, q_prev = _q_mm(m), 0.0
         step = 2 if in_plane else 1  # in the plane every second Q_l^m vanishes with w
-        for l in range(m, max(wanted[m]) + 1, step):
-            if l in wanted[m]:
-                values[(l, m)] = q_cur * re * inv_r[l]
+        for l in range(m, max(wanted[signed]) + 1, step):
+            if l in wanted[signed]:
+                values[(l, signed)] = q_cur * part * inv_r[l]
             if in_plane:
                 q_cur = _in_plane_step(l, m) * q * q_cur
             else:
@@ -149,28 +177,28 @@ def tesseral_potentials(centre, axis_angle: float, radius: float, modes, x, y, z
 
 
 def tesseral_in_plane(term: TesseralTerm, x, y):
-    """ψ of a tesseral term in the plane z = 0, nested (two operations a term): with l = m + 2k,
+    """ψ of a tesseral term in the plane z = 0, nested (two operations a term): with l = |m| + 2k,
     Q_l^m(0, q) = κ_lm q^k (κ by the recurrence's w = 0 form), so
 
-        ψ = Σ_m Re((u + i v)^m) q^(−m−1/2) Σ_k a_lm κ_lm q^(−k),
+        exterior  ψ = Σ_m Re((u + i v)^m) q^(−m−1/2) Σ_k a_lm κ_lm q^(−k),
+        interior  ψ = Σ_m (Re or Im)((u + i v)^|m|) Σ_k a_lm κ_lm q^k,
 
-    the inner sum by Horner's rule in 1/q (CasADi scalars, numbers or arrays, units of ℓ)."""
+    the inner sums by Horner's rule in 1/q or q (CasADi scalars, numbers or arrays, units of ℓ)."""
     u, v = _local(term.centre, term.axis_angle, term.radius, x, y)
-    inv_q = 1 / (u * u + v * v)
+    q = u * u + v * v
+    exterior = term.kind == "exterior"
+    inv_q = 1 / q if exterior else None
     by_m = _by_order(term.modes, term.coefficients)
-    psi, re, im, scale = 0.0, 1.0, 0.0, _sqrt(inv_q)  # scale = q^(−m−1/2)
-    for m in range(0, max(by_m, default=-1) + 1):
-        if m > 0:
-            re, im = re * u - im * v, re * v + im * u
-            scale = scale * inv_q
-        if m not in by_m:
-            continue
+    psi, scale, scaled = 0.0, _sqrt(inv_q) if exterior else 1.0, 0  # scale = q^(−m−1/2) (exterior)
+    for m, signed, part in _angular(by_m, u, v):
+        while exterior and scaled < m:
+            scale, scaled = scale * inv_q, scaled + 1
         kappa, weights = _q_mm(m), []  # a_lm κ_lm for k = 0, 1, ...
-        for l in range(m, max(by_m[m]) + 1, 2):
-            weights.append(by_m[m].get(l, 0.0) * kappa)
+        for l in range(m, max(by_m[signed]) + 1, 2):
+            weights.append(by_m[signed].get(l, 0.0) * kappa)
             kappa *= _in_plane_step(l, m)
         inner = weights[-1]
         for wk in reversed(weights[:-1]):
-            inner = inner * inv_q + wk
-        psi = psi + re * scale * inner
+            inner = inner * (inv_q if exterior else q) + wk
+        psi = psi + part * scale * inner
     return psi

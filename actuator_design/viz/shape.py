@@ -171,6 +171,12 @@ def _draw_sources(ax, field) -> None:
         e = np.array([math.cos(src.axis_angle + turn), math.sin(src.axis_angle + turn)])
         n = np.array([-e[1], e[0]])
         label = "magnet" if k == 0 else None
+        if hasattr(src, "field_per_amp"):  # a calibration map's coil: the map's region, once
+            t = field.placed_terms()[k]
+            if k == 0:
+                ax.add_patch(Circle(t.centre, t.valid_radius, fill=False, ls="--", lw=0.8, edgecolor="0.5",
+                                     zorder=1, label="calibration map's region"))
+            continue
         if hasattr(src, "shape"):
             r = 0.5 * src.diameter / field.length
             if src.shape in ("sphere", "diametric_cylinder"):  # its section in the plane: a disc
