@@ -192,12 +192,47 @@ def _source_weight(k: int) -> Parameter:
                      else 0.0, write=write, ensure=ensure)
 
 
+#: a source's rigid move (``SourceField.placements``): name → (its index in (dx, dy, turn), unit)
+_PLACEMENT = {"source_dx": (0, "l"), "source_dy": (1, "l"), "source_turn": (2, "rad")}
+
+
+def _source_placement(k: int, head: str) -> Parameter:
+    """One coordinate of source k's rigid move (``SourceField.placements``: dx, dy in units of ℓ, a
+    turn in rad about its fitted centre), NLP slot ``<head>_k`` (a magnet moved by its stage,
+    :mod:`.analysis.pose_schedule`)."""
+    i, unit = _PLACEMENT[head]
+
+    def has(sc: Scene) -> bool:
+        return getattr(sc.field, "kind", "") == "sources" and k < len(sc.field.terms)
+
+    def write(sc: Scene, v: float) -> Scene:
+        places = [list(p) for p in sc.field.source_placements()]
+        places[k][i] = v
+        return replace(sc, field=replace(sc.field, placements=tuple(tuple(p) for p in places)))
+
+    def ensure(sc: Scene) -> Scene:
+        if not has(sc):
+            raise ValueError(f"{head}_{k}: the scene's field has no source {k + 1} (a field from magnets, "
+                             "`field: {type: magnet}`)")
+        return sc
+
+    what = {"source_dx": "move along c1", "source_dy": "move along c2", "source_turn": "turn"}[head]
+    return Parameter(f"{head}_{k}", f"field source {k + 1}'s {what} from where it was fitted", unit, f"{head}_{k}",
+                     read=lambda sc: sc.field.source_placements()[k][i] if has(sc) else 0.0, write=write,
+                     ensure=ensure)
+
+
 def _source_weight_entry(name: str) -> Optional[Parameter]:
-    """``source_weight_k`` for any k: lens entries that :func:`parameter` finds (loading paths over
-    coil currents, :mod:`.analysis.current_schedule`) but that are not listed among the scene
-    parameters a user names (their number depends on the scene)."""
+    """``source_weight_k`` and ``source_dx_k``, ``source_dy_k``, ``source_turn_k`` for any k: lens
+    entries that :func:`parameter` finds (loading paths over coil currents or a magnet's pose,
+    :mod:`.analysis.current_schedule`, :mod:`.analysis.pose_schedule`) but that are not listed among
+    the scene parameters a user names (their number depends on the scene)."""
     head, _, k = name.rpartition("_")
-    return _source_weight(int(k)) if head == "source_weight" and k.isdigit() else None
+    if not k.isdigit():
+        return None
+    if head == "source_weight":
+        return _source_weight(int(k))
+    return _source_placement(int(k), head) if head in _PLACEMENT else None
 
 
 # -- the registry --------------------------------------------------------------------------------

@@ -138,6 +138,7 @@ DIMENSIONS = {
     "field_rate": _Dimension("a rate of change of the field", "5 mT/s' or '4 kA/m/s", "A/m/s"),
     "angular_rate": _Dimension("a rotation rate", "30 deg/s", "rad/s"),
     "current_rate": _Dimension("a rate of change of a current (a driver's slew rate)", "20 A/s", "A/s"),
+    "speed": _Dimension("a speed (a stage's)", "10 mm/s", "m/s"),
     "dimensionless": _Dimension("a plain number", "0.25", ""),
 }
 """Supported dimensions: name → description, example and the SI unit returned."""
@@ -267,7 +268,8 @@ def parse_quantity(value, dimension: str, field_name: str = "value") -> float:
         ``"force_per_length"`` (N/m), ``"magnetic_field"`` (A/m; a flux density in tesla is
         converted as H = B/μ0), ``"magnetic_moment"`` (A m²), ``"density"`` (kg/m³),
         ``"acceleration"`` (m/s²), ``"angle"`` (rad), ``"field_rate"`` (A/m/s; T/s converted as
-        B/μ0), ``"angular_rate"`` (rad/s), ``"dimensionless"``.
+        B/μ0), ``"angular_rate"`` (rad/s), ``"current_rate"`` (A/s), ``"speed"`` (m/s),
+        ``"dimensionless"``.
     field_name : str
         Dotted name of the configuration field, used in error messages.
 

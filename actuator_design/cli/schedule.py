@@ -13,9 +13,11 @@ field_A_per_m, field_mT (mu0 H) and angle_deg, the text shows waypoints and tips
 of the YAML and the field in mT, and --rate 5mT/s / --rotation-rate 30deg/s add the time of each
 step (the slower of the field change and the rotation governs).
 On a scene whose field comes from coils (`field: {type: coils}`) the coils' currents are scheduled
-instead, within each driver's --slew-rate (A/s) and current limit (:mod:`.schedule_currents`).
-Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why), 4 (coils)
-a waypoint no currents within the limits reach.
+instead, within each driver's --slew-rate (A/s) and current limit (:mod:`.schedule_currents`); on a
+scene whose magnet has a travel, the magnet's pose within the stage's --stage-speed and --turn-rate
+(:mod:`.schedule_poses`).
+Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why), 4 (coils, a magnet)
+a waypoint no currents (pose) within the limits (travel) reach.
 """
 from __future__ import annotations
 
@@ -63,9 +65,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="a scene whose field comes from coils: each driver's largest |dI/dt|, e.g. '20A/s' (one for "
                         "all coils, or one per coil: '20A/s,10A/s'); the currents (A) are scheduled, with the least "
                         "energy (default) or, with --optimal-control time, in the least time")
+    m = parser.add_argument_group("a magnet on a stage (a scene whose magnet has a travel: its pose is scheduled)")
+    m.add_argument("--stage-speed", metavar="SPEED", help="the stage's largest speed along each of x and y, e.g. "
+                                                           "'10mm/s'")
+    m.add_argument("--turn-rate", metavar="RATE", help="the stage's largest turn rate of the magnet's axis, e.g. "
+                                                        "'90deg/s'")
     parser.add_argument("--json", action="store_true", help="print exactly one JSON object")
     parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv "
-                                                     "(no .gif for a scene of coils)")
+                                                     "(no .gif for a scene of coils or a magnet's pose)")
 
 
 def _points(items, source: str):
@@ -189,10 +196,15 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"study.type: expected 'schedule' for this command, got {study.get('type')!r}")
         study.pop("type", None)
     coils = getattr(scene.field, "kind", "") == "sources" and any(hasattr(s, "max_current") for s in scene.field.sources)
+    stage = getattr(scene.field, "kind", "") == "sources" and any(getattr(s, "travel", ()) for s in scene.field.sources)
+    for flag, value in (("--stage-speed", args.stage_speed), ("--turn-rate", args.turn_rate)):
+        if value is not None and not stage:
+            raise InputError(f"{flag}: only for a scene whose magnet has a travel (`field: {{type: magnet, travel: "
+                             "...}`), whose pose is scheduled")
     if args.slew_rate is not None and not coils:
         raise InputError("--slew-rate: only for a scene whose field comes from coils (`field: {type: coils}`); "
                          "an ideal field's schedule takes --rate and --rotation-rate")
-    if study and not coils:
+    if study and not coils and not stage:
         allowed = ("waypoints", "rate_weight", "substeps", "rate", "rotation_rate", "optimal_control", "h_rate",
                    "nodes")
         unknown = sorted(set(study) - set(allowed))
@@ -208,6 +220,9 @@ def run(args: argparse.Namespace) -> int:
         wps = _parse_waypoints(";".join(f"{p[0]},{p[1]}" for p in study["waypoints"]))
     else:
         raise InputError("--waypoints: required (or --path-csv, or `study: {type: schedule, waypoints: ...}`)")
+    if stage:  # the magnet's pose is scheduled
+        from .schedule_poses import run_poses
+        return run_poses(args, scene, options, raw, study, wps)
     if coils:  # the coils' currents are scheduled
         from .schedule_currents import run_currents
         return run_currents(args, scene, options, raw, study, wps)

@@ -1,0 +1,126 @@
+"""``schedule`` on a scene whose magnet has a travel: the magnet's pose (position mm, axis deg) in
+time that moves the tip through the waypoints within the stage's travel, speed and turn rate
+(:mod:`actuator_design.analysis.pose_schedule`).
+
+Outputs with --out DIR: schedule.json, schedule.csv (every step: time, the pose, the tip),
+waypoints.csv and schedule.png. Exit codes: 0 verified schedule, 2 bad input, 3 not verified,
+4 a waypoint no pose within the travel reaches.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr, table_csv_text
+from .design_units import quasi_static_line
+from .output import print_written, write_out
+
+__all__ = ["run_poses", "STUDY_KEYS"]
+
+#: The `study:` keys of a schedule over a magnet's pose.
+STUDY_KEYS = ("waypoints", "substeps", "stage_speed", "turn_rate")
+EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
+
+
+def _rate(args, study, flag: str, key: str, dimension: str, example: str) -> float:
+    from ..units import parse_quantity
+
+    value = getattr(args, key) if getattr(args, key) is not None else study.get(key)
+    name = flag if getattr(args, key) is not None else f"study.{key}"
+    if value is None:
+        raise InputError(f"{flag}: a schedule over a magnet's pose needs its stage's {key.replace('_', ' ')}, e.g. "
+                         f"{flag} {example} (or `{key}:` in the study)")
+    with bad_input():
+        r = parse_quantity(value, dimension, name)
+    if not r > 0:
+        raise InputError(f"{name}: must be > 0, got {value!r}")
+    return r
+
+
+def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoints) -> int:
+    """The pose schedule of ``waypoints`` (rod lengths); ``study`` without its ``type``."""
+    for flag, value in (("--rate", args.rate), ("--rotation-rate", args.rotation_rate), ("--h-rate", args.h_rate),
+                        ("--rate-weight", args.rate_weight), ("--slew-rate", args.slew_rate),
+                        ("--optimal-control", args.optimal_control), ("--nodes", args.nodes)):
+        if value is not None:
+            raise InputError(f"{flag}: the scene's magnet has a travel, whose pose is scheduled; give the stage's "
+                             "--stage-speed (e.g. 10mm/s) and --turn-rate (e.g. 90deg/s) instead")
+    unknown = sorted(set(study) - set(STUDY_KEYS))
+    if unknown:
+        raise InputError(f"study.{unknown[0]}: unknown key for a schedule over a magnet's pose (allowed: "
+                         f"{', '.join(STUDY_KEYS)})")
+    speed = _rate(args, study, "--stage-speed", "stage_speed", "speed", "10mm/s")
+    turn = _rate(args, study, "--turn-rate", "turn_rate", "angular_rate", "90deg/s")
+    sub_name = "--substeps" if args.substeps is not None else "study.substeps"
+    substeps = args.substeps if args.substeps is not None else study.get("substeps", 8)
+    if not (isinstance(substeps, int) and 1 <= substeps <= 200):
+        raise InputError(f"{sub_name}: must be a whole number in [1, 200], got {substeps!r}")
+
+    from ..analysis.pose_schedule import pose_schedule
+    from ..io import dumps_json
+    from ..user_units import user_units
+
+    units = user_units(scene, raw)
+    say = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
+    with stdout_to_stderr(args.json), bad_input():
+        res = pose_schedule(scene, waypoints, speed, turn, substeps=substeps, options=options, progress=say)
+    payload = res.to_dict()
+    written = None
+    if args.out is not None:
+        written = write_out(args.out, _files(res, payload, raw, units), args.json)
+    if args.json:
+        print(dumps_json(payload))
+    else:
+        for line in _summary(res, payload):
+            print(line)
+    if written is not None:
+        print_written(written, args.json)
+    if res.success:
+        return EXIT_OK
+    return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
+
+
+def _summary(res, payload) -> list:
+    lines = ["actuator-design: a magnet's pose through tip waypoints",
+             f"  {'wp':>3} {'target x':>10} {'target y':>10} {'time/s':>9} {'x/mm':>9} {'y/mm':>9} {'axis/deg':>9}"
+             f" {'error':>9} {'margin':>8}"]
+    for r in payload["rows"]:
+        t = res.times[res.waypoint_index[r["waypoint"]]]
+        lines.append(f"  {r['waypoint']:>3} {r['target_x']:>10.6f} {r['target_y']:>10.6f} {t:>9.4g} {r['x_mm']:>9.5g} "
+                     f"{r['y_mm']:>9.5g} {r['axis_angle_deg']:>9.5g} {r['error']:>9.2e} {r['margin']:>8.4g}")
+    if res.times:
+        lines.append(f"  moves: straight in (x, y, axis), each axis at most {res.speed * 1e3:.4g} mm/s and "
+                     f"{math.degrees(res.turn_rate):.4g} deg/s: {res.duration:.4g} s in all")
+    if res.verification is not None:
+        lines.append(quasi_static_line(res.quasi_static, res.verification.scene.scales))
+    lines.append(f"  note: {res.message}")
+    lines.append(f"  time: {res.timings.get('total', float('nan')):.2f} s ({res.solves} solves)")
+    lines.append(f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}")
+    return lines
+
+
+def _files(res, payload, raw, units) -> dict:
+    from ..io import dumps_json
+    from ..viz.pose_schedule import pose_schedule_figure
+    from ..viz.style import png_bytes
+
+    files = {"schedule.json": dumps_json(dict(payload, config=raw), indent=1) + "\n"}
+    states = res.verification.states if res.verification is not None else []
+    steps = []
+    for k, row in enumerate(payload["schedule"]):
+        if k < len(states):
+            st = states[k]
+            row = dict(row, tip_x=float(st.tip["x"]), tip_y=float(st.tip["y"]), tip_angle_rad=float(st.tip["angle"]),
+                       stable=st.stable)
+            if units is not None:
+                row[f"tip_x_{units.length_unit}"] = units.length(st.tip["x"])
+                row[f"tip_y_{units.length_unit}"] = units.length(st.tip["y"])
+        steps.append(row)
+    if steps:
+        files["schedule.csv"] = table_csv_text(steps, list(steps[-1]))
+    if payload["rows"]:
+        files["waypoints.csv"] = table_csv_text(payload["rows"], list(payload["rows"][0]))
+    if states:
+        files["schedule.png"] = png_bytes(pose_schedule_figure(res, units), dpi=150)
+    return files
