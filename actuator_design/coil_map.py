@@ -15,10 +15,12 @@ Each coil's map is fitted by least squares with the interior solid harmonics of
 :mod:`actuator_design.physics.tesseral` that are mirror symmetric in the rod's plane (the planar
 model holds only in a plane of symmetry: no field normal to it). The field is divergence- and
 curl-free by construction; a map that is not (noise, a field normal to the plane) shows as misfit.
-The order is the lowest whose fit, made without every fourth sample, meets ``fit_tolerance`` on
-those held-out samples; the reported error is that held-out error. The fit holds in the disc
-inscribed in the map's extent in the plane. A map has no gradient samples: the gradient's error is
-not measured (NaN).
+The fit is made per ampere; its order is the lowest whose fit, made without every fourth distinct
+point, meets ``fit_tolerance`` on those held-out points; the reported error is that held-out error
+at the coil's current. The fit holds in the disc inscribed in the map's extent in the plane, shrunk
+to where the points cover it (no test point farther than 1.5 median spacings from a map point). A
+map has no gradient samples: the gradient's error is not measured (NaN). A map without z says
+nothing about the field normal to the plane: its symmetry is then assumed, not checked.
 """
 from __future__ import annotations
 
@@ -43,6 +45,10 @@ MAX_MAP_ORDER = 24
 #: The most points a map may have, and the most coils.
 MAX_MAP_ROWS = 20000
 MAX_MAP_COILS = 16
+#: The farthest a map's point may lie from the clamp (m), and the largest field per ampere (A/m per A,
+#: ~1.3 kT/A: far beyond any coil; it keeps squares and sums finite)
+MAX_POSITION = 1e3
+MAX_FIELD_PER_AMP = 1e9
 
 _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\]]*)\]\s*$")
 _COMPONENT = re.compile(r"^([A-Za-z][A-Za-z0-9]*)_b([xyz])$")
@@ -98,6 +104,9 @@ def parse_coil_map(text: str, source: str = "<map>") -> CoilMap:
                 if name not in ("x", "y", "z") and not _COMPONENT.match(name):
                     raise ValueError(f"{source}: column '{name}': unknown column (expected x, y, z and <coil>_bx, "
                                      "<coil>_by, <coil>_bz)")
+                if not m.group(2).strip():
+                    raise ValueError(f"{source}: column '{name}': give its unit in the brackets (e.g. "
+                                     f"'{name} [{'mm' if name in ('x', 'y', 'z') else 'mT/A'}]')")
                 header.append((name, _unit_factor(m.group(2).strip(), name, source)))
             continue
         if len(rows) >= MAX_MAP_ROWS:
@@ -144,11 +153,24 @@ def parse_coil_map(text: str, source: str = "<map>") -> CoilMap:
     points = np.column_stack([col["x"], col["y"], col["z"] if with_z else np.zeros(len(rows))])
     if len(rows) < 12:
         raise ValueError(f"{source}: {len(rows)} points; a map needs at least 12 (it is fitted with some held out)")
+    far = np.max(np.abs(points))
+    if far > MAX_POSITION:
+        raise ValueError(f"{source}: a point lies {far:.3g} m from the clamp; the map's points must lie within "
+                         f"{MAX_POSITION:g} m (check the position unit)")
+    for name, f in fields.items():
+        big = float(np.max(np.abs(f)))
+        if big > MAX_FIELD_PER_AMP:
+            raise ValueError(f"{source}: coil '{name}': a field of {big:.3g} A/m per A; at most {MAX_FIELD_PER_AMP:g} "
+                             "A/m per A (check the field unit)")
+    span = np.ptp(points[:, :2], axis=0)
+    if not np.all(span > 0):
+        raise ValueError(f"{source}: the points span no area in the rod's plane (x over {span[0]:.3g} m, y over "
+                         f"{span[1]:.3g} m): a map needs a grid in x and y")
     return CoilMap(source, points, fields)
 
 
 @functools.lru_cache(maxsize=8)
-def _read_cached(path: str, mtime_ns: int, size: int) -> CoilMap:
+def _read_cached(path: str, mtime_ns: int, ctime_ns: int, inode: int, size: int) -> CoilMap:
     from .calibration.data import read_bounded_text  # bounded, regular files only
 
     return parse_coil_map(read_bounded_text(path), source=os.path.basename(path))
@@ -156,24 +178,45 @@ def _read_cached(path: str, mtime_ns: int, size: int) -> CoilMap:
 
 def read_coil_map(path) -> CoilMap:
     """Read a map file (at most 16 MiB of UTF-8 CSV; module docstring); one ValueError line on any
-    problem. A file read before and unchanged since (size, modification time) is not read again."""
+    problem. A file read before and unchanged since (size, inode, modification and change times)
+    is not read again."""
     path = os.fspath(path)
     try:
         info = os.stat(path)
     except OSError as err:
         raise ValueError(f"{path}: map file not found" if isinstance(err, FileNotFoundError)
                          else f"{path}: cannot read: {err.strerror or err}") from None
-    return _read_cached(os.path.abspath(path), info.st_mtime_ns, info.st_size)
+    return _read_cached(os.path.abspath(path), info.st_mtime_ns, info.st_ctime_ns, info.st_ino, info.st_size)
 
 
 def _region(src: MappedCoil, length: float):
-    """(centre (ℓ), inscribed radius (ℓ), normalising radius (ℓ)) of a coil's map in the plane."""
+    """(centre (ℓ), radius where the map holds (ℓ), normalising radius (ℓ)) of a coil's map: the disc
+    inscribed in the points' extent in the plane, shrunk to where the points cover it — every point
+    of a test grid within 1.5 median spacings of a map point (a map with a hole holds only inside
+    it). ValueError when no disc about the centre is covered."""
+    from scipy.spatial import cKDTree
+
     p = np.asarray(src.points, float) / length
-    lo, hi = p[:, :2].min(0), p[:, :2].max(0)
+    flat = np.unique(p[:, :2], axis=0)
+    lo, hi = flat.min(0), flat.max(0)
     c = 0.5 * (lo + hi)
     inscribed = 0.5 * float(np.min(hi - lo))
+    tree = cKDTree(flat)
+    spacing = float(np.median(tree.query(flat, k=2)[0][:, 1]))
+    step = max(0.5 * spacing, inscribed / 200)  # at most 401 × 401 test points
+    g = np.arange(-inscribed, inscribed + 0.5 * step, step)
+    a, b = (v.ravel() for v in np.meshgrid(g, g))
+    inside = a * a + b * b <= inscribed ** 2
+    test = np.column_stack([c[0] + a[inside], c[1] + b[inside]])
+    gap = tree.query(test)[0] > 1.5 * spacing
+    radius = inscribed
+    if np.any(gap):
+        radius = min(inscribed, float(np.min(np.hypot(*(test[gap] - c).T))) - spacing)
+    if not radius > 0:
+        raise ValueError(f"coil '{src.name}': the map's points leave a gap at the centre of their extent "
+                         f"({c[0] * length * 1e3:.4g}, {c[1] * length * 1e3:.4g}) mm: a map needs a grid over its region")
     big = float(np.max(np.linalg.norm(p - [c[0], c[1], 0.0], axis=1)))
-    return (float(c[0]), float(c[1])), inscribed, big
+    return (float(c[0]), float(c[1])), radius, big
 
 
 def _gradients(c, radius: float, modes, pts: np.ndarray, with_z: bool) -> np.ndarray:
@@ -191,22 +234,23 @@ def _gradients(c, radius: float, modes, pts: np.ndarray, with_z: bool) -> np.nda
 
 
 def _fit_coil(src: MappedCoil, length: float, tol: float):
-    """(term with coefficients in A/m, held-out error A/m, order) of one mapped coil at its current."""
-    c, inscribed, radius = _region(src, length)
+    """(term with coefficients in A/m per A, held-out error A/m per A, order) of one mapped coil:
+    fitted per ampere (its order does not depend on its current), every fourth distinct point held
+    out (a point listed twice is held out with its twin)."""
+    c, region, radius = _region(src, length)
     pts = np.asarray(src.points, float) / length
-    data = np.asarray(src.field_per_amp, float) * src.current
+    data = np.asarray(src.field_per_amp, float)
     with_z = data.shape[1] == 3
     scale = float(np.max(np.linalg.norm(data, axis=1)))
     if not scale > 0:
         raise ValueError(f"coil '{src.name}' has no field in its map")
-    n = len(pts)
-    held = np.arange(n) % 4 == 3
+    n, d = len(pts), data.shape[1]
+    held = np.unique(pts, axis=0, return_inverse=True)[1].ravel() % 4 == 3
     top = 1
-    while top < MAX_MAP_ORDER and len(interior_modes(top + 1)) <= (n - held.sum()) * data.shape[1] // 2:
+    while top < MAX_MAP_ORDER and len(interior_modes(top + 1)) <= (n - held.sum()) * d // 2:
         top += 1
     modes = interior_modes(top)
     G = _gradients(c, radius, modes, pts, with_z)
-    d = data.shape[1]
     rows_held = np.repeat(held, d)
     target = data.ravel() / scale
     best = None
@@ -228,7 +272,7 @@ def _fit_coil(src: MappedCoil, length: float, tol: float):
                          f"the plane{plane} (raise fit_tolerance to at least {miss:.2g} to accept it)")
     k = len(interior_modes(order))
     a = np.linalg.lstsq(G[:, :k], target, rcond=None)[0] * scale
-    term = TesseralTerm("interior", c, 0.0, radius, tuple(float(v) for v in a), inscribed, interior_modes(order))
+    term = TesseralTerm("interior", c, 0.0, radius, tuple(float(v) for v in a), region, interior_modes(order))
     return term, miss * scale, order
 
 
@@ -243,7 +287,11 @@ def fit_map(sources, length: float, tol: float):
     from .physics.harmonic import field_function
     from .source_fit import reach_grid
 
-    fits = [_fit_coil(s, length, tol) for s in sources]
+    fits = []
+    for s in sources:  # per ampere, then at the coil's current
+        term, miss, order = _fit_coil(s, length, tol)
+        fits.append((replace(term, coefficients=tuple(v * s.current for v in term.coefficients)),
+                     miss * abs(s.current), order))
     grid = reach_grid()
     keep = np.all([t.contains(grid[:, 0], grid[:, 1]) for t, _, _ in fits], axis=0)
     if not keep.any():

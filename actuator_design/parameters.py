@@ -214,6 +214,8 @@ def _source_placement(k: int, head: str) -> Parameter:
         if not has(sc):
             raise ValueError(f"{head}_{k}: the scene's field has no source {k + 1} (a field from magnets, "
                              "`field: {type: magnet}`)")
+        if k > 0 and hasattr(sc.field.sources[k], "field_per_amp"):
+            raise ValueError(f"{head}_{k}: the coils of a calibration map move as one rig; move it by {head}_0")
         return sc
 
     what = {"source_dx": "move along c1", "source_dy": "move along c2", "source_turn": "turn"}[head]

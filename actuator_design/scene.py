@@ -155,10 +155,15 @@ class SourceField:
         return tuple(float(w) for w in self.weights) if self.weights else (1.0,) * len(self.terms)
 
     def source_placements(self) -> Tuple[Tuple[float, float, float], ...]:
-        """(dx, dy, turn) of every source ((0, 0, 0) where ``placements`` is empty)."""
+        """(dx, dy, turn) of every source ((0, 0, 0) where ``placements`` is empty); the coils of a
+        calibration map move as one rig, with the first map coil's placement."""
         if not self.placements:
             return ((0.0, 0.0, 0.0),) * len(self.terms)
-        return tuple(tuple(float(v) for v in p) for p in self.placements)
+        places = [tuple(float(v) for v in p) for p in self.placements]
+        rig = [k for k, src in enumerate(self.sources) if hasattr(src, "field_per_amp")]
+        for k in rig[1:]:
+            places[k] = places[rig[0]]
+        return tuple(places)
 
     def placed_terms(self) -> Tuple[Any, ...]:
         """The fitted expansions where the sources are: each centre moved by (dx, dy), each axis

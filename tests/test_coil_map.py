@@ -145,6 +145,37 @@ def test_a_map_not_symmetric_about_the_rods_plane_or_too_noisy_is_refused(tmp_pa
     assert scene.field.fit_error > noise
 
 
+def test_a_map_with_a_hole_holds_only_inside_it_and_repeated_rows_do_not_leak_into_the_held_out_points(tmp_path):
+    lines = emns_map.map_text(kind="loop").splitlines()
+    rows = [r for r in lines[2:] if not (float(r.split(",")[0]) > 20.0 and float(r.split(",")[1]) > 10.0)]
+    holed = load_config(_config(tmp_path, "\n".join(lines[:2] + rows) + "\n")).to_scene()
+    t = holed.field.terms[0]
+    hole = math.hypot(27.5e-3 - 10e-3, 17.5e-3) / 0.02  # the middle of the hole, from the map's centre
+    assert t.valid_radius < hole < 25e-3 / 0.02
+    # inside the region left, magpylib agrees with the fit to the reported error
+    rng = np.random.default_rng(5)
+    p = rng.uniform(-1, 1, (4000, 2))
+    p = p[np.hypot(p[:, 0], p[:, 1]) <= 1][:300] * t.valid_radius + t.centre
+    truth = magpy.getH(_loops(CURRENTS), np.column_stack([p * 0.02, np.zeros(len(p))]), sumup=True)[:, :2]
+    hx, hy = field_function(holed.field.terms).map(len(p))(p[:, 0], p[:, 1])
+    miss = np.hypot(np.asarray(hx).ravel() - truth[:, 0] / holed.scales.field,
+                    np.asarray(hy).ravel() - truth[:, 1] / holed.scales.field)
+    assert miss.max() <= holed.field.fit_error
+    # a noisy map is refused at a tolerance below its noise, whether or not every row is listed twice
+    noisy = emns_map.map_text(kind="loop", noise_mT_per_A=0.005, seed=4).splitlines()
+    twice = "\n".join(noisy[:2] + [r for r in noisy[2:] for _ in range(2)]) + "\n"
+    for text in ("\n".join(noisy) + "\n", twice):
+        with pytest.raises(ConfigError, match=r"raise fit_tolerance to at least"):
+            load_config(_config(tmp_path, text, fit_tolerance=3e-3)).to_scene()
+
+
+def test_a_coil_switched_off_carries_no_field_and_the_others_fit_as_before(tmp_path, mapped):
+    off = load_config(_config(tmp_path, currents=(5.0, 0.0) + CURRENTS[2:])).to_scene()
+    assert not any(off.field.terms[1].coefficients)
+    for a, b in zip(off.field.terms, mapped.field.terms):
+        assert a.modes == b.modes  # fitted per ampere: the order does not depend on the current
+
+
 @pytest.mark.parametrize("text, message", [
     ("", r"no header line"),
     ("x [mm], y [mm], c1_bx [mT], c1_by [mT]\n", r"column 'c1_bx': unit 'mT' is not a field per ampere"),
@@ -158,6 +189,12 @@ def test_a_map_not_symmetric_about_the_rods_plane_or_too_noisy_is_refused(tmp_pa
     ("x [mm], x [mm], c1_bx [mT/A], c1_by [mT/A]\n", r"column 'x' appears twice"),
     ("x, y, c1_bx, c1_by\n", r"cannot read column header 'x'"),
     ("x [s], y [mm], c1_bx [mT/A], c1_by [mT/A]\n", r"column 'x': "),
+    ("x [mm], y [mm], c1_bx [mT/A], c1_by [mT/A]\n" + "".join(f"{i}, 0, 1, 0\n" for i in range(20)),
+     r"the points span no area in the rod's plane"),
+    ("x [mm], y [mm], c1_bx [mT/A], c1_by [mT/A]\n" + "".join(f"{i}, {i % 3}, 1e300, 0\n" for i in range(20)),
+     r"coil 'c1': a field of 7.96e\+302 A/m per A; at most 1e\+09"),
+    ("x [km], y [mm], c1_bx [mT/A], c1_by [mT/A]\n" + "".join(f"{i}, {i % 3}, 1, 0\n" for i in range(20)),
+     r"a point lies 1.9e\+04 m from the clamp"),
     ("x [mm], y [mm], c1_bx [s/A], c1_by [mT/A]\n", r"column 'c1_bx': "),
 ])
 def test_a_bad_map_file_is_one_line(text, message):
@@ -192,6 +229,28 @@ def _renamed(tmp_path, k, name):
     data["scene"]["field"]["coils"][k]["name"] = name
     cfg.write_text(yaml.safe_dump(data))
     return cfg
+
+
+def test_the_coils_of_a_map_move_as_one_rig(mapped):
+    from actuator_design.parameters import parameter
+
+    with pytest.raises(ValueError, match=r"source_dx_1: the coils of a calibration map move as one rig"):
+        parameter("source_dx_1").require(mapped)
+    moved = parameter("source_dx_0").write(mapped, 0.05)
+    assert {t.centre for t in moved.field.placed_terms()} == {(mapped.field.terms[0].centre[0] + 0.05, 0.0)}
+    x, y = np.array([0.3, 0.6]), np.array([0.1, -0.2])
+    from actuator_design.physics.fields import field_model
+    model = field_model(moved.field)
+    rig = model.evaluate(x, y, model.parameter_values(moved.field))
+    one_by_one = sum(np.array([np.asarray(v, float).ravel() for v in field_function([t]).map(2)(x, y)])
+                     for t in moved.field.placed_terms())
+    assert np.max(np.abs(rig - one_by_one)) < 1e-12
+
+
+def test_the_scene_is_built_from_the_map_that_was_validated(tmp_path, mapped):
+    cfg = load_config(_config(tmp_path))
+    (tmp_path / "map.csv").write_text("x [mm], y [mm], q1_bx [mT/A], q1_by [mT/A]\n" + "0, 0, 1, 0\n" * 12)
+    assert cfg.to_scene().scales.field == mapped.scales.field  # not the file as it is now
 
 
 def test_the_map_file_is_read_beside_the_yaml_file_from_any_working_directory(tmp_path, monkeypatch):

@@ -96,3 +96,19 @@ def test_stage_rates_on_a_scene_without_a_moving_magnet_are_refused(capsys):
     assert main(["schedule", str(other), "--waypoints", "0.9,0.3;0.9,0.35", "--stage-speed", "10mm/s"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--stage-speed: only for a scene whose magnet has a travel" in err[0], err
+
+
+def test_a_turntable_that_turns_without_end_turns_the_short_way_and_a_limited_one_does_not():
+    from types import SimpleNamespace
+
+    from actuator_design.analysis.pose_schedule import _short_way, _whole_turn, _within_turn
+
+    whole = SimpleNamespace(coords=(0, 2), lower=np.array([-1.0, -math.pi]), upper=np.array([1.0, math.pi]))
+    limited = SimpleNamespace(coords=(0, 2), lower=np.array([-1.0, -1.0]), upper=np.array([1.0, 3.0]))
+    assert _whole_turn(whole) == 1 and _whole_turn(limited) is None
+    prev = np.array([0.2, math.radians(170.0)])
+    nxt = _short_way(_whole_turn(whole), np.array([0.3, math.radians(-170.0)]), prev)
+    assert nxt[0] == 0.3 and math.degrees(nxt[1]) == pytest.approx(190.0, abs=1e-12)  # +20 deg, not -340
+    assert math.degrees(_within_turn(whole, 1, nxt)[1]) == pytest.approx(-170.0, abs=1e-12)
+    same = _short_way(_whole_turn(limited), np.array([0.3, -0.9]), np.array([0.2, 2.9]))
+    assert same.tolist() == [0.3, -0.9]

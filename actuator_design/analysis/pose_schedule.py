@@ -8,8 +8,9 @@ time, so that the tip of the rod passes through waypoints, within the stage's tr
    speed (x, y) or turn rate (axis angle) — the L2 proxy of the straight move's duration
    max_i |Δ_i| / rate_i. A waypoint not reached from there is searched from a screen of the travel.
 2. **Moves.** The stage moves in straight lines in (x, y, angle) between the waypoint poses, each
-   axis at its own rate: a move lasts max_i |Δ_i| / rate_i, the least any stage whose axes are
-   limited independently can do between those poses.
+   axis at its own rate: a move lasts max_i |Δ_i| / rate_i, the least a stage whose axes are
+   limited independently can do between those poses. A travel of a whole turn is a turntable that
+   turns without end (as in the pose design): each move turns the short way round.
 3. **Verification.** The schedule is replayed as one quasi-static loading path from the configured
    pose through every step (:func:`~.schedule.verify_schedule`: no snap, every state stable, each
    waypoint hit to 1e-6), every state where the magnet's fit holds (outside the sphere about it
@@ -17,7 +18,8 @@ time, so that the tip of the rod passes through waypoints, within the stage's tr
 4. **Quasi-static?** With the rod's density, each replayed state's relaxation time is compared with
    its step's duration (:func:`~.dynamics.quasi_static`), as for every timed schedule.
 
-Units: positions in m, angles in rad, times in s; the tip in rod lengths.
+Units: positions in m, angles in rad, times in s; the tip in rod lengths. The rod's clearance from
+the magnet's fit region is checked at the schedule's steps (more ``substeps`` check more finely).
 """
 from __future__ import annotations
 
@@ -62,7 +64,8 @@ class PoseSchedule:
     waypoint_index : list of int
         The step of each waypoint.
     speed, turn_rate : float
-        The stage's speed (m/s, each of x and y) and turn rate (rad/s).
+        The stage's speed (m/s, each of x and y) and turn rate (rad/s); NaN where not given (that
+        coordinate does not move).
     verification : ScheduleResult
         The replayed loading path (``rows``: per waypoint; ``states``).
     quasi_static, step_dynamics
@@ -106,17 +109,19 @@ class PoseSchedule:
         return {
             "success": bool(self.success), "status": self.status, "message": self.message,
             "waypoints": [{"x": w[0], "y": w[1]} for w in self.waypoints],
-            "rows": [{k: v for k, v in r.items() if not k.startswith("source_")} | {
+            "rows": [{("tip_angle_rad" if k == "angle" else k): v for k, v in r.items()
+                      if not k.startswith("source_")} | {
                 "x_mm": self.positions[i][0] * 1e3, "y_mm": self.positions[i][1] * 1e3,
                 "axis_angle_deg": math.degrees(self.axis_angles[i])} for r, i in zip(rows, self.waypoint_index)],
             "schedule": steps, "waypoint_index": self.waypoint_index, "duration_s": finite(self.duration),
-            "limits": {"speed_mm_per_s": self.speed * 1e3, "turn_rate_deg_per_s": math.degrees(self.turn_rate)},
+            "limits": {"speed_mm_per_s": finite(self.speed * 1e3), "turn_rate_deg_per_s": finite(math.degrees(self.turn_rate))},
             "quasi_static": self.quasi_static, "solves": self.solves, "timings_s": self.timings,
             "verification": self.verification.message if self.verification is not None else None,
             "units": {"length": "mm (the tip: rod length)", "angle": "deg", "time": "s"}}
 
 
-def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: float, turn_rate: float, *,
+def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: Optional[float],
+                  turn_rate: Optional[float], *,
                   substeps: int = 8, options: Optional[SolverOptions] = None,
                   progress: Optional[Callable[[str], None]] = None) -> PoseSchedule:
     """The magnet's poses in time through tip ``waypoints`` (see the module docstring).
@@ -127,10 +132,10 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: flo
         Physical scene whose field has one magnet with a ``travel`` (its configured pose starts).
     waypoints : sequence of (x, y)
         Tip positions, rod lengths, in visiting order (at least one).
-    speed : float
-        The stage's largest speed along each of x and y, m/s (> 0).
-    turn_rate : float
-        Its largest turn rate, rad/s (> 0).
+    speed : float or None
+        The stage's largest speed along each of x and y, m/s (> 0; None when neither moves).
+    turn_rate : float or None
+        Its largest turn rate, rad/s (> 0; None when the axis does not turn).
     substeps : int
         Schedule steps per move (the replay's points and the quasi-static check's steps).
     options : SolverOptions, optional
@@ -149,15 +154,18 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: flo
     wps = [tuple(float(v) for v in w) for w in waypoints]
     if not wps or any(len(w) != 2 or not all(map(math.isfinite, w)) for w in wps):
         raise ValueError("waypoints: expected one or more finite (x, y) pairs, rod lengths")
-    for name, value, unit in (("speed", speed, "m/s"), ("turn rate", turn_rate, "rad/s")):
-        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-            raise ValueError(f"{name}: must be a finite number > 0 ({unit}), got {value!r}")
     if not (isinstance(substeps, int) and 1 <= substeps <= 200):
         raise ValueError(f"substeps: must be a whole number in [1, 200], got {substeps!r}")
     var, _ = pose_problem(scene, wps[0])
+    for name, value, unit, needed in (("speed", speed, "m/s", any(c < 2 for c in var.coords)),
+                                      ("turn rate", turn_rate, "rad/s", 2 in var.coords)):
+        if (needed or value is not None) and not (
+                isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ValueError(f"{name}: must be a finite number > 0 ({unit}), got {value!r}")
     magnet = scene.field.sources[var.source]
     rates = np.array([speed / var.length if c < 2 else turn_rate for c in var.coords])  # per unit offset
-    out = PoseSchedule(False, "not_converged", "", wps, float(speed), float(turn_rate))
+    out = PoseSchedule(False, "not_converged", "", wps, math.nan if speed is None else float(speed),
+                       math.nan if turn_rate is None else float(turn_rate))
     at = at_pose(var)
     v0 = np.zeros(len(var.coords))
     start = solve(at(scene, v0), options)
@@ -165,13 +173,15 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: flo
         out.message = f"the state from rest at the configured pose did not converge: {start.message}"
         return out
     pmap = HardwareMap(scene, start, v0, var.names, at, clearance(scene, var))
+    turn = _whole_turn(var)
     vs, index, v_prev = [v0], [], v0
     for k, wp in enumerate(wps):
         say(f"waypoint {k + 1} of {len(wps)}: the pose soonest reached from the last one")
         _, prob = pose_problem(scene, wp)
-        prob = replace(prob, cost=1.0 / rates ** 2, centre=v_prev.copy())  # the move measured in time
+        here = _within_turn(var, turn, v_prev)  # the previous pose, its axis within the travel's turn
+        prob = replace(prob, cost=1.0 / rates ** 2, centre=here)  # the move measured in time
         better = lambda a, b, prob=prob: _better_from(prob, a, b)
-        sqp = run_starts(pmap, prob, [v_prev], better)
+        sqp = run_starts(pmap, prob, [here], better)
         if sqp is None or not sqp.reached:
             sqp = run_starts(pmap, prob, _screen(pmap, prob, var.coords), better)
         if sqp is None or not sqp.reached:
@@ -180,9 +190,10 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: flo
             out.message = f"waypoint {k} {wp}: no pose within the travel puts the tip there{near}"
             out.timings["total"] = time.perf_counter() - t0
             return out
-        vs += list(np.linspace(vs[-1], sqp.w, substeps + 1)[1:])
+        v_next = _short_way(turn, np.array(sqp.w, float), v_prev)
+        vs += list(np.linspace(vs[-1], v_next, substeps + 1)[1:])
         index.append(len(vs) - 1)
-        v_prev = np.array(sqp.w, float)
+        v_prev = v_next
     vs = np.array(vs)
     out.solves = pmap.solves
     out.timings["waypoints"] = time.perf_counter() - t0
@@ -213,6 +224,32 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: flo
                    "configured pose: no snap, every state stable" if ok else f"not verified: {why}")
     out.timings["total"] = time.perf_counter() - t0
     return out
+
+
+def _whole_turn(var) -> Optional[int]:
+    """The index of the axis angle among the pose's offsets when its travel is a whole turn (a
+    turntable: every axis once, reached the short way, as :func:`~.pose_problem.angle_offsets`)."""
+    for i, c in enumerate(var.coords):
+        if c == 2 and var.upper[i] - var.lower[i] >= 2 * math.pi - 1e-9:
+            return i
+    return None
+
+
+def _within_turn(var, turn: Optional[int], v: np.ndarray) -> np.ndarray:
+    """``v`` with a whole-turn axis angle brought into the travel's turn [lower, lower + 2π)."""
+    v = np.array(v, float)
+    if turn is not None:
+        v[turn] = var.lower[turn] + (v[turn] - var.lower[turn]) % (2 * math.pi)
+    return v
+
+
+def _short_way(turn: Optional[int], v: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """``v`` with a whole-turn axis angle replaced by its equivalent nearest ``ref``'s (a turntable
+    that turns without end turns the short way round; others move as they are)."""
+    v = np.array(v, float)
+    if turn is not None:
+        v[turn] = ref[turn] + (v[turn] - ref[turn] + math.pi) % (2 * math.pi) - math.pi
+    return v
 
 
 def _better_from(prob, a, b) -> bool:

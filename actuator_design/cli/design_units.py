@@ -1,12 +1,14 @@
 """Design outputs shared by one pose and several: the payload's unit labels, the schedule's
-physical columns and the quasi-static line of a timed schedule."""
+physical columns, the quasi-static line of a timed schedule and the closing lines and tip columns of
+a hardware schedule (coil currents, a magnet's pose)."""
 from __future__ import annotations
 
 import math
 
 from .common import InputError, bad_input
 
-__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target"]
+__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
+           "tip_columns", "finish_schedule"]
 
 
 def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: str):
@@ -65,3 +67,41 @@ def quasi_static_line(qs, scales=None) -> str:
              f"({qs['largest_tip_lag_m'] * 1e3:.3g} mm, step {qs['tip_lag_step']}: the slowest mode driven along the steps)")
     return (f"  quasi-static: slowest relaxation time {qs['slowest_relaxation_time_s']:.3g} s (step {qs['step']}; "
             f"{zeta}); {verdict}{trail}")
+
+
+def closing_lines(res, solves: str = "") -> list:
+    """The last lines of a hardware schedule's text: the quasi-static line, the note, the time
+    (with ``solves``, e.g. " (1532 solves)") and the result."""
+    lines = [] if res.verification is None else [quasi_static_line(res.quasi_static, res.verification.scene.scales)]
+    return lines + [f"  note: {res.message}", f"  time: {res.timings.get('total', float('nan')):.2f} s{solves}",
+                    f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}"]
+
+
+def tip_columns(state, units) -> dict:
+    """A schedule step's replayed tip (rod lengths, rad; in the scene's length unit too) and its verdict."""
+    row = {"tip_x": float(state.tip["x"]), "tip_y": float(state.tip["y"]), "tip_angle_rad": float(state.tip["angle"]),
+           "stable": state.stable}
+    if units is not None:
+        row[f"tip_x_{units.length_unit}"] = units.length(state.tip["x"])
+        row[f"tip_y_{units.length_unit}"] = units.length(state.tip["y"])
+    return row
+
+
+def finish_schedule(args, res, payload: dict, files, summary) -> int:
+    """Write ``files()`` to ``--out`` (all or nothing), print the payload (``--json``) or the lines of
+    ``summary(res, payload)``, and return the exit code of a hardware schedule: 0 verified, 4 a
+    waypoint out of reach, 3 otherwise."""
+    from ..io import dumps_json
+    from .output import print_written, write_out
+
+    written = write_out(args.out, files(), args.json) if args.out is not None else None
+    if args.json:
+        print(dumps_json(payload))
+    else:
+        for line in summary(res, payload):
+            print(line)
+    if written is not None:
+        print_written(written, args.json)
+    if res.success:
+        return 0
+    return 4 if res.status == "unreachable" else 3

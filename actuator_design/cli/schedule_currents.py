@@ -14,15 +14,13 @@ import io as _io
 import math
 import sys
 
-from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import quasi_static_line
-from .output import print_written, write_out
+from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
+from .design_units import closing_lines, finish_schedule, tip_columns
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
 #: The `study:` keys of a schedule over coil currents.
 STUDY_KEYS = ("waypoints", "substeps", "optimal_control", "nodes", "slew_rate")
-EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
 def _slew(value, n_coils: int, name: str):
@@ -80,7 +78,6 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
         raise InputError(f"{sub_name}: must be a whole number in [1, 200], got {substeps!r}")
 
     from ..analysis.current_schedule import current_schedule
-    from ..io import dumps_json
     from ..user_units import user_units
 
     units = user_units(scene, raw)
@@ -94,19 +91,7 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
             {"waypoint": r["waypoint"], "target_x": units.length(r["target_x"]), "target_y": units.length(r["target_y"]),
              "x": units.length(r["x"]), "y": units.length(r["y"]), "error": units.length(r["error"])}
             for r in payload["rows"]]}
-    written = None
-    if args.out is not None:
-        written = write_out(args.out, _files(res, payload, raw, units), args.json)
-    if args.json:
-        print(dumps_json(payload))
-    else:
-        for line in _summary(res, payload):
-            print(line)
-    if written is not None:
-        print_written(written, args.json)
-    if res.success:
-        return EXIT_OK
-    return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
+    return finish_schedule(args, res, payload, lambda: _files(res, payload, raw, units), _summary)
 
 
 def _summary(res, payload) -> list:
@@ -133,12 +118,7 @@ def _summary(res, payload) -> list:
         parts += [f"{k} {e[k]:.3g}" for k in ("power", "field") if k in e]
         lines.append(f"  limits used (largest over the steps, 1 = at the limit): {', '.join(parts)}; largest field "
                      f"on the rod {e['largest_field_mT']:.4g} mT")
-    if res.verification is not None:
-        lines.append(quasi_static_line(res.quasi_static, res.verification.scene.scales))
-    lines.append(f"  note: {res.message}")
-    lines.append(f"  time: {res.timings.get('total', float('nan')):.2f} s")
-    lines.append(f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}")
-    return lines
+    return lines + closing_lines(res)
 
 
 def _files(res, payload, raw, units) -> dict:
@@ -155,12 +135,7 @@ def _files(res, payload, raw, units) -> dict:
         if res.effort == "energy":
             row["power_W"] = sum(r * c * c for r, c in zip(resist, cur))
         if k < len(states):
-            st = states[k]
-            row.update(tip_x=float(st.tip["x"]), tip_y=float(st.tip["y"]), tip_angle_rad=float(st.tip["angle"]),
-                       stable=st.stable)
-            if units is not None:
-                row[f"tip_x_{units.length_unit}"] = units.length(st.tip["x"])
-                row[f"tip_y_{units.length_unit}"] = units.length(st.tip["y"])
+            row.update(tip_columns(states[k], units))
         row.update(res.step_relaxation(k))
         steps.append(row)
     if steps:

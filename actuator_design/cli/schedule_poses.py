@@ -12,22 +12,23 @@ import argparse
 import math
 import sys
 
-from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import quasi_static_line
-from .output import print_written, write_out
+from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
+from .design_units import closing_lines, finish_schedule, tip_columns
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
 #: The `study:` keys of a schedule over a magnet's pose.
 STUDY_KEYS = ("waypoints", "substeps", "stage_speed", "turn_rate")
-EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
-def _rate(args, study, flag: str, key: str, dimension: str, example: str) -> float:
+def _rate(args, study, flag: str, key: str, dimension: str, example: str, needed: bool):
+    """The rate given by ``flag`` or the study's ``key`` in SI, or None when not given and not needed."""
     from ..units import parse_quantity
 
     value = getattr(args, key) if getattr(args, key) is not None else study.get(key)
     name = flag if getattr(args, key) is not None else f"study.{key}"
+    if value is None and not needed:
+        return None
     if value is None:
         raise InputError(f"{flag}: a schedule over a magnet's pose needs its stage's {key.replace('_', ' ')}, e.g. "
                          f"{flag} {example} (or `{key}:` in the study)")
@@ -50,15 +51,16 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
     if unknown:
         raise InputError(f"study.{unknown[0]}: unknown key for a schedule over a magnet's pose (allowed: "
                          f"{', '.join(STUDY_KEYS)})")
-    speed = _rate(args, study, "--stage-speed", "stage_speed", "speed", "10mm/s")
-    turn = _rate(args, study, "--turn-rate", "turn_rate", "angular_rate", "90deg/s")
+    moving = next(s.travel for s in scene.field.sources if getattr(s, "travel", ()))
+    speed = _rate(args, study, "--stage-speed", "stage_speed", "speed", "10mm/s",
+                  moving[0] is not None or moving[1] is not None)
+    turn = _rate(args, study, "--turn-rate", "turn_rate", "angular_rate", "90deg/s", moving[2] is not None)
     sub_name = "--substeps" if args.substeps is not None else "study.substeps"
     substeps = args.substeps if args.substeps is not None else study.get("substeps", 8)
     if not (isinstance(substeps, int) and 1 <= substeps <= 200):
         raise InputError(f"{sub_name}: must be a whole number in [1, 200], got {substeps!r}")
 
     from ..analysis.pose_schedule import pose_schedule
-    from ..io import dumps_json
     from ..user_units import user_units
 
     units = user_units(scene, raw)
@@ -66,19 +68,7 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
     with stdout_to_stderr(args.json), bad_input():
         res = pose_schedule(scene, waypoints, speed, turn, substeps=substeps, options=options, progress=say)
     payload = res.to_dict()
-    written = None
-    if args.out is not None:
-        written = write_out(args.out, _files(res, payload, raw, units), args.json)
-    if args.json:
-        print(dumps_json(payload))
-    else:
-        for line in _summary(res, payload):
-            print(line)
-    if written is not None:
-        print_written(written, args.json)
-    if res.success:
-        return EXIT_OK
-    return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
+    return finish_schedule(args, res, payload, lambda: _files(res, payload, raw, units), _summary)
 
 
 def _summary(res, payload) -> list:
@@ -90,14 +80,11 @@ def _summary(res, payload) -> list:
         lines.append(f"  {r['waypoint']:>3} {r['target_x']:>10.6f} {r['target_y']:>10.6f} {t:>9.4g} {r['x_mm']:>9.5g} "
                      f"{r['y_mm']:>9.5g} {r['axis_angle_deg']:>9.5g} {r['error']:>9.2e} {r['margin']:>8.4g}")
     if res.times:
-        lines.append(f"  moves: straight in (x, y, axis), each axis at most {res.speed * 1e3:.4g} mm/s and "
-                     f"{math.degrees(res.turn_rate):.4g} deg/s: {res.duration:.4g} s in all")
-    if res.verification is not None:
-        lines.append(quasi_static_line(res.quasi_static, res.verification.scene.scales))
-    lines.append(f"  note: {res.message}")
-    lines.append(f"  time: {res.timings.get('total', float('nan')):.2f} s ({res.solves} solves)")
-    lines.append(f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}")
-    return lines
+        rates = [f"{res.speed * 1e3:.4g} mm/s" if math.isfinite(res.speed) else "",
+                 f"{math.degrees(res.turn_rate):.4g} deg/s" if math.isfinite(res.turn_rate) else ""]
+        lines.append(f"  moves: straight in (x, y, axis), each axis at most {' and '.join(r for r in rates if r)}: "
+                     f"{res.duration:.4g} s in all")
+    return lines + closing_lines(res, f" ({res.solves} solves)")
 
 
 def _files(res, payload, raw, units) -> dict:
@@ -109,14 +96,7 @@ def _files(res, payload, raw, units) -> dict:
     states = res.verification.states if res.verification is not None else []
     steps = []
     for k, row in enumerate(payload["schedule"]):
-        if k < len(states):
-            st = states[k]
-            row = dict(row, tip_x=float(st.tip["x"]), tip_y=float(st.tip["y"]), tip_angle_rad=float(st.tip["angle"]),
-                       stable=st.stable)
-            if units is not None:
-                row[f"tip_x_{units.length_unit}"] = units.length(st.tip["x"])
-                row[f"tip_y_{units.length_unit}"] = units.length(st.tip["y"])
-        steps.append(row)
+        steps.append(dict(row, **tip_columns(states[k], units)) if k < len(states) else row)
     if steps:
         files["schedule.csv"] = table_csv_text(steps, list(steps[-1]))
     if payload["rows"]:

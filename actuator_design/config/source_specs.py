@@ -33,10 +33,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import List, Literal, Optional
+from typing import Any, List, Literal, Optional
 
 import numpy as np
-from pydantic import Field, StrictInt, model_validator
+from pydantic import Field, PrivateAttr, StrictInt, model_validator
 
 from ..field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
 from ..sources import MappedCoil, plane_section, sections_overlap
@@ -303,6 +303,7 @@ class PhysicalCoilMap(StrictModel):
     fit_tolerance: Q("dimensionless", gt=1e-12, le=0.1) = MAP_FIT_TOLERANCE
     max_power: Optional[Q("power", gt=0, le=1e9)] = None
     max_field: Optional[Q("magnetic_field", gt=0, le=1e9)] = None
+    _map: Any = PrivateAttr(default=None)
 
     @model_validator(mode="after")
     def _check(self):
@@ -312,6 +313,7 @@ class PhysicalCoilMap(StrictModel):
             cmap = read_coil_map(self.file)
         except ValueError as exc:
             raise error(str(exc), "file") from None
+        self._map = cmap  # read once: the scene is built from what was validated
         names = [c.name for c in self.coils]
         for k, name in enumerate(names):
             if name not in cmap.fields:
@@ -323,9 +325,7 @@ class PhysicalCoilMap(StrictModel):
         return self
 
     def sources(self):
-        from ..coil_map import read_coil_map
-
-        cmap = read_coil_map(self.file)
+        cmap = self._map
         points = tuple(tuple(float(v) for v in p) for p in cmap.points)
         return [MappedCoil(current=float(c.current), name=c.name, points=points,
                            field_per_amp=tuple(tuple(float(v) for v in f) for f in cmap.fields[c.name]),

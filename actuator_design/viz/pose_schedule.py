@@ -41,6 +41,7 @@ def pose_schedule_figure(sched, units=None):
     ax_p.set_ylabel("magnet position / mm")
     lines = ax_p.get_lines()[:2] + ax_a.get_lines()[:1]
     ax_p.legend(lines, [ln.get_label() for ln in lines], fontsize=8, loc="best")
-    ax_p.set_title(f"the magnet's stage ({sched.speed * 1e3:.3g} mm/s, {math.degrees(sched.turn_rate):.3g} deg/s)",
-                   fontsize=10)
+    rates = [f"{sched.speed * 1e3:.3g} mm/s" if math.isfinite(sched.speed) else "",
+             f"{math.degrees(sched.turn_rate):.3g} deg/s" if math.isfinite(sched.turn_rate) else ""]
+    ax_p.set_title(f"the magnet's stage ({', '.join(r for r in rates if r)})", fontsize=10)
     return fig
