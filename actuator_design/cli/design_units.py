@@ -8,7 +8,7 @@ import math
 from .common import InputError, bad_input
 
 __all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
-           "tip_columns", "finish_schedule"]
+           "tip_columns", "finish_schedule", "path_line", "hold_path"]
 
 
 def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: str):
@@ -69,10 +69,12 @@ def quasi_static_line(qs, scales=None) -> str:
             f"{zeta}); {verdict}{trail}")
 
 
-def closing_lines(res, solves: str = "") -> list:
-    """The last lines of a hardware schedule's text: the quasi-static line, the note, the time
-    (with ``solves``, e.g. " (1532 solves)") and the result."""
+def closing_lines(res, solves: str = "", path=None) -> list:
+    """The last lines of a hardware schedule's text: the quasi-static line, the path's (``path``:
+    the payload's, None: not asked), the note, the time (with ``solves``, e.g. " (1532 solves)")
+    and the result."""
     lines = [] if res.verification is None else [quasi_static_line(res.quasi_static, res.verification.scene.scales)]
+    lines += [] if path is None else [path_line(path)]
     return lines + [f"  note: {res.message}", f"  time: {res.timings.get('total', float('nan')):.2f} s{solves}",
                     f"  RESULT: {'SUCCESS' if res.success else res.status.upper()}"]
 
@@ -105,3 +107,24 @@ def finish_schedule(args, res, payload: dict, files, summary) -> int:
     if res.success:
         return 0
     return 4 if res.status == "unreachable" else 3
+
+
+def hold_path(res, waypoints, tolerance, payload: dict) -> None:
+    """With a path tolerance (rod lengths; None: none), hold ``res`` to the path through the
+    waypoints (:func:`~actuator_design.analysis.path_corridor.hold_to_path`) and add ``path`` to
+    ``payload`` (with the success, status and message the check may have changed)."""
+    if tolerance is None:
+        return
+    from ..analysis.path_corridor import hold_to_path
+
+    payload["path"] = hold_to_path(res, waypoints, tolerance)
+    payload.update({k: getattr(res, k) for k in ("success", "status", "message") if hasattr(res, k)})
+
+
+def path_line(path: dict) -> str:
+    """One line: the tip's largest distance from the path through the waypoints, against the tolerance."""
+    if path["largest_deviation"] is None:
+        return f"  path: not checked (no replayed state at every step), tolerance {path['tolerance']:.3g} rod lengths"
+    verdict = "within" if path["within"] else "BEYOND"
+    return (f"  path: the tip stays within {path['largest_deviation']:.3g} rod lengths of the path through the "
+            f"waypoints (largest at step {path['step']}), {verdict} the tolerance {path['tolerance']:.3g}")

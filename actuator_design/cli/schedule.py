@@ -30,7 +30,7 @@ from pathlib import Path
 
 from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
                      parse_rates, stdout_to_stderr, table_csv_text)
-from .design_units import quasi_static_line
+from .design_units import path_line, positive_target, quasi_static_line
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -50,6 +50,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="weight of the field's rate of change against its magnitude (default 1)")
     parser.add_argument("--substeps", type=int, default=None,
                         help="schedule points between consecutive waypoints (default 8)")
+    parser.add_argument("--path-tolerance", metavar="TOL",
+                        help="the waypoints are a path: the replayed tip must stay within TOL of the polyline "
+                             "through them at every step from the first waypoint on (rod lengths, or a length such "
+                             "as '0.5mm' on a physical scene)")
     add_rate_args(parser)
     o = parser.add_argument_group("optimal control (the whole schedule as one NLP over time nodes)")
     o.add_argument("--optimal-control", choices=("time", "energy"), default=None,
@@ -206,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
                          "an ideal field's schedule takes --rate and --rotation-rate")
     if study and not coils and not stage:
         allowed = ("waypoints", "rate_weight", "substeps", "rate", "rotation_rate", "optimal_control", "h_rate",
-                   "nodes")
+                   "nodes", "path_tolerance")
         unknown = sorted(set(study) - set(allowed))
         if unknown:
             raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(allowed)})")
@@ -220,12 +224,16 @@ def run(args: argparse.Namespace) -> int:
         wps = _parse_waypoints(";".join(f"{p[0]},{p[1]}" for p in study["waypoints"]))
     else:
         raise InputError("--waypoints: required (or --path-csv, or `study: {type: schedule, waypoints: ...}`)")
+    tol_name = "--path-tolerance" if args.path_tolerance is not None else "study.path_tolerance"
+    path_tol = positive_target(args.path_tolerance if args.path_tolerance is not None else study.get("path_tolerance"),
+                               scene, tol_name, "length", "length", "rod lengths")
+    study.pop("path_tolerance", None)
     if stage:  # the magnet's pose is scheduled
         from .schedule_poses import run_poses
-        return run_poses(args, scene, options, raw, study, wps)
+        return run_poses(args, scene, options, raw, study, wps, path_tol)
     if coils:  # the coils' currents are scheduled
         from .schedule_currents import run_currents
-        return run_currents(args, scene, options, raw, study, wps)
+        return run_currents(args, scene, options, raw, study, wps, path_tol)
     rate = args.rate_weight if args.rate_weight is not None else float(study.get("rate_weight", 1.0))
     sub = args.substeps if args.substeps is not None else int(study.get("substeps", 8))
     if not (rate >= 0):
@@ -251,6 +259,10 @@ def run(args: argparse.Namespace) -> int:
             ocp = optimal_schedule(wps, ocp["limits"], options=options, objective=ocp["objective"],
                                    nodes=ocp["nodes"], greedy=res, progress=say)
             res = ocp.result
+    path = None
+    if path_tol is not None:
+        from ..analysis.path_corridor import hold_to_path
+        path = hold_to_path(res, wps, path_tol)
     with bad_input():
         table = schedule_table(res.schedule, units, *(rates if ocp is None else (None, None)))
     if ocp is not None:  # each step's time is the optimal-control problem's (the greedy rule's for the greedy one)
@@ -261,6 +273,8 @@ def run(args: argparse.Namespace) -> int:
         from ..analysis.dynamics import quasi_static
         qs = quasi_static(res.states, table, scene.scales)
     payload = _payload(res, units, table)
+    if path is not None:
+        payload["path"] = path
     if timed:
         payload["quasi_static"] = qs
     if ocp is not None:
@@ -283,6 +297,8 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         if timed:
             print(quasi_static_line(qs, scene.scales))
+        if path is not None:
+            print(path_line(path))
         print(f"  schedule: {len(res.schedule)} points from zero field; {res.message}")
         if ocp is not None:
             oc = payload["optimal_control"]

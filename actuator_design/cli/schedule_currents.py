@@ -15,7 +15,7 @@ import math
 import sys
 
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, tip_columns
+from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
@@ -41,7 +41,7 @@ def _slew(value, n_coils: int, name: str):
     return rates * n_coils if len(rates) == 1 else rates
 
 
-def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, waypoints) -> int:
+def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, waypoints, path_tol=None) -> int:
     """The coil schedule of ``waypoints`` (rod lengths); ``study`` without its ``type``."""
     for flag, value in (("--rate", args.rate), ("--rotation-rate", args.rotation_rate), ("--h-rate", args.h_rate),
                         ("--rate-weight", args.rate_weight)):
@@ -86,6 +86,7 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
         res = current_schedule(scene, waypoints, slew, objective=objective, nodes=nodes, substeps=substeps,
                                options=options, progress=say)
     payload = res.to_dict()
+    hold_path(res, waypoints, path_tol, payload)
     if units is not None:
         payload["physical"] = {"length_unit": units.length_unit, "waypoints": [
             {"waypoint": r["waypoint"], "target_x": units.length(r["target_x"]), "target_y": units.length(r["target_y"]),
@@ -118,7 +119,7 @@ def _summary(res, payload) -> list:
         parts += [f"{k} {e[k]:.3g}" for k in ("power", "field") if k in e]
         lines.append(f"  limits used (largest over the steps, 1 = at the limit): {', '.join(parts)}; largest field "
                      f"on the rod {e['largest_field_mT']:.4g} mT")
-    return lines + closing_lines(res)
+    return lines + closing_lines(res, path=payload.get("path"))
 
 
 def _files(res, payload, raw, units) -> dict:

@@ -13,7 +13,7 @@ import math
 import sys
 
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, tip_columns
+from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
@@ -39,7 +39,7 @@ def _rate(args, study, flag: str, key: str, dimension: str, example: str, needed
     return r
 
 
-def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoints) -> int:
+def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoints, path_tol=None) -> int:
     """The pose schedule of ``waypoints`` (rod lengths); ``study`` without its ``type``."""
     for flag, value in (("--rate", args.rate), ("--rotation-rate", args.rotation_rate), ("--h-rate", args.h_rate),
                         ("--rate-weight", args.rate_weight), ("--slew-rate", args.slew_rate),
@@ -68,6 +68,7 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
     with stdout_to_stderr(args.json), bad_input():
         res = pose_schedule(scene, waypoints, speed, turn, substeps=substeps, options=options, progress=say)
     payload = res.to_dict()
+    hold_path(res, waypoints, path_tol, payload)
     return finish_schedule(args, res, payload, lambda: _files(res, payload, raw, units), _summary)
 
 
@@ -84,7 +85,7 @@ def _summary(res, payload) -> list:
                  f"{math.degrees(res.turn_rate):.4g} deg/s" if math.isfinite(res.turn_rate) else ""]
         lines.append(f"  moves: straight in (x, y, axis), each axis at most {' and '.join(r for r in rates if r)}: "
                      f"{res.duration:.4g} s in all")
-    return lines + closing_lines(res, f" ({res.solves} solves)")
+    return lines + closing_lines(res, f" ({res.solves} solves)", payload.get("path"))
 
 
 def _files(res, payload, raw, units) -> dict:
