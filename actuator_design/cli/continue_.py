@@ -39,38 +39,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Literal
-
-from pydantic import Field
-
-from ..parameters import names as parameter_names
-
+from ..config.study_specs import PARAM_NAMES, ContinuationStudy
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      check_parameter_angle, finite_float, stdout_to_stderr)
-from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
+from .equilibria import add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
 
 HELP = "continue an equilibrium branch in one parameter (folds, branch points, stability)"
-
-#: Parameters the CLI offers: the lens' built-in ones (plug-in terms register theirs at run time).
-PARAM_NAMES = tuple(parameter_names())
-ParamName = Literal[PARAM_NAMES]  # type: ignore[valid-type]
-
-
-class ContinuationStudy(StudyBase):
-    type: Literal["continuation"]
-    param: ParamName
-    start: float = Field(alias="from")
-    to: float
-    ds: float = Field(0.05, gt=0, le=10)
-    ds_max: float = Field(0.5, gt=0, le=100)
-    max_points: int = Field(2000, ge=2, le=10**6)
-    switch: bool = False
-    straight: bool = False
-    stop_at_touch: bool = False
-
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``continue``."""

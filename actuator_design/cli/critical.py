@@ -28,33 +28,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Literal, Tuple
-
-from pydantic import Field, field_validator
-
 from .common import (EXIT_OK, InputError, bad_input, check_out_dir, check_parameter_angle,
                      stdout_to_stderr)
-from .continue_ import PARAM_NAMES, ParamName
-from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
+from ..config.study_specs import PARAM_NAMES, CriticalStudy
+from .equilibria import add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "CriticalStudy"]
 
 HELP = "every fold and branch point of a parameter window, over all branches"
-
-
-class CriticalStudy(StudyBase):
-    type: Literal["critical"]
-    param: ParamName
-    window: Tuple[float, float]
-    n_samples: int = Field(5, ge=2, le=200)
-
-    @field_validator("window")
-    @classmethod
-    def _increasing(cls, w):
-        if not w[0] < w[1]:
-            raise ValueError("must be increasing [a, b] with a < b")
-        return w
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:

@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Literal, Optional, Tuple
-
-from pydantic import BaseModel, ConfigDict, Field
+from typing import Tuple
 
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
 from .output import print_written, write_out
+from ..config.study_specs import EquilibriaStudy, StudyBase
 from .scene_args import add_scene_args as _add_scene_args, build_scene as _build_scene, validate_study
 
 __all__ = ["HELP", "add_args", "run", "add_scene_args", "build_scene", "validate_study",
@@ -41,22 +40,6 @@ DEFAULTS = {"h": 1.0, "phi_deg": 45.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 # -- shared by the landscape commands (equilibria, continue, critical, map) -----------------------
-class StudyBase(BaseModel):
-    """Scene values a study may set (flags override them)."""
-
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, populate_by_name=True)
-    h: Optional[float] = Field(None, ge=0)
-    phi_deg: Optional[float] = None
-    p: Optional[float] = None
-    alpha_deg: Optional[float] = None
-
-
-class EquilibriaStudy(StudyBase):
-    type: Literal["equilibria"]
-    n_gamma: int = Field(401, ge=11, le=100001)
-    method: Literal["shooting", "deflation"] = "shooting"
-
-
 def add_scene_args(parser: argparse.ArgumentParser) -> None:
     """CONFIG, --h, --phi-deg, --p, --alpha-deg (the fixed scene values; shared implementation)."""
     _add_scene_args(parser, DEFAULTS, resolution=False)

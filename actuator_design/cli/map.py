@@ -29,30 +29,14 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from typing import Literal, Optional, Tuple
-
-from pydantic import Field
-
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
-from .continue_ import PARAM_NAMES, ParamName
-from .equilibria import StudyBase, add_output_args, add_scene_args, build_scene
+from ..config.study_specs import PARAM_NAMES, MapStudy
+from .equilibria import add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "MapStudy"]
 
 HELP = "number of equilibria over a 2-D parameter grid (parallel), with critical curves"
-
-
-class MapStudy(StudyBase):
-    type: Literal["map"]
-    x_param: ParamName = "h2"
-    x_range: Tuple[float, float] = (0.0, 20.0)
-    y_param: ParamName = "p"
-    y_range: Tuple[float, float] = (0.0, 60.0)
-    n: Tuple[int, int] = (50, 50)
-    n_gamma: int = Field(161, ge=11, le=100001)
-    workers: Optional[int] = Field(None, ge=1, le=1024)
-    curves: bool = True
 
 
 def _grid(text: str):

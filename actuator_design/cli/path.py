@@ -99,26 +99,7 @@ def csv_text(columns, rows, comment: str = "") -> str:
 
 # -- the path command ------------------------------------------------------------------------------
 def _study_model():
-    from typing import List as L, Literal, Optional as O, Union as U
-
-    from pydantic import BaseModel, ConfigDict, Field, StrictBool
-
-    class PathStudy(BaseModel):
-        """``study: {type: path, ...}`` — the flags of ``actuator-design path``."""
-
-        model_config = ConfigDict(extra="forbid", populate_by_name=True)
-        type: Literal["path"] = "path"
-        param: O[str] = None
-        schedule: O[U[L[U[float, str]], L[Dict[str, U[float, str]]]]] = None  # numbers or quantities
-        start: O[float] = Field(None, alias="from")
-        to: O[float] = None
-        back: StrictBool = False
-        steps: O[int] = Field(None, ge=1, le=100000)
-        max_step: O[float] = Field(None, gt=0, le=1)
-        h: O[float] = Field(None, ge=0)
-        phi_deg: O[float] = None
-        p: O[float] = None
-        alpha_deg: O[float] = None
+    from ..config.study_specs import PathStudy  # (pydantic loads only when a study is read)
 
     return PathStudy
 

@@ -40,21 +40,7 @@ DEFAULTS = {"h": 1.5, "phi_deg": 90.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from typing import List, Literal, Optional as O
-
-    from pydantic import BaseModel, ConfigDict, Field
-
-    class PhaseStudy(BaseModel):
-        """``study: {type: phase, ...}`` — the flags of ``actuator-design phase``."""
-
-        model_config = ConfigDict(extra="forbid")
-        type: Literal["phase"] = "phase"
-        theta_range: O[List[float]] = Field(None, min_length=2, max_length=2)
-        dtheta_range: O[List[float]] = Field(None, min_length=2, max_length=2)
-        h: O[float] = Field(None, ge=0)
-        phi_deg: O[float] = None
-        p: O[float] = None
-        alpha_deg: O[float] = None
+    from ..config.study_specs import PhaseStudy  # (pydantic loads only when a study is read)
 
     return PhaseStudy
 

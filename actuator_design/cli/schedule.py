@@ -209,8 +209,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--slew-rate: only for a scene whose field comes from coils (`field: {type: coils}`); "
                          "an ideal field's schedule takes --rate and --rotation-rate")
     if study and not coils and not stage:
-        allowed = ("waypoints", "rate_weight", "substeps", "rate", "rotation_rate", "optimal_control", "h_rate",
-                   "nodes", "path_tolerance")
+        from ..config.study_specs import SCHEDULE_KEYS
+        allowed = SCHEDULE_KEYS["field"]
         unknown = sorted(set(study) - set(allowed))
         if unknown:
             raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(allowed)})")

@@ -14,13 +14,14 @@ import io as _io
 import math
 import sys
 
+from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
 from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
-#: The `study:` keys of a schedule over coil currents.
-STUDY_KEYS = ("waypoints", "substeps", "optimal_control", "nodes", "slew_rate")
+#: The `study:` keys of this schedule (:data:`~actuator_design.config.study_specs.SCHEDULE_KEYS`).
+STUDY_KEYS = SCHEDULE_KEYS["currents"]
 
 
 def _slew(value, n_coils: int, name: str):

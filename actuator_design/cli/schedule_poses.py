@@ -12,13 +12,14 @@ import argparse
 import math
 import sys
 
+from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
 from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
-#: The `study:` keys of a schedule over a magnet's pose.
-STUDY_KEYS = ("waypoints", "substeps", "stage_speed", "turn_rate")
+#: The `study:` keys of this schedule (:data:`~actuator_design.config.study_specs.SCHEDULE_KEYS`).
+STUDY_KEYS = SCHEDULE_KEYS["pose"]
 
 
 def _rate(args, study, flag: str, key: str, dimension: str, example: str, needed: bool):

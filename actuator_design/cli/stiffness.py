@@ -47,22 +47,7 @@ DEFAULTS = {"h": 1.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from typing import List, Literal, Optional as O
-
-    from pydantic import BaseModel, ConfigDict, Field, StrictBool
-
-    class StiffnessStudy(BaseModel):
-        """``study: {type: stiffness, ...}`` — the flags of ``actuator-design stiffness``."""
-
-        model_config = ConfigDict(extra="forbid")
-        type: Literal["stiffness"] = "stiffness"
-        field_sweep: O[List[float]] = Field(None, min_length=2, max_length=2)
-        n: int = Field(41, ge=2, le=100000)
-        moment: StrictBool = True
-        h: O[float] = Field(None, ge=0)
-        phi_deg: O[float] = None
-        p: O[float] = None
-        alpha_deg: O[float] = None
+    from ..config.study_specs import StiffnessStudy  # (pydantic loads only when a study is read)
 
     return StiffnessStudy
 
