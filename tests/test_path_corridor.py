@@ -56,3 +56,16 @@ def test_a_bad_path_tolerance_is_one_line(value, message, capsys):
     assert main(["schedule", str(CONFIG), f"--path-tolerance={value}"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
+
+
+def test_a_path_tolerance_that_is_not_a_number_is_one_line(tmp_path, capsys):
+    import yaml
+
+    data = yaml.safe_load(CONFIG.read_text())
+    for value in (True, [1, 2]):
+        data["study"]["path_tolerance"] = value
+        cfg = tmp_path / "s.yaml"
+        cfg.write_text(yaml.safe_dump(data))
+        assert main(["schedule", str(cfg)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "study.path_tolerance: expected a number or a quantity" in err[0], err

@@ -4,7 +4,9 @@ the tip must stay near, not only points it must pass.
 After a schedule is verified (its states replayed as one loading path), the replayed tip at every
 schedule step from the first waypoint on is measured against the polyline through the waypoints;
 the schedule holds to the path when the largest distance is at most the tolerance. Between steps
-the tip is not measured: more ``substeps`` check the corridor more finely. Works on every schedule
+the tip is not measured: more steps (``substeps``, or the ``nodes`` of an optimised schedule) check
+it more finely. The tolerance is a check of the reported schedule, not a constraint of its search:
+an optimised schedule that strays is reported as such, not replaced by the greedy one. Works on every schedule
 result: an ideal field's (:class:`~.schedule.ScheduleResult`), coil currents' and a magnet's pose's.
 Lengths in rod lengths.
 """
@@ -56,7 +58,11 @@ def hold_to_path(result, waypoints, tolerance: float) -> dict:
         result.success = False
         if hasattr(result, "status"):
             result.status = "not_verified"
+        if hasattr(result, "verified"):  # (an ideal field's result: verified means success there)
+            result.verified = False
+        more = ("--nodes: the optimised schedule's steps are its time nodes" if getattr(result, "optimal", False)
+                else "--substeps")
         result.message = (f"the tip strays {d[k]:.3g} rod lengths from the path through the waypoints at step "
-                          f"{index[0] + k}, beyond the tolerance {tolerance:g} (more substeps bring the steps "
-                          f"closer to the path); {result.message}")
+                          f"{index[0] + k}, beyond the tolerance {tolerance:g} (more waypoints along the path hold "
+                          f"the tip closer to it; more steps check it more finely: {more}); {result.message}")
     return out

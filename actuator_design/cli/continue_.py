@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from ..config.study_specs import PARAM_NAMES, ContinuationStudy
+from ..config.study_param_specs import PARAM_NAMES, ContinuationStudy
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      check_parameter_angle, finite_float, stdout_to_stderr)
 from .equilibria import add_output_args, add_scene_args, build_scene

@@ -16,6 +16,8 @@ def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: s
     quantity of ``dimension`` divided by ``scene.scales.<scale>``; None when not given."""
     if value is None:
         return None
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        raise InputError(f"{flag}: expected a number or a quantity such as '0.5 mm', got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):

@@ -30,7 +30,7 @@ import argparse
 import os
 import sys
 from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
-from ..config.study_specs import PARAM_NAMES, MapStudy
+from ..config.study_param_specs import PARAM_NAMES, MapStudy
 from .equilibria import add_output_args, add_scene_args, build_scene
 from .output import print_written, write_out
 

@@ -10,18 +10,11 @@ landscape commands (``equilibria``, ``continue``, ``critical``, ``map``) share :
 """
 from __future__ import annotations
 
-from typing import Dict, List, Literal, Optional, Tuple, Union
+from typing import Dict, List, Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, field_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
-from ..parameters import names as parameter_names
-
-__all__ = ["PARAM_NAMES", "ParamName", "StudyBase", "EquilibriaStudy", "ContinuationStudy", "CriticalStudy",
-           "MapStudy", "PathStudy", "PhaseStudy", "StiffnessStudy", "SCHEDULE_KEYS"]
-
-#: Parameters the CLI offers: the lens' built-in ones (plug-in terms register theirs at run time).
-PARAM_NAMES = tuple(parameter_names())
-ParamName = Literal[PARAM_NAMES]  # type: ignore[valid-type]
+__all__ = ["StudyBase", "EquilibriaStudy", "PathStudy", "PhaseStudy", "StiffnessStudy", "SCHEDULE_KEYS"]
 
 #: The keys of ``study: {type: schedule}``, by what is scheduled (``path_tolerance`` for every kind).
 SCHEDULE_KEYS = {
@@ -32,7 +25,7 @@ SCHEDULE_KEYS = {
 }
 
 
-# -- the landscape commands (equilibria, continue, critical, map) ---------------------------------
+# -- the landscape commands (equilibria; continue, critical and map: study_param_specs) ------------
 class StudyBase(BaseModel):
     """Scene values a study may set (flags override them)."""
 
@@ -47,45 +40,6 @@ class EquilibriaStudy(StudyBase):
     type: Literal["equilibria"]
     n_gamma: int = Field(401, ge=11, le=100001)
     method: Literal["shooting", "deflation"] = "shooting"
-
-
-class ContinuationStudy(StudyBase):
-    type: Literal["continuation"]
-    param: ParamName
-    start: float = Field(alias="from")
-    to: float
-    ds: float = Field(0.05, gt=0, le=10)
-    ds_max: float = Field(0.5, gt=0, le=100)
-    max_points: int = Field(2000, ge=2, le=10**6)
-    switch: bool = False
-    straight: bool = False
-    stop_at_touch: bool = False
-
-
-class CriticalStudy(StudyBase):
-    type: Literal["critical"]
-    param: ParamName
-    window: Tuple[float, float]
-    n_samples: int = Field(5, ge=2, le=200)
-
-    @field_validator("window")
-    @classmethod
-    def _increasing(cls, w):
-        if not w[0] < w[1]:
-            raise ValueError("must be increasing [a, b] with a < b")
-        return w
-
-
-class MapStudy(StudyBase):
-    type: Literal["map"]
-    x_param: ParamName = "h2"
-    x_range: Tuple[float, float] = (0.0, 20.0)
-    y_param: ParamName = "p"
-    y_range: Tuple[float, float] = (0.0, 60.0)
-    n: Tuple[int, int] = (50, 50)
-    n_gamma: int = Field(161, ge=11, le=100001)
-    workers: Optional[int] = Field(None, ge=1, le=1024)
-    curves: bool = True
 
 
 # -- path, phase, stiffness ------------------------------------------------------------------------
