@@ -8,7 +8,9 @@ continued or designed on without its config::
     import actuator_design as ad
 
     saved = ad.read_result("out/result.json")
-    again = ad.solve(saved.scene)           # the same equilibrium
+    again = ad.solve(saved.scene, saved.options)   # the same equilibrium, the same way
+
+    designed = ad.read_result("design-out/design.json").scene   # the designed scene
 
 JSON has no NaN or infinity (:func:`~actuator_design.io.jsonable` writes them as null): a null
 where a field's default is not finite (a coil's unknown resistance, an unlimited current) reads
@@ -25,6 +27,7 @@ from pathlib import Path
 from typing import Any, Dict, Optional
 
 from .obstacles import Lumen, Peg, Polygon, Wall
+from .options import SolverOptions
 from .physics.harmonic import HarmonicTerm
 from .physics.tesseral import TesseralTerm
 from .profiles import Profile, constant_profile, expression_profile, legendre_profile, table_profile
@@ -157,6 +160,18 @@ class SavedResult:
     data: Dict[str, Any]
     path: Path
 
+    @property
+    def options(self) -> Optional[SolverOptions]:
+        """The solver options the result was computed with (``result.json``'s ``solver``), or None
+        (a file without them, e.g. ``design.json``). ValueError when they are not options."""
+        solver = self.data.get("solver")
+        if solver is None:
+            return None
+        try:
+            return _build(SolverOptions, solver)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{self.path}: solver: not solver options ({exc})") from None
+
     def __repr__(self) -> str:
         tip = self.data.get("tip") or {}
         shown = ", ".join(f"{k}={tip[k]:.6g}" for k in ("x", "y", "angle") if isinstance(tip.get(k), (int, float)))
@@ -165,7 +180,7 @@ class SavedResult:
 
 def read_result(path) -> SavedResult:
     """Read a ``result.json`` (written by ``solve``, ``path``, ... or :func:`~actuator_design.io.write_result`)
-    and rebuild its scene.
+    or a ``design.json`` (its ``scene`` is the designed scene) and rebuild its scene.
 
     Raises
     ------

@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import actuator_design as ad
@@ -70,6 +71,26 @@ def test_a_solved_result_read_back_solves_to_the_same_tip(tmp_path):
     tip = saved.data["tip"]
     assert again.success and max(abs(again.tip[k] - tip[k]) for k in ("x", "y", "angle")) <= 1e-12
     assert "SavedResult(" in repr(saved) and "converged" in repr(saved)
+
+
+def test_a_result_reads_back_with_its_solver_options_and_a_design_with_its_designed_scene(tmp_path):
+    from actuator_design.cli.main import main
+
+    assert main(["solve", "--h", "2", "--phi-deg", "60", "--elements", "6", "--degree", "8", "--tol", "1e-11",
+                 "--out", str(tmp_path / "s")]) == 0
+    saved = read_result(tmp_path / "s" / "result.json")
+    opts = saved.options
+    assert (opts.elements, opts.degree, opts.tol) == (6, 8, 1e-11)
+    again = ad.solve(saved.scene, opts)
+    assert max(abs(again.tip[k] - saved.data["tip"][k]) for k in ("x", "y", "angle")) <= 1e-13
+    # design.json: its scene is the designed one (the field and the fibre layout the design reports)
+    assert main(["design", "--target-tip", "0.6,0.6", "--out", str(tmp_path / "d")]) == 0
+    designed = read_result(tmp_path / "d" / "design.json")
+    d = designed.data["design"]
+    assert designed.options is None and (designed.data["target"]["x"], designed.data["target"]["y"]) == (0.6, 0.6)
+    assert designed.scene.h == d["h"] and designed.scene.field.phi == d["phi"]
+    s = np.asarray(d["alpha"]["s"])
+    assert np.max(np.abs(designed.scene.fibres(s) - np.asarray(d["alpha"]["value"]))) <= 1e-14
 
 
 def test_a_file_without_a_whole_scene_is_refused_in_one_line(tmp_path):
