@@ -245,7 +245,12 @@ def _fit_coil(src: MappedCoil, length: float, tol: float):
     if not scale > 0:
         raise ValueError(f"coil '{src.name}' has no field in its map")
     n, d = len(pts), data.shape[1]
-    held = np.unique(pts, axis=0, return_inverse=True)[1].ravel() % 4 == 3
+    # every fourth distinct point in the file's order (not in a sorted order, which round-off in
+    # the coordinates would change), with its twins
+    _, first, inverse = np.unique(pts, axis=0, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), int)
+    rank[np.argsort(first)] = np.arange(len(first))
+    held = rank[inverse.ravel()] % 4 == 3
     top = 1
     while top < MAX_MAP_ORDER and len(interior_modes(top + 1)) <= (n - held.sum()) * d // 2:
         top += 1

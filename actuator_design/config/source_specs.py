@@ -22,6 +22,7 @@ Coils known by a calibration map (an electromagnetic navigation system, :mod:`ac
     field:
       type: coil_map
       file: emns_map.csv       # relative to this YAML file; columns x, y[, z], <coil>_bx, _by[, _bz]
+      frame: {x: 0 mm, y: 0 mm, angle: 0 deg}   # the map's origin and x axis in the rod's frame
       coils:
         - {name: c1, current: 2 A, max_current: 10 A, resistance: 1.2 ohm}
 
@@ -45,7 +46,7 @@ from .errors import error
 from .vectors import LengthXY
 
 __all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec",
-           "MappedCoilSpec", "PhysicalCoilMap", "MAP_FIT_TOLERANCE"]
+           "MappedCoilSpec", "PhysicalCoilMap", "MapFrame", "MAP_FIT_TOLERANCE"]
 
 #: Default fit tolerance of a calibration map (relative to each coil's largest field): a measured
 #: map's noise, not magpylib's rounding, sets what a fit can meet.
@@ -292,10 +293,20 @@ class MappedCoilSpec(_CoilHardware):
     name: str = Field(pattern=r"^[A-Za-z][A-Za-z0-9]*$", max_length=32)
 
 
+class MapFrame(StrictModel):
+    """Where a map's own frame lies in the rod's: its origin at (x, y) (m) and its x axis at
+    ``angle`` to the rod's axis (its z axis normal to the rod's plane, as the rod's)."""
+
+    x: Q("length") = 0.0
+    y: Q("length") = 0.0
+    angle: Angle = 0.0
+
+
 class PhysicalCoilMap(StrictModel):
     """Coils known by their field per ampere on a grid (a calibration map file,
     :mod:`actuator_design.coil_map`): the listed coils carry their currents, the others none;
-    ``max_power`` and ``max_field`` as for ``type: coils``."""
+    ``max_power`` and ``max_field`` as for ``type: coils``; ``frame``: where the map's own frame
+    lies in the rod's (default: the same)."""
 
     type: Literal["coil_map"]
     file: str = Field(min_length=1, max_length=4096)
@@ -303,6 +314,7 @@ class PhysicalCoilMap(StrictModel):
     fit_tolerance: Q("dimensionless", gt=1e-12, le=0.1) = MAP_FIT_TOLERANCE
     max_power: Optional[Q("power", gt=0, le=1e9)] = None
     max_field: Optional[Q("magnetic_field", gt=0, le=1e9)] = None
+    frame: Optional[MapFrame] = None
     _map: Any = PrivateAttr(default=None)
 
     @model_validator(mode="after")
@@ -325,10 +337,19 @@ class PhysicalCoilMap(StrictModel):
         return self
 
     def sources(self):
-        cmap = self._map
-        points = tuple(tuple(float(v) for v in p) for p in cmap.points)
+        """The listed coils as :class:`MappedCoil` in the rod's frame (the map's points and fields
+        turned by ``frame.angle`` and moved to ``frame``'s origin)."""
+        cmap, f = self._map, self.frame or MapFrame()
+        turn = np.array([[math.cos(f.angle), -math.sin(f.angle)], [math.sin(f.angle), math.cos(f.angle)]])
+
+        def in_rod_frame(v, origin=(0.0, 0.0)):
+            v = np.array(v, float)
+            v[:, :2] = v[:, :2] @ turn.T + origin
+            return tuple(tuple(float(c) for c in row) for row in v)
+
+        points = in_rod_frame(cmap.points, (f.x, f.y))
         return [MappedCoil(current=float(c.current), name=c.name, points=points,
-                           field_per_amp=tuple(tuple(float(v) for v in f) for f in cmap.fields[c.name]),
+                           field_per_amp=in_rod_frame(cmap.fields[c.name]),
                            max_current=math.inf if c.max_current is None else float(c.max_current),
                            resistance=math.nan if c.resistance is None else float(c.resistance))
                 for c in self.coils]
