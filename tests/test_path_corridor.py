@@ -69,3 +69,12 @@ def test_a_path_tolerance_that_is_not_a_number_is_one_line(tmp_path, capsys):
         assert main(["schedule", str(cfg)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "study.path_tolerance: expected a number or a quantity" in err[0], err
+
+
+@pytest.mark.slow
+def test_an_optimised_schedule_that_strays_names_its_nodes(capsys):
+    config = CONFIG.parent / "study_schedule_optimal_control.yaml"
+    assert main(["schedule", str(config), "--path-tolerance", "0.001", "--json"]) == 3
+    out = json.loads(capsys.readouterr().out)
+    assert out["optimal_control"]["optimal"] and not out["success"] and not out["path"]["within"]
+    assert "--nodes: the optimised schedule's steps are its time nodes" in out["message"]

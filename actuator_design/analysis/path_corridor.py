@@ -13,7 +13,7 @@ Lengths in rod lengths.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 
@@ -33,9 +33,11 @@ def distance_to_path(points: np.ndarray, waypoints: Sequence[Sequence[float]]) -
     return np.min(np.linalg.norm(rel - t[..., None] * ab[None], axis=2), axis=1)
 
 
-def hold_to_path(result, waypoints, tolerance: float) -> dict:
+def hold_to_path(result, waypoints, tolerance: float, optimised: Optional[bool] = None) -> dict:
     """Measure a verified schedule ``result`` against the path through ``waypoints`` and, when its
-    tip strays farther than ``tolerance`` (rod lengths, > 0), make it a failure that says so.
+    tip strays farther than ``tolerance`` (rod lengths, > 0), make it a failure that says so
+    (``optimised``: whether its steps are an optimised schedule's time nodes, for the advice;
+    None: the result's own ``optimal``).
 
     Returns
     -------
@@ -60,8 +62,8 @@ def hold_to_path(result, waypoints, tolerance: float) -> dict:
             result.status = "not_verified"
         if hasattr(result, "verified"):  # (an ideal field's result: verified means success there)
             result.verified = False
-        more = ("--nodes: the optimised schedule's steps are its time nodes" if getattr(result, "optimal", False)
-                else "--substeps")
+        optimised = getattr(result, "optimal", False) if optimised is None else optimised
+        more = "--nodes: the optimised schedule's steps are its time nodes" if optimised else "--substeps"
         result.message = (f"the tip strays {d[k]:.3g} rod lengths from the path through the waypoints at step "
                           f"{index[0] + k}, beyond the tolerance {tolerance:g} (more waypoints along the path hold "
                           f"the tip closer to it; more steps check it more finely: {more}); {result.message}")

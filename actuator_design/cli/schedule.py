@@ -262,7 +262,7 @@ def run(args: argparse.Namespace) -> int:
     path = None
     if path_tol is not None:
         from ..analysis.path_corridor import hold_to_path
-        path = hold_to_path(res, wps, path_tol)
+        path = hold_to_path(res, wps, path_tol, optimised=ocp is not None and ocp.optimal)
     with bad_input():
         table = schedule_table(res.schedule, units, *(rates if ocp is None else (None, None)))
     if ocp is not None:  # each step's time is the optimal-control problem's (the greedy rule's for the greedy one)
