@@ -8,7 +8,7 @@ import math
 from .common import InputError, bad_input
 
 __all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
-           "tip_columns", "finish_schedule", "path_line", "hold_path"]
+           "tip_columns", "finish_schedule", "path_line", "hold_path", "substeps_arg"]
 
 
 def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: str):
@@ -130,3 +130,12 @@ def path_line(path: dict) -> str:
     verdict = "within" if path["within"] else "BEYOND"
     return (f"  path: the tip stays within {path['largest_deviation']:.3g} rod lengths of the path through the "
             f"waypoints (largest at step {path['step']}), {verdict} the tolerance {path['tolerance']:.3g}")
+
+
+def substeps_arg(args, study: dict) -> int:
+    """Schedule steps per move from ``--substeps`` or the study's ``substeps`` (default 8), in [1, 200]."""
+    name = "--substeps" if args.substeps is not None else "study.substeps"
+    substeps = args.substeps if args.substeps is not None else study.get("substeps", 8)
+    if not (isinstance(substeps, int) and 1 <= substeps <= 200):
+        raise InputError(f"{name}: must be a whole number in [1, 200], got {substeps!r}")
+    return substeps

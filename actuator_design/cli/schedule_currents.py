@@ -16,7 +16,7 @@ import sys
 
 from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
+from .design_units import closing_lines, finish_schedule, hold_path, substeps_arg, tip_columns
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
@@ -67,16 +67,13 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
     if objective not in ("time", "energy"):
         raise InputError(f"study.optimal_control: must be 'time' or 'energy', got {objective!r}")
     nodes_name = "--nodes" if args.nodes is not None else "study.nodes"
-    sub_name = "--substeps" if args.substeps is not None else "study.substeps"
     from ..analysis.schedule_ocp import MAX_NODES
 
     nodes = args.nodes if args.nodes is not None else study.get("nodes", 40)
     if not (isinstance(nodes, int) and len(waypoints) + 1 <= nodes <= MAX_NODES):
         raise InputError(f"{nodes_name}: must be a whole number in [{len(waypoints) + 1}, {MAX_NODES}] (one more than "
                          f"the {len(waypoints)} waypoints at least), got {nodes!r}")
-    substeps = args.substeps if args.substeps is not None else study.get("substeps", 8)
-    if not (isinstance(substeps, int) and 1 <= substeps <= 200):
-        raise InputError(f"{sub_name}: must be a whole number in [1, 200], got {substeps!r}")
+    substeps = substeps_arg(args, study)
 
     from ..analysis.current_schedule import current_schedule
     from ..user_units import user_units

@@ -14,7 +14,7 @@ import sys
 
 from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, hold_path, tip_columns
+from .design_units import closing_lines, finish_schedule, hold_path, substeps_arg, tip_columns
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
@@ -56,10 +56,7 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
     speed = _rate(args, study, "--stage-speed", "stage_speed", "speed", "10mm/s",
                   moving[0] is not None or moving[1] is not None)
     turn = _rate(args, study, "--turn-rate", "turn_rate", "angular_rate", "90deg/s", moving[2] is not None)
-    sub_name = "--substeps" if args.substeps is not None else "study.substeps"
-    substeps = args.substeps if args.substeps is not None else study.get("substeps", 8)
-    if not (isinstance(substeps, int) and 1 <= substeps <= 200):
-        raise InputError(f"{sub_name}: must be a whole number in [1, 200], got {substeps!r}")
+    substeps = substeps_arg(args, study)
 
     from ..analysis.pose_schedule import pose_schedule
     from ..user_units import user_units

@@ -25,52 +25,26 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple, Union
+from typing import Optional, Sequence, Union
 
 import casadi as ca
 import numpy as np
 
-from .tesseral import TesseralTerm, distance_from, tesseral_in_plane, tesseral_potentials
+from .tesseral import Expansion, TesseralTerm, tesseral_in_plane, tesseral_potentials
 
 __all__ = ["HarmonicTerm", "TesseralTerm", "basis_potentials", "potential", "field_function", "outside_region"]
 
 
 @dataclass(frozen=True)
-class HarmonicTerm:
-    """One source's fitted zonal expansion (dimensionless: lengths in ℓ, ψ in units of H0 ℓ).
-
-    Attributes
-    ----------
-    kind : {"exterior", "interior"}
-    centre : (float, float)
-        c, units of ℓ (the clamp at the origin).
-    axis_angle : float
-        Direction of ê in the plane, rad from c1.
-    radius : float
-        R, the normalising radius (the sphere the coefficients were projected on), units of ℓ.
-    coefficients : tuple of float
-        a_1, a_2, ... (a_0 carries no field).
-    valid_radius : float
-        Where the fit holds to its reported error: ρ ≥ valid_radius (exterior) or
-        ρ ≤ valid_radius (interior), units of ℓ.
-    """
-
-    kind: str
-    centre: Tuple[float, float]
-    axis_angle: float
-    radius: float
-    coefficients: Tuple[float, ...]
-    valid_radius: float
+class HarmonicTerm(Expansion):
+    """One source's fitted zonal expansion (the attributes of :class:`~.tesseral.Expansion`;
+    ``coefficients`` a_1, a_2, ...: a_0 carries no field; ``radius`` the sphere they were projected
+    on)."""
 
     @property
     def order(self) -> int:
         """The highest Legendre degree l of the expansion."""
         return len(self.coefficients)
-
-    def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Whether the points (units of ℓ) lie where the fit holds; boolean array."""
-        rho = distance_from(self.centre, x, y)
-        return rho >= self.valid_radius if self.kind == "exterior" else rho <= self.valid_radius
 
 
 def basis_potentials(kind: str, centre, axis_angle: float, radius: float, order: int, x, y, z=0.0) -> list:

@@ -38,7 +38,7 @@ from typing import Optional, Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["TesseralTerm", "tesseral_modes", "interior_modes", "tesseral_potentials", "tesseral_in_plane", "distance_from"]
+__all__ = ["Expansion", "TesseralTerm", "tesseral_modes", "interior_modes", "tesseral_potentials", "tesseral_in_plane", "distance_from"]
 
 
 def distance_from(centre, x, y) -> np.ndarray:
@@ -47,28 +47,25 @@ def distance_from(centre, x, y) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class TesseralTerm:
-    """One source's fitted tesseral expansion outside its circumscribed sphere (module docstring;
-    dimensionless as :class:`~.harmonic.HarmonicTerm`, whose attributes it shares).
+class Expansion:
+    """What every fitted solid-harmonic expansion of one source has (dimensionless: lengths in ℓ,
+    ψ in units of H0 ℓ): :class:`TesseralTerm` and :class:`~.harmonic.HarmonicTerm`.
 
     Attributes
     ----------
     kind : {"exterior", "interior"}
-        Outside the circumscribed sphere (a magnet), or inside a ball free of sources (a map).
+        Outside the sphere holding the source, or inside a ball free of sources.
     centre : (float, float)
-        c, units of ℓ.
+        c, units of ℓ (the clamp at the origin).
     axis_angle : float
-        Direction of ê (φ = 0), rad from c1.
+        Direction of ê in the plane, rad from c1.
     radius : float
-        R, the normalising radius (the sphere the coefficients were projected on), units of ℓ.
+        R, the normalising radius, units of ℓ.
     coefficients : tuple of float
-        a_lm in the order of ``modes``.
+        The expansion's coefficients.
     valid_radius : float
-        The fit holds to its reported error for ρ ≥ valid_radius (exterior) or ρ ≤ valid_radius
-        (interior), units of ℓ.
-    modes : tuple of (int, int)
-        (l, m) of each coefficient, |m| ≤ l: l and m odd (a magnet), or l − |m| even with m < 0 the
-        sine term (a map).
+        Where the fit holds to its reported error: ρ ≥ valid_radius (exterior) or
+        ρ ≤ valid_radius (interior), units of ℓ.
     """
 
     kind: str
@@ -77,18 +74,32 @@ class TesseralTerm:
     radius: float
     coefficients: Tuple[float, ...]
     valid_radius: float
-    modes: Tuple[Tuple[int, int], ...]
-
-    @property
-    def order(self) -> int:
-        """The highest degree l of the expansion."""
-        return max((l for l, _ in self.modes), default=0)
 
     def contains(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Whether the points (units of ℓ) lie where the fit holds; boolean array."""
         rho = distance_from(self.centre, x, y)
         return rho >= self.valid_radius if self.kind == "exterior" else rho <= self.valid_radius
 
+
+@dataclass(frozen=True)
+class TesseralTerm(Expansion):
+    """One source's fitted tesseral expansion (module docstring; the attributes of
+    :class:`Expansion`): a magnet's outside its circumscribed sphere (``kind`` "exterior",
+    ``coefficients`` a_lm), or a calibration map's coil inside a ball free of sources ("interior").
+
+    Attributes
+    ----------
+    modes : tuple of (int, int)
+        (l, m) of each coefficient, |m| ≤ l: l and m odd (a magnet), or l − |m| even with m < 0 the
+        sine term (a map).
+    """
+
+    modes: Tuple[Tuple[int, int], ...]
+
+    @property
+    def order(self) -> int:
+        """The highest degree l of the expansion."""
+        return max((l for l, _ in self.modes), default=0)
 
 def tesseral_modes(order: int, m_max: Optional[int] = None) -> Tuple[Tuple[int, int], ...]:
     """(l, m), l and m odd, m ≤ min(l, ``m_max``), l ≤ ``order``, sorted by l then m."""
