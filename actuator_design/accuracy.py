@@ -38,20 +38,13 @@ MAX_ELEMENTS = 200
 def scene_wavenumber(scene: Scene) -> float:
     """k: the inverse of the shortest length on which θ can vary (units of 1/ℓ), ≥ 1.
 
-    Field: √2 h (the pendulum frequency of THEORY §6); loads: √|f| (elastica), |m|, |q|^(1/3);
-    non-uniform fields add their own scale through h and h_pos (times 1/distance, not known a
-    priori — the a-posteriori estimate catches it).
+    Each term states its own (``EnergyTerm.wavenumber``): the field √2 h (the pendulum frequency of
+    THEORY §6); loads √|f| (elastica), |m|, |q|^(1/3); non-uniform fields add their own scale
+    through h and h_pos (times 1/distance, not known a priori — the a-posteriori estimate catches it).
     """
-    k = 1.0
-    if scene.field is not None:
-        k = max(k, math.sqrt(2.0) * abs(scene.h), math.sqrt(2.0) * abs(scene.h_pos))
-    if scene.tip_force is not None:
-        k = max(k, math.sqrt(math.hypot(*scene.tip_force)))
-    if scene.tip_moment is not None:
-        k = max(k, abs(scene.tip_moment))
-    if scene.distributed_load is not None:
-        k = max(k, math.hypot(*scene.distributed_load) ** (1.0 / 3.0))
-    return k
+    from .physics.terms import scene_wavenumber as terms_wavenumber
+
+    return terms_wavenumber(scene)
 
 
 def choose_options(scene: Scene, tol: float, base: Optional[SolverOptions] = None) -> SolverOptions:

@@ -37,7 +37,7 @@ from .units import DIMENSIONS
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
-           "physical_parameter", "entry_names"]
+           "physical_parameter", "entry_names", "stiffness_groups"]
 
 
 @dataclass(frozen=True)
@@ -76,6 +76,12 @@ class Parameter:
         Adds the needed term at value zero (or raises ValueError when the scene cannot have it).
     designable : bool
         A variable of the inverse design (a profile α(s) when ``per_point``).
+    stiffness_power : float
+        The value is ∝ B0^stiffness_power with every other input fixed (B0 = E I, THEORY §5: loads
+        and h_r ∝ 1/B0, h ∝ B0^-½): how a change of Young's modulus moves it (robust design's
+        ``youngs_modulus`` tolerance, a fit of E).
+    susceptibility_power : float
+        The value is ∝ χ^susceptibility_power (h ∝ χ̄^½; the ``chi_bar`` tolerance).
     """
 
     name: str
@@ -94,6 +100,8 @@ class Parameter:
     per_point: bool = False
     ensure: Optional[Callable[[Scene], Scene]] = None
     designable: bool = False
+    stiffness_power: float = 0.0
+    susceptibility_power: float = 0.0
 
     # -- values --------------------------------------------------------------------------------
     def get(self, scene: Scene) -> float:
@@ -152,10 +160,13 @@ THETA0 = Parameter("theta0", "clamp angle theta0", "rad", "theta0",
 
 def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
                      name: Optional[str] = None, lower: float = -math.inf, upper: float = math.inf,
-                     residual: Optional[str] = None, field_power: int = 0) -> Parameter:
+                     residual: Optional[str] = None, field_power: int = 0,
+                     stiffness_power: float = 0.0) -> Parameter:
     """A parameter of a plug-in term whose value lives in the scene's ``extra_terms``.
 
-    Setting it adds the term (its other values 0) when the scene does not have it.
+    Setting it adds the term (its other values 0) when the scene does not have it. ``unit`` is its
+    dimensionless unit (``"B0/l^4"`` for a stiffness per area); ``stiffness_power`` e says the value
+    is ∝ B0^e (−1 for a value given in units of B0, THEORY §5).
     """
     def read(sc: Scene) -> float:
         return float((sc.term_values(term) or {}).get(slot, 0.0))
@@ -167,7 +178,8 @@ def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
         return sc if sc.term_values(term) is not None else sc.with_term(term)
 
     return Parameter(name or slot, description, unit, slot, read, write, term=term, lower=lower,
-                     upper=upper, residual=residual, field_power=field_power, ensure=ensure)
+                     upper=upper, residual=residual, field_power=field_power, ensure=ensure,
+                     stiffness_power=stiffness_power)
 
 
 def _source_weight(k: int) -> Parameter:
@@ -366,7 +378,7 @@ class PhysicalParameter:
         The scene types that have it.
     groups : tuple of (str, float)
         (NLP slot, exponent e): with every other input fixed, the dimensionless group in that slot
-        is ∝ value^e (THEORY §5: h ∝ χ̄^½ B^-½ H, loads ∝ 1/B; §9: h_r ∝ M_r B^-1 H).
+        is ∝ value^e (THEORY §5: h ∝ χ̄^½ H; §9: h_r ∝ M_r H).
     through_field : bool
         It acts on the applied field H (a measurement-model parameter), not on the rod.
     shifts : str or None
@@ -376,6 +388,9 @@ class PhysicalParameter:
     term : str or None
         The energy term it needs (the field term for χ̄, h and the field's measurement model; the
         hard-magnetic term for M_r).
+    stiffness : bool
+        It sets B0 = E I (Young's modulus, the bending stiffness): its groups are every lens slot
+        ∝ B0^e (:func:`stiffness_groups`; THEORY §5: h ∝ B^-½, loads and h_r ∝ 1/B).
     """
 
     name: str
@@ -394,24 +409,38 @@ class PhysicalParameter:
         """SI unit symbol of the value (``""`` when dimensionless)."""
         return DIMENSIONS[self.dimension].unit
 
+    stiffness: bool = False
+
     def exponent(self, slot: str) -> float:
         """e in group(slot) ∝ value^e (0 when the group does not depend on it)."""
-        return dict(self.groups).get(slot, 0.0)
+        return dict(self.all_groups()).get(slot, 0.0)
+
+    def all_groups(self) -> Tuple[Tuple[str, float], ...]:
+        """:attr:`groups`, and for a stiffness (E, B0) every lens slot ∝ B0^e (:func:`stiffness_groups`)."""
+        return stiffness_groups() if self.stiffness else self.groups
+
+
+def stiffness_groups() -> Tuple[Tuple[str, float], ...]:
+    """(NLP slot, e) for every slot of the lens whose value is ∝ B0^e (B0 = E I, THEORY §5, §9):
+    the field groups (h, h_pos: e = −½), the loads and h_r (−1), and every plug-in term's slots
+    scaled by B0 (:attr:`Parameter.stiffness_power`), one entry per slot in registration order."""
+    out: Dict[str, float] = {}
+    for p in parameters().values():
+        if p.stiffness_power and not p.per_point and p.slot not in out:
+            out[p.slot] = p.stiffness_power * (0.5 if p.transform == "sqrt" else 1.0)
+    return tuple(out.items())
 
 
 _FIELD = "field_orientation"
 _HARD = "hard_magnetic"
 _BOTH = ("physical", "dimensionless")
-#: B0 = E I: the field groups h, h_pos ∝ B^-½, the loads and h_r ∝ 1/B (THEORY §5, §9)
-_STIFFNESS_GROUPS = (("h", -0.5), ("h_pos", -0.5), ("fx", -1.0), ("fy", -1.0), ("m_tip", -1.0),
-                     ("qx", -1.0), ("qy", -1.0), ("h_r", -1.0))
 _PHYSICAL = (
     PhysicalParameter("chi_bar", "orientational susceptibility χ̄", "dimensionless", True,
                       ("physical",), groups=(("h", 0.5),), term=_FIELD),
     PhysicalParameter("youngs_modulus", "Young's modulus E (B0 = E I)", "pressure", True,
-                      ("physical",), groups=_STIFFNESS_GROUPS),
+                      ("physical",), stiffness=True),
     PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,
-                      ("physical",), groups=_STIFFNESS_GROUPS),
+                      ("physical",), stiffness=True),
     PhysicalParameter("remanence", "remanent magnetisation M_r of the composite", "magnetic_field",
                       True, ("physical",), groups=(("h_r", 1.0),), term=_HARD),
     PhysicalParameter("h", "field group h (THEORY §5)", "dimensionless", True, ("dimensionless",),

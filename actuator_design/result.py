@@ -232,6 +232,8 @@ class EquilibriumResult:
             f"  status      : {self.status} ({'success' if self.success else 'FAILED'}) — {self.message}",
             f"  groups      : {self._groups_text()}",
             *([f"  field       : {self.scene.field.describe()}"] if hasattr(self.scene.field, "describe") else []),
+            *([f"  terms       : " + "; ".join(f"{t.name}: " + ", ".join(f"{k} = {number(v)}" for k, v in t.values)
+                                             for t in self.scene.extra_terms)] if self.scene.extra_terms else []),
             f"  tip         : x = {number(self.tip['x'], '.10f')}, y = {number(self.tip['y'], '.10f')}, "
             f"angle = {number(self.tip['angle'], '.10f')} rad ({degrees(self.tip['angle'], '.6f')} deg)  [units of l]",
             f"  energy      : {number(self.energy, '.12g')}  [B0/l]",

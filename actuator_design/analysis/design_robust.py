@@ -47,11 +47,26 @@ from .tolerances import Tolerances, apply_deltas, perturb
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
            "pose_designs"]
 
-#: load slots (∝ 1/E, THEORY §5: the lens's groups of youngs_modulus): fx, fy, m_tip, qx, qy
-#: dead loads: ∝ 1/E (the remanent group h_r ∝ H/E is scaled on its own, by k_hr)
-_LOADS = tuple(s for s, e in lens.physical_parameter("youngs_modulus").groups if e == -1.0 and s != "h_r")
 _PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set per pose
 _N_OFFSETS = 6  # numbers per corner scenario (see _corner_offsets)
+
+
+def _stiffness_slots():
+    """(slot, e) of every lens slot ∝ E^e that depends on nothing else the tolerance box moves: the
+    dead loads fx, fy, m_tip, qx, qy (e = −1, THEORY §5) and every plug-in term's values scaled by B0
+    (the field groups h, h_pos and h_r ∝ H/E are scaled on their own, by k_h and k_hr)."""
+    out = {}
+    for p in lens.parameters().values():
+        if (p.stiffness_power and not (p.field_power or p.susceptibility_power or p.per_point)
+                and p.slot not in out):
+            out[p.slot] = p.stiffness_power
+    return tuple(out.items())
+
+
+def __getattr__(name):  # ``_LOADS``: the slots scaled with E alone, read from the lens when asked
+    if name == "_LOADS":
+        return tuple(slot for slot, _ in _stiffness_slots())
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass
@@ -151,9 +166,9 @@ class ScenarioDesignNLP:
             for name in ("h", "h_pos"):
                 if name in sl:
                     Pc[sl[name]] = P[sl[name]] * k_h
-            for name in _LOADS:
+            for name, e in _stiffness_slots():
                 if name in sl:
-                    Pc[sl[name]] = P[sl[name]] * k_p
+                    Pc[sl[name]] = P[sl[name]] * (k_p if e == -1.0 else k_p ** (-e))
             if "phi" in sl:
                 Pc[sl["phi"]] = P[sl["phi"]] + dphi
             if "alpha" in sl:

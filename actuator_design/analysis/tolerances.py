@@ -196,23 +196,70 @@ def perturb(scene: Scene, tol: Tolerances, offset: Mapping[str, float]) -> Scene
 
 def apply_deltas(scene: Scene, deltas: Mapping[str, float]) -> Scene:
     """The scene with signed changes applied: relative ones (``field_rel``, ``chi_rel``,
-    ``youngs_rel``, fractions > −1) and angles (``angle``, ``fibre_angle``, ``clamp_angle``, rad)."""
+    ``youngs_rel``, fractions > −1) and angles (``angle``, ``fibre_angle``, ``clamp_angle``, rad).
+
+    The relative changes scale every lens value of a present term by its power laws
+    (:attr:`~actuator_design.parameters.Parameter.field_power`, ``stiffness_power``,
+    ``susceptibility_power``): a plug-in term's values follow E like the built-in loads."""
     g = {attr: float(deltas.get(attr, 0.0)) for attr, _ in _SPEC.values()}
-    h_factor = (1.0 + g["field_rel"]) * math.sqrt((1.0 + g["chi_rel"]) / (1.0 + g["youngs_rel"]))
-    load_factor = 1.0 / (1.0 + g["youngs_rel"])
-    out = replace(scene, h=scene.h * h_factor, h_pos=scene.h_pos * h_factor)
-    if getattr(scene, "h_r", 0.0):  # the remanent group h_r ∝ H / E (THEORY §9), untouched by χ̄
-        out = replace(out, h_r=scene.h_r * (1.0 + g["field_rel"]) / (1.0 + g["youngs_rel"]))
+    out = scene
+    for p, value in _scaled_values(scene, g):
+        out = p.write(out, value)
     if g["angle"] != 0.0:
         if not isinstance(scene.field, UniformField):
             raise ValueError("tolerance angle: the field angle can only be perturbed for a uniform field")
         out = out.with_values(phi=scene.phi + g["angle"])
-    if load_factor != 1.0:
-        scale = lambda v: None if v is None else tuple(load_factor * c for c in v)
-        out = replace(out, tip_force=scale(scene.tip_force), distributed_load=scale(scene.distributed_load),
-                      tip_moment=None if scene.tip_moment is None else scene.tip_moment * load_factor)
     if g["fibre_angle"] != 0.0:
         out = replace(out, fibres=_shift_profile(scene.fibres, g["fibre_angle"]))
     if g["clamp_angle"] != 0.0:
         out = replace(out, theta0=scene.theta0 + g["clamp_angle"])
     return out
+
+
+def _scaled_values(scene: Scene, g: Mapping[str, float]):
+    """(lens parameter, new value) for every slot of a term ``scene`` has whose value scales with the
+    field, E or χ̄ by its power laws (f, e, c): v (1 + δH)^f ((1 + δχ)^c / (1 + δE)^−e), evaluated
+    as the tolerance box always has (h: v·((1 + δH)·√((1 + δχ)/(1 + δE))); h_r: v (1 + δH)/(1 + δE);
+    a load: (1/(1 + δE))·v), so that a corner scene does not move by round-off.
+
+    Raises
+    ------
+    ValueError
+        A relative change of E or χ̄ and a term that does not declare how its values scale
+        (``EnergyTerm.scaling_declared``): its values would silently stay fixed.
+    """
+    from .. import parameters as lens
+    from ..physics.registry import registered_terms, term_class
+
+    if g["youngs_rel"] or g["chi_rel"]:
+        for cls in registered_terms():
+            if not cls.scaling_declared and cls.present(scene):
+                what = "youngs_modulus" if g["youngs_rel"] else "chi_bar"
+                raise ValueError(f"tolerance {what}: the scene's energy term {cls.name!r} does not declare how its "
+                                 "values scale with the material (EnergyTerm.scaling_declared)")
+    seen = set()
+    for p in lens.parameters().values():
+        if p.per_point or p.slot in seen:
+            continue
+        seen.add(p.slot)
+        f, e, c = p.field_power, p.stiffness_power, p.susceptibility_power
+        v = p.get(scene) if (f or e or c) else 0.0
+        if v == 0.0 or (p.term is not None and not term_class(p.term).present(scene)
+                        and _present(p.write(scene, v)) != _present(scene)):
+            continue  # nothing to scale, or a term's value stored while it is absent whose write would add it
+        num, den = (1.0 + g["chi_rel"]) ** c, (1.0 + g["youngs_rel"]) ** (-e)
+        if (2 * e) % 2 or (2 * c) % 2:  # a half power: one square root of the whole ratio
+            ratio = (1.0 + g["chi_rel"]) ** (2 * c) / (1.0 + g["youngs_rel"]) ** (-2 * e)
+            new = v * ((1.0 + g["field_rel"]) ** f * math.sqrt(ratio))
+        elif f:
+            new = v * (1.0 + g["field_rel"]) ** f * num / den
+        else:
+            new = (num / den) * v
+        if new != v:
+            yield p, new
+
+
+def _present(scene: Scene) -> Tuple[str, ...]:
+    from ..physics.registry import registered_terms
+
+    return tuple(c.name for c in registered_terms() if c.present(scene))

@@ -26,7 +26,8 @@ import numpy as np
 
 from ..config import ConfigError
 from ..options import SolverOptions
-from ..parameters import get_value
+from ..parameters import get_value, stiffness_groups
+from ..physics.terms import build_terms, scalar_parameter_values
 from ..scene import Scene, UniformField
 from ..solver import EquilibriumSolver, get_solver
 from ..study.spec import validate_spec
@@ -264,6 +265,10 @@ class FitProblem:
             "qy": c["q0"][1] * ratio, "m_tip": c["m0"] * ratio,
             "theta0": get("clamp_angle", c["theta00"]),
         }
+        scene_slots = scalar_parameter_values(build_terms(self.scene), self.scene)
+        for slot, e in stiffness_groups():  # a plug-in term's values ∝ B^e follow a fitted stiffness
+            if slot not in slot_expr and slot in scene_slots:
+                slot_expr[slot] = scene_slots[slot] * ratio ** (-e)
         self.slots = [s for s in slot_expr if s in layout.slices]
         self.slot_index = np.array([layout.slices[s].start for s in self.slots])
         q = ca.vertcat(*[ca.SX(slot_expr[s]) for s in self.slots])

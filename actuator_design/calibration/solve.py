@@ -69,10 +69,13 @@ def prepare_fit(config_source, data_source) -> FitProblem:
         raise ConfigError("study.type", f"a fit needs 'study: {{type: fit, parameters: ...}}', got "
                                         f"{study.get('type')!r}")
     spec = validate_spec(FitSpec, study)
-    # the fit map (problem.FitProblem._build_map) knows the groups of these terms only: another
-    # term's values would be held fixed while the field or the stiffness changes, silently
-    from ..physics.registry import refuse_unsupported
-    refuse_unsupported(config.to_scene(), list(FIT_TERMS), "fit")
+    # the fit map (problem.FitProblem._build_map) knows the groups of these terms, and scales a
+    # plug-in term's values by their declared power laws in B0 when they do not depend on the field;
+    # any other term's values would be held fixed while the field or the stiffness changes, silently
+    from ..physics.registry import refuse_unsupported, registered_terms
+    scaled = [c.name for c in registered_terms() if c.scaling_declared and not any(
+        p.field_power or p.susceptibility_power for p in c.parameters)]
+    refuse_unsupported(config.to_scene(), list(FIT_TERMS) + scaled, "fit")
     if isinstance(data_source, MeasuredData):
         data = data_source
     else:

@@ -47,6 +47,7 @@ from .design_currents import add_hardware_args
 from .design_force import parse_force, run_force
 from .design_units import add_schedule_units, positive_target, quasi_static_line, unit_labels
 from .output import print_written, write_out
+from .scene_args import add_set_arg, apply_set_flags, check_flags
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -112,7 +113,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     s.add_argument("--degree", type=int, metavar="D", help="degree per element")
     s.add_argument("--no-verify", action="store_true",
                    help="skip the independent verification (the result is then never 'success')")
-    add_rate_args(parser), add_hardware_args(parser)
+    add_rate_args(parser), add_hardware_args(parser), add_set_arg(parser)
     o = parser.add_argument_group("output")
     o.add_argument("--json", action="store_true", help="print exactly one JSON object (the design contract)")
     o.add_argument("--out", metavar="DIR", help="write design.json, schedule.csv, shape.csv and design.png")
@@ -149,6 +150,7 @@ def _inputs(args):
         study = dict((raw or {}).get("study") or {})
         if study and study.get("type") != "design":
             raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
+    scene = apply_set_flags(scene, args)
     study.pop("type", None)
     allowed = {"target", "targets", "target_units", "vary", "stiffness", "force", "rate", "rotation_rate",
                *[f.name for f in dataclasses.fields(DesignSettings)]}
@@ -168,13 +170,11 @@ def _inputs(args):
     if force is not None and (target_text is not None or stiffness is not None
                               or getattr(args, "target_shape", None) is not None):
         raise InputError("--target-force: give it alone (not with --target-tip, --target-stiffness or --target-shape)")
-    if force is not None:
-        pass
-    elif getattr(args, "target_shape", None) is not None:
+    if force is None and getattr(args, "target_shape", None) is not None:
         if target_text is not None or stiffness is not None:
             raise InputError("--target-shape: give either a shape or --target-tip/--target-stiffness, not both")
         target_text = None
-    elif target_text is None and stiffness is None:
+    elif force is None and target_text is None and stiffness is None:
         raise InputError("--target-tip: required unless --target-stiffness is given (or `study: {type: "
                          "design, target: [x, y]}` in CONFIG)")
     units = args.target_units or study.get("target_units", "rod")
@@ -212,12 +212,13 @@ def _inputs(args):
         settings = DesignSettings(**settings_kw)  # validates itself: one line naming the setting
         changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k) is not None}
         options = dataclasses.replace(options, **changes)
+    if changes or args.set_values:  # the flags changed the scene or the mesh after CONFIG was checked
+        check_flags(scene, options)
     return scene, options, raw, target, vary, settings, stiffness, force
 
 
 def _rates(args, raw):
-    """(field rate in A/m/s, rotation rate in rad/s), each None when not given: the flags, else
-    the study's ``rate`` and ``rotation_rate``."""
+    """(field rate in A/m/s, rotation rate in rad/s), each None when not given: flags, else study."""
     study = (raw or {}).get("study") or {}
     return parse_rates(args.rate if args.rate is not None else study.get("rate"),
                        args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))

@@ -14,7 +14,7 @@ from .common import (InputError, bad_input, check_angle_deg, finite_float, load_
                      nonnegative_float)
 
 __all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_hard_magnetic_args",
-           "apply_hard_magnetic_flags"]
+           "apply_hard_magnetic_flags", "add_set_arg", "apply_set_flags", "check_flags"]
 
 #: The dimensionless scene values a command line may set (angles in degrees).
 SCENE_KEYS = ("h", "phi_deg", "p", "alpha_deg")
@@ -36,6 +36,7 @@ def add_scene_args(parser: argparse.ArgumentParser, defaults: Dict[str, float], 
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help=f"constant fibre angle, degrees (default without CONFIG {defaults['alpha_deg']:g})")
     add_hard_magnetic_args(g)
+    add_set_arg(parser)
     if resolution:
         s = parser.add_argument_group("solver (override CONFIG)")
         s.add_argument("--elements", type=int, metavar="N", help="number of elements (>= 1)")
@@ -111,6 +112,42 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     return scene, options, raw
 
 
+def add_set_arg(parser) -> None:
+    """--set NAME=VALUE (repeatable), in its own argument group: any value of the parameter lens,
+    e.g. a plug-in term's."""
+    parser.add_argument_group("any value of the parameter lens").add_argument("--set", action="append", metavar="NAME=VALUE", dest="set_values",
+                       help="set a dimensionless scene value of the parameter lens (THEORY §5), adding its "
+                            "term when absent, e.g. a plug-in term's stiffness (repeatable; `actuator-design "
+                            "continue --help` lists the names under --param)")
+
+
+def apply_set_flags(scene, args):
+    """``scene`` with every ``--set NAME=VALUE`` applied through the parameter lens, in order (after
+    the other scene flags: ``--set h=2`` wins over ``--h``). A command that does not rebuild its
+    scene through :func:`build_scene` checks it again with :func:`check_flags`."""
+    from .. import parameters as lens
+
+    for text in getattr(args, "set_values", None) or ():
+        name, eq, value = text.partition("=")
+        name = name.strip()
+        if not eq or not name:
+            raise InputError(f"--set: expected NAME=VALUE, got {text!r:.80}")
+        with bad_input("--set: "):
+            lens.parameter(name)
+        with bad_input("--set "):  # the lens names the parameter, its range and the value
+            scene = lens.set_value(scene, name, value.strip())
+    return scene
+
+
+def check_flags(scene, options) -> None:
+    """The scene's groups, the mesh's memory budget for its Hessian (a term may make it dense) and
+    its profiles on the mesh, checked again after flags changed them (InputError, one line)."""
+    from ..config.checks import check_scene_and_options
+
+    with bad_input():
+        check_scene_and_options(scene, options)
+
+
 def add_hard_magnetic_args(group) -> None:
     """--h-r and --magnetization-deg (THEORY §9) on an argument group."""
     group.add_argument("--h-r", type=nonnegative_float, metavar="H_R",
@@ -121,7 +158,7 @@ def add_hard_magnetic_args(group) -> None:
 
 def apply_hard_magnetic_flags(scene, args):
     """``scene`` with --h-r and --magnetization-deg applied through the parameter lens (each adds
-    the hard-magnetic term when absent, THEORY §9)."""
+    the hard-magnetic term when absent, THEORY §9), then every --set."""
     from .. import parameters as lens
 
     for name, flag, to_value in (("h_r", "h_r", float), ("magnetization", "magnetization_deg", math.radians)):
@@ -129,4 +166,4 @@ def apply_hard_magnetic_flags(scene, args):
         if value is not None:
             with bad_input(f"--{flag.replace('_', '-')}: "):
                 scene = lens.set_value(scene, name, to_value(value))
-    return scene
+    return apply_set_flags(scene, args)

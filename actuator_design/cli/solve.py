@@ -59,8 +59,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help="constant fibre angle alpha, degrees (default without "
                         f"CONFIG {DEFAULTS['alpha_deg']:g})")
-    from .scene_args import add_hard_magnetic_args
+    from .scene_args import add_hard_magnetic_args, add_set_arg
     add_hard_magnetic_args(g)
+    add_set_arg(parser)
     s = parser.add_argument_group("solver (override CONFIG)")
     s.add_argument("--transcription", choices=("lgl", "midpoint"),
                    help=f"lgl: spectral elements; midpoint: second-order midpoint rule (default {d.transcription})")

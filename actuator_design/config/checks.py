@@ -2,7 +2,7 @@
 layer and the command line (whose flags may change the scene and the mesh after loading).
 
 * every dimensionless group in its range (:mod:`actuator_design.config.limits`);
-* the mesh within the memory budget for the scene's Hessian structure (dense in a non-uniform field);
+* the mesh within the memory budget for the scene's Hessian structure (dense in a non-uniform field or with a term that couples every node);
 * expression profiles (fibre angle, stiffness) finite — and stiffness positive — on the
   transcription's own nodes and quadrature points, where the solver evaluates them (a function that
   is NaN only near a collocation node passes a check on a uniform grid).
@@ -35,7 +35,15 @@ def check_scene_groups(scene, prefix: str = "") -> None:
 
 
 def _is_dense(scene) -> bool:
-    return scene.field is not None and not scene.field.is_uniform
+    """A non-uniform field, or a plug-in term that couples every node (``EnergyTerm.dense_hessian``;
+    asked only when the scene has one, so that a plain scene is checked without loading CasADi)."""
+    if scene.field is not None and not scene.field.is_uniform:
+        return True
+    if not scene.extra_terms:
+        return False
+    from ..physics.terms import dense_hessian
+
+    return dense_hessian(scene)
 
 
 def check_mesh(options, scene=None, field: str = "elements") -> None:

@@ -23,6 +23,7 @@ from .errors import error
 from .field_specs import DimensionlessField, NumberXY
 from .limits import group_problem
 from .obstacle_specs import MAX_OBSTACLES, DimensionlessObstacle, obstacles_of
+from .term_specs import TermEntries, check_terms, terms_field, terms_of
 from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 
 __all__ = ["DimensionlessScene"]
@@ -95,6 +96,7 @@ class DimensionlessScene(StrictModel):
     magnetization: Optional[MagnetizationProfile] = None
     obstacles: Optional[List[DimensionlessObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
     contact_gap: Optional[Q("dimensionless", ge=0, le=1)] = None
+    terms: TermEntries = terms_field()
 
     @model_validator(mode="before")
     @classmethod
@@ -127,6 +129,7 @@ class DimensionlessScene(StrictModel):
             problem = None if value is None else group_problem(group, value)
             if problem is not None:
                 raise error(problem, field)
+        check_terms(self.terms)
         return self
 
     def to_scene(self, name: Optional[str] = None) -> Scene:
@@ -144,7 +147,8 @@ class DimensionlessScene(StrictModel):
                      scales=None, name=name or "dimensionless cantilever", h_r=self.h_r or 0.0,
                      fibres_given=self.fibres is not None,
                      magnetization=(_profile(self.magnetization, 0.0) if self.hard_magnetic else None),
-                     obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0))
+                     obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0),
+                     extra_terms=terms_of(self.terms))
 
     @property
     def hard_magnetic(self) -> bool:

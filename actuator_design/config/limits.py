@@ -213,7 +213,8 @@ def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = F
     elements, degree : int
         Mesh size (``degree`` is ignored by ``midpoint``).
     dense : bool
-        The scene has a non-uniform field, which makes the Hessian dense.
+        The scene's Hessian is dense (a non-uniform field, or a term whose energy couples every
+        point: ``EnergyTerm.dense_hessian``).
     tol : float, optional
         The solver's stationarity tolerance (``SolverOptions.tol``): the rounding floor is checked
         against it (a mesh the user picks); None checks memory only (meshes the tool picks).
@@ -229,9 +230,9 @@ def mesh_problem(transcription: str, elements: int, degree: int, dense: bool = F
     if dense:
         if n <= MAX_DENSE_UNKNOWNS:
             return None
-        return (f"elements must be <= {MAX_DENSE_UNKNOWNS // per} for {what} in a non-uniform field "
-                f"(dense Hessian: at most {MAX_DENSE_UNKNOWNS} unknowns to stay under ~1 GB), "
-                f"got {elements} ({n} unknowns)")
+        return (f"elements must be <= {MAX_DENSE_UNKNOWNS // per} for {what} with a dense Hessian (a "
+                f"non-uniform field, or a term coupling every point; at most {MAX_DENSE_UNKNOWNS} unknowns "
+                f"to stay under ~1 GB), got {elements} ({n} unknowns)")
     band = 2 * per + 1
 
     def fits(e):

@@ -63,6 +63,19 @@ class SolverSpec(StrictModel):
         return SolverOptions(**self.model_dump())
 
 
+def _dense_terms(scene) -> bool:
+    """A plug-in term of the scene's ``terms:`` makes the Hessian dense (``EnergyTerm.dense_hessian``)."""
+    if not getattr(scene, "terms", None):
+        return False
+    from ..physics.terms import dense_hessian
+    from ..scene import Scene
+    from .term_specs import terms_of
+
+    length, b0 = ((scene.rod.length, scene.rod.clamp_stiffness) if isinstance(scene, PhysicalScene)
+                  else (None, None))
+    return dense_hessian(Scene(field=None, tip_force=None, extra_terms=terms_of(scene.terms, length, b0)))
+
+
 class Config(StrictModel):
     """A validated configuration. Build with :func:`load_config`.
 
@@ -86,10 +99,10 @@ class Config(StrictModel):
 
     @model_validator(mode="after")
     def _check_scene_on_mesh(self):
-        """The mesh within the dense-Hessian budget in a non-uniform field; expression profiles
-        finite where this transcription evaluates them."""
+        """The mesh within the dense-Hessian budget in a non-uniform field or with a term that
+        couples every point; expression profiles finite where this transcription evaluates them."""
         s = self.solver
-        if s.accuracy is None and is_non_uniform(self.scene.field):
+        if s.accuracy is None and (is_non_uniform(self.scene.field) or _dense_terms(self.scene)):
             problem = mesh_problem(s.transcription, s.elements, s.degree, dense=True)
             if problem is not None:
                 raise error(problem.removeprefix("elements "), "solver.elements")

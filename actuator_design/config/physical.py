@@ -31,6 +31,7 @@ from .limits import GROUP_RANGES, group_problem
 from .obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
 from .magnetic_specs import MagneticSummary, Magnetics, Particles
 from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
+from .term_specs import TermEntries, check_terms, terms_field, terms_of
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -207,6 +208,7 @@ class PhysicalScene(StrictModel):
     magnetization: Optional[MagnetizationProfile] = None
     clamp: Optional[Clamp] = None
     obstacles: Optional[List[PhysicalObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
+    terms: TermEntries = terms_field()
 
     @model_validator(mode="after")
     def _check(self):
@@ -228,6 +230,7 @@ class PhysicalScene(StrictModel):
                 rng = GROUP_RANGES[name]
                 raise error(f"derived {name} = {value:g} must be a finite number in {rng.text()}; it "
                             f"comes from {', '.join(derived.sources[name])} (THEORY §5)", name)
+        check_terms(self.terms, self.rod.length, self.rod.clamp_stiffness)
         return self
 
     def _derived(self) -> _Derived:
@@ -308,7 +311,8 @@ class PhysicalScene(StrictModel):
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
             fibres_physical=not self._isotropic_particles(),
             obstacles=obstacles_of(self.obstacles, length),
-            contact_gap=0.5 * float(self.rod.thickness) / length if self.rod.thickness is not None else 0.0)
+            contact_gap=0.5 * float(self.rod.thickness) / length if self.rod.thickness is not None else 0.0,
+            extra_terms=terms_of(self.terms, length, b0))
 
     def _isotropic_particles(self) -> bool:
         """Spherical (or otherwise isotropic) particles: χ̄ = 0 of the particles alone (THEORY §2),

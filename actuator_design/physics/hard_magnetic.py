@@ -50,12 +50,13 @@ class HardMagnetic(EnergyTerm):
     """−h_r (m̂·ĥ(r)), m̂ = (cos(θ+β), sin(θ+β)) (THEORY §9)."""
 
     name = "hard_magnetic"
+    scaling_declared = True
     node_fields = {"beta": lambda scene, s: scene.magnetization(s)}
     parameters = (
         Parameter("h_r", "hard-magnetic group h_r = mu0 M_r H A l^2 / B0", "1", "h_r",
                   read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
                   term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
-                  ensure=with_hard_magnetic_term),
+                  stiffness_power=-1.0, ensure=with_hard_magnetic_term),
         Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),

@@ -7,14 +7,16 @@ the NLP layout, the parameter vector, the balance check, the parameter lens — 
 registered classes, in registration order (the built-in terms first).
 
 An optional pydantic model registered with a term (under a ``type:`` tag) lets configuration read
-the term's values from YAML.
+the term's values from YAML. Terms shipped with the package beyond the paper's are one module each
+in :mod:`.extra_terms`, imported (and so registered) after the built-in ones.
 """
 from __future__ import annotations
 
 from typing import Dict, List, Optional, Type
 
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
-           "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config"]
+           "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
+           "TermConfigError", "plugin_names"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -63,9 +65,23 @@ def unregister_term(name: str) -> None:
 
 
 def registered_terms() -> List[type]:
-    """Every registered term class, in registration order (the built-in terms first)."""
+    """Every registered term class: the built-in terms, then the shipped extra terms (by module
+    name), then the others in registration order — the same order whichever module was imported
+    first (it orders the parameter lens and the NLP's slots)."""
     _load_builtins()
-    return list(_TERMS.values())
+    return sorted(_TERMS.values(), key=_rank)
+
+
+_BUILTIN_MODULES = (f"{__package__}.terms", f"{__package__}.hard_magnetic")
+
+
+def _rank(cls: type):
+    module = getattr(cls, "__module__", "")
+    if module in _BUILTIN_MODULES:
+        return (0, _BUILTIN_MODULES.index(module), "")
+    if module.startswith(f"{__package__}.extra_terms."):
+        return (1, 0, module)
+    return (2, 0, "")
 
 
 def term_class(name: str) -> type:
@@ -93,6 +109,30 @@ def _load_builtins() -> None:
     from . import terms  # noqa: F401  (registers the built-in terms on import)
     from . import hard_magnetic  # noqa: F401  (THEORY §9, after the soft-magnetic terms)
 
+    if not _EXTRA_LOADED:
+        _EXTRA_LOADED.append(True)  # re-entrant calls (a module importing the registry) pass
+        try:
+            _load_extra_terms()
+        except BaseException:
+            _EXTRA_LOADED.clear()  # a failing import is raised again next time, not skipped
+            raise
+
+
+_EXTRA_LOADED: List[bool] = []
+
+
+def _load_extra_terms() -> None:
+    """Import every module of :mod:`.extra_terms` (by name): a term shipped with the package is one
+    file there, registered on import, and needs no edit anywhere else."""
+    import importlib
+    import pkgutil
+
+    from . import extra_terms
+
+    for info in sorted(pkgutil.iter_modules(extra_terms.__path__), key=lambda m: m.name):
+        if not info.name.startswith("_"):
+            importlib.import_module(f"{extra_terms.__name__}.{info.name}")
+
 
 def unsupported_terms(scene, supported) -> List[str]:
     """Names of the terms ``scene`` contains that are not in ``supported``."""
@@ -111,22 +151,50 @@ def refuse_unsupported(scene, supported, analysis: str) -> None:
                          f"analysis does not support (it supports: {', '.join(supported)})")
 
 
-def parse_term_config(spec) -> "TermValues":
+class TermConfigError(ValueError):
+    """A plug-in term's YAML entry is wrong: ``terms.<name>.<key>: <detail>``.
+
+    Attributes
+    ----------
+    key : str
+        The entry's key at fault (``"type"`` when the type is missing or unknown).
+    detail : str
+        What is wrong and what is allowed.
+    """
+
+    def __init__(self, name: str, key: str, detail: str):
+        self.key, self.detail = key, detail
+        super().__init__(f"terms.{name}.{key}: {detail}" if name else f"terms: {detail}")
+
+
+def parse_term_config(spec, convert=None) -> "TermValues":
     """A plug-in term's YAML entry ``{type: <name>, <slot>: <value>, …}`` as scene ``TermValues``.
 
     The values are validated by the pydantic model registered with the term (unknown keys and bad
-    values are errors naming the field); a term registered without a model takes plain numbers.
+    values are errors naming the field); a term registered without a model takes numbers for its
+    lens parameters, range-checked by them.
+
+    Parameters
+    ----------
+    spec : dict
+        The entry.
+    convert : callable (Parameter, value, key) -> float, optional
+        Reads a value given with units (a physical scene: ``"2 kPa"`` for a stiffness per area) as
+        the parameter's dimensionless value; without it values are plain numbers.
 
     Raises
     ------
-    ValueError
+    TermConfigError
         No ``type``, an unregistered type, or a value its model rejects (one line naming the field).
     """
     from ..scene import TermValues
 
     if not isinstance(spec, dict) or "type" not in spec:
-        raise ValueError(f"terms: each entry needs a 'type' (one of: {', '.join(_TERMS)}), got {spec!r}")
+        raise TermConfigError("", "type", f"each entry needs a 'type' (one of: {', '.join(plugin_names())}), "
+                                          f"got {spec!r:.80}")
     name = spec["type"]
+    if name not in plugin_names():
+        raise TermConfigError("", "type", f"unknown term {name!r} (allowed: {', '.join(plugin_names())})")
     cls = term_class(name)
     values = {k: v for k, v in spec.items() if k != "type"}
     model = _CONFIG_MODELS.get(name)
@@ -138,16 +206,37 @@ def parse_term_config(spec) -> "TermValues":
             if callable(errors) and errors():
                 e = errors()[0]
                 loc = ".".join(str(p) for p in e.get("loc", ()))
-                raise ValueError(f"terms.{name}.{loc}: {e.get('msg', err)}") from None
+                raise TermConfigError(name, loc, e.get("msg", str(err))) from None
             raise ValueError(f"terms.{name}: {err}") from None
-    else:
-        unknown = [k for k in values if k not in cls.scalar_params]
-        if unknown:
-            raise ValueError(f"terms.{name}.{unknown[0]}: unknown key (allowed: {', '.join(cls.scalar_params)})")
+    by_slot = {p.slot: p for p in cls.parameters if not p.per_point}
     out = []
     for k, v in values.items():
+        if k not in cls.scalar_params:
+            raise TermConfigError(name, k, f"unknown key (allowed: {', '.join(cls.scalar_params)})")
+        p = by_slot.get(k)
+        if isinstance(v, bool):  # YAML's true/false is not a number
+            raise TermConfigError(name, k, f"must be a number, got {v!r}")
         try:
-            out.append((k, float(v)))
-        except (TypeError, ValueError):
-            raise ValueError(f"terms.{name}.{k}: must be a number, got {v!r}") from None
+            v = convert(p, v, k) if (convert is not None and p is not None) else float(v)
+        except (TypeError, ValueError) as err:
+            detail = getattr(err, "detail", None) or (f"must be a number, got {v!r:.80}"
+                                                      if isinstance(err, TypeError) or "float" in str(err)
+                                                      else str(err))
+            raise TermConfigError(name, k, detail) from None
+        if p is not None:
+            try:
+                v = p.validate(v)
+            except ValueError as err:
+                raise TermConfigError(name, k, str(err).removeprefix(f"{p.name}: ")) from None
+        elif v != v or v in (float("inf"), float("-inf")):
+            raise TermConfigError(name, k, f"must be finite, got {v!r}")
+        out.append((k, float(v)))
     return TermValues(name, tuple(sorted(out)))
+
+
+def plugin_names() -> List[str]:
+    """Names of the registered terms a scene lists in ``extra_terms`` (YAML ``terms:``): the ones
+    whose presence is the listing itself (not the built-in field, load and bending terms)."""
+    from .terms import EnergyTerm
+
+    return [c.name for c in registered_terms() if c.present.__func__ is EnergyTerm.present.__func__]

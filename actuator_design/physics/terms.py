@@ -12,6 +12,7 @@ the scene lists it in ``extra_terms`` (with its values).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Callable, Dict, List, Optional, Tuple
 
@@ -25,7 +26,7 @@ from .fields import FieldModel, field_model
 from .kinematics import PlanarKinematics, PlanarTip
 from .registry import register_term, registered_terms
 
-__all__ = ["EnergyTerm", "build_terms", "structure_key", "scalar_parameter_values",
+__all__ = ["EnergyTerm", "build_terms", "scene_wavenumber", "dense_hessian", "structure_key", "scalar_parameter_values",
            "node_field_sources", "node_field_values", "residual_slots", "Bending", "FieldOrientation",
            "FieldPosition", "TipForce", "TipMoment", "DistributedLoad"]
 
@@ -48,6 +49,10 @@ class EnergyTerm:
     """
 
     name = "term"
+    #: every parameter states its power laws in the field, B0 and χ (``Parameter.field_power``,
+    #: ``stiffness_power``, ``susceptibility_power``): analyses that rescale a scene (a fit of E, a
+    #: tolerance box) may take the term
+    scaling_declared = False
     parameters: Tuple[Parameter, ...] = ()
     scalar_params: Tuple[str, ...] = ()
     node_fields: Dict[str, NodeField] = {}
@@ -83,6 +88,19 @@ class EnergyTerm:
 
     def structure(self) -> tuple:
         return (self.name,)
+
+    # -- what the mesh and the memory budget need to know ----------------------------------------
+    @classmethod
+    def wavenumber(cls, scene: Scene) -> float:
+        """The inverse of the shortest length on which this term makes θ vary (units of 1/ℓ; 0 when
+        it sets none): the a-priori mesh grading (:func:`actuator_design.accuracy.scene_wavenumber`)."""
+        return 0.0
+
+    @classmethod
+    def dense_hessian(cls, scene: Scene) -> bool:
+        """Whether this term couples every node with every other (energy products of positions), so
+        the Hessian is dense and the mesh has the dense memory budget (:mod:`actuator_design.config.limits`)."""
+        return False
 
 
 # -- the built-in terms and their parameters ------------------------------------------------------
@@ -121,9 +139,10 @@ def _load(sc: Scene, i: int, v: Optional[float] = None):
 
 _H_KW = dict(term="field_orientation", lower=0.0, field_magnitude=True, residual="squared",
              ensure=_with_field)
-_F_KW = dict(term="tip_force", residual="linear",
+#: dead loads are ∝ 1/B0 (THEORY §5)
+_F_KW = dict(term="tip_force", residual="linear", stiffness_power=-1.0,
              ensure=lambda sc: sc if sc.tip_force is not None else replace(sc, tip_force=(0.0, 0.0)))
-_Q_KW = dict(unit="B0/l^3", term="distributed_load", residual="linear",
+_Q_KW = dict(unit="B0/l^3", term="distributed_load", residual="linear", stiffness_power=-1.0,
              ensure=lambda sc: sc if sc.distributed_load is not None else replace(sc, distributed_load=(0.0, 0.0)))
 
 
@@ -132,6 +151,7 @@ class Bending(EnergyTerm):
     """½ b(s) θ'² (THEORY §4: ½ Ẽ I κ², scaled by B0/ℓ)."""
 
     name = "bending"
+    scaling_declared = True  # its parameters state their power laws
     node_fields = {"b": lambda scene, s: scene.stiffness(s)}
 
     @classmethod
@@ -150,14 +170,15 @@ class FieldOrientation(EnergyTerm):
     """
 
     name = "field_orientation"
+    scaling_declared = True  # its parameters state their power laws
     node_fields = {"alpha": lambda scene, s: scene.fibres(s)}
     parameters = (
         Parameter("h", "field group h", "1", "h", read=lambda sc: sc.h,
                   write=lambda sc, v: replace(sc, h=v, field=sc.field or UniformField()),
-                  field_power=1, designable=True, **_H_KW),
+                  field_power=1, designable=True, stiffness_power=-0.5, susceptibility_power=0.5, **_H_KW),
         Parameter("h2", "h squared", "1", "h", read=lambda sc: sc.h ** 2,
                   write=lambda sc, v: replace(sc, h=float(np.sqrt(v)), field=sc.field or UniformField()),
-                  transform="sqrt", field_power=2, **_H_KW),
+                  transform="sqrt", field_power=2, stiffness_power=-1.0, susceptibility_power=1.0, **_H_KW),
         Parameter("phi", "uniform field angle phi", "rad", "phi", read=lambda sc: sc.phi,
                   write=lambda sc, v: replace(sc, field=UniformField(phi=v)), term="field_orientation",
                   ensure=_with_uniform_field, designable=True),
@@ -177,6 +198,16 @@ class FieldOrientation(EnergyTerm):
     @classmethod
     def from_scene(cls, scene):
         return cls(field_model(scene.field))
+
+    @classmethod
+    def wavenumber(cls, scene):
+        """√2 h, the pendulum frequency of THEORY §6 (and √2 h_pos: a gradient's own scale is only
+        known a posteriori)."""
+        return math.sqrt(2.0) * max(abs(scene.h), abs(scene.h_pos))
+
+    @classmethod
+    def dense_hessian(cls, scene):
+        return not scene.field.is_uniform
 
     def density(self, kin, P):
         h2 = P["h"] ** 2
@@ -198,10 +229,12 @@ class FieldPosition(EnergyTerm):
     """−h_pos² |ĥ(r)|² (THEORY §4, the χ̂ term; built only for non-uniform fields)."""
 
     name = "field_position"
+    scaling_declared = True  # its parameters state their power laws
     parameters = (
         Parameter("h_pos", "positional field group h_pos (non-uniform fields)", "1", "h_pos",
                   read=lambda sc: sc.h_pos, write=lambda sc, v: replace(sc, h_pos=v),
-                  term="field_position", lower=0.0, field_power=1, residual="squared"),
+                  term="field_position", lower=0.0, field_power=1, residual="squared",
+                  stiffness_power=-0.5, susceptibility_power=0.5),
     )
 
     def __init__(self, field: FieldModel):
@@ -232,6 +265,7 @@ class TipForce(EnergyTerm):
     """−f·r(1): dead tip force f = (fx, fy), p = fy (THEORY §5)."""
 
     name = "tip_force"
+    scaling_declared = True  # its parameters state their power laws
     scalar_params = ("fx", "fy")
     parameters = (
         Parameter("p", "vertical tip load p = fy", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
@@ -246,6 +280,10 @@ class TipForce(EnergyTerm):
     def present(cls, scene):
         return scene.tip_force is not None
 
+    @classmethod
+    def wavenumber(cls, scene):
+        return math.sqrt(math.hypot(*scene.tip_force))  # the elastica's √|f|
+
     def tip(self, tip, P):
         return -(P["fx"] * tip.x + P["fy"] * tip.y)
 
@@ -258,16 +296,22 @@ class TipMoment(EnergyTerm):
     """−m θ(1): dead tip moment, counter-clockwise positive."""
 
     name = "tip_moment"
+    scaling_declared = True  # its parameters state their power laws
     scalar_params = ("m_tip",)
     parameters = (
         Parameter("m_tip", "tip moment", "B0/l", "m_tip", read=lambda sc: sc.tip_moment or 0.0,
                   write=lambda sc, v: replace(sc, tip_moment=v), term="tip_moment", residual="linear",
+                  stiffness_power=-1.0,
                   ensure=lambda sc: sc if sc.tip_moment is not None else replace(sc, tip_moment=0.0)),
     )
 
     @classmethod
     def present(cls, scene):
         return scene.tip_moment is not None
+
+    @classmethod
+    def wavenumber(cls, scene):
+        return abs(scene.tip_moment)
 
     def tip(self, tip, P):
         return -P["m_tip"] * tip.theta
@@ -281,6 +325,7 @@ class DistributedLoad(EnergyTerm):
     """−q·r(s) per unit length: a dead distributed load such as weight."""
 
     name = "distributed_load"
+    scaling_declared = True  # its parameters state their power laws
     scalar_params = ("qx", "qy")
     parameters = (
         Parameter("qx", "distributed load x component", slot="qx", read=lambda sc: _load(sc, 0),
@@ -292,6 +337,10 @@ class DistributedLoad(EnergyTerm):
     @classmethod
     def present(cls, scene):
         return scene.distributed_load is not None
+
+    @classmethod
+    def wavenumber(cls, scene):
+        return math.hypot(*scene.distributed_load) ** (1.0 / 3.0)
 
     def density(self, kin, P):
         return -(P["qx"] * kin.x + P["qy"] * kin.y)
@@ -316,6 +365,16 @@ def build_terms(scene: Scene) -> List[EnergyTerm]:
             raise ValueError(f"extra_terms: {name!r} is not a registered energy term "
                              f"(registered: {', '.join(sorted(known))})")
     return [cls.from_scene(scene) for cls in classes if cls.present(scene)]
+
+
+def scene_wavenumber(scene: Scene) -> float:
+    """max(1, the wavenumbers of the terms ``scene`` contains) (units of 1/ℓ)."""
+    return max([1.0] + [cls.wavenumber(scene) for cls in registered_terms() if cls.present(scene)])
+
+
+def dense_hessian(scene: Scene) -> bool:
+    """Whether a term of ``scene`` makes the energy's Hessian dense."""
+    return any(cls.present(scene) and cls.dense_hessian(scene) for cls in registered_terms())
 
 
 def structure_key(terms: List[EnergyTerm]) -> tuple:
