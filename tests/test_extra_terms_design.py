@@ -12,32 +12,16 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_bvp
 
 from actuator_design.equilibrium import solve
 from actuator_design.options import SolverOptions
 from actuator_design.scene import Scene, UniformField
-
-S = np.linspace(0.0, 1.0, 201)
+from rod_bvp import S, rod_bvp
 
 
 def field_foundation_bvp(h, phi, k, fy=0.0, guess_theta=None):
-    """(tip x, y) of θ'' = h² sin 2(θ − φ) + N cos θ − fy cos θ, N' = −k y (THEORY §4 with the bed)."""
-    def rhs(s, u):
-        th, dth, y, n, x = u
-        return np.vstack([dth, h ** 2 * np.sin(2 * (th - phi)) + (n - fy) * np.cos(th), np.sin(th),
-                          -k * y, np.cos(th)])
-
-    def bc(a, b):
-        return np.array([a[0], b[1], a[2], b[3], a[4]])
-
-    guess = np.zeros((5, S.size))
-    guess[4] = S
-    if guess_theta is not None:
-        guess[0] = guess_theta(S)
-    sol = solve_bvp(rhs, bc, S, guess, tol=1e-10, max_nodes=200000)
-    assert sol.success, sol.message
-    return sol.y[4, -1], sol.y[2, -1]
+    """The field's torque h² sin 2(θ − φ), a dead tip force fy and the bed k."""
+    return rod_bvp(lambda s, th: h ** 2 * np.sin(2 * (th - phi)) - fy * np.cos(th), k, guess_theta)[:2]
 
 
 def fitted_youngs_modulus(tmp_path, rows, term):
@@ -149,26 +133,15 @@ def test_scenario_nlp_scales_the_foundation_with_youngs_modulus(monkeypatch):
 
 
 def field_tapered_bvp(h, phi, root, tip, guess_theta=None):
-    """(tip x, y) of θ'' = h² sin 2(θ − φ) + Qx sin θ − Qy cos θ, Q(s) = ∫ₛ¹ q (written out)."""
+    """The field's torque and the tapered load's, Qx sin θ − Qy cos θ with Q(s) = ∫ₛ¹ q written out."""
     (ax, ay), (bx, by) = root, tip
 
-    def rhs(s, u):
-        th, dth, x, y = u
+    def torque(s, th):
         qx = ax * (1 - s) ** 2 / 2 + bx * (1 - s ** 2) / 2
         qy = ay * (1 - s) ** 2 / 2 + by * (1 - s ** 2) / 2
-        return np.vstack([dth, h ** 2 * np.sin(2 * (th - phi)) + qx * np.sin(th) - qy * np.cos(th),
-                          np.cos(th), np.sin(th)])
+        return h ** 2 * np.sin(2 * (th - phi)) + qx * np.sin(th) - qy * np.cos(th)
 
-    def bc(a, b):
-        return np.array([a[0], b[1], a[2], a[3]])
-
-    guess = np.zeros((4, S.size))
-    guess[2] = S
-    if guess_theta is not None:
-        guess[0] = guess_theta(S)
-    sol = solve_bvp(rhs, bc, S, guess, tol=1e-10, max_nodes=200000)
-    assert sol.success, sol.message
-    return sol.y[2, -1], sol.y[3, -1]
+    return rod_bvp(torque, 0.0, guess_theta)[:2]
 
 
 def test_design_with_a_tapered_load_is_the_bvp_forward():
@@ -191,15 +164,7 @@ def test_fit_of_youngs_modulus_with_a_tapered_load_in_newton_per_metre(tmp_path)
     B = E * W * T ** 3 / 12
     rows = []
     for load_mN in (0.0, 0.05, 0.1, 0.2):
-        fy = load_mN * 1e-3 * L ** 2 / B
-
-        def rhs(s, u, fy=fy):
-            th, dth, y = u
-            qy = Q * L ** 3 / B * (1 - s ** 2) / 2  # root 0, tip Q (N/m)
-            return np.vstack([dth, -(qy + fy) * np.cos(th), np.sin(th)])
-
-        sol = solve_bvp(rhs, lambda a, b: np.array([a[0], b[1], a[2]]), S, np.zeros((3, S.size)), tol=1e-10,
-                        max_nodes=200000)
-        assert sol.success
-        rows.append(f"{load_mN!r}, {float(sol.y[2, -1] * L * 1e3)!r}")
+        fy, q_tip = load_mN * 1e-3 * L ** 2 / B, Q * L ** 3 / B  # dimensionless (THEORY §5)
+        _, y, _ = rod_bvp(lambda s, th: -(q_tip * (1 - s ** 2) / 2 + fy) * np.cos(th))  # Q(s) + the tip force
+        rows.append(f"{load_mN!r}, {float(y * L * 1e3)!r}")
     assert fitted_youngs_modulus(tmp_path, rows, "tapered_load: {q_tip_y: -0.05 N/m}") == pytest.approx(E, rel=1e-6)
