@@ -137,12 +137,14 @@ def user_units(scene, raw: Optional[dict] = None) -> Optional[UserUnits]:
 # -- parameters of the lens with a physical meaning ----------------------------------------------------
 def _kind(param) -> Optional[str]:
     """How a lens parameter maps to a physical quantity: "field", "field2", "field_r" (h_r ∝ H),
-    "angle", "force", "moment", "force_per_length" or None (no physical meaning here)."""
+    "angle", "force", "moment", "force_per_length", "force_per_area" (a stiffness per area, B0/ℓ⁴,
+    such as an elastic bed's) or None (no physical meaning here)."""
     if param.name == "h_r":
         return "field_r"
     if param.field_magnitude:
         return "field2" if param.transform == "sqrt" else "field"
-    return {"rad": "angle", "B0/l^2": "force", "B0/l": "moment", "B0/l^3": "force_per_length"}.get(param.unit)
+    return {"rad": "angle", "B0/l^2": "force", "B0/l": "moment", "B0/l^3": "force_per_length",
+            "B0/l^4": "force_per_area"}.get(param.unit)
 
 
 def parameter_unit_label(param, units: Optional[UserUnits]) -> Optional[str]:
@@ -154,7 +156,7 @@ def parameter_unit_label(param, units: Optional[UserUnits]) -> Optional[str]:
         return "mT" if units.has_field else None
     if kind == "field_r":
         return "mT" if units.has_remanent_field else None
-    return {"force": "N", "moment": "N m", "force_per_length": "N/m"}[kind]
+    return {"force": "N", "moment": "N m", "force_per_length": "N/m", "force_per_area": "Pa"}[kind]
 
 
 def parameter_physical(param, value: float, units: Optional[UserUnits]) -> Optional[float]:
@@ -170,9 +172,7 @@ def parameter_physical(param, value: float, units: Optional[UserUnits]) -> Optio
         return units.field_mT(math.sqrt(max(float(value), 0.0)))
     if kind == "field_r":
         return units.field_mT_of_h_r(value)
-    scale = {"force": units.force_scale, "moment": units.moment_scale,
-             "force_per_length": units.stiffness_scale}[kind]
-    return float(value) * scale
+    return float(value) * _scale(kind, units)
 
 
 def parameter_from_text(text, param, units: Optional[UserUnits], flag: str) -> float:
@@ -238,17 +238,24 @@ def _with_unit(text: str, param, units: Optional[UserUnits], flag: str) -> float
             raise ValueError(f"{flag}: this scene cannot convert a field to h_r "
                              "(it has no remanent magnetisation, magnetics.remanence)")
         return parse_quantity(text, "magnetic_field", flag) * units.h_r_per_field
-    dim, scale = {"force": ("force", units.force_scale), "moment": ("moment", units.moment_scale),
-                  "force_per_length": ("force_per_length", units.stiffness_scale)}[kind]
-    return parse_quantity(text, dim, flag) / scale
+    dim = "pressure" if kind == "force_per_area" else kind
+    return parse_quantity(text, dim, flag) / _scale(kind, units)
 
 
-_KEYS = {"force": "value_N", "moment": "value_N_m", "force_per_length": "value_N_per_m"}
+def _scale(kind: str, units: UserUnits) -> float:
+    """The SI value of one dimensionless unit of a load-like parameter: B0/ℓⁿ."""
+    return {"force": units.force_scale, "moment": units.moment_scale, "force_per_length": units.stiffness_scale,
+            "force_per_area": units.stiffness_scale / units.length_m}[kind]
+
+
+_KEYS = {"force": "value_N", "moment": "value_N_m", "force_per_length": "value_N_per_m",
+         "force_per_area": "value_Pa"}
 
 
 def physical_value_keys(param, value: float, units: Optional[UserUnits]) -> dict:
     """JSON keys to add beside a parameter value: ``field_mT`` and ``field_A_per_m`` for the field
-    groups (h: H = h / (dh/dH); h2: of √h2), ``value_N``/``value_N_m``/``value_N_per_m`` for loads;
+    groups (h: H = h / (dh/dH); h2: of √h2), ``value_N``/``value_N_m``/``value_N_per_m`` for loads,
+    ``value_Pa`` for a stiffness per area;
     empty for a dimensionless scene or a parameter without a physical unit."""
     label = parameter_unit_label(param, units)
     if label is None or not math.isfinite(float(value)):

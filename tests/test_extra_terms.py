@@ -15,50 +15,28 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_bvp
 
 from actuator_design import parameters as lens
 from actuator_design.equilibrium import solve
 from actuator_design.scene import Scene
-
-S = np.linspace(0.0, 1.0, 201)
+from rod_bvp import rod_bvp
 
 
 def foundation_bvp(k, fx=0.0, fy=0.0):
-    """(tip x, y, angle) of the rod on a Winkler foundation with a dead tip force (solve_bvp)."""
-    def rhs(s, u):
-        th, dth, y, n, x = u
-        return np.vstack([dth, n * np.cos(th) + fx * np.sin(th) - fy * np.cos(th), np.sin(th), -k * y,
-                          np.cos(th)])
-
-    def bc(a, b):
-        return np.array([a[0], b[1], a[2], b[3], a[4]])
-
-    guess = np.zeros((5, S.size))
-    guess[4] = S
-    sol = solve_bvp(rhs, bc, S, guess, tol=1e-10, max_nodes=200000)
-    assert sol.success, sol.message
-    return sol.y[4, -1], sol.y[2, -1], sol.y[0, -1]
+    """The rod on a Winkler foundation k with a dead tip force (fx, fy)."""
+    return rod_bvp(lambda s, th: fx * np.sin(th) - fy * np.cos(th), k)
 
 
 def tapered_bvp(root, tip):
-    """(tip x, y, angle) under q(s) = (1 − s) root + s tip (solve_bvp, Q(s) written out)."""
+    """Under q(s) = (1 − s) root + s tip: Qx sin θ − Qy cos θ, Q(s) = ∫ₛ¹ q written out."""
     (ax, ay), (bx, by) = root, tip
 
-    def rhs(s, u):
-        th, dth, x, y = u
+    def torque(s, th):
         qx = ax * (1 - s) ** 2 / 2 + bx * (1 - s ** 2) / 2
         qy = ay * (1 - s) ** 2 / 2 + by * (1 - s ** 2) / 2
-        return np.vstack([dth, qx * np.sin(th) - qy * np.cos(th), np.cos(th), np.sin(th)])
+        return qx * np.sin(th) - qy * np.cos(th)
 
-    def bc(a, b):
-        return np.array([a[0], b[1], a[2], a[3]])
-
-    guess = np.zeros((4, S.size))
-    guess[2] = S
-    sol = solve_bvp(rhs, bc, S, guess, tol=1e-10, max_nodes=200000)
-    assert sol.success, sol.message
-    return sol.y[2, -1], sol.y[3, -1], sol.y[0, -1]
+    return rod_bvp(torque)
 
 
 def linear_foundation_tip(k, fy):
@@ -180,31 +158,26 @@ def test_yaml_terms_dimensionless_and_physical(tmp_path):
     assert sc.term_values("tapered_load")["q_tip_y"] == pytest.approx(-0.1 * 0.02 ** 3 / b0, rel=1e-12)
 
 
-@pytest.mark.parametrize("entry, message", [
-    ("{type: foundation, k_foundation: -5}", r"scene\.terms\[0\]\.k_foundation: must be >= 0, got -5"),
-    ("{type: foundation, k: 5}", r"scene\.terms\[0\]\.k: unknown key \(allowed: k_foundation\)"),
-    ("{type: bogus}", r"scene\.terms\[0\]\.type: unknown term 'bogus' \(allowed: .*foundation"),
-    ("{k_foundation: 5}", r"scene\.terms\[0\]\.type: each entry needs a 'type'"),
-    ("{type: foundation, k_foundation: .nan}", r"scene\.terms\[0\]\.k_foundation: must be a finite number"),
-    ("{type: foundation, k_foundation: 2 kPa}", r"scene\.terms\[0\]\.k_foundation: .*physical unit"),
+@pytest.mark.parametrize("terms, message", [
+    ("[{type: foundation, k_foundation: -5}]", r"scene\.terms\[0\]\.k_foundation: must be >= 0, got -5"),
+    ("[{type: foundation, k: 5}]", r"scene\.terms\[0\]\.k: unknown key \(allowed: k_foundation\)"),
+    ("[{type: bogus}]", r"scene\.terms\[0\]\.type: unknown term 'bogus' \(allowed: .*foundation"),
+    ("[{k_foundation: 5}]", r"scene\.terms\[0\]\.type: each entry needs a 'type'"),
+    ("[{type: foundation, k_foundation: .nan}]", r"scene\.terms\[0\]\.k_foundation: must be a finite number"),
+    ("[{type: foundation, k_foundation: 2 kPa}]", r"scene\.terms\[0\]\.k_foundation: .*physical unit"),
+    ("[{type: foundation, k_foundation: 1}, {type: foundation, k_foundation: 2}]",
+     r"scene\.terms\[1\]\.type: the term 'foundation' is listed twice"),
+    ("{foundation: {type: tapered_load, q_tip_y: 1}}", r"scene\.terms\.foundation\.type: the mapping form"),
+    ("[{type: foundation, k_foundation: true}]", r"scene\.terms\[0\]\.k_foundation: must be a number, got True"),
+    ("{foundation: 5}", r"scene\.terms\.foundation: expected a mapping"),
+    ("7", r"scene\.terms: expected a list"),
 ])
-def test_bad_term_entries_are_one_line_naming_the_field(tmp_path, entry, message):
+def test_bad_term_entries_are_one_line_naming_the_field(tmp_path, terms, message):
     from actuator_design.config import ConfigError
     from actuator_design.config.model import load_config
 
-    (tmp_path / "c.yaml").write_text(f"scene:\n  type: dimensionless\n  terms:\n    - {entry}\n")
+    (tmp_path / "c.yaml").write_text(f"scene:\n  type: dimensionless\n  terms: {terms}\n")
     with pytest.raises(ConfigError, match=message):
-        load_config(tmp_path / "c.yaml")
-
-
-def test_a_term_listed_twice_is_refused(tmp_path):
-    from actuator_design.config import ConfigError
-    from actuator_design.config.model import load_config
-
-    (tmp_path / "c.yaml").write_text("scene:\n  type: dimensionless\n  terms:\n"
-                                     "    - {type: foundation, k_foundation: 1}\n"
-                                     "    - {type: foundation, k_foundation: 2}\n")
-    with pytest.raises(ConfigError, match=r"scene\.terms\[1\]\.type: the term 'foundation' is listed twice"):
         load_config(tmp_path / "c.yaml")
 
 
@@ -340,21 +313,6 @@ def test_a_term_without_declared_scaling_is_refused_by_a_material_tolerance():
         unregister_term("toy_undeclared")
 
 
-@pytest.mark.parametrize("terms, message", [
-    ("{foundation: {type: tapered_load, q_tip_y: 1}}", r"scene\.terms\.foundation\.type: the mapping form"),
-    ("[{type: foundation, k_foundation: true}]", r"scene\.terms\[0\]\.k_foundation: must be a number, got True"),
-    ("{foundation: 5}", r"scene\.terms\.foundation: expected a mapping"),
-    ("7", r"scene\.terms: expected a list"),
-])
-def test_more_bad_term_entries(tmp_path, terms, message):
-    from actuator_design.config import ConfigError
-    from actuator_design.config.model import load_config
-
-    (tmp_path / "c.yaml").write_text(f"scene:\n  type: dimensionless\n  terms: {terms}\n")
-    with pytest.raises(ConfigError, match=message):
-        load_config(tmp_path / "c.yaml")
-
-
 def test_a_dense_term_gets_the_dense_memory_budget_in_a_config_and_on_the_command_line(tmp_path, capsys):
     from actuator_design.cli.main import main
     from actuator_design.config import ConfigError
@@ -383,3 +341,23 @@ def test_the_term_order_does_not_depend_on_what_was_imported_first():
     names = out.strip().split(",")
     assert names[0] == "bending"
     assert names.index("hard_magnetic") < names.index("foundation") < names.index("tapered_load")
+
+
+def test_physical_continuation_in_pascal_reports_pascal(tmp_path, capsys):
+    """--from/--to in Pa on a physical scene: k = k_SI ℓ⁴/B0; each point carries value_Pa."""
+    from actuator_design.cli.main import main
+
+    (tmp_path / "p.yaml").write_text(
+        "scene:\n  type: physical\n  rod: {length: 20 mm, width: 5 mm, thickness: 1 mm, youngs_modulus: 1 MPa}\n"
+        "  loads:\n    tip_force: {x: 0 N, y: 1 mN}\n  terms: {foundation: {k_foundation: 0 Pa}}\n")
+    assert main(["continue", str(tmp_path / "p.yaml"), "--param", "k_foundation", "--from", "0 Pa", "--to", "100 Pa",
+                 "--json"]) == 0
+    pts = json.loads(capsys.readouterr().out)["branch"]
+    b0, length = 1e6 * 5e-3 * 1e-3 ** 3 / 12, 0.02
+    assert pts[-1]["value_Pa"] == pytest.approx(100.0, rel=1e-12)
+    assert pts[-1]["k_foundation"] == pytest.approx(100.0 * length ** 4 / b0, rel=1e-12)
+    fy = 1e-3 * length ** 2 / b0
+    x, y, _ = foundation_bvp(pts[-1]["k_foundation"], 0.0, fy)
+    assert (pts[-1]["tip_x"], pts[-1]["tip_y"]) == pytest.approx((x, y), abs=1e-7)
+    assert main(["continue", str(tmp_path / "p.yaml"), "--param", "k_foundation", "--from", "0 N", "--to", "1 Pa"]) == 2
+    assert "expected a pressure" in capsys.readouterr().err
