@@ -51,6 +51,10 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "DistributedLoad": ("physics.terms", "DistributedLoad"),
     "HardMagnetic": ("physics.hard_magnetic", "HardMagnetic"),
     "build_terms": ("physics.terms", "build_terms"),
+    # writing a term of your own (the shipped extra terms are written this way)
+    "register_term": ("physics.registry", "register_term"),
+    "plugin_parameter": ("parameters", "plugin_parameter"),
+    "term_class": ("physics.registry", "term_class"),
     # analyses
     "solve": ("equilibrium", "solve"),
     "equilibria": ("analysis.equilibria", "find_equilibria"),
