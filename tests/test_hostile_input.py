@@ -110,6 +110,9 @@ def test_bending_stiffness_that_underflows_to_zero(tmp_path):
     ("tip_force: {x: 1.0e6, y: 0}", "scene.tip_force.x"),
     ("tip_moment: 1.0e300", "scene.tip_moment"),
     ("distributed_load: {x: 0, y: -1.0e9}", "scene.distributed_load.y"),
+    ("h: " + "9" * 400, "scene.h"),  # YAML reads it as an int beyond the float range
+    ("terms: {foundation: {k_foundation: -" + "9" * 400 + "}}", "scene.terms.foundation.k_foundation"),
+    ("terms: {foundation: {k_foundation: 2.0e10}}", "scene.terms.foundation.k_foundation"),
 ])
 def test_dimensionless_groups_out_of_range(tmp_path, scene, field):
     text = f"scene:\n  type: dimensionless\n  {scene}\n"

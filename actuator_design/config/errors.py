@@ -93,8 +93,11 @@ def _short_repr(value: Any, limit: int = 80) -> str:
 
 
 def first_non_finite(obj, path=()):
-    """Path (tuple of keys/indices) of the first NaN/inf float in nested dicts/lists, or None."""
+    """Path (tuple of keys/indices) of the first NaN/inf float, or integer beyond the float range
+    (YAML reads 400 digits as an int), in nested dicts/lists, or None."""
     if isinstance(obj, float) and not math.isfinite(obj):
+        return path
+    if isinstance(obj, int) and not isinstance(obj, bool) and abs(obj) > 1e308:
         return path
     items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else ()
     for key, val in items:

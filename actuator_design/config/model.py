@@ -185,7 +185,8 @@ def load_config(source: Union[str, Path, dict]) -> Config:
         raise ConfigError("config", f"expected a mapping with a 'scene' key, got {type(data).__name__}")
     bad = first_non_finite(data)
     if bad is not None:
-        raise ConfigError(dotted(bad), "must be a finite number, got NaN or infinity")
+        raise ConfigError(dotted(bad), "must be a finite number, got NaN, infinity or a number beyond the "
+                                       "float range (about ±1.8e308)")
     try:
         config = Config.model_validate(data)
     except ValidationError as err:

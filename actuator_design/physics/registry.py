@@ -218,6 +218,8 @@ def parse_term_config(spec, convert=None) -> "TermValues":
             raise TermConfigError(name, k, f"must be a number, got {v!r}")
         try:
             v = convert(p, v, k) if (convert is not None and p is not None) else float(v)
+        except OverflowError:
+            raise TermConfigError(name, k, f"must be a finite number, got {v!r:.80}") from None
         except (TypeError, ValueError) as err:
             detail = getattr(err, "detail", None) or (f"must be a number, got {v!r:.80}"
                                                       if isinstance(err, TypeError) or "float" in str(err)
