@@ -45,6 +45,7 @@ def bed_scene(k=15.0):
         "foundation", k_foundation=k)
 
 
+@pytest.mark.slow  # 7 s; the tapered load's design test covers the same path in the default run
 def test_design_of_the_field_with_a_foundation_is_the_bvp_forward():
     from actuator_design.analysis.design import design
 

@@ -229,7 +229,7 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
         (``EnergyTerm.scaling_declared``): its values would silently stay fixed.
     """
     from .. import parameters as lens
-    from ..physics.registry import registered_terms, term_class
+    from ..physics.registry import registered_terms, term_class, write_keeps_terms
 
     if g["youngs_rel"] or g["chi_rel"]:
         for cls in registered_terms():
@@ -245,7 +245,7 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
         f, e, c = p.field_power, p.stiffness_power, p.susceptibility_power
         v = p.get(scene) if (f or e or c) else 0.0
         if v == 0.0 or (p.term is not None and not term_class(p.term).present(scene)
-                        and _present(p.write(scene, v)) != _present(scene)):
+                        and not write_keeps_terms(p, scene, v)):
             continue  # nothing to scale, or a term's value stored while it is absent whose write would add it
         num, den = (1.0 + g["chi_rel"]) ** c, (1.0 + g["youngs_rel"]) ** (-e)
         if (2 * e) % 2 or (2 * c) % 2:  # a half power: one square root of the whole ratio
@@ -257,9 +257,3 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
             new = (num / den) * v
         if new != v:
             yield p, new
-
-
-def _present(scene: Scene) -> Tuple[str, ...]:
-    from ..physics.registry import registered_terms
-
-    return tuple(c.name for c in registered_terms() if c.present(scene))

@@ -16,7 +16,7 @@ from typing import Dict, List, Optional, Type
 
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
-           "TermConfigError", "plugin_names"]
+           "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -132,6 +132,18 @@ def _load_extra_terms() -> None:
     for info in sorted(pkgutil.iter_modules(extra_terms.__path__), key=lambda m: m.name):
         if not info.name.startswith("_"):
             importlib.import_module(f"{extra_terms.__name__}.{info.name}")
+
+
+def present_terms(scene) -> tuple:
+    """Names of the registered terms ``scene`` contains, in order."""
+    return tuple(c.name for c in registered_terms() if c.present(scene))
+
+
+def write_keeps_terms(p, scene, value) -> bool:
+    """Whether writing lens parameter ``p`` at ``value`` into ``scene`` leaves the set of terms it
+    contains as it is (a value stored for an absent term, e.g. h_r without a magnetisation, may be
+    rescaled; one whose write would add its term may not)."""
+    return present_terms(p.write(scene, value)) == present_terms(scene)
 
 
 def unsupported_terms(scene, supported) -> List[str]:
