@@ -209,7 +209,7 @@ def _split(column: str) -> Tuple[str, str]:
     return ".".join(parts), "".join("." + t for t in tail)
 
 
-_SI_SUFFIXES = (("_N_per_m", None), ("_A_per_m", "field"), ("_N_m", None), ("_Nm", None),
+_SI_SUFFIXES = (("_N_per_m", None), ("_Pa", None), ("_A_per_m", "field"), ("_N_m", None), ("_Nm", None),
                 ("_per_m", None), ("_m", "length"))
 
 

@@ -15,7 +15,7 @@ from typing import Dict, Iterable, List, Optional, Tuple
 
 from .display import number
 from .units import MU0
-from .user_units import parameter_physical, parameter_unit_label, physical_value_keys
+from .user_units import VALUE_KEY_UNITS, parameter_physical, parameter_unit_label, physical_value_keys
 
 __all__ = ["units_line", "unit_suffix", "tip_in", "length_text", "parameter_conversion",
            "value_text", "scene_physical", "scene_text", "point_physical", "add_point_units",
@@ -23,7 +23,7 @@ __all__ = ["units_line", "unit_suffix", "tip_in", "length_text", "parameter_conv
            "state_csv_note", "command_physical", "values_in_unit", "column_note"]
 
 #: Column and key suffix of each unit a parameter is reported in.
-_SUFFIX = {"mT": "mT", "N": "N", "N m": "N_m", "N/m": "N_per_m"}
+_SUFFIX = {"mT": "mT", "N": "N", "N m": "N_m", "N/m": "N_per_m", "Pa": "Pa"}
 
 
 def units_line(units) -> str:
@@ -34,7 +34,7 @@ def units_line(units) -> str:
 
 
 def unit_suffix(label: str) -> str:
-    """The suffix of a key or CSV column in unit ``label``: ``mT``, ``N``, ``N_m``, ``N_per_m``."""
+    """The suffix of a key or CSV column in unit ``label``: ``mT``, ``N``, ``N_m``, ``N_per_m``, ``Pa``."""
     return _SUFFIX[label]
 
 
@@ -166,8 +166,7 @@ def physical_header(units, params: Iterable = (), extra: Optional[Dict[str, str]
         if note is not None:
             notes.append(note)
     described = {"tip": u, "energy_J": "J", "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m",
-                 "value_N": "N", "value_N_m": "N m", "value_N_per_m": "N/m",
-                 f"gamma_rad_per_{u}": f"rad/{u}", "tip_force_N": "N", "tip_moment_N_m": "N m",
+                 **VALUE_KEY_UNITS, f"gamma_rad_per_{u}": f"rad/{u}", "tip_force_N": "N", "tip_moment_N_m": "N m",
                  "distributed_load_N_per_m": "N/m", **(extra or {})}
     return {"length_unit": u, "units": described,
             "parameters": {n: (unit + " (mu0 H)" if unit == "mT" else unit) for n, unit in names.items()

@@ -23,7 +23,7 @@ from typing import Optional
 
 from .units import MU0, angle_range_problem, parse_quantity, registry
 
-__all__ = ["UserUnits", "user_units", "length_unit_of", "parameter_from_text",
+__all__ = ["VALUE_KEY_UNITS", "UserUnits", "user_units", "length_unit_of", "parameter_from_text",
            "parameter_physical", "parameter_unit_label", "physical_value_keys", "add_physical_values",
            "pair_from_text"]
 
@@ -250,6 +250,9 @@ def _scale(kind: str, units: UserUnits) -> float:
 
 _KEYS = {"force": "value_N", "moment": "value_N_m", "force_per_length": "value_N_per_m",
          "force_per_area": "value_Pa"}
+#: The JSON key of a load-like parameter's value in its physical unit → that unit (one table for
+#: every command's texts and ``physical.units``).
+VALUE_KEY_UNITS = {"value_N": "N", "value_N_m": "N m", "value_N_per_m": "N/m", "value_Pa": "Pa"}
 
 
 def physical_value_keys(param, value: float, units: Optional[UserUnits]) -> dict:

@@ -361,3 +361,59 @@ def test_physical_continuation_in_pascal_reports_pascal(tmp_path, capsys):
     assert (pts[-1]["tip_x"], pts[-1]["tip_y"]) == pytest.approx((x, y), abs=1e-7)
     assert main(["continue", str(tmp_path / "p.yaml"), "--param", "k_foundation", "--from", "0 N", "--to", "1 Pa"]) == 2
     assert "expected a pressure" in capsys.readouterr().err
+    # the written tables carry the unit too (continue and a loading path)
+    for command, name in (("continue", "branch.csv"), ("path", "path.csv")):
+        out = tmp_path / command
+        assert main([command, str(tmp_path / "p.yaml"), "--param", "k_foundation", "--from", "0 Pa", "--to",
+                     "100 Pa", "--out", str(out)]) == 0
+        header = [ln for ln in (out / name).read_text().splitlines() if not ln.startswith("#")][0]
+        assert "_Pa" in header, header
+    assert "k_foundation [Pa]" in capsys.readouterr().out
+
+
+def test_a_plug_in_value_the_field_drives_moves_with_a_designed_h():
+    """design_field_groups reads the lens: a toy slot with field power 2 follows (h/h0)², in the
+    design NLP's parameter map (CasADi) and in the forward scene alike; h_r, h_pos ∝ h exactly."""
+    import casadi as ca
+
+    from actuator_design.analysis.design_field_groups import couple_field_groups, coupled_scene
+    from actuator_design.options import SolverOptions
+    from actuator_design.parameters import plugin_parameter
+    from actuator_design.physics.registry import register_term, unregister_term
+    from actuator_design.physics.terms import EnergyTerm
+    from actuator_design.profiles import constant_profile
+    from actuator_design.scene import DipoleField
+    from actuator_design.solver import get_solver
+
+    @register_term(replace=True)
+    class FieldSquared(EnergyTerm):
+        name = "toy_field_squared"
+        scaling_declared = True
+        scalar_params = ("g_field",)
+        parameters = (plugin_parameter("toy_field_squared", "g_field", "a group ∝ H²", field_power=2),)
+
+        def density(self, kin, P):
+            return -P["g_field"] * ca.cos(kin.theta)
+
+    try:
+        from dataclasses import replace
+
+        base = replace(Scene(field=DipoleField(), h=1.5, h_pos=0.4, h_r=0.7, tip_force=None,
+                             magnetization=constant_profile(0.0)).with_term("toy_field_squared", g_field=3.0))
+        designed = base.with_values(h=2.1)
+        sc = coupled_scene(base, designed)
+        k = 2.1 / 1.5
+        assert sc.term_values("toy_field_squared")["g_field"] == pytest.approx(3.0 * k ** 2, rel=1e-15)
+        assert (sc.h_r, sc.h_pos) == (0.7 * k, 0.4 * k)
+        sv = get_solver(base, SolverOptions())
+        sl = sv.layout.slices
+        P0 = ca.DM(sv.parameter_vector(base))
+        h = ca.SX.sym("h")
+        P = ca.SX(P0)
+        couple_field_groups(P, P0, h, sl)
+        f = ca.Function("f", [h], [P[sl["g_field"]], P[sl["h_r"]], P[sl["h_pos"]]])
+        g, h_r, h_pos = (float(v) for v in f(2.1))
+        assert g == pytest.approx(3.0 * k ** 2, rel=1e-14)
+        assert (h_r, h_pos) == pytest.approx((0.7 * k, 0.4 * k), rel=1e-15)
+    finally:
+        unregister_term("toy_field_squared")

@@ -48,6 +48,8 @@ import sys
 from typing import Dict, Optional, Union
 
 from ..display import number
+from ..unit_results import unit_suffix
+from ..user_units import VALUE_KEY_UNITS
 from ..parameters import degree_aliases, names as parameter_names
 from .scene_args import add_scene_args, build_scene, validate_study
 from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
@@ -331,7 +333,7 @@ def _values_text(values: dict, units) -> str:
             out.append(f"mu0 H = {number(keys['field_mT'])} mT")
         elif keys:
             (key, val), = keys.items()
-            out.append(f"{name} = {number(val)} {dict(value_N='N', value_N_m='N m', value_N_per_m='N/m')[key]}")
+            out.append(f"{name} = {number(val)} {VALUE_KEY_UNITS[key]}")
         elif name in ("phi", "alpha", "theta0"):
             out.append(f"{name} = {number(math.degrees(v))} deg")
         else:
@@ -350,16 +352,12 @@ def _where_text(data):
     def where(item):
         if "field_mT" in item:
             return f"mu0 H = {number(item['field_mT'])} mT ({number(item['field_A_per_m'])} A/m)"
-        for key, unit in (("value_N", "N"), ("value_N_m", "N m"), ("value_N_per_m", "N/m")):
+        for key, unit in VALUE_KEY_UNITS.items():
             if key in item:
                 return f"{data['param']} = {number(item[key])} {unit}"
         return (f"{data['param'] or 't'} = {item['param']:.10g}"
                 + (" deg" if data.get("param_unit") == "deg" else ""))
     return where
-
-
-def _unit_suffix(label: str) -> str:
-    return {"mT": "mT", "N": "N", "N m": "N_m", "N/m": "N_per_m"}[label]
 
 
 def add_physical_block(data: dict, path, units, factor: float = 1.0) -> None:
@@ -388,7 +386,7 @@ def add_physical_block(data: dict, path, units, factor: float = 1.0) -> None:
     fin = data["final"]
     phys = {"length_unit": units.length_unit,
             "units": {"tip": units.length_unit, "energy_J": "J", "field_mT": "mT (mu0 H)",
-                      "field_A_per_m": "A/m", "value_N": "N", "value_N_m": "N m", "value_N_per_m": "N/m"},
+                      "field_A_per_m": "A/m", **VALUE_KEY_UNITS},
             "final": {"tip": tip(fin["tip"]), "energy_J": fin["energy"] * units.moment_scale},
             "schedule": {}}
     for n in path.names:
@@ -458,13 +456,13 @@ def _physical_columns(path, data, cols, rows, units):
     extra_cols = [f"tip_x_{u}", f"tip_y_{u}", "energy_J"]
     named = [(n, parameter(n), parameter_unit_label(parameter(n), units)) for n in path.names]
     named = [(n, p, lab) for n, p, lab in named if lab is not None]
-    extra_cols += [f"value_{n}_{_unit_suffix(lab)}" for n, _p, lab in named]
+    extra_cols += [f"value_{n}_{unit_suffix(lab)}" for n, _p, lab in named]
     out = []
     for row, pt in zip(rows, data["points"]):
         ph = pt["physical"]
         out.append(list(row) + [ph["tip"]["x"], ph["tip"]["y"], ph["energy_J"]]
                    + [parameter_physical(p, pt["values"][n], units) for n, p, _lab in named])
     text = f"tip_x_{u}, tip_y_{u} in {u}; energy_J in J" + "".join(
-        f"; value_{n}_{_unit_suffix(lab)} in {lab}" + (" (mu0 H)" if lab == "mT" else "")
+        f"; value_{n}_{unit_suffix(lab)} in {lab}" + (" (mu0 H)" if lab == "mT" else "")
         for n, _p, lab in named)
     return cols + extra_cols, out, text

@@ -97,8 +97,11 @@ def first_non_finite(obj, path=()):
     (YAML reads 400 digits as an int), in nested dicts/lists, or None."""
     if isinstance(obj, float) and not math.isfinite(obj):
         return path
-    if isinstance(obj, int) and not isinstance(obj, bool) and abs(obj) > 1e308:
-        return path
+    if isinstance(obj, int) and not isinstance(obj, bool):
+        try:
+            float(obj)
+        except OverflowError:
+            return path
     items = obj.items() if isinstance(obj, dict) else enumerate(obj) if isinstance(obj, list) else ()
     for key, val in items:
         found = first_non_finite(val, path + (key,))

@@ -64,16 +64,23 @@ class SolverSpec(StrictModel):
 
 
 def _dense_terms(scene) -> bool:
-    """A plug-in term of the scene's ``terms:`` makes the Hessian dense (``EnergyTerm.dense_hessian``)."""
+    """A term of the scene's ``terms:`` makes the Hessian dense (``EnergyTerm.dense_hessian``, asked
+    of the scene itself); a term whose own answer fails is reported as a configuration error."""
     if not getattr(scene, "terms", None):
         return False
-    from ..physics.terms import dense_hessian
-    from ..scene import Scene
-    from .term_specs import terms_of
+    import warnings
 
-    length, b0 = ((scene.rod.length, scene.rod.clamp_stiffness) if isinstance(scene, PhysicalScene)
-                  else (None, None))
-    return dense_hessian(Scene(field=None, tip_force=None, extra_terms=terms_of(scene.terms, length, b0)))
+    from .checks import _is_dense
+
+    try:
+        with warnings.catch_warnings():  # the scene is built again (and warns) when it is loaded
+            warnings.simplefilter("ignore")
+            return _is_dense(scene.to_scene())
+    except ValueError:
+        raise
+    except Exception as err:  # a user term's dense_hessian that raised: one line, not a traceback
+        raise ValueError(f"terms: a term could not say whether it couples every point: "
+                         f"{type(err).__name__}: {err}") from None
 
 
 class Config(StrictModel):

@@ -219,7 +219,7 @@ def parse_term_config(spec, convert=None) -> "TermValues":
                 e = errors()[0]
                 loc = ".".join(str(p) for p in e.get("loc", ()))
                 raise TermConfigError(name, loc, e.get("msg", str(err))) from None
-            raise ValueError(f"terms.{name}: {err}") from None
+            raise TermConfigError(name, "type", f"{type(err).__name__}: {err}"[:200]) from None
     by_slot = {p.slot: p for p in cls.parameters if not p.per_point}
     out = []
     for k, v in values.items():

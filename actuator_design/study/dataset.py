@@ -67,7 +67,7 @@ _FIXED = ("point", "status", "message")
 #: Name endings that state a unit in the package's result keys, longest first
 #: (``time_s``, ``tip_x_m``, ``energy_J``, ``clamp_force_N``, ``clamp_moment_Nm``,
 #: ``vertical_stiffness_N_per_m``, ``field_A_per_m``, ``tip_angle_rad``, ``phi_deg``).
-_SUFFIX_UNITS = (("_N_per_m", "N/m"), ("_A_per_m", "A/m"), ("_N_m", "N m"), ("_Nm", "N m"),
+_SUFFIX_UNITS = (("_N_per_m", "N/m"), ("_Pa", "Pa"), ("_A_per_m", "A/m"), ("_N_m", "N m"), ("_Nm", "N m"),
                  ("_rad", "rad"), ("_deg", "deg"), ("_mT", "mT"), ("_mm", "mm"), ("_cm", "cm"),
                  ("_um", "um"), ("_µm", "µm"), ("_nm", "nm"), ("_km", "km"), ("_J", "J"),
                  ("_N", "N"), ("_m", "m"), ("_s", "s"))
