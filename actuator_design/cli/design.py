@@ -45,7 +45,7 @@ from ..display import degrees, number
 from ..parameters import designable
 from .design_currents import add_hardware_args
 from .design_force import parse_force, run_force
-from .design_units import add_schedule_units, positive_target, quasi_static_line, unit_labels
+from .design_units import add_schedule_units, positive_target, quasi_static_line, refuse_unknown_keys, unit_labels
 from .output import print_written, write_out
 from .scene_args import add_set_arg, apply_set_flags, check_flags
 
@@ -154,9 +154,7 @@ def _inputs(args):
     study.pop("type", None)
     allowed = {"target", "targets", "target_units", "vary", "stiffness", "force", "rate", "rotation_rate",
                *[f.name for f in dataclasses.fields(DesignSettings)]}
-    unknown = sorted(set(study) - allowed)
-    if unknown:
-        raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(sorted(allowed))})")
+    refuse_unknown_keys(study, sorted(allowed))
     target_text = args.target_tip
     if target_text is None and "target" in study:
         target_text = ",".join(str(v) for v in study["target"])

@@ -7,8 +7,17 @@ import math
 
 from .common import InputError, bad_input
 
-__all__ = ["unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
+__all__ = ["refuse_unknown_keys", "unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
            "tip_columns", "finish_schedule", "path_line", "hold_path", "substeps_arg"]
+
+
+def refuse_unknown_keys(study: dict, allowed, what: str = "") -> None:
+    """InputError ``study.<key>: unknown key[ for <what>] (allowed: …)`` for the first key of the
+    ``study:`` section (sorted) that is not in ``allowed`` (listed in its given order)."""
+    unknown = sorted(set(study) - set(allowed))
+    if unknown:
+        raise InputError(f"study.{unknown[0]}: unknown key{' for ' + what if what else ''} "
+                         f"(allowed: {', '.join(allowed)})")
 
 
 def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: str):

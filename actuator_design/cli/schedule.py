@@ -30,7 +30,7 @@ from pathlib import Path
 
 from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
                      parse_rates, stdout_to_stderr, table_csv_text)
-from .design_units import path_line, positive_target, quasi_static_line
+from .design_units import path_line, positive_target, quasi_static_line, refuse_unknown_keys
 from .output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
@@ -210,10 +210,7 @@ def run(args: argparse.Namespace) -> int:
                          "an ideal field's schedule takes --rate and --rotation-rate")
     if study and not coils and not stage:
         from ..config.study_specs import SCHEDULE_KEYS
-        allowed = SCHEDULE_KEYS["field"]
-        unknown = sorted(set(study) - set(allowed))
-        if unknown:
-            raise InputError(f"study.{unknown[0]}: unknown key (allowed: {', '.join(allowed)})")
+        refuse_unknown_keys(study, SCHEDULE_KEYS["field"])
     if args.waypoints and args.path_csv:
         raise InputError("--waypoints and --path-csv: give one of them, not both")
     if args.waypoints:

@@ -16,7 +16,8 @@ import sys
 
 from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, hold_path, substeps_arg, tip_columns
+from .design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys, substeps_arg,
+                           tip_columns)
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
@@ -53,10 +54,7 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
         if key in study:
             raise InputError(f"study.{key}: not for a field from coils, whose currents are scheduled; give "
                              "slew_rate (e.g. 20 A/s)")
-    unknown = sorted(set(study) - set(STUDY_KEYS))
-    if unknown:
-        raise InputError(f"study.{unknown[0]}: unknown key for a schedule over coil currents (allowed: "
-                         f"{', '.join(STUDY_KEYS)})")
+    refuse_unknown_keys(study, STUDY_KEYS, "a schedule over coil currents")
     coils = scene.field.sources
     slew_text = args.slew_rate if args.slew_rate is not None else study.get("slew_rate")
     if slew_text is None:

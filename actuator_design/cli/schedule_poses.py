@@ -14,7 +14,8 @@ import sys
 
 from ..config.study_specs import SCHEDULE_KEYS
 from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import closing_lines, finish_schedule, hold_path, substeps_arg, tip_columns
+from .design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys, substeps_arg,
+                           tip_columns)
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
@@ -48,10 +49,7 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
         if value is not None:
             raise InputError(f"{flag}: the scene's magnet has a travel, whose pose is scheduled; give the stage's "
                              "--stage-speed (e.g. 10mm/s) and --turn-rate (e.g. 90deg/s) instead")
-    unknown = sorted(set(study) - set(STUDY_KEYS))
-    if unknown:
-        raise InputError(f"study.{unknown[0]}: unknown key for a schedule over a magnet's pose (allowed: "
-                         f"{', '.join(STUDY_KEYS)})")
+    refuse_unknown_keys(study, STUDY_KEYS, "a schedule over a magnet's pose")
     moving = next(s.travel for s in scene.field.sources if getattr(s, "travel", ()))
     speed = _rate(args, study, "--stage-speed", "stage_speed", "speed", "10mm/s",
                   moving[0] is not None or moving[1] is not None)

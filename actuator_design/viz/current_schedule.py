@@ -3,8 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .design import waypoint_panel
-from .style import new_figure
+from .design import hardware_schedule_axes
 
 __all__ = ["current_schedule_figure"]
 
@@ -23,10 +22,7 @@ def current_schedule_figure(sched, units=None):
     -------
     matplotlib.figure.Figure
     """
-    fig = new_figure((11, 4.8))
-    ax, ax_c = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
-    if sched.verification is not None:
-        waypoint_panel(ax, sched.verification, units, verified=sched.success)
+    fig, ax_c = hardware_schedule_axes(sched, units)
     colours = [f"C{k}" for k in range(len(sched.max_current))]
     curves = [(sched.times, sched.currents, "-")]
     if sched.optimal:

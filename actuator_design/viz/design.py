@@ -18,7 +18,7 @@ from .shape import plot_shape
 from .style import gif_bytes, new_figure
 from .units import field_axis, length_axes
 
-__all__ = ["design_figure", "design_png", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
+__all__ = ["hardware_schedule_axes", "design_figure", "design_png", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
            "shape_fit_figure"]
 
 
@@ -236,6 +236,19 @@ def _spread_panel(ax, report, target, units=None) -> None:
 def _rod_xy(state, n: int = 150):
     d = state.evaluate(np.linspace(0.0, 1.0, n))
     return d["x"], d["y"]
+
+
+def hardware_schedule_axes(sched, units=None):
+    """(figure, right axes) of a hardware schedule's figure: the rod at every waypoint on the left
+    (:func:`waypoint_panel` of ``sched.verification``, when verified) and the right axes for the
+    schedule itself against time."""
+    from .style import new_figure
+
+    fig = new_figure((11, 4.8))
+    ax, ax_right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
+    if sched.verification is not None:
+        waypoint_panel(ax, sched.verification, units, verified=sched.success)
+    return fig, ax_right
 
 
 def waypoint_panel(ax, result, units=None, verified=None) -> None:

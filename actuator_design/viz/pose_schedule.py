@@ -5,8 +5,7 @@ import math
 
 import numpy as np
 
-from .design import waypoint_panel
-from .style import new_figure
+from .design import hardware_schedule_axes
 
 __all__ = ["pose_schedule_figure"]
 
@@ -25,10 +24,7 @@ def pose_schedule_figure(sched, units=None):
     -------
     matplotlib.figure.Figure
     """
-    fig = new_figure((11, 4.8))
-    ax, ax_p = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
-    if sched.verification is not None:
-        waypoint_panel(ax, sched.verification, units, verified=sched.success)
+    fig, ax_p = hardware_schedule_axes(sched, units)
     pos = np.asarray(sched.positions, float).reshape(-1, 2) * 1e3
     ax_p.plot(sched.times, pos[:, 0], "-", color="C0", label="x / mm")
     ax_p.plot(sched.times, pos[:, 1], "-", color="C1", label="y / mm")
