@@ -55,7 +55,7 @@ def while_waiting(fn: Callable[[], None]) -> None:
 
 
 def _workers() -> int:
-    from .parallel import default_workers
+    from actuator_design.parallel import default_workers
 
     given = os.environ.get(WORKERS_ENV, "").strip()
     if given.isdigit() and int(given) >= 1:
@@ -68,7 +68,7 @@ def _workers() -> int:
 
 def fork_allowed() -> bool:
     """Whether :func:`start` may fork (see the module docstring for when it does not)."""
-    from .parallel import in_worker
+    from actuator_design.parallel import in_worker
 
     # Linux only: macOS's system libraries are not safe to use in a forked child
     # a forked child forks no further: it dies with its parent (PR_SET_PDEATHSIG), and a
@@ -144,7 +144,7 @@ class Forked(Generic[T]):
             code = 0
             try:
                 signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C: the parent reports it
-                from .parallel import end_with_parent
+                from actuator_design.parallel import end_with_parent
                 end_with_parent()  # a parent killed outright leaves no child computing for nobody
                 quiet = os.open(os.devnull, os.O_WRONLY)  # what the task says, the parent says
                 os.dup2(quiet, 1)

@@ -3,11 +3,11 @@ import numpy as np
 from scipy.optimize import fsolve
 
 from actuator_design.continuation import BifurcationProblem
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reduced import reduced_system
 from actuator_design.reference.shooting import ShootingParams, shoot
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
 
 
 def reference_fold(p_guess, gamma_guess, h=0.0):

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from actuator_design.options import SolverOptions
-from actuator_design.solver import get_solver
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.solver import get_solver
 
 
 def jit_matches_vm(scene):

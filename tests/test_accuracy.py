@@ -1,14 +1,15 @@
-"""Accuracy as an input (``actuator_design.accuracy``): the a-posteriori error estimate bounds the
+"""Accuracy as an input (``actuator_design.equilibrium.accuracy``): the a-posteriori error estimate bounds the
 true error against THEORY §6 closed forms, and the selection reacts to tolerance and length scale."""
 import math
 
 import numpy as np
 import pytest
 
-from actuator_design.accuracy import choose_options, scene_wavenumber, solve_to_tolerance
+from actuator_design.equilibrium.accuracy import choose_options, scene_wavenumber
+from actuator_design.equilibrium.pipeline import solve_to_tolerance
 from actuator_design.benchmarks.problems import elastica_tip
 from actuator_design.reference.closed_forms import lowload_stiffness, transverse_mode
-from actuator_design.scene import Scene, default_scene
+from actuator_design.model.scene import Scene, default_scene
 
 
 def _err(r, ref):
@@ -68,8 +69,8 @@ def test_unreachable_tolerance_says_so():
 
 
 def test_accuracy_option_routes_solve_through_the_estimate():
-    from actuator_design.equilibrium import solve
-    from actuator_design.options import SolverOptions
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.equilibrium.options import SolverOptions
     h = 2.0
     ref = transverse_mode(h, 1)
     r = solve(default_scene(h=h, phi=math.pi / 2), SolverOptions(accuracy=1e-7, method="fast"))

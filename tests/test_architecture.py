@@ -16,7 +16,9 @@ PACKAGE = ROOT / "actuator_design"
 MATPLOTLIB_EXCEPTIONS: set = set()
 
 #: What viz/ must never import: the machinery that solves (viz draws results, it never solves).
-SOLVING_MODULES = ("equilibrium", "solver", "analysis", "transcription", "accuracy", "study")
+SOLVING_MODULES = ("equilibrium.pipeline", "equilibrium.solver", "equilibrium.accuracy", "analysis", "inverse",
+                   "robust", "hardware", "schedules", "continuation", "contact.equilibrium", "contact.path",
+                   "contact.design", "transcription", "study")
 
 
 def _modules():
@@ -78,7 +80,7 @@ def _module_name(rel: Path) -> str:
 def test_io_knows_nothing_of_plots():
     """Nothing io.py imports, directly or through other modules of the package, is viz or matplotlib."""
     graph = {_module_name(rel): _imported(tree, rel) for rel, tree in _modules()}
-    seen, todo, reached = set(), ["actuator_design.io"], []
+    seen, todo, reached = set(), ["actuator_design.io.save"], []
     while todo:
         mod = todo.pop()
         if mod in seen:
@@ -121,7 +123,7 @@ def test_importing_the_cli_and_the_solver_does_not_load_matplotlib():
     p = _run_python("import sys\n"
                     "import actuator_design.cli.main as m\n"
                     "m.build_parser(only='solve')\n"
-                    "import actuator_design.equilibrium, actuator_design.io\n"
+                    "import actuator_design.equilibrium.pipeline, actuator_design.io.save\n"
                     "print('matplotlib' in sys.modules)")
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == "False"
@@ -157,3 +159,134 @@ def test_version_and_help_import_no_command_module(argv):
         for name in COMMANDS:
             first_words = " ".join(importlib.import_module(f"actuator_design.cli.{name}").HELP.split()[:3])
             assert first_words in " ".join(p.stdout.split()), name
+
+
+#: The package root holds the face and leaf utilities only; everything else lives in a room
+#: (docs/guide/layout.md). cli/ is one module per subcommand (meshio's layout), hence its own cap.
+ROOT_MODULES = {"__init__.py", "forked.py", "parallel.py"}
+MOST_MODULES_A_ROOM = 18
+MOST_MODULES_IN_CLI = 30
+
+
+def test_the_root_holds_the_face_and_leaves_and_no_room_is_a_hall():
+    assert {p.name for p in PACKAGE.glob("*.py")} == ROOT_MODULES
+    halls = {}
+    for room in sorted(p for p in PACKAGE.iterdir() if (p / "__init__.py").exists()):
+        count = len(list(room.glob("*.py")))
+        cap = MOST_MODULES_IN_CLI if room.name == "cli" else MOST_MODULES_A_ROOM
+        if count > cap:
+            halls[room.name] = count
+    assert not halls, f"rooms over their cap of modules: {halls}"
+
+
+def test_the_leaves_at_the_root_import_nothing_from_the_rooms():
+    for name in ROOT_MODULES - {"__init__.py"}:
+        rel = Path(name)
+        tree = ast.parse((PACKAGE / rel).read_text(encoding="utf-8"))
+        rooms = [n for n in _imported(tree, rel) if _is(n, "actuator_design")
+                 and not any(_is(n, f"actuator_design.{leaf[:-3]}") for leaf in ROOT_MODULES)]
+        assert not rooms, name
+
+
+def _runtime_imports(tree, relative: Path, modules):
+    """The package modules ``tree`` imports at run time (function-local imports included, an
+    ``if TYPE_CHECKING:`` block's not): ``from pkg import sub`` is the module pkg.sub, and pkg
+    itself only for a name of its own; ``import_module("x")`` with a literal name counts."""
+    typing_only = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            typing_only |= {id(n) for part in node.body for n in ast.walk(part)}
+    package = ["actuator_design", *relative.parent.parts]
+    found = []
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - (node.level - 1)] if node.level else []
+            prefix = ".".join(base + ([node.module] if node.module else []))
+            found += [f"{prefix}.{a.name}" if f"{prefix}.{a.name}" in modules else prefix for a in node.names]
+        elif isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant) \
+                and isinstance(node.args[0].value, str) \
+                and getattr(node.func, "attr", getattr(node.func, "id", None)) in ("__import__", "import_module"):
+            found.append(node.args[0].value)
+    out = set()
+    for name in found:
+        while name and name not in modules:
+            name = name.rpartition(".")[0]
+        if name:
+            out.add(name)
+    return out
+
+
+def _import_graph():
+    """Module → the package modules it imports at run time, plus the registries' imports by
+    computed name: the shipped extra terms (physics/registry.py) and the built-in analyses
+    (analysis/registry.py, ``BUILTIN``)."""
+    trees = dict(_modules())
+    modules = {_module_name(rel) for rel in trees}
+    graph = {_module_name(rel): _runtime_imports(tree, rel, modules) - {_module_name(rel)}
+             for rel, tree in trees.items()}
+    graph["actuator_design.physics.registry"] |= {
+        m for m in modules if m.startswith("actuator_design.physics.extra_terms.")}
+    from actuator_design.analysis.registry import BUILTIN
+    graph["actuator_design.analysis.registry"] |= {f"actuator_design.{m}" for m in BUILTIN.values()}
+    return graph
+
+
+def _cycles(graph):
+    """The strongly connected components of more than one module (Tarjan, iteratively)."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+    for root in sorted(graph):
+        if root in index:
+            continue
+        work = [(root, iter(sorted(graph[root])))]
+        index[root] = low[root] = len(index)
+        stack.append(root), on_stack.add(root)
+        while work:
+            v, children = work[-1]
+            w = next(children, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = len(index)
+                    stack.append(w), on_stack.add(w)
+                    work.append((w, iter(sorted(graph.get(w, ())))))
+                elif w in on_stack:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                component = []
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    component.append(w)
+                    if w == v:
+                        break
+                if len(component) > 1:
+                    found.append(sorted(component))
+    return found
+
+
+def test_the_cycle_finder_finds_a_ring_and_a_pair():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"e"}, "e": {"d", "a"}, "f": set()}
+    assert sorted(_cycles(graph)) == [["a", "b", "c"], ["d", "e"]]
+
+
+def test_the_package_has_no_import_cycles():
+    """No module imports (at run time, function-local imports included) one that imports it back,
+    directly or round a ring: every room only calls down (issue 18)."""
+    cycles = _cycles(_import_graph())
+    assert not cycles, "import cycles:\n" + "\n".join(" ↔ ".join(c) for c in cycles)
+
+
+def test_the_import_scan_counts_function_local_imports_and_not_annotation_only_ones():
+    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..model.scene import Scene\n"
+                     "def f():\n    from ..physics import registry\n    from . import follow\n")
+    modules = {"actuator_design.model.scene", "actuator_design.physics.registry",
+               "actuator_design.continuation.follow", "actuator_design.physics", "actuator_design.continuation"}
+    assert _runtime_imports(tree, Path("continuation/x.py"), modules) == {
+        "actuator_design.physics.registry", "actuator_design.continuation.follow"}

@@ -18,10 +18,10 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import ellipk
 
-import actuator_design.equilibrium as equilibrium
+import actuator_design.equilibrium.pipeline as equilibrium
 from actuator_design import __version__
 from actuator_design.cli.main import COMMANDS, main
-from actuator_design.io import dumps_json, jsonable
+from actuator_design.io.save import dumps_json, jsonable
 
 CONTRACT = ("success", "status", "stable", "morse_index", "tip", "energy", "h", "phi", "p", "shape")
 
@@ -42,7 +42,7 @@ def _field_check_is_broken() -> bool:
     """Whether ``physics.fields.check_current_free`` itself fails (it names its CasADi Function
     'jac', a name CasADi reserves); the CLI then reports an internal error (exit 1)."""
     from actuator_design.physics.fields import check_current_free, field_model
-    from actuator_design.scene import ExpressionField
+    from actuator_design.model.scene import ExpressionField
     try:
         check_current_free(field_model(ExpressionField("x", "-y")), n=3)
     except RuntimeError:

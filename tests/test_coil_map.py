@@ -16,13 +16,15 @@ from scipy.special import lpmv
 from scipy.spatial.transform import Rotation
 
 from actuator_design.cli.main import main
-from actuator_design.coil_map import parse_coil_map
+from actuator_design.model.coil_map import parse_coil_map
 from actuator_design.config import load_config
 from actuator_design.config.errors import ConfigError
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.physics.harmonic import field_function
-from actuator_design.physics.tesseral import TesseralTerm, interior_modes, tesseral_in_plane, tesseral_potentials
-from actuator_design.reference.shooting_field import FieldRod, field_from_function, guess_from_shape, solve_field_shooting
+from actuator_design.physics.tesseral import (TesseralTerm, interior_modes, tesseral_in_plane,
+                                              tesseral_potentials)
+from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
+                                                      solve_field_shooting)
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "problems"))
@@ -254,7 +256,7 @@ def _renamed(tmp_path, k, name):
 
 
 def test_the_coils_of_a_map_move_as_one_rig(mapped):
-    from actuator_design.parameters import parameter
+    from actuator_design.physics.parameters import parameter
 
     with pytest.raises(ValueError, match=r"source_dx_1: the coils of a calibration map move as one rig"):
         parameter("source_dx_1").require(mapped)
@@ -285,7 +287,7 @@ def test_the_map_file_is_read_beside_the_yaml_file_from_any_working_directory(tm
 
 @pytest.mark.slow
 def test_eight_currents_designed_from_the_map_put_the_tip_on_target_in_magpylibs_field(mapped):
-    from actuator_design.analysis.current_design import design_currents
+    from actuator_design.hardware.current_design import design_currents
 
     target = (0.88, 0.43)
     d = design_currents(mapped, target)

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from actuator_design.config import ConfigError, load_config, load_scene
-from actuator_design.options import SolverOptions
-from actuator_design.scene import DipoleField, ExpressionField, Scene, UniformField
-from actuator_design.units import QuantityError, parse_quantity
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import DipoleField, ExpressionField, Scene, UniformField
+from actuator_design.model.units import QuantityError, parse_quantity
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.yaml"))
-MU0 = 4e-7 * math.pi  # written out here on purpose (independent of actuator_design.units)
+MU0 = 4e-7 * math.pi  # written out here on purpose (independent of actuator_design.model.units)
 
 
 def physical(**overrides):
@@ -335,7 +335,7 @@ def test_weight_is_a_distributed_load():
 
 
 def test_particles_give_susceptibilities_and_warnings():
-    from actuator_design.magnetics import ModelAssumptionWarning, effective_susceptibilities
+    from actuator_design.model.magnetics import ModelAssumptionWarning, effective_susceptibilities
 
     particles = {**PARTICLES, "volume_fraction": 0.3, "saturation_field": "1 kA/m"}
     with warnings.catch_warnings(record=True) as caught:
@@ -486,7 +486,7 @@ def test_yaml_duplicate_keys_and_encoding(tmp_path):
 
 
 def test_expression_bounds():
-    from actuator_design.expressions import Expression, ExpressionError
+    from actuator_design.model.expressions import Expression, ExpressionError
 
     with pytest.raises(ExpressionError, match="too long"):
         Expression("+".join(["s"] * 6000), ("s",))

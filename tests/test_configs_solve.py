@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.physics.fields import check_current_free, field_model
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.yaml"))

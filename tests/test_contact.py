@@ -10,13 +10,13 @@ import pytest
 
 from contact_references import floor_reference, peg_reference
 
-from actuator_design.balance import balance
+from actuator_design.equilibrium.balance import balance
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Peg, Wall
-from actuator_design.scene import Scene
-from actuator_design.solver import get_solver
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Peg, Wall
+from actuator_design.model.scene import Scene
+from actuator_design.equilibrium.solver import get_solver
 
 
 def _floor_scene(depth, p):
@@ -138,7 +138,7 @@ def test_analyses_that_would_ignore_obstacles_refuse_them_in_one_line(argv, caps
 
 
 def test_the_api_refuses_too():
-    from actuator_design.analysis.design_shape import design_shape
+    from actuator_design.inverse.shape import design_shape
     from actuator_design.analysis.equilibria import find_equilibria
 
     with pytest.raises(ValueError, match="equilibria: this scene has obstacles"):
@@ -177,7 +177,7 @@ def test_continuation_follows_the_free_branch_to_the_first_touch_and_on_with_con
     the floor reference's reaction."""
     from scipy.optimize import brentq
 
-    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.continuation.follow import continue_branch
     from actuator_design.reference.shooting import ShootingParams, solve_shooting
 
     depth = 0.1

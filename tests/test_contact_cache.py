@@ -1,13 +1,13 @@
-"""The contact NLPs kept for reuse are bounded by their estimated memory (actuator_design.contact_cache)."""
+"""The contact NLPs kept for reuse are bounded by their estimated memory (actuator_design.contact.cache)."""
 import math
 
 import numpy as np
 from contact_references import peg_reference
 
-from actuator_design import contact_cache
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Peg
-from actuator_design.scene import Scene
+from actuator_design.contact import cache as contact_cache
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Peg
+from actuator_design.model.scene import Scene
 
 PEG = Scene(field=None, tip_force=(0.0, -1.6), obstacles=(Peg((0.6, -0.2), 0.1),), contact_gap=0.025)
 

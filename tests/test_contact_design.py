@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from scipy.optimize import brentq
 
-from actuator_design.analysis.contact_design import design_contact_force
+from actuator_design.contact.design import design_contact_force
 from actuator_design.config.model import load_scene
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
 
@@ -61,7 +61,7 @@ def test_the_cli_designs_a_force_in_newtons(tmp_path, capsys):
     import json
 
     from actuator_design.cli.main import main
-    from actuator_design.equilibrium import solve
+    from actuator_design.equilibrium.pipeline import solve
 
     out = tmp_path / "out"
     assert main(["design", str(CONFIG), "--target-force", "50 uN", "--json", "--out", str(out)]) == 0

@@ -1,4 +1,4 @@
-"""The contact NLP's Hessian and Jacobian assembled from their parts (actuator_design.contact_kkt)
+"""The contact NLP's Hessian and Jacobian assembled from their parts (actuator_design.contact.kkt)
 against CasADi's own derivatives of the whole Lagrangian σÊ + λᵀg (built here from the NLP's
 expressions), with a multiplier on every row (not only the pressing ones), on and off the
 solution: a wall, a polygon, a peg, a curved lumen, self-contact pairs and a wall in a dipole's
@@ -10,12 +10,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from actuator_design.contact import contact_nlp
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
-from actuator_design.profiles import expression_profile
-from actuator_design.scene import DipoleField, Scene
-from actuator_design.solver import get_solver
+from actuator_design.contact.equilibrium import contact_nlp
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
+from actuator_design.model.profiles import expression_profile
+from actuator_design.model.scene import DipoleField, Scene
+from actuator_design.equilibrium.solver import get_solver
 
 SCENES = {
     "wall": Scene(field=None, tip_force=(0.0, -1.0), obstacles=(Wall((0.0, -0.1), 0.5 * math.pi),)),
@@ -73,7 +73,7 @@ def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own(name)
     """A first contact round (the lumen from the rod laid along it; the coil with its contact pairs
     from the straight rod): the same iterations and the same minimiser as IPOPT with CasADi's own
     Hessian of the Lagrangian."""
-    from actuator_design.contact import _lumen_start
+    from actuator_design.contact.equilibrium import _lumen_start
 
     sc = SCENES[name]
     r = solve(sc)
@@ -98,7 +98,7 @@ def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own(name)
 
 def test_an_error_inside_the_hessian_callback_is_raised_after_the_solve(monkeypatch):
     """IPOPT sees a failed evaluation; the error itself comes back from raise_callback_error, once."""
-    from actuator_design.contact_kkt import RowDerivatives
+    from actuator_design.contact.kkt import RowDerivatives
 
     sc = SCENES["peg"]
     r = solve(sc)

@@ -10,9 +10,9 @@ from contact_references import peg_and_tip_wall_reference
 
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Lumen
-from actuator_design.scene import Scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Lumen
+from actuator_design.model.scene import Scene
 
 RADIUS, GAP, TURN = 0.06, 0.01, math.radians(70)
 BEND = Lumen((-0.1, 0.0), 0.0, RADIUS, (("straight", 0.3), ("arc", 0.5, TURN), ("straight", 0.6)))

@@ -1,15 +1,15 @@
-"""Newton's method on the KKT system of a guessed contact set (actuator_design/contact_newton.py)
+"""Newton's method on the KKT system of a guessed contact set (actuator_design/contact/newton.py)
 against IPOPT on the same NLP (a second method), and its refusals: a guessed set with a row that
 would have to pull the rod onto an obstacle, and answers IPOPT would not give (tested through the
 paths that need them in tests/test_contact_tip_roll.py and tests/test_self_contact.py)."""
 import numpy as np
 
-from actuator_design.contact import contact_nlp
-from actuator_design.contact_newton import newton_on_contact_set, pressing_rows
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Peg
-from actuator_design.scene import Scene
-from actuator_design.solver import get_solver
+from actuator_design.contact.equilibrium import contact_nlp
+from actuator_design.contact.newton import newton_on_contact_set, pressing_rows
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Peg
+from actuator_design.model.scene import Scene
+from actuator_design.equilibrium.solver import get_solver
 
 
 def _peg_problem():

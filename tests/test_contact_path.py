@@ -9,11 +9,11 @@ import pytest
 from contact_references import floor_reference
 from scipy.optimize import brentq, minimize_scalar
 
-from actuator_design.analysis.contact_path import follow_contact_path
-from actuator_design.analysis.loading import follow_path
-from actuator_design.obstacles import Peg, Wall
+from actuator_design.contact.path import follow_contact_path
+from actuator_design.continuation.loading import follow_path
+from actuator_design.contact.obstacles import Peg, Wall
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import Scene
+from actuator_design.model.scene import Scene
 
 
 def _free_tip_y(p):
@@ -117,7 +117,7 @@ def test_a_yaml_path_schedule_may_carry_quantities(tmp_path, capsys):
 
     from actuator_design.cli.main import main
     from actuator_design.config.model import load_scene
-    from actuator_design.user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     config = Path(__file__).resolve().parents[1] / "configs" / "contact_channel_path.yaml"
     raw = yaml.safe_load(config.read_text())

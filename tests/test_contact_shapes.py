@@ -9,9 +9,9 @@ from contact_references import floor_reference, peg_reference
 
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Polygon, Wall
-from actuator_design.scene import Scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Polygon, Wall
+from actuator_design.model.scene import Scene
 
 
 def test_a_box_edge_under_the_tip_is_a_floor():
@@ -101,7 +101,7 @@ def test_obstacles_out_of_any_reach_are_refused(obstacle, words):
 
 
 def test_a_lumen_narrower_than_the_rod_holds_no_state():
-    from actuator_design.obstacles import Lumen
+    from actuator_design.contact.obstacles import Lumen
 
     r = solve(Scene(field=None, tip_force=(0.0, -1.0), contact_gap=0.01,
                     obstacles=(Lumen((0.0, 0.0), 0.0, 0.005, (("straight", 1.0),)),)))
@@ -110,7 +110,7 @@ def test_a_lumen_narrower_than_the_rod_holds_no_state():
 
 def test_an_obstacle_describes_itself_in_a_users_length_unit():
     """describe(scale, unit): every length scaled (20 mm per rod length), angles kept."""
-    from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
+    from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
 
     assert Wall((0.0, -0.15), math.pi / 2).describe(20.0, "mm") == "wall through (0, -3) mm, free side towards 90 deg"
     assert Peg((0.5, 0.1), 0.05).describe(20.0, "mm") == "peg at (10, 2) mm, radius 1 mm"

@@ -1,7 +1,7 @@
-"""The split rounds' bookkeeping (actuator_design.contact_split): which rounds Anderson's mixing uses."""
+"""The split rounds' bookkeeping (actuator_design.contact.split): which rounds Anderson's mixing uses."""
 import numpy as np
 
-from actuator_design.contact_split import accelerated, extended
+from actuator_design.contact.split import accelerated, extended
 
 
 def test_split_rounds_mix_only_rounds_with_as_many_points_in_start_and_answer():
@@ -26,10 +26,10 @@ def test_boundary_rounds_cut_short_say_the_contact_was_still_moving(monkeypatch)
     and the result says the rounds stopped with the contact still moving, not "more elements"."""
     import math
 
-    import actuator_design.contact as contact
-    from actuator_design.equilibrium import solve
-    from actuator_design.obstacles import Peg
-    from actuator_design.scene import Scene
+    import actuator_design.contact.equilibrium as contact
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.contact.obstacles import Peg
+    from actuator_design.model.scene import Scene
 
     peg = Scene(field=None, tip_force=(0.0, -1.6), obstacles=(Peg((0.6, -0.2), 0.1),), contact_gap=0.025)
     full = solve(peg)

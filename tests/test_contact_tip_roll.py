@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from contact_references import peg_reference, tip_slip_load, touch_load
 
-from actuator_design.analysis.contact_path import follow_contact_path
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Peg
-from actuator_design.scene import Scene
+from actuator_design.contact.path import follow_contact_path
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Peg
+from actuator_design.model.scene import Scene
 
 CENTRE, RADIUS = np.array([0.97, 0.22]), 0.05
 

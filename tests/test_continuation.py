@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from actuator_design.analysis.continuation import (Continuation, continue_branch, get_param,
+from actuator_design.continuation.follow import (Continuation, continue_branch, get_param,
                                                    set_param)
 from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 from actuator_design.reference.shooting import ShootingParams, shoot
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 
 def reference_fold(p_guess, gamma_guess, h=0.0):

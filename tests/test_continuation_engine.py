@@ -15,12 +15,12 @@ import pytest
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings,
                                           Fold, Natural, UserEvent, continuation)
 from actuator_design.continuation.banded import BandedBordered
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reduced import reduced_system
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
 
 
 def problem_for(scene, name, lam0, u0=None, options=SolverOptions()):

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from actuator_design.analysis import registry
-from actuator_design.analysis.continuation import Continuation
-from actuator_design.analysis.critical import critical_points, fold_curve, locate_fold
+from actuator_design.continuation.follow import Continuation
+from actuator_design.continuation.critical import critical_points, fold_curve, locate_fold
 from actuator_design.reference.closed_forms import critical_field_transverse
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from fold_problems import reference_fold
 
 

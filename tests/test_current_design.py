@@ -13,13 +13,14 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from actuator_design.analysis.current_design import design_currents, scene_at_currents
-from actuator_design.analysis.current_map import CurrentMap, at_weights
+from actuator_design.hardware.current_design import design_currents, scene_at_currents
+from actuator_design.hardware.current_map import CurrentMap, at_weights
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
 from actuator_design.config.errors import ConfigError
-from actuator_design.equilibrium import solve
-from actuator_design.reference.shooting_field import FieldRod, field_from_function, guess_from_shape, solve_field_shooting
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
+                                                      solve_field_shooting)
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "coils_two_pairs_design.yaml"
 TARGET = (0.83, 0.5)
@@ -191,7 +192,7 @@ def test_the_qp_step_with_as_many_coils_as_tip_equations_is_the_newton_step_and_
     """Two unknowns, two tip equations: the step is −J⁻¹e (the linearised target fixes it), with or
     without a field limit the box cannot reach (its rows are dropped exactly); three unknowns: the
     least-effort step of the equality-constrained quadratic programme (its KKT system by hand)."""
-    from actuator_design.analysis.current_sqp import CurrentProblem, _qp_step
+    from actuator_design.hardware.current_sqp import CurrentProblem, _qp_step
 
     J = np.array([[1.0, 0.3], [0.2, 1.0]])
     e = np.array([0.05, -0.02])

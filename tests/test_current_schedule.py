@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
-from actuator_design.analysis.current_schedule_nlp import CurrentOCP
+from actuator_design.physics import parameters as lens
+from actuator_design.schedules.current_schedule_nlp import CurrentOCP
 from actuator_design.cli.main import main
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "coils_schedule.yaml"
 
@@ -99,7 +99,7 @@ def test_source_weight_is_a_lens_entry_only_for_source_fields():
 
 
 def test_coil_schedule_arguments_are_checked_before_any_solve():
-    from actuator_design.analysis.current_schedule import current_schedule
+    from actuator_design.schedules.current_schedule import current_schedule
     from actuator_design.config import load_scene
 
     scene = load_scene(CONFIG)[0]
@@ -158,9 +158,9 @@ def _check_limits(payload, config):
 @pytest.mark.slow
 @pytest.mark.parametrize("objective", ["energy", "time"])
 def test_shipped_coil_schedule(objective, capsys, tmp_path):
-    from actuator_design.analysis.current_design import scene_at_currents
+    from actuator_design.hardware.current_design import scene_at_currents
     from actuator_design.config import load_scene
-    from actuator_design.equilibrium import solve
+    from actuator_design.equilibrium.pipeline import solve
 
     rc = main(["schedule", str(CONFIG), "--optimal-control", objective, "--json", "--out", str(tmp_path)])
     payload = json.loads(capsys.readouterr().out)
@@ -192,7 +192,7 @@ def test_shipped_coil_schedule(objective, capsys, tmp_path):
 def _field_on(scene, state) -> float:
     """|μ0 H| (mT) at the nodes of ``state`` in ``scene``'s own field (its fit at its currents)."""
     from actuator_design.physics.fields import field_model
-    from actuator_design.units import MU0
+    from actuator_design.model.units import MU0
 
     model = field_model(scene.field)
     hx, hy = model.evaluate(state.x, state.y, model.parameter_values(scene.field))
@@ -203,7 +203,7 @@ def _field_on(scene, state) -> float:
 def test_a_failed_optimal_control_reports_the_greedy_schedule_verified(monkeypatch, capsys):
     """When the NLP does not converge the greedy schedule is reported, replayed from zero currents
     and checked against every limit like the optimised one."""
-    from actuator_design.analysis import current_schedule_nlp
+    from actuator_design.schedules import current_schedule_nlp
 
     def fail(self, *args, **kwargs):
         self.status = "Maximum_Iterations_Exceeded"

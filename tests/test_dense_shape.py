@@ -5,9 +5,9 @@ point by point from the element's start (12-point rule): both exact to rounding.
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.scene import Scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scene
 
 
 @pytest.mark.parametrize("moment", [2.0, 8.0, 40.0])  # 40: 6.4 turns, each element turning 10 rad

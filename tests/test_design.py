@@ -12,13 +12,13 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.analysis import design_nlp
-from actuator_design.analysis.design import DesignSettings, design
-from actuator_design.analysis.tolerances import parse_tolerances
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import legendre_profile
-from actuator_design.scene import default_scene
+from actuator_design.inverse import nlp as design_nlp
+from actuator_design.inverse.design import DesignSettings, design
+from actuator_design.robust.tolerances import parse_tolerances
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import legendre_profile
+from actuator_design.model.scene import default_scene
 
 OPTS = SolverOptions()
 NO_BOX = parse_tolerances("none")
@@ -54,7 +54,7 @@ def test_recovered_fibre_design_hits_a_forward_made_target():
     target = _pose(solve(sc, OPTS))[:2]
     res = design(target, vary=["h", "phi", "alpha"])
     assert res.success and res.error < 1e-6
-    from actuator_design.profiles import table_profile
+    from actuator_design.model.profiles import table_profile
 
     a = res.design["alpha"]
     user = replace(default_scene(h=res.design["h"], phi=res.design["phi"]),
@@ -113,7 +113,7 @@ def test_segmented_certificate_pivots_are_the_ldl_pivots_of_a_chain_of_blocks():
     their signs follow the smallest eigenvalue (Sylvester)."""
     import casadi as ca
 
-    from actuator_design.analysis.design_ldl import SegmentedLDL
+    from actuator_design.inverse.ldl import SegmentedLDL
 
     rng = np.random.default_rng(3)
 

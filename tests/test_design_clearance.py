@@ -1,7 +1,7 @@
 """Inverse design with obstacles (issue 20 item 5): a tip target in a guide channel, the rod kept
 clear of both walls at the design, over the tolerance box and along its schedule from zero field.
 
-The references are independent of the design NLP and of :mod:`actuator_design.clearance`: the
+The references are independent of the design NLP and of :mod:`actuator_design.contact.clearance`: the
 designed field and fibre layout are re-solved by scipy's ``solve_bvp`` (the contact-free
 Euler–Lagrange BVP: a design that keeps clear of the walls has no contact force), and the clearance is measured
 directly against the walls' lines, given in millimetres in the config.
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design import design
+from actuator_design.inverse.design import design
 from actuator_design.config.model import load_scene
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "contact_channel_design.yaml"
@@ -169,7 +169,7 @@ def test_a_clearance_keeps_the_design_that_far_from_the_walls(capsys):
     assert d["success"]
     assert all(c["min_distance"] >= 0.25 / L_MM - 1e-6 for c in d["clearance"])
     scene, options, _ = load_scene(CONFIG)
-    from actuator_design.analysis.design_types import DesignSettings
+    from actuator_design.inverse.settings import DesignSettings
 
     r = design(TARGET, scene=scene, options=options, settings=DesignSettings(clearance=0.25 / L_MM))
     assert r.success and r.design["h"] == pytest.approx(d["design"]["h"], rel=1e-9)
@@ -190,7 +190,7 @@ def test_a_clearance_is_checked_in_one_line(capsys):
 def test_the_design_figure_shows_the_walls_and_the_box_error_in_mm(channel):
     """The verified path of a design kept clear runs without the obstacles (no contact on it); the
     figure draws the walls all the same, and the box panel gives the worst-case error in mm."""
-    from actuator_design.user_units import user_units
+    from actuator_design.io.user_units import user_units
     from actuator_design.viz.design import design_figure
 
     scene, _, res = channel

@@ -174,9 +174,9 @@ def test_main_job_prints_one_field_angle_and_says_it_is_an_axis(tmp_path):
     solve at either angle (from the straight rod, same fibres) gives the same state, as it must."""
     from dataclasses import replace as dc_replace
 
-    from actuator_design.equilibrium import solve
-    from actuator_design.profiles import table_profile
-    from actuator_design.scene import default_scene
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.profiles import table_profile
+    from actuator_design.model.scene import default_scene
 
     out = tmp_path / "d"
     p = _cli("design", "--target-tip", "0.3,0.5", "--out", str(out))
@@ -216,7 +216,7 @@ def test_summary_of_a_failed_search_with_the_fibre_layout_prints():
     raised KeyError 'alpha') prints the verdict and the reason."""
     import time
 
-    from actuator_design.analysis.design import _no_design, design_problem
+    from actuator_design.inverse.design import _no_design, design_problem
     from actuator_design.cli.design import _summary
 
     problem = design_problem((0.3, 0.5), None, ["h", "phi", "alpha"], None, None, None, time.perf_counter())

@@ -13,12 +13,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design import DesignSettings
-from actuator_design.analysis.design_nlp import DesignRequest, get_design_nlp, prepare_scene
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import constant_profile, legendre_profile
+from actuator_design.inverse.design import DesignSettings
+from actuator_design.inverse.nlp import DesignRequest, get_design_nlp, prepare_scene
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import constant_profile, legendre_profile
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 OPTS = SolverOptions()
 VARY = ["h", "phi", "alpha"]

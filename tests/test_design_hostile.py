@@ -15,13 +15,13 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design_robust_stage import RobustReport
-from actuator_design.analysis.design_types import DesignResult
-from actuator_design.analysis.robustness import FoldDistance, Robustness
-from actuator_design.analysis.tolerances import Tolerances
+from actuator_design.robust.design_robust_stage import RobustReport
+from actuator_design.inverse.settings import DesignResult
+from actuator_design.robust.robustness import FoldDistance, Robustness
+from actuator_design.robust.tolerances import Tolerances
 from actuator_design.cli.main import main
-from actuator_design.equilibrium import solve
-from actuator_design.scene import UniformField, default_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.model.scene import UniformField, default_scene
 
 from result_invariants import design_contradictions
 
@@ -61,7 +61,7 @@ def test_the_summary_of_an_inaccurate_design_says_so(capsys):
 def test_a_numerical_failure_in_the_screen_is_a_failed_design_not_bad_input(capsys, monkeypatch, tmp_path):
     """A LinAlgError is a ValueError: raised inside the screen it used to come out as "bad input"
     (exit 2). The request was fine; the design failed (exit 3), and the message names the stage."""
-    from actuator_design.analysis import design_optimise
+    from actuator_design.inverse import optimise as design_optimise
 
     def broken(problem, candidate, keep=4):
         raise np.linalg.LinAlgError("Singular matrix")
@@ -145,7 +145,7 @@ def test_several_poses_on_a_mesh_too_coarse_are_not_called_unreachable(capsys, t
 def test_a_numerical_failure_inside_a_shape_design_is_exit_3_not_bad_input(capsys, tmp_path, monkeypatch):
     """A singular matrix inside ``design --target-shape`` (LinAlgError is a ValueError subclass)
     was reported as bad input, exit 2; it is one line saying the computation failed, exit 3."""
-    import actuator_design.analysis.design_shape as shape_module
+    import actuator_design.inverse.shape as shape_module
 
     def singular(*args, **kwargs):
         raise np.linalg.LinAlgError("Singular matrix")

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import yaml
 
-from actuator_design.analysis.design import design
+from actuator_design.inverse.design import design
 from actuator_design.cli.main import main
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 
 STRIP = {"scene": {"type": "physical",
                    "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"},
@@ -60,7 +60,7 @@ def test_the_default_scene_design_is_the_same_for_a_target_one_ulp_apart():
     """(0.6, 0.6) on the default scene: before targets were resolved to 1e-12 rod lengths, the
     SkylakeX kernel gave h = 4.107 for x = 0.6 and h = 5.521 for the next float up (what
     '12,12 --target-units mm' on a 20 mm rod produces)."""
-    from actuator_design.scene import default_scene
+    from actuator_design.model.scene import default_scene
 
     a = design((0.6, 0.6), scene=default_scene())
     b = design((float(np.nextafter(0.6, 1.0)), 0.6), scene=default_scene())
@@ -77,8 +77,8 @@ def test_an_iteration_cap_in_the_box_homotopy_does_not_change_the_design(monkeyp
     0.5 rad) is now halved and retried: a cap forced on that step gives the design the unhindered
     run gives. (A jump forced by hand is healed by the next step anyway, so it is no test of the
     jump rule; that rule's evidence is the two kernels' agreement at (0.4178, 0.4979).)"""
-    from actuator_design.analysis import design_robust
-    from actuator_design.scene import default_scene
+    from actuator_design.robust import design_robust
+    from actuator_design.model.scene import default_scene
 
     # the robust NLP runs in a forked process with two workers: the spy below must see its solves
     monkeypatch.setenv("ACTUATOR_DESIGN_WORKERS", "1")

@@ -6,11 +6,11 @@ import json
 import pytest
 import yaml
 
-from actuator_design.analysis.design import design_problem
+from actuator_design.inverse.design import design_problem
 from actuator_design.cli.main import main
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 
 STRIP = {"type": "physical",
          "rod": {"length": "20 mm", "width": "5 mm", "thickness": "0.5 mm", "youngs_modulus": "1 MPa"},

@@ -18,15 +18,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
-from actuator_design.analysis.design import design
-from actuator_design.analysis.design_nlp import DESIGN_VARIABLES, prepare_scene
-from actuator_design.analysis.design_types import DesignSettings, normalise_phi, phi_period
-from actuator_design.analysis.design_verify import _ramp, _ramp_then_rotate
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import constant_profile
+from actuator_design.physics import parameters as lens
+from actuator_design.inverse.design import design
+from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene
+from actuator_design.inverse.settings import DesignSettings, normalise_phi, phi_period
+from actuator_design.inverse.verify import _ramp, _ramp_then_rotate
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import constant_profile
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import Scene, UniformField
+from actuator_design.model.scene import Scene, UniformField
 
 DEFAULT = SolverOptions()
 
@@ -158,7 +158,7 @@ def test_shape_programming_recovers_the_magnetisation_of_a_shooting_shape():
     """The shape-programming problem proper: centreline points (not only the tip) of a shooting
     solution at known β coefficients; the least-squares fit of β(s) passes through them and gives
     the coefficients back."""
-    from actuator_design.analysis.design_shape import design_shape
+    from actuator_design.inverse.shape import design_shape
 
     b_true, h_r, phi = np.array([0.4, 0.5, -0.3]), 2.5, 1.8
     ref = solve_shooting(ShootingParams(phi=phi, h_r=h_r, beta=legendre_beta(b_true)), 0.5)
@@ -179,7 +179,7 @@ def test_one_magnetisation_for_two_field_angles():
     The purely remanent energy depends on θ + β − φ only, so a uniform part of β and the field
     angles trade off exactly (b_0 − φ_k is what is determined): the design must recover b_1 and
     φ_k − b_0 of the shooting-made poses."""
-    from actuator_design.analysis.design_poses import design_poses
+    from actuator_design.inverse.poses import design_poses
 
     b_true, h_r, phis = np.array([0.3, 0.4]), 2.0, (1.2, 2.4)
     tips = [shooting_tip(b_true, h_r, phi) for phi in phis]

@@ -11,12 +11,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design import design
-from actuator_design.analysis.design_mirror import mirror_scene
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import expression_profile
-from actuator_design.scene import Scene, UniformField, default_scene
+from actuator_design.inverse.design import design
+from actuator_design.inverse.mirror import mirror_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import expression_profile
+from actuator_design.model.scene import Scene, UniformField, default_scene
 
 
 def test_the_reflection_of_a_scene_is_the_reflection_of_its_equilibrium():
@@ -34,7 +34,7 @@ def test_the_reflection_of_a_scene_is_the_reflection_of_its_equilibrium():
 
 
 def test_a_non_uniform_field_has_no_mirror_here():
-    from actuator_design.scene import DipoleField
+    from actuator_design.model.scene import DipoleField
     assert mirror_scene(Scene(field=DipoleField(), h=1.0)) is None
 
 

@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design import design
-from actuator_design.analysis.design_poses import MAX_POSES, design_poses
+from actuator_design.inverse.design import design
+from actuator_design.inverse.poses import MAX_POSES, design_poses
 from actuator_design.config import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
 
 TARGETS = [(0.3, 0.5), (0.6, 0.2)]
 ROOT = Path(__file__).resolve().parents[1]
@@ -126,7 +126,7 @@ def test_the_joint_design_does_not_depend_on_which_field_axis_representative_a_p
     search of pose 2 lands on is round-off (it flipped with the BLAS kernel); the joint design
     must not depend on it: pose 2's φ moved by +π and by −π gives the same design (to 1e-9: the
     moved start differs from the original by rounding)."""
-    from actuator_design.analysis import design_poses as module
+    from actuator_design.inverse import poses as module
 
     def run(shift):
         real = module.choose

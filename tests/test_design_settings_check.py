@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from actuator_design.analysis.design_types import DesignSettings
+from actuator_design.inverse.settings import DesignSettings
 from actuator_design.cli.main import main
 from cli_checks import assert_rejected
 

@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from actuator_design.analysis.design_shape import design_shape, read_shape_points
+from actuator_design.inverse.shape import design_shape, read_shape_points
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
 
 S = np.array([0.25, 0.5, 0.75, 1.0])

@@ -17,9 +17,9 @@ from dataclasses import replace
 import pytest
 
 from actuator_design.cli.main import main
-from actuator_design.equilibrium import solve
-from actuator_design.profiles import legendre_profile
-from actuator_design.scene import default_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.model.profiles import legendre_profile
+from actuator_design.model.scene import default_scene
 
 from result_invariants import design_contradictions
 

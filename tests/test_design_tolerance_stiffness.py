@@ -13,12 +13,12 @@ import math
 
 import pytest
 
-from actuator_design.analysis.design import DesignSettings, design
+from actuator_design.inverse.design import DesignSettings, design
 from actuator_design.analysis.stiffness import tip_stiffness
-from actuator_design.analysis.tolerances import parse_tolerances, perturb
+from actuator_design.robust.tolerances import parse_tolerances, perturb
 from actuator_design.cli.main import main
 from actuator_design.reference.closed_forms import lowload_stiffness
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 from result_invariants import design_contradictions
 
@@ -82,7 +82,7 @@ def test_the_cli_text_and_json_state_the_stiffness_over_the_box(capsys):
 def test_a_tolerance_box_not_checked_is_never_a_success(monkeypatch):
     """The guard behind the claim: were the box skipped for any reason, the result says so and is
     not a success (the stage is replaced by one that evaluates nothing)."""
-    from actuator_design.analysis import design as design_module
+    from actuator_design.inverse import design as design_module
 
     monkeypatch.setattr(design_module, "robust_stage", lambda problem, choice, follow=None: (choice, None, None))
     res = design(None, scene=default_scene(h=0.0), stiffness=10.0, settings=DesignSettings(tolerances=BOX))

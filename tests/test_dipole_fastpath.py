@@ -16,14 +16,15 @@ import numpy as np
 import pytest
 
 from actuator_design.benchmarks.problems import PROBLEMS, _dipole_reference
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.physics.fields import DipoleFieldModel, FieldModel
-from actuator_design.physics.terms import EnergyTerm, build_terms
-from actuator_design.profiles import constant_profile, expression_profile
+from actuator_design.physics.registry import build_terms
+from actuator_design.physics.terms import EnergyTerm
+from actuator_design.model.profiles import constant_profile, expression_profile
 from actuator_design.reduced.positional import positional_hessian
-from actuator_design.scene import DipoleField, Scene, UniformField
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import DipoleField, Scene, UniformField
+from actuator_design.equilibrium.solver import get_solver
 from actuator_design.transcription import make_transcription
 from jit_check import jit_matches_vm
 

@@ -5,7 +5,7 @@ import re
 import pytest
 
 from actuator_design.cli.main import main
-from actuator_design.display import ANGLE_NOISE_RAD, degrees, number
+from actuator_design.io.display import ANGLE_NOISE_RAD, degrees, number
 
 _NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?:e[+-]?\d+)?", re.IGNORECASE)
 

@@ -11,10 +11,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from actuator_design.analysis.dynamics import natural_frequencies, relaxation_time
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.scene import Scales, Scene
+from actuator_design.schedules.dynamics import natural_frequencies, relaxation_time
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scales, Scene
 
 
 def _beta(k):

@@ -16,9 +16,9 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
-from actuator_design.equilibrium import solve
-from actuator_design.scene import Scene
+from actuator_design.physics import parameters as lens
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.model.scene import Scene
 from rod_bvp import rod_bvp
 
 
@@ -105,7 +105,7 @@ def test_uniform_tapered_load_is_the_builtin_distributed_load():
 
 
 def test_terms_state_their_scales_for_the_mesh_and_memory_budget():
-    from actuator_design.accuracy import scene_wavenumber
+    from actuator_design.equilibrium.accuracy import scene_wavenumber
     from actuator_design.config.checks import _is_dense
 
     sc = foundation_scene(1e4, 0.0, 1.0)
@@ -116,7 +116,7 @@ def test_terms_state_their_scales_for_the_mesh_and_memory_budget():
 
 
 def test_lens_continuation_follows_the_bvp():
-    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.continuation.follow import continue_branch
 
     res = continue_branch(foundation_scene(1.0, 0.0, 3.0), "k_foundation", 1.0, 200.0, ds_max=2.0)
     br = res.branch
@@ -128,7 +128,7 @@ def test_lens_continuation_follows_the_bvp():
 
 def test_a_youngs_modulus_change_scales_the_terms_like_the_loads():
     """E → 1.1 E: k and q ∝ 1/E, h ∝ E^-½ (THEORY §5), written out."""
-    from actuator_design.analysis.tolerances import apply_deltas
+    from actuator_design.robust.tolerances import apply_deltas
 
     sc = foundation_scene(8.0, 0.0, 2.0).with_term(
         "tapered_load", q_root_x=0.0, q_root_y=-3.0, q_tip_x=0.0, q_tip_y=1.0).with_values(h=2.0, phi=0.4)
@@ -183,7 +183,7 @@ def test_bad_term_entries_are_one_line_naming_the_field(tmp_path, terms, message
 
 def test_cli_set_solves_and_round_trips_through_result_json(tmp_path, capsys):
     from actuator_design.cli.main import main
-    from actuator_design.saved import read_result
+    from actuator_design.io.saved import read_result
 
     out = tmp_path / "out"
     assert main(["solve", "--h", "0", "--p", "3", "--set", "k_foundation=20", "--json", "--out", str(out)]) == 0
@@ -270,9 +270,9 @@ def test_tolerance_scaling_is_the_written_out_formulas_to_the_last_bit():
     import random
     from dataclasses import replace
 
-    from actuator_design.analysis.tolerances import apply_deltas
-    from actuator_design.profiles import constant_profile
-    from actuator_design.scene import default_scene
+    from actuator_design.robust.tolerances import apply_deltas
+    from actuator_design.model.profiles import constant_profile
+    from actuator_design.model.scene import default_scene
 
     rng = random.Random(7)
     for _ in range(300):
@@ -289,8 +289,8 @@ def test_tolerance_scaling_is_the_written_out_formulas_to_the_last_bit():
 
 
 def test_a_term_without_declared_scaling_is_refused_by_a_material_tolerance():
-    from actuator_design.analysis.tolerances import apply_deltas
-    from actuator_design.parameters import plugin_parameter
+    from actuator_design.robust.tolerances import apply_deltas
+    from actuator_design.physics.parameters import plugin_parameter
     from actuator_design.physics.registry import register_term, unregister_term
     from actuator_design.physics.terms import EnergyTerm
 
@@ -376,14 +376,14 @@ def test_a_plug_in_value_the_field_drives_moves_with_a_designed_h():
     design NLP's parameter map (CasADi) and in the forward scene alike; h_r, h_pos ∝ h exactly."""
     import casadi as ca
 
-    from actuator_design.analysis.design_field_groups import couple_field_groups, coupled_scene
-    from actuator_design.options import SolverOptions
-    from actuator_design.parameters import plugin_parameter
+    from actuator_design.inverse.field_groups import couple_field_groups, coupled_scene
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.physics.parameters import plugin_parameter
     from actuator_design.physics.registry import register_term, unregister_term
     from actuator_design.physics.terms import EnergyTerm
-    from actuator_design.profiles import constant_profile
-    from actuator_design.scene import DipoleField
-    from actuator_design.solver import get_solver
+    from actuator_design.model.profiles import constant_profile
+    from actuator_design.model.scene import DipoleField
+    from actuator_design.equilibrium.solver import get_solver
 
     @register_term(replace=True)
     class FieldSquared(EnergyTerm):

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.scene import Scene, UniformField
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scene, UniformField
 from rod_bvp import S, rod_bvp
 
 
@@ -47,7 +47,7 @@ def bed_scene(k=15.0):
 
 @pytest.mark.slow  # 7 s; the tapered load's design test covers the same path in the default run
 def test_design_of_the_field_with_a_foundation_is_the_bvp_forward():
-    from actuator_design.analysis.design import design
+    from actuator_design.inverse.design import design
 
     k = 15.0
     target = field_foundation_bvp(1.6, 1.2, k)  # a reachable target: a known field's tip
@@ -61,9 +61,9 @@ def test_design_of_the_field_with_a_foundation_is_the_bvp_forward():
 
 
 def test_robust_design_over_youngs_modulus_scales_the_foundation():
-    from actuator_design.analysis.design import design
-    from actuator_design.analysis.design_types import DesignSettings
-    from actuator_design.analysis.tolerances import Tolerances
+    from actuator_design.inverse.design import design
+    from actuator_design.inverse.settings import DesignSettings
+    from actuator_design.robust.tolerances import Tolerances
 
     k, tol = 15.0, 0.1
     target = field_foundation_bvp(1.6, 1.2, k)
@@ -98,11 +98,11 @@ def test_fit_of_youngs_modulus_with_a_foundation_in_pascal(tmp_path):
 def test_scenario_nlp_scales_the_foundation_with_youngs_modulus(monkeypatch):
     """The robust stage's own corner scenarios (the scenario NLP) against forward solves of corner
     scenes scaled by hand: its worst corner error is theirs."""
-    from actuator_design.analysis import design_robust
-    from actuator_design.analysis.design import design
-    from actuator_design.analysis.design_types import DesignSettings
-    from actuator_design.analysis.tolerances import Tolerances
-    from actuator_design.scene import default_scene
+    from actuator_design.robust import design_robust
+    from actuator_design.inverse.design import design
+    from actuator_design.inverse.settings import DesignSettings
+    from actuator_design.robust.tolerances import Tolerances
+    from actuator_design.model.scene import default_scene
 
     calls = []
     real = design_robust.ScenarioDesignNLP.solve
@@ -146,7 +146,7 @@ def field_tapered_bvp(h, phi, root, tip, guess_theta=None):
 
 
 def test_design_with_a_tapered_load_is_the_bvp_forward():
-    from actuator_design.analysis.design import design
+    from actuator_design.inverse.design import design
 
     root, tip = (0.0, -1.0), (0.0, -0.3)
     base = Scene(field=UniformField(phi=0.0), h=0.0, tip_force=(0.0, 0.0)).with_term(

@@ -12,17 +12,17 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.accuracy import solve_to_tolerance
+from actuator_design.equilibrium.pipeline import solve_to_tolerance
 from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
 from actuator_design.benchmarks.problems import elastica_fold, elastica_tip, shooting_params_from_scene
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.closed_forms import (critical_field_transverse, lowload_stiffness,
                                                     transverse_mode)
 from actuator_design.reference.shooting import solve_shooting, sturm_morse_index
-from actuator_design.scene import Scene, default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import Scene, default_scene
+from actuator_design.equilibrium.solver import get_solver
 from physical_references import bvp_from_rest, layer_tip
 
 HC1 = critical_field_transverse(1)

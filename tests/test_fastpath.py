@@ -13,12 +13,12 @@ import pytest
 
 from actuator_design.benchmarks.floor import NumpyNewton
 from actuator_design.benchmarks.problems import elastica_tip
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.closed_forms import transverse_mode
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import Scene, default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import Scene, default_scene
+from actuator_design.equilibrium.solver import get_solver
 from jit_check import jit_matches_vm
 
 FAST = SolverOptions(elements=1, degree=12, method="fast")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from actuator_design.analysis.field_angle_response import field_angle_response
-from actuator_design.profiles import constant_profile
-from actuator_design.scene import Scene, UniformField
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, UniformField
 
 
 def test_soft_is_pi_periodic_and_weak_hard_is_antiperiodic(tmp_path):

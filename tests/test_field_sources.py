@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from actuator_design.field_sources import CoilSource, MagnetSource, source_field
+from actuator_design.model.field_sources import CoilSource, MagnetSource, source_field
 from actuator_design.physics.fields import field_model
 from actuator_design.physics.harmonic import field_function
 

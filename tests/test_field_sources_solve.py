@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from actuator_design.acceptance import check_physical
+from actuator_design.equilibrium.acceptance import check_physical
 from actuator_design.cli.main import main
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
                                                       solve_field_shooting)
 
@@ -138,7 +138,7 @@ def test_solve_prints_the_fit(capsys):
 def test_design_in_a_non_uniform_field_designs_its_strength_not_an_angle():
     """A dipole field has no angle: the automatic sets drop φ (they asked for it and failed with
     '--vary phi: needs a uniform field' before) and say so."""
-    from actuator_design.analysis.design import design_problem
+    from actuator_design.inverse.design import design_problem
 
     scene = _scene("permanent_magnet_dipole.yaml")
     prob = design_problem((0.9, -0.2), replace(scene, fibres_given=False), None, None, None, None, 0.0)
@@ -157,9 +157,9 @@ def test_design_in_a_field_of_coils_without_current_limits_is_refused_in_one_lin
 def test_a_rod_pulled_onto_a_magnet_says_it_left_the_fitted_region():
     """A magnet the rod can reach, pulling hard: the path from rest snaps towards it and the solve
     fails there; the result names the cause (the field is not known there), not a solver code."""
-    from actuator_design.field_sources import MagnetSource, source_field
-    from actuator_design.profiles import constant_profile
-    from actuator_design.scene import Scene
+    from actuator_design.model.field_sources import MagnetSource, source_field
+    from actuator_design.model.profiles import constant_profile
+    from actuator_design.model.scene import Scene
 
     magnet = MagnetSource("cylinder", 10e-3, 10e-3, (15e-3, -12e-3), 0.5 * math.pi, 1.2 / MU0)
     field, _ = source_field((magnet,), 20e-3)
@@ -209,7 +209,7 @@ def test_several_magnets_in_a_config_add_their_fields():
 def test_magnets_whose_bodies_intersect_are_refused_and_touching_ones_are_not():
     """Two discs overlap exactly when their centres are closer than the sum of their radii; two
     blocks stacked face to face touch and are accepted, pushed 0.1 mm into each other they are not."""
-    from actuator_design.sources import MagnetSource, plane_section, sections_overlap
+    from actuator_design.model.sources import MagnetSource, plane_section, sections_overlap
 
     disc = MagnetSource("diametric_cylinder", 4e-3, 2e-3, (0.0, 0.0), 0.0, 1.0)
     for gap, overlapping in ((-1e-4, True), (1e-7, False), (1e-3, False)):

@@ -5,8 +5,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from actuator_design.analysis.loading import follow_path, ramp
-from actuator_design.scene import default_scene
+from actuator_design.continuation.loading import follow_path, ramp
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.landscape import plot_landscape_map
 from actuator_design.viz.loading import path_figure
 
@@ -48,7 +48,7 @@ def test_the_shape_draws_the_field_at_the_angle_the_text_reports():
 
     import pytest
 
-    from actuator_design.equilibrium import solve
+    from actuator_design.equilibrium.pipeline import solve
     from actuator_design.viz.shape import plot_shape
 
     phi = math.radians(-26.2419)
@@ -71,7 +71,7 @@ def test_a_branch_legend_names_only_what_is_drawn():
     'branch point' (h_crit = π/(2√2), THEORY §6)."""
     import math
 
-    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.continuation.follow import continue_branch
     from actuator_design.viz.landscape import plot_branches
 
     plain = continue_branch(default_scene(h=0.0, phi=0.0), "h", 0.0, 1.0)

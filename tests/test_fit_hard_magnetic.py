@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
+from actuator_design.physics import parameters as lens
 from actuator_design.calibration import FitSpec, fit_config, prepare_fit
 from actuator_design.config import ConfigError
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
@@ -218,7 +218,7 @@ def test_remanence_spec_is_checked_with_its_unit():
 def test_a_term_the_fit_map_does_not_know_is_refused(monkeypatch):
     """A plug-in term's values would be held fixed while the field and E change: refused."""
     from actuator_design.calibration import solve as fit_solve
-    from actuator_design.parameters import plugin_parameter
+    from actuator_design.physics.parameters import plugin_parameter
     from actuator_design.physics.registry import register_term, unregister_term
     from actuator_design.physics.terms import EnergyTerm
 

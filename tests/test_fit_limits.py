@@ -259,7 +259,7 @@ calibration.prepare_fit = prepare_fit
 
 _SIGTERM_WHILE_WRITING = """
 import os, signal
-import actuator_design.io as io
+import actuator_design.io.save as io
 real_write = io._write_new_file
 def write_new_file(path, content):
     real_write(path, content)

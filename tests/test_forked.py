@@ -115,8 +115,8 @@ def test_the_main_job_is_the_same_with_one_worker_or_two(targets):
     to the last bit: the same computations on the same state."""
     code = f"""
         import json
-        from actuator_design.analysis.design import design
-        from actuator_design.analysis.design_poses import design_poses
+        from actuator_design.inverse.design import design
+        from actuator_design.inverse.poses import design_poses
         targets = {targets!r}
         res = design(targets[0]) if len(targets) == 1 else design_poses(targets)
         d = res.to_dict()
@@ -136,8 +136,8 @@ def test_an_equilibrium_result_travels_whole():
 
     import numpy as np
 
-    from actuator_design.equilibrium import solve
-    from actuator_design.scene import default_scene
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.scene import default_scene
 
     r = solve(default_scene(h=3.0, phi=1.0))
     copy = pickle.loads(pickle.dumps(r))

@@ -11,14 +11,14 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
-from actuator_design.analysis.continuation import continue_branch
+from actuator_design.physics import parameters as lens
+from actuator_design.continuation.follow import continue_branch
 from actuator_design.analysis.equilibria import find_equilibria
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import constant_profile, expression_profile
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import constant_profile, expression_profile
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
-from actuator_design.scene import DipoleField, Scene, UniformField
+from actuator_design.model.scene import DipoleField, Scene, UniformField
 
 DEFAULT = SolverOptions()
 
@@ -179,7 +179,7 @@ def test_design_with_the_hard_term_present_recovers_a_shooting_made_target():
     """The target is the tip of the shooting solution at (h, φ) = (0.9, 1.3) with h_r = 1.8; the
     design (varying h and φ) recovers the field. The field is one field (issue 17): the base scene's
     h = 0.5, h_r = 1.0 fix h_r = 2 h at every field, so h_r comes back with h (THEORY §9)."""
-    from actuator_design.analysis.design import design
+    from actuator_design.inverse.design import design
 
     ref = solve_shooting(ShootingParams(phi=1.3, h=0.9, h_r=1.8), 0.5)
     assert ref.converged

@@ -26,10 +26,10 @@ import pytest
 
 from actuator_design.analysis.equilibria import (find_equilibria, find_equilibria_deflation,
                                                  gamma_bound)
-from actuator_design.profiles import constant_profile, expression_profile
+from actuator_design.model.profiles import constant_profile, expression_profile
 from actuator_design.reference.shooting import (ShootingParams, jacobi_coefficient, shoot,
                                                 solve_shooting, sturm_morse_index)
-from actuator_design.scene import Scene, UniformField
+from actuator_design.model.scene import Scene, UniformField
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

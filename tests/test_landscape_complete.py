@@ -19,13 +19,13 @@ import numpy as np
 import pytest
 from scipy.integrate import quad, solve_bvp
 
-from actuator_design.analysis.branch import CriticalPoint
-from actuator_design.analysis.continuation import continue_branch
-from actuator_design.analysis.critical import _dedupe, critical_points
+from actuator_design.continuation.branch import CriticalPoint
+from actuator_design.continuation.follow import continue_branch
+from actuator_design.continuation.critical import _dedupe, critical_points
 from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.analysis.multiplicity import count_row
 from actuator_design.analysis.shooting_scan import scan_validity
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.landscape import _segments
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from actuator_design.analysis.loading import (apply_values, follow_path, normalise_schedule,
+from actuator_design.continuation.loading import (apply_values, follow_path, normalise_schedule,
                                               ramp)
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 from actuator_design.reference.shooting import (ShootingParams, jacobi_morse_index, shoot,
                                                 solve_shooting)
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 HALF_PI = 0.5 * math.pi
 
@@ -185,7 +185,7 @@ def test_lowering_the_field_through_the_pitchfork_returns_to_the_straight_rod():
 
 def test_follow_path_api_final_and_reaches():
     """The design engineer's use: from zero field to a designed state without a snap."""
-    from actuator_design.equilibrium import solve
+    from actuator_design.equilibrium.pipeline import solve
 
     target = solve(default_scene(h=1.2, phi=1.0, p=0.1))
     path = follow_path(default_scene(h=0.0, phi=1.0, p=0.1), None,
@@ -225,7 +225,7 @@ def test_field_ramp_in_a_dipole_field_scales_both_magnetic_groups():
     structure (the positional term stays built, with a value whose square is 0)."""
     from dataclasses import replace as dc_replace
 
-    from actuator_design.scene import DipoleField
+    from actuator_design.model.scene import DipoleField
 
     sc = dc_replace(default_scene(h=0.4), field=DipoleField(x0=1.2, y0=-0.3), h_pos=0.2)
     half = apply_values(sc, {"h": 0.2})
@@ -233,7 +233,7 @@ def test_field_ramp_in_a_dipole_field_scales_both_magnetic_groups():
     zero = apply_values(sc, {"h": 0.0})
     assert zero.h_pos > 0 and zero.h_pos ** 2 == 0.0
     assert apply_values(sc, {"h": 0.2, "h_pos": 0.3}).h_pos == 0.3
-    from actuator_design.options import SolverOptions
+    from actuator_design.equilibrium.options import SolverOptions
 
     coarse = SolverOptions(elements=2, degree=6)  # the dipole NLP is slow to build: keep it small
     path = follow_path(sc, coarse, ramp("h", 0.0, 0.1))

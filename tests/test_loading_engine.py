@@ -13,17 +13,17 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from actuator_design import parameters as lens
-from actuator_design.analysis.loading import follow_path, prepare_scene
+from actuator_design.physics import parameters as lens
+from actuator_design.continuation.loading import follow_path, prepare_scene
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings,
                                           Fold, Natural, continuation)
 from actuator_design.continuation.segment import LensSegment, SegmentProblem, followers
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reduced import locate_fold, reduced_system
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
-from actuator_design.scene import DipoleField, default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import DipoleField, default_scene
+from actuator_design.equilibrium.solver import get_solver
 from fold_problems import elastica_fold_problem
 
 HALF_PI = 0.5 * math.pi

@@ -6,9 +6,9 @@ side of every point of the curve (three equilibria below the fold, one above).""
 import json
 import math
 
-from actuator_design.analysis.critical import count_equilibria
+from actuator_design.continuation.critical import count_equilibria
 from actuator_design.cli.main import main
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 
 def test_a_fold_curve_inside_the_range_is_found_and_is_where_the_count_changes(capsys):

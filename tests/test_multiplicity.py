@@ -9,10 +9,10 @@ of the Jacobi field) are compared with the reduced-Hessian verdicts of the NLP e
 import numpy as np
 import pytest
 
-from actuator_design.analysis.critical import critical_curves
+from actuator_design.continuation.critical import critical_curves
 from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.analysis.multiplicity import count_row, multiplicity_map
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 
 @pytest.fixture(scope="module")

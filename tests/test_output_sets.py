@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from actuator_design import io as adio
+from actuator_design.io import save as adio
 from actuator_design.cli.main import main
 
 ROOT = Path(__file__).resolve().parents[1]

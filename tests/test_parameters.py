@@ -6,12 +6,12 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from actuator_design import parameters as lens
-from actuator_design.options import SolverOptions
+from actuator_design.physics import parameters as lens
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.physics.kinematics import PlanarKinematics
-from actuator_design.physics.terms import build_terms
-from actuator_design.scene import DipoleField, Scene, default_scene
-from actuator_design.solver import get_solver
+from actuator_design.physics.registry import build_terms
+from actuator_design.model.scene import DipoleField, Scene, default_scene
+from actuator_design.equilibrium.solver import get_solver
 
 
 def test_every_parameter_round_trips_and_adds_its_term():
@@ -98,8 +98,11 @@ def _scene_flag_names():
 
 
 def test_every_name_the_analyses_accept_is_a_lens_entry():
-    from actuator_design.analysis import design, design_robust, stiffness, tolerances
-    from actuator_design.analysis.design_nlp import DESIGN_VARIABLES
+    from actuator_design.analysis import stiffness
+    from actuator_design.inverse import design
+    from actuator_design.robust import design_robust
+    from actuator_design.robust import tolerances
+    from actuator_design.inverse.nlp import DESIGN_VARIABLES
     from actuator_design.calibration import PARAMETERS as FIT_PARAMETERS
     from actuator_design.cli import continue_, path
     from actuator_design.cli import design as cli_design
@@ -125,7 +128,7 @@ def test_every_name_the_analyses_accept_is_a_lens_entry():
 
 def test_the_accepted_lists_are_the_lens_lists_themselves():
     """No second list: what design, the CLI and the fit accept is read from the lens."""
-    from actuator_design.analysis.design_nlp import DESIGN_VARIABLES, _LENS_VARIABLES
+    from actuator_design.inverse.nlp import DESIGN_VARIABLES, _LENS_VARIABLES
     from actuator_design.calibration import PARAMETERS as FIT_PARAMETERS
     from actuator_design.cli import path
     from actuator_design.cli import design as cli_design
@@ -146,7 +149,7 @@ def test_the_accepted_lists_are_the_lens_lists_themselves():
 
 
 def test_fit_spec_and_design_reject_non_lens_names_listing_the_lens():
-    from actuator_design.analysis.design import design
+    from actuator_design.inverse.design import design
     from actuator_design.calibration import FitSpec
     from actuator_design.config import ConfigError
     from actuator_design.study.spec import validate_spec

@@ -65,7 +65,7 @@ def test_path_help_lists_every_name_of_the_lens_and_a_magnetization_ramp_lands_o
     solve_bvp: θ'' = h_r sin(θ + β − φ), θ(0) = 0, θ'(1) = 0 (THEORY §9), x' = cos θ, y' = sin θ."""
     from scipy.integrate import solve_bvp
 
-    from actuator_design.parameters import degree_aliases, names
+    from actuator_design.physics.parameters import degree_aliases, names
 
     assert main(["path", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design.analysis.path_corridor import distance_to_path
-from actuator_design.analysis.schedule import field_schedule
+from actuator_design.schedules.path_corridor import distance_to_path
+from actuator_design.schedules.schedule import field_schedule
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
 

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from actuator_design.analysis.phase import check_autonomous, first_integral, phase_portrait
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import table_profile
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import table_profile
 from actuator_design.reference.closed_forms import transverse_mode
-from actuator_design.scene import DipoleField, default_scene
+from actuator_design.model.scene import DipoleField, default_scene
 
 FINE = SolverOptions(elements=6, degree=14)
 

@@ -12,15 +12,15 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_bvp
 
-from actuator_design import parameters as lens
-from actuator_design.analysis.continuation import continue_branch
+from actuator_design.physics import parameters as lens
+from actuator_design.continuation.follow import continue_branch
 from actuator_design.analysis.equilibria import find_equilibria
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.parameters import plugin_parameter
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.physics.parameters import plugin_parameter
 from actuator_design.physics.registry import register_term, unregister_term
 from actuator_design.physics.terms import EnergyTerm
-from actuator_design.scene import Scene, UniformField
+from actuator_design.model.scene import Scene, UniformField
 
 NAME = "toy_torsional_spring"
 
@@ -109,7 +109,7 @@ def _tip_by_bvp(h, phi, k, theta_star):
 
 
 def test_design_with_the_toy_term_present():
-    from actuator_design.analysis.design import design
+    from actuator_design.inverse.design import design
 
     k, th_star = 2.0, 0.3
     base = Scene(field=UniformField(phi=0.0), h=0.0, tip_force=(0.0, 0.0)).with_term(

@@ -16,17 +16,18 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
-from actuator_design.analysis.hardware_map import HardwareMap
-from actuator_design.analysis.pose_design import design_pose
-from actuator_design.analysis.pose_problem import at_pose, clearance, pose_problem, scene_at_pose
-from actuator_design.analysis.tolerances import Tolerances
+from actuator_design.hardware.map import HardwareMap
+from actuator_design.hardware.pose_design import design_pose
+from actuator_design.hardware.pose_problem import at_pose, clearance, pose_problem, scene_at_pose
+from actuator_design.robust.tolerances import Tolerances
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
 from actuator_design.config.errors import ConfigError
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.physics.fields import field_model
 from actuator_design.physics.harmonic import field_function
-from actuator_design.reference.shooting_field import FieldRod, field_from_function, guess_from_shape, solve_field_shooting
+from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
+                                                      solve_field_shooting)
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 CONFIG = CONFIGS / "magnet_pose_design.yaml"
@@ -106,6 +107,7 @@ def designed(scene):
     return target, design_pose(scene, target)
 
 
+@pytest.mark.slow  # the designed pose (module fixture): ~25–50 s
 def test_the_designed_pose_puts_the_tip_on_the_target_by_shooting_in_magpylibs_field(scene, designed):
     target, d = designed
     assert d.success and d.verified and d.holds_over_box and d.least_move, d.message
@@ -123,6 +125,7 @@ def test_the_designed_pose_puts_the_tip_on_the_target_by_shooting_in_magpylibs_f
     assert d.field_at_clamp[0] == pytest.approx(math.hypot(b[0], b[1]), rel=1e-6)
 
 
+@pytest.mark.slow  # the designed pose (module fixture): ~25–50 s
 def test_the_designed_pose_moves_no_more_than_the_pose_that_made_the_target_nor_its_neighbours(scene, designed):
     target, d = designed
     var, prob = pose_problem(scene, target)
@@ -187,7 +190,7 @@ def test_a_bad_travel_names_the_field(tmp_path, travel, words):
 
 
 def test_an_axis_angle_is_the_same_a_turn_apart_and_a_whole_turn_is_both_ways_about_it(tmp_path):
-    from actuator_design.analysis.pose_problem import angle_offsets, pose_variables
+    from actuator_design.hardware.pose_problem import angle_offsets, pose_variables
 
     raw = yaml.safe_load(CONFIG.read_text())
     raw["scene"]["field"]["axis_angle"] = "270 deg"  # = -90 deg, inside [-180, 180]
@@ -218,6 +221,7 @@ def test_a_position_tolerance_on_coils_is_refused(capsys):
     assert "magnet's pose" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # the designed pose (module fixture): ~25–50 s
 def test_the_box_moves_the_magnet_turns_its_axis_and_scales_its_remanence(scene, designed):
     _, d = designed
     assert d.tolerances == Tolerances()
@@ -250,7 +254,7 @@ def test_the_maps_pointwise_derivatives_hold_for_several_values_a_point(scene):
 
 
 def test_optimality_weighs_bounds_and_limits_by_their_sign():
-    from actuator_design.analysis.current_sqp import CurrentProblem, _stationary
+    from actuator_design.hardware.current_sqp import CurrentProblem, _stationary
 
     prob = CurrentProblem(target=np.array([0.0]), cost=np.ones(2), bound=np.ones(2), max_limit=1.0, tip_tol=1e-7,
                           lower=-np.ones(2), upper=np.ones(2), centre=np.zeros(2))

@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from actuator_design.analysis.pose_problem import scene_at_pose
+from actuator_design.hardware.pose_problem import scene_at_pose
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
-from actuator_design.reference.shooting_field import FieldRod, field_from_function, guess_from_shape, solve_field_shooting
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
+                                                      solve_field_shooting)
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "magnet_pose_design.yaml"
 MU0 = 4e-7 * math.pi
@@ -101,7 +102,7 @@ def test_stage_rates_on_a_scene_without_a_moving_magnet_are_refused(capsys):
 def test_a_turntable_that_turns_without_end_turns_the_short_way_and_a_limited_one_does_not():
     from types import SimpleNamespace
 
-    from actuator_design.analysis.pose_schedule import _short_way, _whole_turn, _within_turn
+    from actuator_design.schedules.pose_schedule import _short_way, _whole_turn, _within_turn
 
     whole = SimpleNamespace(coords=(0, 2), lower=np.array([-1.0, -math.pi]), upper=np.array([1.0, math.pi]))
     limited = SimpleNamespace(coords=(0, 2), lower=np.array([-1.0, -1.0]), upper=np.array([1.0, 3.0]))

@@ -10,14 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reduced import (bordered_solve, inertia, locate_fold, lowest_eigenpairs,
                                      null_vector, reduced_system, signed_distance_to_singularity)
 from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
                                             lowest_eigenpair_banded)
 from actuator_design.reference.shooting import ShootingParams, shoot
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
 from fold_problems import reference_fold
 
 
@@ -214,7 +214,7 @@ def test_the_kernel_evaluator_equals_the_symbolic_system(names, lam):
     from the solver's structured kernel; they equal the symbolic reduced system's (automatic
     differentiation of the whole reduced energy: a second method) to round-off, in every lens."""
     from actuator_design.reduced.system import KernelSystemEvaluator, SystemEvaluator, reduced_system
-    from actuator_design.scene import DipoleField, Scene
+    from actuator_design.model.scene import DipoleField, Scene
 
     scene = Scene(field=DipoleField(x0=0.5, y0=0.8, moment_angle=0.5 * math.pi), h=0.3, h_pos=0.1,
                   tip_force=(0.2, -0.4), tip_moment=0.3, distributed_load=(0.1, -0.5))

@@ -404,7 +404,7 @@ def test_mirror_symmetry_transverse_field_is_exact():
 
 def test_profiles_accepted_for_b_and_alpha():
     """``Profile`` objects (any callable of s) give the same equilibrium as the equivalent floats."""
-    from actuator_design.profiles import constant_profile, table_profile
+    from actuator_design.model.profiles import constant_profile, table_profile
 
     as_float = ShootingParams(h=1.1, phi=0.4, fy=0.5, alpha=0.2, b=1.5)
     as_profile = ShootingParams(h=1.1, phi=0.4, fy=0.5, alpha=constant_profile(0.2),

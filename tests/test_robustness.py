@@ -12,19 +12,19 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.analysis.continuation import continue_branch
-from actuator_design.analysis.design import DesignSettings, design
-from actuator_design.analysis.design_nlp import get_design_nlp, prepare_scene
-from actuator_design.analysis.robustness import evaluate_robustness, follow_segment
-from actuator_design.analysis.tolerances import Tolerances, parse_tolerances, perturb
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import (constant_profile, expression_profile, legendre_profile,
+from actuator_design.continuation.follow import continue_branch
+from actuator_design.inverse.design import DesignSettings, design
+from actuator_design.inverse.nlp import get_design_nlp, prepare_scene
+from actuator_design.robust.robustness import evaluate_robustness, follow_segment
+from actuator_design.robust.tolerances import Tolerances, parse_tolerances, perturb
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import (constant_profile, expression_profile, legendre_profile,
                                       table_profile)
 from actuator_design.reference.closed_forms import critical_field_transverse
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
 from test_loading import shooting_fold
 
 OPTS = SolverOptions()
@@ -115,8 +115,8 @@ def test_fold_search_builds_run_ahead_are_bounded_and_change_no_fold():
     AHEAD_MAX_NODES nodes are offered (a step on a finer one takes seconds)."""
     from dataclasses import replace
 
-    from actuator_design.analysis.robustness import fold_search_builds
-    from actuator_design.analysis.snap_location import AHEAD_MAX_NODES
+    from actuator_design.robust.robustness import fold_search_builds
+    from actuator_design.robust.snap_location import AHEAD_MAX_NODES
 
     sc, r = _buckled_against_load()
     steps = fold_search_builds(sc, OPTS)

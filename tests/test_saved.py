@@ -12,11 +12,11 @@ import pytest
 
 import actuator_design as ad
 from actuator_design.config import load_scene
-from actuator_design.io import dumps_json, scene_to_dict
-from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
-from actuator_design.profiles import legendre_profile, table_profile
-from actuator_design.saved import read_result, scene_from_dict
-from actuator_design.scene import Scene, TermValues
+from actuator_design.io.save import dumps_json, scene_to_dict
+from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
+from actuator_design.model.profiles import legendre_profile, table_profile
+from actuator_design.io.saved import read_result, scene_from_dict
+from actuator_design.model.scene import Scene, TermValues
 
 CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.yaml"))
 

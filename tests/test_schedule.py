@@ -4,10 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from actuator_design.analysis.schedule import field_schedule
-from actuator_design.analysis.loading import follow_path
-from actuator_design.equilibrium import solve
-from actuator_design.scene import default_scene
+from actuator_design.schedules.schedule import field_schedule
+from actuator_design.continuation.loading import follow_path
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.model.scene import default_scene
 
 
 def test_schedule_through_waypoints_of_a_known_field_rotation():
@@ -65,7 +65,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from actuator_design.analysis.schedule import nearest_axis_angle
+from actuator_design.schedules.schedule import nearest_axis_angle
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
 from result_invariants import schedule_contradictions
 

@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design.analysis.schedule import field_schedule
-from actuator_design.analysis.schedule_ocp import RateLimits, optimal_schedule
-from actuator_design.analysis.loading import follow_path
+from actuator_design.schedules.schedule import field_schedule
+from actuator_design.schedules.schedule_ocp import RateLimits, optimal_schedule
+from actuator_design.continuation.loading import follow_path
 from actuator_design.cli.main import main
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 CONFIG = str(Path(__file__).resolve().parents[1] / "configs" / "study_design_schedule.yaml")
 # the shipped example's waypoints (configs/study_design_schedule.yaml)

@@ -7,12 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Peg
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import expression_profile
-from actuator_design.scene import Scene
-from actuator_design.self_contact import candidate_pairs, neighbour_arc, self_penetration
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Peg
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import expression_profile
+from actuator_design.model.scene import Scene
+from actuator_design.contact.self_contact import candidate_pairs, neighbour_arc, self_penetration
 from self_contact_references import coil_reference
 
 GAP, M = 0.01, 8.5
@@ -174,7 +174,7 @@ def test_a_loading_path_through_itself_is_no_success():
     touches down on the (point) clamp where the closed form 2 sin(M/2)/M = 2·gap says and presses on it."""
     from scipy.optimize import brentq
 
-    from actuator_design.analysis.loading import follow_path
+    from actuator_design.continuation.loading import follow_path
 
     sc = Scene(field=None, tip_moment=0.0, contact_gap=GAP)
     off = SolverOptions(self_contact=False)
@@ -196,7 +196,7 @@ def test_a_loading_path_through_itself_is_no_success():
 def test_a_path_pressing_the_tip_on_the_clamp_stops_where_it_turns_unstable():
     """The same strip's path on to 8 stops where the tip pressing on the clamp's corner turns unstable,
     between 6.3 and 7 (the ramp from rest stops at 93.3 % of 7, 6.53); ~65 s of small steps near it."""
-    from actuator_design.analysis.loading import follow_path
+    from actuator_design.continuation.loading import follow_path
 
     on = follow_path(Scene(field=None, tip_moment=0.0, contact_gap=GAP), SolverOptions(), {"m_tip": [0.0, 8.0]})
     assert len(on.contact_events) == 1
@@ -208,7 +208,7 @@ def test_a_path_follows_the_coil_onto_itself():
     """The coil's tip moment ramped 0 → 8.5: the tip touches down on the middle turn where the free
     spiral θ = M (e^s − 1) first comes 2·gap near itself (Brent on the integrated curve), and the
     path ends on the state shooting gives (the one solve finds from rest)."""
-    from actuator_design.analysis.loading import follow_path
+    from actuator_design.continuation.loading import follow_path
     from self_contact_references import free_coil_touch
 
     path = follow_path(replace(coil(), tip_moment=0.0), SolverOptions(), {"m_tip": [0.0, M]})
@@ -231,7 +231,7 @@ def test_continuation_stops_where_the_rod_first_touches_itself_and_goes_on_press
     that corner turns unstable near 6.54, where the path stops and says so, a slow test of path)."""
     from scipy.optimize import brentq
 
-    from actuator_design.analysis.continuation import continue_branch
+    from actuator_design.continuation.follow import continue_branch
 
     res = continue_branch(Scene(field=None, tip_moment=0.0, contact_gap=GAP), "m_tip", 0.0, 6.4)
     exact = brentq(lambda m: 2.0 / m * math.sin(m / 2.0) - 2 * GAP, 5.5, 2 * math.pi, xtol=1e-15)
@@ -274,7 +274,7 @@ def test_self_penetration_of_a_circular_strip_against_its_closed_form(chord):
 def test_the_coil_pressed_on_a_wall_and_on_itself_against_shooting():
     """Self-contact and an obstacle at once: a wall left of the coil presses its outer turn in (the
     centre line 0.04 from x = 0); the shooting reference carries the wall's force and its tangency."""
-    from actuator_design.obstacles import Wall
+    from actuator_design.contact.obstacles import Wall
 
     r = solve(coil(obstacles=(Wall((-0.05, 0.0), 0.0),)))
     assert r.success and r.stable and r.contact["self_contact"], r.message
@@ -299,8 +299,9 @@ def test_the_coil_pressed_on_a_wall_and_on_itself_against_shooting():
 def test_a_contact_result_judged_inaccurate_while_passing_through_itself_gets_self_contact(monkeypatch):
     """A rod wound round a peg onto itself enters the peg where it passes through its own turn: that
     contact result (inaccurate) is solved again with self-contact, not reported as it is."""
-    import actuator_design.contact as contact
-    import actuator_design.self_contact as self_contact
+    import actuator_design.contact.equilibrium as contact
+    import actuator_design.contact.self_contact as self_contact
+    import actuator_design.contact.self_solve as self_solve
 
     coil = Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01,
                  obstacles=(Peg((5.0, 5.0), 0.1),))
@@ -309,7 +310,7 @@ def test_a_contact_result_judged_inaccurate_while_passing_through_itself_gets_se
     through.success, through.status = False, "inaccurate"
     calls = []
     monkeypatch.setattr(contact, "solve_contact", lambda *a, **k: through)
-    monkeypatch.setattr(self_contact, "solve_self_contact", lambda *a, **k: calls.append(a) or "with self-contact")
+    monkeypatch.setattr(self_solve, "solve_self_contact", lambda *a, **k: calls.append(a) or "with self-contact")
     assert solve(coil) == "with self-contact" and len(calls) == 1
     # a result that fails for another reason is reported as it is
     through.status = "not_converged"
@@ -323,7 +324,7 @@ def test_a_round_that_passed_through_itself_gets_the_crossing_pairs():
     farther apart than 2·gap get none, and no slot is used twice."""
     from types import SimpleNamespace
 
-    from actuator_design.self_contact import grown_pairs
+    from actuator_design.contact.self_contact import grown_pairs
 
     n = 41  # strand a: s in (0, 0.5] along the x axis; strand b: s in (0.5, 1], crossing it at x = 0.25
     s = np.concatenate([[0.0], np.linspace(0.0125, 0.5, n - 1), np.linspace(0.5125, 1.0, n)])

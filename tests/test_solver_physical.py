@@ -15,9 +15,9 @@ import sys
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.scene import default_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import default_scene
 from actuator_design.transcription.lgl import LGL, graded_breakpoints
 from physical_references import bvp_from_rest, layer_tip
 

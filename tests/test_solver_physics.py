@@ -10,10 +10,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import constant_profile, expression_profile
-from actuator_design.scene import DipoleField, Scene, UniformField, default_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import constant_profile, expression_profile
+from actuator_design.model.scene import DipoleField, Scene, UniformField, default_scene
 
 LGL = SolverOptions()
 MID = SolverOptions(transcription="midpoint", elements=400)
@@ -156,7 +156,7 @@ def test_fibres_along_field_give_no_torque():
 
 
 def test_terms_absent_from_scene_are_not_built():
-    from actuator_design.physics.terms import build_terms
+    from actuator_design.physics.registry import build_terms
 
     assert [t.name for t in build_terms(Scene(field=None, tip_force=None))] == ["bending"]
     names = [t.name for t in build_terms(default_scene(1.0, 0.3, 1.0))]
@@ -169,7 +169,7 @@ def test_terms_absent_from_scene_are_not_built():
 
 
 def test_new_values_reuse_the_built_nlp():
-    from actuator_design.solver import get_solver
+    from actuator_design.equilibrium.solver import get_solver
 
     opts = SolverOptions(elements=3, degree=9)
     s1 = get_solver(default_scene(1.0, 0.2, 0.5), opts)

@@ -10,12 +10,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import expression_profile, table_profile
-from actuator_design.reference.closed_forms import critical_field_transverse, lowload_stiffness, transverse_mode
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import expression_profile, table_profile
+from actuator_design.reference.closed_forms import (critical_field_transverse, lowload_stiffness,
+                                                    transverse_mode)
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
-from actuator_design.scene import Scene, UniformField, default_scene
+from actuator_design.model.scene import Scene, UniformField, default_scene
 
 DEFAULT = SolverOptions()
 

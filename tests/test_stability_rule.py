@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from actuator_design.reduced.linalg import classify_spectrum, signed_distance_to_singularity
-from actuator_design.scene import default_scene
-from actuator_design.solver import get_solver
-from actuator_design.options import SolverOptions
-from actuator_design.stability_check import is_unstable, verdict_of
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.stability_check import is_unstable, verdict_of
 
 
 @pytest.mark.parametrize("lam,expected", [

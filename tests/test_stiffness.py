@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from actuator_design.analysis.stiffness import stiffness_field_curve, tip_stiffness
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.closed_forms import lowload_stiffness
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 

@@ -6,8 +6,8 @@ import pytest
 
 from actuator_design.analysis.stiffness import tip_stiffness
 from actuator_design.cli.main import main
-from actuator_design.scene import default_scene
-from actuator_design.solver import SolverOptions
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import SolverOptions
 from actuator_design.viz.compliance import ELLIPSE_SIZE, compliance_figure
 
 

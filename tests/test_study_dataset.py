@@ -22,7 +22,7 @@ import xarray as xr
 import actuator_design
 from actuator_design.analysis import registry
 from actuator_design.cli.main import main
-from actuator_design.safe_files import OutputFolderError
+from actuator_design.io.safe_files import OutputFolderError
 from actuator_design.study import worker
 from actuator_design.study.dataset import build_dataset, column_units, dataset_bytes
 from actuator_design.study.outputs import build_table

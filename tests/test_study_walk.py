@@ -10,15 +10,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from actuator_design.acceptance import graded_options
-from actuator_design.balance import BalanceOperator, balance
+from actuator_design.equilibrium.acceptance import graded_options
+from actuator_design.equilibrium.balance import BalanceOperator, balance
 from actuator_design.config import load_config
-from actuator_design.dense_shape import DenseShape
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.pointwise import NotVectorisable, VectorisedSX
+from actuator_design.equilibrium.dense_shape import DenseShape
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pointwise import NotVectorisable, VectorisedSX
 from actuator_design.reference.closed_forms import critical_field_transverse
-from actuator_design.solver import get_solver
+from actuator_design.equilibrium.solver import get_solver
 from actuator_design.study.grid import substitute
 from actuator_design.study.runner import plan_study, run_study
 from actuator_design.study.walk import _is_ray, plan_chunks, wanted_keys
@@ -172,7 +172,7 @@ def test_wanted_keys_keep_every_column_a_pattern_can_match():
 def test_balance_operator_against_the_dense_shape(config, transcription):
     """Two evaluations of the moment balance: stored linear maps with exactly integrated Gauss
     interpolants, and the dense shape of the result (per-point quadrature from the breakpoints)."""
-    import actuator_design.balance as B
+    import actuator_design.equilibrium.balance as B
 
     cfg = load_config(config)
     scene = cfg.to_scene()

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
-from actuator_design.profiles import constant_profile
+from actuator_design.model.profiles import constant_profile
 from actuator_design.physics.registry import registered_terms, term_class
-from actuator_design.scene import ExpressionField, Scene, UniformField
+from actuator_design.model.scene import ExpressionField, Scene, UniformField
 
 TH = np.array([0.1, -0.4, 1.2])  # θ, rad
 KAPPA = np.array([0.5, -1.0, 2.0])  # θ', 1/ℓ

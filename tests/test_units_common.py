@@ -5,8 +5,8 @@ import sys
 
 import pytest
 
-from actuator_design import units
-from actuator_design.units import COMMON_UNITS, DIMENSIONS, QuantityError, parse_quantity
+from actuator_design.model import units
+from actuator_design.model.units import COMMON_UNITS, DIMENSIONS, QuantityError, parse_quantity
 
 
 def _by_pint(text, dimension):
@@ -40,7 +40,7 @@ def test_pint_is_loaded_only_when_a_value_needs_it():
     code = ("import sys; from actuator_design.config import load_config; "
             "c = load_config({'scene': {'type': 'dimensionless', 'h': 1.0, 'phi': '30 deg', 'p': 0}}); "
             "c.to_scene(); a = 'pint' in sys.modules; "
-            "from actuator_design.units import parse_quantity; parse_quantity('2 inch', 'length'); "
+            "from actuator_design.model.units import parse_quantity; parse_quantity('2 inch', 'length'); "
             "print(a, 'pint' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "True"]

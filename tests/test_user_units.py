@@ -16,10 +16,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from actuator_design.analysis.schedule import schedule_table
+from actuator_design.schedules.schedule import schedule_table
 from actuator_design.config import load_scene
-from actuator_design.parameters import parameter
-from actuator_design.user_units import (length_unit_of, pair_from_text, parameter_from_text,
+from actuator_design.physics.parameters import parameter
+from actuator_design.io.user_units import (length_unit_of, pair_from_text, parameter_from_text,
                                         physical_value_keys, user_units)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -203,7 +203,7 @@ def test_bad_units_on_the_command_line_exit_2_with_one_line(config_file):
 def test_schedule_command_files_carry_the_physical_columns(physical):
     """The `schedule` command's JSON and CSV (built from a hand-made result, no solve): each step
     keeps h, phi and gains field_mT by hand and time_s; waypoints in mm (20 mm rod)."""
-    from actuator_design.analysis.schedule import ScheduleResult
+    from actuator_design.schedules.schedule import ScheduleResult
     from actuator_design.cli.schedule import _output_files, _payload
 
     scene, units = physical

@@ -27,7 +27,7 @@ from actuator_design.reference.shooting import (ShootingParams, jacobi_morse_ind
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "fit_zhao2019.yaml"
 DATA = ROOT / "problems" / "data" / "zhao2019_cantilever.csv"
-MU0 = 4e-7 * math.pi  # written out (independent of actuator_design.units)
+MU0 = 4e-7 * math.pi  # written out (independent of actuator_design.model.units)
 L, T, BR = 17.2e-3, 0.84e-3, 0.143
 B_MT = np.array([5, 7, 10, 15, 25, 40], float)
 DELTA = np.array([0.550, 0.760, 0.779, 0.681, 0.530, 0.421])

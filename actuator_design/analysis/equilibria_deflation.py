@@ -11,13 +11,14 @@ from typing import List, Optional
 
 import numpy as np
 
-from ..equilibrium import solve
-from ..options import SolverOptions
-from ..reduced.newton import newton
-from ..scene import Scene
-from ..solver import get_solver
-from .equilibria import EquilibriaResult, Equilibrium, _dedupe_add, _nlp_options, refine_to_promise
-from .shooting_scan import gamma_bound, require_uniform
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.reduced.newton import newton
+from actuator_design.model.scene import Scene
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.analysis.equilibria_found import (EquilibriaResult, Equilibrium, _dedupe_add,
+                                                       _nlp_options, refine_to_promise)
+from actuator_design.analysis.shooting_scan import gamma_bound, require_uniform
 
 __all__ = ["find_equilibria_deflation"]
 

@@ -14,10 +14,10 @@ from typing import Dict, Optional, Sequence
 
 import numpy as np
 
-from ..equilibrium import solve
-from ..options import SolverOptions
-from ..scene import Scene, UniformField
-from ..solver import get_solver
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.equilibrium.solver import get_solver
 
 __all__ = ["AngleResponse", "field_angle_response"]
 

@@ -30,13 +30,14 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from ..scene import Scene
-from .. import parameters as lens
-from .multiplicity_scan import count_roots
-from .shooting_scan import (ShootingProblem, curvature_bound, gamma_bound, growth_exponent, is_autonomous,
-                            min_gamma_points, scan_validity, steps_for)
-from .registry import register
-from ..contact_guard import no_contact
+from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
+from actuator_design.analysis.multiplicity_scan import count_roots
+from actuator_design.analysis.shooting_scan import (ShootingProblem, curvature_bound, gamma_bound,
+                                                    growth_exponent, is_autonomous, min_gamma_points,
+                                                    scan_validity, steps_for)
+from actuator_design.analysis.registration import register
+from actuator_design.contact.guard import no_contact
 
 __all__ = ["MultiplicityMap", "multiplicity_map", "count_row", "count_rows"]
 
@@ -48,7 +49,7 @@ class MultiplicityMap:
     Attributes
     ----------
     x_param, y_param : str
-        Parameter names (of the lens, :mod:`actuator_design.parameters`).
+        Parameter names (of the lens, :mod:`actuator_design.physics.parameters`).
     x, y : ndarray, shapes (nx,), (ny,)
     counts, stable : ndarray of int, shape (ny, nx)
         Number of equilibria and of stable equilibria at (x[j], y[i]); −1 where the scan cannot be
@@ -100,7 +101,7 @@ class MultiplicityMap:
 
 def set_param(scene: Scene, name: str, value: float) -> Scene:
     """A copy of ``scene`` with the lens parameter ``name`` set to ``value``
-    (:func:`actuator_design.parameters.set_value`; without importing the continuation engine)."""
+    (:func:`actuator_design.physics.parameters.set_value`; without importing the continuation engine)."""
     return lens.set_value(scene, name, value, "map parameter")
 
 

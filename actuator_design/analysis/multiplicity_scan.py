@@ -41,7 +41,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .shooting_scan import ShootingProblem
+from actuator_design.analysis.shooting_scan import ShootingProblem
 
 __all__ = ["COARSE_STEP", "MIN_COARSE_INTERVALS", "TANGENT_REACH", "CHUNK", "count_roots",
            "coarse_factor", "residual_at"]

@@ -9,24 +9,16 @@ from __future__ import annotations
 
 from typing import Callable, Dict
 
+from actuator_design.analysis.registration import _ANALYSES, register
+
 __all__ = ["register", "get", "names"]
-
-_ANALYSES: Dict[str, Callable[..., dict]] = {}
-
-
-def register(name: str):
-    """Decorator: register ``f(scene, options, **settings) -> dict`` under ``name``."""
-    def wrap(fn):
-        _ANALYSES[name] = fn
-        return fn
-    return wrap
-
 
 #: the built-in analyses and the modules that register them (imported only when one is used:
 #: a study of ``solve`` does not pay for importing the design stages)
-BUILTIN: Dict[str, str] = {"solve": "solve", "equilibria": "equilibria", "continuation": "continuation",
-                           "critical": "critical", "map": "multiplicity", "path": "loading",
-                           "stiffness": "stiffness", "design": "design"}
+BUILTIN: Dict[str, str] = {"solve": "analysis.solve", "equilibria": "analysis.equilibria",
+                           "continuation": "continuation.follow", "critical": "continuation.critical",
+                           "map": "analysis.multiplicity", "path": "continuation.loading",
+                           "stiffness": "analysis.stiffness", "design": "inverse.design"}
 
 
 def _load_builtin(name=None):
@@ -34,7 +26,7 @@ def _load_builtin(name=None):
 
     for key, mod in BUILTIN.items():
         if name is None or key == name:
-            importlib.import_module(f"{__package__}.{mod}")
+            importlib.import_module(f"actuator_design.{mod}")
 
 
 def get(name: str) -> Callable[..., dict]:

@@ -2,7 +2,7 @@
 
 Method A of :mod:`.equilibria`: a complete scan of the shooting parameter
 γ = θ'(0). For a uniform field (or none) the Euler–Lagrange equation of any scene of
-:class:`~actuator_design.scene.Scene` (fibre layout α(s), stiffness b(s), tip force f, tip moment
+:class:`~actuator_design.model.scene.Scene` (fibre layout α(s), stiffness b(s), tip force f, tip moment
 m, uniform distributed dead load q, hard-magnetic group h_r with magnetisation angle β(s)) reads
 
     (b θ')' − h² sin(2(θ + α − φ)) − h_r sin(θ + β − φ) + n_y cos θ − n_x sin θ = 0,
@@ -43,8 +43,8 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from ..physics.registry import refuse_unsupported
-from ..scene import Scene, UniformField
+from actuator_design.physics.registry import refuse_unsupported
+from actuator_design.model.scene import Scene, UniformField
 
 __all__ = ["ShootingProblem", "gamma_bound", "curvature_bound", "steps_for", "brackets",
            "SHOOTING_TERMS", "SAFETY", "MAX_REFINE", "require_uniform", "growth_exponent",

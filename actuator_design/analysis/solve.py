@@ -1,8 +1,8 @@
 """The plain forward solve as a registered analysis (one row per study point)."""
 from __future__ import annotations
 
-from ..equilibrium import solve
-from .registry import register
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.analysis.registration import register
 
 
 @register("solve")

@@ -17,8 +17,8 @@ from typing import List
 
 import numpy as np
 
-from ..continuation import PALC, ContinuationBranch, ContinuationSettings
-from ..continuation.engine import locate_event
+from actuator_design.continuation import PALC, ContinuationBranch, ContinuationSettings
+from actuator_design.continuation.engine import locate_event
 
 __all__ = ["insert_stability_changes"]
 

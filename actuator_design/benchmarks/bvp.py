@@ -177,7 +177,7 @@ class RodBVP:
 
 
 def bvp_from_scene(scene) -> RodBVP:
-    """The :class:`RodBVP` of a :class:`~actuator_design.scene.Scene` (uniform or dipole field)."""
+    """The :class:`RodBVP` of a :class:`~actuator_design.model.scene.Scene` (uniform or dipole field)."""
     fld = scene.field
     if fld is None:
         spec = None

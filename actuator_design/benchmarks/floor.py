@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..transcription.lgl import LGL, differentiation_matrix
+from actuator_design.transcription.lgl import LGL, differentiation_matrix
 
 __all__ = ["NumpyNewton"]
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 import scipy.linalg
 
-from ..solver import EquilibriumSolver
+from actuator_design.equilibrium.solver import EquilibriumSolver
 
 __all__ = ["Verdict", "STABLE", "BranchSelector"]
 

@@ -48,8 +48,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..units import QuantityError, parse_quantity
-from . import limits
+from actuator_design.model.units import QuantityError, parse_quantity
+from actuator_design.calibration import limits
 
 __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "read_data", "parse_data",
            "read_bounded_text"]

@@ -14,8 +14,8 @@ from typing import List
 
 import numpy as np
 
-from ..units import registry
-from .parameters import PARAMETERS, unit_of
+from actuator_design.model.units import registry
+from actuator_design.calibration.parameters import PARAMETERS, unit_of
 
 __all__ = ["null_direction", "choose_held", "identifiability_message", "combinations",
            "combination_value", "ZERO_SENSITIVITY"]

@@ -14,7 +14,7 @@ import signal
 import threading
 from typing import Iterator
 
-from ..study.backends import StopRequest
+from actuator_design.study.backends import StopRequest
 
 __all__ = ["FitInterrupted", "stop_on_signals"]
 

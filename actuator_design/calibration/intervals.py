@@ -12,9 +12,10 @@ from typing import Dict, List
 
 import numpy as np
 
-from ..units import MU0
-from .identifiability import combination_value
-from .parameters import PARAMETERS, field_coefficient_exponent, group_exponent, unit_of
+from actuator_design.model.units import MU0
+from actuator_design.calibration.identifiability import combination_value
+from actuator_design.calibration.parameters import (PARAMETERS, field_coefficient_exponent, group_exponent,
+                                                    unit_of)
 
 __all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
            "derived_quantities"]

@@ -4,8 +4,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Dict, Optional
 
-from .report import fit_units, points_csv_text, result_dict
-from .result import FitResult
+from actuator_design.calibration.report import fit_units, points_csv_text, result_dict
+from actuator_design.calibration.result import FitResult
 
 __all__ = ["write_fit", "fit_files"]
 
@@ -15,9 +15,9 @@ def fit_files(result: FitResult, config: Optional[dict] = None) -> Dict[str, obj
     (text, then PNG bytes from :mod:`actuator_design.viz.calibration`). A physical ``config``
     adds the user's units (:func:`~.report.fit_units`): ``physical`` in the JSON, columns in the
     user's units in the CSV, figure axes in them."""
-    from .. import __version__
-    from ..io import dumps_json
-    from ..viz.calibration import fit_figure_pngs
+    from actuator_design import __version__
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.calibration import fit_figure_pngs
 
     units = fit_units(config)
     payload = {**result_dict(result, units), "config": config, "package_version": __version__}
@@ -29,14 +29,14 @@ def fit_files(result: FitResult, config: Optional[dict] = None) -> Dict[str, obj
 
 def write_fit(result: FitResult, out_dir, config: Optional[dict] = None) -> Dict[str, Path]:
     """Write the files of :func:`fit_files` into ``out_dir``, all or nothing
-    (:func:`actuator_design.io.write_output_set`).
+    (:func:`actuator_design.io.save.write_output_set`).
 
     Returns
     -------
     dict of str → Path
         ``json``, ``csv`` and one entry per figure name.
     """
-    from ..io import write_output_set
+    from actuator_design.io.save import write_output_set
 
     files = fit_files(result, config)
     written = {p.name: p for p in write_output_set(out_dir, files)}

@@ -1,7 +1,7 @@
 """The fittable parameters and the measured outputs of a calibration.
 
 The fittable parameters are the physical parameters of the project's one parameter lens
-(:func:`actuator_design.parameters.physical_parameters`): name → dimension (for units), scale
+(:func:`actuator_design.physics.parameters.physical_parameters`): name → dimension (for units), scale
 (positive parameters are fitted in log scale), the scene types that have it, how the dimensionless
 groups scale with it, and a description. This module only names them for the calibration and adds
 the measured outputs.
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Dict, Tuple
 
-from ..parameters import PhysicalParameter, physical_parameters
+from actuator_design.physics.parameters import PhysicalParameter, physical_parameters
 
 __all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "FIT_TERMS", "unit_of",
            "field_coefficient_exponent", "group_exponent"]

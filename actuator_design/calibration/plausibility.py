@@ -22,7 +22,7 @@ from typing import List
 
 import numpy as np
 
-from . import limits
+from actuator_design.calibration import limits
 
 __all__ = ["magnitude_warnings"]
 

@@ -36,19 +36,21 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from ..config import ConfigError, load_config
-from ..study.spec import validate_spec
-from .data import MeasuredData, read_data
-from .goodness import bound_failures, bound_message, chi_square_message, chi_square_test
-from .identifiability import choose_held, combinations, identifiability_message, null_direction
-from .interrupt import FitInterrupted, stop_on_signals
-from .intervals import (combination_intervals, derived_quantities, natural_covariance,
-                        parameter_entries)
-from .parameters import FIT_TERMS, PARAMETERS
-from .plausibility import magnitude_warnings
-from .problem import FitProblem
-from .result import FitResult
-from .spec import FitSpec
+from actuator_design.config import ConfigError, load_config
+from actuator_design.study.spec import validate_spec
+from actuator_design.calibration.data import MeasuredData, read_data
+from actuator_design.calibration.goodness import (bound_failures, bound_message, chi_square_message,
+                                                  chi_square_test)
+from actuator_design.calibration.identifiability import (choose_held, combinations, identifiability_message,
+                                                         null_direction)
+from actuator_design.calibration.interrupt import FitInterrupted, stop_on_signals
+from actuator_design.calibration.intervals import (combination_intervals, derived_quantities,
+                                                   natural_covariance, parameter_entries)
+from actuator_design.calibration.parameters import FIT_TERMS, PARAMETERS
+from actuator_design.calibration.plausibility import magnitude_warnings
+from actuator_design.calibration.problem import FitProblem
+from actuator_design.calibration.result import FitResult
+from actuator_design.calibration.spec import FitSpec
 
 __all__ = ["prepare_fit", "fit_config", "fit"]
 
@@ -72,7 +74,7 @@ def prepare_fit(config_source, data_source) -> FitProblem:
     # the fit map (problem.FitProblem._build_map) knows the groups of these terms, and scales a
     # plug-in term's values by their declared power laws in B0 when they do not depend on the field;
     # any other term's values would be held fixed while the field or the stiffness changes, silently
-    from ..physics.registry import refuse_unsupported, registered_terms
+    from actuator_design.physics.registry import refuse_unsupported, registered_terms
     scaled = [c.name for c in registered_terms() if c.scaling_declared and not any(
         p.field_power or p.susceptibility_power for p in c.parameters)]
     refuse_unsupported(config.to_scene(), list(FIT_TERMS) + scaled, "fit")

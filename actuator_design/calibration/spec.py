@@ -20,10 +20,10 @@ from typing import Dict, List, Literal, Optional, Tuple, Union
 
 from pydantic import Field, StrictFloat, StrictInt, StrictStr, model_validator
 
-from ..study.spec import StrictModel, spec_error
-from ..units import QuantityError, parse_quantity
-from .limits import DEFAULT_MIN_P_VALUE
-from .parameters import OUTPUT_COMPONENT, PARAMETERS
+from actuator_design.study.spec import StrictModel, spec_error
+from actuator_design.model.units import QuantityError, parse_quantity
+from actuator_design.calibration.limits import DEFAULT_MIN_P_VALUE
+from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS
 
 __all__ = ["ParameterSpec", "FitSpec"]
 

@@ -1,4 +1,4 @@
 """``python -m actuator_design.cli``: the ``actuator-design`` command line."""
-from .main import run
+from actuator_design.cli.main import run
 
 run()

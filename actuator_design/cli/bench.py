@@ -22,8 +22,8 @@ import argparse
 import csv
 import io as _io
 
-from .common import EXIT_OK, InputError, check_out_dir, stdout_to_stderr
-from .output import print_written, write_out
+from actuator_design.cli.common import EXIT_OK, InputError, check_out_dir, stdout_to_stderr
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -67,7 +67,7 @@ def _csv_text(rows) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``bench``."""
-    from ..benchmarks.problems import PROBLEMS
+    from actuator_design.benchmarks.problems import PROBLEMS
 
     if args.list:
         for name, p in PROBLEMS.items():
@@ -89,8 +89,8 @@ def run(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise InputError(f"--workers: must be >= 1, got {args.workers}")
 
-    from ..benchmarks.runner import format_table, format_targets, run_benchmark, target_summary
-    from ..io import dumps_json
+    from actuator_design.benchmarks.runner import format_table, format_targets, run_benchmark, target_summary
+    from actuator_design.io.save import dumps_json
 
     with stdout_to_stderr(args.json):
         rows = run_benchmark(names, quick=args.quick, repeats=repeats, workers=args.workers)
@@ -103,8 +103,8 @@ def run(args: argparse.Namespace) -> int:
                             "time_s": "median wall time of a warm re-solve at a perturbed parameter"}}
     written = None
     if args.out is not None:
-        from ..viz.bench import pareto_figure
-        from ..viz.style import png_bytes
+        from actuator_design.viz.bench import pareto_figure
+        from actuator_design.viz.style import png_bytes
         files = {"bench.json": dumps_json(payload, indent=1), "bench.csv": _csv_text(rows),
                  "bench_pareto.png": png_bytes(pareto_figure(rows), dpi=150)}
         written = write_out(args.out, files, args.json)
@@ -123,8 +123,8 @@ def _run_study_section(args: argparse.Namespace) -> int:
     """``bench --study``: :mod:`actuator_design.benchmarks.study_bench`."""
     import sys
 
-    from ..benchmarks.study_bench import format_study_bench, run_study_bench
-    from ..io import dumps_json
+    from actuator_design.benchmarks.study_bench import format_study_bench, run_study_bench
+    from actuator_design.io.save import dumps_json
 
     if args.points < 8 or args.points > 1_000_000:
         raise InputError(f"--points: must be in [8, 1000000], got {args.points}")

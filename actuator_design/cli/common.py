@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import Optional
 
-from ..units import MAX_ANGLE_DEG  # the largest |angle| any input takes, also a --*-deg flag
+from actuator_design.model.units import MAX_ANGLE_DEG  # the largest |angle| any input takes, also a --*-deg flag
 
 __all__ = [
     "PROG", "EXIT_OK", "EXIT_INTERNAL", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED",
@@ -17,11 +17,13 @@ __all__ = [
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
     "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags", "add_rate_args", "parse_rates",
     "table_csv_text", "check_angle_deg", "check_parameter_angle",
-    "MAX_ANGLE_DEG",
+    "MAX_ANGLE_DEG", "EXIT_NOT_VERIFIED", "EXIT_UNREACHABLE",
 ]
 
 PROG = "actuator-design"
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 0, 1, 2, 3
+#: the verdicts of design and schedule: found but not verified (or not robust), and out of reach
+EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
 class UsageError(Exception):
@@ -45,7 +47,7 @@ def error_line(exc: BaseException) -> str:
 
 def package_version() -> str:
     """The installed package version."""
-    from .. import __version__
+    from actuator_design import __version__
     return __version__
 
 
@@ -86,7 +88,7 @@ def check_angle_deg(value, name: str) -> None:
     InputError
         ``--phi-deg: must be a finite angle in [-1e+06, 1e+06] deg, got 1e+07 deg``.
     """
-    from ..units import angle_range_problem
+    from actuator_design.model.units import angle_range_problem
 
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return
@@ -105,8 +107,8 @@ def check_parameter_angle(name: str, value, where: str) -> None:
     InputError
         ``study.window: must be a finite angle in [-17453.3, 17453.3] rad, got 20000 rad``.
     """
-    from ..parameters import degree_aliases, parameters
-    from ..units import angle_range_problem
+    from actuator_design.physics.parameters import degree_aliases, parameters
+    from actuator_design.model.units import angle_range_problem
 
     if value is None or isinstance(value, bool) or not isinstance(value, (int, float)):
         return
@@ -127,7 +129,7 @@ def check_scene_flags(args: argparse.Namespace) -> None:
     InputError
         ``--h: invalid value 1e+155: must be a finite number in [0, 10000]`` (exit code 2).
     """
-    from ..config.limits import group_problem
+    from actuator_design.config.limits import group_problem
 
     out = getattr(args, "out", None)
     if isinstance(out, str) and not out.strip():  # '' would write into the current directory
@@ -163,7 +165,7 @@ def parse_rates(field_rate, rotation_rate):
     InputError
         One line naming the flag: not a rate of the right dimension, or not > 0.
     """
-    from ..units import parse_quantity
+    from actuator_design.model.units import parse_quantity
 
     out = []
     for flag, value, dim in (("--rate", field_rate, "field_rate"),
@@ -231,7 +233,7 @@ def load_config(path: str):
     if not p.is_file():
         raise InputError(f"config file not found: {path}")
     with bad_input():
-        from ..config import load_scene
+        from actuator_design.config import load_scene
         return load_scene(p)
 
 

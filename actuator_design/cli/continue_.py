@@ -39,11 +39,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from ..config.study_param_specs import PARAM_NAMES, ContinuationStudy
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+from actuator_design.config.study_param_specs import PARAM_NAMES, ContinuationStudy
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      check_parameter_angle, finite_float, stdout_to_stderr)
-from .equilibria import add_output_args, add_scene_args, build_scene
-from .output import print_written, write_out
+from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
 
@@ -71,9 +71,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _csv(res, units=None) -> str:
     """``branch.csv``: one row per point; a physical scene adds the value in its unit (when the
     parameter has one) and the state in the user's units."""
-    from ..parameters import parameter
-    from ..unit_results import parameter_conversion, state_columns, state_csv_note, state_values, unit_suffix
-    from ..user_units import parameter_physical
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.unit_results import (parameter_conversion, state_columns, state_csv_note,
+                                                 state_values, unit_suffix)
+    from actuator_design.io.user_units import parameter_physical
 
     extra, note = [], ""
     p = parameter(res.param)
@@ -119,14 +120,14 @@ def add_units(payload: dict, res, units) -> None:
     ``physical`` {tip in the length unit, energy_J} (secondary branches too)."""
     if units is None:
         return
-    from ..unit_results import add_point_units, command_physical
+    from actuator_design.io.unit_results import add_point_units, command_physical
 
     payload["physical"] = command_physical(res.scene, units, [res.param])
     add_point_units(payload["branch"] + payload["folds"] + payload["branch_points"], res.param, units)
     if payload.get("contact_path"):  # the path's items carry their value as "param"
-        from ..parameters import parameter
-        from ..unit_results import point_physical
-        from ..user_units import physical_value_keys
+        from actuator_design.physics.parameters import parameter
+        from actuator_design.io.unit_results import point_physical
+        from actuator_design.io.user_units import physical_value_keys
 
         cp = payload["contact_path"]
         for item in cp["points"] + cp["contact_events"] + cp["jumps"]:
@@ -152,8 +153,8 @@ def run(args: argparse.Namespace) -> int:
     param = _pick(args.param, study, "param")
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
-    from ..parameters import parameter
-    from ..user_units import parameter_from_text, user_units
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import parameter_from_text, user_units
 
     units = user_units(scene, raw)
     with bad_input():
@@ -180,9 +181,9 @@ def run(args: argparse.Namespace) -> int:
     straight = bool(_pick(args.straight, study, "straight", False))
     stop_at_touch = bool(_pick(args.stop_at_touch, study, "stop_at_touch", False))
 
-    from ..analysis.continuation import continue_branch
-    from ..parameters import set_value as set_param
-    from ..io import dumps_json
+    from actuator_design.continuation.follow import continue_branch
+    from actuator_design.physics.parameters import set_value as set_param
+    from actuator_design.io.save import dumps_json
     import numpy as np
 
     with bad_input(f"--param {param}: "):
@@ -191,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json):
         initial = None
         if straight:  # the straight rod θ ≡ θ0 as the Newton start
-            from ..solver import get_solver
+            from actuator_design.equilibrium.solver import get_solver
             theta0 = start if param == "theta0" else scene.theta0
             n = get_solver(set_param(scene, param, start), options).transcription.nodes.size
             initial = np.full(n, theta0)
@@ -208,8 +209,8 @@ def run(args: argparse.Namespace) -> int:
     add_units(payload, res, units)
     written = None
     if args.out is not None:
-        from ..viz.landscape import plot_branches
-        from ..viz.style import png_bytes
+        from actuator_design.viz.landscape import plot_branches
+        from actuator_design.viz.style import png_bytes
         with stdout_to_stderr(args.json):
             cp = res.contact_path
             ax = plot_branches([res.branch] + res.secondary, title=f"continuation in {param}")
@@ -217,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
                 ax.plot([q.param for q in cp.points], [q.tip["angle"] for q in cp.points], color="C3", lw=1.8,
                         label="with contact (loading path from the touch)")
                 ax.legend(fontsize="small")
-            from ..viz.units import parameter_axis  # h in mT, loads in N, ...
+            from actuator_design.viz.units import parameter_axis  # h in mT, loads in N, ...
             parameter_axis(ax, parameter(param), units, param, "x",
                            data_max=max([float(np.max(b.lam)) for b in [res.branch] + res.secondary]
                                         + ([q.param for q in cp.points] if cp is not None else [])))
@@ -228,7 +229,7 @@ def run(args: argparse.Namespace) -> int:
         print(dumps_json(payload))
     else:
         br = res.branch
-        from ..unit_results import value_text
+        from actuator_design.io.unit_results import value_text
 
         def mT(v):  # the value in the parameter's unit: " (mu0 H = 25 mT)", " (p = 1e-3 N)"
             text = value_text(param, v, units) if units is not None else None
@@ -247,7 +248,7 @@ def run(args: argparse.Namespace) -> int:
         for line in _contact_lines(res, param, mT, units):
             print(line)
         if units is not None:
-            from ..unit_results import physical_header, scene_text, state_text, units_line
+            from actuator_design.io.unit_results import physical_header, scene_text, state_text, units_line
             k = len(br) - 1
             print(f"  {'touch state' if res.contact_path is not None else 'end state  '} : {state_text({'x': br.tips[k, 1], 'y': br.tips[k, 2]}, br.energy[k], units, br.gamma[k])}")
             given = scene_text(res.scene, units)
@@ -269,7 +270,7 @@ def _contact_lines(res, param: str, value_text, units) -> list:
     cp = res.contact_path
     if cp is None:
         return []
-    from ..display import number
+    from actuator_design.io.display import number
 
     u, length = ("l", float) if units is None else (units.length_unit, units.length)
     noise = length(1e-12)

@@ -28,11 +28,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-from .common import (EXIT_OK, InputError, bad_input, check_out_dir, check_parameter_angle,
+from actuator_design.cli.common import (EXIT_OK, InputError, bad_input, check_out_dir, check_parameter_angle,
                      stdout_to_stderr)
-from ..config.study_param_specs import PARAM_NAMES, CriticalStudy
-from .equilibria import add_output_args, add_scene_args, build_scene
-from .output import print_written, write_out
+from actuator_design.config.study_param_specs import PARAM_NAMES, CriticalStudy
+from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "CriticalStudy"]
 
@@ -54,9 +54,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _csv(res, units=None) -> str:
     """``critical.csv``: one row per critical point; a physical scene adds the value in the
     parameter's unit (when it has one), the tip in the length unit and the energy in J."""
-    from ..parameters import parameter
-    from ..unit_results import parameter_conversion, unit_suffix
-    from ..user_units import parameter_physical
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.unit_results import parameter_conversion, unit_suffix
+    from actuator_design.io.user_units import parameter_physical
 
     p = parameter(res.param)
     unit = parameter_conversion(p, units)[0] if units is not None else None
@@ -85,7 +85,7 @@ def add_units(payload: dict, param, scene, units) -> None:
     each critical point's value in the parameter's unit and ``physical`` {tip, energy_J}."""
     if units is None:
         return
-    from ..unit_results import add_point_units, command_physical
+    from actuator_design.io.unit_results import add_point_units, command_physical
 
     payload["physical"] = command_physical(scene, units, [param])
     add_point_units(payload["folds"] + payload["branch_points"], param, units)
@@ -98,8 +98,9 @@ def run(args: argparse.Namespace) -> int:
     param = args.param or (study.param if study else None)
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
-    from ..parameters import parameter
-    from ..user_units import pair_from_text, parameter_unit_label, physical_value_keys, user_units
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import (pair_from_text, parameter_unit_label, physical_value_keys,
+                                               user_units)
 
     units = user_units(scene, raw)
     with bad_input():
@@ -114,9 +115,9 @@ def run(args: argparse.Namespace) -> int:
     if n_samples < 2:
         raise InputError(f"--samples: must be >= 2, got {n_samples}")
 
-    from ..parameters import set_value as set_param
-    from ..analysis.critical import critical_points
-    from ..io import dumps_json
+    from actuator_design.physics.parameters import set_value as set_param
+    from actuator_design.continuation.critical import critical_points
+    from actuator_design.io.save import dumps_json
 
     with bad_input(f"--param {param}: "):
         set_param(scene, param, window[0])
@@ -128,11 +129,11 @@ def run(args: argparse.Namespace) -> int:
     unit = parameter_unit_label(parameter(param), units)
     written = None
     if args.out is not None:
-        from ..viz.landscape import plot_branches
-        from ..viz.style import png_bytes
+        from actuator_design.viz.landscape import plot_branches
+        from actuator_design.viz.style import png_bytes
         with stdout_to_stderr(args.json):
             ax = plot_branches(res.branches, title=f"branches and critical points in {param}")
-            from ..viz.units import parameter_axis  # h in mT, loads in N, ...
+            from actuator_design.viz.units import parameter_axis  # h in mT, loads in N, ...
             parameter_axis(ax, parameter(param), units, param, "x", data_max=window[1])
             full = res.to_dict(branches=True)
             add_units(full, param, scene, units)
@@ -142,8 +143,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_json(payload))
     else:
-        from ..display import ANGLE_NOISE_RAD, number
-        from ..unit_results import state_text
+        from actuator_design.io.display import ANGLE_NOISE_RAD, number
+        from actuator_design.io.unit_results import state_text
 
         def degrees_free(rad):  # a tip angle in rad, round-off of zero as 0
             return number(rad, "+.8f", ANGLE_NOISE_RAD)
@@ -160,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
             if units is not None:
                 print(f"      in the user's units: {state_text(d['tip'], d['energy'], units)}")
         if units is not None:
-            from ..unit_results import physical_header, scene_text, units_line
+            from actuator_design.io.unit_results import physical_header, scene_text, units_line
             given = scene_text(scene, units)
             print(f"  user units: {units_line(units)}" + (f"; scene: {given}" if given else ""))
             for note in physical_header(units, [param])["notes"]:

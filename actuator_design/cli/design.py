@@ -39,26 +39,27 @@ import argparse
 import dataclasses
 import math
 
-from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float,
-                     load_config, parse_rates, stdout_to_stderr, table_csv_text)
-from ..display import degrees, number
-from ..parameters import designable
-from .design_currents import add_hardware_args
-from .design_force import parse_force, run_force
-from .design_units import add_schedule_units, positive_target, quasi_static_line, refuse_unknown_keys, unit_labels
-from .output import print_written, write_out
-from .scene_args import add_set_arg, apply_set_flags, check_flags
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError,
+                                        add_rate_args, bad_input, check_out_dir, finite_float, load_config,
+                                        parse_rates, stdout_to_stderr, table_csv_text)
+from actuator_design.io.display import degrees, number
+from actuator_design.physics.parameters import designable
+from actuator_design.cli.design_hardware import add_hardware_args
+from actuator_design.cli.design_force import parse_force, run_force
+from actuator_design.cli.design_units import (add_schedule_units, positive_target, quasi_static_line,
+                                              refuse_unknown_keys, unit_labels)
+from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.scene_args import add_set_arg, apply_set_flags, check_flags
 
 __all__ = ["HELP", "add_args", "run"]
 
 HELP = "inverse design: the field (and fibres, load) that puts the tip at a target, verified"
 
-EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 _VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p, magnetization
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    from ..analysis.design import DesignSettings
+    from actuator_design.inverse.design import DesignSettings
 
     d = DesignSettings()
     parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
@@ -138,9 +139,9 @@ def _parse_target(text: str, units: str, scene):
 
 
 def _inputs(args):
-    from ..analysis.design import DesignSettings
-    from ..options import SolverOptions
-    from ..scene import default_scene
+    from actuator_design.inverse.design import DesignSettings
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.model.scene import default_scene
 
     study = {}
     if args.config is None:
@@ -202,7 +203,7 @@ def _inputs(args):
         settings_kw["clearance"] = positive_target(args.clearance, scene, "--clearance", "length", "length",
                                                    "rod lengths")
     with bad_input("design settings: "):
-        from ..analysis.tolerances import parse_tolerances
+        from actuator_design.robust.tolerances import parse_tolerances
         if args.tolerance is not None:
             settings_kw["tolerances"] = parse_tolerances(args.tolerance)
         elif "tolerances" in settings_kw:
@@ -320,7 +321,7 @@ def _summary(res, units=None, table=None, qs=None) -> str:
 
 def _verdict(res) -> str:
     """The RESULT line: what was established, and nothing that was not computed."""
-    from ..analysis.design_types import status_of
+    from actuator_design.inverse.settings import status_of
 
     status = status_of(res)
     if status == "success":
@@ -403,9 +404,9 @@ def _phi_text(res) -> str:
 
 def _output_files(res, raw, payload, table, units=None) -> dict:
     """design.json, schedule.csv, design.png and (with a converged state) shape.csv, in memory."""
-    from ..analysis.schedule import schedule_table
-    from ..io import dumps_json, scene_to_dict, shape_csv_text
-    from ..viz.design import design_png
+    from actuator_design.schedules.schedule import schedule_table
+    from actuator_design.io.save import dumps_json, scene_to_dict, shape_csv_text
+    from actuator_design.viz.design import design_png
 
     payload = dict(payload)
     payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
@@ -427,7 +428,7 @@ def _output_files(res, raw, payload, table, units=None) -> dict:
 
 def _columns(rows) -> list:
     """The schedule table's columns (``SCHEDULE_COLUMNS`` in order, those present)."""
-    from ..analysis.schedule import SCHEDULE_COLUMNS
+    from actuator_design.schedules.schedule import SCHEDULE_COLUMNS
 
     return [c for group in SCHEDULE_COLUMNS.values() for c in group if rows and c in rows[0]] or ["step", "h", "phi_rad"]
 
@@ -436,30 +437,30 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw, target, vary, settings, stiffness, force = _inputs(args)
     if force is not None:
-        from ..user_units import user_units
+        from actuator_design.io.user_units import user_units
         return run_force(args, scene, options, raw, force, settings, user_units(scene, raw))
     if args.target_shape is not None:
-        from .design_shape import run_shape
+        from actuator_design.cli.design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)
-    from .design_currents import hardware_design
+    from actuator_design.cli.design_hardware import hardware_design
     if (rc := hardware_design(args, scene, options, raw, target, vary, settings, stiffness)) is not None:
         return rc
-    from ..user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     rates = _rates(args, raw)
     units = user_units(scene, raw)
     check_rates(rates, units)
     if isinstance(target, list):
-        from .design_poses import run_poses
+        from actuator_design.cli.design_poses import run_poses
         return run_poses(args, scene, options, raw, target, vary, settings, units, rates)
-    from ..analysis.design import design, design_problem
-    from ..analysis.schedule import schedule_table
-    from ..io import dumps_json
+    from actuator_design.inverse.design import design, design_problem
+    from actuator_design.schedules.schedule import schedule_table
+    from actuator_design.io.save import dumps_json
     with bad_input():  # the request is checked up front: what fails later is the design's, not the input's
         design_problem(target, scene, vary, options, settings, stiffness, 0.0)
     if args.out is not None:  # the figure's modules load while the design waits for a forked search
-        from ..forked import while_waiting
-        from ..viz.style import preload_steps
+        from actuator_design.forked import while_waiting
+        from actuator_design.viz.style import preload_steps
         for step in preload_steps():
             while_waiting(step)
     with stdout_to_stderr(args.json):
@@ -470,7 +471,7 @@ def run(args: argparse.Namespace) -> int:
         with bad_input():
             table = schedule_table(res.schedule, units, *rates)
         if res.path is not None:  # a timed schedule against the rod's relaxation time
-            from ..analysis.dynamics import quasi_static
+            from actuator_design.schedules.dynamics import quasi_static
             qs = quasi_static(res.path.states, table, scene.scales)
     payload = _physical_payload(res, units, table)
     if table and "time_s" in table[0]:
@@ -487,7 +488,7 @@ def run(args: argparse.Namespace) -> int:
 def exit_code(res) -> int:
     """0 success; 3 inaccurate (the mesh does not resolve the design), failed (a stage stopped on a
     numerical error), not verified or not accepted; 4 unreachable or no design holding over the box."""
-    from ..analysis.design_types import status_of
+    from actuator_design.inverse.settings import status_of
 
     status = status_of(res)
     if status == "success":

@@ -1,51 +1,20 @@
 """``design --target-tip X,Y`` on a scene whose field comes from coils: the least-power coil currents
 (A) within each driver's limit that put the tip on the target
-(:func:`~actuator_design.analysis.current_design.design_currents`), printed in A, W, mT and the
+(:func:`~actuator_design.hardware.current_design.design_currents`), printed in A, W, mT and the
 rod's length unit, and written as design.json, shape.csv and shape.png."""
 from __future__ import annotations
 
 import math
 import sys
 
-from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
-from .output import emit
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
+                                        stdout_to_stderr)
+from actuator_design.cli.output import emit
 
-__all__ = ["run_currents", "is_coil_scene", "hardware_design", "add_hardware_args", "tail_lines", "finish",
-           "progress_line"]
+__all__ = ["run_currents", "tail_lines", "finish", "progress_line", "refuse_flags"]
 
 _NOT_FOR_HARDWARE = ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
                      "rotation_rate")
-
-
-def add_hardware_args(parser) -> None:
-    """The flags of a design over hardware (a magnet's pose)."""
-    parser.add_argument("--position-tolerance", metavar="LENGTH",
-                        help="a design over a magnet's pose (a magnet with a travel): half-width of the magnet's "
-                             "position error in x and y, e.g. '0.5 mm' (the default; 0 for none)")
-
-
-def hardware_design(args, scene, options, raw, target, vary, settings, stiffness):
-    """Route a design over hardware: coil currents on a scene of coils, a magnet's pose on a scene
-    with a moving magnet (one tip target); the exit code, or None for every other design."""
-    if getattr(args, "position_tolerance", None) is not None and not has_moving_magnet(scene):
-        raise InputError("--position-tolerance: applies to a design over a magnet's pose (a magnet with a "
-                         "travel) only")
-    if stiffness is not None or target is None or isinstance(target, list):
-        return None
-    if is_coil_scene(scene):
-        return run_currents(args, scene, options, raw, target, vary, settings)
-    if has_moving_magnet(scene):
-        from .design_pose import run_pose
-        return run_pose(args, scene, options, raw, target, vary, settings)
-    return None
-
-
-def has_moving_magnet(scene) -> bool:
-    """Whether a magnet of the scene's field has a travel (its pose is then the design)."""
-    from ..field_sources import MagnetSource
-
-    f = scene.field
-    return getattr(f, "kind", "") == "sources" and any(isinstance(s, MagnetSource) and s.travel for s in f.sources)
 
 
 def refuse_flags(args, vary, what: str, limits: str) -> None:
@@ -57,17 +26,9 @@ def refuse_flags(args, vary, what: str, limits: str) -> None:
             raise InputError(f"--{flag.replace('_', '-')}: does not apply to a design over {what} ({limits})")
 
 
-def is_coil_scene(scene) -> bool:
-    """Whether the scene's field comes from coils only (their currents are then the design)."""
-    from ..field_sources import CoilSource
-
-    f = scene.field
-    return getattr(f, "kind", "") == "sources" and all(isinstance(s, CoilSource) for s in f.sources)
-
-
 def run_currents(args, scene, options, raw, target, vary, settings) -> int:
     """Design, print, write; exit 0 success, 3 not verified or not robust, 4 unreachable."""
-    from ..analysis.current_design import coil_problem, design_currents
+    from actuator_design.hardware.current_design import coil_problem, design_currents
 
     refuse_flags(args, vary, "the coils' currents (each within its max_current)",
                  "the coils' max_current, resistance, max_power and max_field are its limits")
@@ -87,8 +48,7 @@ def progress_line():
 def finish(args, res, length: float, summary, title: str) -> int:
     """Print (or write, with --json) a design over hardware with its tip in the rod's unit, write
     its files, and give the exit code: 0 success, 3 not verified or not robust, 4 unreachable."""
-    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
-    from .design_force import state_files
+    from actuator_design.cli.design_force import state_files
 
     payload = res.to_dict()
     payload["physical"] = {"tip_mm": [v * length * 1e3 for v in res.tip[:2]],

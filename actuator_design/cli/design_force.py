@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import math
 
-from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
-from .design_units import positive_target
-from .output import emit
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
+                                        stdout_to_stderr)
+from actuator_design.cli.design_units import positive_target
+from actuator_design.cli.output import emit
 
 __all__ = ["parse_force", "run_force", "state_files"]
 
@@ -20,8 +21,7 @@ def parse_force(value, scene):
 
 def run_force(args, scene, options, raw, force: float, settings, units) -> int:
     """Design, print, write; exit 0 success, 3 not verified, 4 unreachable."""
-    from ..analysis.contact_design import design_contact_force
-    from .design import EXIT_NOT_VERIFIED, EXIT_UNREACHABLE
+    from actuator_design.contact.design import design_contact_force
 
     if not scene.obstacles:
         raise InputError("--target-force: the scene has no obstacles to press (scene.obstacles)")
@@ -68,9 +68,9 @@ def _files(res, payload) -> dict:
 
 def state_files(payload: dict, state, title: str) -> dict:
     """design.json, and the designed state's shape.csv and shape.png when it converged."""
-    from ..io import dumps_json, shape_csv_text
-    from ..viz.shape import plot_shape
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json, shape_csv_text
+    from actuator_design.viz.shape import plot_shape
+    from actuator_design.viz.style import png_bytes
 
     files = {"design.json": dumps_json(payload, indent=1) + "\n"}
     if state is not None and state.success:

@@ -1,21 +1,21 @@
 """``design --target-tip X,Y`` on a scene with a magnet on a stage (a magnet with a ``travel``): the
 pose within the travel nearest the configured one that puts the tip on the target
-(:func:`~actuator_design.analysis.pose_design.design_pose`), printed in mm, deg, mT and the rod's
+(:func:`~actuator_design.hardware.pose_design.design_pose`), printed in mm, deg, mT and the rod's
 length unit, and written as design.json, shape.csv and shape.png."""
 from __future__ import annotations
 
 import math
 
-from .common import InputError, bad_input, stdout_to_stderr
-from .design_currents import finish, progress_line, refuse_flags, tail_lines
+from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr
+from actuator_design.cli.design_currents import finish, progress_line, refuse_flags, tail_lines
 
 __all__ = ["run_pose"]
 
 
 def run_pose(args, scene, options, raw, target, vary, settings) -> int:
     """Design, print, write; exit 0 success, 3 not verified or not robust, 4 unreachable."""
-    from ..analysis.pose_design import POSITION_TOLERANCE, design_pose, pose_problem
-    from ..units import parse_quantity
+    from actuator_design.hardware.pose_design import POSITION_TOLERANCE, design_pose, pose_problem
+    from actuator_design.model.units import parse_quantity
 
     refuse_flags(args, vary, "the magnet's pose (within its travel)", "the magnet's travel is its limit")
     position_tolerance = POSITION_TOLERANCE
@@ -58,7 +58,7 @@ def _summary(res, length: float) -> str:
 
 
 def _others(tol) -> str:
-    from ..analysis.tolerances import Tolerances
+    from actuator_design.robust.tolerances import Tolerances
 
     rest = Tolerances(field_rel=0.0, angle=0.0, youngs_rel=tol.youngs_rel, chi_rel=tol.chi_rel,
                       fibre_angle=tol.fibre_angle, clamp_angle=tol.clamp_angle)

@@ -1,6 +1,6 @@
 """``design`` with several poses (``--target-tip 'X1,Y1;X2,Y2'``): text, JSON and files.
 
-One actuator (one fibre layout) and one field per pose; see :mod:`actuator_design.analysis.design_poses`.
+One actuator (one fibre layout) and one field per pose; see :mod:`actuator_design.inverse.poses`.
 Exit codes as for one pose: 0 every pose verified and holding over the tolerance box, 2 bad input,
 3 not verified (or the mesh does not resolve the design or the search found nothing: status
 inaccurate / failed), 4 a pose
@@ -13,13 +13,13 @@ import csv
 import io as _io
 import math
 
-from .common import EXIT_OK, bad_input, stdout_to_stderr
-from .design_units import add_schedule_units, quasi_static_line, unit_labels
-from .output import emit
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, bad_input,
+                                        stdout_to_stderr)
+from actuator_design.cli.design_units import add_schedule_units, quasi_static_line, unit_labels
+from actuator_design.cli.output import emit
 
 __all__ = ["run_poses", "summary"]
 
-EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 
 
 def summary(res, units=None, table=None, qs=None) -> str:
@@ -97,8 +97,8 @@ def payload_of(res, units=None, table=None) -> dict:
 
 
 def _files(res, raw, payload, table=None) -> dict:
-    from ..io import dumps_json, scene_to_dict, shape_csv_text
-    from ..viz.design import poses_figure
+    from actuator_design.io.save import dumps_json, scene_to_dict, shape_csv_text
+    from actuator_design.viz.design import poses_figure
 
     payload = dict(payload)
     payload["scene"] = scene_to_dict(res.scene)
@@ -121,8 +121,8 @@ def _files(res, raw, payload, table=None) -> dict:
 
 def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, settings, units=None,
               rates=(None, None)) -> int:
-    from ..analysis.design_poses import design_poses
-    from ..analysis.schedule import schedule_table
+    from actuator_design.inverse.poses import design_poses
+    from actuator_design.schedules.schedule import schedule_table
 
     with stdout_to_stderr(args.json), bad_input():
         res = design_poses(targets, scene=scene, vary=vary, options=options, settings=settings,
@@ -132,7 +132,7 @@ def run_poses(args: argparse.Namespace, scene, options, raw, targets, vary, sett
         with bad_input():
             table = schedule_table(res.schedule, units, *rates)
         if "time_s" in table[0] and scene.scales is not None and scene.scales.mass_per_length > 0:
-            from ..analysis.dynamics import quasi_static, schedule_states
+            from actuator_design.schedules.dynamics import quasi_static, schedule_states
             qs = quasi_static(schedule_states(res.scene, res.schedule, options), table, scene.scales)
     payload = payload_of(res, units, table)
     if table and "time_s" in table[0]:

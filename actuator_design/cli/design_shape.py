@@ -11,19 +11,19 @@ import io as _io
 import math
 from pathlib import Path
 
-from ..display import degrees, number
-from .common import EXIT_OK, InputError, bad_input, stdout_to_stderr
-from .output import emit
+from actuator_design.io.display import degrees, number
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
+                                        stdout_to_stderr)
+from actuator_design.cli.output import emit
 
 __all__ = ["run_shape", "read_points"]
 
-EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
 _MAX_BYTES = 1 << 20
 
 
 def read_points(path: str, units: str, scene):
     """The CSV's points in rod lengths (x, y given in rod lengths, or mm/m with ``units``)."""
-    from ..analysis.design_shape import read_shape_points
+    from actuator_design.inverse.shape import read_shape_points
 
     p = Path(path)
     if not p.is_file():
@@ -85,7 +85,7 @@ def _physical(res, units) -> dict:
 
 def payload_of(res, raw, units=None) -> dict:
     """design.json: the result's keys, the design scene, the config and (physical scene) ``physical``."""
-    from ..io import scene_to_dict
+    from actuator_design.io.save import scene_to_dict
 
     payload = res.to_dict()
     payload["scene"] = scene_to_dict(res.design_scene) if res.design_scene is not None else None
@@ -97,9 +97,9 @@ def payload_of(res, raw, units=None) -> dict:
 
 
 def _files(res, raw, units=None) -> dict:
-    from ..io import dumps_json, shape_csv_text
-    from ..viz.design import shape_fit_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json, shape_csv_text
+    from actuator_design.viz.design import shape_fit_figure
+    from actuator_design.viz.style import png_bytes
 
     buf = _io.StringIO()
     w = csv.writer(buf)
@@ -123,8 +123,8 @@ def _files(res, raw, units=None) -> dict:
 
 
 def run_shape(args: argparse.Namespace, scene, options, raw, vary, settings) -> int:
-    from ..analysis.design_shape import design_shape
-    from ..user_units import user_units
+    from actuator_design.inverse.shape import design_shape
+    from actuator_design.io.user_units import user_units
     pts = read_points(args.target_shape, args.target_units or "rod", scene)
     units = user_units(scene, raw)
     with stdout_to_stderr(args.json), bad_input():

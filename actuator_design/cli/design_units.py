@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from .common import InputError, bad_input
+from actuator_design.cli.common import InputError, bad_input
 
 __all__ = ["refuse_unknown_keys", "unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
            "tip_columns", "finish_schedule", "path_line", "hold_path", "substeps_arg"]
@@ -33,7 +33,7 @@ def positive_target(value, scene, flag: str, dimension: str, scale: str, unit: s
         if scene.scales is None:
             raise InputError(f"{flag}: {value!r} has units, but the scene is dimensionless "
                              f"(give a number in units of {unit})")
-        from ..units import parse_quantity
+        from actuator_design.model.units import parse_quantity
         with bad_input():
             v = parse_quantity(value, dimension, flag) / getattr(scene.scales, scale)
     if not (math.isfinite(v) and v > 0):
@@ -104,8 +104,8 @@ def finish_schedule(args, res, payload: dict, files, summary) -> int:
     """Write ``files()`` to ``--out`` (all or nothing), print the payload (``--json``) or the lines of
     ``summary(res, payload)``, and return the exit code of a hardware schedule: 0 verified, 4 a
     waypoint out of reach, 3 otherwise."""
-    from ..io import dumps_json
-    from .output import print_written, write_out
+    from actuator_design.io.save import dumps_json
+    from actuator_design.cli.output import print_written, write_out
 
     written = write_out(args.out, files(), args.json) if args.out is not None else None
     if args.json:
@@ -122,11 +122,11 @@ def finish_schedule(args, res, payload: dict, files, summary) -> int:
 
 def hold_path(res, waypoints, tolerance, payload: dict) -> None:
     """With a path tolerance (rod lengths; None: none), hold ``res`` to the path through the
-    waypoints (:func:`~actuator_design.analysis.path_corridor.hold_to_path`) and add ``path`` to
+    waypoints (:func:`~actuator_design.schedules.path_corridor.hold_to_path`) and add ``path`` to
     ``payload`` (with the success, status and message the check may have changed)."""
     if tolerance is None:
         return
-    from ..analysis.path_corridor import hold_to_path
+    from actuator_design.schedules.path_corridor import hold_to_path
 
     payload["path"] = hold_to_path(res, waypoints, tolerance)
     payload.update({k: getattr(res, k) for k in ("success", "status", "message") if hasattr(res, k)})

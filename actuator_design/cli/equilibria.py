@@ -24,11 +24,12 @@ import argparse
 import sys
 from typing import Tuple
 
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
-from .output import print_written, write_out
-from ..config.study_specs import EquilibriaStudy, StudyBase
-from .scene_args import add_scene_args as _add_scene_args, build_scene as _build_scene, validate_study
+from actuator_design.cli.output import print_written, write_out
+from actuator_design.config.study_specs import EquilibriaStudy, StudyBase
+from actuator_design.cli.scene_args import (add_scene_args as _add_scene_args, build_scene as _build_scene,
+                                            validate_study)
 
 __all__ = ["HELP", "add_args", "run", "add_scene_args", "build_scene", "validate_study",
            "pair", "StudyBase", "EquilibriaStudy"]
@@ -84,7 +85,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def _csv(result, units=None) -> str:
     """``equilibria.csv``: one row per equilibrium; a physical scene adds the state in its units."""
-    from ..unit_results import state_columns, state_csv_note, state_values
+    from actuator_design.io.unit_results import state_columns, state_csv_note, state_values
 
     note = "" if units is None else "; " + state_csv_note(units)
     cols = "gamma,tip_x,tip_y,tip_angle,energy,morse_index,stable,self_intersecting"
@@ -104,7 +105,7 @@ def add_units(payload: dict, result, units) -> None:
     (units, field and loads) and each equilibrium's ``physical`` (tip, energy_J, gamma per unit)."""
     if units is None:
         return
-    from ..unit_results import command_physical, point_physical
+    from actuator_design.io.unit_results import command_physical, point_physical
 
     payload["physical"] = command_physical(result.scene, units)
     for item, e in zip(payload.get("equilibria", []), result.equilibria):
@@ -119,8 +120,9 @@ def run(args: argparse.Namespace) -> int:
     if not 11 <= n_gamma <= 100001:
         raise InputError(f"--n-gamma: must lie in [11, 100001], got {n_gamma}")
     method = args.method or (study.method if study else "shooting")
-    from ..analysis.equilibria import MAX_CONFIRM_ELEMENTS, find_equilibria, find_equilibria_deflation
-    from ..io import dumps_json
+    from actuator_design.analysis.equilibria import find_equilibria, find_equilibria_deflation
+    from actuator_design.analysis.equilibria_found import MAX_CONFIRM_ELEMENTS
+    from actuator_design.io.save import dumps_json
 
     with stdout_to_stderr(args.json), bad_input():
         if method == "shooting":
@@ -128,14 +130,14 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = find_equilibria_deflation(scene, options)
     payload = result.to_dict()
-    from ..user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     add_units(payload, result, units)
     written = None
     if args.out is not None:
-        from ..viz.landscape import plot_equilibria
-        from ..viz.style import png_bytes
+        from actuator_design.viz.landscape import plot_equilibria
+        from actuator_design.viz.style import png_bytes
         with stdout_to_stderr(args.json):
             files = {"equilibria.json": dumps_json({**payload, "config": raw}, indent=1) + "\n",
                      "equilibria.csv": _csv(result, units),
@@ -144,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_json(payload))
     else:
-        from ..unit_results import scene_text, state_text, units_line
+        from actuator_design.io.unit_results import scene_text, state_text, units_line
         noun = "equilibrium" if result.count == 1 else "equilibria"
         print(f"{result.count} {noun} ({result.stable_count} stable) with theta'(0) in "
               f"[{result.window[0]:.6g}, {result.window[1]:.6g}] ({method}; complete: {result.complete})")

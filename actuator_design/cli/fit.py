@@ -45,8 +45,8 @@ import signal
 import sys
 import threading
 
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, PROG, bad_input, check_out_dir,
-                     stdout_to_stderr)
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, PROG, bad_input,
+                                        check_out_dir, stdout_to_stderr)
 
 #: Exit code of a fit stopped by SIGINT or SIGTERM (the shell's 128 + SIGINT, as ``study``).
 EXIT_INTERRUPTED = 130
@@ -104,9 +104,9 @@ def _run(args: argparse.Namespace) -> int:
 
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
-    from ..calibration import fit, prepare_fit
-    from ..calibration.interrupt import FitInterrupted
-    from ..io import dumps_json
+    from actuator_design.calibration import fit, prepare_fit
+    from actuator_design.calibration.interrupt import FitInterrupted
+    from actuator_design.io.save import dumps_json
 
     with bad_input():
         problem = prepare_fit(args.config, args.data)
@@ -118,10 +118,10 @@ def _run(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     written = None
     if args.out is not None:  # the files first, all or nothing; then stdout
-        from ..calibration.outputs import fit_files
-        from .output import write_out
+        from actuator_design.calibration.outputs import fit_files
+        from actuator_design.cli.output import write_out
         written = write_out(args.out, fit_files(result, config=problem.config.raw), args.json, "results ")
-    from ..calibration.report import fit_units, result_dict, summary_text
+    from actuator_design.calibration.report import fit_units, result_dict, summary_text
     units = fit_units(problem.config.raw)  # a physical scene: also the user's units
     if args.json:
         print(dumps_json(result_dict(result, units)))
@@ -130,6 +130,6 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(summary_text(result, units))
     if written is not None:
-        from .output import print_written
+        from actuator_design.cli.output import print_written
         print_written(written, args.json)
     return EXIT_OK if result.success else EXIT_NOT_CONVERGED

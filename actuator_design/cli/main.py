@@ -30,8 +30,9 @@ import traceback
 import warnings
 from typing import List, Optional, Sequence
 
-from .common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NOT_CONVERGED, InputError, NumericalFailure, PROG,
-                     UsageError, check_scene_flags, error_line, package_version)
+from actuator_design.cli.common import (EXIT_BAD_INPUT, EXIT_INTERNAL, EXIT_NOT_CONVERGED, InputError,
+                                        NumericalFailure, PROG, UsageError, check_scene_flags, error_line,
+                                        package_version)
 
 __all__ = ["main", "build_parser", "COMMANDS"]
 
@@ -106,7 +107,7 @@ def _add_figure_format(parser: argparse.ArgumentParser) -> None:
     actions = parser._option_string_actions
     if "--out" not in actions or "--format" in actions:
         return
-    from ..viz.style import VECTOR_FORMATS
+    from actuator_design.viz.style import VECTOR_FORMATS
     parser.add_argument("--format", choices=VECTOR_FORMATS, default=None, metavar="{svg,pdf}",
                         help="with --out: also write every figure in this vector format, beside its "
                              "PNG (150 dpi)")
@@ -193,8 +194,8 @@ def _main(argv: List[str]) -> int:
         parser = build_parser(only=_command_of(argv))
         args = parser.parse_args(argv)
         check_scene_flags(args)
-        from ..parallel import single_threaded_blas
-        from ..viz.style import vector_format
+        from actuator_design.parallel import single_threaded_blas
+        from actuator_design.viz.style import vector_format
         single_threaded_blas()  # small matrices: BLAS threads only contend with worker processes
         with vector_format(getattr(args, "format", None)):
             return int(args._run(args))

@@ -29,10 +29,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from .common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
-from ..config.study_param_specs import PARAM_NAMES, MapStudy
-from .equilibria import add_output_args, add_scene_args, build_scene
-from .output import print_written, write_out
+from actuator_design.cli.common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
+from actuator_design.config.study_param_specs import PARAM_NAMES, MapStudy
+from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "MapStudy"]
 
@@ -79,8 +79,8 @@ def run(args: argparse.Namespace) -> int:
     scene, options, raw, study = build_scene(args, MapStudy, "map")
     d = study or MapStudy(type="map")
     xp, yp = args.x_param or d.x_param, args.y_param or d.y_param
-    from ..parameters import parameter
-    from ..user_units import pair_from_text, user_units
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import pair_from_text, user_units
 
     units = user_units(scene, raw)
     with bad_input():
@@ -100,20 +100,20 @@ def run(args: argparse.Namespace) -> int:
         if not rng[0] < rng[1]:
             raise InputError(f"range of {name}: must be increasing, got {rng}")
 
-    from ..parameters import set_value as set_param
-    from ..analysis.critical import critical_curves
-    from ..analysis.multiplicity import multiplicity_map
-    from ..io import dumps_json
+    from actuator_design.physics.parameters import set_value as set_param
+    from actuator_design.continuation.critical import critical_curves
+    from actuator_design.analysis.multiplicity import multiplicity_map
+    from actuator_design.io.save import dumps_json
 
     with bad_input():
-        from ..config.checks import check_scene_groups
+        from actuator_design.config.checks import check_scene_groups
 
         for v in (xr[0], xr[1]):
             for w in (yr[0], yr[1]):
                 # the corners of the map within the groups' valid ranges (p = 1e9 overflowed)
                 check_scene_groups(set_param(set_param(scene, xp, v), yp, w),
                                    prefix=f"map corner ({xp} = {v:g}, {yp} = {w:g}): ")
-        from ..analysis.equilibria import gamma_bound
+        from actuator_design.analysis.equilibria import gamma_bound
         gamma_bound(scene)  # uniform field required
     xs, ys = np.linspace(*xr, nx), np.linspace(*yr, ny)
     with stdout_to_stderr(args.json), bad_input():
@@ -130,9 +130,9 @@ def run(args: argparse.Namespace) -> int:
     add_units(payload, m, curves, scene, units)
     written = None
     if args.out is not None:
-        from ..viz.landscape import plot_landscape_map
-        from ..viz.style import png_bytes
-        from ..viz.units import parameter_axis
+        from actuator_design.viz.landscape import plot_landscape_map
+        from actuator_design.viz.style import png_bytes
+        from actuator_design.viz.units import parameter_axis
         with stdout_to_stderr(args.json):
             axes = plot_landscape_map(m, curves)
             for ax in axes:  # fields in mT, loads in N, ...
@@ -160,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
                   f"{c.mu[0]:.6g}{_in(xp, c.mu[0])} ... {c.lam[-1]:.8g}{_in(yp, c.lam[-1])} at {xp} = "
                   f"{c.mu[-1]:.6g}{_in(xp, c.mu[-1])}")
         if units is not None:
-            from ..unit_results import physical_header, units_line
+            from actuator_design.io.unit_results import physical_header, units_line
             print(f"  user units: {units_line(units)}; {xp} in [{xr[0]:g}, {xr[1]:g}]{_in(xp, xr[0], xr[1])}, "
                   f"{yp} in [{yr[0]:g}, {yr[1]:g}]{_in(yp, yr[0], yr[1])}")
             for note in physical_header(units, [xp, yp])["notes"]:
@@ -189,8 +189,8 @@ def _in_units(units):
     def _in(name, *values):
         if units is None:
             return ""
-        from ..display import number
-        from ..unit_results import parameter_conversion, values_in_unit
+        from actuator_design.io.display import number
+        from actuator_design.io.unit_results import parameter_conversion, values_in_unit
         conv = values_in_unit(name, values, units)
         if conv is None:
             return ""
@@ -204,7 +204,7 @@ def _csv(m, units=None) -> str:
     text = m.csv_text()
     if units is None:
         return text
-    from ..unit_results import column_note, values_in_unit
+    from actuator_design.io.unit_results import column_note, values_in_unit
 
     conv = [(name, values_in_unit(name, vals, units)) for name, vals in ((m.x_param, m.x), (m.y_param, m.y))]
     conv = [(name, c) for name, c in conv if c is not None]
@@ -228,7 +228,7 @@ def add_units(payload: dict, m, curves, scene, units) -> None:
     critical curve's points in those units."""
     if units is None:
         return
-    from ..unit_results import command_physical, values_in_unit
+    from actuator_design.io.unit_results import command_physical, values_in_unit
 
     phys = command_physical(scene, units, [m.x_param, m.y_param])
     for axis, name, vals in (("x", m.x_param, m.x), ("y", m.y_param, m.y)):

@@ -1,7 +1,7 @@
 """A command's ``--out`` set: written all or nothing before anything is printed on stdout.
 
 The commands compose result → figures (:mod:`actuator_design.viz`) → files in memory, and hand the
-set to :func:`write_out`, which writes it through :func:`actuator_design.io.write_output_set`. The
+set to :func:`write_out`, which writes it through :func:`actuator_design.io.save.write_output_set`. The
 command prints its result (JSON or summary) only after that returned, and then
 :func:`print_written`; so a failed write leaves no file of the set and no JSON on stdout (exit 2).
 """
@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import List, Mapping, Sequence
 
-from .common import InputError, bad_input, stdout_to_stderr
+from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr
 
 __all__ = ["write_out", "print_written", "emit", "with_vector_figures"]
 
@@ -37,8 +37,8 @@ def write_out(out_dir: str, files: Mapping[str, object], json_mode: bool,
         the set goes; exit 2); nothing of the set is left. A symbolic link where a file of the set
         goes is replaced by the file (never written through).
     """
-    from ..io import write_output_set
-    from ..safe_files import os_error_text
+    from actuator_design.io.save import write_output_set
+    from actuator_design.io.safe_files import os_error_text
 
     files = with_vector_figures(files)
     prefix = f"--out: cannot write {what}to {out_dir}: "
@@ -72,7 +72,7 @@ def emit(args, result, files, summary, payload=None) -> None:
     """The end of a command: ``files()`` written all or nothing (with ``--out``), then the JSON
     (``payload``, default ``result.to_dict()``) or ``summary(result)`` on stdout, then the
     ``wrote ...`` line."""
-    from ..io import dumps_json
+    from actuator_design.io.save import dumps_json
 
     written = write_out(args.out, files(), args.json) if args.out is not None else None
     print(dumps_json(result.to_dict() if payload is None else payload) if args.json else summary(result))

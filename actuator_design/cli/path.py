@@ -47,15 +47,15 @@ import re
 import sys
 from typing import Dict, Optional, Union
 
-from ..display import number
-from ..unit_results import unit_suffix
-from ..user_units import VALUE_KEY_UNITS
-from ..parameters import degree_aliases, names as parameter_names
-from .scene_args import add_scene_args, build_scene, validate_study
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
+from actuator_design.io.display import number
+from actuator_design.io.unit_results import unit_suffix
+from actuator_design.io.user_units import VALUE_KEY_UNITS
+from actuator_design.physics.parameters import degree_aliases, names as parameter_names
+from actuator_design.cli.scene_args import add_scene_args, build_scene, validate_study
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
                      check_out_dir, check_parameter_angle, finite_float, load_config,
                      stdout_to_stderr)
-from .output import print_written, write_out
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "add_scene_flags", "scene_and_options", "study_settings",
            "csv_text"]
@@ -101,7 +101,7 @@ def csv_text(columns, rows, comment: str = "") -> str:
 
 # -- the path command ------------------------------------------------------------------------------
 def _study_model():
-    from ..config.study_specs import PathStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.study_specs import PathStudy  # (pydantic loads only when a study is read)
 
     return PathStudy
 
@@ -129,8 +129,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _value(text, key: str, units, flag: str) -> float:
     """A value of parameter ``key`` (a CLI name, ``phi_deg`` …) in its CLI unit; a quantity with a
     unit is converted (angles to degrees for the *_deg names, fields through the scene's scales)."""
-    from ..parameters import parameter
-    from ..user_units import parameter_from_text
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import parameter_from_text
 
     if key in _DEGREE_NAMES:
         try:
@@ -148,7 +148,7 @@ def _value(text, key: str, units, flag: str) -> float:
 
 def _schedule(args, study, units=None):
     """(schedule for the API, name as given, factor API → given units, max_step)."""
-    from ..parameters import names as parameter_names
+    from actuator_design.physics.parameters import names as parameter_names
 
     PARAMETERS = parameter_names()
 
@@ -241,19 +241,19 @@ def run(args: argparse.Namespace) -> int:
         loaded = load_config(args.config)
         study = study_settings(loaded[2], "path", _study_model())
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
-    from ..user_units import add_physical_values, user_units
+    from actuator_design.io.user_units import add_physical_values, user_units
 
     units = user_units(scene, raw)
     schedule, name, factor, max_step = _schedule(args, study, units)
 
-    from ..analysis.loading import follow_path
-    from ..io import dumps_json
+    from actuator_design.continuation.loading import follow_path
+    from actuator_design.io.save import dumps_json
 
     with stdout_to_stderr(args.json), bad_input():
         path = follow_path(scene, options, schedule, max_step=max_step)
     data = _scaled_dict(path, factor, name)
     if name is not None and factor == 1.0 and units is not None:
-        from ..parameters import parameter
+        from actuator_design.physics.parameters import parameter
 
         p = parameter(name.replace("-", "_"))
         add_physical_values(data["points"] + data["jumps"] + data["bifurcations"] + data["contact_events"], p, units,
@@ -323,8 +323,8 @@ def _values_text(values: dict, units) -> str:
     """Scheduled values in the user's units: fields in mT, loads in N, angles in degrees."""
     import math
 
-    from ..parameters import parameter
-    from ..user_units import physical_value_keys
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import physical_value_keys
 
     out = []
     for name, v in values.items():
@@ -343,7 +343,7 @@ def _values_text(values: dict, units) -> str:
 
 def _len(x: float, units) -> str:
     """A length already in the user's unit, printed (round-off of zero as 0)."""
-    from ..unit_columns import length_noise
+    from actuator_design.io.unit_columns import length_noise
     return number(x, ".6g", noise=length_noise(units))
 
 
@@ -370,8 +370,8 @@ def add_physical_block(data: dict, path, units, factor: float = 1.0) -> None:
     Nothing for a dimensionless scene (``units`` None)."""
     if units is None:
         return
-    from ..parameters import parameter
-    from ..user_units import parameter_physical, parameter_unit_label
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import parameter_physical, parameter_unit_label
 
     def tip(t):
         return {"x": units.length(t["x"]), "y": units.length(t["y"])}
@@ -421,9 +421,9 @@ def _summary_deg(path, data) -> str:
 
 def _render(path, data, raw, factor: float = 1.0, units=None) -> Dict[str, Union[str, bytes]]:
     """path.json, path.csv and path.png in memory."""
-    from ..io import dumps_json
-    from ..viz.loading import path_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.loading import path_figure
+    from actuator_design.viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
@@ -449,8 +449,8 @@ def _physical_columns(path, data, cols, rows, units):
     """path.csv's columns in the user's units after the existing ones: ``tip_x_<unit>``,
     ``tip_y_<unit>``, ``energy_J`` and ``value_<name>_mT`` (mu0 H), ``_N``, ``_N_m``, ``_N_per_m``
     of each scheduled parameter with a physical unit; and the units line's text for them."""
-    from ..parameters import parameter
-    from ..user_units import parameter_physical, parameter_unit_label
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import parameter_physical, parameter_unit_label
 
     u = units.length_unit
     extra_cols = [f"tip_x_{u}", f"tip_y_{u}", "energy_J"]

@@ -28,9 +28,10 @@ from __future__ import annotations
 import argparse
 import math
 
-from .common import EXIT_OK, InputError, bad_input, check_out_dir, load_config, stdout_to_stderr
-from .output import print_written, write_out
-from .path import add_scene_flags, csv_text, scene_and_options, study_settings
+from actuator_design.cli.common import (EXIT_OK, InputError, bad_input, check_out_dir, load_config,
+                                        stdout_to_stderr)
+from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.path import add_scene_flags, csv_text, scene_and_options, study_settings
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -40,7 +41,7 @@ DEFAULTS = {"h": 1.5, "phi_deg": 90.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from ..config.study_specs import PhaseStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.study_specs import PhaseStudy  # (pydantic loads only when a study is read)
 
     return PhaseStudy
 
@@ -81,15 +82,15 @@ def run(args: argparse.Namespace) -> int:
     dth_rng = _pair(args.dtheta_range, "--dtheta-range") if args.dtheta_range else (
         tuple(study.dtheta_range) if study.dtheta_range else None)
 
-    from ..analysis.phase import check_autonomous, phase_portrait
-    from ..io import dumps_json
+    from actuator_design.analysis.phase import check_autonomous, phase_portrait
+    from actuator_design.io.save import dumps_json
 
     with bad_input():
         check_autonomous(scene)
     with stdout_to_stderr(args.json), bad_input():
         portrait = phase_portrait(scene, None, options, theta_range=th_rng, dtheta_range=dth_rng)
     data = portrait.to_dict()
-    from ..user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     add_units(data, portrait, units)
@@ -111,7 +112,7 @@ def add_units(data: dict, portrait, units) -> None:
     in J/m (H is an energy per length, B0/ℓ²)."""
     if units is None:
         return
-    from ..unit_results import command_physical, curvature_per_unit
+    from actuator_design.io.unit_results import command_physical, curvature_per_unit
 
     u = units.length_unit
     data["physical"] = command_physical(portrait.scene, units)
@@ -134,14 +135,14 @@ def _summary(portrait, units=None) -> str:
                      + ("stable" if t.stable else f"unstable (Morse index {t.morse_index})")
                      + (", self-intersecting" if t.self_intersecting else ""))
         if units is not None:
-            from ..display import number
-            from ..unit_results import curvature_per_unit
+            from actuator_design.io.display import number
+            from actuator_design.io.unit_results import curvature_per_unit
             u = units.length_unit
             lines.append(f"      in the user's units: gamma = {number(curvature_per_unit(t.gamma, units), '.6g', 1e-12)} "
                          f"rad/{u}, energy = {number(t.energy * units.moment_scale, '.6g', 1e-12 * units.moment_scale)} J, "
                          f"H = {number(t.level * units.force_scale, '.6g', 1e-12 * units.force_scale)} J/m")
     if units is not None:
-        from ..unit_results import scene_text, units_line
+        from actuator_design.io.unit_results import scene_text, units_line
         given = scene_text(sc, units)
         lines.append(f"  user units: {units_line(units)}" + (f"; {given}" if given else ""))
     for n in portrait.notes:
@@ -150,9 +151,9 @@ def _summary(portrait, units=None) -> str:
 
 
 def _render(portrait, data, raw, units=None):
-    from ..io import dumps_json
-    from ..viz.phase import phase_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.phase import phase_figure
+    from actuator_design.viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw

@@ -10,7 +10,7 @@ import math
 from dataclasses import replace
 from typing import Dict, Optional
 
-from .common import (InputError, bad_input, check_angle_deg, finite_float, load_config,
+from actuator_design.cli.common import (InputError, bad_input, check_angle_deg, finite_float, load_config,
                      nonnegative_float)
 
 __all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_hard_magnetic_args",
@@ -77,8 +77,8 @@ def validate_study(raw_config: Optional[dict], model, kind: str):
 def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     """``(scene, options, raw)`` from CONFIG (``loaded``: its ``load_config`` triple if already
     read), the study's scene values and the flags (flags win); --elements/--degree if present."""
-    from ..options import SolverOptions
-    from ..scene import default_scene
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.model.scene import default_scene
 
     vals = {k: getattr(study, k, None) for k in SCENE_KEYS} if study is not None else {}
     for k in SCENE_KEYS:  # the study's angles are in degrees, as the flags (checked in main)
@@ -105,7 +105,7 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     # the study's values and the flags changed the scene and the mesh after CONFIG was checked:
     # the groups' ranges, the memory budget and the profiles on this mesh again (README "Units and
     # scenes")
-    from ..config.checks import check_scene_and_options
+    from actuator_design.config.checks import check_scene_and_options
 
     with bad_input():
         check_scene_and_options(scene, options)
@@ -125,7 +125,7 @@ def apply_set_flags(scene, args):
     """``scene`` with every ``--set NAME=VALUE`` applied through the parameter lens, in order (after
     the other scene flags: ``--set h=2`` wins over ``--h``). A command that does not rebuild its
     scene through :func:`build_scene` checks it again with :func:`check_flags`."""
-    from .. import parameters as lens
+    from actuator_design.physics import parameters as lens
 
     for text in getattr(args, "set_values", None) or ():
         name, eq, value = text.partition("=")
@@ -142,7 +142,7 @@ def apply_set_flags(scene, args):
 def check_flags(scene, options) -> None:
     """The scene's groups, the mesh's memory budget for its Hessian (a term may make it dense) and
     its profiles on the mesh, checked again after flags changed them (InputError, one line)."""
-    from ..config.checks import check_scene_and_options
+    from actuator_design.config.checks import check_scene_and_options
 
     with bad_input():
         check_scene_and_options(scene, options)
@@ -159,7 +159,7 @@ def add_hard_magnetic_args(group) -> None:
 def apply_hard_magnetic_flags(scene, args):
     """``scene`` with --h-r and --magnetization-deg applied through the parameter lens (each adds
     the hard-magnetic term when absent, THEORY §9), then every --set."""
-    from .. import parameters as lens
+    from actuator_design.physics import parameters as lens
 
     for name, flag, to_value in (("h_r", "h_r", float), ("magnetization", "magnetization_deg", math.radians)):
         value = getattr(args, flag, None)

@@ -28,15 +28,16 @@ import math
 import sys
 from pathlib import Path
 
-from .common import (EXIT_OK, InputError, add_rate_args, bad_input, check_out_dir, finite_float, load_config,
-                     parse_rates, stdout_to_stderr, table_csv_text)
-from .design_units import path_line, positive_target, quasi_static_line, refuse_unknown_keys
-from .output import print_written, write_out
+from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, InputError, add_rate_args, bad_input,
+                                        check_out_dir, finite_float, load_config, parse_rates,
+                                        stdout_to_stderr, table_csv_text)
+from actuator_design.cli.design_units import (path_line, positive_target, quasi_static_line,
+                                              refuse_unknown_keys)
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 
 HELP = "a field schedule (h, phi) that moves the tip through waypoints, verified snap-free"
-EXIT_NOT_VERIFIED = 3
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -138,9 +139,9 @@ def _payload(res, units, table) -> dict:
 def _output_files(res, raw, payload, table, units=None, optimal=None) -> dict:
     """schedule.json, schedule.csv, waypoints.csv, schedule.png and (with states) schedule.gif,
     in memory."""
-    from ..io import dumps_json
-    from ..viz.design import schedule_figure, schedule_gif_bytes
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.design import schedule_figure, schedule_gif_bytes
+    from actuator_design.viz.style import png_bytes
 
     text = dumps_json(dict(payload, config=raw), indent=1) + "\n"
     rows = _io.StringIO()
@@ -187,8 +188,8 @@ def _physical_lines(payload, table) -> list:
 
 def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
-    from ..scene import default_scene
-    from ..options import SolverOptions
+    from actuator_design.model.scene import default_scene
+    from actuator_design.equilibrium.options import SolverOptions
 
     study, raw = {}, None
     if args.config is None:
@@ -209,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--slew-rate: only for a scene whose field comes from coils (`field: {type: coils}`); "
                          "an ideal field's schedule takes --rate and --rotation-rate")
     if study and not coils and not stage:
-        from ..config.study_specs import SCHEDULE_KEYS
+        from actuator_design.config.study_specs import SCHEDULE_KEYS
         refuse_unknown_keys(study, SCHEDULE_KEYS["field"])
     if args.waypoints and args.path_csv:
         raise InputError("--waypoints and --path-csv: give one of them, not both")
@@ -226,10 +227,10 @@ def run(args: argparse.Namespace) -> int:
                                scene, tol_name, "length", "length", "rod lengths")
     study.pop("path_tolerance", None)
     if stage:  # the magnet's pose is scheduled
-        from .schedule_poses import run_poses
+        from actuator_design.cli.schedule_poses import run_poses
         return run_poses(args, scene, options, raw, study, wps, path_tol)
     if coils:  # the coils' currents are scheduled
-        from .schedule_currents import run_currents
+        from actuator_design.cli.schedule_currents import run_currents
         return run_currents(args, scene, options, raw, study, wps, path_tol)
     rate = args.rate_weight if args.rate_weight is not None else float(study.get("rate_weight", 1.0))
     sub = args.substeps if args.substeps is not None else int(study.get("substeps", 8))
@@ -238,9 +239,9 @@ def run(args: argparse.Namespace) -> int:
     if not (1 <= sub <= 200):
         raise InputError(f"--substeps: must lie in [1, 200], got {sub}")
 
-    from ..analysis.schedule import field_schedule, schedule_table
-    from ..io import dumps_json
-    from ..user_units import user_units
+    from actuator_design.schedules.schedule import field_schedule, schedule_table
+    from actuator_design.io.save import dumps_json
+    from actuator_design.io.user_units import user_units
 
     rates = parse_rates(args.rate if args.rate is not None else study.get("rate"),
                         args.rotation_rate if args.rotation_rate is not None else study.get("rotation_rate"))
@@ -251,14 +252,14 @@ def run(args: argparse.Namespace) -> int:
     with stdout_to_stderr(args.json), bad_input():
         res = field_schedule(wps, scene=scene, options=options, rate_weight=rate, substeps=sub)
         if ocp is not None:
-            from ..analysis.schedule_ocp import optimal_schedule
+            from actuator_design.schedules.schedule_ocp import optimal_schedule
             say = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
             ocp = optimal_schedule(wps, ocp["limits"], options=options, objective=ocp["objective"],
                                    nodes=ocp["nodes"], greedy=res, progress=say)
             res = ocp.result
     path = None
     if path_tol is not None:
-        from ..analysis.path_corridor import hold_to_path
+        from actuator_design.schedules.path_corridor import hold_to_path
         path = hold_to_path(res, wps, path_tol, optimised=ocp is not None and ocp.optimal)
     with bad_input():
         table = schedule_table(res.schedule, units, *(rates if ocp is None else (None, None)))
@@ -267,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
     timed = bool(table) and "time_s" in table[-1]
     qs = None
     if timed:  # each step against the rod's relaxation time (issue 19 item 4): adds the table's columns
-        from ..analysis.dynamics import quasi_static
+        from actuator_design.schedules.dynamics import quasi_static
         qs = quasi_static(res.states, table, scene.scales)
     payload = _payload(res, units, table)
     if path is not None:
@@ -321,7 +322,7 @@ def _optimal_control_request(args, study, units, rates, n_waypoints: int):
         return None
     if objective not in ("time", "energy"):
         raise InputError(f"study.optimal_control: must be 'time' or 'energy', got {objective!r}")
-    from ..analysis.schedule_ocp import MAX_NODES, RateLimits
+    from actuator_design.schedules.schedule_ocp import MAX_NODES, RateLimits
 
     field_rate, rotation_rate = rates
     h_rate_text = args.h_rate if args.h_rate is not None else study.get("h_rate")

@@ -1,6 +1,6 @@
 """``schedule`` on a scene whose field comes from coils: the coils' currents (A) in time that move the
 tip through the waypoints within each driver's current and slew limits and the field's power and
-field limits, with the least energy (J) or in the least time (:mod:`actuator_design.analysis.current_schedule`).
+field limits, with the least energy (J) or in the least time (:mod:`actuator_design.schedules.current_schedule`).
 
 Outputs with --out DIR: schedule.json, schedule.csv (every step: time, each coil's current, the
 power, the tip), waypoints.csv and schedule.png. Exit codes: 0 verified schedule, 2 bad input,
@@ -14,10 +14,10 @@ import io as _io
 import math
 import sys
 
-from ..config.study_specs import SCHEDULE_KEYS
-from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys, substeps_arg,
-                           tip_columns)
+from actuator_design.config.study_specs import SCHEDULE_KEYS
+from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr, table_csv_text
+from actuator_design.cli.design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys,
+                                              substeps_arg, tip_columns)
 
 __all__ = ["run_currents", "STUDY_KEYS"]
 
@@ -28,7 +28,7 @@ STUDY_KEYS = SCHEDULE_KEYS["currents"]
 def _slew(value, n_coils: int, name: str):
     """Each coil's slew rate (A/s) from '20 A/s', '20 A/s, 10 A/s' or a YAML list: one for all or one
     per coil, each > 0."""
-    from ..units import parse_quantity
+    from actuator_design.model.units import parse_quantity
 
     items = value if isinstance(value, (list, tuple)) else [v for v in str(value).split(",") if v.strip()]
     if len(items) not in (1, n_coils):
@@ -65,7 +65,7 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
     if objective not in ("time", "energy"):
         raise InputError(f"study.optimal_control: must be 'time' or 'energy', got {objective!r}")
     nodes_name = "--nodes" if args.nodes is not None else "study.nodes"
-    from ..analysis.schedule_ocp import MAX_NODES
+    from actuator_design.schedules.schedule_ocp import MAX_NODES
 
     nodes = args.nodes if args.nodes is not None else study.get("nodes", 40)
     if not (isinstance(nodes, int) and len(waypoints) + 1 <= nodes <= MAX_NODES):
@@ -73,8 +73,8 @@ def run_currents(args: argparse.Namespace, scene, options, raw, study: dict, way
                          f"the {len(waypoints)} waypoints at least), got {nodes!r}")
     substeps = substeps_arg(args, study)
 
-    from ..analysis.current_schedule import current_schedule
-    from ..user_units import user_units
+    from actuator_design.schedules.current_schedule import current_schedule
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
@@ -119,9 +119,9 @@ def _summary(res, payload) -> list:
 
 
 def _files(res, payload, raw, units) -> dict:
-    from ..io import dumps_json
-    from ..viz.current_schedule import current_schedule_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.current_schedule import current_schedule_figure
+    from actuator_design.viz.style import png_bytes
 
     files = {"schedule.json": dumps_json(dict(payload, config=raw), indent=1) + "\n"}
     states = res.verification.states if res.verification is not None else []

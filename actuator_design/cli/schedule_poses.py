@@ -1,6 +1,6 @@
 """``schedule`` on a scene whose magnet has a travel: the magnet's pose (position mm, axis deg) in
 time that moves the tip through the waypoints within the stage's travel, speed and turn rate
-(:mod:`actuator_design.analysis.pose_schedule`).
+(:mod:`actuator_design.schedules.pose_schedule`).
 
 Outputs with --out DIR: schedule.json, schedule.csv (every step: time, the pose, the tip),
 waypoints.csv and schedule.png. Exit codes: 0 verified schedule, 2 bad input, 3 not verified,
@@ -12,10 +12,10 @@ import argparse
 import math
 import sys
 
-from ..config.study_specs import SCHEDULE_KEYS
-from .common import InputError, bad_input, stdout_to_stderr, table_csv_text
-from .design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys, substeps_arg,
-                           tip_columns)
+from actuator_design.config.study_specs import SCHEDULE_KEYS
+from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr, table_csv_text
+from actuator_design.cli.design_units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys,
+                                              substeps_arg, tip_columns)
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
@@ -25,7 +25,7 @@ STUDY_KEYS = SCHEDULE_KEYS["pose"]
 
 def _rate(args, study, flag: str, key: str, dimension: str, example: str, needed: bool):
     """The rate given by ``flag`` or the study's ``key`` in SI, or None when not given and not needed."""
-    from ..units import parse_quantity
+    from actuator_design.model.units import parse_quantity
 
     value = getattr(args, key) if getattr(args, key) is not None else study.get(key)
     name = flag if getattr(args, key) is not None else f"study.{key}"
@@ -56,8 +56,8 @@ def run_poses(args: argparse.Namespace, scene, options, raw, study: dict, waypoi
     turn = _rate(args, study, "--turn-rate", "turn_rate", "angular_rate", "90deg/s", moving[2] is not None)
     substeps = substeps_arg(args, study)
 
-    from ..analysis.pose_schedule import pose_schedule
-    from ..user_units import user_units
+    from actuator_design.schedules.pose_schedule import pose_schedule
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     say = (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
@@ -85,9 +85,9 @@ def _summary(res, payload) -> list:
 
 
 def _files(res, payload, raw, units) -> dict:
-    from ..io import dumps_json
-    from ..viz.pose_schedule import pose_schedule_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.pose_schedule import pose_schedule_figure
+    from actuator_design.viz.style import png_bytes
 
     files = {"schedule.json": dumps_json(dict(payload, config=raw), indent=1) + "\n"}
     states = res.verification.states if res.verification is not None else []

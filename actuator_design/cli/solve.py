@@ -19,11 +19,11 @@ import dataclasses
 import math
 import sys
 
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, nonnegative_float,
                      stdout_to_stderr)
-from ..display import number
-from .output import print_written, write_out
+from actuator_design.io.display import number
+from actuator_design.cli.output import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "build_inputs"]
 
@@ -42,7 +42,7 @@ _SOLVER_FLAGS = {"transcription": "--transcription", "elements": "--elements",
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     """Add the arguments of ``solve``."""
-    from ..options import SolverOptions
+    from actuator_design.equilibrium.options import SolverOptions
     d = SolverOptions()
     parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
                         help="scene and solver configuration (YAML); omit for the default scene")
@@ -59,7 +59,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help="constant fibre angle alpha, degrees (default without "
                         f"CONFIG {DEFAULTS['alpha_deg']:g})")
-    from .scene_args import add_hard_magnetic_args, add_set_arg
+    from actuator_design.cli.scene_args import add_hard_magnetic_args, add_set_arg
     add_hard_magnetic_args(g)
     add_set_arg(parser)
     s = parser.add_argument_group("solver (override CONFIG)")
@@ -115,8 +115,8 @@ def build_inputs(args: argparse.Namespace):
     InputError
         Any invalid input (exit code 2).
     """
-    from ..options import SolverOptions
-    from ..scene import default_scene
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.model.scene import default_scene
 
     overrides = {"h": args.h, "phi": _rad(args.phi_deg), "p": args.p, "alpha": _rad(args.alpha_deg)}
     if args.config is None:
@@ -132,7 +132,7 @@ def build_inputs(args: argparse.Namespace):
         scene, options, raw = load_config(args.config)
         with bad_input("cannot apply the scene flags to CONFIG: "):
             scene = scene.with_values(**overrides)
-    from .scene_args import apply_hard_magnetic_flags
+    from actuator_design.cli.scene_args import apply_hard_magnetic_flags
     scene = apply_hard_magnetic_flags(scene, args)
     changes = {f: getattr(args, f) for f in _SOLVER_FLAGS if getattr(args, f) is not None}
     if args.ensure_stable is not None:
@@ -142,7 +142,7 @@ def build_inputs(args: argparse.Namespace):
     except ValueError as exc:
         field = str(exc).split(" ", 1)[0]
         raise InputError(f"{_SOLVER_FLAGS.get(field, 'solver options')}: {exc}") from exc
-    from ..config.checks import check_scene_and_options
+    from actuator_design.config.checks import check_scene_and_options
     with bad_input():  # flags applied on top of CONFIG: the mesh caps and profiles on the new mesh
         check_scene_and_options(scene, options)
     return scene, options, raw
@@ -153,12 +153,12 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw = build_inputs(args)
 
-    from ..equilibrium import solve
-    from ..io import dumps_json
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.io.save import dumps_json
 
     with stdout_to_stderr(args.json):
         result = solve(scene, options)
-    from ..user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     payload = result.to_dict()
@@ -192,9 +192,9 @@ def run(args: argparse.Namespace) -> int:
 def _output_files(result, raw, units=None, payload=None) -> dict:
     """``result.json``, ``shape.csv`` and ``shape.png`` of ``--out``, in memory (a physical scene's
     ``units``: the shape also in the user's units, the figure drawn in them)."""
-    from ..io import result_files
-    from ..viz.shape import shape_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import result_files
+    from actuator_design.viz.shape import shape_figure
+    from actuator_design.viz.style import png_bytes
 
     return dict(result_files(result, raw, units, payload),
                 **{"shape.png": png_bytes(shape_figure(result, units=units), dpi=150)})
@@ -208,7 +208,7 @@ def add_physical(payload: dict, result, units) -> None:
     ``distributed_load_N_per_m`` (those it has) and ``units``."""
     if units is None or not isinstance(payload.get("physical"), dict):
         return
-    from ..unit_results import curvature_per_unit, scene_physical
+    from actuator_design.io.unit_results import curvature_per_unit, scene_physical
 
     u = units.length_unit
     added = {"length_unit": u, f"tip_x_{u}": units.length(result.tip["x"]),
@@ -233,7 +233,7 @@ def physical_lines(result, units) -> list:
     ``physical`` line, which is in mm whatever the scene's unit."""
     if units is None:
         return []
-    from ..unit_results import length_text, scene_text, units_line
+    from actuator_design.io.unit_results import length_text, scene_text, units_line
 
     u = units.length_unit
     noise = 1e-12  # round-off of a zero, in the dimensionless unit of each quantity

@@ -34,10 +34,10 @@ import argparse
 import math
 import sys
 
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      load_config, stdout_to_stderr)
-from .output import print_written, write_out
-from .path import add_scene_flags, csv_text, scene_and_options, study_settings
+from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.path import add_scene_flags, csv_text, scene_and_options, study_settings
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -47,7 +47,7 @@ DEFAULTS = {"h": 1.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from ..config.study_specs import StiffnessStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.study_specs import StiffnessStudy  # (pydantic loads only when a study is read)
 
     return StiffnessStudy
 
@@ -74,8 +74,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _sweep(args, study, units=None):
     text = args.field_sweep
     if text is not None:
-        from ..parameters import parameter
-        from ..user_units import parameter_from_text
+        from actuator_design.physics.parameters import parameter
+        from actuator_design.io.user_units import parameter_from_text
 
         parts = text.split(",")
         with bad_input():
@@ -105,14 +105,14 @@ def run(args: argparse.Namespace) -> int:
         loaded = load_config(args.config)
         study = study_settings(loaded[2], "stiffness", _study_model())
     scene, options, raw = scene_and_options(args, DEFAULTS, study, loaded)
-    from ..user_units import user_units
+    from actuator_design.io.user_units import user_units
 
     units = user_units(scene, raw)
     h_values = _sweep(args, study, units)
     moment = study.moment if args.moment is None else args.moment
 
-    from ..analysis.stiffness import stiffness_field_curve, tip_stiffness
-    from ..io import dumps_json
+    from actuator_design.analysis.stiffness import stiffness_field_curve, tip_stiffness
+    from actuator_design.io.save import dumps_json
 
     with stdout_to_stderr(args.json), bad_input():
         st = tip_stiffness(scene, options, moment=moment)
@@ -176,7 +176,7 @@ def add_physical(data: dict, st, curve, units) -> None:
     """
     if units is None:
         return
-    from ..unit_columns import compliance_si, stiffness_si
+    from actuator_design.io.unit_columns import compliance_si, stiffness_si
 
     eq = data["equilibrium"]
     comp, comp_units = compliance_si(st.compliance, st.tips, st.loads, units)
@@ -205,7 +205,7 @@ def _sweep_mT(curve):
     """mu0 H in mT of every sweep point (None without a field scale: no NaN is reported)."""
     import numpy as np
 
-    from ..units import MU0
+    from actuator_design.model.units import MU0
     H = curve.field_A_per_m
     if H is None or not np.all(np.isfinite(H)):
         return None
@@ -214,8 +214,8 @@ def _sweep_mT(curve):
 
 def _physical_lines(data, st, curve, units) -> list:
     """The state, the compliance and stiffness matrices and the sweep in the user's units."""
-    from ..display import number
-    from ..unit_columns import length_noise
+    from actuator_design.io.display import number
+    from actuator_design.io.unit_columns import length_noise
 
     phys = data.get("physical")
     if phys is None:
@@ -244,9 +244,9 @@ def _physical_lines(data, st, curve, units) -> list:
 
 
 def _render(data, curve, raw, scene, units=None, st=None):
-    from ..io import dumps_json
-    from ..viz.loading import stiffness_figure
-    from ..viz.style import png_bytes
+    from actuator_design.io.save import dumps_json
+    from actuator_design.viz.loading import stiffness_figure
+    from actuator_design.viz.style import png_bytes
 
     payload = dict(data)
     payload["config"] = raw
@@ -268,6 +268,6 @@ def _render(data, curve, raw, scene, units=None, st=None):
             curve, si=scene.scales is not None,
             stiffness_scale=None if units is None else units.stiffness_scale), dpi=150)
     elif st is not None:  # one state: its shape with the compliance ellipse at the tip
-        from ..viz.compliance import compliance_figure
+        from actuator_design.viz.compliance import compliance_figure
         files["stiffness.png"] = png_bytes(compliance_figure(st, units), dpi=150)
     return files

@@ -51,8 +51,8 @@ import argparse
 import os
 import sys
 
-from .common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, InputError, bad_input, check_out_dir,
-                     error_line, stdout_to_stderr)
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, PROG, InputError, bad_input,
+                                        check_out_dir, error_line, stdout_to_stderr)
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -104,7 +104,7 @@ def _warning(message: str) -> None:
 def _cluster_failure(exc, plan) -> int:
     """Exit 3 when the study folder holds a run that --resume continues (the run had started, or
     it resumes a journal), else bad input (2)."""
-    from ..study.journal import JOURNAL_NAME
+    from actuator_design.study.journal import JOURNAL_NAME
 
     if not (exc.resumable or (plan.resume and (plan.out / JOURNAL_NAME).is_file())):
         raise InputError(str(exc)) from None
@@ -122,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     if not Path(args.config).is_file():
         raise InputError(f"config file not found: {args.config}")
     if args.scheduler is not None:
-        from ..study.dask_cluster import (ClusterError, check_address, quiet_distributed_logs,
+        from actuator_design.study.dask_cluster import (ClusterError, check_address, quiet_distributed_logs,
                                           timeouts)
         try:
             check_address(args.scheduler)
@@ -137,13 +137,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--workers: the Dask cluster decides its workers; give either "
                          "--workers or --scheduler")
     out = args.out or f"study_{Path(args.config).stem}"
-    from ..io import dumps_json
-    from ..safe_files import OutputFolderError
-    from ..study.dask_cluster import ClusterError
-    from ..study.runner import (StudyError, StudyInterrupted, StudyStorageError, plan_study,
+    from actuator_design.io.save import dumps_json
+    from actuator_design.io.safe_files import OutputFolderError
+    from actuator_design.study.dask_cluster import ClusterError
+    from actuator_design.study.runner import (StudyError, StudyInterrupted, StudyStorageError, plan_study,
                                 run_study)
 
-    from ..unit_columns import study_config
+    from actuator_design.io.unit_columns import study_config
 
     with bad_input():
         plan = plan_study(args.config, out, resume=args.resume, max_points=args.max_points)
@@ -183,7 +183,7 @@ def _physical(plan, report):
     user's units → its unit), read from the header of the table written; None otherwise."""
     import csv
 
-    from ..unit_columns import axis_unit_columns, derived_name, table_units
+    from actuator_design.io.unit_columns import axis_unit_columns, derived_name, table_units
 
     units = table_units(plan.raw, plan.axes)
     name = (report.files or {}).get("csv")

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from .common import EXIT_OK, load_config
+from actuator_design.cli.common import EXIT_OK, load_config
 
 __all__ = ["HELP", "add_args", "run", "describe"]
 
@@ -31,7 +31,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``validate``: load, check the field, print the summary."""
     scene, options, raw = load_config(args.config)
-    from ..physics.terms import build_terms
+    from actuator_design.physics.registry import build_terms
     terms = [t.name for t in build_terms(scene)]
     summary = _magnetics_summary(raw)
     notes = list(summary.notes) if summary is not None else []
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     if zero:
         notes.append(zero)
     if args.json:
-        from ..io import dumps_json, scene_to_dict
+        from actuator_design.io.save import dumps_json, scene_to_dict
         out = {"valid": True, "config": str(args.config), "scene": scene_to_dict(scene),
                "groups": scene.describe_groups(), "terms": terms, "solver": options.as_dict()}
         if scene.magnetization is not None:
@@ -49,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
         out["notes"] = notes
         print(dumps_json(out))
     else:
-        from ..user_units import user_units
+        from actuator_design.io.user_units import user_units
         print(describe(scene, options, terms, source=args.config, summary=summary,
                        notes=[n for n in notes if n != zero], units=user_units(scene, raw)))
     return EXIT_OK
@@ -57,8 +57,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _magnetics_summary(raw):
     """The physical scene's magnetic numbers (None for dimensionless scenes or no magnetics)."""
-    from ..config import load_config as load_model
-    from ..config.physical import PhysicalScene
+    from actuator_design.config import load_config as load_model
+    from actuator_design.config.physical import PhysicalScene
 
     import warnings
     with warnings.catch_warnings():  # already issued once while loading
@@ -91,9 +91,9 @@ def zero_coupling(scene) -> str:
 def describe(scene, options, terms, source: str = "", summary=None, notes=(), units=None) -> str:
     """A readable multi-line summary of a validated scene (no solve); ``summary`` is the physical
     scene's :class:`~actuator_design.config.magnetic_specs.MagneticSummary`, ``notes`` the reasons
-    and warnings to print, ``units`` a physical scene's :class:`~actuator_design.user_units.UserUnits`
+    and warnings to print, ``units`` a physical scene's :class:`~actuator_design.io.user_units.UserUnits`
     (obstacles in its length unit)."""
-    from ..scene import DipoleField, ExpressionField, UniformField
+    from actuator_design.model.scene import DipoleField, ExpressionField, UniformField
 
     groups = f"h = {scene.h:.6g}, h^2 = {scene.h ** 2:.6g}"
     if isinstance(scene.field, UniformField):

@@ -1,4 +1,4 @@
-"""Configuration files → validated models → the dimensionless :class:`~actuator_design.scene.Scene`.
+"""Configuration files → validated models → the dimensionless :class:`~actuator_design.model.scene.Scene`.
 
 A configuration is YAML (or the equivalent dict) with the top-level keys ``scene`` (required),
 ``solver``, ``name`` and ``description``. Every mapping is validated by a pydantic model that rejects
@@ -6,7 +6,7 @@ unknown keys; ``type:`` tags pick variants (discriminated unions). Any failure b
 :class:`ConfigError` whose message starts with the dotted path of the offending field, e.g.
 ``scene.rod.length: must be > 0, got -1 mm``.
 
-Values with units are read by :func:`actuator_design.units.parse_quantity`: write ``"27.5 mm"``,
+Values with units are read by :func:`actuator_design.model.units.parse_quantity`: write ``"27.5 mm"``,
 ``"2.25 MPa"``, ``"5 kA/m"`` or ``"10 mT"`` (H = B/μ0), ``"30 deg"``. A plain number is in SI base
 units, except angles: a plain number is radians and must lie in [-2π, 2π].
 

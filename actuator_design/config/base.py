@@ -1,7 +1,7 @@
 """Building blocks of the configuration models: the strict base model, quantity fields, tagged unions.
 
 * :class:`StrictModel` rejects unknown keys, naming the key, the allowed ones and the nearest match.
-* :func:`Q` is a float field read by :func:`~actuator_design.units.parse_quantity` (``"27.5 mm"``)
+* :func:`Q` is a float field read by :func:`~actuator_design.model.units.parse_quantity` (``"27.5 mm"``)
   in SI units of a dimension, with bounds checked after conversion.
 * :func:`tagged` is a ``type:``-tagged union whose tags are remembered for error messages.
 """
@@ -13,8 +13,8 @@ from typing import Annotated, Union
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
 
-from ..units import DIMENSIONS, QuantityError, parse_quantity
-from .errors import UNION_TAGS, error
+from actuator_design.model.units import DIMENSIONS, QuantityError, parse_quantity
+from actuator_design.config.errors import UNION_TAGS, error
 
 __all__ = ["StrictModel", "Q", "Angle", "Number", "Positive", "tagged", "interval_text"]
 
@@ -32,7 +32,7 @@ def Q(dimension: str, *, gt=None, ge=None, lt=None, le=None, why: str = None):
     Parameters
     ----------
     dimension : str
-        A key of :data:`~actuator_design.units.DIMENSIONS` (``"length"``, ``"angle"``, ...).
+        A key of :data:`~actuator_design.model.units.DIMENSIONS` (``"length"``, ``"angle"``, ...).
     gt, ge, lt, le : float, optional
         Bounds on the value in SI units; a violation names the bound and the value as written.
     why : str, optional

@@ -13,15 +13,15 @@ from typing import Mapping, Tuple
 
 import numpy as np
 
-from .errors import ConfigError
-from .limits import group_problem, mesh_problem, scene_group_values
-from .profile_specs import profile_problem
+from actuator_design.config.errors import ConfigError
+from actuator_design.config.limits import group_problem, mesh_problem, scene_group_values
+from actuator_design.config.profile_specs import profile_problem
 
 __all__ = ["check_scene_groups", "check_mesh", "check_profiles_at", "check_profiles_on_mesh",
            "check_scene_and_options"]
 
 def check_scene_groups(scene, prefix: str = "") -> None:
-    """Every group of ``scene`` (a :class:`~actuator_design.scene.Scene`) within its range.
+    """Every group of ``scene`` (a :class:`~actuator_design.model.scene.Scene`) within its range.
 
     Raises
     ------
@@ -41,13 +41,13 @@ def _is_dense(scene) -> bool:
         return True
     if not scene.extra_terms:
         return False
-    from ..physics.terms import dense_hessian
+    from actuator_design.physics.registry import dense_hessian
 
     return dense_hessian(scene)
 
 
 def check_mesh(options, scene=None, field: str = "elements") -> None:
-    """The mesh of ``options`` (a :class:`~actuator_design.options.SolverOptions`) within the memory
+    """The mesh of ``options`` (a :class:`~actuator_design.equilibrium.options.SolverOptions`) within the memory
     budget; the stricter dense bound when ``scene`` has a non-uniform field.
 
     Raises
@@ -65,7 +65,7 @@ def check_mesh(options, scene=None, field: str = "elements") -> None:
 
 def check_profiles_at(profiles: Mapping[str, Tuple[object, bool]], options) -> None:
     """Expression profiles finite (and > 0 where asked) at the nodes and quadrature points of the
-    transcription that ``options`` (a :class:`~actuator_design.options.SolverOptions`) names.
+    transcription that ``options`` (a :class:`~actuator_design.equilibrium.options.SolverOptions`) names.
 
     Parameters
     ----------
@@ -81,7 +81,7 @@ def check_profiles_at(profiles: Mapping[str, Tuple[object, bool]], options) -> N
     wanted = {k: v for k, v in profiles.items() if v[0] is not None and v[0].kind == "expression"}
     if not wanted:
         return
-    from ..transcription import make_transcription
+    from actuator_design.transcription import make_transcription
 
     tr = make_transcription(options)
     s = np.concatenate([np.asarray(tr.nodes, float), np.asarray(tr.quadrature_points, float)])

@@ -12,13 +12,14 @@ from typing import Literal
 import numpy as np
 from pydantic import StrictStr, field_validator, model_validator
 
-from ..expressions import Expression, ExpressionError
-from ..scene import DipoleField, ExpressionField, SourceField, UniformField
-from .base import Angle, Number, Q, StrictModel, tagged
-from .errors import error
-from .profile_specs import GRID
-from .source_specs import PhysicalCoilMap, PhysicalCoils, PhysicalMagnet, PhysicalMagnets
-from .vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
+from actuator_design.model.expressions import Expression, ExpressionError
+from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
+from actuator_design.config.base import Angle, Number, Q, StrictModel, tagged
+from actuator_design.config.errors import error
+from actuator_design.config.profile_specs import GRID
+from actuator_design.config.source_specs import (PhysicalCoilMap, PhysicalCoils, PhysicalMagnet,
+                                                 PhysicalMagnets)
+from actuator_design.config.vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
 
 __all__ = ["NumberXY", "LengthXY", "ForceXY", "LineLoadXY", "UniformSpec", "DipoleSpec",
            "ExpressionSpec", "PhysicalUniform", "PhysicalDipole", "PhysicalExpression",
@@ -136,7 +137,7 @@ def max_shape_on_rod(field) -> float:
     if isinstance(field, UniformField):
         return 1.0
     if isinstance(field, SourceField):
-        from ..physics.fields import field_model
+        from actuator_design.physics.fields import field_model
 
         hx, hy = field_model(field).evaluate(x, y, {})
     elif isinstance(field, DipoleField):

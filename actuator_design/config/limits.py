@@ -55,7 +55,7 @@ chi_bar, chi_hat, particles.chi_par, chi_perp  [0, 1e6]     the largest relative
 =============================================  ===========  =====================================
 
 The bounds are generous (about 1.5 times the strongest material) so that every real material,
-and every preset of :mod:`actuator_design.materials`, passes.
+and every preset of :mod:`actuator_design.model.materials`, passes.
 """
 from __future__ import annotations
 
@@ -147,7 +147,7 @@ def group_problem(name: str, value: float) -> Optional[str]:
 
 
 def scene_group_values(scene) -> Iterable[Tuple[str, float]]:
-    """``(group name, value)`` of every group a :class:`~actuator_design.scene.Scene` sets."""
+    """``(group name, value)`` of every group a :class:`~actuator_design.model.scene.Scene` sets."""
     yield "h", scene.h
     yield "h_pos", scene.h_pos
     if scene.magnetization is not None:

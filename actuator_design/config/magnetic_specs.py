@@ -3,7 +3,7 @@ saturation and the remanent magnetisation of hard-magnetic rods (THEORY §2, §9
 
 * ``chi_bar``/``chi_hat``: the composite's effective susceptibilities given directly, or
 * ``particles``: spheroids (``axis_ratio``, ``chi_par``, ``chi_perp``, ``volume_fraction``), or a
-  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.materials`)
+  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.model.materials`)
   that supplies the susceptibility and the saturation magnetisation;
 * ``body_demagnetization`` (default true): with particles and a rectangular cross-section the body's
   demagnetisation is combined with the composite tensor (THEORY §10), N_t = w/(w + t) or
@@ -28,10 +28,11 @@ from typing import Annotated, List, Optional
 import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
 
-from ..units import MU0, QuantityError, parse_quantity, registry
-from .base import Q, StrictModel
-from .errors import error
-from .limits import MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY, SUSCEPTIBILITY_WHY
+from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
+from actuator_design.config.base import Q, StrictModel
+from actuator_design.config.errors import error
+from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY,
+                                           SUSCEPTIBILITY_WHY)
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity"]
 
@@ -90,7 +91,7 @@ class Particles(StrictModel):
     @field_validator("material")
     @classmethod
     def _known(cls, name):
-        from ..materials import material
+        from actuator_design.model.materials import material
         try:
             material(name)
         except ValueError as err:
@@ -107,7 +108,7 @@ class Particles(StrictModel):
 
     @property
     def preset(self):
-        from ..materials import material
+        from actuator_design.model.materials import material
         return None if self.material is None else material(self.material)
 
     @property
@@ -200,7 +201,7 @@ class Magnetics(StrictModel):
         """(χ̄, χ̂) of the particles alone (THEORY §2) or as given, dimensionless."""
         if self.particles is None:
             return self.chi_bar or 0.0, self.chi_hat or 0.0
-        from ..magnetics import effective_susceptibilities
+        from actuator_design.model.magnetics import effective_susceptibilities
 
         p = self.particles
         chi_par, chi_perp = p.susceptibilities
@@ -232,7 +233,7 @@ class Magnetics(StrictModel):
             out.saturation = p.volume_fraction * p.m_s
         n_t = self.demagnetizing_factor
         if n_t is None and width is not None and thickness is not None:
-            from ..magnetics import transverse_demagnetizing_factor
+            from actuator_design.model.magnetics import transverse_demagnetizing_factor
             n_t = transverse_demagnetizing_factor(width, thickness)
         isotropic = chi_bar == 0.0
         if not self.body_demagnetization:
@@ -245,7 +246,7 @@ class Magnetics(StrictModel):
                              "and chi_eff would vary with it (set body_demagnetization: false to "
                              "silence this note)")
         else:
-            from ..magnetics import body_susceptibility, composite_tensor
+            from actuator_design.model.magnetics import body_susceptibility, composite_tensor
 
             chi_par, chi_perp = p.susceptibilities
             alpha = 0.0 if fibre_angle is None else fibre_angle

@@ -10,16 +10,16 @@ from typing import Annotated, Any, Dict, Literal, Optional, Tuple, Union
 from pydantic import (Field, PrivateAttr, StrictBool, StrictInt, StrictStr, ValidationError,
                       model_validator)
 
-from ..options import SolverOptions
-from ..scene import ExpressionField, Scene
-from .base import Q, StrictModel, tagged
-from .checks import check_profiles_at
-from .dimensionless import DimensionlessScene
-from .errors import ConfigError, dotted, error, first_non_finite, translate
-from .field_specs import is_non_uniform
-from .limits import mesh_problem
-from .physical import PhysicalScene
-from .yaml_source import check_structure, read_yaml
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import ExpressionField, Scene
+from actuator_design.config.base import Q, StrictModel, tagged
+from actuator_design.config.checks import check_profiles_at
+from actuator_design.config.dimensionless import DimensionlessScene
+from actuator_design.config.errors import ConfigError, dotted, error, first_non_finite, translate
+from actuator_design.config.field_specs import is_non_uniform
+from actuator_design.config.limits import mesh_problem
+from actuator_design.config.physical import PhysicalScene
+from actuator_design.config.yaml_source import check_structure, read_yaml
 
 __all__ = ["SceneSpec", "SolverSpec", "Config", "load_config", "load_scene", "validate_config"]
 
@@ -29,7 +29,7 @@ _DEFAULTS = SolverOptions()
 
 
 class SolverSpec(StrictModel):
-    """Maps to :class:`~actuator_design.options.SolverOptions`."""
+    """Maps to :class:`~actuator_design.equilibrium.options.SolverOptions`."""
 
     transcription: Literal["lgl", "midpoint"] = _DEFAULTS.transcription
     elements: Annotated[StrictInt, Field(ge=1)] = _DEFAULTS.elements
@@ -40,7 +40,7 @@ class SolverSpec(StrictModel):
     ensure_stable: StrictBool = _DEFAULTS.ensure_stable
     jit: StrictBool = False
     #: target tip accuracy (rod lengths): the cheapest resolution that meets it is chosen from an
-    #: a-posteriori estimate with two resolutions (``actuator_design.accuracy``)
+    #: a-posteriori estimate with two resolutions (``actuator_design.equilibrium.accuracy``)
     accuracy: Optional[Q("dimensionless", gt=0, lt=1)] = None
     #: issue 10: the state reached from rest or the straight rod; the Euler–Lagrange residual asked
     #: for; mesh chosen from the scene; whether a self-intersecting shape is accepted
@@ -70,7 +70,7 @@ def _dense_terms(scene) -> bool:
         return False
     import warnings
 
-    from .checks import _is_dense
+    from actuator_design.config.checks import _is_dense
 
     try:
         with warnings.catch_warnings():  # the scene is built again (and warns) when it is loaded
@@ -140,7 +140,7 @@ class Config(StrictModel):
         """
         scene = self.scene.to_scene(self.name)
         if isinstance(scene.field, ExpressionField):
-            from ..physics.fields import FieldCheckError, check_current_free, field_model
+            from actuator_design.physics.fields import FieldCheckError, check_current_free, field_model
 
             model = field_model(scene.field)
             try:

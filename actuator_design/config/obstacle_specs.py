@@ -1,4 +1,4 @@
-"""Configuration of obstacles (contact, :mod:`actuator_design.contact`): walls, pegs, convex
+"""Configuration of obstacles (contact, :mod:`actuator_design.contact.equilibrium`): walls, pegs, convex
 polygons and straight channels.
 
     obstacles:                                   # dimensionless scene: rod lengths, rad
@@ -23,10 +23,10 @@ from typing import List, Literal, Optional
 
 from pydantic import Field, model_validator
 
-from ..obstacles import Lumen, Peg, Polygon, Wall
-from .base import Angle, Number, Q, StrictModel, tagged
-from .errors import ConfigError, error
-from .vectors import LengthXY, NumberXY
+from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
+from actuator_design.config.base import Angle, Number, Q, StrictModel, tagged
+from actuator_design.config.errors import ConfigError, error
+from actuator_design.config.vectors import LengthXY, NumberXY
 
 __all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "LumenSpec", "PhysicalWall", "PhysicalPeg",
            "PhysicalPolygon", "PhysicalChannel", "PhysicalLumen", "DimensionlessObstacle", "PhysicalObstacle", "MAX_OBSTACLES", "MAX_VERTICES"]

@@ -21,17 +21,18 @@ from typing import Dict, List, Literal, Optional, Tuple
 import numpy as np
 from pydantic import Field, model_validator
 
-from ..profiles import constant_profile
-from ..scene import Scales, Scene
-from ..units import MU0
-from .base import Angle, Positive, Q, StrictModel
-from .errors import ConfigError, error
-from .field_specs import ForceXY, LineLoadXY, PhysicalDipole, PhysicalField, max_shape_on_rod
-from .limits import GROUP_RANGES, group_problem
-from .obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
-from .magnetic_specs import MagneticSummary, Magnetics, Particles
-from .profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
-from .term_specs import TermEntries, check_terms, terms_field, terms_of
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scales, Scene
+from actuator_design.model.units import MU0
+from actuator_design.config.base import Angle, Positive, Q, StrictModel
+from actuator_design.config.errors import ConfigError, error
+from actuator_design.config.field_specs import (ForceXY, LineLoadXY, PhysicalDipole, PhysicalField,
+                                                max_shape_on_rod)
+from actuator_design.config.limits import GROUP_RANGES, group_problem
+from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
+from actuator_design.config.magnetic_specs import MagneticSummary, Magnetics, Particles
+from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
+from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -50,7 +51,7 @@ class Rod(StrictModel):
     area: Optional[Q("area", gt=0)] = None
     stiffness_profile: Optional[StiffnessProfile] = None
     #: mass density (kg/m³) and modal damping ratio ζ of the material: the rod's relaxation time, to
-    #: check that a timed schedule is quasi-static (:mod:`actuator_design.analysis.dynamics`)
+    #: check that a timed schedule is quasi-static (:mod:`actuator_design.schedules.dynamics`)
     density: Optional[Q("density", gt=0)] = None
     damping_ratio: Optional[Q("dimensionless", gt=0, le=10)] = None
 
@@ -326,7 +327,7 @@ class PhysicalScene(StrictModel):
         p = self.magnetics.particles if self.magnetics else None
         if p is None:
             return
-        from ..magnetics import check_assumptions, check_saturation
+        from actuator_design.model.magnetics import check_assumptions, check_saturation
 
         h_max = None if field is None else h0 * max_shape_on_rod(field)
         check_assumptions(volume_fraction=p.volume_fraction, field=h_max,

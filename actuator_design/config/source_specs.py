@@ -17,7 +17,7 @@
 
 Several magnets: ``type: magnets`` with ``magnets: [...]``, each as above without ``type``.
 
-Coils known by a calibration map (an electromagnetic navigation system, :mod:`actuator_design.coil_map`):
+Coils known by a calibration map (an electromagnetic navigation system, :mod:`actuator_design.model.coil_map`):
 
     field:
       type: coil_map
@@ -27,7 +27,7 @@ Coils known by a calibration map (an electromagnetic navigation system, :mod:`ac
         - {name: c1, current: 2 A, max_current: 10 A, resistance: 1.2 ohm}
 
 Every source is centred in the rod's plane with its axis in that plane. magpylib computes the
-field; :mod:`actuator_design.field_sources` fits it over the rod's reach and reports the fit error.
+field; :mod:`actuator_design.model.field_sources` fits it over the rod's reach and reports the fit error.
 The field scale H0 is the largest |H| over the part of the reach outside the sources.
 """
 from __future__ import annotations
@@ -39,11 +39,11 @@ from typing import Any, List, Literal, Optional
 import numpy as np
 from pydantic import Field, PrivateAttr, StrictInt, model_validator
 
-from ..field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
-from ..sources import MappedCoil, plane_section, sections_overlap
-from .base import Angle, Q, StrictModel
-from .errors import error
-from .vectors import LengthXY
+from actuator_design.model.field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
+from actuator_design.model.sources import MappedCoil, plane_section, sections_overlap
+from actuator_design.config.base import Angle, Q, StrictModel
+from actuator_design.config.errors import error
+from actuator_design.config.vectors import LengthXY
 
 __all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec",
            "MappedCoilSpec", "PhysicalCoilMap", "MapFrame", "MAP_FIT_TOLERANCE"]
@@ -304,7 +304,7 @@ class MapFrame(StrictModel):
 
 class PhysicalCoilMap(StrictModel):
     """Coils known by their field per ampere on a grid (a calibration map file,
-    :mod:`actuator_design.coil_map`): the listed coils carry their currents, the others none;
+    :mod:`actuator_design.model.coil_map`): the listed coils carry their currents, the others none;
     ``max_power`` and ``max_field`` as for ``type: coils``; ``frame``: where the map's own frame
     lies in the rod's (default: the same)."""
 
@@ -319,7 +319,7 @@ class PhysicalCoilMap(StrictModel):
 
     @model_validator(mode="after")
     def _check(self):
-        from ..coil_map import read_coil_map
+        from actuator_design.model.coil_map import read_coil_map
 
         try:
             cmap = read_coil_map(self.file)

@@ -7,8 +7,8 @@ from typing import Literal, Optional, Tuple
 
 from pydantic import Field, field_validator
 
-from ..parameters import names as parameter_names
-from .study_specs import StudyBase
+from actuator_design.physics.parameters import names as parameter_names
+from actuator_design.config.study_specs import StudyBase
 
 __all__ = ["PARAM_NAMES", "ParamName", "ContinuationStudy", "CriticalStudy", "MapStudy"]
 

@@ -1,7 +1,7 @@
 """Vectors of configuration models: dimensionless or SI (x, y) components."""
 from __future__ import annotations
 
-from .base import Number, Q, StrictModel
+from actuator_design.config.base import Number, Q, StrictModel
 
 __all__ = ["NumberXY", "LengthXY", "ForceXY", "LineLoadXY"]
 

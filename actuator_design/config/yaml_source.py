@@ -19,7 +19,7 @@ from typing import Any
 import yaml
 from yaml.events import AliasEvent
 
-from .errors import ConfigError, dotted
+from actuator_design.config.errors import ConfigError, dotted
 
 __all__ = ["MAX_FILE_BYTES", "MAX_DEPTH", "MAX_ALIASES", "MAX_NODES", "read_yaml", "check_structure"]
 

@@ -8,12 +8,12 @@
 
 Loading paths, branches and fold curves of :mod:`actuator_design.analysis` run on it.
 """
-from .engine import PALC, ContinuationBranch, Natural, continuation
-from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
-from .fold_problem import FoldCurveProblem
-from .problem import BifurcationProblem
-from .segment import LensSegment, SegmentProblem
-from .settings import ContinuationSettings
+from actuator_design.continuation.engine import PALC, ContinuationBranch, Natural, continuation
+from actuator_design.continuation.events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
+from actuator_design.continuation.fold_problem import FoldCurveProblem
+from actuator_design.continuation.problem import BifurcationProblem
+from actuator_design.continuation.segment import LensSegment, SegmentProblem
+from actuator_design.continuation.settings import ContinuationSettings
 
 __all__ = ["continuation", "BifurcationProblem", "FoldCurveProblem", "SegmentProblem", "LensSegment", "PALC", "Natural", "ContinuationSettings",
            "ContinuationBranch", "Fold", "BranchPoint", "UserEvent", "EventPoint", "BranchState"]

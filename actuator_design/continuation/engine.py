@@ -20,9 +20,9 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from .events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
-from .problem import BifurcationProblem
-from .settings import ContinuationSettings
+from actuator_design.continuation.events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
+from actuator_design.continuation.problem import BifurcationProblem
+from actuator_design.continuation.settings import ContinuationSettings
 
 __all__ = ["Natural", "PALC", "ContinuationBranch", "continuation", "locate_event"]
 

@@ -14,9 +14,9 @@ from typing import Tuple
 
 import numpy as np
 
-from ..reduced.fold import fold_converged, locate_fold
-from ..reduced.newton import newton
-from ..reduced.system import ReducedSystem
+from actuator_design.reduced.fold import fold_converged, locate_fold
+from actuator_design.reduced.newton import newton
+from actuator_design.reduced.system import ReducedSystem
 
 __all__ = ["FoldCurveProblem"]
 

@@ -2,7 +2,7 @@
 
 Between two schedule points a and b the named parameters move on the straight segment
 p(λ) = p_a + λ (p_b − p_a), λ ∈ [0, 1]; values tied to them by the parameter lens move too
-(setting the field magnitude h scales h_pos ∝ H: THEORY §5, :func:`actuator_design.parameters.apply_values`).
+(setting the field magnitude h scales h_pos ∝ H: THEORY §5, :func:`actuator_design.physics.parameters.apply_values`).
 :class:`LensSegment` gives all of them and their exact λ-derivatives; :class:`SegmentProblem` is
 the reduced system G(u, λ) = g(u, p(λ)) = 0 with G_λ = Σ_i p_i'(λ) ∂g/∂p_i (chain rule, no finite
 differences), plugged into :func:`~.engine.continuation` and :func:`~actuator_design.reduced.fold.locate_fold`
@@ -15,10 +15,10 @@ from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
 
-from .. import parameters as lens
-from ..reduced.system import ReducedSystem
-from ..scene import Scene
-from .problem import BifurcationProblem
+from actuator_design.physics import parameters as lens
+from actuator_design.reduced.system import ReducedSystem
+from actuator_design.model.scene import Scene
+from actuator_design.continuation.problem import BifurcationProblem
 
 __all__ = ["LensSegment", "SegmentProblem", "followers"]
 
@@ -57,7 +57,7 @@ class LensSegment:
     follow : sequence of str
         Lens parameters that follow the field magnitude (:func:`followers`); each scales as
         (m(λ)/m_base)^(power_q/power_m), m the scheduled magnitude (``h`` or ``h2``), as the lens'
-        field-scaling rule sets it (checked against :func:`actuator_design.parameters.apply_values`
+        field-scaling rule sets it (checked against :func:`actuator_design.physics.parameters.apply_values`
         on construction).
 
     Attributes

@@ -12,8 +12,8 @@ from typing import Dict, Tuple
 import casadi as ca
 import numpy as np
 
-from ..expressions import Expression
-from ..scene import DipoleField, ExpressionField, SourceField, UniformField
+from actuator_design.model.expressions import Expression
+from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
 
 __all__ = ["FieldModel", "field_model", "FieldCheckError", "check_current_free"]
 
@@ -153,7 +153,7 @@ class DipoleFieldModel(FieldModel):
 
 
 class ExpressionFieldModel(FieldModel):
-    """A user field (hx(x, y), hy(x, y)) from safe expressions (``actuator_design.expressions``)."""
+    """A user field (hx(x, y), hy(x, y)) from safe expressions (``actuator_design.model.expressions``)."""
 
     def __init__(self, field: ExpressionField):
         self.hx = Expression(field.hx, ("x", "y"))
@@ -188,7 +188,7 @@ class SourceFieldModel(FieldModel):
     (eight coils: one basis instead of eight)."""
 
     def __init__(self, field: SourceField):
-        from .harmonic import field_function
+        from actuator_design.physics.harmonic import field_function
 
         self.terms = tuple(field.terms)
         n = len(self.terms)
@@ -266,7 +266,7 @@ def _rig_function(terms) -> ca.Function:
     """(x, y, w) → ĥ of Σ_k w_k ĥ_k for expansions of one geometry (:func:`_rigs`), one basis."""
     from dataclasses import replace
 
-    from .tesseral import interior_modes, tesseral_in_plane
+    from actuator_design.physics.tesseral import interior_modes, tesseral_in_plane
 
     x, y, w = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("w", len(terms))
     modes = interior_modes(max(t.order for t in terms))

@@ -16,12 +16,12 @@ from dataclasses import replace
 
 import casadi as ca
 
-from ..parameters import Parameter
-from ..profiles import constant_profile
-from ..scene import Scene, UniformField
-from .fields import FieldModel, field_model
-from .registry import register_term
-from .terms import EnergyTerm
+from actuator_design.physics.parameter import Parameter
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics.fields import FieldModel, field_model
+from actuator_design.physics.registration import register_term
+from actuator_design.physics.terms import EnergyTerm
 
 __all__ = ["HardMagnetic", "with_hard_magnetic_term"]
 

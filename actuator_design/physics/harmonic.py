@@ -10,7 +10,7 @@ source's centre c, with ρ = |r − c| and cos ϑ = (r − c)·ê/ρ (ê the axi
 Every term is a solid harmonic in three dimensions, so the represented field is divergence- and
 curl-free by construction (THEORY §3: the applied field of a current-free region); in the plane
 z = 0 its normal component vanishes by the symmetry z → −z. The coefficients are fitted to
-magpylib (:mod:`actuator_design.field_sources`), which stays the source of truth; here is only
+magpylib (:mod:`actuator_design.model.field_sources`), which stays the source of truth; here is only
 their evaluation as CasADi expressions (exact gradients and Hessians for the NLP) and the region
 where a fit holds. The recurrences (ϱ = ρ/R, u = (r − c)·ê/R, q = ϱ²) are Legendre's three-term
 recurrence multiplied out, so no square root is taken in the interior form:
@@ -30,7 +30,7 @@ from typing import Optional, Sequence, Union
 import casadi as ca
 import numpy as np
 
-from .tesseral import Expansion, TesseralTerm, tesseral_in_plane, tesseral_potentials
+from actuator_design.physics.tesseral import Expansion, TesseralTerm, tesseral_in_plane, tesseral_potentials
 
 __all__ = ["HarmonicTerm", "TesseralTerm", "basis_potentials", "potential", "field_function", "outside_region"]
 

@@ -12,57 +12,19 @@ in :mod:`.extra_terms`, imported (and so registered) after the built-in ones.
 """
 from __future__ import annotations
 
-from typing import Dict, List, Optional, Type
+from typing import TYPE_CHECKING, Dict, List
+
+from actuator_design.physics.registration import (_CONFIG_MODELS, _TERMS, _VERSION, register_term,
+                                                  unregister_term)
+
+if TYPE_CHECKING:
+    from actuator_design.model.scene import Scene, TermValues
+    from actuator_design.physics.terms import EnergyTerm
 
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
-           "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms"]
-
-_TERMS: Dict[str, type] = {}
-_CONFIG_MODELS: Dict[str, type] = {}
-_VERSION = [0]
-
-
-def register_term(cls: Optional[type] = None, *, config_model: Optional[type] = None,
-                  replace: bool = False):
-    """Register an energy-term class (usable as a decorator, with or without arguments).
-
-    Parameters
-    ----------
-    cls : type
-        Subclass of :class:`~.terms.EnergyTerm` with a unique ``name``.
-    config_model : pydantic model class, optional
-        Its YAML configuration, selected by ``type: <name>``.
-    replace : bool
-        Allow re-registering a name (e.g. a test module imported twice).
-
-    Raises
-    ------
-    ValueError
-        A different class is already registered under the same name.
-    """
-    def do(c):
-        name = getattr(c, "name", None)
-        if not name or not isinstance(name, str):
-            raise ValueError(f"term class {c.__name__}: needs a string attribute 'name'")
-        old = _TERMS.get(name)
-        if old is not None and old is not c and not replace:
-            if old.__qualname__ != c.__qualname__ or old.__module__ != c.__module__:
-                raise ValueError(f"term {name!r}: already registered by {old.__module__}.{old.__qualname__}")
-        _TERMS[name] = c
-        if config_model is not None:
-            _CONFIG_MODELS[name] = config_model
-        _VERSION[0] += 1
-        return c
-    return do if cls is None else do(cls)
-
-
-def unregister_term(name: str) -> None:
-    """Remove a registered term (tests that register a toy term clean up with this)."""
-    _TERMS.pop(name, None)
-    _CONFIG_MODELS.pop(name, None)
-    _VERSION[0] += 1
-
+           "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms", "build_terms",
+           "scene_wavenumber", "dense_hessian"]
 
 def registered_terms() -> List[type]:
     """Every registered term class: the built-in terms, then the shipped extra terms (by module
@@ -106,8 +68,8 @@ def registry_version() -> int:
 
 
 def _load_builtins() -> None:
-    from . import terms  # noqa: F401  (registers the built-in terms on import)
-    from . import hard_magnetic  # noqa: F401  (THEORY §9, after the soft-magnetic terms)
+    from actuator_design.physics import terms  # noqa: F401  (registers the built-in terms on import)
+    from actuator_design.physics import hard_magnetic  # noqa: F401  (THEORY §9, after the soft-magnetic terms)
 
     if not _EXTRA_LOADED:
         _EXTRA_LOADED.append(True)  # re-entrant calls (a module importing the registry) pass
@@ -127,7 +89,7 @@ def _load_extra_terms() -> None:
     import importlib
     import pkgutil
 
-    from . import extra_terms
+    from actuator_design.physics import extra_terms
 
     for info in sorted(pkgutil.iter_modules(extra_terms.__path__), key=lambda m: m.name):
         if not info.name.startswith("_"):
@@ -199,7 +161,7 @@ def parse_term_config(spec, convert=None) -> "TermValues":
     TermConfigError
         No ``type``, an unregistered type, or a value its model rejects (one line naming the field).
     """
-    from ..scene import TermValues
+    from actuator_design.model.scene import TermValues
 
     if not isinstance(spec, dict) or "type" not in spec:
         raise TermConfigError("", "type", f"each entry needs a 'type' (one of: {', '.join(plugin_names())}), "
@@ -251,6 +213,34 @@ def parse_term_config(spec, convert=None) -> "TermValues":
 def plugin_names() -> List[str]:
     """Names of the registered terms a scene lists in ``extra_terms`` (YAML ``terms:``): the ones
     whose presence is the listing itself (not the built-in field, load and bending terms)."""
-    from .terms import EnergyTerm
+    from actuator_design.physics.terms import EnergyTerm
 
     return [c.name for c in registered_terms() if c.present.__func__ is EnergyTerm.present.__func__]
+
+
+# -- derived from the registered terms ------------------------------------------------------------
+def build_terms(scene: "Scene") -> List["EnergyTerm"]:
+    """The terms this scene contains, and no others (a term absent from the scene is not built).
+
+    Raises
+    ------
+    ValueError
+        The scene lists a plug-in term that is not registered.
+    """
+    classes = registered_terms()
+    known = {c.name for c in classes}
+    for name in scene.extra_term_names():
+        if name not in known:
+            raise ValueError(f"extra_terms: {name!r} is not a registered energy term "
+                             f"(registered: {', '.join(sorted(known))})")
+    return [cls.from_scene(scene) for cls in classes if cls.present(scene)]
+
+
+def scene_wavenumber(scene: "Scene") -> float:
+    """max(1, the wavenumbers of the terms ``scene`` contains) (units of 1/ℓ)."""
+    return max([1.0] + [cls.wavenumber(scene) for cls in registered_terms() if cls.present(scene)])
+
+
+def dense_hessian(scene: "Scene") -> bool:
+    """Whether a term of ``scene`` makes the energy's Hessian dense."""
+    return any(cls.present(scene) and cls.dense_hessian(scene) for cls in registered_terms())

@@ -19,16 +19,16 @@ from typing import Callable, Dict, List, Optional, Tuple
 import casadi as ca
 import numpy as np
 
-from ..parameters import Parameter
-from ..profiles import constant_profile
-from ..scene import Scene, UniformField
-from .fields import FieldModel, field_model
-from .kinematics import PlanarKinematics, PlanarTip
-from .registry import register_term, registered_terms
+from actuator_design.physics.parameter import Parameter
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics.fields import FieldModel, field_model
+from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
+from actuator_design.physics.registration import register_term
 
-__all__ = ["EnergyTerm", "build_terms", "scene_wavenumber", "dense_hessian", "structure_key", "scalar_parameter_values",
-           "node_field_sources", "node_field_values", "residual_slots", "Bending", "FieldOrientation",
-           "FieldPosition", "TipForce", "TipMoment", "DistributedLoad"]
+__all__ = ["EnergyTerm", "structure_key", "scalar_parameter_values", "node_field_sources", "node_field_values",
+           "residual_slots", "Bending", "FieldOrientation", "FieldPosition", "TipForce", "TipMoment",
+           "DistributedLoad"]
 
 NodeField = Callable[[Scene, np.ndarray], np.ndarray]
 
@@ -41,7 +41,7 @@ class EnergyTerm:
     name : str
         Unique registry name (also the name used in ``Scene.extra_terms`` for plug-ins).
     parameters : tuple of Parameter
-        The lens parameters this term contributes (:mod:`actuator_design.parameters`).
+        The lens parameters this term contributes (:mod:`actuator_design.physics.parameters`).
     scalar_params : tuple of str
         Scalar NLP slots it reads (instances may extend them, e.g. with a field's slots).
     node_fields : dict of str -> callable (Scene, s) -> ndarray
@@ -93,7 +93,7 @@ class EnergyTerm:
     @classmethod
     def wavenumber(cls, scene: Scene) -> float:
         """The inverse of the shortest length on which this term makes θ vary (units of 1/ℓ; 0 when
-        it sets none): the a-priori mesh grading (:func:`actuator_design.accuracy.scene_wavenumber`)."""
+        it sets none): the a-priori mesh grading (:func:`actuator_design.equilibrium.accuracy.scene_wavenumber`)."""
         return 0.0
 
     @classmethod
@@ -347,34 +347,6 @@ class DistributedLoad(EnergyTerm):
 
     def values(self, scene):
         return {"qx": scene.distributed_load[0], "qy": scene.distributed_load[1]}
-
-
-# -- derived from the registered terms ------------------------------------------------------------
-def build_terms(scene: Scene) -> List[EnergyTerm]:
-    """The terms this scene contains, and no others (a term absent from the scene is not built).
-
-    Raises
-    ------
-    ValueError
-        The scene lists a plug-in term that is not registered.
-    """
-    classes = registered_terms()
-    known = {c.name for c in classes}
-    for name in scene.extra_term_names():
-        if name not in known:
-            raise ValueError(f"extra_terms: {name!r} is not a registered energy term "
-                             f"(registered: {', '.join(sorted(known))})")
-    return [cls.from_scene(scene) for cls in classes if cls.present(scene)]
-
-
-def scene_wavenumber(scene: Scene) -> float:
-    """max(1, the wavenumbers of the terms ``scene`` contains) (units of 1/ℓ)."""
-    return max([1.0] + [cls.wavenumber(scene) for cls in registered_terms() if cls.present(scene)])
-
-
-def dense_hessian(scene: Scene) -> bool:
-    """Whether a term of ``scene`` makes the energy's Hessian dense."""
-    return any(cls.present(scene) and cls.dense_hessian(scene) for cls in registered_terms())
 
 
 def structure_key(terms: List[EnergyTerm]) -> tuple:

@@ -19,10 +19,10 @@ Odd m is the reversal across the axis (u → −u), cos mφ the mirror in the ax
 l − m even the mirror in the plane (w → −w); each term is again a solid harmonic, so the field is
 divergence- and curl-free by construction. A diametric cylinder's potential is −M ∂Φ/∂u of its
 body's axisymmetric (about z) potential Φ: only m = 1. The coefficients are fitted to magpylib
-(:mod:`actuator_design.source_fit`); here is their evaluation (CasADi expressions or NumPy).
+(:mod:`actuator_design.model.source_fit`); here is their evaluation (CasADi expressions or NumPy).
 
 A coil's field measured over a workspace free of sources (a calibration map,
-:mod:`actuator_design.coil_map`) has the interior expansion, the regular solid harmonics themselves,
+:mod:`actuator_design.model.coil_map`) has the interior expansion, the regular solid harmonics themselves,
 
     ψ = Σ a_lm Q_l^m(w, |x|²) Re((u + i v)^m)   (m ≥ 0),   a_l,−m Q_l^m(w, |x|²) Im((u + i v)^m),
 

@@ -8,11 +8,11 @@
 * :mod:`.linalg` — bordered solve, inertia, lowest eigenpairs (banded or dense storage);
 * :mod:`.fold` — the fold locator (Moore–Spence).
 """
-from .fold import FoldPoint, locate_fold
-from .linalg import (bordered_solve, inertia, lowest_eigenpairs, lu_det_sign, mass_scaled,
-                     null_vector, signed_distance_to_singularity)
-from .newton import RawSolution, damped_newton, fast_newton, newton
-from .system import ReducedSystem, SystemEvaluator, reduced_system, substituted_energy
+from actuator_design.reduced.fold import FoldPoint, locate_fold
+from actuator_design.reduced.linalg import (bordered_solve, inertia, lowest_eigenpairs, lu_det_sign,
+                                            mass_scaled, null_vector, signed_distance_to_singularity)
+from actuator_design.reduced.newton import RawSolution, damped_newton, fast_newton, newton
+from actuator_design.reduced.system import ReducedSystem, SystemEvaluator, reduced_system, substituted_energy
 
 __all__ = ["ReducedSystem", "SystemEvaluator", "reduced_system", "substituted_energy",
            "RawSolution", "damped_newton", "fast_newton", "newton", "bordered_solve", "inertia",

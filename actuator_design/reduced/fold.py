@@ -20,9 +20,9 @@ from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .linalg import null_vector
-from .newton import newton
-from .system import ReducedSystem
+from actuator_design.reduced.linalg import null_vector
+from actuator_design.reduced.newton import newton
+from actuator_design.reduced.system import ReducedSystem
 
 __all__ = ["FoldPoint", "locate_fold", "fold_converged"]
 

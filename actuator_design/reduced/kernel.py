@@ -1,7 +1,7 @@
 """The low-overhead kernel of the equilibrium Newtons: gradient, Hessian and Newton steps of the
 reduced energy in the free unknowns through CasADi's buffer interface and direct LAPACK calls.
 
-Built by :class:`~actuator_design.solver.EquilibriumSolver` (which compiles the two CasADi
+Built by :class:`~actuator_design.equilibrium.solver.EquilibriumSolver` (which compiles the two CasADi
 functions) and used by :mod:`.newton` and the stability verdict.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import casadi as ca
 import numpy as np
 from scipy.linalg import lapack
 
-from .linalg import lowest_eigenpairs as _lowest_eigenpairs
+from actuator_design.reduced.linalg import lowest_eigenpairs as _lowest_eigenpairs
 
 __all__ = ["FastKernel"]
 

@@ -34,9 +34,9 @@ import casadi as ca
 import numpy as np
 from scipy import sparse
 
-from ..physics.fields import FieldModel
-from ..physics.kinematics import PlanarKinematics, PlanarTip
-from ..physics.terms import node_field_sources
+from actuator_design.physics.fields import FieldModel
+from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
+from actuator_design.physics.terms import node_field_sources
 
 __all__ = ["PositionalHessian", "positional_hessian", "MAPPED_ABOVE"]
 

@@ -1,6 +1,6 @@
 """The reduced system of a built NLP: the energy in the free unknowns with the clamp eliminated.
 
-For an :class:`~actuator_design.solver.EquilibriumSolver` and a list of parameter names λ =
+For an :class:`~actuator_design.equilibrium.solver.EquilibriumSolver` and a list of parameter names λ =
 (λ_1, …, λ_k) (each replacing the NLP entries it controls — by √λ for ``h2``, every quadrature
 point for ``alpha``), the reduced energy Ê(u; λ, P) with u = (θ_1, …, θ_n) (θ_0 = θ0 substituted)
 gives, all as CasADi functions built once and cached per (structure, transcription, names):
@@ -28,7 +28,7 @@ _CACHE: Dict[tuple, "ReducedSystem"] = {}
 
 def _slot(name: str) -> Tuple[str, object]:
     """(NLP parameter slot, slot expression of the symbol) of a lens parameter name."""
-    from ..parameters import parameter  # the parameter lens
+    from actuator_design.physics.parameters import parameter  # the parameter lens
 
     par = parameter(name, "continuation parameter")
     return par.slot, par.slot_expr

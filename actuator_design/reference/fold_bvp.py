@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import solve_bvp
 
-from .shooting_model import ShootingParams, _eval_profile
+from actuator_design.reference.shooting_model import ShootingParams, _eval_profile
 
 __all__ = ["BVPFold", "fold_by_bvp"]
 

@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING, Callable, Optional
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from .shooting_model import ATOL, RTOL, ProfileLike, ShootingParams, _as_scalar_fun
+from actuator_design.reference.shooting_model import ATOL, RTOL, ProfileLike, ShootingParams, _as_scalar_fun
 
 if TYPE_CHECKING:  # only for annotations: the solver module re-exports this one
-    from .shooting import ShootingSolution
+    from actuator_design.reference.shooting import ShootingSolution
 
 __all__ = ["JacobiResult", "sturm_morse_index", "jacobi_morse_index"]
 

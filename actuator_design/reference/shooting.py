@@ -5,7 +5,7 @@ test in :mod:`.jacobi`; this module holds the solver and re-exports all public n
 
 This module is one of the project's *independent references*: numpy/scipy only, no casadi and
 nothing from :mod:`actuator_design` except that the profiles b(s), α(s) may be
-:class:`actuator_design.profiles.Profile` objects (any callable of s, or a float, works).
+:class:`actuator_design.model.profiles.Profile` objects (any callable of s, or a float, works).
 
 Model (THEORY §4–§5, generalised to tip force, tip moment, distributed dead load, graded
 stiffness and fibre angle).  All quantities are dimensionless (lengths / ℓ, energies / (B₀/ℓ),
@@ -46,8 +46,9 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 from scipy.optimize import newton as _secant
 
-from .jacobi import JacobiResult, jacobi_morse_index, sturm_morse_index
-from .shooting_model import ATOL, RTOL, _EPS, ShootingParams, _eval_profile, _make_rhs, jacobi_coefficient
+from actuator_design.reference.jacobi import JacobiResult, jacobi_morse_index, sturm_morse_index
+from actuator_design.reference.shooting_model import (ATOL, RTOL, _EPS, ShootingParams, _eval_profile,
+                                                      _make_rhs, jacobi_coefficient)
 
 __all__ = [
     "ShootingParams",

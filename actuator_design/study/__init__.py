@@ -19,6 +19,6 @@ __all__ = ["run_study", "plan_study", "read_manifest", "StudyReport", "StudyErro
 
 def __getattr__(name):
     if name in __all__:
-        from . import runner
+        from actuator_design.study import runner
         return getattr(runner, name)
     raise AttributeError(name)

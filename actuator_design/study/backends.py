@@ -37,7 +37,7 @@ class StopRequest:
 
 def serial(tasks, stop: StopRequest) -> Iterator[List[dict]]:
     """Points in this process, one at a time (journaled per point), or a walked chunk at a time."""
-    from .worker import run_chunk
+    from actuator_design.study.worker import run_chunk
     for t in tasks:
         if t.get("walk"):  # a walked chunk is one path from rest: journaled when it is done
             stop.check()
@@ -55,7 +55,7 @@ def processes(tasks, workers: int) -> Iterator[List[dict]]:
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    from .worker import init_worker, run_chunk
+    from actuator_design.study.worker import init_worker, run_chunk
 
     method = ("fork" if "fork" in multiprocessing.get_all_start_methods()
               and threading.active_count() == 1 else "spawn")
@@ -89,7 +89,7 @@ def connect(scheduler):
     number of worker threads; the address is checked and every wait bounded
     (:func:`actuator_design.study.dask_cluster.connect`, which raises
     :class:`~actuator_design.study.dask_cluster.ClusterError`)."""
-    from .dask_cluster import connect as connect_bounded
+    from actuator_design.study.dask_cluster import connect as connect_bounded
     return connect_bounded(scheduler)
 
 
@@ -98,5 +98,5 @@ def on_dask(tasks, client) -> Iterator[List[dict]]:
     workers or a lost scheduler stop it with a resumable
     :class:`~actuator_design.study.dask_cluster.ClusterError` once past their bounds
     (:func:`actuator_design.study.dask_cluster.run_on_dask`)."""
-    from .dask_cluster import run_on_dask
+    from actuator_design.study.dask_cluster import run_on_dask
     return run_on_dask(tasks, client)

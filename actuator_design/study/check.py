@@ -31,10 +31,10 @@ from typing import Iterator, List, Sequence, Tuple
 
 import numpy as np
 
-from ..config import ConfigError
-from ..config.field_specs import ExpressionSpec, PhysicalExpression
-from ..config.model import validate_config
-from .grid import substitute
+from actuator_design.config import ConfigError
+from actuator_design.config.field_specs import ExpressionSpec, PhysicalExpression
+from actuator_design.config.model import validate_config
+from actuator_design.study.grid import substitute
 
 __all__ = ["check_points", "check_units", "FULL_CHECK_POINTS", "MAX_CORNERS"]
 
@@ -54,7 +54,7 @@ def check_units(raw: dict, axes) -> None:
         ``study.sweep.<key>``: the value with its unit, and that physical units need a physical
         scene.
     """
-    from ..config.dimensionless import physical_unit_of
+    from actuator_design.config.dimensionless import physical_unit_of
 
     scene = raw.get("scene")
     if not (isinstance(scene, dict) and scene.get("type") == "dimensionless"):

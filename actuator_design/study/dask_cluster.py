@@ -30,7 +30,7 @@ import time
 from typing import Dict, Iterator, List, Optional, Tuple
 from urllib.parse import urlsplit
 
-from .errors import StudyError
+from actuator_design.study.errors import StudyError
 
 __all__ = ["ClusterError", "CONNECT_TIMEOUT_S", "WORKER_TIMEOUT_S", "CONNECT_TIMEOUT_ENV",
            "WORKER_TIMEOUT_ENV", "SCHEMES", "check_address", "timeouts", "quiet_distributed_logs",
@@ -327,7 +327,7 @@ def run_on_dask(tasks: List[dict], client) -> Iterator[List[dict]]:
     """
     from distributed import as_completed
 
-    from .worker import run_chunk
+    from actuator_design.study.worker import run_chunk
 
     connect_s, workers_s = timeouts()
     address = getattr(client.scheduler, "address", "the scheduler")

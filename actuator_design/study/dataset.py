@@ -42,7 +42,7 @@ global attributes
 netCDF3 through SciPy (``engine="scipy"``: no netCDF4/HDF5 library needed) has no 64-bit
 integers, no booleans and no variable-length strings: the types above are float64, int32, int8 and
 text as fixed-width UTF-8 character arrays, all of which it writes and reads back exactly. The file
-is built in memory and written with :func:`actuator_design.io.atomic_write` (temporary name,
+is built in memory and written with :func:`actuator_design.io.save.atomic_write` (temporary name,
 rename), so no reader ever sees half of it. xarray is imported only here, when a dataset is built.
 """
 from __future__ import annotations
@@ -52,8 +52,8 @@ from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from ..io import atomic_write, dumps_json
-from .outputs import _cell
+from actuator_design.io.save import atomic_write, dumps_json
+from actuator_design.study.outputs import _cell
 
 __all__ = ["STATUS_MEANINGS", "column_units", "build_dataset", "dataset_bytes", "write_dataset"]
 
@@ -74,7 +74,7 @@ _SUFFIX_UNITS = (("_N_per_m", "N/m"), ("_Pa", "Pa"), ("_A_per_m", "A/m"), ("_N_m
 
 #: Results whose unit an analysis's ``units`` labels give by kind rather than by name: the
 #: tip position of an equilibrium is in its ``length`` unit, the residual of the moment balance
-#: in its ``moment`` unit (:class:`actuator_design.result.EquilibriumResult`).
+#: in its ``moment`` unit (:class:`actuator_design.equilibrium.result.EquilibriumResult`).
 _KIND_OF = {"tip.x": "length", "tip.y": "length", "el_residual": "moment"}
 
 
@@ -174,11 +174,11 @@ def _axis_coordinate(axis) -> tuple:
 
 def _user_unit_coordinates(axis, table: Dict[str, list]) -> Dict[str, tuple]:
     """Coordinates of a numeric swept key in the user's units, from the table's columns
-    ``<key> [<unit>]`` (:func:`actuator_design.unit_columns.add_unit_columns`): name
+    ``<key> [<unit>]`` (:func:`actuator_design.io.unit_columns.add_unit_columns`): name
     ``<key>_<unit>`` (``field.magnitude_mT``) → (column, unit, factor on the key's numbers)."""
     if not axis.numeric:
         return {}
-    from ..unit_columns import axis_unit_columns
+    from actuator_design.io.unit_columns import axis_unit_columns
     return {f"{axis.key}_{unit.replace('/', '_per_').replace(' ', '_')}": (column, unit, factor)
             for column, unit, factor in axis_unit_columns(axis, table)}
 
@@ -321,7 +321,7 @@ def write_dataset(path, plan, table: Dict[str, list]) -> Path:
     OSError
         The file system refused the write (``path`` is as it was).
     """
-    from .. import __version__
+    from actuator_design import __version__
 
     attrs = {"title": f"actuator-design study: {plan.name}", "config_name": plan.name,
              "config_path": plan.source, "actuator_design_version": __version__,

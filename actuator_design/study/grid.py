@@ -19,8 +19,8 @@ from typing import Any, Dict, List, Sequence, Tuple
 
 import numpy as np
 
-from ..config import ConfigError
-from .spec import RangeSpec, SweepSpec
+from actuator_design.config import ConfigError
+from actuator_design.study.spec import RangeSpec, SweepSpec
 
 __all__ = ["Axis", "resolve_axes", "grid_indices", "substitute", "point_values", "grid_size",
            "check_grid_size", "DEFAULT_MAX_POINTS"]
@@ -98,7 +98,7 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
     if not unit or not target:
         raise ConfigError(where, f"mixes plain numbers and values with units ({shown!r}): write "
                                  "every value of a key with its unit")
-    from ..units import MU0, registry
+    from actuator_design.model.units import MU0, registry
     ureg = registry()
     try:
         q, t = ureg.Quantity(mag, unit), ureg.Unit(target)
@@ -117,7 +117,7 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
 def _check_unit(unit: str, where: str, shown) -> None:
     if not unit:
         return
-    from ..units import COMMON_UNITS, registry
+    from actuator_design.model.units import COMMON_UNITS, registry
     if unit in COMMON_UNITS:  # known without pint
         return
     try:

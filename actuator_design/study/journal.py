@@ -20,7 +20,7 @@ The checksum detects corruption and hand edits; it is not a signature (whoever c
 can also recompute it).
 
 The file is opened without following a link and only when it is a regular file
-(:func:`actuator_design.safe_files.open_regular`): a ``journal.jsonl`` planted as a link to a file
+(:func:`actuator_design.io.safe_files.open_regular`): a ``journal.jsonl`` planted as a link to a file
 elsewhere is never appended to.
 """
 from __future__ import annotations
@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterable, List, Optional
 
-from ..io import dumps_json
-from ..safe_files import open_regular, write_all
+from actuator_design.io.save import dumps_json
+from actuator_design.io.safe_files import open_regular, write_all
 
 __all__ = ["Journal", "JournalRecords", "JOURNAL_NAME", "MAX_LINE_BYTES", "canonical_text",
            "point_digest", "record_checksum"]

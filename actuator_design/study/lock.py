@@ -11,7 +11,7 @@ is taken over only when it names a process of this host known to be gone (:func:
 cannot tell on Windows: there the refusal names the file to remove).
 
 The lock file is opened without following a link and refused unless it is a regular file
-(:func:`actuator_design.safe_files.open_regular`): a ``study.lock`` planted as a link to a file
+(:func:`actuator_design.io.safe_files.open_regular`): a ``study.lock`` planted as a link to a file
 elsewhere is never truncated or written.
 
 Locks are per open file: forked worker processes inherit the descriptor, so a worker calls
@@ -29,8 +29,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Optional, Set
 
-from ..safe_files import OutputFolderError, open_regular
-from .errors import StudyError
+from actuator_design.io.safe_files import OutputFolderError, open_regular
+from actuator_design.study.errors import StudyError
 
 try:
     import fcntl

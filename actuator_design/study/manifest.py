@@ -14,13 +14,13 @@ import os
 from pathlib import Path
 from typing import Dict, List, Optional
 
-from ..io import scene_to_dict
-from ..safe_files import open_regular
-from .grid import point_values
-from .journal import JOURNAL_NAME
-from .lock import holder_of
-from .outputs import versions
-from .plan import MANIFEST_NAME
+from actuator_design.io.save import scene_to_dict
+from actuator_design.io.safe_files import open_regular
+from actuator_design.study.grid import point_values
+from actuator_design.study.journal import JOURNAL_NAME
+from actuator_design.study.lock import holder_of
+from actuator_design.study.outputs import versions
+from actuator_design.study.plan import MANIFEST_NAME
 
 __all__ = ["MANIFEST_NAME", "manifest_base", "counts", "point_list", "read_manifest",
            "previous_manifest"]
@@ -81,7 +81,7 @@ def previous_manifest(folder) -> Optional[dict]:
 
 def manifest_base(plan, previous: Optional[dict]) -> dict:
     """The keys of the manifest that the plan fixes (``started``: of the first run)."""
-    from .. import __version__
+    from actuator_design import __version__
     scene = plan.config.to_scene()
     return {
         "manifest": "actuator-design study",

@@ -1,9 +1,9 @@
 """A study's files: the tidy results table (CSV, Parquet when pyarrow is there) and the manifest.
 
-Pure I/O: nothing here solves. Every file goes through :func:`actuator_design.io.atomic_write`
+Pure I/O: nothing here solves. Every file goes through :func:`actuator_design.io.save.atomic_write`
 (or, for Parquet, a temporary name and :func:`os.replace`), so no reader sees a half-written file.
 A study folder grows by design (journal, resume, figures redrawn at the end), so unlike a command's
-``--out`` set (:func:`actuator_design.io.write_output_set`) it is not written all or nothing.
+``--out`` set (:func:`actuator_design.io.save.write_output_set`) it is not written all or nothing.
 
 The table has one row per point: ``point`` (index in the grid), one column per swept key
 (``field.magnitude [kA/m]``: the number in the unit of the key's first value), ``status``,
@@ -21,7 +21,7 @@ import uuid
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence
 
-from ..io import atomic_write, dumps_json
+from actuator_design.io.save import atomic_write, dumps_json
 
 __all__ = ["table_columns", "build_table", "write_csv", "write_parquet", "write_manifest",
            "versions"]
@@ -62,14 +62,14 @@ def build_table(axes, indices, records: Dict[int, dict], outputs=None,
     """Column name → list of values (one per point with a record, by point index).
 
     A physical study (``raw``, the configuration; default the one set by
-    :func:`actuator_design.unit_columns.study_config`) gets, after these, columns in the user's
-    units (:func:`actuator_design.unit_columns.add_unit_columns`): a swept field also as μ0 H in
+    :func:`actuator_design.io.unit_columns.study_config`) gets, after these, columns in the user's
+    units (:func:`actuator_design.io.unit_columns.add_unit_columns`): a swept field also as μ0 H in
     mT (``field.magnitude [mT]``), a swept force in N, SI lengths and lengths in rod lengths in
     the unit of ``rod.length`` (``solve.physical.tip_x_mm``, ``solve.tip.x_mm``), fields in A/m
     and the group h as μ0 H in mT (``solve.physical.field_mT``, ``solve.h_mT``).
     """
     table = _plain_table(axes, indices, records, outputs)
-    from ..unit_columns import add_unit_columns, current_study_config, table_units
+    from actuator_design.io.unit_columns import add_unit_columns, current_study_config, table_units
     add_unit_columns(table, axes, table_units(current_study_config() if raw is None else raw, axes))
     return table
 

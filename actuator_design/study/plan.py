@@ -17,15 +17,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, List, Optional
 
-from ..config import ConfigError, load_config
-from ..io import dumps_json
-from ..safe_files import DIRECTORY, FILE, check_entries
-from .check import check_points
-from .errors import StudyError
-from .grid import DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values, resolve_axes
-from .journal import JOURNAL_NAME, Journal, JournalRecords
-from .lock import LOCK_NAME, holder_of, in_use_message
-from .spec import SweepSpec, analysis_list, validate_spec
+from actuator_design.config import ConfigError, load_config
+from actuator_design.io.save import dumps_json
+from actuator_design.io.safe_files import DIRECTORY, FILE, check_entries
+from actuator_design.study.check import check_points
+from actuator_design.study.errors import StudyError
+from actuator_design.study.grid import (DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values,
+                                        resolve_axes)
+from actuator_design.study.journal import JOURNAL_NAME, Journal, JournalRecords
+from actuator_design.study.lock import LOCK_NAME, holder_of, in_use_message
+from actuator_design.study.spec import SweepSpec, analysis_list, validate_spec
 
 __all__ = ["StudyPlan", "plan_study", "journal_records", "check_study_folder", "STUDY_ENTRIES",
            "CSV_NAME", "PARQUET_NAME", "NETCDF_NAME", "FIGURES_DIR", "MANIFEST_NAME"]

@@ -48,17 +48,17 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional
 
-from ..io import atomic_write
-from ..safe_files import FILE, check_entries, os_error_text
-from . import backends, walk
-from .errors import StudyError, StudyInterrupted, StudyStorageError, StudyWarning
-from .journal import JOURNAL_NAME, Journal
-from .lock import FolderLock
-from .manifest import counts, manifest_base, point_list, previous_manifest, read_manifest
-from .dataset import write_dataset
-from .outputs import build_table, write_csv, write_manifest, write_parquet
-from .plan import (CSV_NAME, FIGURES_DIR, MANIFEST_NAME, NETCDF_NAME, PARQUET_NAME, StudyPlan,
-                   check_study_folder, journal_records, plan_study)
+from actuator_design.io.save import atomic_write
+from actuator_design.io.safe_files import FILE, check_entries, os_error_text
+from actuator_design.study import backends, walk
+from actuator_design.study.errors import StudyError, StudyInterrupted, StudyStorageError, StudyWarning
+from actuator_design.study.journal import JOURNAL_NAME, Journal
+from actuator_design.study.lock import FolderLock
+from actuator_design.study.manifest import counts, manifest_base, point_list, previous_manifest, read_manifest
+from actuator_design.study.dataset import write_dataset
+from actuator_design.study.outputs import build_table, write_csv, write_manifest, write_parquet
+from actuator_design.study.plan import (CSV_NAME, FIGURES_DIR, MANIFEST_NAME, NETCDF_NAME, PARQUET_NAME,
+                                        StudyPlan, check_study_folder, journal_records, plan_study)
 
 __all__ = ["StudyPlan", "StudyReport", "StudyError", "StudyStorageError", "StudyInterrupted",
            "StudyWarning", "plan_study", "run_study", "read_manifest"]
@@ -364,8 +364,8 @@ def _import_figure_code() -> None:
     """Import matplotlib and the study figures (≈0.5 s), and xarray for ``results.nc`` (≈0.3 s),
     while the workers compute."""
     try:
-        from ..viz.study import study_figures  # noqa: F401
-        from ..viz.style import preload
+        from actuator_design.viz.study import study_figures  # noqa: F401
+        from actuator_design.viz.style import preload
         preload()
         import xarray  # noqa: F401
     except Exception:  # noqa: BLE001 - the outputs import it again and report any error there
@@ -373,7 +373,7 @@ def _import_figure_code() -> None:
 
 
 def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
-    from ..viz.study import default_figures, study_figures
+    from actuator_design.viz.study import default_figures, study_figures
 
     check_study_folder(plan.out)
     table = build_table(plan.axes, plan.indices, records, plan.spec.outputs)
@@ -388,7 +388,7 @@ def _write_outputs(plan: StudyPlan, records: Dict[int, dict]) -> Dict[str, Any]:
     figs = study_figures(plan.axes, table, specs)
     fig_dir = plan.out / FIGURES_DIR
     names = []
-    from ..viz.style import png_bytes
+    from actuator_design.viz.style import png_bytes
     encoded = {f"{stem}.png": png_bytes(fig, dpi=150) for stem, fig in figs.items()}
     for name, png in list(encoded.items()):  # under --format: the vector copies beside each PNG
         encoded.update({f"{name[:-4]}.{fmt}": data for fmt, data in png.vector.items()})

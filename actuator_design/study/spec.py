@@ -29,7 +29,7 @@ from pydantic import (ConfigDict, Field, StrictFloat, StrictInt, StrictStr,
                       ValidationError, field_validator, model_validator)
 from pydantic_core import PydanticCustomError
 
-from ..config import ConfigError, StrictModel as _ConfigStrictModel
+from actuator_design.config import ConfigError, StrictModel as _ConfigStrictModel
 
 __all__ = ["StrictModel", "spec_error", "translate", "validate_spec", "RangeSpec", "FigureSpec",
            "SweepSpec", "analysis_list"]
@@ -184,7 +184,7 @@ def analysis_list(spec: SweepSpec) -> List[Dict[str, Any]]:
     ConfigError
         ``study.analyses[i]``: unknown analysis or malformed entry.
     """
-    from ..analysis import registry
+    from actuator_design.analysis import registry
 
     known = registry.names()
     out = []

@@ -1,10 +1,10 @@
 """Solve sweeps that walk the grid: the points of one load ray share one path from rest.
 
 ``solve`` answers with the state reached from rest: the loads and the field ramped together from
-zero, λ P for λ ∈ [0, 1] (:mod:`actuator_design.from_rest`). Grid points whose parameter vectors
+zero, λ P for λ ∈ [0, 1] (:mod:`actuator_design.continuation.from_rest`). Grid points whose parameter vectors
 lie on one ray {λ P_ref} — a line of the grid along the field magnitude (or a load) with every
 other load zero — lie on each other's loading paths: one path from rest that lands on each of them
-in turn (:func:`~actuator_design.from_rest.path_from_rest` with ``stations``) yields every point's
+in turn (:func:`~actuator_design.continuation.from_rest.path_from_rest` with ``stations``) yields every point's
 answer, each a warm-started Newton step on the fast path (IPOPT only where the rod snaps or leaves
 a branch point, whose answer is then polished as a lone solve's is), with the same stable-state
 selection as a solve of that point alone, on the mesh a lone solve chooses for it (points whose
@@ -21,7 +21,7 @@ swept solver setting) is solved point by point, each from rest on its own.
 
 Only the result columns the study keeps are evaluated (:meth:`EquilibriumResult.to_dict` with
 ``include``); the accuracy checks behind ``success`` (Euler–Lagrange residual, self-intersection,
-:func:`actuator_design.acceptance.accept`) always run. Unlike a lone ``solve``, a study point is
+:func:`actuator_design.equilibrium.acceptance.accept`) always run. Unlike a lone ``solve``, a study point is
 not also solved from the straight rod to look for another stable state (the ``equilibria``
 analysis lists them all); its ``solver.from_rest.walk`` is true.
 """
@@ -35,7 +35,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..balance import balance_many, operator_for
+from actuator_design.equilibrium.balance import balance_many, operator_for
 
 __all__ = ["WALK_CHUNK", "walkable", "plan_chunks", "run_walk_chunk", "wanted_keys"]
 
@@ -56,7 +56,7 @@ def wanted_keys(outputs: Optional[Sequence[str]]) -> Optional[List[str]]:
     A pattern keeps a key when the pattern's literal prefix (up to its first wildcard) and
     ``solve.<key>`` agree as far as both go (conservative: a key is never dropped wrongly).
     """
-    from ..result import EquilibriumResult
+    from actuator_design.equilibrium.result import EquilibriumResult
 
     if outputs is None:
         return None
@@ -75,8 +75,8 @@ def wanted_keys(outputs: Optional[Sequence[str]]) -> Optional[List[str]]:
 
 # -- planning (in the study process) ---------------------------------------------------------------
 def _scene_point(raw, axes, idx):
-    from ..config import load_config
-    from .grid import substitute
+    from actuator_design.config import load_config
+    from actuator_design.study.grid import substitute
 
     config = load_config(substitute(raw, axes, idx))
     return config.to_scene(), config.solver_options()
@@ -109,8 +109,8 @@ def walk_axis(raw, axes, indices) -> Optional[int]:
     parameter vectors tested (:func:`_is_ray`); the solver built for it is cached for the workers
     that fork from this process.
     """
-    from ..config import ConfigError
-    from ..solver import get_solver
+    from actuator_design.config import ConfigError
+    from actuator_design.equilibrium.solver import get_solver
 
     for a, axis in enumerate(axes):
         n = len(axis.values)
@@ -177,7 +177,7 @@ def _kept(column: str, outputs: Tuple[str, ...]) -> bool:
 
 
 def _finish(rec, result, include, outputs, notes) -> Dict[str, Any]:
-    from .worker import flatten
+    from actuator_design.study.point import flatten
 
     out = result.to_dict(include=include)
     out.pop("shape", None)
@@ -197,9 +197,9 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     """The :class:`EquilibriumResult` of one station, checked like a lone ``solve`` (``check``:
     its clamp force, clamp moment and residual when computed already, :func:`balance_many`;
     ``need_eigenvalues``: the result's eigenvalues are asked for)."""
-    from ..acceptance import accept
-    from ..equilibrium import _make_result
-    from ..stability_check import verdict_of
+    from actuator_design.equilibrium.acceptance import accept
+    from actuator_design.equilibrium.single import make_result
+    from actuator_design.equilibrium.stability_check import verdict_of
 
     if not st.newton:  # IPOPT's answer after a kick or a snap: polished as a lone solve does
         return _polished_result(scene, opts, solver, st, lam, walked)
@@ -211,7 +211,7 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     if st.snaps:
         notes.append("from rest the rod snaps at " + ", ".join(f"{v / lam:.4g}" for v in st.snaps)
                      + " of the load")
-    result = _make_result(scene, opts, solver, params, st.raw, verdict, bool(st.branch_points),
+    result = make_result(scene, opts, solver, params, st.raw, verdict, bool(st.branch_points),
                           notes, elapsed)
     if check is not None:
         force, moment, residual = check
@@ -229,8 +229,8 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
 def _polished_result(scene, opts, solver, st, lam, walked):
     """The lone ``solve``'s last step from a state of the path: a strict solve on this mesh from
     it (IPOPT, Newton polish, saddle escapes), then the acceptance checks."""
-    from ..acceptance import accept
-    from ..equilibrium import solve_on
+    from actuator_design.equilibrium.acceptance import accept
+    from actuator_design.equilibrium.single import solve_on
 
     result = solve_on(scene, opts, st.z, solver, strict=True)
     if st.branch_points:
@@ -248,8 +248,8 @@ def _polished_result(scene, opts, solver, st, lam, walked):
 
 def _points(task):
     """Each point's record, scene and options (None where the configuration is invalid)."""
-    from ..config import ConfigError
-    from .grid import Axis, point_values
+    from actuator_design.config import ConfigError
+    from actuator_design.study.grid import Axis, point_values
 
     axes = [Axis.from_dict(a) for a in task["axes"]]
     out = []
@@ -277,9 +277,9 @@ def run_walk_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
         One journal record per emitted point (the worker's record format; ``time_s`` is the
         chunk's wall time divided by its points, except for points solved alone).
     """
-    from ..acceptance import graded_options
-    from ..from_rest import path_from_rest
-    from ..solver import get_solver
+    from actuator_design.equilibrium.acceptance import graded_options
+    from actuator_design.continuation.from_rest import path_from_rest
+    from actuator_design.equilibrium.solver import get_solver
 
     t0 = time.perf_counter()
     emit = set(task.get("emit") or [i for i, _ in task["points"]])
@@ -366,8 +366,8 @@ def _walk_mesh(good, c, members, opts, include, outputs, records, get_solver, pa
 
 def _lone_solve(task, index, idx) -> Dict[str, Any]:
     """The point's record by the lone ``solve`` (mesh choice, from rest, straight-rod start)."""
-    from .grid import Axis
-    from .worker import one_point
+    from actuator_design.study.grid import Axis
+    from actuator_design.study.point import one_point
 
     axes = [Axis.from_dict(a) for a in task["axes"]]
     return one_point(task["raw"], axes, [{"type": "solve"}], index, idx, task.get("outputs"))

@@ -13,8 +13,8 @@ from typing import Dict, List, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from ..physics.kinematics import PlanarKinematics, PlanarTip
-from ..physics.terms import EnergyTerm, node_field_sources, node_field_values
+from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
+from actuator_design.physics.terms import EnergyTerm, node_field_sources, node_field_values
 
 __all__ = ["ParamLayout", "DiscreteEnergy", "Transcription"]
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 from numpy.polynomial import legendre as L
 
-from .base import Transcription
+from actuator_design.transcription.base import Transcription
 
 __all__ = ["LGL", "graded_breakpoints", "lgl_nodes_weights", "differentiation_matrix", "integration_matrix"]
 

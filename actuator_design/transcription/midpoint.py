@@ -9,7 +9,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .base import Transcription
+from actuator_design.transcription.base import Transcription
 
 __all__ = ["Midpoint"]
 

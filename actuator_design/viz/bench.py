@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from typing import Dict, List, Sequence
 
-from .style import new_figure
+from actuator_design.viz.style import new_figure
 
 __all__ = ["pareto_figure", "pareto_front"]
 

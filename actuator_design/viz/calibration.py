@@ -27,7 +27,7 @@ def _axis_units(d, units):
     """``(values, label)`` functions of a data column: its unit in the user's units (a physical
     scene: lengths in the unit of ``rod.length``, fields as μ0 H in mT, forces in N), else the
     data file's."""
-    from ..calibration.report import user_unit
+    from actuator_design.calibration.report import user_unit
 
     def values(c, v):
         u = user_unit(c, units)
@@ -148,5 +148,5 @@ def _fit_title(result) -> str:
 def fit_figure_pngs(result, dpi: int = 150, units=None) -> Dict[str, bytes]:
     """PNG bytes of :func:`fit_figures` (``units``: see there), by figure name
     (:func:`~.style.png_bytes`)."""
-    from .style import png_bytes
+    from actuator_design.viz.style import png_bytes
     return {name: png_bytes(fig, dpi=dpi) for name, fig in fit_figures(result, units).items()}

@@ -26,7 +26,7 @@ def compliance_figure(st, units=None):
     st : actuator_design.analysis.stiffness.TipStiffness
         Its ``compliance`` rows are (x, y[, angle]) and columns (fx, fy[, m_tip]), dimensionless
         (ℓ³/B0 for the force/position block).
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         A physical scene's units: axes in the length unit of ``rod.length``, compliance stated
         in that unit per N and the vertical stiffness in N/m.
 
@@ -34,8 +34,8 @@ def compliance_figure(st, units=None):
     -------
     matplotlib.figure.Figure
     """
-    from .shape import plot_shape
-    from .units import length_axes
+    from actuator_design.viz.shape import plot_shape
+    from actuator_design.viz.units import length_axes
 
     eq = st.equilibrium
     ax = plot_shape(eq)

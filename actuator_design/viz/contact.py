@@ -1,4 +1,4 @@
-"""Obstacles and contact forces in the shape figure (:mod:`actuator_design.contact`)."""
+"""Obstacles and contact forces in the shape figure (:mod:`actuator_design.contact.equilibrium`)."""
 from __future__ import annotations
 
 import math

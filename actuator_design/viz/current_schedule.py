@@ -1,9 +1,9 @@
-"""The figure of a schedule over coil currents (:mod:`actuator_design.analysis.current_schedule`)."""
+"""The figure of a schedule over coil currents (:mod:`actuator_design.schedules.current_schedule`)."""
 from __future__ import annotations
 
 import numpy as np
 
-from .design import hardware_schedule_axes
+from actuator_design.viz.design import hardware_schedule_axes
 
 __all__ = ["current_schedule_figure"]
 
@@ -15,7 +15,7 @@ def current_schedule_figure(sched, units=None):
     Parameters
     ----------
     sched : CurrentSchedule
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         Lengths in the scene's length unit.
 
     Returns

@@ -1,11 +1,11 @@
 """Figures of a design and of a field schedule: pure drawing, never solves.
 
-* :func:`design_figure` — a :class:`~actuator_design.analysis.design.DesignResult`: the verified
+* :func:`design_figure` — a :class:`~actuator_design.inverse.design.DesignResult`: the verified
   shape with its target, the fibre layout, the field schedule;
-* :func:`schedule_figure` — a :class:`~actuator_design.analysis.schedule.ScheduleResult`: the rod
+* :func:`schedule_figure` — a :class:`~actuator_design.schedules.schedule.ScheduleResult`: the rod
   at every waypoint and h, φ along the schedule;
 * :func:`schedule_animation` / :func:`schedule_gif_bytes` — the rod moving along the schedule;
-* :func:`shape_fit_figure` — a :class:`~actuator_design.analysis.design_shape.ShapeResult`: the
+* :func:`shape_fit_figure` — a :class:`~actuator_design.inverse.shape.ShapeResult`: the
   target points, the fitted centreline and the error at each point.
 """
 from __future__ import annotations
@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from .shape import plot_shape
-from .style import gif_bytes, new_figure
-from .units import field_axis, length_axes
+from actuator_design.viz.shape import plot_shape
+from actuator_design.viz.style import gif_bytes, new_figure
+from actuator_design.viz.units import field_axis, length_axes
 
 __all__ = ["hardware_schedule_axes", "design_figure", "design_png", "poses_figure", "schedule_figure", "schedule_animation", "schedule_gif_bytes",
            "shape_fit_figure"]
@@ -29,7 +29,7 @@ def design_figure(result, units=None, part: str = "whole"):
     Parameters
     ----------
     result : DesignResult
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         A physical scene's units: lengths in its length unit, the field in mT.
     part : {"whole", "left", "right"}
         The whole figure, or its left (shape, α) or right (schedule, box) panels alone, at the
@@ -68,7 +68,7 @@ def design_png(result, units=None, dpi: int = 150):
     once (:func:`~.style.png_side_by_side`; with a vector format asked for, the whole figure)."""
     from functools import partial
 
-    from .style import png_side_by_side
+    from actuator_design.viz.style import png_side_by_side
 
     return png_side_by_side([partial(design_figure, result, units, "left"),
                              partial(design_figure, result, units, "right")], dpi=dpi,
@@ -90,7 +90,7 @@ def _shape_panel(ax_shape, result, rob, units) -> None:
         if base is not None and base.obstacles and not state.scene.obstacles:
             # a design kept clear of the obstacles is verified without them (no contact on its path):
             # the figure shows them all the same
-            from .contact import draw_obstacles
+            from actuator_design.viz.contact import draw_obstacles
             draw_obstacles(ax_shape, base, (*ax_shape.get_xlim(), *ax_shape.get_ylim()))
     else:
         ax_shape.set_title(f"design — {verdict} (no verified state)")
@@ -242,7 +242,7 @@ def hardware_schedule_axes(sched, units=None):
     """(figure, right axes) of a hardware schedule's figure: the rod at every waypoint on the left
     (:func:`waypoint_panel` of ``sched.verification``, when verified) and the right axes for the
     schedule itself against time."""
-    from .style import new_figure
+    from actuator_design.viz.style import new_figure
 
     fig = new_figure((11, 4.8))
     ax, ax_right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
@@ -282,7 +282,7 @@ def schedule_figure(result, units=None, optimal=None):
     Parameters
     ----------
     result : ScheduleResult
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         A physical scene's units: lengths in its length unit, the field in mT.
     optimal : OptimalSchedule, optional
         An optimal-control schedule (``result`` is its ``result``): h and φ are drawn against time
@@ -394,7 +394,7 @@ def shape_fit_figure(result, units=None):
         ax_err.plot(pts[:, 0], err, "o-", color="C3")
     ax_err.set_xlabel("arc length s / rod lengths")
     if units is not None:
-        from .units import scaled_axis
+        from actuator_design.viz.units import scaled_axis
         scaled_axis(ax_err.yaxis, units.length(1.0), f"error / {units.length_unit}")
     else:
         ax_err.set_ylabel("error / rod lengths")

@@ -18,7 +18,7 @@ from typing import Iterable, Optional, Sequence
 
 import numpy as np
 
-from .style import new_axes
+from actuator_design.viz.style import new_axes
 
 __all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity", "plot_landscape_map"]
 
@@ -28,10 +28,10 @@ def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 
 
     Stable shapes solid, unstable dashed; the legend gives θ'(0), the Morse index and flags
     self-intersecting shapes. With a physical scene's ``units``
-    (:class:`~actuator_design.user_units.UserUnits`) the axes are in the length unit of
+    (:class:`~actuator_design.io.user_units.UserUnits`) the axes are in the length unit of
     ``rod.length``, θ'(0) in rad per that unit and the title gives the field in mT and loads in N.
     """
-    from .units import groups_text, length_axes
+    from actuator_design.viz.units import groups_text, length_axes
 
     ax = ax or new_axes()
     s = np.linspace(0.0, 1.0, points)
@@ -180,7 +180,7 @@ def plot_landscape_map(mmap, curves: Sequence = (), title: Optional[str] = None)
     -------
     ndarray of Axes, shape (2,)
     """
-    from .style import new_axes_grid
+    from actuator_design.viz.style import new_axes_grid
     fig, axes = new_axes_grid(1, 2, panel_size=(6.4, 5.2))
     axes = np.ravel(axes)
     for ax, st in zip(axes, (False, True)):

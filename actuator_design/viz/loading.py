@@ -1,6 +1,6 @@
 """Figures of loading paths and stiffness curves: pure drawing, never solves.
 
-:func:`path_figure` draws a :class:`~actuator_design.analysis.loading.LoadingPath` (tip angle and
+:func:`path_figure` draws a :class:`~actuator_design.continuation.loading.LoadingPath` (tip angle and
 energy against the ramped parameter, jumps as dashed arrows, folds, bifurcations and contact
 touch-downs and lift-offs marked; a
 physical scene's energy in J and ramped field in mT, load in N);
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .style import new_figure
+from actuator_design.viz.style import new_figure
 
 __all__ = ["path_figure", "stiffness_figure", "load_deflection_figure"]
 
@@ -49,7 +49,7 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
         Factor applied to the ramped parameter on the x axis (e.g. 180/π for degrees).
     xlabel : str, optional
         Label of the x axis (default: the parameter name, or the path coordinate).
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         A physical scene's units: the energy in J and, when ``xscale`` is 1, a ramped field in mT
         (μ0 H), a load in N (N m, N/m); a field group the scene cannot convert (χ̄ = 0) stays
         dimensionless and its label says so.
@@ -110,9 +110,9 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
 
 def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None:
     """Energy in J; the ramped parameter (``xlabel`` given: in its own unit) in mT, N, N m or N/m."""
-    from ..parameters import parameter
-    from ..user_units import parameter_unit_label
-    from .units import parameter_axis, scaled_axis
+    from actuator_design.physics.parameters import parameter
+    from actuator_design.io.user_units import parameter_unit_label
+    from actuator_design.viz.units import parameter_axis, scaled_axis
 
     ax_a, ax_e = axes
     scaled_axis(ax_e.yaxis, units.moment_scale, "energy / J")
@@ -128,7 +128,7 @@ def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None
         parameter_axis(ax, p, units, xlabel, "x", data_max=hi)
     hy = path.hysteresis
     if retitle and label is not None and p.transform != "sqrt" and hy.get("loops"):
-        from ..user_units import parameter_physical
+        from actuator_design.io.user_units import parameter_physical
         ax_a.set_title(f"loading path — {len(path.jumps)} snap(s); hysteresis width "
                        f"{parameter_physical(p, hy['width'], units):.4g} {label}", fontsize=10)
 
@@ -154,7 +154,7 @@ def stiffness_figure(curve, title: str = None, si: bool = False, stiffness_scale
     has_field = curve.field_A_per_m is not None and np.all(np.isfinite(curve.field_A_per_m))
     use_si = si and curve.vertical_N_per_m is not None
     if use_si:
-        from ..units import MU0
+        from actuator_design.model.units import MU0
         scale = stiffness_scale if stiffness_scale is not None else float(
             np.nanmedian(curve.vertical_N_per_m / curve.vertical))
         y, ref = curve.vertical_N_per_m, curve.lowload * scale

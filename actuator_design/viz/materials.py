@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .style import new_figure
+from actuator_design.viz.style import new_figure
 
 __all__ = ["angle_response_figure"]
 

@@ -10,13 +10,13 @@ import math
 
 import numpy as np
 
-from .style import new_figure
+from actuator_design.viz.style import new_figure
 
 __all__ = ["plot_phase", "phase_figure"]
 
 
 def _title(portrait, units=None) -> str:
-    from .units import groups_text
+    from actuator_design.viz.units import groups_text
 
     sc = portrait.scene
     parts = [groups_text(sc, units)]
@@ -29,7 +29,7 @@ def _title(portrait, units=None) -> str:
 def plot_phase(portrait, ax=None, title: str = None, legend: bool = True, units=None):
     """Draw one phase portrait into ``ax`` (a new Agg figure when omitted); returns the axes.
 
-    With a physical scene's ``units`` (:class:`~actuator_design.user_units.UserUnits`) θ' is ticked
+    With a physical scene's ``units`` (:class:`~actuator_design.io.user_units.UserUnits`) θ' is ticked
     in rad per the length unit of ``rod.length`` and the title gives the field in mT, loads in N."""
     if ax is None:
         fig, axes = _figure(1)
@@ -50,7 +50,7 @@ def plot_phase(portrait, ax=None, title: str = None, legend: bool = True, units=
     ax.set_xlabel("θ [rad]")
     ax.set_ylabel("θ' = κ [rad/l]")
     if units is not None:
-        from .units import scaled_axis
+        from actuator_design.viz.units import scaled_axis
         scaled_axis(ax.yaxis, 1.0 / units.length(1.0), f"θ' = κ [rad/{units.length_unit}]")
     ax.set_title(title or _title(portrait, units), fontsize=9)
     if legend and portrait.trajectories:

@@ -1,11 +1,11 @@
-"""The figure of a schedule over a magnet's pose (:mod:`actuator_design.analysis.pose_schedule`)."""
+"""The figure of a schedule over a magnet's pose (:mod:`actuator_design.schedules.pose_schedule`)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from .design import hardware_schedule_axes
+from actuator_design.viz.design import hardware_schedule_axes
 
 __all__ = ["pose_schedule_figure"]
 
@@ -17,7 +17,7 @@ def pose_schedule_figure(sched, units=None):
     Parameters
     ----------
     sched : PoseSchedule
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         Lengths in the scene's length unit (left panel).
 
     Returns

@@ -1,7 +1,7 @@
 """The shape of one equilibrium: pure drawing, never solves.
 
 :func:`plot_shape` draws the deformed rod, the undeformed rod, the clamp, the applied field and the
-tip force of an :class:`~actuator_design.result.EquilibriumResult` in rod lengths (x / l, y / l),
+tip force of an :class:`~actuator_design.equilibrium.result.EquilibriumResult` in rod lengths (x / l, y / l),
 or, given a physical scene's user units, with axes in the unit of ``rod.length``, the field as
 μ0 H in mT and the tip force in N; :func:`shape_figure` is the figure of ``solve --out``
 (``shape.png``).
@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from .style import new_axes
+from actuator_design.viz.style import new_axes
 
 __all__ = ["plot_shape", "shape_figure"]
 
@@ -35,7 +35,7 @@ def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
         Axes to draw into; a new Agg figure is made when omitted.
     title : str, optional
         Title; default: h, φ (deg), p and the stability verdict.
-    units : actuator_design.user_units.UserUnits, optional
+    units : actuator_design.io.user_units.UserUnits, optional
         A physical scene's units: axes ticked in the length unit of ``rod.length``, the field as
         μ0 H in mT and the tip force in N (in the labels and the default title).
     field_angle : float, optional
@@ -60,7 +60,7 @@ def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
 
     _draw_field(ax, scene, window, np.r_[x, ux], np.r_[y, uy], units, field_angle)
     if scene.obstacles:
-        from .contact import draw_contact_forces, draw_obstacles
+        from actuator_design.viz.contact import draw_contact_forces, draw_obstacles
         draw_obstacles(ax, scene, window)
         draw_contact_forces(ax, result, window)
     ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
@@ -73,7 +73,7 @@ def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
     ax.set_aspect("equal")
     ax.set_xlabel("x / l")
     ax.set_ylabel("y / l")
-    from .units import length_axes
+    from actuator_design.viz.units import length_axes
     length_axes(ax, units)
     ax.set_title(_default_title(result, units) if title is None else title, fontsize=10)
     ax.legend(loc="best", fontsize=8, framealpha=0.85)
@@ -93,8 +93,8 @@ def shape_figure(result, title=None, units=None):
 # -- pieces ---------------------------------------------------------------------------------------
 def _default_title(result, units=None) -> str:
     scene = result.scene
-    from ..scene import UniformField
-    from .units import load_text, scene_field_text
+    from actuator_design.model.scene import UniformField
+    from actuator_design.viz.units import load_text, scene_field_text
     parts = [scene_field_text(scene, units)]
     if isinstance(scene.field, UniformField):
         parts.append(f"φ = {math.degrees(scene.field.phi):.4g}°")
@@ -109,7 +109,7 @@ def _default_title(result, units=None) -> str:
 
 def _window(xs, ys, field):
     """Square-ish plot window around the finite points (and a dipole), with a margin."""
-    from ..scene import DipoleField
+    from actuator_design.model.scene import DipoleField
     xs, ys = list(xs[np.isfinite(xs)]), list(ys[np.isfinite(ys)])
     if isinstance(field, DipoleField):
         xs.append(field.x0)
@@ -138,7 +138,7 @@ def _draw_clamp(ax, t0: float) -> None:
 
 
 def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None:
-    from ..scene import DipoleField, UniformField
+    from actuator_design.model.scene import DipoleField, UniformField
     field = scene.field
     if field is None:
         return
@@ -191,7 +191,7 @@ def _draw_sources(ax, field) -> None:
             ax.annotate("", xy=c + 0.8 * half * e, xytext=c - 0.8 * half * e,
                         arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.4), zorder=6)
             continue
-        from ..sources import loops
+        from actuator_design.model.sources import loops
         pts = np.array([c + off / field.length * e + side * src.radius / field.length * n
                         for off, _ in loops(src) for side in (-1, 1)])
         ax.plot(pts[:, 0], pts[:, 1], ls="none", marker="s", ms=4, color="C1", zorder=4,
@@ -215,8 +215,8 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axi
         c = centre + 0.45 * size * k * n
         ax.annotate("", xy=c + size * e, xytext=c - size * e,
                     arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.6), zorder=5)
-    from ..display import degrees
-    from .units import field_text
+    from actuator_design.io.display import degrees
+    from actuator_design.viz.units import field_text
     axis_note = "" if same_axis is None else f"\n(the same axis as {degrees(same_axis, '.4g')}°)"
     ax.text(centre[0], centre[1] - 1.25 * size,
             f"field: {field_text(h, units)}, φ = {degrees(phi, '.4g')}°{axis_note}",
@@ -225,8 +225,8 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axi
 
 def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None:
     """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
-    from ..physics.fields import field_model
-    from ..scene import DipoleField
+    from actuator_design.physics.fields import field_model
+    from actuator_design.model.scene import DipoleField
     model = field_model(field)
     gx = np.linspace(window[0], window[1], n)
     gy = np.linspace(window[2], window[3], n)
@@ -248,7 +248,7 @@ def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None
     if np.all(bad):
         return
     ax.streamplot(gx, gy, U, V, color="C2", linewidth=0.7, density=1.1, arrowsize=0.8, zorder=1)
-    from .units import scene_field_text
+    from actuator_design.viz.units import scene_field_text
     ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, {scene_field_text(scene, units)})")
 
 

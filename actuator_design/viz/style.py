@@ -6,7 +6,7 @@ already chosen one through pyplot. matplotlib is imported only when a figure is 
 any ``viz`` module is cheap and does not load matplotlib.
 
 Figures leave ``viz`` as objects (for callers that compose panels) or as encoded bytes
-(:func:`png_bytes`, :func:`gif_bytes`); writing bytes to files is :mod:`actuator_design.io`'s job.
+(:func:`png_bytes`, :func:`gif_bytes`); writing bytes to files is :mod:`actuator_design.io.save`'s job.
 """
 from __future__ import annotations
 
@@ -173,7 +173,7 @@ def png_side_by_side(parts: Sequence[Callable[[], object]], dpi: int = 150,
     -------
     FigureBytes
     """
-    from .. import forked
+    from actuator_design import forked
 
     if _VECTOR_FORMAT.get() is not None:
         if whole is None:

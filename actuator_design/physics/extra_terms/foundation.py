@@ -11,9 +11,9 @@ wavelength, wavenumber k^(1/4); k ≤ 1e10 keeps it within the tip load's (√|p
 """
 from __future__ import annotations
 
-from ...parameters import plugin_parameter
-from ..registry import register_term
-from ..terms import EnergyTerm
+from actuator_design.physics.parameter import plugin_parameter
+from actuator_design.physics.registration import register_term
+from actuator_design.physics.terms import EnergyTerm
 
 __all__ = ["Foundation"]
 

@@ -1,0 +1,48 @@
+"""``design`` over hardware: which scenes are designed in coil currents or in a magnet's pose, and
+the flags of those designs (:mod:`actuator_design.cli.design_currents`,
+:mod:`actuator_design.cli.design_pose`)."""
+from __future__ import annotations
+
+from actuator_design.cli.common import InputError
+from actuator_design.cli.design_currents import run_currents
+from actuator_design.cli.design_pose import run_pose
+
+__all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet"]
+
+
+def add_hardware_args(parser) -> None:
+    """The flags of a design over hardware (a magnet's pose)."""
+    parser.add_argument("--position-tolerance", metavar="LENGTH",
+                        help="a design over a magnet's pose (a magnet with a travel): half-width of the magnet's "
+                             "position error in x and y, e.g. '0.5 mm' (the default; 0 for none)")
+
+
+def hardware_design(args, scene, options, raw, target, vary, settings, stiffness):
+    """Route a design over hardware: coil currents on a scene of coils, a magnet's pose on a scene
+    with a moving magnet (one tip target); the exit code, or None for every other design."""
+    if getattr(args, "position_tolerance", None) is not None and not has_moving_magnet(scene):
+        raise InputError("--position-tolerance: applies to a design over a magnet's pose (a magnet with a "
+                         "travel) only")
+    if stiffness is not None or target is None or isinstance(target, list):
+        return None
+    if is_coil_scene(scene):
+        return run_currents(args, scene, options, raw, target, vary, settings)
+    if has_moving_magnet(scene):
+        return run_pose(args, scene, options, raw, target, vary, settings)
+    return None
+
+
+def has_moving_magnet(scene) -> bool:
+    """Whether a magnet of the scene's field has a travel (its pose is then the design)."""
+    from actuator_design.model.field_sources import MagnetSource
+
+    f = scene.field
+    return getattr(f, "kind", "") == "sources" and any(isinstance(s, MagnetSource) and s.travel for s in f.sources)
+
+
+def is_coil_scene(scene) -> bool:
+    """Whether the scene's field comes from coils only (their currents are then the design)."""
+    from actuator_design.model.field_sources import CoilSource
+
+    f = scene.field
+    return getattr(f, "kind", "") == "sources" and all(isinstance(s, CoilSource) for s in f.sources)

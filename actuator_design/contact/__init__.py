@@ -1,0 +1,1 @@
+"""Contact: obstacles, contact equilibria, self-contact, contact paths and contact-force design (issue 20)."""

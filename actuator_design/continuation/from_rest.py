@@ -1,0 +1,250 @@
+"""The state reached from rest: loads and field ramped together from zero, warm-started Newton steps.
+
+A dead load or a field switched on slowly moves the rod through a continuous family of stable
+states; what it reaches at full load is the physical answer of ``solve`` (issue 10: from the
+straight rod, IPOPT may descend into a coiled or self-intersecting minimum that no loading history
+reaches). The homotopy scales every slot that sizes the stationarity residual — the loads and field
+strengths each energy term declares (``EnergyTerm.residual_scale``: h, h_pos, p, tip moment,
+distributed loads, …) — by λ ∈ [0, 1]; geometry (φ, fibre angles, stiffness) is not scaled. At
+λ = 0 the rod is at rest: the straight rod at the clamp angle (a term with natural curvature makes
+the rest state curved; it is solved for).
+
+Natural-parameter continuation with a secant predictor and the fast Newton of
+:mod:`actuator_design.reduced.newton`; a step is accepted when Newton converges and no node angle
+moves more than :data:`MAX_TURN` rad, otherwise it is halved. Each accepted state's stability is
+checked (THEORY §7): past a branch point the path leaves along the unstable mode onto the stable
+branch, as an imperfect real rod would, and stays on that side of the unstable state (a Newton
+step that lands on the mirror branch is refused and the step halved), so that neighbouring loads
+end on the same branch. When the step falls below
+:data:`MIN_STEP` (relative to the load reached) the path has reached a fold of the loading history (a snap-through): the state
+there is released by minimising the energy (IPOPT) from the last state, as the physical rod would
+snap, and the path goes on from the new state.
+
+A path can also land on *stations* λ_1 < … < λ_m = 1 on its way (:func:`path_from_rest` with
+``stations``): the states at the points of a ray of loads {λ P} are those reached from rest at each
+of them, so a study whose grid points lie on such a ray walks it once (:mod:`actuator_design.study.walk`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from actuator_design.equilibrium.stability_check import is_unstable
+
+__all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
+
+#: largest change of any node angle in one accepted step (rad)
+MAX_TURN = 0.5
+#: smallest load step before the path is declared at a fold, relative to the load reached
+#: (a strong field buckles the rod at λ ~ h_c/h: the scale of the path is the load, not 1)
+MIN_STEP = 1e-5
+#: ... and never below this fraction of the full load
+MIN_STEP_FLOOR = 1e-9
+#: size of the kick along the unstable mode (max-norm 1) after a branch point is crossed (rad)
+BRANCH_KICK = 0.05
+#: a loss of stability is located to within this fraction of the load before the kick
+BRANCH_STEP = 0.02
+#: most Newton solves along one path
+MAX_SOLVES = 400
+#: a secant step is accepted only when Newton's correction of the predictor is at most this
+#: multiple of the predicted change (max-norms): a larger correction means Newton left the branch
+#: being followed (e.g. for another stable branch born near an imperfect pitchfork, issue 22)
+CORRECTOR_RATIO = 1.0
+#: ... or at most this (rad): the correction that round-off and a tiny predicted change allow
+CORRECTOR_FLOOR = 1e-3
+
+
+@dataclass
+class StationState:
+    """The state on the path at one station.
+
+    Attributes
+    ----------
+    z : ndarray, shape (n_nodes,)
+        θ at the nodes.
+    raw : RawSolution
+        The solve that produced it (iterations, stationarity, message).
+    snaps, branch_points : tuple of float
+        Load fractions (of the path's full load) of the snaps and branch points met before it.
+    check : StabilityCheck or None
+        What the path learnt of its stability there (:mod:`actuator_design.equilibrium.stability_check`).
+    newton : bool
+        A converged Newton point of the path; False for IPOPT's answer after a branch-point kick
+        or a snap, which is not polished (a caller that reports it polishes it first).
+    """
+
+    z: np.ndarray
+    raw: object
+    snaps: Tuple[float, ...] = ()
+    branch_points: Tuple[float, ...] = ()
+    check: Optional[object] = None
+    newton: bool = True
+
+
+@dataclass
+class RestPath:
+    """The end of the loading path from rest.
+
+    Attributes
+    ----------
+    z : ndarray, shape (n_nodes,)
+        θ at the nodes at full load (λ = 1) when ``reached``, else at ``lam``.
+    reached : bool
+        Whether λ = 1 was reached with a converged state.
+    lam : float
+        Last load fraction reached.
+    steps : int
+        Accepted steps.
+    solves : int
+        Newton solves tried (accepted and rejected).
+    snaps : list of float
+        Load fractions at which the path met a fold and the state snapped.
+    branch_points : list of float
+        Load fractions after which the state had become unstable (a branch point crossed) and
+        was moved onto the stable branch along its unstable mode.
+    visits : list of StationState
+        With ``stations``: the state at each station reached, in order (shorter than the stations
+        when the path stopped early).
+    """
+
+    z: np.ndarray
+    reached: bool
+    lam: float
+    steps: int
+    solves: int
+    snaps: List[float] = field(default_factory=list)
+    branch_points: List[float] = field(default_factory=list)
+    visits: List[StationState] = field(default_factory=list)
+
+    @property
+    def one_step(self) -> bool:
+        """True when the full load was reached in one Newton step from rest."""
+        return self.reached and self.steps == 1 and not self.snaps and not self.branch_points
+
+
+def load_fraction(solver, params: np.ndarray, lam: float) -> np.ndarray:
+    """The parameter vector with every load/field slot scaled by ``lam`` (shape as ``params``)."""
+    out = np.array(params, float)
+    for i in list(solver._scale_lin) + list(solver._scale_sq):
+        out[i] *= lam
+    return out
+
+
+def _on_branch(z_new: np.ndarray, guess: np.ndarray, z: np.ndarray) -> bool:
+    """Whether Newton's answer ``z_new`` from the secant predictor ``guess`` continues the branch
+    through ``z``: its correction is small next to the predicted change (:data:`CORRECTOR_RATIO`,
+    :data:`CORRECTOR_FLOOR`). On a smooth branch the correction is O(step²) and the change O(step),
+    so halving the step always passes; a jump onto another branch does not shrink with the step."""
+    correction = float(np.max(np.abs(z_new - guess)))
+    predicted = float(np.max(np.abs(guess - z)))
+    return correction <= max(CORRECTOR_RATIO * predicted, CORRECTOR_FLOOR)
+
+
+def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,
+                   stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None) -> RestPath:
+    """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
+
+    Parameters
+    ----------
+    solver : EquilibriumSolver
+    params : ndarray, shape (n_params,)
+        The full-load parameter vector.
+    tol : float, optional
+        Newton tolerance (default the solver's ``options.tol``).
+    follow_stable : bool
+        Check each state's stability and leave a branch that has lost it (``ensure_stable``);
+        False follows the stationary branch wherever it goes.
+    stations : sequence of (float, ndarray), optional
+        Load fractions 0 ≤ λ_1 < … < λ_m = 1, each with its parameter vector (λ_k ``params`` up to
+        rounding: the scene of a grid point on the ray): the path lands on each, solving there
+        with that vector, and records the state (``RestPath.visits``).
+
+    Returns
+    -------
+    RestPath
+    """
+    targets = [1.0] if stations is None else [float(lam) for lam, _ in stations]
+    exact = {} if stations is None else {float(lam): np.asarray(p, float) for lam, p in stations}
+    if any(b <= a for a, b in zip(targets, targets[1:])) or targets[-1] != 1.0 or targets[0] < 0.0:
+        raise ValueError("stations must be ascending load fractions in [0, 1] ending at 1")
+
+    def at(t):
+        return exact[t] if t in exact else load_fraction(solver, params, t)
+
+    z = solver.initial_guess(params)
+    newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
+    budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
+    solves = 0
+    rest = solver.solve_fast(z, at(0.0), max_iter=newton_iter, tol=tol)
+    solves += 1
+    if not rest.converged:
+        rest = solver.solve_newton(z, at(0.0), tol=tol)
+        solves += 1
+    if not rest.converged:
+        return RestPath(z, False, 0.0, 0, solves)
+    z, z_prev, lam, lam_prev = rest.z, None, 0.0, None
+    dl, steps, snaps, branch_points, visits = 1.0, 0, [], [], []
+    side = None  # (unstable state, mode) of the last branch point left: its branch's side
+    k = 0  # next station
+
+    def visit(raw, check=None, newton=True):
+        nonlocal k
+        while k < len(targets) and targets[k] == lam:
+            visits.append(StationState(raw.z.copy(), raw, tuple(snaps), tuple(branch_points),
+                                       check, newton))
+            k += 1
+
+    if stations is not None:
+        visit(rest)
+    while lam < 1.0 and solves < budget:
+        t = min(targets[k], lam + dl)
+        guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
+        raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol)
+        solves += 1
+        if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
+                and (z_prev is None or _on_branch(raw.z, guess, z))
+                and (side is None or float(np.dot(raw.z - side[0], side[1])) > 0.0)):
+            lowest = []
+            unstable = follow_stable and is_unstable(solver, raw.z, at(t), out=lowest)
+            if unstable and t - lam > BRANCH_STEP * t:
+                dl = 0.5 * (t - lam)  # locate the loss of stability first
+                continue
+            z_prev, lam_prev, z, lam = z, lam, raw.z, t
+            steps += 1
+            dl = min(2.0 * dl, 1.0)
+            if unstable:
+                # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
+                # real rod leaves along the unstable mode; follow the stable branch from here
+                vec = solver.stability(z, at(lam)).eigenvector
+                v = vec * (1.0 if vec[-1] >= 0 else -1.0)
+                left = solver.solve_ipopt(z + BRANCH_KICK * v, at(lam))
+                solves += 1
+                if not left.converged:
+                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
+                branch_points.append(lam)
+                side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
+                z_prev, lam_prev, z = None, None, left.z
+                dl = min(dl, 0.05)
+                visit(left, newton=False)
+            else:
+                visit(raw, lowest[0] if lowest else None)
+            continue
+        dl *= 0.5
+        min_step = max(MIN_STEP * lam, MIN_STEP_FLOOR)
+        if dl >= min_step:
+            continue
+        # a fold of the loading path: the rod snaps; minimise from the last state just past it
+        t = min(targets[k], lam + 2 * min_step)
+        snap = solver.solve_ipopt(z, at(t))
+        solves += 1
+        if not snap.converged:
+            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
+        snaps.append(t)
+        side = None
+        z_prev, lam_prev, z, lam = None, None, snap.z, t
+        steps += 1
+        dl = 1e-3
+        visit(snap, newton=False)
+    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits)

@@ -1,0 +1,211 @@
+"""Convergence is a promise: the mesh ``solve`` chooses, and the checks a result must pass.
+
+``solve(scene)`` without a solver goes through :func:`solve_checked`:
+
+1. **Mesh from the scene.** Boundary layers of width ~1/k (THEORY §5; k = √2 h in strong fields,
+   √|f| under large loads, :func:`~actuator_design.equilibrium.accuracy.scene_wavenumber`) sit at the clamp
+   (and at a loaded tip). The LGL mesh is graded geometrically towards them until the end element
+   is ≤ 1/k long (:func:`graded_options`): ~log2(k/E) extra elements instead of ~k/3 uniform ones.
+2. **The physical branch.** From no guess, the state reached from rest (:mod:`actuator_design.continuation.from_rest`);
+   the straight-rod start is solved too: when it reaches the same state its result is returned
+   (bit for bit the answer of earlier releases), otherwise the state from rest is, and another
+   stable state from the straight rod is reported (``stats["other_stable_states"]``, ``message``)
+   when it passes the accuracy check 3 (an unresolved mesh solution is not a state of the rod).
+3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
+   dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
+   be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
+   a result that fails is ``success=False``, ``status="inaccurate"`` (``options.accuracy``, the
+   two-level estimate of :mod:`actuator_design.equilibrium.accuracy`, is the way to ask for refinement).
+4. **No self-intersection.** A shape crossing itself is not a physical equilibrium:
+   ``success=False``, ``status="self_intersecting"``, unless ``options.keep_self_intersecting``;
+   :func:`~actuator_design.equilibrium.pipeline.solve` then solves it with self-contact where the scene has a
+   thickness (``options.self_contact``, :mod:`actuator_design.contact.self_contact`).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import replace
+from typing import Optional
+
+import numpy as np
+
+from actuator_design.equilibrium.options import SolverOptions
+
+__all__ = ["solve_checked", "accept", "graded_options", "residual_problem", "moment_scale", "check_physical"]
+
+#: tip difference (rod lengths, rad) above which two equilibria count as different states
+DISTINCT = 1e-6
+
+
+def graded_options(scene, options: SolverOptions) -> SolverOptions:
+    """``options`` with grading levels raised so that the end elements resolve the scene's layers.
+
+    The element next to the clamp gets length 2^-n/E ≤ 1/k (k from
+    :func:`~actuator_design.equilibrium.accuracy.scene_wavenumber`), i.e. n = ⌈log2(k / E)⌉, when the uniform
+    elements are longer than 3/k (below that, degree-10 elements resolve the layer already);
+    the same towards the tip when a tip moment is applied (its layer sits there). Midpoint meshes
+    are not graded.
+    """
+    from actuator_design.equilibrium.accuracy import scene_wavenumber
+
+    if options.transcription != "lgl":
+        return options
+    k = scene_wavenumber(scene)
+    E = int(options.elements)
+    need = int(math.ceil(math.log2(k / E))) if k > 3.0 * E else 0
+    tip_need = need if (scene.tip_moment is not None and scene.tip_moment != 0) else 0
+    clamp = max(int(options.clamp_levels), need)
+    tip = max(int(options.tip_levels), tip_need)
+    if (clamp, tip) == (options.clamp_levels, options.tip_levels):
+        return options
+    return replace(options, clamp_levels=clamp, tip_levels=tip)
+
+
+def moment_scale(result) -> float:
+    """max(1, |clamp moment|, |clamp force|, |tip moment|): the size of the terms of the moment
+    balance (units of B0/ℓ); the bending moment θ'(s) is largest at the clamp or at a loaded tip."""
+    m_tip = result.scene.tip_moment or 0.0
+    return float(max(1.0, abs(result.clamp_moment), float(np.max(np.abs(result.clamp_force))), abs(m_tip)))
+
+
+def residual_limit(options: SolverOptions) -> float:
+    """The accepted relative Euler–Lagrange residual: ``residual_tol`` for LGL; the midpoint rule
+    (θ' piecewise constant, first order between the nodes) is held to max(residual_tol, 10/N)."""
+    if options.transcription == "midpoint":
+        return max(options.residual_tol, 10.0 / options.elements)
+    return options.residual_tol
+
+
+def residual_problem(result) -> Optional[str]:
+    """Why ``result`` misses the accuracy asked for, or ``None`` (its Euler–Lagrange residual
+    relative to :func:`moment_scale` within :func:`residual_limit`)."""
+    if not np.isfinite(result.el_residual):
+        return "the Euler–Lagrange residual is not finite"
+    scale = moment_scale(result)
+    limit = residual_limit(result.options)
+    if result.el_residual <= limit * scale:
+        return None
+    return (f"Euler–Lagrange residual {result.el_residual:.2e} > {limit:.1e} x moment scale "
+            f"{scale:.3g} (the mesh does not resolve the solution)")
+
+
+def check_physical(result):
+    """Mark a self-intersecting ``result`` as failed unless its options keep it, and one whose shape
+    leaves the region where the field's representation holds (a fitted magnet or coil field,
+    :mod:`~actuator_design.model.field_sources`), in place."""
+    region = getattr(result.scene.field, "region_problem", None)
+    if region is not None:  # also a failed solve: it may have failed because the rod left it
+        d = result.evaluate(np.linspace(0.0, 1.0, 401))
+        problem = region(d["x"], d["y"]) if np.all(np.isfinite(d["x"])) else None
+        if problem is not None:
+            result.success = False
+            result.status = "outside_field_region"
+            result.message += (f"; {problem}: the field there is not known to its stated accuracy (a rod "
+                               "pulled onto a magnet leaves the region its field is fitted in)")
+            return result
+    if not result.success or result.options.keep_self_intersecting or not result.self_intersecting:
+        return result
+    result.success = False
+    result.status = "self_intersecting"
+    how = ("self_contact is off (--no-self-contact)" if not result.options.self_contact else
+           "self-contact needs the rod's half-thickness (contact_gap > 0, set from rod.thickness on a physical scene)")
+    result.message += (f"; the shape intersects itself, which is not a physical equilibrium ({how}): "
+                       "keep_self_intersecting (--keep-self-intersecting) accepts it as it is")
+    return result
+
+
+def solve_checked(scene, options: SolverOptions, initial=None):
+    """:func:`~actuator_design.equilibrium.pipeline.solve` without a solver: mesh, start, checks (module doc).
+
+    Parameters
+    ----------
+    scene : Scene
+    options : SolverOptions
+    initial : EquilibriumResult or None
+        Warm start, interpolated onto the chosen mesh; ``None``: from rest (``options.start``).
+
+    Returns
+    -------
+    EquilibriumResult
+    """
+    from actuator_design.equilibrium.solver import get_solver
+
+    opts = graded_options(scene, options) if options.adapt else options
+    solver = get_solver(scene, opts)
+    if initial is None:
+        result = _solve_from_start(scene, opts, solver)
+    else:
+        result = _solve_warm(scene, opts, solver, initial)
+    return accept(result)
+
+
+def accept(result):
+    """Checks 3 and 4 of the module doc on a solved ``result`` (in place): a self-intersecting
+    shape is ``"self_intersecting"``, one whose residual misses the limit ``"inaccurate"``."""
+    problem = residual_problem(result) if result.success else None
+    check_physical(result)  # not a physical state: said first, whatever its accuracy
+    if problem is not None and result.success:
+        result.success = False
+        result.status = "inaccurate"
+        result.message += (f"; accuracy: {problem}; solve --accuracy TOL (SolverOptions.accuracy) "
+                           "refines until a tip tolerance is met")
+    return result
+
+
+def _solve_warm(scene, opts, solver, guess):
+    from actuator_design.equilibrium.single import solve_on
+
+    nodes = solver.transcription.nodes
+    z0 = guess
+    if hasattr(guess, "evaluate"):  # a result: its own nodes when they are these, else interpolated
+        same = guess.z is not None and guess.s.shape == nodes.shape and np.array_equal(guess.s, nodes)
+        z0 = guess.z if same else guess.evaluate(nodes)["theta"]
+    return solve_on(scene, opts, z0, solver, strict=True)
+
+
+def _solve_from_start(scene, opts, solver):
+    """From rest (``opts.start == "rest"``), compared with the straight-rod start; or straight."""
+    from actuator_design.equilibrium.accuracy import tip_difference
+    from actuator_design.equilibrium.single import solve_on
+    from actuator_design.continuation.from_rest import path_from_rest
+
+    if opts.start != "rest":
+        return solve_on(scene, opts, None, solver, strict=True)
+    t0 = time.perf_counter()
+    params = solver.parameter_vector(scene)
+    path = path_from_rest(solver, params, follow_stable=opts.ensure_stable)
+    path_time = time.perf_counter() - t0
+    info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
+            "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
+    straight = solve_on(scene, opts, None, solver, strict=True)
+    straight.stats["from_rest"] = info
+    if not path.reached:
+        straight.message += (f"; the loading path from rest stopped at {path.lam:.3g} of the load, "
+                             "so this is the straight-rod start")
+        return straight
+    _, th1, x1, y1 = solver.summary(path.z, params)
+    if straight.success and max(abs(straight.tip["x"] - x1), abs(straight.tip["y"] - y1),
+                                abs(straight.tip["angle"] - th1)) <= DISTINCT:
+        return straight  # the straight-rod start reaches the state reached from rest
+    result = solve_on(scene, opts, path.z, solver, strict=True)
+    result.stats["from_rest"] = info
+    if path.branch_points:  # the path stopped at a state turned unstable and left it along its mode
+        result.escaped_saddle = True
+        result.message += (f"; from rest the rod left an unstable equilibrium along its unstable mode at "
+                           f"{', '.join(f'{v:.4g}' for v in path.branch_points)} of the load")
+    if path.snaps:
+        result.message += (f"; from rest the rod snaps at {', '.join(f'{v:.4g}' for v in path.snaps)} "
+                           "of the load")
+    if not result.success:
+        return result
+    if (straight.success and straight.stable and tip_difference(straight, result) > DISTINCT
+            and residual_problem(straight) is None  # an unresolved mesh solution is no state
+            and (opts.keep_self_intersecting or not straight.self_intersecting)):
+        tip = straight.tip
+        result.stats["other_stable_states"] = [{"start": "straight rod", "tip": dict(tip),
+                                                "energy": float(straight.energy)}]
+        result.message += (f"; another stable state exists at this scene (from the straight rod): tip "
+                           f"({tip['x']:.6g}, {tip['y']:.6g}), energy {straight.energy:.6g} "
+                           f"({'lower' if straight.energy < result.energy else 'higher'})")
+    return result

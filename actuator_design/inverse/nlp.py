@@ -1,0 +1,487 @@
+"""The inverse-design NLP: equilibrium, stability and bounds as constraints on a design.
+
+One CasADi NLP per (scene structure, design variables, fibre-series length):
+
+    variables   x = (θ_1 … θ_n, d)         θ at the free nodes; d = (h, φ, c_0 … c_K, p, b_0 … b_K)
+                                            as chosen (c: fibre layout α, b: magnetisation β)
+    equilibrium ∇Ê(θ; P(d)) / m = 0         the forward transcription's stationarity (THEORY §4–5)
+    stability   pivots of M^-½ H_r M^-½ − μ I ≥ 0
+                                            an LDLᵀ certificate that λ_min(H_r, M) ≥ μ (THEORY §7)
+    tip         tip(θ) − target ∈ [lo, hi]  free in stage A, pinned in stage B
+    clearance   d_k(r(s_j)) − gap ≥ 0   at the points obstacles are imposed at (scenes with obstacles)
+    bounds      0 ≤ h ≤ h_max, |α(s_q)| ≤ α_max and |β(s_q)| ≤ β_max at the quadrature points,
+                |p| ≤ p_max
+    objective   w_tip·½|W (tip − target)|² + w_eff·effort
+
+Stage A (w_tip = 1, small w_eff, tip free) finds the nearest reachable pose; stage B (w_tip = 0,
+w_eff = 1, tip pinned) finds the least-effort design that reaches it. The numbers (target, weights,
+margin, bounds) are NLP parameters or bounds, so every multi-start and both stages share one build.
+The fibre angle is a Legendre series α(s) = Σ c_k P_k(2s − 1) (a smooth few-parameter layout); so
+is the remanent magnetisation angle β(s) = Σ b_k P_k(2s − 1) of a hard-magnetic rod (THEORY §9: the
+shape-programming problem), with the same number of terms and the same smoothness effort.
+
+Field scaling (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H. The field is one physical field: the
+design varies h, and every other group it drives moves with it, h_r = h·(h_r0/h0) and
+h_pos = h·(h_pos0/h0) with the base scene's ratios (:func:`couple_field_groups`; a rod without soft
+coupling, h0 = 0, has no h to vary: :func:`prepare_scene` says so). The verification's loading path
+ramps the field H from 0 to the design's, so all groups grow linearly along it, h = t·h_d and
+h_r = t·h_r,d (:mod:`.design_verify`).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Dict, Optional, Sequence, Tuple
+
+import casadi as ca
+import numpy as np
+
+from actuator_design.physics import parameters as lens
+from actuator_design.contact.clearance import clearance_rows
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import constant_profile, legendre_profile
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
+from actuator_design.inverse.field_groups import couple_field_groups, coupled_scene, remanence_only  # noqa: F401 (re-exported)
+from actuator_design.inverse.gauge import has_fibre_gauge
+from actuator_design.inverse.ldl import SegmentedLDL, _bandwidth, _ldl_function, _ldl_pivots  # noqa: F401 (importers use them)
+
+__all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
+
+#: Design variables a user may vary (the lens entries flagged designable, in registration order:
+#: h, phi, alpha, p, magnetization) and what each means; a per-point entry (alpha, magnetization)
+#: is designed as a profile, a Legendre series, the others are scalars written into their NLP slots.
+DESIGN_VARIABLES = {n: (f"{n}(s), a Legendre series" if p.per_point else p.description) + f" ({p.unit})"
+                    for n, p in lens.designable().items()}
+_LENS_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
+#: The designed profiles (per-point lens entries) and their bound's key in ``DesignRequest.bounds``.
+PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point)
+PROFILE_BOUNDS = {"alpha": "alpha_max", "magnetization": "magnetization_max"}
+
+_CACHE: Dict[tuple, "DesignNLP"] = {}
+#: Field group up to which stage A's effort weights apply as they are (the default h_max).
+STRONG_FIELD = 10.0
+
+
+def effort_scale(nlp: "DesignNLP", d0: np.ndarray) -> float:
+    """The divisor of stage A's effort weights at a start ``d0``: max(1, h0/STRONG_FIELD)⁴.
+
+    In a strong field the tip approaches its limit like 1/h (the clamp layer, THEORY §5), so
+    dtip/dh ~ 1/h² and the bias of the regularised minimiser, ~ w·h³, grows with h: unscaled, the
+    effort w·h² (9 at h = 300 for w = 1e-4) outweighs the tip error and drags a strong-field start
+    back to h ~ 2.5. Below STRONG_FIELD the weights are unchanged.
+    """
+    h0 = float(np.asarray(d0)[nlp.dslices["h"]][0]) if "h" in nlp.vary else 0.0
+    return max(1.0, h0 / STRONG_FIELD) ** 4
+#: Stage A's effort weights w_eff (objective ½|tip − target|² + w_eff·effort): regularised, then
+#: near zero from the regularised minimiser (see :meth:`DesignNLP._solve`).
+STAGE_A_EFFORT = (1e-4, 1e-10)
+
+
+@dataclass
+class DesignPoint:
+    """One local optimum of the design NLP (values of the design NLP's own state)."""
+
+    h: float
+    phi: float
+    coefficients: np.ndarray  # Legendre coefficients of α(s); length K+1 (K = -1: α unchanged)
+    p: float
+    z: np.ndarray  # θ at all nodes
+    tip: np.ndarray  # (x, y, angle)
+    converged: bool
+    status: str
+    stage: str
+    #: Legendre coefficients of β(s) (rad); empty when the magnetisation is not designed
+    magnetization: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class DesignNLP:
+    """The design NLP for one scene structure and one set of design variables.
+
+    Parameters
+    ----------
+    scene : Scene
+        Base scene; values not designed stay as given. Must have a uniform field to vary ``phi``
+        and a tip force to vary ``p`` (``prepare_scene`` adds one).
+    vary : sequence of str
+        Subset of :data:`DESIGN_VARIABLES`.
+    options : SolverOptions
+        Forward transcription (the design satisfies exactly its equilibrium equations).
+    alpha_terms : int
+        Number of Legendre coefficients of α(s) when ``"alpha"`` is varied, and of β(s) when
+        ``"magnetization"`` is varied.
+    clearance : float
+        Extra distance (units of ℓ) beyond the contact gap kept from every obstacle.
+    """
+
+    def __init__(self, scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int = 4,
+                 clearance: float = 0.0):
+        t0 = time.perf_counter()
+        self.vary = tuple(v for v in DESIGN_VARIABLES if v in vary)
+        self.profiles = tuple(v for v in self.vary if v in PROFILE_VARIABLES)
+        self.alpha_terms = int(alpha_terms) if self.profiles else 0
+        self.options = options
+        self.solver: EquilibriumSolver = get_solver(scene, options)
+        sv = self.solver
+        lay = sv.layout
+        tr = sv.transcription
+        n = tr.nodes.size - 1
+        self.n = n
+
+        # design vector d and its named slices
+        sizes = {v: self.alpha_terms if lens.parameter(v).per_point else 1 for v in self.vary}
+        self.dslices, off = {}, 0
+        for v in self.vary:
+            self.dslices[v] = slice(off, off + sizes[v])
+            off += sizes[v]
+        self.nd = off
+        zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
+        P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
+        P = ca.SX(P0)
+        for v in self.vary:  # h, phi, p: their NLP slots from the parameter lens
+            if v in _LENS_VARIABLES:
+                P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
+        if "h" in self.vary:
+            couple_field_groups(P, P0, d[self.dslices["h"]], lay.slices)
+        self.vandermonde = None
+        if self.profiles:
+            V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
+            self.vandermonde = V
+        for v in self.profiles:  # α → slot "alpha", β → slot "beta"
+            P[lay.slices[lens.parameter(v).slot]] = ca.mtimes(ca.DM(V), d[self.dslices[v]])
+
+        E, g, H = sv.f_grad_hess(zr, P)
+        m = tr.mass[1:]
+        self.gauge = has_fibre_gauge(zr, d, P0, E, self.dslices, sv.parameter_vector(scene))
+        theta0 = P0[lay.slices["theta0"]]
+        tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
+        # a scene with obstacles: the designed rod keeps clear of them (issue 20, :mod:`actuator_design.contact.clearance`)
+        self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap) + float(clearance)
+        clear = clearance_rows(tr, ca.vertcat(theta0, zr), self.obstacles, self.gap)
+        self.n_clear = int(clear.numel())
+
+        target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
+        w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
+        margin = ca.SX.sym("margin")
+        effort = 0
+        if "h" in self.vary:
+            effort += d[self.dslices["h"]] ** 2
+        if "p" in self.vary:
+            effort += d[self.dslices["p"]] ** 2
+        for v in self.profiles:
+            c = d[self.dslices[v]]
+            k = np.arange(self.alpha_terms, dtype=float)
+            # smoothness: ∫ α'² ds grows like k² c_k²; penalise variation, not the mean angle
+            effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
+        err = weights * (tip - target)
+        # rate of change against the previous design (field schedules through waypoints)
+        d_prev, w_rate = ca.SX.sym("d_prev", self.nd), ca.SX.sym("w_rate")
+        f = w_tip * 0.5 * ca.dot(err, err) + w_eff * effort + w_rate * ca.sumsqr(d - d_prev)
+
+        # tip compliance dy(1)/dfy by the implicit function theorem: H w = −∂g/∂fy, c = ∂y(1)/∂θ · w
+        # (built into the NLP only for stiffness targets; needs a tip-force term in the scene)
+        self.has_tip_force = "fy" in lay.slices
+        if self.has_tip_force:
+            # differentiate at the actual fy in P (a designed p overwrites the base value's slot)
+            fy = lay.slices["fy"]
+            P_free = ca.SX.sym("P_free", lay.size)
+            g_free = sv.f_grad_hess(zr, P_free)[1]
+            dg_dfy = ca.substitute(ca.jacobian(g_free, P_free)[:, fy.start], P_free, P)
+            w_sens = ca.SX.sym("w_sens", n)
+            compliance = ca.dot(ca.gradient(tip[1], zr), w_sens)
+            stiffness_target = ca.SX.sym("stiffness_target")
+            sens_rows = (ca.mtimes(H, w_sens) + dg_dfy) / ca.DM(m)
+
+        # profile bound rows: α at the quadrature points, then β (in the order of self.profiles)
+        alpha_rows = [ca.mtimes(ca.DM(self.vandermonde), d[self.dslices[v]]) for v in self.profiles]
+        self.n_profile_rows = self.vandermonde.shape[0] if alpha_rows else 0
+        self.n_alpha_rows = self.n_profile_rows * len(alpha_rows)
+        self._parts = dict(x=ca.vertcat(zr, d),
+                           p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
+                           eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows), clear=clear,
+                           H=H, m=m, margin=margin, n=n)
+        if self.has_tip_force:
+            # stiffness k = 1/c: the constraint c·k_target − 1 = 0 (k_target an NLP parameter)
+            self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
+                               k_target=stiffness_target)
+            self.f_sensitivity = ca.Function("sensitivity", [zr, d, P0], [H, dg_dfy, ca.gradient(tip[1], zr)])
+        self._nlp, self._certificates = {}, {}
+        self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
+        self.build_time = time.perf_counter() - t0
+
+    def nlpsol(self, certified: bool, stiffness: bool = False):
+        """The NLP without (``certified=False``) or with the LDLᵀ stability certificate, and with
+        the stiffness constraint when ``stiffness``; each variant is built on first use. Without the
+        certificate, stability is checked at the solution (see :meth:`solve`)."""
+        key = (certified, stiffness)
+        if key not in self._nlp:
+            q = self._parts
+            x, p = q["x"], q["p"]
+            rows = [q["eq"]]
+            if stiffness:
+                if not self.has_tip_force:
+                    raise ValueError("a stiffness target needs a tip-force term in the scene")
+                x = ca.vertcat(x, q["w_sens"])
+                p = ca.vertcat(p, q["k_target"])
+                rows += [q["sens"], q["stiff"]]
+            if certified:  # the pivots, and the Schur entries lifted at the element joints
+                Ms = ca.DM(1.0 / np.sqrt(q["m"]))
+                cert = SegmentedLDL(ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"]))
+                self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
+                x = ca.vertcat(x, cert.v)
+                rows += [cert.pivots, cert.rows]
+            rows += [q["tip"], q["alpha"], q["clear"]]
+            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
+                    # exact Hessians, also of the pivot rows: with a quasi-Newton one the certified
+                    # solve wandered and its landing point (and whether it reached) depended on the
+                    # BLAS kernel; the iteration cap bounds the work, it is not a convergence test
+                    "ipopt.max_iter": 150 if certified else 400, "ipopt.acceptable_tol": 1e-7,
+                    # Starts are feasible stable equilibria: a small initial barrier keeps the
+                    # pivot constraints from outweighing the (small) tip objective at the start.
+                    "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
+            self._nlp[key] = ca.nlpsol("design", "ipopt", {"x": x, "p": p, "f": q["f"], "g": ca.vertcat(*rows)},
+                                       opts)
+        return self._nlp[key]
+
+    def state_function(self) -> ca.Function:
+        """One state of this NLP, for NLPs that carry many (:mod:`.schedule_ocp_nlp`):
+        ``(θ (n,), d (nd,), P0) -> (g/m (n,), M^-1/2 H M^-1/2 (n, n))``, the mass-scaled
+        stationarity rows and reduced Hessian (the certificate's matrix before the margin)."""
+        q = self._parts
+        Ms = ca.DM(1.0 / np.sqrt(q["m"]))
+        return ca.Function("design_state", [q["x"][:self.n], q["x"][self.n:], q["p"][:self.solver.layout.size]],
+                           [q["eq"], ca.diag(Ms) @ q["H"] @ ca.diag(Ms)])
+
+    # -- helpers --------------------------------------------------------------------------------
+    def design_vector(self, h=None, phi=None, coefficients=None, p=None, magnetization=None) -> np.ndarray:
+        """The design vector, shape (nd,), from the design values (``coefficients``: α's Legendre
+        coefficients, ``magnetization``: β's; missing trailing coefficients are 0)."""
+        d = np.zeros(self.nd)
+        for name, val in (("h", h), ("phi", phi), ("p", p)):
+            if name in self.vary:
+                d[self.dslices[name]] = val
+        for name, coeffs in (("alpha", coefficients), ("magnetization", magnetization)):
+            if name in self.vary:
+                c = np.zeros(self.alpha_terms)
+                if coeffs is not None:
+                    cc = np.asarray(coeffs, float).ravel()[: self.alpha_terms]
+                    c[: cc.size] = cc
+                d[self.dslices[name]] = c
+        return d
+
+    def fix_gauge(self, d: np.ndarray) -> np.ndarray:
+        """The design vector moved along the gauge orbit to α's mean c_0 = 0 (φ − c_0, α − c_0: the
+        same equilibrium, see :func:`has_fibre_gauge`); ``d`` itself when the scene has no gauge."""
+        d = np.array(d, float)
+        if self.gauge:
+            c0 = d[self.dslices["alpha"].start]
+            d[self.dslices["phi"]] -= c0
+            d[self.dslices["alpha"].start] = 0.0
+        return d
+
+    def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
+        lim = np.concatenate([np.full(self.n_profile_rows, bounds.get(PROFILE_BOUNDS[v], np.inf))
+                              for v in self.profiles] or [np.zeros(0)])
+        return -lim, lim
+
+    def scene_for(self, base: Scene, d: np.ndarray) -> Scene:
+        """The forward scene of a design vector (fibres and magnetisation as exact Legendre
+        profiles; h_r and h_pos moved with h, see the module docstring)."""
+        sc = base
+        for v in self.vary:  # h, phi, p written through the parameter lens
+            if v in _LENS_VARIABLES:
+                sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
+        if "h" in self.vary:
+            sc = coupled_scene(base, sc)
+        if "alpha" in self.vary:
+            sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
+        if "magnetization" in self.vary:
+            sc = replace(sc, magnetization=legendre_profile(d[self.dslices["magnetization"]]))
+        return sc
+
+    def solve(self, base: Scene, x0_theta: np.ndarray, d0: np.ndarray, req: "DesignRequest",
+              certify: bool = True) -> DesignPoint:
+        """Solve one stage of a design request from a start (θ at the nodes, design vector).
+
+        The NLP without the stability certificate is tried first; when its solution violates
+        λ_min(H_r, M) ≥ margin, the certified NLP (LDLᵀ pivots ≥ 0) is solved from the same start —
+        unless ``certify`` is False, in which case the uncertified point is returned with
+        ``certified = False`` (a probe: the constrained optimum is never closer to the target).
+        """
+        pt = self._solve(base, x0_theta, d0, req, certified=False)
+        if pt.converged:
+            P = self.solver.parameter_vector(self.scene_for(base, self._dvec(pt)))
+            lam = self.solver.stability(pt.z, P).eigenvalues[0]
+            if lam >= req.margin * (1 - 1e-9):
+                return pt
+        if not certify:
+            pt.certified = False
+            pt.start = (np.asarray(x0_theta, float), np.asarray(d0, float))
+            return pt
+        return self._solve(base, x0_theta, d0, req, certified=True)
+
+    def stiffness(self, base: Scene, pt: "DesignPoint") -> float:
+        """Tip stiffness dp/dv1 of the design NLP's state (units of B0/ℓ³), from the reduced Hessian:
+        dθ/dfy = −H⁻¹ ∂g/∂fy, compliance = ∂y(1)/∂θ · dθ/dfy (used to rank optima; the design is
+        judged by finite differences of independent forward solves)."""
+        H, b, gy = (np.asarray(v, float) for v in self.f_sensitivity(pt.z[1:], self._dvec(pt),
+                                                                      self.solver.parameter_vector(base)))
+        try:
+            compliance = float(gy.ravel() @ np.linalg.solve(H, -b.ravel()))
+        except np.linalg.LinAlgError:
+            return float("nan")  # singular reduced Hessian: a fold, no finite stiffness
+        return 1.0 / compliance if compliance != 0.0 else float("inf")
+
+    def _dvec(self, pt: DesignPoint) -> np.ndarray:
+        return self.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
+                                  magnetization=pt.magnetization)
+
+    def _solve(self, base, x0_theta, d0, req: "DesignRequest", certified: bool) -> DesignPoint:
+        """One stage from a start. Stage A is solved twice: first with a regularising effort
+        weight (:data:`STAGE_A_EFFORT`), whose minimiser is isolated, then with the near-zero one
+        from there. With the near-zero weight alone every design that reaches the target is a
+        minimiser and IPOPT stops anywhere in that valley once its gradient (~1e-10) is below the
+        tolerance: where, and hence the design stage B refines, was decided by round-off (target
+        (0.7, 0.5): h = 3.09 with one BLAS kernel, 4.17 with another). If the regularised solve
+        does not converge, the plain one is tried from the original start."""
+        if req.stage != "A":
+            return self._solve_once(base, x0_theta, d0, req, certified, w_eff=1.0)
+        scale = effort_scale(self, d0)
+        reg = self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[0] / scale)
+        if reg.converged:
+            x0_theta, d0 = reg.z, self._dvec(reg)
+        return self._solve_once(base, x0_theta, d0, req, certified, w_eff=STAGE_A_EFFORT[1] / scale)
+
+    def _solve_once(self, base, x0_theta, d0, req: "DesignRequest", certified: bool,
+                    w_eff: float) -> DesignPoint:
+        sv = self.solver
+        P0 = sv.parameter_vector(base)
+        use_angle = req.target is not None and len(req.target) > 2
+        tgt = np.zeros(3) if req.target is None else np.array(
+            [req.target[0], req.target[1], req.target[2] if use_angle else 0.0])
+        weights = np.array([1.0, 1.0, 1.0 if use_angle else 0.0])
+        w_tip = 1.0 if req.stage == "A" else 0.0
+        d_prev = np.zeros(self.nd) if req.d_prev is None else np.asarray(req.d_prev, float)
+        p = np.concatenate([P0, tgt, weights, [w_tip, w_eff, req.margin], d_prev, [req.w_rate]])
+        stiff = req.stiffness is not None
+        if stiff:
+            p = np.concatenate([p, [req.stiffness]])
+
+        nx = self.n + self.nd + (self.n if stiff else 0)
+        nlp = self.nlpsol(certified, stiff)
+        cert, schur = self._certificates.get((certified, stiff), (None, None))
+        n_lift = cert.m if cert is not None else 0
+        lbx, ubx = np.full(nx + n_lift, -np.inf), np.full(nx + n_lift, np.inf)
+        b = req.bounds
+        if "h" in self.vary:
+            lbx[self.n + self.dslices["h"].start] = 0.0
+            ubx[self.n + self.dslices["h"].start] = b["h_max"]
+        if "phi" in self.vary:  # π-periodic energy: bounded to keep φ from wandering, wide enough
+            lbx[self.n + self.dslices["phi"].start] = -2 * np.pi  # for continuous rotating schedules
+            ubx[self.n + self.dslices["phi"].start] = 2 * np.pi
+        if "p" in self.vary:
+            lbx[self.n + self.dslices["p"].start] = -b["p_max"]
+            ubx[self.n + self.dslices["p"].start] = b["p_max"]
+        n_piv = self.n if certified else 0
+        n_sens = self.n + 1 if stiff else 0
+        lo_prof, hi_prof = self.profile_bounds(b)
+        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv + n_lift), np.full(3, -np.inf),
+                              lo_prof, np.zeros(self.n_clear)])
+        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.zeros(n_lift),
+                              np.full(3, np.inf), hi_prof, np.full(self.n_clear, np.inf)])
+        if req.stage == "B" and req.target is not None:
+            k = self.n + n_sens + n_piv + n_lift
+            lbg[k:k + 2] = ubg[k:k + 2] = 0.0
+            if use_angle:
+                lbg[k + 2] = ubg[k + 2] = 0.0
+        if self.gauge:  # α's mean is pinned at 0 (fix_gauge): a unique optimum, not a flat valley
+            d0 = self.fix_gauge(d0)
+            lbx[self.n + self.dslices["alpha"].start] = ubx[self.n + self.dslices["alpha"].start] = 0.0
+        x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
+        if n_lift:
+            x0 = np.concatenate([x0, cert.start(schur, x0[:self.n + self.nd], p[:self._parts["p"].numel()])])
+        sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        st = nlp.stats()
+        x = np.asarray(sol["x"], float).ravel()
+        zr, d = x[: self.n], x[self.n:self.n + self.nd]
+        theta0 = P0[sv.layout.slices["theta0"]][0]
+        tip = np.asarray(self.f_tip(zr, d, P0), float).ravel()
+        coeffs = d[self.dslices["alpha"]] if "alpha" in self.vary else np.zeros(0)
+        beta = d[self.dslices["magnetization"]] if "magnetization" in self.vary else np.zeros(0)
+        get = lambda name, default: float(d[self.dslices[name]][0]) if name in self.vary else default
+        status = str(st.get("return_status"))
+        return DesignPoint(h=get("h", base.h), phi=get("phi", base.phi), coefficients=coeffs,
+                           p=get("p", base.p), z=np.concatenate([[theta0], zr]), tip=tip,
+                           converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
+                           status=status, stage=req.stage + ("+certificate" if certified else ""),
+                           magnetization=beta)
+
+
+@dataclass
+class DesignRequest:
+    """What one design-NLP solve asks for.
+
+    target : (x, y) or (x, y, angle) or None (no pose target, e.g. stiffness only)
+    stage : "A" (nearest pose: least squares) or "B" (least effort with the target pinned)
+    margin : stability margin μ (λ_min(H_r, M) ≥ μ)
+    bounds : h_max, p_max, alpha_max, magnetization_max (|β(s)| bound, rad)
+    d_prev, w_rate : previous design and weight of the rate term w_rate·|d − d_prev|²
+    stiffness : target tip stiffness dp/dv1 (units of B0/ℓ³), or None
+    """
+
+    target: Optional[Tuple[float, ...]]
+    stage: str
+    margin: float
+    bounds: Dict[str, float]
+    d_prev: Optional[np.ndarray] = None
+    w_rate: float = 0.0
+    stiffness: Optional[float] = None
+
+
+def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int,
+                   clearance: float = 0.0) -> DesignNLP:
+    """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
+    from actuator_design.physics.registry import build_terms
+    from actuator_design.physics.terms import structure_key
+
+    obstacles = (tuple(scene.obstacles), float(scene.contact_gap), float(clearance)) if scene.obstacles else ()
+    key = (structure_key(build_terms(scene)), obstacles, tuple(sorted(vary)), options.transcription, options.elements,
+           options.degree, options.clamp_levels, options.tip_levels, options.split_at, options.tol, options.max_iter,
+           alpha_terms if any(v in PROFILE_VARIABLES for v in vary) else 0)
+    if key not in _CACHE:
+        _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms, clearance if scene.obstacles else 0.0)
+    return _CACHE[key]
+
+
+def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
+    """Make sure the scene contains the terms the design varies (through the parameter lens: a
+    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``, the
+    hard-magnetic term for ``magnetization``) and a profile the Legendre series can replace for
+    ``alpha`` and ``magnetization``.
+
+    Raises
+    ------
+    ValueError
+        ``magnetization`` varied on a scene with h_r = 0 (the remanence must be given: without it
+        the magnetisation does nothing).
+    """
+    if "magnetization" in vary and not scene.h_r > 0:
+        raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
+                         "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
+                         "magnetisation profile")
+    if "h" in vary and remanence_only(scene):
+        raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
+                         "through its remanence alone (h_r); design phi and/or magnetization at the "
+                         "scene's field magnitude")
+    if ("h" in vary or "phi" in vary) and scene.field is None:
+        scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
+    try:
+        scene = lens.prepare_scene(scene, [v for v in vary if v in _LENS_VARIABLES], "design variable")
+    except ValueError as err:
+        raise ValueError(f"--vary {err}") from None
+    if "alpha" in vary and scene.fibres.kind not in ("constant", "legendre"):
+        scene = replace(scene, fibres=constant_profile(0.0))
+    if "magnetization" in vary and scene.magnetization.kind not in ("constant", "legendre"):
+        scene = replace(scene, magnetization=constant_profile(0.0))
+    return scene

@@ -1,0 +1,236 @@
+"""The user's units beside the results of ``solve``, ``equilibria``, ``continue``, ``critical``,
+``map`` and ``phase`` (a physical scene only; nothing is added for a dimensionless one).
+
+The conversions are :class:`~.user_units.UserUnits`'s (THEORY §5): lengths x = x̂ ℓ in the unit
+``rod.length`` is written in, forces in B0/ℓ² → N, moments and energies in B0/ℓ → N m and J,
+curvatures in 1/ℓ → rad per length unit, the first integral H of the phase plane (energy per
+length, B0/ℓ²) → J/m, and the field group h → μ0 H in mT (μ0 H = μ0 h / (dh/dH)). A lens
+parameter (``--param``) is converted by :func:`~.user_units.parameter_physical`; one without a
+physical unit (an angle, h_r, or a field group on a scene without a field scale) gets a note
+instead of a number. Every function here adds keys; none renames or removes one.
+"""
+from __future__ import annotations
+
+from typing import Dict, Iterable, List, Optional, Tuple
+
+from actuator_design.io.display import number
+from actuator_design.model.units import MU0
+from actuator_design.io.user_units import (VALUE_KEY_UNITS, parameter_physical, parameter_unit_label,
+                                           physical_value_keys)
+
+__all__ = ["units_line", "unit_suffix", "tip_in", "length_text", "parameter_conversion",
+           "value_text", "scene_physical", "scene_text", "point_physical", "add_point_units",
+           "physical_header", "curvature_per_unit", "state_text", "state_columns", "state_values",
+           "state_csv_note", "command_physical", "values_in_unit", "column_note"]
+
+#: Column and key suffix of each unit a parameter is reported in.
+_SUFFIX = {"mT": "mT", "N": "N", "N m": "N_m", "N/m": "N_per_m", "Pa": "Pa"}
+
+
+def units_line(units) -> str:
+    """``lengths in mm (as rod.length), fields as mu0 H in mT, forces in N, moments in N m,
+    energies in J`` (with the scene's length unit)."""
+    return (f"lengths in {units.length_unit} (as rod.length), fields as mu0 H in mT, forces in N, "
+            "moments in N m, energies in J")
+
+
+def unit_suffix(label: str) -> str:
+    """The suffix of a key or CSV column in unit ``label``: ``mT``, ``N``, ``N_m``, ``N_per_m``, ``Pa``."""
+    return _SUFFIX[label]
+
+
+def tip_in(tip: Dict[str, float], units) -> Dict[str, float]:
+    """``{"x", "y"}`` of a tip in rod lengths → in the scene's length unit."""
+    return {"x": units.length(tip["x"]), "y": units.length(tip["y"])}
+
+
+def length_text(x_user: float, units) -> str:
+    """A length already in the user's unit, printed (round-off of zero as 0)."""
+    from actuator_design.io.unit_columns import length_noise
+    return number(x_user, ".6g", noise=length_noise(units))
+
+
+def curvature_per_unit(kappa: float, units) -> float:
+    """A curvature (rad per rod length, e.g. γ = θ'(0)) in rad per length unit."""
+    return float(kappa) / units.length(1.0)
+
+
+def _param(name):
+    from actuator_design.physics.parameters import parameter
+    return parameter(name) if isinstance(name, str) else name
+
+
+def parameter_conversion(name, units) -> Tuple[Optional[str], Optional[str]]:
+    """``(unit, note)`` of lens parameter ``name`` on a physical scene: the unit its values are
+    reported in (``"mT"`` as μ0 H, ``"N"``, ``"N m"``, ``"N/m"``) and None, or None and one sentence
+    saying why there is none (an angle; a field group without a field scale; h_r, h_pos)."""
+    p = _param(name)
+    unit = parameter_unit_label(p, units)
+    if unit is not None:
+        return unit, None
+    if p.field_magnitude or p.name == "h_r":
+        return None, (f"{p.name} stays dimensionless: this scene has no field scale "
+                      "(its magnetic group per field is 0, e.g. chi_bar = 0)")
+    if p.unit == "rad":
+        return None, f"{p.name} is an angle: reported in rad, it has no other unit"
+    return None, f"{p.name} has no physical unit here: it stays dimensionless ({p.unit})"
+
+
+def value_text(name, value: float, units) -> Optional[str]:
+    """``mu0 H = 25 mT`` (``h``; ``h2``: of √h2), ``p = 7e-05 N``, ``m_tip = 1e-06 N m`` of a
+    parameter value; None without a physical unit."""
+    p = _param(name)
+    unit = parameter_unit_label(p, units)
+    if unit is None:
+        return None
+    v = number(parameter_physical(p, value, units))
+    return f"mu0 H = {v} mT" if unit == "mT" else f"{p.name} = {v} {unit}"
+
+
+def scene_physical(scene, units) -> Dict[str, object]:
+    """The scene's field and loads in the user's units: ``field_mT`` and ``field_A_per_m`` (of h,
+    when the scene converts a field), ``tip_force_N`` [fx, fy], ``tip_moment_N_m``,
+    ``distributed_load_N_per_m`` [qx, qy] (those the scene has)."""
+    out: Dict[str, object] = {}
+    if getattr(scene, "field", None) is not None:
+        if units.has_field:
+            out["field_mT"] = units.field_mT(scene.h)
+        elif units.has_remanent_field and scene.h_r:  # a hard-magnetic rod: the field of h_r
+            out["field_mT"] = units.field_mT_of_h_r(scene.h_r)
+        if "field_mT" in out:
+            out["field_A_per_m"] = out["field_mT"] * 1e-3 / MU0
+    if scene.tip_force is not None:
+        out["tip_force_N"] = [float(v) * units.force_scale for v in scene.tip_force]
+    if scene.tip_moment:
+        out["tip_moment_N_m"] = float(scene.tip_moment) * units.moment_scale
+    if scene.distributed_load is not None:
+        out["distributed_load_N_per_m"] = [float(v) * units.stiffness_scale
+                                           for v in scene.distributed_load]
+    return out
+
+
+def scene_text(scene, units) -> str:
+    """``mu0 H = 25 mT, tip force (0, 7e-05) N`` (what :func:`scene_physical` has), or the note
+    that the field has no scale."""
+    d = scene_physical(scene, units)
+    parts = []
+    if "field_mT" in d:
+        parts.append(f"mu0 H = {number(d['field_mT'])} mT")
+    elif getattr(scene, "field", None) is not None:
+        parts.append("h stays dimensionless (this scene has no field scale)")
+    if "tip_force_N" in d:
+        parts.append("tip force (" + ", ".join(number(v) for v in d["tip_force_N"]) + ") N")
+    if "tip_moment_N_m" in d:
+        parts.append(f"tip moment {number(d['tip_moment_N_m'])} N m")
+    if "distributed_load_N_per_m" in d:
+        parts.append("distributed load (" + ", ".join(number(v) for v in d["distributed_load_N_per_m"])
+                     + ") N/m")
+    return ", ".join(parts)
+
+
+def point_physical(tip: Dict[str, float], energy: float, units,
+                   gamma: Optional[float] = None) -> Dict[str, object]:
+    """``{"tip": {x, y}, "energy_J"[, "gamma_rad_per_<unit>"]}`` of one state."""
+    out: Dict[str, object] = {"tip": tip_in(tip, units), "energy_J": float(energy) * units.moment_scale}
+    if gamma is not None:
+        out[f"gamma_rad_per_{units.length_unit}"] = curvature_per_unit(gamma, units)
+    return out
+
+
+def add_point_units(items: Iterable[dict], param, units) -> None:
+    """Add the user's units to every point of a branch or critical point (dicts of
+    ``Branch.to_dict``/``CriticalPoint.to_dict``), in place: ``field_mT`` and ``field_A_per_m``
+    (or ``value_N``, ...) beside ``value`` (:func:`~.user_units.physical_value_keys`) and
+    ``physical`` {tip {x, y} in the length unit, energy_J}."""
+    p = _param(param)
+    for item in items:
+        if not isinstance(item, dict):
+            continue
+        if isinstance(item.get("value"), (int, float)):
+            item.update(physical_value_keys(p, item["value"], units))
+        tip = item.get("tip") if isinstance(item.get("tip"), dict) else (
+            {"x": item["tip_x"], "y": item["tip_y"]} if "tip_x" in item else None)
+        if tip is not None and "energy" in item:
+            item["physical"] = point_physical(tip, item["energy"], units)
+
+
+def physical_header(units, params: Iterable = (), extra: Optional[Dict[str, str]] = None) -> Dict[str, object]:
+    """The top-level ``physical`` of a command's JSON: ``length_unit``, ``units`` (what each key
+    in the user's units is in), ``parameters`` {name: unit} of ``params`` with a physical unit and
+    ``notes`` for those without one."""
+    u = units.length_unit
+    names: Dict[str, Optional[str]] = {}
+    notes: List[str] = []
+    for name in params:
+        unit, note = parameter_conversion(name, units)
+        names[_param(name).name] = unit
+        if note is not None:
+            notes.append(note)
+    described = {"tip": u, "energy_J": "J", "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m",
+                 **VALUE_KEY_UNITS, f"gamma_rad_per_{u}": f"rad/{u}", "tip_force_N": "N", "tip_moment_N_m": "N m",
+                 "distributed_load_N_per_m": "N/m", **(extra or {})}
+    return {"length_unit": u, "units": described,
+            "parameters": {n: (unit + " (mu0 H)" if unit == "mT" else unit) for n, unit in names.items()
+                           if unit is not None},
+            "notes": notes}
+
+
+def state_text(tip: Dict[str, float], energy: float, units, gamma: Optional[float] = None) -> str:
+    """``tip = (29.6292, 4.28502) mm, energy = -3.83e-06 J[, gamma = 0.0141 rad/mm]`` of one state
+    (round-off of zero printed as 0)."""
+    u = units.length_unit
+    text = (f"tip = ({length_text(units.length(tip['x']), units)}, "
+            f"{length_text(units.length(tip['y']), units)}) {u}, energy = "
+            f"{number(float(energy) * units.moment_scale, '.6g', 1e-12 * units.moment_scale)} J")
+    if gamma is not None:
+        text += f", gamma = {number(curvature_per_unit(gamma, units), '.6g', 1e-12 / units.length(1.0))} rad/{u}"
+    return text
+
+
+def state_columns(units) -> List[str]:
+    """CSV columns of one state in the user's units: ``tip_x_<unit>, tip_y_<unit>, energy_J,
+    gamma_rad_per_<unit>`` (see :func:`state_values`)."""
+    u = units.length_unit
+    return [f"tip_x_{u}", f"tip_y_{u}", "energy_J", f"gamma_rad_per_{u}"]
+
+
+def state_values(tip: Dict[str, float], energy: float, gamma: float, units) -> List[float]:
+    """The values of :func:`state_columns` of one state."""
+    return [units.length(tip["x"]), units.length(tip["y"]), float(energy) * units.moment_scale,
+            curvature_per_unit(gamma, units)]
+
+
+def state_csv_note(units) -> str:
+    """The CSV comment's part on :func:`state_columns`."""
+    u = units.length_unit
+    return (f"tip_x_{u}, tip_y_{u} in {u} (the unit of rod.length); energy_J in J; "
+            f"gamma_rad_per_{u} in rad/{u}")
+
+
+def command_physical(scene, units, params: Iterable = ()) -> Dict[str, object]:
+    """The top-level ``physical`` of a command on one scene: :func:`physical_header` and the scene's
+    field and loads (:func:`scene_physical`)."""
+    return {**physical_header(units, params), **scene_physical(scene, units)}
+
+
+def values_in_unit(name, values: Iterable[float], units) -> Optional[Tuple[str, List[float]]]:
+    """``(key suffix, values)`` of lens parameter ``name``'s ``values`` in its physical unit
+    (``"mT"``: μ0 H, of √h2 for h2; ``"N"``, ``"N_m"``, ``"N_per_m"``), or None without one."""
+    unit = parameter_conversion(name, units)[0]
+    if unit is None:
+        return None
+    p = _param(name)
+    return unit_suffix(unit), [parameter_physical(p, float(v), units) for v in values]
+
+
+def column_note(name, units) -> str:
+    """The CSV comment on the column of ``name`` in its unit: ``h2_mT: mu0 H of sqrt(h2) in mT``,
+    ``p_N: p in N``; empty without a unit."""
+    unit = parameter_conversion(name, units)[0]
+    if unit is None:
+        return ""
+    p = _param(name)
+    col = f"{p.name}_{unit_suffix(unit)}"
+    if unit == "mT":
+        return f"{col}: mu0 H{' of sqrt(' + p.name + ')' if p.transform == 'sqrt' else ''} in mT"
+    return f"{col}: {p.name} in {unit}"

@@ -1,0 +1,438 @@
+"""The validated, dimensionless scene: what every solver layer consumes.
+
+A :class:`Scene` is the output of configuration (``actuator_design.config``) and the input of the
+physics layer. All values are dimensionless per THEORY §5: lengths in units of the rod length ℓ,
+energies in units of B0/ℓ (B0 the bending stiffness at the clamp), fields in units of a field scale
+H0 whose strength is folded into the group ``h``. A physical scene carries its :class:`Scales` so
+results can be converted back.
+
+Which energy terms a scene *contains* is structural: ``field is None`` means no magnetic term is
+built, ``tip_force is None`` means no load term, and so on. A term that is present with value zero
+is still built (so it can be continued or designed), a term that is absent is not.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field as dc_field, replace
+from typing import Any, Dict, Optional, Tuple, Union
+
+import numpy as np
+
+from actuator_design.model.profiles import Profile, constant_profile
+
+__all__ = [
+    "UniformField",
+    "DipoleField",
+    "ExpressionField",
+    "SourceField",
+    "Field",
+    "Scales",
+    "Scene",
+    "TermValues",
+    "default_scene",
+]
+
+
+@dataclass(frozen=True)
+class UniformField:
+    """Uniform applied field at angle ``phi`` (rad) to the undeformed rod axis c1.
+
+    Its strength is the scene's group ``h`` (THEORY §5).
+    """
+
+    phi: float = 0.0
+    kind: str = dc_field(default="uniform", init=False)
+    is_uniform: bool = dc_field(default=True, init=False)
+
+
+@dataclass(frozen=True)
+class DipoleField:
+    """Field of a point dipole (a small permanent magnet) lying in the plane of the rod.
+
+    Dimensionless: positions in units of ℓ; the field scale is H0 = |m| / (4π ℓ³), the field of the
+    dipole on its axis-normal at distance ℓ, so that ĥ(ρ) = [3 (m̂·ρ̂) ρ̂ − m̂] / |ρ|³ with
+    ρ = x − x0 (THEORY §3; a 3-D dipole evaluated in its own equatorial plane z = 0).
+
+    Parameters
+    ----------
+    x0, y0 : float
+        Dipole position, units of ℓ, clamp at the origin.
+    moment_angle : float
+        Direction of the moment m̂ in the plane, rad from c1.
+    """
+
+    x0: float = 0.5
+    y0: float = -0.5
+    moment_angle: float = 0.5 * math.pi
+    kind: str = dc_field(default="dipole", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+
+@dataclass(frozen=True)
+class ExpressionField:
+    """A user field ĥ(x, y) = (hx, hy) given as expressions in x, y (units of ℓ).
+
+    The expressions describe a z-invariant (two-dimensional) field; they are parsed by a whitelist
+    parser (no ``eval``) and checked to be divergence- and curl-free over the disc the rod can
+    reach (``actuator_design.physics.fields``). Its strength is scaled by the group ``h``.
+    """
+
+    hx: str = "1"
+    hy: str = "0"
+    kind: str = dc_field(default="expression", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+
+@dataclass(frozen=True)
+class SourceField:
+    """The field of magnets and coils (:mod:`actuator_design.model.field_sources`), computed by magpylib and
+    represented over the rod's reach by fitted solid harmonics (divergence- and curl-free by
+    construction; :mod:`actuator_design.physics.harmonic`). Dimensionless: ĥ = H/H0, positions in ℓ.
+
+    Parameters
+    ----------
+    terms : tuple of HarmonicTerm or TesseralTerm
+        One fitted expansion per source (its region: its ``contains``).
+    sources : tuple
+        The SI source descriptions the fit was made from (MagnetSource, CoilSource).
+    length : float
+        ℓ (m) the fit was made for.
+    fit_error, gradient_error : float
+        Largest errors of ĥ and ∇ĥ ℓ against magpylib at random points of the reach and on
+        the edges of the reach and of each fit's region (relative to H0).
+    weights : tuple of float
+        w_k: ĥ = Σ_k w_k ĥ_k, source k's fitted field scaled by w_k (a coil's current I_k = w_k × the
+        current it was fitted at); empty: every w_k = 1. NLP parameters, so a design over coil
+        currents re-solves without rebuilding (:mod:`actuator_design.hardware.current_design`).
+    fit_tolerance : float
+        The tolerance the fit was made to (relative to H0), for a refit at other currents.
+    max_power : float
+        Largest total power Σ R_k I_k² of the coils, W (inf: no limit given).
+    max_field : float
+        Largest |H| the rod may see, A/m (μ0 H in T; inf: no limit given).
+    placements : tuple of (float, float, float)
+        Per source a rigid move of its fitted field: (dx, dy) in units of ℓ and a turn (rad) about its
+        own centre; empty: none. NLP parameters ``source_dx_k``, ``source_dy_k``, ``source_turn_k``, so a
+        design over a magnet's pose re-solves without rebuilding
+        (:mod:`actuator_design.hardware.pose_design`).
+    """
+
+    terms: Tuple[Any, ...]
+    sources: Tuple[Any, ...] = ()
+    length: float = 1.0
+    fit_error: float = 0.0
+    gradient_error: float = 0.0
+    weights: Tuple[float, ...] = ()
+    fit_tolerance: float = 1e-7
+    max_power: float = math.inf
+    max_field: float = math.inf
+    placements: Tuple[Tuple[float, float, float], ...] = ()
+    kind: str = dc_field(default="sources", init=False)
+    is_uniform: bool = dc_field(default=False, init=False)
+
+    def describe(self) -> str:
+        """One line: the sources, the fits' orders and regions, the errors against magpylib."""
+        if any(hasattr(src, "field_per_amp") for src in self.sources):  # coils of a calibration map
+            t = self.terms[0]
+            orders = ", ".join(f"{getattr(src, 'name', '?')} {t.order}" for src, t in zip(self.sources, self.terms))
+            centre = ", ".join(f"{v * self.length * 1e3:.4g}" for v in t.centre)
+            return (f"{len(self.sources)} coil{'s' if len(self.sources) > 1 else ''} of a calibration map, fitted with "
+                    f"solid harmonics (orders {orders}), holding within {t.valid_radius * self.length * 1e3:.4g} mm "
+                    f"of ({centre}) mm; fit error {self.fit_error:.2g} on held-out samples (field, relative to H0), "
+                    "gradient not measured (a map has no gradient samples)")
+        names = []
+        for src, t in zip(self.sources, self.terms):
+            kind = getattr(src, "shape", None) or getattr(src, "kind", "source")
+            region = ("beyond" if t.kind == "exterior" else "within") + f" {t.valid_radius * self.length * 1e3:.4g} mm"
+            names.append(f"{kind} {'magnet' if hasattr(src, 'shape') else 'coil'} (order {t.order}, "
+                         f"holds {region} of its centre)")
+        harmonics = "solid" if any(hasattr(t, "modes") for t in self.terms) else "zonal"
+        return (f"{', '.join(names)} by magpylib, fitted with {harmonics} harmonics; fit error {self.fit_error:.2g} "
+                f"(field), {self.gradient_error:.2g} (gradient) relative to H0")
+
+    def source_weights(self) -> Tuple[float, ...]:
+        """w_k of every source (1 where ``weights`` is empty)."""
+        return tuple(float(w) for w in self.weights) if self.weights else (1.0,) * len(self.terms)
+
+    def source_placements(self) -> Tuple[Tuple[float, float, float], ...]:
+        """(dx, dy, turn) of every source ((0, 0, 0) where ``placements`` is empty); the coils of a
+        calibration map move as one rig, with the first map coil's placement."""
+        if not self.placements:
+            return ((0.0, 0.0, 0.0),) * len(self.terms)
+        places = [tuple(float(v) for v in p) for p in self.placements]
+        rig = [k for k, src in enumerate(self.sources) if hasattr(src, "field_per_amp")]
+        for k in rig[1:]:
+            places[k] = places[rig[0]]
+        return tuple(places)
+
+    def placed_terms(self) -> Tuple[Any, ...]:
+        """The fitted expansions where the sources are: each centre moved by (dx, dy), each axis
+        turned by its turn (:meth:`source_placements`)."""
+        from dataclasses import replace as _replace
+
+        return tuple(t if (dx, dy, turn) == (0.0, 0.0, 0.0) else
+                     _replace(t, centre=(t.centre[0] + dx, t.centre[1] + dy), axis_angle=t.axis_angle + turn)
+                     for t, (dx, dy, turn) in zip(self.terms, self.source_placements()))
+
+    def region_problem(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
+        """Why points (units of ℓ) of a state lie where the fit does not hold, or None."""
+        from actuator_design.physics.harmonic import outside_region
+
+        return outside_region(self.placed_terms(), np.asarray(x, float), np.asarray(y, float))
+
+
+Field = Union[UniformField, DipoleField, ExpressionField, SourceField]
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Physical scales that convert dimensionless results back to SI units.
+
+    Attributes
+    ----------
+    length : float
+        ℓ, m.
+    bending_stiffness : float
+        B0 = E I at the clamp, N m².
+    field : float
+        H0, A/m (0 when the scene has no field).
+    h_per_field : float
+        dh/dH0 = √(μ0 χ̄ A ℓ² / (2 B0)), per A/m: converts a designed h to a field even when the
+        scene's own field is zero (0 when unknown).
+    h_r_per_field : float
+        dh_r/dH0 = μ0 M_r A ℓ² / B0, per A/m (THEORY §9): the hard-magnetic group of a field (0 when
+        the rod has no remanent magnetisation).
+    mass_per_length : float
+        ρA, kg/m (0 when the rod's density is not given): with B0 and ℓ the time scale
+        √(ρA ℓ⁴/B0) of its vibrations (:mod:`actuator_design.schedules.dynamics`).
+    damping_ratio : float
+        The material's modal damping ratio ζ (0 when not given: a default is assumed).
+    """
+
+    length: float
+    bending_stiffness: float
+    field: float = 0.0
+    h_per_field: float = 0.0
+    h_r_per_field: float = 0.0
+    mass_per_length: float = 0.0
+    damping_ratio: float = 0.0
+
+    @property
+    def force(self) -> float:
+        """Force scale B0/ℓ², N."""
+        return self.bending_stiffness / self.length**2
+
+    @property
+    def moment(self) -> float:
+        """Moment and energy scale B0/ℓ, N m (= J)."""
+        return self.bending_stiffness / self.length
+
+    @property
+    def stiffness(self) -> float:
+        """Tip stiffness scale B0/ℓ³, N/m."""
+        return self.bending_stiffness / self.length**3
+
+    @property
+    def distributed_load(self) -> float:
+        """Distributed load scale B0/ℓ³, N/m."""
+        return self.bending_stiffness / self.length**3
+
+    def as_dict(self) -> dict:
+        return {
+            "length_m": self.length,
+            "bending_stiffness_Nm2": self.bending_stiffness,
+            "field_A_per_m": self.field,
+            "h_per_field_per_A_per_m": self.h_per_field,
+            "h_r_per_field_per_A_per_m": self.h_r_per_field,
+            "force_N": self.force,
+            "moment_Nm": self.moment,
+            "energy_J": self.moment,
+            "stiffness_N_per_m": self.stiffness,
+            "distributed_load_N_per_m": self.distributed_load,
+        }
+
+
+@dataclass(frozen=True)
+class TermValues:
+    """A plug-in energy term present in a scene, with its parameter values.
+
+    Attributes
+    ----------
+    name : str
+        The registered term name (``actuator_design.physics.registry``).
+    values : tuple of (str, float)
+        Slot name -> value (dimensionless, in the term's units); slots not given are 0.
+    """
+
+    name: str
+    values: Tuple[Tuple[str, float], ...] = ()
+
+    def as_dict(self) -> Dict[str, float]:
+        return {k: float(v) for k, v in self.values}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A dimensionless magneto-elastic cantilever (THEORY §4–5).
+
+    Attributes
+    ----------
+    field : Field or None
+        Applied field shape; ``None`` builds no magnetic term.
+    h : float
+        Orientational group, h² = μ0 χ̄ H0² A ℓ² / (2 B0) ≥ 0 (THEORY §5).
+    h_pos : float
+        Positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for
+        non-uniform fields (in a uniform field it is a constant).
+    h_r : float
+        Hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field.
+    magnetization : Profile or None
+        Angle β(s) of the remanent magnetisation to the tangent, rad; ``None`` builds no
+        hard-magnetic term (a present term with h_r = 0 is still built, like every term).
+    fibres : Profile
+        Fibre angle α(s), rad, s ∈ [0, 1].
+    stiffness : Profile
+        Relative bending stiffness b(s) = B(s)/B0 > 0, b(0) = 1 for physical scenes.
+    tip_force : (fx, fy) or None
+        Dead tip force, units of B0/ℓ². ``p`` of THEORY §5 is ``fy``.
+    tip_moment : float or None
+        Dead tip moment, units of B0/ℓ, counter-clockwise positive.
+    distributed_load : (qx, qy) or None
+        Dead load per unit length (e.g. weight), units of B0/ℓ³.
+    theta0 : float
+        Clamp angle, rad.
+    scales : Scales or None
+        Present for physical scenes.
+    name : str
+        Free text for reports.
+    fibres_given : bool
+        The fibre layout was given by the user (a config's ``fibres``): it is fabricated, so inverse
+        design keeps it unless asked to vary it (``--vary ...,alpha``).
+    fibres_physical : bool
+        The fibre layout is a property of the actuator that changes its response (True), or not
+        (False: isotropic particles, whose easy axis is set by the body, the rod's tangent, THEORY
+        §10): inverse design then never designs α(s).
+    extra_terms : tuple of TermValues
+        Plug-in energy terms present in the scene, with their values (the extension point: which
+        terms are listed is structural, their values are not).
+    obstacles : tuple of Wall or Peg
+        Rigid frictionless obstacles (:mod:`actuator_design.contact.obstacles`); ``solve`` then finds a
+        contact equilibrium (:mod:`actuator_design.contact.equilibrium`).
+    contact_gap : float
+        The rod's half-thickness, units of ℓ (set from ``rod.thickness`` for a physical scene): the
+        distance its centre line keeps from an obstacle, and half the distance it keeps from itself
+        (self-contact, :mod:`actuator_design.contact.self_contact`); 0: no self-contact.
+    """
+
+    field: Optional[Field] = dc_field(default_factory=UniformField)
+    h: float = 0.0
+    h_pos: float = 0.0
+    fibres: Profile = dc_field(default_factory=lambda: constant_profile(0.0))
+    stiffness: Profile = dc_field(default_factory=lambda: constant_profile(1.0))
+    tip_force: Optional[Tuple[float, float]] = (0.0, 0.0)
+    tip_moment: Optional[float] = None
+    distributed_load: Optional[Tuple[float, float]] = None
+    theta0: float = 0.0
+    scales: Optional[Scales] = None
+    name: str = "dimensionless cantilever"
+    extra_terms: Tuple[TermValues, ...] = ()
+    fibres_given: bool = False
+    h_r: float = 0.0
+    magnetization: Optional[Profile] = None
+    fibres_physical: bool = True
+    obstacles: Tuple[Any, ...] = ()
+    contact_gap: float = 0.0
+
+    # -- plug-in terms ---------------------------------------------------------------------------
+    def term_values(self, name: str) -> Optional[Dict[str, float]]:
+        """Values of the plug-in term ``name``, or ``None`` when the scene does not contain it."""
+        for t in self.extra_terms:
+            if t.name == name:
+                return t.as_dict()
+        return None
+
+    def extra_term_names(self) -> Tuple[str, ...]:
+        return tuple(t.name for t in self.extra_terms)
+
+    def with_term(self, name: str, **values: float) -> "Scene":
+        """A copy containing plug-in term ``name`` with ``values`` updated (added if absent)."""
+        old = self.term_values(name)
+        merged = {**(old or {}), **{k: float(v) for k, v in values.items()}}
+        entry = TermValues(name, tuple(sorted(merged.items())))
+        if old is None:
+            return replace(self, extra_terms=self.extra_terms + (entry,))
+        return replace(self, extra_terms=tuple(entry if t.name == name else t for t in self.extra_terms))
+
+    def without_term(self, name: str) -> "Scene":
+        """A copy without plug-in term ``name``."""
+        return replace(self, extra_terms=tuple(t for t in self.extra_terms if t.name != name))
+
+    # -- convenience -------------------------------------------------------------------------
+    @property
+    def phi(self) -> float:
+        """Uniform field angle (rad); 0 for other fields."""
+        return self.field.phi if isinstance(self.field, UniformField) else 0.0
+
+    @property
+    def p(self) -> float:
+        """Vertical tip load p = fy (THEORY §5); 0 when the scene has no tip force."""
+        return 0.0 if self.tip_force is None else float(self.tip_force[1])
+
+    def with_values(self, *, h=None, phi=None, p=None, alpha=None) -> "Scene":
+        """Return a copy with the dimensionless values of THEORY §5 overridden.
+
+        Overriding ``phi`` requires a uniform field (or no field: one is added); overriding ``h``
+        adds a uniform field if the scene has none; overriding ``p`` adds a tip force if the scene
+        has none (its x component 0); ``alpha`` (rad) sets a constant fibre angle. The same writes as
+        the parameter lens' ``h``, ``phi``, ``p`` and ``alpha`` (``actuator_design.physics.parameters``),
+        without its range checks.
+        """
+        scene = self
+        if h is not None:
+            scene = replace(scene, h=float(h), field=scene.field or UniformField())
+        if phi is not None:
+            if scene.field is not None and not isinstance(scene.field, UniformField):
+                raise ValueError(
+                    f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field"
+                )
+            scene = replace(scene, field=UniformField(phi=float(phi)))
+        if p is not None:
+            scene = replace(scene, tip_force=((scene.tip_force or (0.0, 0.0))[0], float(p)))
+        if alpha is not None:
+            scene = replace(scene, fibres=constant_profile(float(alpha)))
+        return scene
+
+    def describe_groups(self) -> dict:
+        """The dimensionless groups used, as a plain dict (for results and reports)."""
+        out = {"h": self.h, "h_squared": self.h**2, "theta0": self.theta0}
+        if self.field is not None:
+            out["field"] = self.field.kind
+            if isinstance(self.field, UniformField):
+                out["phi"] = self.field.phi
+            if not self.field.is_uniform:
+                out["h_pos"] = self.h_pos
+        if self.tip_force is not None:
+            out["tip_force"] = list(self.tip_force)
+            out["p"] = self.p
+        if self.tip_moment is not None:
+            out["tip_moment"] = self.tip_moment
+        if self.distributed_load is not None:
+            out["distributed_load"] = list(self.distributed_load)
+        if self.magnetization is not None:
+            out["h_r"] = self.h_r
+        for t in self.extra_terms:
+            out[t.name] = t.as_dict()
+        return out
+
+
+def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
+    """THEORY §5's dimensionless cantilever: uniform field (h, φ), vertical tip load p,
+    constant fibre angle α, clamp angle 0, nothing else."""
+    return Scene(
+        field=UniformField(phi=float(phi)),
+        h=float(h),
+        fibres=constant_profile(float(alpha)),
+        tip_force=(0.0, float(p)),
+        name="default dimensionless cantilever (THEORY §5)",
+    )
+

@@ -1,0 +1,160 @@
+"""One entry of the parameter lens as a term declares it: a named, unit-carrying scene value.
+
+A leaf module: the energy terms (:mod:`~actuator_design.physics.terms`, the shipped
+:mod:`~actuator_design.physics.extra_terms`, a user's term) declare their parameters with
+:class:`Parameter` and :func:`plugin_parameter`; the lens (:mod:`~actuator_design.physics.parameters`)
+collects them from the registered terms.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, Optional
+
+import numpy as np
+
+from actuator_design.model.scene import Scene
+
+__all__ = ["Parameter", "THETA0", "plugin_parameter"]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A named, unit-carrying scene value seen through one lens.
+
+    Attributes
+    ----------
+    name : str
+        Name used by the API, the CLI and configs (e.g. ``"h2"``).
+    description : str
+        Meaning, one line.
+    unit : str
+        Dimensionless unit (THEORY §5): ``"1"``, ``"rad"``, ``"B0/l"``, ``"B0/l^2"``, ``"B0/l^3"``.
+    slot : str
+        The NLP parameter slot it sets (``h2`` sets slot ``h``).
+    read : callable (Scene) -> float
+        The value in a scene (0 when its term is absent).
+    write : callable (Scene, float) -> Scene
+        A copy with the value set (no validation; :meth:`set` validates and adds the term).
+    term : str or None
+        Name of the energy term whose slot it sets (``None``: the clamp, always present).
+    lower, upper : float
+        Valid closed range.
+    transform : {"identity", "sqrt"}
+        Slot value as a function of the parameter value.
+    field_power : int
+        The value is ∝ H^field_power (0: independent of the applied field).
+    field_magnitude : bool
+        Setting it sets the field magnitude (``h``, ``h2``): other field-scaled values follow.
+    residual : {None, "linear", "squared"}
+        How the slot value enters the stationarity residual scale (forces ∝ value or value²).
+    per_point : bool
+        The slot spans every quadrature point (a constant profile such as ``alpha``).
+    ensure : callable (Scene) -> Scene, optional
+        Adds the needed term at value zero (or raises ValueError when the scene cannot have it).
+    designable : bool
+        A variable of the inverse design (a profile α(s) when ``per_point``).
+    stiffness_power : float
+        The value is ∝ B0^stiffness_power with every other input fixed (B0 = E I, THEORY §5: loads
+        and h_r ∝ 1/B0, h ∝ B0^-½): how a change of Young's modulus moves it (robust design's
+        ``youngs_modulus`` tolerance, a fit of E).
+    susceptibility_power : float
+        The value is ∝ χ^susceptibility_power (h ∝ χ̄^½; the ``chi_bar`` tolerance).
+    """
+
+    name: str
+    description: str
+    unit: str
+    slot: str
+    read: Callable[[Scene], float]
+    write: Callable[[Scene, float], Scene]
+    term: Optional[str] = None
+    lower: float = -math.inf
+    upper: float = math.inf
+    transform: str = "identity"
+    field_power: int = 0
+    field_magnitude: bool = False
+    residual: Optional[str] = None
+    per_point: bool = False
+    ensure: Optional[Callable[[Scene], Scene]] = None
+    designable: bool = False
+    stiffness_power: float = 0.0
+    susceptibility_power: float = 0.0
+
+    # -- values --------------------------------------------------------------------------------
+    def get(self, scene: Scene) -> float:
+        """The value in ``scene`` (units of :attr:`unit`)."""
+        return float(self.read(scene))
+
+    def validate(self, value) -> float:
+        """``value`` as a float; ValueError naming the parameter and its range otherwise."""
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{self.name}: must be a number, got {value!r}") from None
+        if not math.isfinite(v):
+            raise ValueError(f"{self.name}: must be finite, got {value!r}")
+        if v < self.lower:
+            raise ValueError(f"{self.name}: must be >= {self.lower:g}, got {v:g}")
+        if v > self.upper:
+            raise ValueError(f"{self.name}: must be <= {self.upper:g}, got {v:g}")
+        return v
+
+    def require(self, scene: Scene) -> Scene:
+        """``scene`` with the term this parameter needs (added at value zero if absent)."""
+        return self.ensure(scene) if self.ensure is not None else scene
+
+    def set(self, scene: Scene, value) -> Scene:
+        """A copy of ``scene`` with this parameter at ``value`` (validated; the term added)."""
+        return self.write(self.require(scene), self.validate(value))
+
+    # -- the NLP slot --------------------------------------------------------------------------
+    def to_slot(self, value):
+        """Slot value(s) from parameter value(s) (numpy; negative ``h2`` clipped to 0)."""
+        if self.transform == "sqrt":
+            return np.sqrt(np.maximum(value, 0.0))
+        return value
+
+    def slot_expr(self, symbol):
+        """The slot as a CasADi expression of a parameter symbol (``h2``: √λ, so h² = λ exactly)."""
+        if self.transform == "sqrt":
+            import casadi as ca
+            return ca.sqrt(symbol)
+        return symbol
+
+    def describe(self) -> str:
+        """``description (unit; range)`` for help texts and CSV headers."""
+        rng = []
+        if self.lower > -math.inf:
+            rng.append(f">= {self.lower:g}")
+        if self.upper < math.inf:
+            rng.append(f"<= {self.upper:g}")
+        return f"{self.description} ({self.unit}{'; ' + ', '.join(rng) if rng else ''})"
+
+
+THETA0 = Parameter("theta0", "clamp angle theta0", "rad", "theta0",
+                   read=lambda sc: sc.theta0, write=lambda sc, v: replace(sc, theta0=v))
+
+
+def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
+                     name: Optional[str] = None, lower: float = -math.inf, upper: float = math.inf,
+                     residual: Optional[str] = None, field_power: int = 0,
+                     stiffness_power: float = 0.0) -> Parameter:
+    """A parameter of a plug-in term whose value lives in the scene's ``extra_terms``.
+
+    Setting it adds the term (its other values 0) when the scene does not have it. ``unit`` is its
+    dimensionless unit (``"B0/l^4"`` for a stiffness per area); ``stiffness_power`` e says the value
+    is ∝ B0^e (−1 for a value given in units of B0, THEORY §5).
+    """
+    def read(sc: Scene) -> float:
+        return float((sc.term_values(term) or {}).get(slot, 0.0))
+
+    def write(sc: Scene, v: float) -> Scene:
+        return sc.with_term(term, **{slot: v})
+
+    def ensure(sc: Scene) -> Scene:
+        return sc if sc.term_values(term) is not None else sc.with_term(term)
+
+    return Parameter(name or slot, description, unit, slot, read, write, term=term, lower=lower,
+                     upper=upper, residual=residual, field_power=field_power, ensure=ensure,
+                     stiffness_power=stiffness_power)
