@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import actuator_design as ad
-from actuator_design.user_units import user_units
+from actuator_design.io.user_units import user_units
 from actuator_design.viz.shape import plot_shape
 from actuator_design.viz.units import parameter_axis
 

@@ -19,8 +19,8 @@ import numpy as np
 
 import actuator_design as ad
 from actuator_design.analysis.field_angle_response import field_angle_response
-from actuator_design.profiles import constant_profile
-from actuator_design.user_units import user_units
+from actuator_design.model.profiles import constant_profile
+from actuator_design.io.user_units import user_units
 from actuator_design.viz.shape import plot_shape
 
 ROOT = Path(ad.__file__).resolve().parents[1]

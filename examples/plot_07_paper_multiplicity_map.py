@@ -10,7 +10,7 @@ example quick; ``problems/paper_multiplicity_map.py --n 200`` draws the full fig
 import numpy as np
 
 import actuator_design as ad
-from actuator_design.analysis.critical import critical_curves
+from actuator_design.continuation.critical import critical_curves
 from actuator_design.analysis.multiplicity import multiplicity_map
 from actuator_design.viz.landscape import plot_landscape_map
 

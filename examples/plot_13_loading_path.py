@@ -11,7 +11,7 @@ and released energies the path reports.
 import math
 
 import actuator_design as ad
-from actuator_design.analysis.loading import ramp
+from actuator_design.continuation.loading import ramp
 from actuator_design.viz.loading import path_figure
 
 scene = ad.default_scene(h=1.5, phi=math.pi / 2, p=1.5)

@@ -21,11 +21,11 @@ import math
 import statistics
 import time
 
-from actuator_design.equilibrium import solve
-from actuator_design.obstacles import Lumen, Peg, Polygon, Wall
-from actuator_design.options import SolverOptions
-from actuator_design.profiles import expression_profile
-from actuator_design.scene import Scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.profiles import expression_profile
+from actuator_design.model.scene import Scene
 
 COIL = Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01)
 

@@ -14,8 +14,8 @@ import math
 import os
 import time
 
-from actuator_design.analysis.continuation import Continuation
-from actuator_design.scene import default_scene
+from actuator_design.continuation.follow import Continuation
+from actuator_design.model.scene import default_scene
 
 TARGET_S = 0.3  # seconds for the whole 1000 points (best of wall and CPU time)
 

@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from actuator_design.analysis.current_design import design_currents, scene_at_currents
+from actuator_design.hardware.current_design import design_currents, scene_at_currents
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "coils_two_pairs_design.yaml"
 #: currents (A) whose tips are designed back; the last needs 224 W > max_power 200 W

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actuator_design.analysis.current_map import at_weights
-from actuator_design.analysis.current_schedule import current_schedule
+from actuator_design.hardware.current_map import at_weights
+from actuator_design.schedules.current_schedule import current_schedule
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "coils_schedule.yaml"
 WAYPOINTS = [(0.98, 0.18), (0.95, 0.29), (0.90, 0.40), (0.83, 0.5)]

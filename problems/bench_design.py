@@ -40,12 +40,12 @@ from collections import Counter
 
 import numpy as np
 
-from actuator_design.analysis.design import design
-from actuator_design.analysis.design_poses import design_poses
+from actuator_design.inverse.design import design
+from actuator_design.inverse.poses import design_poses
 from actuator_design.config.model import load_config
-from actuator_design.equilibrium import solve
-from actuator_design.options import SolverOptions
-from actuator_design.solver import get_solver
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.solver import get_solver
 from actuator_design.reference.jacobi import jacobi_morse_index
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
 

@@ -28,10 +28,10 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.benchmarks.floor import NumpyNewton
-from actuator_design.options import SolverOptions
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.closed_forms import transverse_mode
-from actuator_design.scene import default_scene
-from actuator_design.solver import EquilibriumSolver
+from actuator_design.model.scene import default_scene
+from actuator_design.equilibrium.solver import EquilibriumSolver
 
 
 def _median_time(step, states, repeats):

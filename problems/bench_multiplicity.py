@@ -18,7 +18,7 @@ START = time.perf_counter()  # the whole script's time includes the imports belo
 import numpy as np  # noqa: E402
 
 from actuator_design.analysis.multiplicity import multiplicity_map  # noqa: E402
-from actuator_design.scene import default_scene  # noqa: E402
+from actuator_design.model.scene import default_scene  # noqa: E402
 
 
 def main(argv=None):

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actuator_design.analysis.pose_design import design_pose
-from actuator_design.analysis.pose_problem import pose_problem, scene_at_pose
+from actuator_design.hardware.pose_design import design_pose
+from actuator_design.hardware.pose_problem import pose_problem, scene_at_pose
 from actuator_design.config import load_scene
-from actuator_design.equilibrium import solve
+from actuator_design.equilibrium.pipeline import solve
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "magnet_pose_design.yaml"
 #: poses ((x, y) mm, axis deg) whose tips are designed back; the last target is a tip moved off the band

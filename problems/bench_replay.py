@@ -17,11 +17,11 @@ from typing import Callable, List, Optional, Tuple
 
 import numpy as np
 
-from actuator_design.analysis.tolerances import perturb
-from actuator_design.options import SolverOptions
+from actuator_design.robust.tolerances import perturb
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.jacobi import jacobi_morse_index
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
-from actuator_design.solver import get_solver
+from actuator_design.equilibrium.solver import get_solver
 
 #: Half-width of the θ'(0) window searched for roots around the predictor, relative to max(1, |γ|);
 #: on the refined mesh, 4× it bounds the change of θ in one step.

@@ -16,8 +16,8 @@ import json
 import math
 import time
 
-from actuator_design.analysis.schedule import field_schedule
-from actuator_design.analysis.schedule_ocp import RateLimits, optimal_schedule
+from actuator_design.schedules.schedule import field_schedule
+from actuator_design.schedules.schedule_ocp import RateLimits, optimal_schedule
 
 WAYPOINTS = [(0.985, 0.161), (0.935, 0.326), (0.861, 0.465), (0.782, 0.563)]
 #: (ḣ_max per second, rotation rate in deg/s)

@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from actuator_design.sources import CoilSource, magpylib_field
+from actuator_design.model.sources import CoilSource, magpylib_field
 
 MU0 = 4e-7 * math.pi
 CENTRE_MM = (10.0, 0.0)

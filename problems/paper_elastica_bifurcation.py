@@ -14,10 +14,10 @@ from pathlib import Path
 
 from scipy.optimize import fsolve
 
-from actuator_design.analysis.critical import critical_points
-from actuator_design.io import write_output_set
+from actuator_design.continuation.critical import critical_points
+from actuator_design.io.save import write_output_set
 from actuator_design.reference.shooting import ShootingParams, shoot
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.landscape import plot_branches
 from actuator_design.viz.style import png_bytes
 

@@ -17,10 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actuator_design.analysis.critical import critical_curves
+from actuator_design.continuation.critical import critical_curves
 from actuator_design.analysis.multiplicity import multiplicity_map
-from actuator_design.io import write_output_set
-from actuator_design.scene import default_scene
+from actuator_design.io.save import write_output_set
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.landscape import plot_multiplicity
 from actuator_design.viz.style import png_bytes
 

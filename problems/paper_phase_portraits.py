@@ -22,10 +22,10 @@ import math
 from pathlib import Path
 
 from actuator_design.analysis.phase import phase_portrait
-from actuator_design.io import dumps_json, write_output_set
-from actuator_design.options import SolverOptions
+from actuator_design.io.save import dumps_json, write_output_set
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.phase import phase_figure
 from actuator_design.viz.style import png_bytes
 

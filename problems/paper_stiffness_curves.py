@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 
-from actuator_design.analysis.loading import follow_path, ramp
+from actuator_design.continuation.loading import follow_path, ramp
 from actuator_design.analysis.stiffness import stiffness_field_curve, tip_stiffness
 from actuator_design.config import load_scene
-from actuator_design.io import write_output_set
+from actuator_design.io.save import write_output_set
 from actuator_design.reference.closed_forms import lowload_stiffness
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.loading import load_deflection_figure, stiffness_figure
 from actuator_design.viz.style import png_bytes as _png
 

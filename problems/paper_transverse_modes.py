@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from actuator_design.analysis.continuation import continue_branch
-from actuator_design.io import write_output_set
+from actuator_design.continuation.follow import continue_branch
+from actuator_design.io.save import write_output_set
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
-from actuator_design.scene import default_scene
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.landscape import plot_branches
 from actuator_design.viz.style import png_bytes
 

@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from actuator_design.analysis.field_angle_response import field_angle_response
-from actuator_design.io import write_output_set
-from actuator_design.profiles import constant_profile
-from actuator_design.scene import default_scene
+from actuator_design.io.save import write_output_set
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import default_scene
 from actuator_design.viz.materials import angle_response_figure
 
 
