@@ -417,3 +417,29 @@ def test_a_plug_in_value_the_field_drives_moves_with_a_designed_h():
         assert (h_r, h_pos) == pytest.approx((0.7 * k, 0.4 * k), rel=1e-15)
     finally:
         unregister_term("toy_field_squared")
+
+
+def test_schedule_sets_a_plugin_value_and_lands_on_the_bvps_fields(capsys):
+    """``schedule --set k_foundation=20``: waypoints made by the BVP reference with the bed (h = 1.5,
+    φ = 0.6 then 1.0; tip position fixes (h, φ)) are reached at exactly those fields."""
+    from actuator_design.cli.main import main
+
+    h, k, phis = 1.5, 20.0, (0.6, 1.0)
+    wps = [rod_bvp(lambda s, th, phi=phi: h ** 2 * np.sin(2.0 * (th - phi)), k, lambda s, phi=phi: phi * s * (2 - s))
+           for phi in phis]
+    argv = ["schedule", "--waypoints", ";".join(f"{float(x)!r},{float(y)!r}" for x, y, _ in wps),
+            "--set", f"k_foundation={k}", "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["verified"] and out["snap_free"] and out["all_stable"]
+    for row, phi in zip(out["rows"], phis):
+        assert row["h"] == pytest.approx(h, abs=1e-6) and row["phi"] == pytest.approx(phi, abs=1e-6)
+        assert row["error"] < 1e-8
+
+
+def test_schedule_refuses_an_unknown_set_name_in_one_line(capsys):
+    from actuator_design.cli.main import main
+
+    assert main(["schedule", "--waypoints", "0.9,0.3;0.8,0.5", "--set", "k_fondation=2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--set" in err[0] and "k_fondation" in err[0], err

@@ -34,6 +34,7 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, InputError, 
 from actuator_design.cli.design_units import (path_line, positive_target, quasi_static_line,
                                               refuse_unknown_keys)
 from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.scene_args import add_set_arg, apply_set_flags, check_flags
 
 __all__ = ["HELP", "add_args", "run"]
 
@@ -75,6 +76,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                                                            "'10mm/s'")
     m.add_argument("--turn-rate", metavar="RATE", help="the stage's largest turn rate of the magnet's axis, e.g. "
                                                         "'90deg/s'")
+    add_set_arg(parser)
     parser.add_argument("--json", action="store_true", help="print exactly one JSON object")
     parser.add_argument("--out", metavar="DIR", help="write schedule.json/.csv/.png/.gif and waypoints.csv "
                                                      "(no .gif for a scene of coils or a magnet's pose)")
@@ -200,6 +202,9 @@ def run(args: argparse.Namespace) -> int:
         if study and study.get("type") != "schedule":
             raise InputError(f"study.type: expected 'schedule' for this command, got {study.get('type')!r}")
         study.pop("type", None)
+    if args.set_values:  # any lens value (a plug-in term's too); the schedule then sets the field
+        scene = apply_set_flags(scene, args)
+        check_flags(scene, options)
     coils = getattr(scene.field, "kind", "") == "sources" and any(hasattr(s, "max_current") for s in scene.field.sources)
     stage = getattr(scene.field, "kind", "") == "sources" and any(getattr(s, "travel", ()) for s in scene.field.sources)
     for flag, value in (("--stage-speed", args.stage_speed), ("--turn-rate", args.turn_rate)):
