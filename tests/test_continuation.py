@@ -1,4 +1,4 @@
-"""Pseudo-arclength continuation (analysis.continuation) against independent references.
+"""Pseudo-arclength continuation (continuation.follow) against independent references.
 
 References: the pitchforks h_crit^(m) = (2m−1)π/(2√2) and the elliptic first mode of THEORY §6
 (``reference.closed_forms``), the elastica's fold loads computed here by the independent shooting

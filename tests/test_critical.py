@@ -1,4 +1,4 @@
-"""Critical values directly (analysis.critical) against independent references.
+"""Critical values directly (continuation.critical) against independent references.
 
 References: the fold loads of the cantilever by the independent shooting solver (r = 0 and
 ∂r/∂γ = 0, ∂r/∂γ from its variational equation), at h² = 0 and along the critical curve

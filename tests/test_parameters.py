@@ -243,3 +243,23 @@ def test_h_per_field_interval_uses_the_lens_exponents():
         assert e(name) == pytest.approx(ref, abs=1e-9)
     for name in ("field_scale", "field_offset", "field_angle_offset", "clamp_angle"):
         assert e(name) == 0.0
+
+
+@pytest.mark.parametrize("values", [{"h": 2.5}, {"phi": 0.7}, {"p": -1.5}, {"alpha": 0.3},
+                                    {"h": 1.2, "phi": 2.0, "p": 3.0, "alpha": -0.4}])
+@pytest.mark.parametrize("base", ["none", "uniform", "loaded"])
+def test_scene_with_values_writes_what_the_lens_writes(values, base):
+    """Scene.with_values (the model's own writes) and the lens' h, phi, p, alpha writes, in that
+    order, give the same scene."""
+    from dataclasses import replace as _replace
+
+    from actuator_design.model.scene import Scene, UniformField
+    from actuator_design.physics.parameters import parameter
+
+    scene = {"none": Scene(field=None), "uniform": Scene(field=UniformField(phi=0.2), h=0.8),
+             "loaded": _replace(Scene(field=None), tip_force=(0.4, 0.1))}[base]
+    by_lens = scene
+    for name in ("h", "phi", "p", "alpha"):
+        if name in values:
+            by_lens = parameter(name).write(by_lens, float(values[name]))
+    assert scene.with_values(**values) == by_lens

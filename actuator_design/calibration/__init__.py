@@ -14,16 +14,42 @@ Modules, one job each:
 
 Figures are in :mod:`actuator_design.viz.calibration`.
 """
-from actuator_design.calibration.data import (COLUMNS, INPUTS, OUTPUTS, DataError, MeasuredData, parse_data,
-                                              read_data)
-from actuator_design.calibration.outputs import write_fit
-from actuator_design.calibration.parameters import PARAMETERS
-from actuator_design.calibration.problem import FitProblem
-from actuator_design.calibration.report import points_csv_text
-from actuator_design.calibration.result import FitResult
-from actuator_design.calibration.solve import fit, fit_config, prepare_fit
-from actuator_design.calibration.spec import FitSpec, ParameterSpec
+import importlib
+
+#: public name → the module of this package that defines it (imported on first use, PEP 562, so
+#: importing one module of the package, e.g. ``calibration.data``, does not import them all)
+_HOME = {
+    "COLUMNS": "data",
+    "INPUTS": "data",
+    "OUTPUTS": "data",
+    "DataError": "data",
+    "MeasuredData": "data",
+    "parse_data": "data",
+    "read_data": "data",
+    "write_fit": "outputs",
+    "PARAMETERS": "parameters",
+    "FitProblem": "problem",
+    "points_csv_text": "report",
+    "FitResult": "result",
+    "fit": "solve",
+    "fit_config": "solve",
+    "prepare_fit": "solve",
+    "FitSpec": "spec",
+    "ParameterSpec": "spec",
+}
 
 __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "parse_data", "read_data",
            "PARAMETERS", "FitSpec", "ParameterSpec", "FitProblem", "FitResult", "prepare_fit",
            "fit", "fit_config", "write_fit", "points_csv_text"]
+
+
+def __getattr__(name):
+    if name in _HOME:
+        value = getattr(importlib.import_module(f"actuator_design.calibration.{_HOME[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_HOME))

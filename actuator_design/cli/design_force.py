@@ -1,6 +1,5 @@
 """``design --target-force F``: the field at which the rod, loaded from rest, presses an obstacle of
-its scene with a given force (a gripper finger on an object): :func:`~actuator_design.analysis.
-contact_design.design_contact_force`, printed in the scene's units and written as design.json,
+its scene with a given force (a gripper finger on an object): :func:`~actuator_design.contact.design.design_contact_force`, printed in the scene's units and written as design.json,
 shape.csv and shape.png."""
 from __future__ import annotations
 

@@ -3,14 +3,14 @@ finger on an object; issue 20 item 5).
 
 The field magnitude h is the design variable, the field angle and everything else as the scene
 gives them. The contact force on obstacle k along the loading path from rest, F_k(h) (the magnitude
-of the total force the obstacle exerts, B0/ℓ²), is followed by :func:`~.contact_path.follow_contact_path`
+of the total force the obstacle exerts, B0/ℓ²), is followed by :func:`~actuator_design.contact.path.follow_contact_path`
 from h = 0 to ``h_max``; the first stable station past the target brackets it, and Brent's method on
 F_k(h) − F (contact solves warm-started from the bracket's lower state, so on the same branch)
 locates the design to ``xtol``. The design is then
 
 * **verified** by an independent forward ``solve`` of the scene at the designed field, from rest
   (not from the path's states): its force must match the target to ``rtol`` and the state be stable;
-* **judged over the tolerance box** (:class:`~.tolerances.Tolerances`: field ±5 %, angle ±2° by
+* **judged over the tolerance box** (:class:`~actuator_design.robust.tolerances.Tolerances`: field ±5 %, angle ±2° by
   default): the force at every corner, each a forward solve from the design state, reported as a
   range, and whether the obstacle is still pressed at every corner.
 

@@ -46,13 +46,13 @@ class ContactNLP:
         z = ca.SX.sym("z", tr.nodes.size)
         P = ca.SX.sym("P", lay.size)
         E = solver.f_energy(z, P)
-        # one row per distinct point, none at the clamp (fixed): :mod:`.clearance`
+        # one row per distinct point, none at the clamp (fixed): :mod:`actuator_design.contact.clearance`
         X, Y, self.s_points, self.w_points = constrained_points(tr, z)
         self.obstacles, self.gap, self.slots = tuple(obstacles), float(gap), int(slots)
         rows = [ob.distance(X, Y) - gap for ob in obstacles]
         self.n_points = m = X.numel()
         # self-contact: ``slots`` pairs of points chosen per solve by one-hot selection parameters
-        # (:mod:`.self_contact`), so that one NLP serves every pair set on this mesh; the clamp
+        # (:mod:`actuator_design.contact.self_contact`), so that one NLP serves every pair set on this mesh; the clamp
         # (fixed at the origin) is a point the rod may press on too
         self.s_self, self.w_self = np.concatenate([[0.0], self.s_points]), np.concatenate([[0.0], self.w_points])
         Sa, Sb = ca.SX.sym("Sa", self.slots, m + 1), ca.SX.sym("Sb", self.slots, m + 1)
@@ -346,7 +346,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
     boundaries from ``refine`` (the round before: its start is the one reported). ``fraction``
     scales every load and field (a ramp from rest); ``self_contact`` adds the rows of the pairs of
-    points near each other in the start (:func:`~.self_contact.candidate_pairs`, with ``spread``);
+    points near each other in the start (:func:`~actuator_design.contact.self_contact.candidate_pairs`, with ``spread``);
     ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair)."""
     from actuator_design.equilibrium.balance import balance
     from actuator_design.equilibrium.single import make_result
@@ -420,7 +420,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                     break
                 # a split round (the same loads, the boundaries moved) passed the rod through itself
                 # where no pair held it: those pairs are constrained too, and it is solved again from
-                # the same start (a ramp step that does so is halved instead: :mod:`.self_contact`)
+                # the same start (a ramp step that does so is halved instead: :mod:`actuator_design.contact.self_contact`)
                 pairs, same = grown, False
                 Pall = nlp.parameters(P, pairs)
                 lbg, ubg = nlp.bounds(pairs)

@@ -63,7 +63,7 @@ def follow_contact_path(scene, options: Optional[SolverOptions] = None, schedule
         With at least one obstacle; values not named in the schedule stay fixed.
     options : SolverOptions, optional
     schedule : list of dict, or dict of lists
-        As for :func:`~.loading.follow_path` (names of the parameter lens, dimensionless, rad).
+        As for :func:`~actuator_design.continuation.loading.follow_path` (names of the parameter lens, dimensionless, rad).
     max_step : float, optional
         Largest step, a fraction of a segment (0 < max_step ≤ 1); default min(1, n_segments/20).
     max_dtheta : float

@@ -140,7 +140,7 @@ def point_loads(contact: dict):
 def penetration_text(scene, inside, self_inside) -> Optional[str]:
     """Whether the dense shape comes closer to an obstacle than the gap, or to itself than twice
     the gap, between the points where contact is imposed (by more than
-    :data:`~.clearance.PENETRATION_TOL` rod lengths), in words: ``inside`` (obstacle index, s,
+    :data:`~actuator_design.contact.clearance.PENETRATION_TOL` rod lengths), in words: ``inside`` (obstacle index, s,
     depth) and ``self_inside`` (s, t, depth), each None when it does not (:mod:`actuator_design.contact.equilibrium`'s dense checks)."""
     if inside is not None:
         k, s, depth = inside

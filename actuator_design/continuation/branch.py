@@ -2,7 +2,7 @@
 
 :class:`Branch` (points in arclength order with stability, tip and energy), :class:`CriticalPoint`
 (a fold or a branch point on it) and :class:`ContinuationResult` (the ``continue --json``
-contract). Built by :class:`~.continuation.Continuation` from the engine's
+contract). Built by :class:`~actuator_design.continuation.follow.Continuation` from the engine's
 :class:`~actuator_design.continuation.ContinuationBranch`.
 """
 from __future__ import annotations

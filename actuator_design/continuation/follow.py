@@ -328,7 +328,7 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     until the rod first touches an obstacle or itself (located as an event, branch status
     ``touch``). From there, with ``through_contact``, the rest of the window is followed by a
     loading path of contact equilibria warm-started from the touching state
-    (:func:`.contact_path.follow_contact_path`: touch-down and lift-off located as events, snaps
+    (:func:`actuator_design.contact.path.follow_contact_path`: touch-down and lift-off located as events, snaps
     located at the contact branch's fold), the result's ``contact_path``. That path follows stable
     states in the direction the branch was moving; it does not turn round folds as the
     arclength continuation does.

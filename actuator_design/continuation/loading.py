@@ -85,7 +85,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     LoadingPath
         ``points``, ``jumps``, ``bifurcations``, ``snap_free``, ``hysteresis``, ``states``,
         ``final`` (the state at the last schedule point), ``success``/``message``. A scene with
-        obstacles is followed by contact equilibria (:func:`.contact_path.follow_contact_path`):
+        obstacles is followed by contact equilibria (:func:`actuator_design.contact.path.follow_contact_path`):
         touch-down and lift-off in ``contact_events``.
 
     Raises

@@ -1,7 +1,7 @@
 """What a loading path returns: points, jumps, continuous bifurcations and the whole path.
 
 The JSON contract of ``path --json`` (:meth:`LoadingPath.to_dict`) and the printed summary live
-here; :func:`~.loading.follow_path` builds them.
+here; :func:`~actuator_design.continuation.loading.follow_path` builds them.
 """
 from __future__ import annotations
 
@@ -158,7 +158,7 @@ class LoadingPath:
         Every step converged (a non-converged step stops the path: ``message`` says where).
     message : str
     contact_events : list of dict
-        Paths through contact (:mod:`.contact_path`): each touch-down and lift-off in path order,
+        Paths through contact (:mod:`actuator_design.contact.path`): each touch-down and lift-off in path order,
         with ``kind``, ``t``, ``param``, ``values``, ``obstacle`` (index) and ``obstacle_text``,
         ``s`` (arc length of the touching point, ℓ) and ``located`` (False: at the step only).
     """

@@ -2,7 +2,7 @@
 
 One pipeline that only calls down: the mesh chosen for the scene (or for a tolerance,
 :func:`solve_to_tolerance`), the state reached from rest, one solve (:mod:`.single`), the
-acceptance checks (:mod:`.acceptance`); a scene with obstacles, or a rod that meets itself, goes
+acceptance checks (:mod:`actuator_design.equilibrium.acceptance`); a scene with obstacles, or a rod that meets itself, goes
 to the contact solves (:mod:`actuator_design.contact`).
 """
 from __future__ import annotations

@@ -7,13 +7,13 @@ its driver's limit, and with every ``resistance`` (Ω) the effort is the coils' 
 |μ0 H| ≤ ``max_field`` at every point of the rod. The design:
 
 1. starts from the configured currents, the state reached from rest there;
-2. moves the currents by a trust-region SQP (:mod:`.current_sqp`) on the forward map
-   (:mod:`.current_map`: the equilibrium followed as the currents change, with exact implicit
+2. moves the currents by a trust-region SQP (:mod:`actuator_design.hardware.current_sqp`) on the forward map
+   (:mod:`actuator_design.hardware.current_map`: the equilibrium followed as the currents change, with exact implicit
    derivatives), to the least effort that meets the target to ``tip_tol``;
 3. is **verified** independently: magpylib's field of the coils at the designed currents is fitted
    anew (its own H0 and groups), and ``solve`` loads that scene from rest on its own mesh; the tip
    must meet the target to ``verify_tol`` and the state be stable;
-4. is **judged over the lab's tolerances** (:class:`~.tolerances.Tolerances`): each current off by
+4. is **judged over the lab's tolerances** (:class:`~actuator_design.robust.tolerances.Tolerances`): each current off by
    ±``field_rel`` independently (a driver's accuracy), the rod's mount turned by ±``angle`` against
    the coils, and E, χ̄, the fibres as given; every corner must stay stable; the worst tip miss is
    reported.
@@ -57,13 +57,13 @@ PAIRED_COILS = 4
 @dataclass
 class CurrentDesign(HardwareDesign):
     """The result of :func:`design_currents` (currents in A, the tip in rod lengths; the common
-    attributes: :class:`~.hardware_design.HardwareDesign`).
+    attributes: :class:`~actuator_design.hardware.design.HardwareDesign`).
 
     Attributes
     ----------
     status : str
         ``"unreachable"``: no currents within the limits meet the target (the nearest tip is
-        reported); else as :class:`~.hardware_design.HardwareDesign`.
+        reported); else as :class:`~actuator_design.hardware.design.HardwareDesign`.
     currents, start_currents, max_current : tuple of float
         A, per coil.
     coils : tuple of str

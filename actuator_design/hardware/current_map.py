@@ -1,4 +1,4 @@
-"""The forward map of a design over coil currents (issue 19 item 2): a :class:`~.hardware_map.HardwareMap`
+"""The forward map of a design over coil currents (issue 19 item 2): a :class:`~actuator_design.hardware.map.HardwareMap`
 over the coils' field weights w (``SourceField.weights``: I_k = w_k × the current coil k was fitted
 at), every current ramped together from zero, with the squared field |ĥ|² at the rod's quadrature
 points as the pointwise quantity (the ``max_field`` limit)."""

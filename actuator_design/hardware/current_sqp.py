@@ -1,6 +1,6 @@
 """The least-effort hardware setting that puts the tip on a target: a trust-region SQP over the
-forward map (:class:`~.hardware_map.HardwareMap`), each step a small quadratic programme (issue 19
-item 2). Written for coil currents; a magnet's pose (:mod:`.pose_design`) is the same problem with
+forward map (:class:`~actuator_design.hardware.map.HardwareMap`), each step a small quadratic programme (issue 19
+item 2). Written for coil currents; a magnet's pose (:mod:`actuator_design.hardware.pose_design`) is the same problem with
 its travel as the box, the least move as the effort and its clearance as the pointwise limit.
 
 Unknowns: the coil weights w (n,), I_k = w_k I_k⁰. Problem:
@@ -251,7 +251,7 @@ def least_effort_currents(prob: CurrentProblem, evaluate: Callable[[np.ndarray],
     descent (:func:`_feasible_descent`) lowers the effort along the target. With ``restore_first``
     the projection comes first, and where it meets the target the feasible descent follows without
     the SQP (for maps whose tip Jacobian is nearly singular, where the merit's linear model fails:
-    a magnet's pose, :mod:`.pose_design`)."""
+    a magnet's pose, :mod:`actuator_design.hardware.pose_design`)."""
     m = prob.target.size
     scale = max(float(np.sum(prob.cost)), 1e-300)
     f = lambda w: _effort(prob, w) / scale

@@ -1,6 +1,6 @@
-"""What the designs over hardware share (issue 19 item 2): coil currents (:mod:`.current_design`)
-and a magnet's pose (:mod:`.pose_design`) are both a search on a :class:`~.hardware_map.HardwareMap`
-by the SQP of :mod:`.current_sqp` from a few starts (each in a forked copy of this process: the same
+"""What the designs over hardware share (issue 19 item 2): coil currents (:mod:`actuator_design.hardware.current_design`)
+and a magnet's pose (:mod:`actuator_design.hardware.pose_design`) are both a search on a :class:`~actuator_design.hardware.map.HardwareMap`
+by the SQP of :mod:`actuator_design.hardware.current_sqp` from a few starts (each in a forked copy of this process: the same
 answer either way), an independent verification on magpylib's field refitted at the answer, and a
 judgement over the lab's tolerance box, every corner switched on from rest. Here: the result's
 common part, the runs from the starts, the verification and the judgement, and the closing message.

@@ -8,8 +8,8 @@ rigidly (``SourceField.placements``: NLP parameters, one solver for every pose),
 
 1. screens a grid over the travel (each pose's state reached from rest), and starts from the
    configured pose and the two poses nearest the target;
-2. moves the pose by the trust-region SQP of the current design (:mod:`.current_sqp`) on the forward
-   map (:class:`~.hardware_map.HardwareMap`, exact implicit derivatives) to the pose nearest the
+2. moves the pose by the trust-region SQP of the current design (:mod:`actuator_design.hardware.current_sqp`) on the forward
+   map (:class:`~actuator_design.hardware.map.HardwareMap`, exact implicit derivatives) to the pose nearest the
    configured one — each coordinate's move as a fraction of its half travel, squared and summed —
    that meets the target to ``tip_tol``, with the rod kept outside every source's fitted region
    (the sphere about the magnet where its field is not represented holds the magnet itself);
@@ -57,13 +57,13 @@ STARTS = 3
 @dataclass
 class PoseDesign(HardwareDesign):
     """The result of :func:`design_pose` (positions in m, angles in rad, the tip in rod lengths; the
-    common attributes: :class:`~.hardware_design.HardwareDesign`).
+    common attributes: :class:`~actuator_design.hardware.design.HardwareDesign`).
 
     Attributes
     ----------
     status : str
         ``"unreachable"``: no pose within the travel meets the target (the nearest tip found is
-        reported); else as :class:`~.hardware_design.HardwareDesign`.
+        reported); else as :class:`~actuator_design.hardware.design.HardwareDesign`.
     position, start_position : (float, float)
         The magnet's centre, designed and configured, m.
     axis_angle, start_axis_angle : float

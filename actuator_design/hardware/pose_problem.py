@@ -1,4 +1,4 @@
-"""The problem of a design over a magnet's pose (:mod:`.pose_design`): the moving magnet and its
+"""The problem of a design over a magnet's pose (:mod:`actuator_design.hardware.pose_design`): the moving magnet and its
 travel as offsets from the configured pose, the scene at an offset (the fitted field moved rigidly,
 ``SourceField.placements``), the rod's clearance from every source's fitted region as the map's
 pointwise quantity, the SQP data (the least move, each coordinate over its half travel), and the

@@ -1,4 +1,4 @@
-"""Stage 3 of :func:`~.design.design`, **choose**: the best optimum over the variable sets tried
+"""Stage 3 of :func:`~actuator_design.inverse.design.design`, **choose**: the best optimum over the variable sets tried
 (reaching the target first, then least effort), made a stable state when the target is not
 reachable, with the notes that explain the choice (variables added, why a target is missed)."""
 from __future__ import annotations

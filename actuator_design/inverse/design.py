@@ -2,26 +2,26 @@
 as a stable state the real actuator reaches from rest.
 
 :func:`design` runs named stages, each a function of its own module, passing small dataclasses
-(:mod:`.design_types`):
+(:mod:`actuator_design.inverse.settings`):
 
-1. **Screen** (:mod:`.design_screen`) a grid of starting designs with forward solves (stable
+1. **Screen** (:mod:`actuator_design.inverse.screen`) a grid of starting designs with forward solves (stable
    states by construction) and keep the few whose tip is nearest the target.
-2. **Optimise** (:mod:`.design_optimise`) from each with the design NLP (:mod:`.design_nlp`):
+2. **Optimise** (:mod:`actuator_design.inverse.optimise`) from each with the design NLP (:mod:`actuator_design.inverse.nlp`):
    stage A finds the nearest reachable pose, stage B the least-effort design that reaches the
    target exactly. Distinct local optima are kept. Screen and optimise run once per variable set:
    when the user does not choose, field magnitude and angle first; when they cannot reach the
    target, the fibre layout α(s) is added (and the report says so).
-3. **Choose** (:mod:`.design_choose`) the best optimum over the sets tried, with the notes that
+3. **Choose** (:mod:`actuator_design.inverse.choose`) the best optimum over the sets tried, with the notes that
    explain it.
-3a. **Resolve** (:mod:`.design_mesh`): the chosen state must meet the accuracy promise of ``solve``
+3a. **Resolve** (:mod:`actuator_design.inverse.mesh`): the chosen state must meet the accuracy promise of ``solve``
    (Euler–Lagrange residual) on the design mesh; if it does not, the search is run again on the
    mesh graded towards the clamp for the design's field, and a design the mesh cannot resolve is
    reported as ``status: "inaccurate"``, never as a design.
-3b. **Robustify** (:mod:`.design_robust_stage`): move the design to one that holds over the lab's
+3b. **Robustify** (:mod:`actuator_design.robust.design_robust_stage`): move the design to one that holds over the lab's
    tolerance box (worst-case tip error over the box's corners, every corner stable; the target
    exact at the nominal field) and report how it holds by following its branch over the box and
    to the nearest snap. A design that does not hold over the box is not a success.
-4. **Verify independently** (:mod:`.design_verify`), never with the design NLP's own state: a fresh
+4. **Verify independently** (:mod:`actuator_design.inverse.verify`), never with the design NLP's own state: a fresh
    forward solve, and a quasi-static loading path from zero field to the design. A design counts
    only if such a path reaches it without a snap and it is stable.
 
@@ -159,7 +159,7 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
 
 def _resolved(problem: DesignProblem, mirror: Optional[DesignProblem], choice: Optional[Choice],
               searched: List[Optimised], timings: Dict[str, float]):
-    """Hold the chosen design to the accuracy of ``solve`` on its mesh (:mod:`.design_mesh`):
+    """Hold the chosen design to the accuracy of ``solve`` on its mesh (:mod:`actuator_design.inverse.mesh`):
     search again on the mesh graded for its field while that changes the mesh; where it cannot be
     refined further, take the best optimum found whose state the mesh does resolve.
 
@@ -337,7 +337,7 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
     """Screen and optimise each variable set in turn until one reaches the target.
 
     The search stops before adding variables when the best design of a set is not resolved by
-    the mesh (:func:`~.design_mesh.unresolved`): the mesh is regraded first (:func:`design`).
+    the mesh (:func:`~actuator_design.inverse.mesh.unresolved`): the mesh is regraded first (:func:`design`).
 
     Returns
     -------

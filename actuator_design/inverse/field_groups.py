@@ -1,6 +1,6 @@
 """The field is one physical field (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H, so a design that
-varies h moves every other group the field drives with it, in the design NLPs (:mod:`.design_nlp`,
-:mod:`.design_robust`) and in the forward scenes they stand for. The groups are read from the
+varies h moves every other group the field drives with it, in the design NLPs (:mod:`actuator_design.inverse.nlp`,
+:mod:`actuator_design.robust.design_robust`) and in the forward scenes they stand for. The groups are read from the
 parameter lens (every slot whose ``field_power`` f ≠ 0 besides the field magnitude, ∝ (h/h0)^f), so
 a plug-in term's field-driven values follow too."""
 from __future__ import annotations

@@ -6,7 +6,7 @@ tolerance box unchanged. A design that varies both then has a flat valley along 
 smoothness effort does not see α's mean), and which point of it IPOPT returns depends on
 round-off: on the default scene the BLAS kernel picked h = 7.048, 6.848 or 6.861 for the target
 (0.5, 0.5) (issue 17). The design fixes the orbit by a stated rule, α's mean c_0 = 0
-(:meth:`~.design_nlp.DesignNLP.fix_gauge`).
+(:meth:`~actuator_design.inverse.nlp.DesignNLP.fix_gauge`).
 """
 from __future__ import annotations
 

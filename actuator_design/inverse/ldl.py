@@ -1,5 +1,5 @@
-"""The LDLᵀ stability certificate of the design NLPs (:mod:`.design_nlp`, :mod:`.design_robust`,
-:mod:`.design_shape`): the pivots of a banded symmetric matrix as CasADi expressions, all > 0 exactly
+"""The LDLᵀ stability certificate of the design NLPs (:mod:`actuator_design.inverse.nlp`, :mod:`actuator_design.robust.design_robust`,
+:mod:`actuator_design.inverse.shape`): the pivots of a banded symmetric matrix as CasADi expressions, all > 0 exactly
 when it is positive definite (Sylvester), and the reduced Hessian's bandwidth."""
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ LIFT_MIN_COLUMNS = 4
 
 class SegmentedLDL:
     """The pivots of A = L D Lᵀ (no pivoting) on A's own sparsity, with the Schur complement
-    lifted at cuts: the certificate of :class:`~.design_nlp.DesignNLP`.
+    lifted at cuts: the certificate of :class:`~actuator_design.inverse.nlp.DesignNLP`.
 
     On the LGL transcription the reduced Hessian is a chain of dense element blocks that share one
     node (THEORY §4). Eliminating a block's interior changes only the shared node's diagonal entry

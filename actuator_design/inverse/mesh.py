@@ -1,6 +1,6 @@
-"""Stage 2b of :func:`~.design.design`, **resolve**: the design mesh must resolve the designed state.
+"""Stage 2b of :func:`~actuator_design.inverse.design.design`, **resolve**: the design mesh must resolve the designed state.
 
-The design NLP (:mod:`.design_nlp`) satisfies the discrete equilibrium equations of one fixed
+The design NLP (:mod:`actuator_design.inverse.nlp`) satisfies the discrete equilibrium equations of one fixed
 mesh exactly, so on a mesh too coarse for the state it designs (a clamp layer of width ~1/h in a
 strong field, THEORY §5; a degree too low for the curvature) it can return a discrete state that
 is no state of the rod: ``--elements 1 --degree 3`` "reaches" (0.3, 0.5) with the field alone at

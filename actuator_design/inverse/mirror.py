@@ -107,11 +107,11 @@ def mirror_choice(choice: Choice, period: float) -> Choice:
 def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choice, follow=None):
     """The robust stage run on the mirror problem (whose box corners are the user's, reflected), its
     design reflected back, and the robustness report made again on the user's own problem by
-    branch following (:func:`~.robustness.evaluate_robustness`): the report's corners and fold
+    branch following (:func:`~actuator_design.robust.robustness.evaluate_robustness`): the report's corners and fold
     directions are the user's, and a design that held only in the mirror would say so.
 
     ``follow`` (the verification, a function of the user's design) is started as
-    :func:`~.design_robust_stage.robust_stage` starts it, on the reflected design.
+    :func:`~actuator_design.robust.design_robust_stage.robust_stage` starts it, on the reflected design.
 
     Returns
     -------

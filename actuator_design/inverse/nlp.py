@@ -25,7 +25,7 @@ design varies h, and every other group it drives moves with it, h_r = h·(h_r0/h
 h_pos = h·(h_pos0/h0) with the base scene's ratios (:func:`couple_field_groups`; a rod without soft
 coupling, h0 = 0, has no h to vary: :func:`prepare_scene` says so). The verification's loading path
 ramps the field H from 0 to the design's, so all groups grow linearly along it, h = t·h_d and
-h_r = t·h_r,d (:mod:`.design_verify`).
+h_r = t·h_r,d (:mod:`actuator_design.inverse.verify`).
 """
 from __future__ import annotations
 
@@ -244,7 +244,7 @@ class DesignNLP:
         return self._nlp[key]
 
     def state_function(self) -> ca.Function:
-        """One state of this NLP, for NLPs that carry many (:mod:`.schedule_ocp_nlp`):
+        """One state of this NLP, for NLPs that carry many (:mod:`actuator_design.schedules.schedule_ocp_nlp`):
         ``(θ (n,), d (nd,), P0) -> (g/m (n,), M^-1/2 H M^-1/2 (n, n))``, the mass-scaled
         stationarity rows and reduced Hessian (the certificate's matrix before the margin)."""
         q = self._parts

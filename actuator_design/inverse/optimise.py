@@ -1,5 +1,5 @@
-"""Stage 2 of :func:`~.design.design`, **optimise**: from each screened start, the design NLP
-(:mod:`.design_nlp`) finds the nearest reachable pose (stage A), then the least-effort design that
+"""Stage 2 of :func:`~actuator_design.inverse.design.design`, **optimise**: from each screened start, the design NLP
+(:mod:`actuator_design.inverse.nlp`) finds the nearest reachable pose (stage A), then the least-effort design that
 reaches the target exactly (stage B); distinct local optima are kept, best first."""
 from __future__ import annotations
 
@@ -43,7 +43,7 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
     problem : DesignProblem
     cand : Candidate
     starts : list of ScreenedStart
-        From :func:`~.design_screen.screen`, nearest first.
+        From :func:`~actuator_design.inverse.screen.screen`, nearest first.
 
     Returns
     -------
@@ -116,7 +116,7 @@ def _from_starts(problem: DesignProblem, cand: Candidate, starts: List[ScreenedS
 def search_set(problem: DesignProblem, vset) -> tuple:
     """Screen and optimise one variable set: its optima (best first), whether the time limit cut
     the optimisation short, and the timings ``build_<set>``, ``optimise_<set>`` (s). Picklable, so
-    that it can run in a forked process (:func:`~.design.search`)."""
+    that it can run in a forked process (:func:`~actuator_design.inverse.design.search`)."""
     name = "+".join(vset)
     tb = time.perf_counter()
     cand = candidate(problem, vset)
@@ -128,8 +128,8 @@ def search_set(problem: DesignProblem, vset) -> tuple:
 
 
 def warm_robust_nlp(problem: DesignProblem, vset) -> None:
-    """Build the robust stage's NLP of the variable set ``vset`` (:mod:`.design_robust`), e.g. while
-    that set's search runs beside (:func:`~.design.search`): the earlier sets did not reach the
+    """Build the robust stage's NLP of the variable set ``vset`` (:mod:`actuator_design.robust.design_robust`), e.g. while
+    that set's search runs beside (:func:`~actuator_design.inverse.design.search`): the earlier sets did not reach the
     target, so its design is the one likely to be made robust."""
     from actuator_design.robust.design_robust import get_scenario_nlp
 

@@ -9,10 +9,10 @@ fixed by fabrication) and driven to several poses by the field alone. :func:`des
    one start's failure is not reported as "no design";
 2. for every other pose, the field that brings the same rod nearest it (layout fixed);
 3. the joint design: one layout and one field per pose, every pose exact (the multi-scenario NLP of
-   :mod:`.design_robust` with an empty box), then made robust over the tolerance box (worst-case tip
+   :mod:`actuator_design.robust.design_robust` with an empty box), then made robust over the tolerance box (worst-case tip
    error of each pose over the box's corners, every corner stable);
 4. per pose, the independent checks of the single-pose design: robustness by branch following
-   (:mod:`.robustness`) and a snap-free loading path from zero field (:mod:`.design_verify`);
+   (:mod:`actuator_design.robust.robustness`) and a snap-free loading path from zero field (:mod:`actuator_design.inverse.verify`);
 5. a schedule that visits the poses in order: from rest to pose 1, then from each pose straight to
    the next field (the short way modulo π), checked by a loading path that must land on the next
    pose's state; where it does not, the field is ramped down to zero and the next pose's verified
@@ -127,7 +127,7 @@ def _fail(message, scene, vary, tol, timings, t0=None) -> MultiPoseResult:
 
 
 def _best_attempt_check(problem, searched):
-    """The mesh check (:mod:`.design_mesh`) of the best-ranked optimum found when none reaches the
+    """The mesh check (:mod:`actuator_design.inverse.mesh`) of the best-ranked optimum found when none reaches the
     target: "unreachable" is a claim only when the mesh resolves what the search found; None when
     nothing was found."""
     found = [(problem.rank(pt), i, opt, pt) for i, opt in enumerate(searched) for pt in opt.optima]
@@ -154,7 +154,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
     vary : sequence of {"h", "phi", "alpha", "p", "magnetization"}, optional
         Default (h, φ, α) — (h, φ) when the scene's fibres are fixed; α is shared by all poses, the
         others are one per pose.
-    options, settings : as for :func:`~.design.design` (``settings.tolerances``: the box every pose
+    options, settings : as for :func:`~actuator_design.inverse.design.design` (``settings.tolerances``: the box every pose
         must hold over).
     verify : bool
         Run the independent checks (loading paths from zero field, transitions).
@@ -231,7 +231,7 @@ def design_poses(targets: Sequence[Sequence[float]], scene: Optional[Scene] = No
 
 def _warm_joint_nlp(problem, vset, n_poses: int, n_corners: int) -> None:
     """Build the joint design's scenario NLP for ``n_poses`` poses and ``n_corners`` box corners
-    (:mod:`.design_robust`; with no corners also its certified variant, which the homotopy to the
+    (:mod:`actuator_design.robust.design_robust`; with no corners also its certified variant, which the homotopy to the
     targets needs), e.g. while pose 1's search runs beside."""
     snlp = get_scenario_nlp(candidate(problem, vset).nlp, n_poses, n_corners)
     snlp.nlpsol(False)

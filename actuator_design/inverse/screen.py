@@ -1,4 +1,4 @@
-"""Stage 1 of :func:`~.design.design`, **screen**: a grid of starting designs, each forward-solved
+"""Stage 1 of :func:`~actuator_design.inverse.design.design`, **screen**: a grid of starting designs, each forward-solved
 (a stable state by construction), ranked by distance to the target; the nearest distinct ones are
 the starts of the optimisation stage."""
 from __future__ import annotations
@@ -104,7 +104,7 @@ def _on_design_mesh(r, nlp: DesignNLP, scene: Scene, options):
 
 
 def _seeded_start(seed, nlp: DesignNLP, scene: Scene, options):
-    """A seed's state (:class:`~.design_mesh.Seed`) re-converged on the design NLP's mesh (None if
+    """A seed's state (:class:`~actuator_design.inverse.mesh.Seed`) re-converged on the design NLP's mesh (None if
     it is not a stable equilibrium there)."""
     from actuator_design.equilibrium.pipeline import solve as solve_on
 

@@ -1,6 +1,6 @@
-"""What the stages of :func:`~.design.design` pass to each other, and the result they produce.
+"""What the stages of :func:`~actuator_design.inverse.design.design` pass to each other, and the result they produce.
 
-The pipeline is ``problem → screen → optimise → choose → verify → result`` (see :mod:`.design`);
+The pipeline is ``problem → screen → optimise → choose → verify → result`` (see :mod:`actuator_design.inverse.design`);
 each arrow carries one of the small dataclasses below. Also here: the target geometry shared by
 the stages (pose distance, the field-axis angle φ modulo π, the target tip angle modulo 2π).
 All quantities are dimensionless (THEORY §5): lengths in rod lengths ℓ, angles in rad.
@@ -57,7 +57,7 @@ class DesignSettings:
     time_limit : float
         Wall-clock budget of the search (s): once spent, no further starting design is optimised
         (the ones done are kept and the message says so); each NLP is also capped in iterations
-        (:mod:`.design_nlp`), so the work of a design is bounded.
+        (:mod:`actuator_design.inverse.nlp`), so the work of a design is bounded.
     tolerances : Tolerances
         The lab's tolerance box the design must hold over (default: field ±5 %, angle ±2°; an
         empty box skips the robustness stage).
@@ -124,7 +124,7 @@ def check_h_max(h_max: float) -> None:
 
 @dataclass
 class DesignResult:
-    """Outcome of :func:`~.design.design`; :meth:`to_dict` is the ``design --json`` contract.
+    """Outcome of :func:`~actuator_design.inverse.design.design`; :meth:`to_dict` is the ``design --json`` contract.
 
     ``schedule`` is the verified path from zero field, a list of ``{"h", "phi"[, "p"]}``; its angles
     are continuous (a rotating field is not wrapped), so its last φ may differ from ``design["phi"]``
@@ -246,7 +246,7 @@ class DesignProblem:
     user_vary : whether the user chose the variables.
     fibres_fixed : the scene's fibre layout is the user's (kept unless ``alpha`` is varied).
     deadline : ``time.perf_counter()`` value after which no new start is optimised.
-    seeds : designs found on another mesh (:class:`~.design_mesh.Seed`), screened first.
+    seeds : designs found on another mesh (:class:`~actuator_design.inverse.mesh.Seed`), screened first.
     notes : what the request was changed to before any stage ran (said first in the message).
     """
 

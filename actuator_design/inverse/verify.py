@@ -1,4 +1,4 @@
-"""Stage 4 of :func:`~.design.design`, **verify**, independently of the design NLP's own state: a
+"""Stage 4 of :func:`~actuator_design.inverse.design.design`, **verify**, independently of the design NLP's own state: a
 fresh forward solve, and a quasi-static loading path from zero field that must reach the design
 without a snap and end stable (a magnitude ramp at the designed angle or, where that lands on
 another branch, a ramp at another angle followed by a rotation of the field).

@@ -1,6 +1,6 @@
 """The user's units beside dimensionless outputs: matrices, data columns and study-table columns.
 
-The conversions themselves are :class:`~.user_units.UserUnits`'s (THEORY §5: lengths x = x̂ ℓ,
+The conversions themselves are :class:`~actuator_design.io.user_units.UserUnits`'s (THEORY §5: lengths x = x̂ ℓ,
 forces in B0/ℓ², moments in B0/ℓ, stiffness in B0/ℓ³, the field μ0 H = μ0 h / (dh/dH)); this
 module applies them to the outputs of ``stiffness`` (the compliance and stiffness matrices in SI
 with a unit per entry), ``fit`` (a data column's unit in the user's units: lengths in the unit of
@@ -30,7 +30,7 @@ LOAD_UNITS = {"fx": "N", "fy": "N", "m_tip": "N m"}
 
 def length_noise(units) -> float:
     """Round-off of a zero length in the user's unit (1e-12 rod lengths): a tip y of -1e-16 mm
-    is printed as 0 (:func:`~.display.number`)."""
+    is printed as 0 (:func:`~actuator_design.io.display.number`)."""
     return 1e-12 * units.length(1.0)
 
 

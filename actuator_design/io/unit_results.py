@@ -1,11 +1,11 @@
 """The user's units beside the results of ``solve``, ``equilibria``, ``continue``, ``critical``,
 ``map`` and ``phase`` (a physical scene only; nothing is added for a dimensionless one).
 
-The conversions are :class:`~.user_units.UserUnits`'s (THEORY §5): lengths x = x̂ ℓ in the unit
+The conversions are :class:`~actuator_design.io.user_units.UserUnits`'s (THEORY §5): lengths x = x̂ ℓ in the unit
 ``rod.length`` is written in, forces in B0/ℓ² → N, moments and energies in B0/ℓ → N m and J,
 curvatures in 1/ℓ → rad per length unit, the first integral H of the phase plane (energy per
 length, B0/ℓ²) → J/m, and the field group h → μ0 H in mT (μ0 H = μ0 h / (dh/dH)). A lens
-parameter (``--param``) is converted by :func:`~.user_units.parameter_physical`; one without a
+parameter (``--param``) is converted by :func:`~actuator_design.io.user_units.parameter_physical`; one without a
 physical unit (an angle, h_r, or a field group on a scene without a field scale) gets a note
 instead of a number. Every function here adds keys; none renames or removes one.
 """
@@ -140,7 +140,7 @@ def point_physical(tip: Dict[str, float], energy: float, units,
 def add_point_units(items: Iterable[dict], param, units) -> None:
     """Add the user's units to every point of a branch or critical point (dicts of
     ``Branch.to_dict``/``CriticalPoint.to_dict``), in place: ``field_mT`` and ``field_A_per_m``
-    (or ``value_N``, ...) beside ``value`` (:func:`~.user_units.physical_value_keys`) and
+    (or ``value_N``, ...) beside ``value`` (:func:`~actuator_design.io.user_units.physical_value_keys`) and
     ``physical`` {tip {x, y} in the length unit, energy_J}."""
     p = _param(param)
     for item in items:

@@ -282,7 +282,7 @@ def _fit_coil(src: MappedCoil, length: float, tol: float):
 
 
 def fit_map(sources, length: float, tol: float):
-    """The :class:`~actuator_design.model.field_sources.FittedField` of mapped coils (module docstring):
+    """The :class:`~actuator_design.model.source_fit.FittedField` of mapped coils (module docstring):
     their terms (dimensionless, per H0), H0 (A/m: the largest |H| of the fitted total over the
     reach |r| ≤ ℓ where every fit holds), the held-out error (the coils' misses added, per H0) and
     the gradient's error NaN (a map has no gradient samples)."""

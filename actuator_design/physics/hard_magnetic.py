@@ -61,7 +61,7 @@ class HardMagnetic(EnergyTerm):
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
-                  designable=True),  # designed as a profile β(s) (analysis/design_nlp.py)
+                  designable=True),  # designed as a profile β(s) (inverse/nlp.py)
     )
 
     def __init__(self, field: FieldModel):

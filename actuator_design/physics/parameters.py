@@ -6,7 +6,7 @@ transform to that slot (``h2`` → slot ``h`` through √), how it scales with t
 magnitude H (THEORY §5: h and h_pos ∝ H, h² ∝ H²) and how it enters the solver's residual scale
 (loads linearly, field groups squared).
 
-Terms contribute their own parameters (``EnergyTerm.parameters`` in :mod:`.physics.terms`); the
+Terms contribute their own parameters (``EnergyTerm.parameters`` in :mod:`actuator_design.physics.terms`); the
 clamp angle ``theta0`` belongs to the transcription. The registry below collects them in the order
 the terms are registered, so a plug-in term's parameters are continued, designed and ramped like
 the built-in ones. Continuation, loading paths, critical values, maps, design and the CLI all look

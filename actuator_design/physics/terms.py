@@ -7,7 +7,7 @@ positions), scalar NLP parameters (``scalar_params``) and per-quadrature-point f
 relative stiffness b).
 
 Adding a physics term = writing a subclass of :class:`EnergyTerm` and registering it
-(:func:`~.registry.register_term`); nothing else changes. A plug-in term is present in a scene when
+(:func:`~actuator_design.physics.registration.register_term`); nothing else changes. A plug-in term is present in a scene when
 the scene lists it in ``extra_terms`` (with its values).
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Robust and multi-pose design: one actuator that reaches its targets and stays put over the box.
 
-The nominal design NLP (:mod:`.design_nlp`) minimises effort, which drives a design onto the fold
+The nominal design NLP (:mod:`actuator_design.inverse.nlp`) minimises effort, which drives a design onto the fold
 where its branch ends: there, a fraction of a per cent less field and the rod snaps. Here a design
 is posed over the tolerance box instead, as a multi-scenario NLP. For poses k = 1..K (one shared
 fibre layout α(s), one field (h_k, φ_k[, p_k]) per pose) and the box's corners c = 1..C:
@@ -14,7 +14,7 @@ fibre layout α(s), one field (h_k, φ_k[, p_k]) per pose) and the box's corners
 Why this formulation: the worst-case tip error over the corners is the quantity a user builds on,
 and requiring every corner to be a stable equilibrium pushes every fold out of the box (a fold
 inside the box would leave a corner without its stable state). Whether the corners' states lie on
-the nominal state's branch is not part of the NLP: :func:`.robustness.evaluate_robustness` checks
+the nominal state's branch is not part of the NLP: :func:`actuator_design.robust.robustness.evaluate_robustness` checks
 it afterwards by following the branch along rays and edges, and that check decides.
 
 The NLP is solved first with the exact Hessian and without the stability rows (fast); only if a
@@ -24,7 +24,7 @@ in its size (¼, ½, 1 of the tolerances), each stage warm-started from the last
 a design holds is known when the full box fails.
 
 P_kc(d) maps the design vector and the corner's offsets (NLP parameters, so the box can change
-without a rebuild) to the forward NLP's parameter vector, with the scalings of :mod:`.tolerances`:
+without a rebuild) to the forward NLP's parameter vector, with the scalings of :mod:`actuator_design.robust.tolerances`:
 h × k_h, h_r × k_hr (∝ H/E, THEORY §9), loads × k_p, φ, α and θ0 shifted.
 """
 from __future__ import annotations
@@ -102,8 +102,8 @@ def _corner_offsets(tol: Tolerances, scale: float) -> List[Dict[str, float]]:
 
 def _h_r_factor(deltas: Dict[str, float]) -> float:
     """The factor on h_r of a corner, read off the forward check's own perturbation
-    (:func:`~.tolerances.apply_deltas`) so that the scenario NLP and the branch-following check of
-    :mod:`.robustness` see the same corner scenes (physically h_r ∝ H/E, THEORY §9)."""
+    (:func:`~actuator_design.robust.tolerances.apply_deltas`) so that the scenario NLP and the branch-following check of
+    :mod:`actuator_design.robust.robustness` see the same corner scenes (physically h_r ∝ H/E, THEORY §9)."""
     probe = replace(default_scene(h=1.0), h_r=1.0, magnetization=constant_profile(0.0))
     return float(apply_deltas(probe, {a: v for a, v in deltas.items() if a not in ("angle", "fibre_angle")}).h_r)
 
@@ -379,7 +379,7 @@ def _stable_everywhere(snlp: ScenarioDesignNLP, base: Scene, pt: ScenarioPoint, 
 #: homotopy. The homotopy follows one design as the box grows; a converged solve whose states
 #: jumped has left it (target (0.4178, 0.4979): one kernel's solve of the first quarter jumped to
 #: a design whose worst corner error was 0.93 rod lengths, where the other's path ends at 0.010). As the verification's
-#: path follower (max_dtheta, :mod:`.design_verify`).
+#: path follower (max_dtheta, :mod:`actuator_design.inverse.verify`).
 MAX_SHAPE_TURN = 0.5
 
 

@@ -1,6 +1,6 @@
-"""Stage 3b of :func:`~.design.design`, **robustify**, between choose and verify: move the chosen
-design to one that holds over the lab's tolerance box (:mod:`.design_robust`) and say how it holds
-(:mod:`.robustness`: the branch followed to the box's corners and edges and to the nearest snap).
+"""Stage 3b of :func:`~actuator_design.inverse.design.design`, **robustify**, between choose and verify: move the chosen
+design to one that holds over the lab's tolerance box (:mod:`actuator_design.robust.design_robust`) and say how it holds
+(:mod:`actuator_design.robust.robustness`: the branch followed to the box's corners and edges and to the nearest snap).
 
 A design that reaches the target exactly at the nominal field but sits next to a fold is not a
 design: the real coil is a few per cent off. This stage keeps the target exact at the nominal
@@ -31,11 +31,11 @@ __all__ = ["RobustReport", "robust_stage"]
 class RobustReport:
     """How the chosen design holds over the tolerance box.
 
-    robustness : the final design's :class:`~.robustness.Robustness` over the full box.
+    robustness : the final design's :class:`~actuator_design.robust.robustness.Robustness` over the full box.
     largest_box : the fraction of the box the design was made to hold (1.0: all of it).
     nominal : the robustness of the design before this stage (None when it was not evaluated).
     attempts : one line per robust NLP solve.
-    stiffness : the stiffness over the box (:mod:`.design_stiffness_box`) of a stiffness target.
+    stiffness : the stiffness over the box (:mod:`actuator_design.robust.design_stiffness_box`) of a stiffness target.
     pose_target : the design has a tip target (else the tip spread is around the nominal tip).
     """
 
@@ -103,7 +103,7 @@ def robust_stage(problem: DesignProblem, choice: Choice,
 
     Skipped (returns ``(choice, None, None)``) when the box is empty or the target is not
     reachable. A design with a stiffness target is not moved: its branch is followed over the box
-    and its stiffness taken there (:func:`~.design_stiffness_box.stiffness_over_box`).
+    and its stiffness taken there (:func:`~actuator_design.robust.design_stiffness_box.stiffness_over_box`).
 
     Parameters
     ----------
@@ -177,7 +177,7 @@ def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts):
 
 
 def _robust_design(nlp, base, d0: np.ndarray, z0: np.ndarray, target, tol, margin: float, bounds):
-    """:func:`~.design_robust.robustify` of one pose, and its design vector (None without a
+    """:func:`~actuator_design.robust.design_robust.robustify` of one pose, and its design vector (None without a
     point), shape (nlp.nd,): ``(RobustOutcome without its NLP, d)``, which pickles (a forked task)."""
     out = robustify(nlp, base, [d0], [z0], [target], tol, margin=margin, bounds=bounds)
     d = out.nlp.pose_vector(out.point.d, 0) if out.point is not None else None

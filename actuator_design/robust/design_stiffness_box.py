@@ -1,12 +1,12 @@
 """The tip stiffness of a design over the lab's tolerance box (a stiffness target's robustness).
 
 A design for a stiffness k_target is a state on one branch; over the tolerance box
-(:mod:`.tolerances`) the real actuator stays on that branch, so its stiffness there is the
+(:mod:`actuator_design.robust.tolerances`) the real actuator stays on that branch, so its stiffness there is the
 stiffness of the branch's state at the perturbed scene. The branch is followed from the nominal
-state to every point of a grid over the box (:func:`~.robustness.follow_segment`, warm Newton
+state to every point of a grid over the box (:func:`~actuator_design.robust.robustness.follow_segment`, warm Newton
 steps, every state stable), and at each point the vertical tip stiffness dp/dv1 is taken by
 central differences of two forward solves warm-started on that state
-(:func:`~.design_verify.stiffness_by_differences`: the verification's own method, never the
+(:func:`~actuator_design.inverse.verify.stiffness_by_differences`: the verification's own method, never the
 design NLP's sensitivity).
 
 The grid: every combination of −1, 0, +1 of each active half-width (3^k points: the centre, the

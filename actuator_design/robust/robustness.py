@@ -1,6 +1,6 @@
 """Does a design hold over the lab's tolerance box? Branch following, not re-solving from rest.
 
-A design is an equilibrium on one branch. Over the tolerance box (:mod:`.tolerances`) the real
+A design is an equilibrium on one branch. Over the tolerance box (:mod:`actuator_design.robust.tolerances`) the real
 actuator stays on that branch as long as the branch exists and is stable; it snaps where the branch
 ends (a fold) or loses stability (a branch point). So the box is checked by *following the branch*
 with warm-started Newton steps from the nominal design:
@@ -142,7 +142,7 @@ class FoldDistance:
     errors : per axis with a snap, the estimated discretisation error of its distance (same unit),
         or None where the snap could not be located as a fold and refined on finer meshes (then
         the distance is the last stable point of the branch following on the design mesh):
-        :mod:`.snap_location`.
+        :mod:`actuator_design.robust.snap_location`.
     touches : the axes whose search stopped where the rod would touch an obstacle (the free
         branch is no longer the rod's beyond; ``search`` then holds the range up to the touch).
     """
@@ -274,7 +274,7 @@ def _fold_axes(scene: Scene) -> List[str]:
 
 def fold_search_builds(scene: Scene, options: Optional[SolverOptions] = None) -> List[Callable[[], None]]:
     """The solver builds of :func:`evaluate_robustness`'s fold search of ``scene``, as steps to
-    run ahead of need (:func:`~.snap_location.snap_builds`)."""
+    run ahead of need (:func:`~actuator_design.robust.snap_location.snap_builds`)."""
     from actuator_design.robust.snap_location import snap_builds
 
     return snap_builds(scene, options or SolverOptions(), _fold_axes(scene))

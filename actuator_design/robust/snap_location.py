@@ -1,7 +1,7 @@
 """Where exactly a design's branch snaps along one tolerance axis (the fold distance of
-:mod:`.robustness`), to a stated accuracy.
+:mod:`actuator_design.robust.robustness`), to a stated accuracy.
 
-Branch following (:func:`.robustness.follow_segment`) stops where warm-started Newton no longer
+Branch following (:func:`actuator_design.robust.robustness.follow_segment`) stops where warm-started Newton no longer
 converges or the state turns unstable; near a quadratic fold Newton's basin shrinks like the
 square root of the distance, so that last stable point can lie short of the fold. And the fold of
 the design mesh is not the fold of the rod: at the strong fields where designs live, the default

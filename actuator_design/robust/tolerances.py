@@ -200,7 +200,7 @@ def apply_deltas(scene: Scene, deltas: Mapping[str, float]) -> Scene:
     ``youngs_rel``, fractions > −1) and angles (``angle``, ``fibre_angle``, ``clamp_angle``, rad).
 
     The relative changes scale every lens value of a present term by its power laws
-    (:attr:`~actuator_design.physics.parameters.Parameter.field_power`, ``stiffness_power``,
+    (:attr:`~actuator_design.physics.parameter.Parameter.field_power`, ``stiffness_power``,
     ``susceptibility_power``): a plug-in term's values follow E like the built-in loads."""
     g = {attr: float(deltas.get(attr, 0.0)) for attr, _ in _SPEC.values()}
     out = scene

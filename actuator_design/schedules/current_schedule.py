@@ -3,11 +3,11 @@ of a rod in the field of coils through waypoints, within the drivers' limits, wi
 ∫ Σ R_k I_k² dt or in the least time.
 
 1. **Greedy schedule** (the reference and the warm start): the least-power currents of each
-   waypoint (:mod:`.current_sqp` on the forward map :class:`~.current_map.CurrentMap`; the first
-   from the screened starts of :func:`~.current_design.design_currents`, each next from the
+   waypoint (:mod:`actuator_design.hardware.current_sqp` on the forward map :class:`~actuator_design.hardware.current_map.CurrentMap`; the first
+   from the screened starts of :func:`~actuator_design.hardware.current_design.design_currents`, each next from the
    previous waypoint's currents, so the schedule stays on one branch), joined by straight lines
    in the currents from zero; each step lasts as long as the slowest coil's slew allows.
-2. **Optimal control** (:class:`~.current_schedule_nlp.CurrentOCP`): the currents at every
+2. **Optimal control** (:class:`~actuator_design.schedules.current_schedule_nlp.CurrentOCP`): the currents at every
    time node and each leg's duration as one NLP — |I_k| ≤ max_current and Σ R I² ≤ max_power at
    every node, |ΔI_k| ≤ slew Δt every step, the coils off at the start and each waypoint's node at
    the greedy schedule's least-power currents (with either sign of each, for a rod whose energy is
@@ -15,13 +15,13 @@ of a rod in the field of coils through waypoints, within the drivers' limits, wi
    duration (then the least energy at it). The rod's states are not unknowns of this NLP (its
    module docstring says why): they are checked on the replayed path.
 3. **Verification**: each schedule is replayed as one quasi-static loading path from zero
-   currents through its steps (:func:`~.schedule.verify_schedule`: no snap, every state stable,
+   currents through its steps (:func:`~actuator_design.schedules.schedule.verify_schedule`: no snap, every state stable,
    each waypoint hit to 1e-6, every state where the coils' fits hold); its limits, with |μ0 H| ≤
    max_field on the rod, are checked at every step on the replayed states. The optimised schedule is reported only when it is verified
-   and no worse than the greedy one (to :data:`~.schedule_ocp.NOT_WORSE_TOL`); otherwise the
+   and no worse than the greedy one (to :data:`~actuator_design.schedules.schedule_ocp.NOT_WORSE_TOL`); otherwise the
    greedy one, and the message says why.
 4. **Quasi-static?** With the rod's density, each replayed state's relaxation time
-   (:mod:`.dynamics`) is compared with its step's duration (issue 19 item 4): a step shorter than
+   (:mod:`actuator_design.schedules.dynamics`) is compared with its step's duration (issue 19 item 4): a step shorter than
    it leaves the rod lagging the currents, and the result says so (it is still reported).
 
 Power along a straight line in the currents is convex in time, so its largest value is at a step's
@@ -94,7 +94,7 @@ class CurrentSchedule:
         states (each must be ≥ the margin).
     quasi_static : dict or None
         The rod's slowest relaxation time along the reported schedule and the steps shorter than it
-        (:func:`~.dynamics.quasi_static`; issue 19 item 4); None without the rod's density.
+        (:func:`~actuator_design.schedules.dynamics.quasi_static`; issue 19 item 4); None without the rod's density.
     step_dynamics : list of dict
         Per step, ``relaxation_time_s`` of the state it arrives at, ``quasi_static`` (the step lasts
         at least that long) and ``tip_lag`` (rod lengths); empty without the density.
@@ -186,7 +186,7 @@ def current_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], slew, *
     objective : {"energy", "time"}
     nodes : int
         Time nodes of the optimal-control NLP: at least one more than the waypoints, at most
-        :data:`~.schedule_ocp.MAX_NODES`.
+        :data:`~actuator_design.schedules.schedule_ocp.MAX_NODES`.
     substeps : int
         Greedy schedule points between consecutive waypoints.
     options : SolverOptions, optional

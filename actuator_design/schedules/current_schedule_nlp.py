@@ -1,4 +1,4 @@
-"""The optimal-control NLP of a schedule over coil currents (:mod:`.current_schedule`): the coils'
+"""The optimal-control NLP of a schedule over coil currents (:mod:`actuator_design.schedules.current_schedule`): the coils'
 currents at N time nodes and the legs' durations, within the drivers' limits, with the currents at
 each waypoint's node pinned to ones that put the tip on the waypoint.
 
@@ -9,14 +9,14 @@ u_0 = 0 (the coils start off), u at waypoint j's node = the pinned weights. Rows
 Objective: the energy ∫ Σ R_k I_k² dt (exact for currents linear in time within a step), then the
 least duration at it; or the duration, then the least energy at it.
 
-Why the rod's states are not unknowns here (unlike the ideal field's :class:`~.schedule_ocp_nlp.ScheduleOCP`):
+Why the rod's states are not unknowns here (unlike the ideal field's :class:`~actuator_design.schedules.schedule_ocp_nlp.ScheduleOCP`):
 in a fitted coil field the reduced Hessian is dense in the angles (each point's field depends on
 every angle before it), so a node's LDLᵀ certificate written out took ~9e6 instructions and its
 Jacobian over 20 GiB; without it (stationarity rows and a quasi-Newton Hessian) 40 nodes ran for
 more than 10 minutes. Between the waypoints the rod's state enters neither the objective nor the
 drivers' limits; at the waypoints it is pinned by the currents. Stability at every node, the field
 on the rod, the absence of snaps and the waypoints are checked on the loading path that replays the
-schedule from zero currents (:mod:`.current_schedule`).
+schedule from zero currents (:mod:`actuator_design.schedules.current_schedule`).
 """
 from __future__ import annotations
 

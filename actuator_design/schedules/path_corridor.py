@@ -7,7 +7,7 @@ the schedule holds to the path when the largest distance is at most the toleranc
 the tip is not measured: more steps (``substeps``, or the ``nodes`` of an optimised schedule) check
 it more finely. The tolerance is a check of the reported schedule, not a constraint of its search:
 an optimised schedule that strays is reported as such, not replaced by the greedy one. Works on every schedule
-result: an ideal field's (:class:`~.schedule.ScheduleResult`), coil currents' and a magnet's pose's.
+result: an ideal field's (:class:`~actuator_design.schedules.schedule.ScheduleResult`), coil currents' and a magnet's pose's.
 Lengths in rod lengths.
 """
 from __future__ import annotations

@@ -2,7 +2,7 @@
 time, so that the tip of the rod passes through waypoints, within the stage's travel and speeds.
 
 1. **Waypoint poses.** From the configured pose (the rod loaded from rest there), each waypoint's
-   pose is found by the trust-region SQP of the pose design (:mod:`.pose_design`, exact implicit
+   pose is found by the trust-region SQP of the pose design (:mod:`actuator_design.hardware.pose_design`, exact implicit
    derivatives on the forward map), started at the previous waypoint's pose and measuring the move
    from it in time: the least Σ_i (Δ_i / rate_i)², Δ_i each coordinate's move and rate_i the stage's
    speed (x, y) or turn rate (axis angle) — the L2 proxy of the straight move's duration
@@ -12,11 +12,11 @@ time, so that the tip of the rod passes through waypoints, within the stage's tr
    limited independently can do between those poses. A travel of a whole turn is a turntable that
    turns without end (as in the pose design): each move turns the short way round.
 3. **Verification.** The schedule is replayed as one quasi-static loading path from the configured
-   pose through every step (:func:`~.schedule.verify_schedule`: no snap, every state stable, each
+   pose through every step (:func:`~actuator_design.schedules.schedule.verify_schedule`: no snap, every state stable, each
    waypoint hit to 1e-6), every state where the magnet's fit holds (outside the sphere about it
    that holds the magnet itself).
 4. **Quasi-static?** With the rod's density, each replayed state's relaxation time is compared with
-   its step's duration (:func:`~.dynamics.quasi_static`), as for every timed schedule.
+   its step's duration (:func:`~actuator_design.schedules.dynamics.quasi_static`), as for every timed schedule.
 
 Units: positions in m, angles in rad, times in s; the tip in rod lengths. The rod's clearance from
 the magnet's fit region is checked at the schedule's steps (more ``substeps`` check more finely).
@@ -69,7 +69,7 @@ class PoseSchedule:
     verification : ScheduleResult
         The replayed loading path (``rows``: per waypoint; ``states``).
     quasi_static, step_dynamics
-        As :class:`~.current_schedule.CurrentSchedule`'s (None / empty without the rod's density).
+        As :class:`~actuator_design.schedules.current_schedule.CurrentSchedule`'s (None / empty without the rod's density).
     solves : int
         Forward solves of the waypoint search.
     """
@@ -228,7 +228,7 @@ def pose_schedule(scene: Scene, waypoints: Sequence[Sequence[float]], speed: Opt
 
 def _whole_turn(var) -> Optional[int]:
     """The index of the axis angle among the pose's offsets when its travel is a whole turn (a
-    turntable: every axis once, reached the short way, as :func:`~.pose_problem.angle_offsets`)."""
+    turntable: every axis once, reached the short way, as :func:`~actuator_design.hardware.pose_problem.angle_offsets`)."""
     for i, c in enumerate(var.coords):
         if c == 2 and var.upper[i] - var.lower[i] >= 2 * math.pi - 1e-9:
             return i
@@ -253,7 +253,7 @@ def _short_way(turn: Optional[int], v: np.ndarray, ref: np.ndarray) -> np.ndarra
 
 
 def _better_from(prob, a, b) -> bool:
-    """:func:`~.pose_design._better` with the move measured from the problem's centre."""
+    """:func:`~actuator_design.hardware.pose_design._better` with the move measured from the problem's centre."""
     return _better(replace(prob, centre=np.zeros_like(prob.centre)), _shifted(a, prob.centre),
                    _shifted(b, prob.centre))
 

@@ -1,6 +1,6 @@
 """Field schedules: fields (h, φ) whose quasi-static equilibria pass through given tip waypoints.
 
-1. The first waypoint is a full :func:`~.design.design` (magnitude and angle; the fibre layout is
+1. The first waypoint is a full :func:`~actuator_design.inverse.design.design` (magnitude and angle; the fibre layout is
    the scene's, fixed by fabrication), verified by a loading path from zero field.
 2. Each next waypoint is a stage-B design-NLP solve warm-started from the previous state, with
    objective h² + w_rate·|(h, φ) − (h, φ)_prev|² (least field effort and rate of change) and the tip
@@ -9,7 +9,7 @@
    each new angle is taken modulo π as the representative nearest the previous one: the field
    rotates the short way (at most 90°) between waypoints.
 3. The whole schedule (zero field → first waypoint, then straight lines in (h, φ) between waypoint
-   fields) is checked by one quasi-static loading path (:func:`~.loading.follow_path`): no snap,
+   fields) is checked by one quasi-static loading path (:func:`~actuator_design.continuation.loading.follow_path`): no snap,
    every state stable, and the state at each waypoint's field on the waypoint.
 """
 from __future__ import annotations
@@ -159,7 +159,7 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
 def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: SolverOptions,
                     schedule: Sequence[Dict[str, float]], index: Sequence[int], max_step: float = 0.25) -> ScheduleResult:
     """Check a schedule by one quasi-static loading path from zero field through its points
-    (:func:`~.loading.follow_path`; the points name lens parameters: ``h``, ``phi``, or the coils'
+    (:func:`~actuator_design.continuation.loading.follow_path`; the points name lens parameters: ``h``, ``phi``, or the coils'
     ``source_weight_k``): no snap, every state stable, the state at each waypoint's
     field (``schedule[index[k]]``) on waypoint k to 1e-6. ``max_step``: the path's largest step, a
     fraction of a schedule segment (the engine's step control and the angle bound refine further).

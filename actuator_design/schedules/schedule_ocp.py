@@ -1,6 +1,6 @@
 """Field schedules as one optimal-control problem (issue 19 item 3).
 
-The greedy schedule (:func:`~.schedule.field_schedule`) designs one waypoint after another and
+The greedy schedule (:func:`~actuator_design.schedules.schedule.field_schedule`) designs one waypoint after another and
 joins their fields by straight lines in (h, φ). Here the whole schedule, from zero field through
 every waypoint, is one CasADi NLP over time nodes k = 0 … N−1 (a direct transcription):
 
@@ -8,7 +8,7 @@ every waypoint, is one CasADi NLP over time nodes k = 0 … N−1 (a direct tran
   waypoints (its steps Δt_k of equal length: the nodes are a time grid);
 * the rod's equilibrium at every node (the design NLP's stationarity rows, THEORY §4) and a
   stability certificate at every node (the LDLᵀ pivots of the mass-scaled reduced Hessian minus the
-  margin, :class:`~.design_ldl.SegmentedLDL`, the design NLP's certificate);
+  margin, :class:`~actuator_design.inverse.ldl.SegmentedLDL`, the design NLP's certificate);
 * the waypoints at their nodes (the tip pinned), h_0 = 0 (the schedule starts from zero field);
 * the actuator's limits on every step: |h_{k+1} − h_k| ≤ ḣ_max Δt_k, |φ_{k+1} − φ_k| ≤ φ̇_max Δt_k,
   0 ≤ h_k ≤ h_max; and a continuity bound |θ_{k+1} − θ_k| ≤ 0.5 rad at every node, so that
@@ -175,7 +175,7 @@ def optimal_schedule(waypoints: Sequence[Sequence[float]], limits: RateLimits, s
         Tip positions, units of ℓ, in visiting order.
     limits : RateLimits
     scene, options, settings
-        As for :func:`~.schedule.field_schedule` (the fibre layout and loads stay the scene's;
+        As for :func:`~actuator_design.schedules.schedule.field_schedule` (the fibre layout and loads stay the scene's;
         ``settings.margin`` is the stability margin required at every node, ``settings.h_max`` the
         field bound).
     objective : {"time", "energy"}

@@ -1,4 +1,4 @@
-"""The NLP of the optimal-control schedule (:mod:`.schedule_ocp`): N rod states with their fields
+"""The NLP of the optimal-control schedule (:mod:`actuator_design.schedules.schedule_ocp`): N rod states with their fields
 and stability certificates, the steps' durations, the actuator's rate limits.
 
 Unknowns, in order: per node k the free nodal angles θ_k (n), the field (h_k, φ_k) (in the design
@@ -11,7 +11,7 @@ the nodes a time grid.)
 
 Rows, in order: per node the stationarity rows g/m = 0 (THEORY §4), the certificate's pivots ≥ 0
 and lifted rows = 0 (the LDLᵀ of M^-1/2 H M^-1/2 − μ I, μ the margin:
-:class:`~.design_ldl.SegmentedLDL`), the tip rows at a waypoint node; then per step the rate rows
+:class:`~actuator_design.inverse.ldl.SegmentedLDL`), the tip rows at a waypoint node; then per step the rate rows
 ±Δh − ḣ_max Δt ≤ 0, ±Δφ − φ̇_max Δt ≤ 0 and the continuity rows |Δθ| ≤ :data:`MAX_STEP_TURN`;
 last the duration's cap Σ T_j ≤ T_cap (a parameter, see :meth:`ScheduleOCP.solve`).
 """

@@ -24,7 +24,7 @@ __all__ = ["plot_equilibria", "plot_branches", "plot_multiplicity", "plot_landsc
 
 
 def plot_equilibria(result, ax=None, title: Optional[str] = None, points: int = 200, units=None):
-    """Draw every equilibrium of an :class:`~actuator_design.analysis.equilibria.EquilibriaResult`.
+    """Draw every equilibrium of an :class:`~actuator_design.analysis.equilibria_found.EquilibriaResult`.
 
     Stable shapes solid, unstable dashed; the legend gives θ'(0), the Morse index and flags
     self-intersecting shapes. With a physical scene's ``units``
