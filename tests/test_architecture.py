@@ -191,6 +191,21 @@ def test_the_leaves_at_the_root_import_nothing_from_the_rooms():
         assert not rooms, name
 
 
+def _import_time_nodes(body):
+    """The nodes of ``body`` that run when the module is imported: not a function's body, but its
+    decorators and default values, and a class's own statements."""
+    for stmt in body:
+        if isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for part in [*stmt.decorator_list, *stmt.args.defaults, *[d for d in stmt.args.kw_defaults if d]]:
+                yield from ast.walk(part)
+        elif isinstance(stmt, ast.ClassDef):
+            for part in [*stmt.decorator_list, *stmt.bases, *stmt.keywords]:
+                yield from ast.walk(part)
+            yield from _import_time_nodes(stmt.body)
+        else:
+            yield from ast.walk(stmt)
+
+
 def _runtime_imports(tree, relative: Path, modules, top_level_only: bool = False, lazy=None):
     """The package modules ``tree`` imports at run time (function-local imports included, an
     ``if TYPE_CHECKING:`` block's not): ``from pkg import sub`` is the module pkg.sub, and pkg
@@ -201,8 +216,7 @@ def _runtime_imports(tree, relative: Path, modules, top_level_only: bool = False
             typing_only |= {id(n) for part in node.body for n in ast.walk(part)}
     package = ["actuator_design", *relative.parent.parts]
     found = []
-    nodes = [n for top in tree.body if not isinstance(top, (ast.FunctionDef, ast.AsyncFunctionDef))
-             for n in ast.walk(top)] if top_level_only else ast.walk(tree)
+    nodes = list(_import_time_nodes(tree.body)) if top_level_only else ast.walk(tree)
     for node in nodes:
         if id(node) in typing_only:
             continue
@@ -252,7 +266,8 @@ def _import_graph():
              for rel, tree in trees.items()}
     for rel, tree in trees.items():  # a package's module-level code (what importing a submodule runs)
         if rel.name == "__init__.py":
-            graph[_module_name(rel) + "#init"] = _runtime_imports(tree, rel, modules, top_level_only=True)
+            graph[_module_name(rel) + "#init"] = _runtime_imports(tree, rel, modules, top_level_only=True,
+                                                                   lazy=lazy)
     graph["actuator_design.physics.registry"] |= {
         m for m in modules if m.startswith("actuator_design.physics.extra_terms.")}
     from actuator_design.analysis.registry import BUILTIN
@@ -260,18 +275,41 @@ def _import_graph():
     return graph
 
 
+#: the packages whose ``__init__`` defines ``__getattr__`` (a lazy face, PEP 562)
+LAZY_FACES = ("actuator_design", "actuator_design.calibration", "actuator_design.config", "actuator_design.study")
+
+
 def _lazy_homes():
-    """The lazy faces (PEP 562): package → {public name: the module its first use imports}."""
+    """The lazy faces (PEP 562): package → {public name: the module its first use imports}; a root
+    name whose home is itself a lazy face is followed through to its module."""
     import actuator_design
     import actuator_design.calibration
     import actuator_design.config
     import actuator_design.study
 
-    homes = {"actuator_design": {n: f"actuator_design.{m}" for n, (m, _) in actuator_design._EXPORTS.items()},
-             "actuator_design.study": {n: "actuator_design.study.runner" for n in actuator_design.study.__all__}}
+    homes = {"actuator_design.study": {n: "actuator_design.study.runner" for n in actuator_design.study.__all__}}
     for package in (actuator_design.calibration, actuator_design.config):
         homes[package.__name__] = {n: f"{package.__name__}.{m}" for n, m in package._HOME.items()}
+    homes["actuator_design"] = {n: homes.get(f"actuator_design.{m}", {}).get(attr, f"actuator_design.{m}")
+                                for n, (m, attr) in actuator_design._EXPORTS.items()}
     return homes
+
+
+def test_every_lazy_face_is_known_to_the_cycle_scan():
+    faces = {_module_name(rel) for rel, tree in _modules() if rel.name == "__init__.py"
+             and any(isinstance(n, ast.FunctionDef) and n.name == "__getattr__" for n in tree.body)}
+    assert faces == set(LAZY_FACES)
+
+
+def test_a_lazy_name_is_an_import_of_its_home_also_from_a_package_init():
+    """``from pkg import name`` of a lazy face is an edge to the name's home module, in a module
+    and in a package's module-level code; the root's names reach through calibration's face."""
+    homes = _lazy_homes()
+    assert homes["actuator_design"]["prepare_fit"] == "actuator_design.calibration.solve"
+    modules = {"actuator_design", "actuator_design.config", "actuator_design.config.model", "actuator_design.model"}
+    tree = ast.parse("from ..config import load_config\n")
+    found = _runtime_imports(tree, Path("model/__init__.py"), modules, top_level_only=True, lazy=homes)
+    assert found == {"actuator_design.config.model", "actuator_design.config#init"}
 
 
 def _cycles(graph):

@@ -256,10 +256,23 @@ def test_scene_with_values_writes_what_the_lens_writes(values, base):
     from actuator_design.model.scene import Scene, UniformField
     from actuator_design.physics.parameters import parameter
 
-    scene = {"none": Scene(field=None), "uniform": Scene(field=UniformField(phi=0.2), h=0.8),
+    scene = {"none": Scene(field=None, tip_force=None), "uniform": Scene(field=UniformField(phi=0.2), h=0.8),
              "loaded": _replace(Scene(field=None), tip_force=(0.4, 0.1))}[base]
     by_lens = scene
     for name in ("h", "phi", "p", "alpha"):
         if name in values:
             by_lens = parameter(name).write(by_lens, float(values[name]))
     assert scene.with_values(**values) == by_lens
+
+
+def test_scene_with_values_in_a_dipole_field_writes_what_the_lens_writes():
+    from actuator_design.model.scene import DipoleField, Scene
+    from actuator_design.physics.parameters import parameter
+
+    scene = Scene(field=DipoleField(), h=0.7, tip_force=None)
+    by_lens = scene
+    for name, value in (("h", 2.0), ("p", 1.0), ("alpha", 0.3)):
+        by_lens = parameter(name).write(by_lens, value)
+    assert scene.with_values(h=2.0, p=1.0, alpha=0.3) == by_lens
+    with pytest.raises(ValueError, match="phi can only be set for a uniform field"):
+        scene.with_values(phi=0.5)

@@ -1,7 +1,7 @@
 """The loading-path tracker: follow the stable equilibrium along each schedule segment on the
 continuation engine, locate where it loses stability and land on the state it snaps to (THEORY §7–8).
 
-Used by :func:`~actuator_design.continuation.loading.follow_path`. Each segment is a :class:`~actuator_design.continuation.SegmentProblem`
+Used by :func:`~actuator_design.continuation.loading.follow_path`. Each segment is a :class:`~actuator_design.continuation.segment.SegmentProblem`
 (its parameter the segment coordinate λ, every scheduled and following NLP slot moving at once, exact
 G_λ) continued by pseudo-arclength steps (:func:`~actuator_design.continuation.continuation`) with the
 fold and branch-point events made to stop the run. A fold is then located by the one fold locator

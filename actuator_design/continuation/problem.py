@@ -65,7 +65,7 @@ class BifurcationProblem:
                       if use_band(n, system.bandwidth) else None)
 
     def polish_fold(self, x: np.ndarray):
-        """The fold near ``x`` = (u, λ) by the one fold locator (Moore–Spence, :mod:`..reduced.fold`),
+        """The fold near ``x`` = (u, λ) by the one fold locator (Moore–Spence, :mod:`actuator_design.reduced.fold`),
         or None when it does not converge close by (then the event's bracketed root stands)."""
         if len(self.system.names) != 1:
             return None

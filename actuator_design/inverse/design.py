@@ -346,7 +346,7 @@ def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]
     """
     sets = problem.variable_sets
     searched: List[Optimised] = []
-    ahead = current = None  # the next set's search, computed beside this one (:mod:`...forked`)
+    ahead = current = None  # the next set's search, computed beside this one (:mod:`actuator_design.forked`)
     try:
         for k, vset in enumerate(sets):
             current = ahead

@@ -51,7 +51,7 @@ def optimise(problem: DesignProblem, cand: Candidate, starts: List[ScreenedStart
         Distinct optima sorted by :meth:`DesignProblem.rank`; ``out_of_time`` when the time limit
         stopped the loop before every start was optimised (at least one always is).
     """
-    # the second half of the starts is optimised beside the first (:mod:`...forked`); the optima
+    # the second half of the starts is optimised beside the first (:mod:`actuator_design.forked`); the optima
     # are then those of the starts in order, as one process would find them
     half = (len(starts) + 1) // 2
     beside = forked.start(partial(_from_starts, problem, cand, starts[half:], half)) if half < len(starts) else None

@@ -369,7 +369,7 @@ def _joint_nominal(nlp, base, d_list, z_list, targets, settings, first_step=0.25
 
 def _check_poses(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, timings) -> List[PoseResult]:
     """Per pose: robustness by branch following and, with ``verify``, a loading path from rest;
-    the poses after the first are checked beside it (:mod:`...forked`)."""
+    the poses after the first are checked beside it (:mod:`actuator_design.forked`)."""
     check = partial(_check_pose, snlp, nlp, scenes, point, targets, tol, problem, ch1, verify)
     beside = []
     try:

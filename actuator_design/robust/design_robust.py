@@ -193,7 +193,7 @@ class ScenarioDesignNLP:
                 tip_fn = sv.f_tip(ca.vertcat(Pc[sl["theta0"]], z), Pc)
                 tip = ca.vertcat(tip_fn[1], tip_fn[2], tip_fn[0])
                 tips.append(tip)
-                # with obstacles, every scenario's rod keeps clear of them (:mod:`...clearance`)
+                # with obstacles, every scenario's rod keeps clear of them (:mod:`actuator_design.contact.clearance`)
                 clear.append(clearance_rows(sv.transcription, ca.vertcat(Pc[sl["theta0"]], z), obstacles, gap))
                 e = tip - tgt
                 if c == 0:

@@ -109,7 +109,7 @@ def robust_stage(problem: DesignProblem, choice: Choice,
     ----------
     follow : callable, optional
         The stage after this one (the verification, a function of the design): started beside
-        the branch following of the moved design (:mod:`...forked`) as soon as it is proposed.
+        the branch following of the moved design (:mod:`actuator_design.forked`) as soon as it is proposed.
 
     Returns
     -------

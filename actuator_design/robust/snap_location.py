@@ -142,7 +142,7 @@ AHEAD_MAX_NODES = 160
 
 def snap_builds(scene: Scene, options: SolverOptions, attrs: Sequence[str]) -> List[Callable[[], None]]:
     """What :func:`locate_snap` builds along each axis ``attrs`` ("field_rel", "angle"), as steps
-    to run ahead of need (e.g. while a forked task computes, :mod:`...forked`): the reduced system
+    to run ahead of need (e.g. while a forked task computes, :mod:`actuator_design.forked`): the reduced system
     and its Moore–Spence function on the design mesh and on 2× and 4× finer ones, those of at most
     :data:`AHEAD_MAX_NODES` nodes. They only fill the caches of
     :func:`~actuator_design.equilibrium.solver.get_solver` and :func:`~actuator_design.reduced.reduced_system`:
