@@ -34,6 +34,8 @@ import threading
 import warnings
 from typing import Callable, Generic, List, Optional, Sequence, Tuple, TypeVar
 
+from actuator_design.parallel import default_workers, end_with_parent, in_worker
+
 __all__ = ["Forked", "start", "while_waiting", "fork_allowed"]
 
 T = TypeVar("T")
@@ -55,8 +57,6 @@ def while_waiting(fn: Callable[[], None]) -> None:
 
 
 def _workers() -> int:
-    from actuator_design.parallel import default_workers
-
     given = os.environ.get(WORKERS_ENV, "").strip()
     if given.isdigit() and int(given) >= 1:
         return int(given)
@@ -68,8 +68,6 @@ def _workers() -> int:
 
 def fork_allowed() -> bool:
     """Whether :func:`start` may fork (see the module docstring for when it does not)."""
-    from actuator_design.parallel import in_worker
-
     # Linux only: macOS's system libraries are not safe to use in a forked child
     # a forked child forks no further: it dies with its parent (PR_SET_PDEATHSIG), and a
     # grandchild killed that way could not give its slot back
@@ -144,7 +142,6 @@ class Forked(Generic[T]):
             code = 0
             try:
                 signal.signal(signal.SIGINT, signal.SIG_DFL)  # Ctrl-C: the parent reports it
-                from actuator_design.parallel import end_with_parent
                 end_with_parent()  # a parent killed outright leaves no child computing for nobody
                 quiet = os.open(os.devnull, os.O_WRONLY)  # what the task says, the parent says
                 os.dup2(quiet, 1)

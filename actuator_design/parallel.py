@@ -11,11 +11,13 @@ a parent killed outright (``kill -9``) leaves no worker computing for nobody.
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import sys
 import threading
 import time
+from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, List, Optional, TypeVar
 
 __all__ = ["map_parallel", "default_workers", "die_with_parent", "single_threaded_blas", "in_worker", "end_with_parent"]
@@ -73,7 +75,6 @@ def end_with_parent() -> None:
     (``prctl(PR_SET_PDEATHSIG)`` through ctypes); elsewhere, nothing."""
     if sys.platform.startswith("linux"):
         try:
-            import ctypes
             libc = ctypes.CDLL(None, use_errno=True)
             libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
         except (OSError, AttributeError):
@@ -154,7 +155,6 @@ def map_parallel(fn: Callable[[T], R], items: Iterable[T], workers: Optional[int
                 out.append(fn(x))
                 bar.update(1)
             return out
-        from concurrent.futures import ProcessPoolExecutor  # (35 ms: imported when a pool is made)
 
         if chunksize is None:
             chunksize = max(1, len(items) // (4 * workers))

@@ -140,6 +140,15 @@ def test_the_solve_command_without_out_does_not_load_matplotlib():
     assert p.stderr.strip().splitlines()[-1] == "False 0", p.stderr
 
 
+def test_the_scene_and_saving_it_load_no_casadi_scipy_or_matplotlib():
+    """The model's scene and ``io.save`` sit below physics: building or saving a scene costs no
+    CasADi, SciPy or matplotlib import (a module-level import of physics there would)."""
+    p = _run_python("import sys\n"
+                    "import actuator_design.model.scene, actuator_design.io.save\n"
+                    "print(sorted(m for m in ('casadi', 'scipy', 'matplotlib') if m in sys.modules))")
+    assert p.returncode == 0 and p.stdout.strip() == "[]", p.stdout + p.stderr
+
+
 @pytest.mark.parametrize("argv", [["--version"], ["--help"]])
 def test_version_and_help_import_no_command_module(argv):
     """Start-up (issue 21): ``--version`` and ``--help`` import no command module (and so neither
@@ -367,3 +376,49 @@ def test_the_import_scan_counts_function_local_imports_and_not_annotation_only_o
                "actuator_design.continuation.follow", "actuator_design.physics", "actuator_design.continuation"}
     assert _runtime_imports(tree, Path("continuation/x.py"), modules) == {
         "actuator_design.physics.registry", "actuator_design.physics#init", "actuator_design.continuation.follow"}
+
+
+#: Third-party modules a function may import on first use, because importing them costs start-up
+#: time every command would pay (CasADi ~0.3 s, scipy.optimize ~0.1 s, pint, magpylib, xarray) or
+#: because they are optional (dask's distributed, pyarrow). Everything else is imported at the top.
+LAZY_THIRD_PARTY = ("casadi", "scipy", "matplotlib", "tqdm", "magpylib", "pint", "xarray", "distributed",
+                    "pyarrow", "threadpoolctl")
+
+
+def _function_local_imports(tree):
+    """(line, dotted module) of every import statement inside a function body."""
+    found = []
+
+    def visit(node, in_function):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                visit(child, True)
+            elif isinstance(child, (ast.Import, ast.ImportFrom)) and in_function:
+                names = [child.module] if isinstance(child, ast.ImportFrom) else [a.name for a in child.names]
+                found.extend((child.lineno, name or "") for name in names)
+            else:
+                visit(child, in_function)
+    visit(tree, False)
+    return found
+
+
+def test_function_local_imports_are_only_for_start_up_time():
+    """Issue 18: with no import cycles left, a module imports the package's modules at its top.
+    Only the command line (one module per subcommand, loaded on demand), the lazy faces
+    (``__init__``) and figures (viz/, drawn on demand) import inside functions, plus the heavy or
+    optional third-party modules of LAZY_THIRD_PARTY."""
+    offenders = []
+    for rel, tree in _modules():
+        if rel.parts[0] == "cli" or rel.name == "__init__.py":
+            continue
+        for line, name in _function_local_imports(tree):
+            if _is(name, "actuator_design.viz") or name.split(".")[0] in LAZY_THIRD_PARTY:
+                continue
+            offenders.append(f"{rel}:{line}: {name}")
+    assert not offenders, "function-local imports to move to the top:\n" + "\n".join(offenders)
+
+
+def test_the_local_import_scan_sees_nested_functions_and_methods():
+    tree = ast.parse("import os\nclass A:\n    def f(self):\n        def g():\n            from x.y import z\n"
+                     "        import numpy\n")
+    assert _function_local_imports(tree) == [(5, "x.y"), (6, "numpy")]

@@ -196,6 +196,22 @@ def test_cli_set_solves_and_round_trips_through_result_json(tmp_path, capsys):
     assert again.tip["y"] == pytest.approx(payload["tip"]["y"], abs=1e-12)
 
 
+def test_a_term_declares_its_own_flag_and_every_scene_command_has_it(capsys):
+    """Issue 18: a term carries its CLI flag (``Parameter.flag_help``); the scene commands build
+    their flags from the registered terms, so ``--k-foundation`` is the foundation's own flag."""
+    from actuator_design.cli.main import main
+
+    assert main(["solve", "--h", "0", "--p", "3", "--k-foundation", "20", "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    x, y, _ = foundation_bvp(20.0, 0.0, 3.0)
+    assert (payload["tip"]["x"], payload["tip"]["y"]) == pytest.approx((x, y), abs=1e-8)
+    assert main(["equilibria", "--help"]) == 0
+    assert "--k-foundation" in capsys.readouterr().out
+    assert main(["solve", "--k-foundation", "2e10"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--k-foundation" in err[0] and "1e+10" in err[0], err
+
+
 @pytest.mark.parametrize("flag, message", [
     ("k_foundation=-1", "--set k_foundation: must be >= 0, got -1"),
     ("nope=1", "--set: unknown parameter 'nope' (allowed: "),

@@ -128,6 +128,8 @@ def _hostile(data, path, value):
     (("h",), "abc"),                                 # text for a number
     (("obstacles",), "wall"),                       # not a list of obstacles
     (("fibres",), {"type": "spline"}),              # an unknown profile
+    (("fibres",), ...),                             # a profile every scene has, missing
+    (("stiffness",), None),                         # ... or null
 ])
 def test_hostile_scene_data_is_one_value_error(path, value):
     scene = load_scene(Path(__file__).resolve().parents[1] / "configs" / "magnet_cylinder_hard_strip.yaml")[0]

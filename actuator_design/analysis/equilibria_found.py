@@ -10,6 +10,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from actuator_design.equilibrium.acceptance import graded_options, residual_problem
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
@@ -61,7 +62,6 @@ class Equilibrium:
     def accuracy_problem(self) -> Optional[str]:
         """Why the equilibrium misses the accuracy ``solve`` promises (its Euler–Lagrange
         residual, :func:`~actuator_design.equilibrium.acceptance.residual_problem`), or None."""
-        from actuator_design.equilibrium.acceptance import residual_problem
         return residual_problem(self.result)
 
     def to_dict(self) -> dict:
@@ -148,8 +148,6 @@ _COMPARE_AT = np.linspace(0.0, 1.0, 129)
 
 def _nlp_options(options: Optional[SolverOptions], scene: Optional[Scene] = None) -> SolverOptions:
     """Newton without saddle escape, on the mesh ``solve`` would grade for ``scene``'s layers."""
-    from actuator_design.equilibrium.acceptance import graded_options
-
     opts = replace(options or SolverOptions(), ensure_stable=False, method="newton")
     return graded_options(scene, opts) if scene is not None and opts.adapt else opts
 
@@ -169,8 +167,6 @@ def confirm(scene: Scene, opts: SolverOptions, theta_at, solver=None) -> Equilib
 def refine_to_promise(scene: Scene, opts: SolverOptions, res: EquilibriumResult) -> EquilibriumResult:
     """``res`` (solved with ``opts``), re-solved on meshes with twice the elements while its
     Euler–Lagrange residual misses the promise of ``solve`` (see :func:`confirm`)."""
-    from actuator_design.equilibrium.acceptance import residual_problem
-
     while res.success and residual_problem(res) is not None and opts.elements < MAX_CONFIRM_ELEMENTS:
         opts = replace(opts, elements=min(MAX_CONFIRM_ELEMENTS, 2 * opts.elements))
         finer_solver = get_solver(scene, opts)

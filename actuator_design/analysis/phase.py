@@ -30,11 +30,12 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from actuator_design.analysis.equilibria import find_equilibria
+from actuator_design.contact.guard import no_contact
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.physics.registry import refuse_unsupported
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.model.scene import Scene, UniformField
-from actuator_design.contact.guard import no_contact
+from actuator_design.physics.registry import refuse_unsupported
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
 
@@ -231,7 +232,6 @@ def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult
         raise ValueError(f"n_levels: must be >= 2, got {n_levels}")
     notes = []
     if equilibria is None:
-        from actuator_design.analysis.equilibria import find_equilibria
         found = find_equilibria(scene, options)
         equilibria = [e.result for e in found.equilibria]
         if not found.complete:

@@ -7,6 +7,7 @@ the study layer looks them up with :func:`get`.
 """
 from __future__ import annotations
 
+import importlib
 from typing import Callable, Dict
 
 from actuator_design.analysis.registration import _ANALYSES, register
@@ -22,8 +23,6 @@ BUILTIN: Dict[str, str] = {"solve": "analysis.solve", "equilibria": "analysis.eq
 
 
 def _load_builtin(name=None):
-    import importlib
-
     for key, mod in BUILTIN.items():
         if name is None or key == name:
             importlib.import_module(f"actuator_design.{mod}")

@@ -35,14 +35,15 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.reduced.system import reduced_system
-from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
-from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.analysis.registration import register
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics import parameters as lens
+from actuator_design.reduced.system import reduced_system
+from actuator_design.reference.closed_forms import lowload_stiffness
 
 __all__ = ["Sensitivities", "sensitivities", "TipStiffness", "tip_stiffness",
            "StiffnessCurve", "stiffness_field_curve", "LOAD_NAMES"]
@@ -381,7 +382,6 @@ class StiffnessCurve:
 def lowload_applies(scene: Scene) -> bool:
     """Whether THEORY §6's s(h) is the exact low-load stiffness of ``scene`` (φ = 0 uniform field,
     p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0, no remanent magnetisation)."""
-    from actuator_design.model.scene import UniformField
     fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
     return (isinstance(scene.field, UniformField) and math.isclose(math.cos(2 * scene.phi), 1.0)
             and fx == 0 and fy == 0 and not scene.tip_moment and scene.distributed_load is None
@@ -411,8 +411,6 @@ def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
     -------
     StiffnessCurve
     """
-    from actuator_design.reference.closed_forms import lowload_stiffness
-
     h_values = np.asarray(h_values, float)
     if h_values.ndim != 1 or h_values.size == 0 or np.any(~np.isfinite(h_values)) or np.any(h_values < 0):
         raise ValueError("h_values: need a non-empty list of finite h >= 0")

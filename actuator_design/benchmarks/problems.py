@@ -27,11 +27,11 @@ import numpy as np
 from scipy.integrate import IntegrationWarning, quad
 from scipy.optimize import brentq
 
-from actuator_design.model.profiles import constant_profile, expression_profile
-from actuator_design.reference.closed_forms import transverse_mode
-from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.model.scene import DipoleField, Scene, UniformField, default_scene
 from actuator_design.benchmarks.bvp import RodBVP, bvp_from_scene, shoot_general
+from actuator_design.model.profiles import constant_profile, expression_profile
+from actuator_design.model.scene import DipoleField, Scene, UniformField, default_scene
+from actuator_design.reference.closed_forms import transverse_mode
+from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
 
 __all__ = ["Problem", "PROBLEMS", "get_problem", "problem_names", "elastica_tip", "elastica_tip_quadrature", "elastica_fold",
            "shooting_params_from_scene"]
@@ -129,7 +129,6 @@ def elastica_fold(m: int = 1):
     (p_fold, gamma_fold, solution) : float, float, ShootingSolution
     """
     from scipy.optimize import root
-    from actuator_design.reference.shooting import shoot
     if m not in _ELASTICA_FOLD_GUESS:
         raise ValueError(f"elastica_fold: m must be one of {sorted(_ELASTICA_FOLD_GUESS)}")
 

@@ -20,13 +20,22 @@ from __future__ import annotations
 
 import gc
 import math
+import sys
 import time
 from dataclasses import dataclass, field, replace
 from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from actuator_design.benchmarks import problems as P
+from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
+from actuator_design.benchmarks.floor import NumpyNewton
 from actuator_design.benchmarks.problems import PROBLEMS, Problem, shooting_params_from_scene
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.parallel import _progress, map_parallel
+from actuator_design.reference.shooting import solve_shooting
 
 __all__ = ["Method", "default_methods", "run_problem", "run_benchmark", "format_table",
            "target_summary", "perturbation"]
@@ -49,7 +58,6 @@ class _Collocation:
     """The project's solvers on one transcription: ``mode`` in fast / newton / ipopt / api."""
 
     def __init__(self, prob: Problem, options, mode: str):
-        from actuator_design.equilibrium.solver import get_solver
         self.options, self.mode = options, mode
         # one build per scene structure and resolution, shared by methods and problems (as in
         # the library); build_s reports what that build cost when it was made
@@ -66,7 +74,6 @@ class _Collocation:
         return scene if self.mode == "api" else self.solver.parameter_vector(scene)
 
     def cold(self, scene, guess):
-        from actuator_design.equilibrium.pipeline import solve
         r = solve(scene, replace(self.options, method="ipopt", ensure_stable=False),
                   initial=guess(self.solver.transcription.nodes), solver=self.solver)
         return (r.tip["x"], r.tip["y"], r.tip["angle"]), r.z, bool(r.success)
@@ -74,7 +81,6 @@ class _Collocation:
     def solve(self, prm, z):
         sv = self.solver
         if self.mode == "api":
-            from actuator_design.equilibrium.pipeline import solve
             r = solve(prm, self.options, initial=z, solver=sv)
             return (r.tip["x"], r.tip["y"], r.tip["angle"]), r.z, bool(r.success)
         if self.mode == "fast":
@@ -91,9 +97,6 @@ class _Floor:
     """Plain dense numpy Newton on the same LGL system (uniform fields)."""
 
     def __init__(self, prob: Problem, elements: int, degree: int):
-        from actuator_design.equilibrium.solver import get_solver
-        from actuator_design.equilibrium.options import SolverOptions
-        from actuator_design.benchmarks.floor import NumpyNewton
         self.nn = NumpyNewton(elements, degree)
         self.n = int(self.nn.tr.nodes.size)
         self._opts = SolverOptions(elements=elements, degree=degree)
@@ -104,7 +107,6 @@ class _Floor:
         return self.nn.prepare(scene)
 
     def cold(self, scene, guess):
-        from actuator_design.equilibrium.pipeline import solve
         r = solve(scene, replace(self._opts, ensure_stable=False), initial=guess(self.nn.tr.nodes))
         return (r.tip["x"], r.tip["y"], r.tip["angle"]), r.z, bool(r.success)
 
@@ -124,17 +126,14 @@ class _SolveBVP:
         self.note = "" if prob.uniform else "finite-difference Jacobian"
 
     def params(self, scene):
-        from actuator_design.benchmarks.bvp import bvp_from_scene
         return bvp_from_scene(scene)
 
     def cold(self, scene, guess):
-        from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
         sol = solve_bvp_peer(bvp_from_scene(scene), self.tol, guess_theta=guess)
         self.n = sol.n_nodes
         return sol.tip, sol, sol.success
 
     def solve(self, bvp, warm):
-        from actuator_design.benchmarks.bvp import solve_bvp_peer
         sol = solve_bvp_peer(bvp, self.tol, initial=warm)
         self.n = max(self.n, sol.n_nodes)
         return sol.tip, sol, sol.success
@@ -153,13 +152,11 @@ class _Shooting:
         return shooting_params_from_scene(scene)
 
     def cold(self, scene, guess):
-        from actuator_design.reference.shooting import solve_shooting
         sol = solve_shooting(shooting_params_from_scene(scene), gamma_guess=self.gamma0)
         self.n = int(sol.s_nodes.size)
         return sol.tip, sol.gamma, sol.converged
 
     def solve(self, params, gamma):
-        from actuator_design.reference.shooting import solve_shooting
         sol = solve_shooting(params, gamma_guess=gamma)
         return sol.tip, sol.gamma, sol.converged
 
@@ -200,7 +197,6 @@ MAX_POSITIONAL = {"lgl": 41, "midpoint": 50}
 
 
 def _colloc(name, mode, transcription, elements, degree=10, jit=False, only_paper=False):
-    from actuator_design.equilibrium.options import SolverOptions
     opts = SolverOptions(transcription=transcription, elements=elements, degree=degree,
                          method="fast" if mode in ("fast", "api") else mode, jit=jit,
                          ensure_stable=False)
@@ -297,7 +293,6 @@ def run_problem(prob: Problem, methods: Sequence[Method], repeats: int = 15,
                 progress: bool = False) -> List[Dict[str, object]]:
     """All applicable methods on one problem (sequentially: timings are not disturbed)."""
     from tqdm import tqdm
-    import sys
     todo = [m for m in methods if m.applies(prob)]
     bar = tqdm(todo, desc=prob.name, file=sys.stderr, disable=not (progress and sys.stderr.isatty()),
                leave=False)
@@ -320,8 +315,6 @@ def run_benchmark(names: Optional[Sequence[str]] = None, quick: bool = False, re
     ``workers > 1`` runs problems in parallel processes (faster, but concurrent timings share the
     machine); the default 1 times one solve at a time.
     """
-    from actuator_design.parallel import map_parallel
-    from actuator_design.benchmarks import problems as P
     names = list(names or PROBLEMS)
     refs = map_parallel(_reference_task, names, workers=max(workers, 2), desc="references")
     for n, r in zip(names, refs):  # seed the per-process cache with the parallel results
@@ -332,7 +325,6 @@ def run_benchmark(names: Optional[Sequence[str]] = None, quick: bool = False, re
                                   workers=workers, desc="problems", chunksize=1):
             rows += chunk
     else:
-        from actuator_design.parallel import _progress
         bar = _progress(len(names), "problems", None)
         for n in names:
             rows += run_problem(PROBLEMS[n], default_methods(quick), repeats)

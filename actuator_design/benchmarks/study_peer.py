@@ -21,6 +21,11 @@ import sys
 import time
 from typing import List, Optional
 
+from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
+from actuator_design.config import load_config
+from actuator_design.study.grid import resolve_axes, substitute
+from actuator_design.study.spec import SweepSpec, validate_spec
+
 __all__ = ["walk_order", "bvp_walk", "main"]
 
 
@@ -46,11 +51,6 @@ def bvp_walk(config_path: str, tol: float = 1e-8, out: Optional[str] = None) -> 
     dict
         ``points``, ``converged``, ``elapsed_s`` (the loop only) and ``points_per_s``.
     """
-    from actuator_design.config import load_config
-    from actuator_design.study.grid import resolve_axes, substitute
-    from actuator_design.study.spec import SweepSpec, validate_spec
-    from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
-
     config = load_config(config_path)
     spec = validate_spec(SweepSpec, config.study)
     axes = resolve_axes(spec)

@@ -4,8 +4,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Dict, Optional
 
+from actuator_design import __version__
 from actuator_design.calibration.report import fit_units, points_csv_text, result_dict
 from actuator_design.calibration.result import FitResult
+from actuator_design.io.save import dumps_json, write_output_set
 
 __all__ = ["write_fit", "fit_files"]
 
@@ -15,8 +17,6 @@ def fit_files(result: FitResult, config: Optional[dict] = None) -> Dict[str, obj
     (text, then PNG bytes from :mod:`actuator_design.viz.calibration`). A physical ``config``
     adds the user's units (:func:`~.report.fit_units`): ``physical`` in the JSON, columns in the
     user's units in the CSV, figure axes in them."""
-    from actuator_design import __version__
-    from actuator_design.io.save import dumps_json
     from actuator_design.viz.calibration import fit_figure_pngs
 
     units = fit_units(config)
@@ -36,8 +36,6 @@ def write_fit(result: FitResult, out_dir, config: Optional[dict] = None) -> Dict
     dict of str → Path
         ``json``, ``csv`` and one entry per figure name.
     """
-    from actuator_design.io.save import write_output_set
-
     files = fit_files(result, config)
     written = {p.name: p for p in write_output_set(out_dir, files)}
     out = {"json": written["fit.json"], "csv": written["fit_points.csv"]}

@@ -24,20 +24,21 @@ from typing import Callable, List, Optional, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.config import ConfigError
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.physics.parameters import get_value, stiffness_groups
-from actuator_design.physics.registry import build_terms
-from actuator_design.physics.terms import scalar_parameter_values
-from actuator_design.model.scene import Scene, UniformField
-from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.study.spec import validate_spec
-from actuator_design.model.units import MU0, QuantityError, parse_quantity
 from actuator_design.calibration import limits
 from actuator_design.calibration.branches import BranchSelector
+from actuator_design.calibration.curves import model_curves
 from actuator_design.calibration.data import COLUMNS, DataError, MeasuredData
 from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS
 from actuator_design.calibration.spec import FitSpec
+from actuator_design.config import ConfigError
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.model.units import MU0, QuantityError, parse_quantity
+from actuator_design.physics.parameters import get_value, stiffness_groups
+from actuator_design.physics.registry import build_terms
+from actuator_design.physics.terms import scalar_parameter_values
+from actuator_design.study.spec import validate_spec
 
 __all__ = ["FitProblem", "ConditionState"]
 
@@ -469,5 +470,4 @@ class FitProblem:
 
     def curves(self, theta: np.ndarray, n_points: int):
         """Model curves along the primary input (see :func:`.curves.model_curves`)."""
-        from actuator_design.calibration.curves import model_curves
         return model_curves(self, theta, n_points)

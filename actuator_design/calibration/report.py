@@ -6,9 +6,11 @@ from typing import TYPE_CHECKING, Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from actuator_design.model.units import MU0
 from actuator_design.calibration.data import COLUMNS
 from actuator_design.calibration.parameters import PARAMETERS
+from actuator_design.io.unit_columns import data_unit
+from actuator_design.io.user_units import length_unit_of
+from actuator_design.model.units import MU0
 
 if TYPE_CHECKING:  # annotations only: a FitResult calls this module for its text
     from actuator_design.calibration.result import FitResult
@@ -25,7 +27,6 @@ def fit_units(config: Optional[dict]) -> Optional[Tuple[str, float]]:
     written in); None for a dimensionless scene."""
     if not isinstance(config, dict) or (config.get("scene") or {}).get("type") != "physical":
         return None
-    from actuator_design.io.user_units import length_unit_of
     return length_unit_of(config)
 
 
@@ -35,7 +36,6 @@ def user_unit(column: str, units, angles: bool = False) -> Optional[Tuple[str, f
     dimensionless scene (``units`` None) or another column."""
     if units is None:
         return None
-    from actuator_design.io.unit_columns import data_unit
     dimension = COLUMNS[column][1]
     if dimension == "angle":
         return ("deg", math.pi / 180.0) if angles else None

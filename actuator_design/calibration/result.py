@@ -7,6 +7,7 @@ from typing import Any, Dict, List
 import numpy as np
 
 from actuator_design.calibration.data import MeasuredData
+from actuator_design.calibration.report import result_dict, summary_text
 
 __all__ = ["FitResult"]
 
@@ -91,10 +92,8 @@ class FitResult:
 
     def to_dict(self) -> Dict[str, Any]:
         """The JSON contract of ``actuator-design fit --json`` (see :mod:`.report`)."""
-        from actuator_design.calibration.report import result_dict
         return result_dict(self)
 
     def summary(self) -> str:
         """A readable multi-line report (see :mod:`.report`)."""
-        from actuator_design.calibration.report import summary_text
         return summary_text(self)

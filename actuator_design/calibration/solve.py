@@ -36,8 +36,6 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-from actuator_design.config import ConfigError, load_config
-from actuator_design.study.spec import validate_spec
 from actuator_design.calibration.data import MeasuredData, read_data
 from actuator_design.calibration.goodness import (bound_failures, bound_message, chi_square_message,
                                                   chi_square_test)
@@ -51,6 +49,9 @@ from actuator_design.calibration.plausibility import magnitude_warnings
 from actuator_design.calibration.problem import FitProblem
 from actuator_design.calibration.result import FitResult
 from actuator_design.calibration.spec import FitSpec
+from actuator_design.config import ConfigError, load_config
+from actuator_design.physics.registry import refuse_unsupported, registered_terms
+from actuator_design.study.spec import validate_spec
 
 __all__ = ["prepare_fit", "fit_config", "fit"]
 
@@ -74,7 +75,6 @@ def prepare_fit(config_source, data_source) -> FitProblem:
     # the fit map (problem.FitProblem._build_map) knows the groups of these terms, and scales a
     # plug-in term's values by their declared power laws in B0 when they do not depend on the field;
     # any other term's values would be held fixed while the field or the stiffness changes, silently
-    from actuator_design.physics.registry import refuse_unsupported, registered_terms
     scaled = [c.name for c in registered_terms() if c.scaling_declared and not any(
         p.field_power or p.susceptibility_power for p in c.parameters)]
     refuse_unsupported(config.to_scene(), list(FIT_TERMS) + scaled, "fit")

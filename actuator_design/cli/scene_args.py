@@ -13,8 +13,8 @@ from typing import Dict, Optional
 from actuator_design.cli.common import (InputError, bad_input, check_angle_deg, finite_float, load_config,
                      nonnegative_float)
 
-__all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_hard_magnetic_args",
-           "apply_hard_magnetic_flags", "add_set_arg", "apply_set_flags", "check_flags"]
+__all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_term_flags",
+           "apply_term_flags", "add_set_arg", "apply_set_flags", "check_flags"]
 
 #: The dimensionless scene values a command line may set (angles in degrees).
 SCENE_KEYS = ("h", "phi_deg", "p", "alpha_deg")
@@ -35,7 +35,7 @@ def add_scene_args(parser: argparse.ArgumentParser, defaults: Dict[str, float], 
                    help=f"vertical dead tip load p, units of B0/l^2 (default without CONFIG {defaults['p']:g})")
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help=f"constant fibre angle, degrees (default without CONFIG {defaults['alpha_deg']:g})")
-    add_hard_magnetic_args(g)
+    add_term_flags(g)
     add_set_arg(parser)
     if resolution:
         s = parser.add_argument_group("solver (override CONFIG)")
@@ -98,7 +98,7 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
         scene, options, raw = loaded if loaded is not None else load_config(args.config)
         with bad_input("cannot apply the scene values to CONFIG: "):
             scene = scene.with_values(h=vals.get("h"), p=vals.get("p"), phi=rad("phi_deg"), alpha=rad("alpha_deg"))
-    scene = apply_hard_magnetic_flags(scene, args)
+    scene = apply_term_flags(scene, args)
     changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k, None) is not None}
     with bad_input("solver options: "):
         options = replace(options, **changes)
@@ -148,22 +148,30 @@ def check_flags(scene, options) -> None:
         check_scene_and_options(scene, options)
 
 
-def add_hard_magnetic_args(group) -> None:
-    """--h-r and --magnetization-deg (THEORY §9) on an argument group."""
-    group.add_argument("--h-r", type=nonnegative_float, metavar="H_R",
-                       help="hard-magnetic group h_r >= 0 (THEORY §9; adds an axial remanent magnetisation)")
-    group.add_argument("--magnetization-deg", type=finite_float, metavar="DEG",
-                       help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)")
-
-
-def apply_hard_magnetic_flags(scene, args):
-    """``scene`` with --h-r and --magnetization-deg applied through the parameter lens (each adds
-    the hard-magnetic term when absent, THEORY §9), then every --set."""
+def add_term_flags(group) -> None:
+    """The flags the registered terms declare for their parameters (``Parameter.flag_help``: e.g.
+    the hard-magnetic --h-r and --magnetization-deg, THEORY §9) on an argument group."""
     from actuator_design.physics import parameters as lens
 
-    for name, flag, to_value in (("h_r", "h_r", float), ("magnetization", "magnetization_deg", math.radians)):
-        value = getattr(args, flag, None)
+    for p in lens.parameters().values():
+        if p.flag_help:
+            kind = nonnegative_float if p.lower == 0.0 else finite_float
+            group.add_argument(p.flag, type=kind, metavar="DEG" if p.unit == "rad" else p.name.upper(),
+                               dest=_dest(p), help=p.flag_help)
+
+
+def _dest(p) -> str:
+    return p.flag[2:].replace("-", "_")
+
+
+def apply_term_flags(scene, args):
+    """``scene`` with the terms' own flags applied through the parameter lens (each adds its term
+    when absent; angles given in degrees), then every --set."""
+    from actuator_design.physics import parameters as lens
+
+    for p in lens.parameters().values():
+        value = getattr(args, _dest(p), None) if p.flag_help else None
         if value is not None:
-            with bad_input(f"--{flag.replace('_', '-')}: "):
-                scene = lens.set_value(scene, name, to_value(value))
+            with bad_input(f"{p.flag}: "):
+                scene = lens.set_value(scene, p.name, math.radians(value) if p.unit == "rad" else value)
     return apply_set_flags(scene, args)

@@ -59,8 +59,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--alpha-deg", type=finite_float, metavar="DEG",
                    help="constant fibre angle alpha, degrees (default without "
                         f"CONFIG {DEFAULTS['alpha_deg']:g})")
-    from actuator_design.cli.scene_args import add_hard_magnetic_args, add_set_arg
-    add_hard_magnetic_args(g)
+    from actuator_design.cli.scene_args import add_set_arg, add_term_flags
+    add_term_flags(g)
     add_set_arg(parser)
     s = parser.add_argument_group("solver (override CONFIG)")
     s.add_argument("--transcription", choices=("lgl", "midpoint"),
@@ -132,8 +132,8 @@ def build_inputs(args: argparse.Namespace):
         scene, options, raw = load_config(args.config)
         with bad_input("cannot apply the scene flags to CONFIG: "):
             scene = scene.with_values(**overrides)
-    from actuator_design.cli.scene_args import apply_hard_magnetic_flags
-    scene = apply_hard_magnetic_flags(scene, args)
+    from actuator_design.cli.scene_args import apply_term_flags
+    scene = apply_term_flags(scene, args)
     changes = {f: getattr(args, f) for f in _SOLVER_FLAGS if getattr(args, f) is not None}
     if args.ensure_stable is not None:
         changes["ensure_stable"] = args.ensure_stable

@@ -16,6 +16,8 @@ import numpy as np
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.limits import group_problem, mesh_problem, scene_group_values
 from actuator_design.config.profile_specs import profile_problem
+from actuator_design.physics.registry import dense_hessian
+from actuator_design.transcription import make_transcription
 
 __all__ = ["check_scene_groups", "check_mesh", "check_profiles_at", "check_profiles_on_mesh",
            "check_scene_and_options"]
@@ -35,13 +37,11 @@ def check_scene_groups(scene, prefix: str = "") -> None:
 
 
 def _is_dense(scene) -> bool:
-    """A non-uniform field, or a plug-in term that couples every node (``EnergyTerm.dense_hessian``;
-    asked only when the scene has one, so that a plain scene is checked without loading CasADi)."""
+    """A non-uniform field, or a plug-in term that couples every node (``EnergyTerm.dense_hessian``)."""
     if scene.field is not None and not scene.field.is_uniform:
         return True
     if not scene.extra_terms:
         return False
-    from actuator_design.physics.registry import dense_hessian
 
     return dense_hessian(scene)
 
@@ -81,7 +81,6 @@ def check_profiles_at(profiles: Mapping[str, Tuple[object, bool]], options) -> N
     wanted = {k: v for k, v in profiles.items() if v[0] is not None and v[0].kind == "expression"}
     if not wanted:
         return
-    from actuator_design.transcription import make_transcription
 
     tr = make_transcription(options)
     s = np.concatenate([np.asarray(tr.nodes, float), np.asarray(tr.quadrature_points, float)])

@@ -16,15 +16,16 @@ from typing import List, Literal, Optional
 
 from pydantic import Field, model_validator
 
-from actuator_design.model.profiles import constant_profile
-from actuator_design.model.scene import Scene, UniformField
 from actuator_design.config.base import Angle, Number, Q, StrictModel
 from actuator_design.config.errors import error
 from actuator_design.config.field_specs import DimensionlessField, NumberXY
 from actuator_design.config.limits import group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, DimensionlessObstacle, obstacles_of
-from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
 from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
+from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.model.units import COMMON_UNITS, registry
 
 __all__ = ["DimensionlessScene"]
 
@@ -44,7 +45,6 @@ def physical_unit_of(text) -> Optional[str]:
     if not m:
         return None
     unit = m.group(1)
-    from actuator_design.model.units import COMMON_UNITS, registry
     known = COMMON_UNITS.get("deg" if unit == "°" else unit)
     if known is not None:
         return None if known[0] == "angle" else unit

@@ -12,14 +12,15 @@ from typing import Literal
 import numpy as np
 from pydantic import StrictStr, field_validator, model_validator
 
-from actuator_design.model.expressions import Expression, ExpressionError
-from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
 from actuator_design.config.base import Angle, Number, Q, StrictModel, tagged
 from actuator_design.config.errors import error
 from actuator_design.config.profile_specs import GRID
 from actuator_design.config.source_specs import (PhysicalCoilMap, PhysicalCoils, PhysicalMagnet,
                                                  PhysicalMagnets)
 from actuator_design.config.vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
+from actuator_design.model.expressions import Expression, ExpressionError
+from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
+from actuator_design.physics.fields import field_model
 
 __all__ = ["NumberXY", "LengthXY", "ForceXY", "LineLoadXY", "UniformSpec", "DipoleSpec",
            "ExpressionSpec", "PhysicalUniform", "PhysicalDipole", "PhysicalExpression",
@@ -137,8 +138,6 @@ def max_shape_on_rod(field) -> float:
     if isinstance(field, UniformField):
         return 1.0
     if isinstance(field, SourceField):
-        from actuator_design.physics.fields import field_model
-
         hx, hy = field_model(field).evaluate(x, y, {})
     elif isinstance(field, DipoleField):
         rx, ry = x - field.x0, y - field.y0

@@ -65,6 +65,7 @@ from dataclasses import dataclass
 from typing import Iterable, Optional, Tuple
 
 import numpy as np
+from numpy.polynomial import legendre
 
 __all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS", "MEMORY_BUDGET",
            "BYTES_PER_UNKNOWN", "BYTES_PER_ENTRY", "ROUNDING_MARGIN", "ROUNDING_K", "smallest_spacing",
@@ -170,10 +171,7 @@ def unknowns(transcription: str, elements: int, degree: int) -> int:
 @functools.lru_cache(maxsize=None)
 def _lgl_end_gap(degree: int) -> float:
     """The gap between the end node of [0, 1] and the next LGL node of degree ``degree`` (the first
-    root of P'_d, as ``transcription.lgl.lgl_nodes_weights`` has it; computed here with numpy alone
-    so that checking a config does not import CasADi)."""
-    from numpy.polynomial import legendre
-
+    root of P'_d, as ``transcription.lgl.lgl_nodes_weights`` has it, computed here with numpy)."""
     if degree <= 1:
         return 1.0
     c = np.zeros(int(degree) + 1)

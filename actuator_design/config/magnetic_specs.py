@@ -28,11 +28,14 @@ from typing import Annotated, List, Optional
 import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
 
-from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
 from actuator_design.config.base import Q, StrictModel
 from actuator_design.config.errors import error
 from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY,
                                            SUSCEPTIBILITY_WHY)
+from actuator_design.model.magnetics import (body_susceptibility, composite_tensor,
+                                             effective_susceptibilities, transverse_demagnetizing_factor)
+from actuator_design.model.materials import material
+from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity"]
 
@@ -91,7 +94,6 @@ class Particles(StrictModel):
     @field_validator("material")
     @classmethod
     def _known(cls, name):
-        from actuator_design.model.materials import material
         try:
             material(name)
         except ValueError as err:
@@ -108,7 +110,6 @@ class Particles(StrictModel):
 
     @property
     def preset(self):
-        from actuator_design.model.materials import material
         return None if self.material is None else material(self.material)
 
     @property
@@ -201,7 +202,6 @@ class Magnetics(StrictModel):
         """(χ̄, χ̂) of the particles alone (THEORY §2) or as given, dimensionless."""
         if self.particles is None:
             return self.chi_bar or 0.0, self.chi_hat or 0.0
-        from actuator_design.model.magnetics import effective_susceptibilities
 
         p = self.particles
         chi_par, chi_perp = p.susceptibilities
@@ -233,7 +233,6 @@ class Magnetics(StrictModel):
             out.saturation = p.volume_fraction * p.m_s
         n_t = self.demagnetizing_factor
         if n_t is None and width is not None and thickness is not None:
-            from actuator_design.model.magnetics import transverse_demagnetizing_factor
             n_t = transverse_demagnetizing_factor(width, thickness)
         isotropic = chi_bar == 0.0
         if not self.body_demagnetization:
@@ -246,8 +245,6 @@ class Magnetics(StrictModel):
                              "and chi_eff would vary with it (set body_demagnetization: false to "
                              "silence this note)")
         else:
-            from actuator_design.model.magnetics import body_susceptibility, composite_tensor
-
             chi_par, chi_perp = p.susceptibilities
             alpha = 0.0 if fibre_angle is None else fibre_angle
             body = body_susceptibility(composite_tensor(chi_par, chi_perp, p.axis_ratio,

@@ -4,22 +4,23 @@ reading it from YAML or a dict (:func:`load_config`) and turning it into a Scene
 from __future__ import annotations
 
 import copy
+import warnings
 from pathlib import Path
 from typing import Annotated, Any, Dict, Literal, Optional, Tuple, Union
 
-from pydantic import (Field, PrivateAttr, StrictBool, StrictInt, StrictStr, ValidationError,
-                      model_validator)
+from pydantic import Field, PrivateAttr, StrictBool, StrictInt, StrictStr, ValidationError, model_validator
 
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import ExpressionField, Scene
 from actuator_design.config.base import Q, StrictModel, tagged
-from actuator_design.config.checks import check_profiles_at
+from actuator_design.config.checks import _is_dense, check_profiles_at
 from actuator_design.config.dimensionless import DimensionlessScene
 from actuator_design.config.errors import ConfigError, dotted, error, first_non_finite, translate
 from actuator_design.config.field_specs import is_non_uniform
 from actuator_design.config.limits import mesh_problem
 from actuator_design.config.physical import PhysicalScene
 from actuator_design.config.yaml_source import check_structure, read_yaml
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import ExpressionField, Scene
+from actuator_design.physics.fields import FieldCheckError, check_current_free, field_model
 
 __all__ = ["SceneSpec", "SolverSpec", "Config", "load_config", "load_scene", "validate_config"]
 
@@ -68,9 +69,6 @@ def _dense_terms(scene) -> bool:
     of the scene itself); a term whose own answer fails is reported as a configuration error."""
     if not getattr(scene, "terms", None):
         return False
-    import warnings
-
-    from actuator_design.config.checks import _is_dense
 
     try:
         with warnings.catch_warnings():  # the scene is built again (and warns) when it is loaded
@@ -140,8 +138,6 @@ class Config(StrictModel):
         """
         scene = self.scene.to_scene(self.name)
         if isinstance(scene.field, ExpressionField):
-            from actuator_design.physics.fields import FieldCheckError, check_current_free, field_model
-
             model = field_model(scene.field)
             try:
                 check_current_free(model, model.parameter_values(scene.field), name="scene.field")

@@ -21,18 +21,19 @@ from typing import Dict, List, Literal, Optional, Tuple
 import numpy as np
 from pydantic import Field, model_validator
 
-from actuator_design.model.profiles import constant_profile
-from actuator_design.model.scene import Scales, Scene
-from actuator_design.model.units import MU0
 from actuator_design.config.base import Angle, Positive, Q, StrictModel
 from actuator_design.config.errors import ConfigError, error
 from actuator_design.config.field_specs import (ForceXY, LineLoadXY, PhysicalDipole, PhysicalField,
                                                 max_shape_on_rod)
 from actuator_design.config.limits import GROUP_RANGES, group_problem
+from actuator_design.config.magnetic_specs import Magnetics, MagneticSummary, Particles
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
-from actuator_design.config.magnetic_specs import MagneticSummary, Magnetics, Particles
 from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
+from actuator_design.model.magnetics import check_assumptions, check_saturation
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scales, Scene
+from actuator_design.model.units import MU0
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -327,7 +328,6 @@ class PhysicalScene(StrictModel):
         p = self.magnetics.particles if self.magnetics else None
         if p is None:
             return
-        from actuator_design.model.magnetics import check_assumptions, check_saturation
 
         h_max = None if field is None else h0 * max_shape_on_rod(field)
         check_assumptions(volume_fraction=p.volume_fraction, field=h_max,

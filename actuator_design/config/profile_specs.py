@@ -15,10 +15,11 @@ from typing import Annotated, ClassVar, List, Literal, Optional
 import numpy as np
 from pydantic import AfterValidator, StrictStr, field_validator, model_validator
 
-from actuator_design.model.expressions import Expression, ExpressionError
-from actuator_design.model.profiles import Profile, constant_profile, expression_profile, table_profile
 from actuator_design.config.base import Angle, Number, Positive, StrictModel, tagged
 from actuator_design.config.errors import error
+from actuator_design.model.expressions import Expression, ExpressionError
+from actuator_design.model.profiles import Profile, constant_profile, expression_profile, table_profile
+from actuator_design.model.units import angle_range_problem
 
 __all__ = ["FibreConstant", "FibreTable", "FibreExpression", "StiffnessConstant", "StiffnessTable",
            "StiffnessExpression", "FibreProfile", "StiffnessProfile", "MagnetizationProfile", "GRID",
@@ -85,8 +86,6 @@ class _ExpressionBase(StrictModel):
 
 
 def _degrees_in_range(value: float) -> float:
-    from actuator_design.model.units import angle_range_problem
-
     problem = angle_range_problem(value, "deg")  # reported in degrees, the unit it was given in
     if problem is not None:
         raise error(problem)

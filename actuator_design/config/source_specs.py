@@ -39,11 +39,12 @@ from typing import Any, List, Literal, Optional
 import numpy as np
 from pydantic import Field, PrivateAttr, StrictInt, model_validator
 
-from actuator_design.model.field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
-from actuator_design.model.sources import MappedCoil, plane_section, sections_overlap
 from actuator_design.config.base import Angle, Q, StrictModel
 from actuator_design.config.errors import error
 from actuator_design.config.vectors import LengthXY
+from actuator_design.model.coil_map import read_coil_map
+from actuator_design.model.field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
+from actuator_design.model.sources import MappedCoil, plane_section, sections_overlap
 
 __all__ = ["MagnetSpec", "PhysicalMagnet", "PhysicalMagnets", "MagnetTravel", "PhysicalCoils", "CoilSpec",
            "MappedCoilSpec", "PhysicalCoilMap", "MapFrame", "MAP_FIT_TOLERANCE"]
@@ -319,8 +320,6 @@ class PhysicalCoilMap(StrictModel):
 
     @model_validator(mode="after")
     def _check(self):
-        from actuator_design.model.coil_map import read_coil_map
-
         try:
             cmap = read_coil_map(self.file)
         except ValueError as exc:

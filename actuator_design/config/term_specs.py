@@ -15,8 +15,9 @@ from typing import Any, Optional, Tuple
 
 from pydantic import Field
 
-from actuator_design.model.units import parse_quantity
 from actuator_design.config.errors import error
+from actuator_design.model.units import parse_quantity
+from actuator_design.physics.registry import TermConfigError, parse_term_config
 
 __all__ = ["MAX_TERMS", "TermEntries", "terms_field", "terms_of", "check_terms"]
 
@@ -64,7 +65,6 @@ def terms_of(entries, length: Optional[float] = None, b0: Optional[float] = None
     """
     if not entries:
         return ()
-    from actuator_design.physics.registry import TermConfigError, parse_term_config
 
     if not isinstance(entries, (list, dict)):
         raise error(f"expected a list of {{type: <term>, ...}} entries or a mapping {{<term>: {{...}}}}, "

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import time
 import weakref
+from dataclasses import replace
 from typing import Dict, Optional
 
 import casadi as ca
@@ -28,13 +29,21 @@ import numpy as np
 
 from actuator_design.contact import cache as contact_cache
 from actuator_design.contact.clearance import PENETRATION_TOL, constrained_points, entering
-from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
-                                            penetration_text, point_loads, verdict)
 from actuator_design.contact.kkt import Buffered, HessianCallback, RowDerivatives
 from actuator_design.contact.newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
+from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
+                                            penetration_text, point_loads, verdict)
+from actuator_design.contact.self_contact import (GROW_ROUNDS, SLOTS, boundary_pairs, candidate_pairs,
+                                                  grown_pairs, nearest_pair, self_penetration,
+                                                  tangential_force)
 from actuator_design.contact.split import (MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged,
                                            nearest_point)
+from actuator_design.continuation.from_rest import load_fraction
+from actuator_design.equilibrium.acceptance import accept, graded_options, moment_scale, residual_limit
+from actuator_design.equilibrium.balance import balance
 from actuator_design.equilibrium.options import MAX_SPLITS
+from actuator_design.equilibrium.single import make_result
+from actuator_design.equilibrium.solver import RawSolution, get_solver
 
 __all__ = ["solve_contact", "solve_once", "ContactVerdict"]
 
@@ -176,8 +185,6 @@ def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
     """The contact NLP of ``solver``'s mesh for the scene's obstacles (and self-contact), kept on the
     solver: it lives as long as the solver stays in :func:`~actuator_design.equilibrium.solver.get_solver`'s cache and the
     memory budget of :mod:`actuator_design.contact.cache` keeps it."""
-    from actuator_design.contact.self_contact import SLOTS
-
     slots = SLOTS if self_contact else 0
     cache = solver.__dict__.setdefault("_contact_nlps", {})
     key = (scene.obstacles, scene.contact_gap, slots)
@@ -224,10 +231,6 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
         ``contact`` holds the contact set (:mod:`actuator_design.contact.report`); accepted by the checks of
         :mod:`actuator_design.equilibrium.acceptance` like any equilibrium.
     """
-    from dataclasses import replace
-
-    from actuator_design.equilibrium.acceptance import accept, graded_options
-
     t0 = time.perf_counter()
     self_contact = self_contact or bool(initial is not None and (initial.contact or {}).get("self_contact"))
     opts = graded_options(scene, options) if options.adapt else options
@@ -285,9 +288,6 @@ def _check_frictionless(result) -> None:
     """A self-contact whose rows push off the turns' common normal (its points not yet the nearest
     points of the two turns when the split rounds stopped) carries a tangential force; above the
     residual check's limit (relative to the moment scale) the result is inaccurate, in place."""
-    from actuator_design.equilibrium.acceptance import moment_scale, residual_limit
-    from actuator_design.contact.self_contact import tangential_force
-
     worst = tangential_force(result)
     if worst is None:
         return
@@ -303,8 +303,6 @@ def _check_frictionless(result) -> None:
 
 def _boundaries(scene, result, strong) -> list:
     """Element boundaries in (0, 1) at the contact points of ``strong`` (a self-contact's pair once)."""
-    from actuator_design.contact.self_contact import nearest_pair
-
     half = 0.5 / max(1, result.options.elements)
     out = []
     for p in strong:
@@ -318,15 +316,11 @@ def _boundaries(scene, result, strong) -> list:
 
 def _dense_checks(scene, result, self_contact: bool) -> tuple:
     """(where the dense shape enters an obstacle, where it enters itself): each None when it does not."""
-    from actuator_design.contact.self_contact import self_penetration
-
     inside = entering(scene.obstacles, scene.contact_gap, result) if scene.obstacles else None
     return inside, (self_penetration(result, scene.contact_gap) if self_contact else None)
 
 
 def _entry_boundaries(scene, result, inside, self_inside) -> list:
-    from actuator_design.contact.self_contact import nearest_pair
-
     out = []
     if inside is not None and 0.0 < inside[1] < 1.0:
         out.append(nearest_point(scene, result, {"obstacle": inside[0], "s": inside[1]}))
@@ -348,12 +342,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     scales every load and field (a ramp from rest); ``self_contact`` adds the rows of the pairs of
     points near each other in the start (:func:`~actuator_design.contact.self_contact.candidate_pairs`, with ``spread``);
     ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair)."""
-    from actuator_design.equilibrium.balance import balance
-    from actuator_design.equilibrium.single import make_result
-    from actuator_design.continuation.from_rest import load_fraction
-    from actuator_design.contact.self_contact import GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs
-    from actuator_design.equilibrium.solver import RawSolution, get_solver
-
     solver = get_solver(scene, opts)
     nlp = contact_nlp(solver, scene, self_contact)
     P = solver.parameter_vector(scene)

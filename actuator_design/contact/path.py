@@ -28,13 +28,13 @@ from dataclasses import replace
 from typing import Dict, List, Optional
 
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
 
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.continuation.loading_schedule import apply_values, checked_schedule
+from actuator_design.contact.self_contact import REACH, nearest_pair, self_penetration
 from actuator_design.continuation.loading_results import Jump, LoadingPath, PathPoint
+from actuator_design.continuation.loading_schedule import apply_values, checked_schedule
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.result import EquilibriumResult
 
 __all__ = ["follow_contact_path", "EVENT_XTOL", "MIN_STEP"]
 
@@ -256,6 +256,7 @@ class _Run:
             lo, hi = ta, tb
             if not gap(ta)[0] * gap(tb)[0] < 0:
                 lo, hi = self._bracket(gap, ta if free_side is a else tb, tb if free_side is a else ta)
+            from scipy.optimize import brentq  # on first use: scipy.optimize costs 0.1 s at start-up
             t_star = brentq(lambda t: gap(t)[0], min(lo, hi), max(lo, hi), xtol=EVENT_XTOL,
                             rtol=4 * np.finfo(float).eps)
             return t_star, gap(t_star)[1], True
@@ -290,6 +291,7 @@ def _min_gap(base, k: int, r: EquilibriumResult):
 
     i = int(np.argmin(dist(_S)))
     lo, hi = _S[max(i - 1, 0)], _S[min(i + 1, _S.size - 1)]
+    from scipy.optimize import minimize_scalar  # on first use, as brentq
     best = minimize_scalar(lambda s: float(dist(s)[0]), bounds=(lo, hi), method="bounded",
                            options={"xatol": 1e-13})
     cands = [(float(dist(_S[i])[0]), float(_S[i])), (float(best.fun), float(best.x)), (float(dist(1.0)[0]), 1.0)]
@@ -311,8 +313,6 @@ def _min_self_gap(r: EquilibriumResult, gap: float):
     the gap, and where (the point of lower arc length): the nearest pair of :data:`_S` (the clamp
     included), refined to the nearest points of the two curves; (REACH, None) when no pair is
     within 2·gap + REACH."""
-    from actuator_design.contact.self_contact import REACH, nearest_pair, self_penetration
-
     near = self_penetration(r, gap, n=_S.size, tol=-REACH)
     if near is None:
         return REACH, None

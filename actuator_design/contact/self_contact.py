@@ -31,6 +31,8 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from actuator_design.contact.clearance import constrained_points
+
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
            "least_self_clearance", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
            "GROW_ROUNDS"]
@@ -213,8 +215,6 @@ def least_self_clearance(solver, gap: float):
     over the non-neighbouring pairs of its constrained points and the clamp (units of ℓ; +inf when
     no pair is far enough apart along the rod): the event function of a branch's first self-touch."""
     import casadi as ca
-
-    from actuator_design.contact.clearance import constrained_points
 
     z = ca.SX.sym("z", solver.transcription.nodes.size)
     X, Y, s_points, _ = constrained_points(solver.transcription, z)

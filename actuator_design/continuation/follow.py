@@ -26,21 +26,22 @@ from typing import List, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
+from actuator_design.analysis.registration import register
+from actuator_design.analysis.stability_changes import insert_stability_changes
+from actuator_design.contact.clearance import least_clearance
+from actuator_design.contact.path import follow_contact_path
+from actuator_design.contact.self_contact import least_self_clearance
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold,
                                           UserEvent, continuation)
-from actuator_design.equilibrium.pipeline import solve
+from actuator_design.continuation.branch import Branch, ContinuationResult, CriticalPoint
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
+from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
 from actuator_design.physics.parameters import Parameter
 from actuator_design.reduced.system import reduced_system, substituted_energy
-from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
-from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.continuation.branch import Branch, ContinuationResult, CriticalPoint
-from actuator_design.analysis.stability_changes import insert_stability_changes
-from actuator_design.analysis.registration import register
-from actuator_design.contact.clearance import least_clearance
-from actuator_design.contact.self_contact import least_self_clearance
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
            "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
@@ -399,8 +400,6 @@ def _in_contact_from_start(scene: Scene, options: SolverOptions, param: str, sta
     """A start that touches ``what`` (an obstacle, or itself): the loading path with contact over the window from the
     contact equilibrium at ``start`` (from rest, or warm-started from ``initial``); the branch is
     that one state (status ``touch``)."""
-    from actuator_design.contact.path import follow_contact_path
-
     t0 = time.perf_counter()
     path = follow_contact_path(set_param(scene, param, start), options, {param: [start, float(stop)]},
                                initial=initial)
@@ -420,8 +419,6 @@ def _in_contact_from_start(scene: Scene, options: SolverOptions, param: str, sta
 def _on_with_contact(scene: Scene, options: SolverOptions, param: str, br: Branch, win):
     """The loading path with contact from the branch's touching state to the window's end the
     branch was heading for (``LoadingPath``)."""
-    from actuator_design.contact.path import follow_contact_path
-
     lam = float(br.lam[-1])
     heading_up = len(br) < 2 or br.lam[-1] >= br.lam[-2]
     end = float(win[1] if heading_up else win[0])

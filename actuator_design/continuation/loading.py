@@ -36,16 +36,18 @@ from typing import Optional, Sequence, Union
 
 import numpy as np
 
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
 from actuator_design.analysis.registration import register
+from actuator_design.contact.path import follow_contact_path
+from actuator_design.contact.self_contact import self_penetration
 from actuator_design.continuation.loading_results import Bifurcation, Jump, LoadingPath, PathPoint
 from actuator_design.continuation.loading_schedule import (Schedule, apply_values, checked_schedule,
                                                            normalise_schedule, prepare_scene, ramp,
                                                            scene_values)
 from actuator_design.continuation.loading_tracker import Tracker as _Tracker
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.model.scene import Scene
 
 __all__ = ["apply_values", "scene_values", "ramp", "follow_path", "LoadingPath",
            "PathPoint", "Jump", "Bifurcation", "Schedule", "normalise_schedule", "prepare_scene"]
@@ -96,7 +98,6 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     """
     options = options or SolverOptions()
     if scene.obstacles:
-        from actuator_design.contact.path import follow_contact_path
         return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
     base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
@@ -123,7 +124,6 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         through = None if options.keep_self_intersecting else _through_itself(tr.states, names, vals)
         if through is not None and options.self_contact and scene.contact_gap > 0:
             # the rod meets itself on the way: followed again by contact equilibria with self-contact
-            from actuator_design.contact.path import follow_contact_path
             return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
         if through is not None:
             ok, msg = False, through
@@ -140,8 +140,6 @@ def _through_itself(states, names, vals) -> Optional[str]:
     ``contact_gap`` > 0) passes through its own thickness, in words; None when none does. A path
     does not follow self-contact: such a state is not physical (THEORY's rod cannot pass through
     itself), and the path says so instead of reporting it."""
-    from actuator_design.contact.self_contact import self_penetration
-
     for k, r in enumerate(states):
         gap = r.scene.contact_gap
         inside = self_penetration(r, gap) if gap > 0 and r.success else None

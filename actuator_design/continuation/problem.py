@@ -13,11 +13,13 @@ from typing import Optional, Tuple
 import numpy as np
 from scipy.linalg import lapack
 
+from actuator_design.continuation.banded import BandedBordered, use_band
+from actuator_design.reduced.fold import locate_fold
 from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
-                              lowest_eigenpair_banded, lu_det_sign, signed_distance_to_singularity)
+                                            lowest_eigenpair_banded, lu_det_sign,
+                                            signed_distance_to_singularity)
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
-from actuator_design.continuation.banded import BandedBordered, use_band
 
 __all__ = ["BifurcationProblem"]
 
@@ -69,7 +71,6 @@ class BifurcationProblem:
         or None when it does not converge close by (then the event's bracketed root stands)."""
         if len(self.system.names) != 1:
             return None
-        from actuator_design.reduced.fold import locate_fold
         n = self.n
         fp = locate_fold(self.system, self.P, x[:n], float(x[n]), tol=1e-12)
         if not fp.converged or abs(fp.lam - x[n]) > 1e-6 * (1.0 + abs(x[n])) or \

@@ -30,7 +30,12 @@ from typing import Optional
 
 import numpy as np
 
+from actuator_design.continuation.from_rest import path_from_rest
+from actuator_design.equilibrium.accuracy import scene_wavenumber, tip_difference
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.single import solve_on
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.physics.registry import end_moment
 
 __all__ = ["solve_checked", "accept", "graded_options", "residual_problem", "moment_scale", "check_physical"]
 
@@ -47,14 +52,12 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
     the same towards the tip when a tip moment is applied (its layer sits there). Midpoint meshes
     are not graded.
     """
-    from actuator_design.equilibrium.accuracy import scene_wavenumber
-
     if options.transcription != "lgl":
         return options
     k = scene_wavenumber(scene)
     E = int(options.elements)
     need = int(math.ceil(math.log2(k / E))) if k > 3.0 * E else 0
-    tip_need = need if (scene.tip_moment is not None and scene.tip_moment != 0) else 0
+    tip_need = need if end_moment(scene) != 0 else 0
     clamp = max(int(options.clamp_levels), need)
     tip = max(int(options.tip_levels), tip_need)
     if (clamp, tip) == (options.clamp_levels, options.tip_levels):
@@ -65,8 +68,8 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
 def moment_scale(result) -> float:
     """max(1, |clamp moment|, |clamp force|, |tip moment|): the size of the terms of the moment
     balance (units of B0/ℓ); the bending moment θ'(s) is largest at the clamp or at a loaded tip."""
-    m_tip = result.scene.tip_moment or 0.0
-    return float(max(1.0, abs(result.clamp_moment), float(np.max(np.abs(result.clamp_force))), abs(m_tip)))
+    return float(max(1.0, abs(result.clamp_moment), float(np.max(np.abs(result.clamp_force))),
+                     end_moment(result.scene)))
 
 
 def residual_limit(options: SolverOptions) -> float:
@@ -129,8 +132,6 @@ def solve_checked(scene, options: SolverOptions, initial=None):
     -------
     EquilibriumResult
     """
-    from actuator_design.equilibrium.solver import get_solver
-
     opts = graded_options(scene, options) if options.adapt else options
     solver = get_solver(scene, opts)
     if initial is None:
@@ -154,8 +155,6 @@ def accept(result):
 
 
 def _solve_warm(scene, opts, solver, guess):
-    from actuator_design.equilibrium.single import solve_on
-
     nodes = solver.transcription.nodes
     z0 = guess
     if hasattr(guess, "evaluate"):  # a result: its own nodes when they are these, else interpolated
@@ -166,10 +165,6 @@ def _solve_warm(scene, opts, solver, guess):
 
 def _solve_from_start(scene, opts, solver):
     """From rest (``opts.start == "rest"``), compared with the straight-rod start; or straight."""
-    from actuator_design.equilibrium.accuracy import tip_difference
-    from actuator_design.equilibrium.single import solve_on
-    from actuator_design.continuation.from_rest import path_from_rest
-
     if opts.start != "rest":
         return solve_on(scene, opts, None, solver, strict=True)
     t0 = time.perf_counter()

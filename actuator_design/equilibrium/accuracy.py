@@ -26,6 +26,7 @@ from typing import Optional
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import scene_wavenumber as terms_wavenumber
 
 __all__ = ["choose_options", "scene_wavenumber", "tip_difference", "finer_options", "MAX_ELEMENTS"]
 
@@ -40,8 +41,6 @@ def scene_wavenumber(scene: Scene) -> float:
     THEORY §6); loads √|f| (elastica), |m|, |q|^(1/3); non-uniform fields add their own scale
     through h and h_pos (times 1/distance, not known a priori — the a-posteriori estimate catches it).
     """
-    from actuator_design.physics.registry import scene_wavenumber as terms_wavenumber
-
     return terms_wavenumber(scene)
 
 

@@ -19,6 +19,9 @@ import weakref
 from typing import Tuple
 
 import numpy as np
+from numpy.polynomial import legendre as L
+
+from actuator_design.equilibrium.pointwise import NotVectorisable, VectorisedSX
 
 __all__ = ["BalanceOperator", "balance", "balance_many", "GAUSS_T", "GAUSS_W"]
 
@@ -105,8 +108,6 @@ class BalanceOperator:
 def _gauss_integration_matrix() -> np.ndarray:
     """S with (S f)_i = ∫_{-1}^{t_i} p(t) dt for the interpolant p of f through the 12 Gauss
     points t_j, shape (12, 12)."""
-    from numpy.polynomial import legendre as L
-
     d = GAUSS_T.size - 1
     V = L.legvander(GAUSS_T, d)
     antider = np.empty((d + 1, d + 1))
@@ -189,8 +190,6 @@ def balance_many(solver, params: np.ndarray, Z: np.ndarray, scene):
 def _vectorised(solver):
     """The solver's pointwise loads replayed on numpy arrays (:mod:`actuator_design.equilibrium.pointwise`),
     or None when the function cannot be (CasADi then evaluates it point by point)."""
-    from actuator_design.equilibrium.pointwise import NotVectorisable, VectorisedSX
-
     if solver not in _VECTORISED:
         dens_f, tip_f = solver._pointwise
         try:

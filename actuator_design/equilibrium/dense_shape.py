@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from actuator_design.equilibrium.balance import balance
+from actuator_design.equilibrium.solver import get_solver
+
 __all__ = ["DenseShape", "Balance", "clamp_curvature", "self_intersecting", "never_intersects", "nan_shape",
            "nan_balance"]
 
@@ -93,9 +96,7 @@ class Balance:
         return {**self.__dict__, "solver": None}
 
     def __call__(self):
-        from actuator_design.equilibrium.balance import balance
         if self.solver is None:
-            from actuator_design.equilibrium.solver import get_solver
             solver = get_solver(self.scene, self.options)
             if not np.array_equal(solver.transcription.nodes, self.dense.tr.nodes):
                 raise ValueError("this result's balance needs the solver it was computed with (its mesh is not "

@@ -5,6 +5,8 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Optional, Tuple
 
+from actuator_design.config.limits import mesh_problem  # the memory budget (README "Units and scenes")
+
 __all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE", "STARTS", "MAX_LEVELS"]
 
 TRANSCRIPTIONS = ("lgl", "midpoint")
@@ -135,8 +137,6 @@ class SolverOptions:
             raise ValueError(f"split_at: at most {MAX_SPLITS} arc lengths in (0, 1), got {self.split_at}")
         object.__setattr__(self, "split_at", tuple(sorted(set(split))))
         if self.accuracy is None:
-            from actuator_design.config.limits import mesh_problem  # the memory budget (README "Units and scenes")
-
             mesh = (self.transcription, int(self.elements) + self.extra_elements, int(self.degree))
             problem = mesh_problem(*mesh)  # memory only: the tool picks meshes finer than a user may
             if problem is not None:  # over budget anyway: name the binding cap, rounding included

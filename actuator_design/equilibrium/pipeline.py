@@ -13,6 +13,13 @@ from typing import Optional, Union
 
 import numpy as np
 
+# contact/'s solves are called through their modules (``contact_equilibrium.solve_contact``): the
+# seam where a test puts a stand-in
+from actuator_design.contact import equilibrium as contact_equilibrium
+from actuator_design.contact import self_solve
+from actuator_design.contact.self_contact import REACH, self_penetration
+from actuator_design.continuation.from_rest import path_from_rest
+from actuator_design.equilibrium.acceptance import check_physical, solve_checked
 from actuator_design.equilibrium.accuracy import MAX_ELEMENTS, choose_options, finer_options, tip_difference
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
@@ -58,14 +65,12 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
     warm_self = (isinstance(initial, EquilibriumResult) and options.self_contact
                  and not options.keep_self_intersecting and scene.contact_gap > 0 and _near_itself(initial))
     if scene.obstacles or warm_self:  # unilateral constraints: IPOPT with the contact rows (a start
-        from actuator_design.contact.equilibrium import solve_contact  # pressing on itself keeps its self-contact rows)
-        result = solve_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
+        result = contact_equilibrium.solve_contact(scene, options,
+                                                   initial if isinstance(initial, EquilibriumResult) else None)
     elif options.accuracy is not None and solver is None:
-        from actuator_design.equilibrium.acceptance import check_physical
         result = check_physical(solve_to_tolerance(scene, options.accuracy,
                                                    options=replace(options, accuracy=None), initial=initial))
     elif solver is None and not isinstance(initial, np.ndarray):
-        from actuator_design.equilibrium.acceptance import solve_checked
         result = solve_checked(scene, options, initial)
     else:
         return solve_on(scene, options, initial, solver)
@@ -73,14 +78,13 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
             and not (result.contact or {}).get("self_contact")):
         # a shape that crosses itself or enters its own thickness: the rod against itself, the
         # contact equilibrium reached from rest (issue 20 item 3)
-        from actuator_design.contact.self_contact import self_penetration
-        from actuator_design.contact.self_solve import solve_self_contact
         # (also a contact result judged inaccurate for entering an obstacle: the rod wound round a
         # peg onto itself enters the peg because it passes through its own turn)
         through = result.status == "self_intersecting" or (
             (result.success or result.status == "inaccurate") and self_penetration(result, scene.contact_gap))
         if through:
-            return solve_self_contact(scene, options, initial if isinstance(initial, EquilibriumResult) else None)
+            return self_solve.solve_self_contact(scene, options,
+                                                 initial if isinstance(initial, EquilibriumResult) else None)
     return result
 
 
@@ -88,8 +92,6 @@ def _near_itself(state: EquilibriumResult) -> bool:
     """Whether a warm start presses on itself, or comes within reach of it
     (:data:`~actuator_design.contact.self_contact.REACH`): a step from it keeps the self-contact rows, which
     keep the rod on its side of itself (a free step could pass through the rod's thickness)."""
-    from actuator_design.contact.self_contact import REACH, self_penetration
-
     if (state.contact or {}).get("self_contact"):
         return True
     gap = state.scene.contact_gap
@@ -135,8 +137,6 @@ def solve_to_tolerance(scene: Scene, tol: float, options: Optional[SolverOptions
         coarse_solver = get_solver(scene, opts)
         if guess is None and not levels and opts.start == "rest":
             # the state reached from rest (loads and field ramped from zero), as plain solve does
-            from actuator_design.continuation.from_rest import path_from_rest
-
             path = path_from_rest(coarse_solver, coarse_solver.parameter_vector(scene),
                                   follow_stable=opts.ensure_stable)
             guess = path.z if path.reached else None

@@ -19,6 +19,7 @@ from typing import List, Optional
 import numpy as np
 from scipy.linalg import lapack
 
+from actuator_design.equilibrium.solver import StabilityVerdict
 from actuator_design.reduced.linalg import STABILITY_TOL, classify_spectrum
 
 __all__ = ["StabilityCheck", "is_unstable", "lowest_eigenvalues", "verdict_of"]
@@ -95,8 +96,6 @@ def verdict_of(solver, z: np.ndarray, params: np.ndarray, check: Optional[Stabil
     ``eigenvalues`` array), else from the lowest three eigenvalues (``solver.stability`` for big
     systems).
     """
-    from actuator_design.equilibrium.solver import StabilityVerdict
-
     if check is not None and check.certified and not need_eigenvalues:
         return StabilityVerdict(eigenvalues=np.zeros(0), eigenvector=None, morse_index=0,
                                 stable=True, marginal=False)

@@ -29,15 +29,18 @@ from typing import Callable, List, Optional, Sequence
 import numpy as np
 
 from actuator_design import forked
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.model.field_sources import CoilSource
-from actuator_design.model.units import MU0
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
 from actuator_design.hardware.current_map import CurrentMap, at_weights
 from actuator_design.hardware.current_sqp import CurrentProblem, within_limits
-from actuator_design.hardware.design import HardwareDesign, judge, refitted, run_starts, verify as verify_on
+from actuator_design.hardware.design import HardwareDesign, judge, refitted, run_starts
+from actuator_design.hardware.design import verify as verify_on
+from actuator_design.model.field_sources import CoilSource
+from actuator_design.model.scene import Scene
+from actuator_design.model.units import MU0
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem"]
@@ -137,8 +140,6 @@ def scene_at_currents(scene: Scene, currents: Sequence[float]) -> Scene:
 
 def _field_report(scene: Scene, w: np.ndarray, h2: np.ndarray):
     """(|μ0 H| T and angle rad at the clamp, largest |μ0 H| over the rod T)."""
-    from actuator_design.physics.fields import field_model
-
     model = field_model(scene.field)
     hx, hy = model.evaluate([0.0], [0.0], dict(zip(model.params, w)))[:, 0]
     b0 = MU0 * scene.scales.field
@@ -264,7 +265,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
 def _even(scene: Scene) -> bool:
     """Whether the rod's energy is even in the field (no remanent magnetisation: the soft terms are
     quadratic in H), so currents ±I hold the same state."""
-    return scene.magnetization is None or scene.h_r == 0.0
+    return lens.remanent_group(scene) == 0.0
 
 
 def _screen(cmap: CurrentMap, prob: CurrentProblem, even: bool, progress=None) -> List[np.ndarray]:

@@ -8,7 +8,7 @@ common part, the runs from the starts, the verification and the judgement, and t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, List, Optional, Sequence
 
 import numpy as np
@@ -19,6 +19,7 @@ from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.hardware.current_sqp import (CurrentProblem, SQPOutcome, least_effort_currents,
                                                   within_limits)
 from actuator_design.hardware.map import HardwareMap
+from actuator_design.model.field_sources import source_field
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["HardwareDesign", "run_starts", "verify", "judge", "refitted", "VERIFY_TOL"]
@@ -124,10 +125,6 @@ def refitted(scene, sources, weights: tuple = ()):
     """``scene`` with its field built anew from ``sources`` (SI): magpylib's field refitted (its own
     H0; the fit tolerance and the limits kept, the source weights set to ``weights``) and the groups
     h, h_pos, h_r (each ∝ H0, THEORY §5, §9) rescaled — a verification's scene."""
-    from dataclasses import replace
-
-    from actuator_design.model.field_sources import source_field
-
     f = scene.field
     new, h0 = source_field(tuple(sources), f.length, f.fit_tolerance)
     new = replace(new, fit_tolerance=f.fit_tolerance, max_power=f.max_power, max_field=f.max_field, weights=weights)

@@ -17,16 +17,17 @@ points.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
 
-from actuator_design.equilibrium.pipeline import solve
 from actuator_design.continuation.from_rest import path_from_rest
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
 from actuator_design.equilibrium.solver import get_solver
+from actuator_design.model.scene import Scene
 
 __all__ = ["HardwareMap"]
 
@@ -58,8 +59,6 @@ class HardwareMap:
 
     def __init__(self, scene: Scene, start: EquilibriumResult, v_start: np.ndarray, names: Sequence[str],
                  at: Callable[[Scene, np.ndarray], Scene], pointwise: Callable):
-        from dataclasses import replace
-
         self.scene, self.names, self.at, self.pointwise = scene, tuple(names), at, pointwise
         # Newton from the neighbouring state: ~10x faster here than IPOPT, whose Hessian in a
         # fitted field is quasi-Newton; each state's stability is checked all the same

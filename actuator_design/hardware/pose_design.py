@@ -31,17 +31,19 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from actuator_design import forked
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.model.field_sources import MagnetSource
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
-from actuator_design.model.units import MU0
 from actuator_design.hardware.current_sqp import CurrentProblem, within_limits
-from actuator_design.hardware.design import HardwareDesign, judge, run_starts, verify as verify_on
+from actuator_design.hardware.design import HardwareDesign, judge, run_starts
+from actuator_design.hardware.design import verify as verify_on
 from actuator_design.hardware.map import HardwareMap
 from actuator_design.hardware.pose_problem import (COORDS, TIP_TOL, PoseVariables, at_pose, clearance,
                                                    pose_problem, scene_at_pose)
+from actuator_design.model.field_sources import MagnetSource
+from actuator_design.model.scene import Scene
+from actuator_design.model.units import MU0
+from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_pose", "PoseDesign", "PoseVariables", "pose_problem", "scene_at_pose", "POSITION_TOLERANCE"]
@@ -259,8 +261,6 @@ def _active(var: PoseVariables, prob: CurrentProblem, v: np.ndarray, pt: dict) -
 
 def _field_report(scene: Scene, state: EquilibriumResult):
     """(|μ0 H| T and angle rad at the clamp, largest |μ0 H| over the rod's nodes T)."""
-    from actuator_design.physics.fields import field_model
-
     model = field_model(scene.field)
     values = model.parameter_values(scene.field)
     x, y = np.asarray(state.x, float), np.asarray(state.y, float)

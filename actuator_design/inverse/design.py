@@ -40,21 +40,24 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from actuator_design import forked
+from actuator_design.analysis.registration import register
+from actuator_design.contact.clearance import clearances, entered_at_rest
+from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene, UniformField, default_scene
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
+from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult,  # noqa: F401
+                                              DesignSettings, Optimised, Verification, canonical_target,
+                                              check_h_max, normalise_phi, normalise_tip_angle, phi_period,
+                                              tip_error)
+from actuator_design.inverse.verify import stiffness_by_differences
+from actuator_design.inverse.verify import verify as verify_stage
+from actuator_design.model.scene import Scene, UniformField, default_scene
 from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
-from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult, DesignSettings, Optimised, Verification,  # noqa: F401
-                           canonical_target, check_h_max, normalise_phi, normalise_tip_angle, phi_period,
-                           tip_error)
-from actuator_design.inverse.verify import stiffness_by_differences, verify as verify_stage
-from actuator_design.analysis.registration import register
-from actuator_design.contact.clearance import clearances, entered_at_rest
-from actuator_design.contact.guard import refuse_contact
+from actuator_design.robust.tolerances import parse_tolerances
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
            "result_of", "fibres_fixed"]
@@ -490,7 +493,6 @@ def run_design(scene, options, target=None, vary=None, stiffness=None, **setting
     if target is None and stiffness is None:
         raise ValueError("design: give 'target' (e.g. target: [0.3, 0.5]) and/or 'stiffness'")
     if "tolerances" in settings:
-        from actuator_design.robust.tolerances import parse_tolerances
         settings = {**settings, "tolerances": parse_tolerances(settings["tolerances"])}
     res = design(target, scene=scene, vary=vary, options=options, settings=DesignSettings(**settings),
                  stiffness=stiffness)

@@ -5,10 +5,11 @@ parameter lens (every slot whose ``field_power`` f ≠ 0 besides the field magni
 a plug-in term's field-driven values follow too."""
 from __future__ import annotations
 
-
 import casadi as ca
 
 from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import term_class, write_keeps_terms
 
 __all__ = ["couple_field_groups", "coupled_scene", "remanence_only"]
 
@@ -17,8 +18,6 @@ __all__ = ["couple_field_groups", "coupled_scene", "remanence_only"]
 def _field_driven():
     """(lens parameter, f) of every slot driven by the field besides its magnitude (h_pos, h_r: f = 1,
     in registration order)."""
-    from actuator_design.physics import parameters as lens
-
     out = {}
     for p in lens.parameters().values():
         if p.field_power and not p.field_magnitude and not p.per_point and p.slot not in out:
@@ -41,7 +40,7 @@ def couple_field_groups(P, P0, h, slices) -> None:
 def remanence_only(scene: Scene) -> bool:
     """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
     so it has no h to design (THEORY §9)."""
-    return scene.h_r > 0 and not scene.h > 0
+    return lens.remanent_group(scene) > 0 and not scene.h > 0
 
 
 def coupled_scene(base: Scene, sc: Scene) -> Scene:
@@ -49,7 +48,6 @@ def coupled_scene(base: Scene, sc: Scene) -> Scene:
     as :func:`couple_field_groups` does in the NLP."""
     if not base.h > 0:
         return sc
-    from actuator_design.physics.registry import term_class, write_keeps_terms
 
     k = sc.h / base.h
     for p, f in _field_driven():

@@ -22,6 +22,8 @@ import numpy as np
 from actuator_design.equilibrium.acceptance import (graded_options, moment_scale, residual_limit,
                                                     residual_problem)
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.single import solve_on
+from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignProblem
 
 __all__ = ["MeshCheck", "check_mesh", "check_state", "unresolved", "refined_options", "regrade", "mesh_dict",
@@ -76,8 +78,6 @@ def check_mesh(choice: Choice, options: SolverOptions) -> MeshCheck:
 def unresolved(candidate, point, options: SolverOptions) -> bool:
     """Whether a candidate's optimum misses the accuracy of ``solve`` on a mesh that grading would
     change (then adding design variables on this mesh is pointless: the mesh is regraded first)."""
-    from actuator_design.inverse.optimise import design_vector
-
     scene = candidate.nlp.scene_for(candidate.base, design_vector(candidate.nlp, point))
     if not options.adapt or graded_options(scene, options) == options:
         return False
@@ -88,8 +88,6 @@ def check_state(scene, solver, z: np.ndarray, options: SolverOptions) -> MeshChe
     """The Euler–Lagrange residual of the state ``z`` (θ at the nodes of ``solver``) of ``scene``
     (a Newton re-solve from it on that solver, then
     :func:`~actuator_design.equilibrium.acceptance.residual_problem`)."""
-    from actuator_design.equilibrium.single import solve_on
-
     opts = replace(options, method="newton", ensure_stable=False, accuracy=None)
     r = solve_on(scene, opts, np.asarray(z, float), solver)
     if not r.success or not np.all(np.isfinite(r.theta)):

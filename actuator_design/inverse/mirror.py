@@ -16,12 +16,14 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from actuator_design.model.profiles import Profile
-from actuator_design.model.scene import Scene, UniformField
 from actuator_design.inverse.nlp import DesignPoint
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import (Candidate, Choice, DesignProblem, normalise_phi,
                                               normalise_tip_angle, phi_period)
+from actuator_design.model.profiles import Profile
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
+from actuator_design.robust.robustness import evaluate_robustness
 
 __all__ = ["mirror_scene", "mirrored_problem", "mirror_choice", "robust_by_mirror", "MIRROR_NOTE"]
 
@@ -117,9 +119,6 @@ def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choi
     -------
     (Choice, RobustReport or None, Forked or None)
     """
-    from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
-    from actuator_design.robust.robustness import evaluate_robustness
-
     period = phi_period(problem.base)
     reflected = (lambda ch: follow(mirror_choice(ch, period))) if follow is not None else None
     moved, report, ahead = robust_stage(mirror, choice, reflected)

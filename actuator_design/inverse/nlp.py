@@ -36,15 +36,19 @@ from typing import Dict, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
 from actuator_design.contact.clearance import clearance_rows
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
+from actuator_design.inverse.field_groups import (couple_field_groups,  # noqa: F401 (re-exported)
+                                                  coupled_scene, remanence_only)
+from actuator_design.inverse.gauge import has_fibre_gauge
+from actuator_design.inverse.ldl import (SegmentedLDL, _bandwidth,  # noqa: F401 (importers use them)
+                                         _ldl_function, _ldl_pivots)
 from actuator_design.model.profiles import constant_profile, legendre_profile
 from actuator_design.model.scene import Scene, UniformField
-from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.inverse.field_groups import couple_field_groups, coupled_scene, remanence_only  # noqa: F401 (re-exported)
-from actuator_design.inverse.gauge import has_fibre_gauge
-from actuator_design.inverse.ldl import SegmentedLDL, _bandwidth, _ldl_function, _ldl_pivots  # noqa: F401 (importers use them)
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import build_terms
+from actuator_design.physics.terms import structure_key
 
 __all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 
@@ -442,9 +446,6 @@ class DesignRequest:
 def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int,
                    clearance: float = 0.0) -> DesignNLP:
     """A cached :class:`DesignNLP` (built once per structure, variables and series length)."""
-    from actuator_design.physics.registry import build_terms
-    from actuator_design.physics.terms import structure_key
-
     obstacles = (tuple(scene.obstacles), float(scene.contact_gap), float(clearance)) if scene.obstacles else ()
     key = (structure_key(build_terms(scene)), obstacles, tuple(sorted(vary)), options.transcription, options.elements,
            options.degree, options.clamp_levels, options.tip_levels, options.split_at, options.tol, options.max_iter,

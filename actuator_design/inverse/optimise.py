@@ -16,6 +16,7 @@ from actuator_design.inverse.nlp import (STRONG_FIELD, DesignNLP, DesignPoint, D
 from actuator_design.inverse.screen import screen
 from actuator_design.inverse.settings import (Candidate, DesignProblem, Optimised, ScreenedStart,
                                               normalise_phi, phi_period, tip_error)
+from actuator_design.robust.design_robust import get_scenario_nlp
 
 __all__ = ["candidate", "optimise", "search_set", "warm_robust_nlp", "design_vector", "STRONG_REACH_PROBE"]
 
@@ -131,8 +132,6 @@ def warm_robust_nlp(problem: DesignProblem, vset) -> None:
     """Build the robust stage's NLP of the variable set ``vset`` (:mod:`actuator_design.robust.design_robust`), e.g. while
     that set's search runs beside (:func:`~actuator_design.inverse.design.search`): the earlier sets did not reach the
     target, so its design is the one likely to be made robust."""
-    from actuator_design.robust.design_robust import get_scenario_nlp
-
     tol = problem.settings.tolerances
     if problem.target and tol.active:
         get_scenario_nlp(candidate(problem, vset).nlp, 1, len(tol.corners())).nlpsol(False)

@@ -29,20 +29,21 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from actuator_design import forked
+from actuator_design.contact.guard import no_contact
+from actuator_design.continuation.loading import follow_path
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
-from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.choose import choose
+from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.mesh import check_mesh, check_state
 from actuator_design.inverse.nlp import PROFILE_VARIABLES, DesignPoint
 from actuator_design.inverse.optimise import candidate, design_vector, search_set
-from actuator_design.robust.design_robust import get_scenario_nlp, pose_designs, robustify
 from actuator_design.inverse.settings import (Choice, DesignSettings, Optimised, normalise_phi, phi_period,
                                               tip_error)
 from actuator_design.inverse.verify import verify as verify_stage
+from actuator_design.model.scene import Scene
+from actuator_design.robust.design_robust import get_scenario_nlp, pose_designs, robustify
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
 from actuator_design.robust.tolerances import Tolerances
-from actuator_design.contact.guard import no_contact
 
 __all__ = ["PoseResult", "MultiPoseResult", "design_poses", "MAX_POSES"]
 
@@ -423,8 +424,6 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
     """The schedule from rest through every pose in order, each transition checked by a loading path
     that lands on the next pose's state; falls back to ramping the field down and the next pose's
     verified schedule from rest."""
-    from actuator_design.continuation.loading import follow_path
-
     tv = time.perf_counter()
     sched = [dict(q, pose=1) for q in poses[0].schedule]
     labels = [f"pose 1: {poses[0].label}"]

@@ -10,10 +10,10 @@ from typing import List
 import numpy as np
 
 from actuator_design.equilibrium.pipeline import solve
-from actuator_design.model.scene import Scene
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint
 from actuator_design.inverse.settings import (Candidate, DesignProblem, DesignSettings, ScreenedStart,
                                               phi_period)
+from actuator_design.model.scene import Scene
 
 __all__ = ["screen", "start_grid", "unpack", "STRONG_FIELDS"]
 
@@ -98,17 +98,14 @@ def _on_design_mesh(r, nlp: DesignNLP, scene: Scene, options):
     nodes = nlp.solver.transcription.nodes
     if r.z is not None and r.z.size == nodes.size:
         return r
-    from actuator_design.equilibrium.pipeline import solve as solve_on
-    again = solve_on(scene, options, initial=np.interp(nodes, r.s, r.theta), solver=nlp.solver)
+    again = solve(scene, options, initial=np.interp(nodes, r.s, r.theta), solver=nlp.solver)
     return again if again.success and again.stable else None
 
 
 def _seeded_start(seed, nlp: DesignNLP, scene: Scene, options):
     """A seed's state (:class:`~actuator_design.inverse.mesh.Seed`) re-converged on the design NLP's mesh (None if
     it is not a stable equilibrium there)."""
-    from actuator_design.equilibrium.pipeline import solve as solve_on
-
-    r = solve_on(scene, options, initial=seed.theta_at(nlp.solver.transcription.nodes), solver=nlp.solver)
+    r = solve(scene, options, initial=seed.theta_at(nlp.solver.transcription.nodes), solver=nlp.solver)
     return r if r.success and r.stable else None
 
 

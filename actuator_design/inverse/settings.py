@@ -13,10 +13,11 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from actuator_design.config.limits import GROUP_RANGES
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint
+from actuator_design.model.scene import Scene
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
@@ -114,8 +115,6 @@ class DesignSettings:
 
 def check_h_max(h_max: float) -> None:
     """h_max in (0, 1e4], the valid range of h (``config/limits.py``: a clamp layer of width ~1/h)."""
-    from actuator_design.config.limits import GROUP_RANGES
-
     hi = GROUP_RANGES["h"].hi
     if not (0 < h_max <= hi):
         raise ValueError(f"h_max must lie in (0, {hi:g}] (--h-max; the valid range of h: the clamp layer "

@@ -13,22 +13,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional, Sequence
 
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
 from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
-from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.choose import choose
+from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint, _bandwidth, _ldl_pivots
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignSettings, normalise_phi, phi_period
 from actuator_design.inverse.verify import verify as verify_stage
+from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
 
 __all__ = ["ShapeResult", "design_shape", "read_shape_points", "MAX_SHAPE_POINTS"]
@@ -218,7 +218,6 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
     refuse_contact(scene, "design --target-shape")
     problem = design_problem((last[1], last[2]), scene, vary, options, settings, None, t0)
     vset = problem.variable_sets[-1]
-    from dataclasses import replace
     problem = replace(problem, variable_sets=(vset,))
     ch = choose(problem, search(problem, timings))
     if ch is None:

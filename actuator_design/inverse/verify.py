@@ -17,10 +17,12 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from actuator_design.contact.clearance import entering
-from actuator_design.equilibrium.pipeline import solve
+from actuator_design.continuation.loading import follow_path  # the quasi-static path follower
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene, UniformField
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.inverse.settings import Choice, DesignProblem, Verification, normalise_phi, phi_period
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics.hard_magnetic import HardMagnetic
 
 __all__ = ["verify", "stiffness_by_differences"]
 
@@ -45,8 +47,6 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     Verification
         ``path`` is None when no schedule reaches the design; ``schedule`` is the one followed.
     """
-    from actuator_design.continuation.loading import follow_path  # the landscape layer's quasi-static path follower
-
     pt, options = choice.point, problem.options
     design_p = "p" in choice.candidate.vary
     forward = solve(choice.scene, options)  # a fresh forward NLP from the straight rod
@@ -126,8 +126,6 @@ def _contact_note(path) -> str:
 
 def _hard_magnetic_group(scene: Scene) -> Optional[float]:
     """The scene's h_r when it has the hard-magnetic term (THEORY §9), else None."""
-    from actuator_design.physics.hard_magnetic import HardMagnetic
-
     return float(scene.h_r) if HardMagnetic.present(scene) else None
 
 

@@ -25,7 +25,10 @@ from typing import Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
+from actuator_design import __version__
 from actuator_design.io.safe_files import write_all
+from actuator_design.model.profiles import Profile
+from actuator_design.model.scene import TermValues
 
 __all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "result_files",
            "write_result", "shape_csv_text", "atomic_write", "write_output_set", "encode_content",
@@ -80,38 +83,28 @@ def scene_to_dict(scene) -> Dict[str, object]:
     """All fields of a :class:`~actuator_design.model.scene.Scene` as plain data, enough to rebuild it
     (:func:`actuator_design.io.saved.scene_from_dict`).
 
-    Profiles via ``Profile.as_dict``, scales via ``Scales.as_dict`` (derived SI units) and, exactly,
-    ``scales_fields`` (the dataclass's own fields); angles in rad, lengths in ℓ.
+    One key per field of the dataclass, whatever term it belongs to: profiles via ``Profile.as_dict``,
+    plug-in terms as ``{"name", "values"}``, scales via ``Scales.as_dict`` (derived SI units) and,
+    exactly, ``scales_fields`` (the dataclass's own fields); angles in rad, lengths in ℓ.
     """
-    field = None
-    if scene.field is not None:
-        field = {f.name: getattr(scene.field, f.name) for f in dataclasses.fields(scene.field)}
-    return jsonable({
-        "name": scene.name,
-        "field": field,
-        "h": scene.h,
-        "h_pos": scene.h_pos,
-        "fibres": scene.fibres.as_dict(),
-        "stiffness": scene.stiffness.as_dict(),
-        "tip_force": None if scene.tip_force is None else list(scene.tip_force),
-        "tip_moment": scene.tip_moment,
-        "distributed_load": None if scene.distributed_load is None else list(scene.distributed_load),
-        "theta0": scene.theta0,
-        "scales": None if scene.scales is None else scene.scales.as_dict(),
-        "h_r": scene.h_r,
-        "magnetization": None if scene.magnetization is None else scene.magnetization.as_dict(),
-        "fibres_given": scene.fibres_given,
-        "fibres_physical": scene.fibres_physical,
-        "extra_terms": [{"name": t.name, "values": [[k, v] for k, v in t.values]} for t in scene.extra_terms],
-        "obstacles": list(scene.obstacles),
-        "contact_gap": scene.contact_gap,
-        "scales_fields": scene.scales,
-    })
+    out = {"name": scene.name}  # first, as a reader looks for it
+    out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene))
+    out["scales"] = None if scene.scales is None else scene.scales.as_dict()
+    out["scales_fields"] = scene.scales
+    return jsonable(out)
+
+
+def _plain(value):
+    """A scene field's value as data :func:`jsonable` completes (profiles and plug-in terms by hand)."""
+    if isinstance(value, Profile):
+        return value.as_dict()
+    if isinstance(value, tuple) and value and all(isinstance(t, TermValues) for t in value):
+        return [{"name": t.name, "values": [[k, v] for k, v in t.values]} for t in value]
+    return value
 
 
 def result_to_dict(result, config: Optional[dict] = None) -> Dict[str, object]:
     """``result.to_dict()`` plus ``scene``, ``config`` (raw, if given) and ``package_version``."""
-    from actuator_design import __version__
     out = dict(result.to_dict())
     out["scene"] = scene_to_dict(result.scene)
     out["config"] = config
@@ -378,7 +371,6 @@ def result_files(result, config: Optional[dict] = None, units=None,
     if payload is None:
         data = result_to_dict(result, config)
     else:
-        from actuator_design import __version__
         data = jsonable({**payload, "scene": scene_to_dict(result.scene), "config": config,
                          "package_version": __version__})
     return {"result.json": dumps_json(data, indent=1) + "\n",

@@ -22,6 +22,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, Optional
@@ -40,6 +41,12 @@ __all__ = ["scene_from_dict", "read_result", "SavedResult"]
 
 _FIELDS = {"uniform": UniformField, "dipole": DipoleField, "expression": ExpressionField, "sources": SourceField}
 _OBSTACLES = {"wall": Wall, "peg": Peg, "polygon": Polygon, "lumen": Lumen}
+
+
+#: the Scene's profile fields -> whether they may be None (absent from an older file: None)
+_PROFILE_FIELDS = {name: type(None) in typing.get_args(hint)
+                   for name, hint in typing.get_type_hints(Scene).items()
+                   if hint is Profile or Profile in typing.get_args(hint)}
 
 
 def _tuples(value):
@@ -124,7 +131,7 @@ def scene_from_dict(data: Dict[str, Any]) -> Scene:
 def _scene_from_dict(data: Dict[str, Any]) -> Scene:
     if not isinstance(data, dict):
         raise TypeError("the scene is not an object")
-    missing = [k for k in ("scales_fields", "h_r", "extra_terms", "obstacles") if k not in data]
+    missing = [k for k in ("scales_fields", "extra_terms", "obstacles") if k not in data]
     if missing:
         raise ValueError(f"scene: {', '.join(missing)} missing (written by an older version, which did not save "
                          "the scene whole; solve its config again)")
@@ -135,13 +142,14 @@ def _scene_from_dict(data: Dict[str, Any]) -> Scene:
         obstacles.append(_build(_OBSTACLES[ob["kind"]], ob))
     converted = {
         "field": _field_from_dict(data["field"]),
-        "fibres": profile_from_dict(data["fibres"]),
-        "stiffness": profile_from_dict(data["stiffness"]),
-        "magnetization": profile_from_dict(data.get("magnetization")),
         "scales": None if data["scales_fields"] is None else _build(Scales, data["scales_fields"]),
         "extra_terms": tuple(TermValues(t["name"], _tuples(t["values"])) for t in data["extra_terms"]),
         "obstacles": tuple(obstacles),
     }
+    for name, optional in _PROFILE_FIELDS.items():  # every profile, whichever term it belongs to
+        if not optional and data[name] is None:
+            raise TypeError(f"{name}: a profile, got null")
+        converted[name] = profile_from_dict(data.get(name) if optional else data[name])
     return _build(Scene, data, **converted)
 
 

@@ -16,7 +16,9 @@ import math
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
 
-from actuator_design.model.units import MU0
+from actuator_design.config import load_scene
+from actuator_design.io.user_units import user_units
+from actuator_design.model.units import MU0, parse_quantity
 
 __all__ = ["TIP_UNITS", "LOAD_UNITS", "compliance_si", "stiffness_si", "data_unit",
            "TableUnits", "table_units", "add_unit_columns", "unit_column", "axis_unit_columns",
@@ -158,9 +160,7 @@ def table_units(raw: Optional[dict], axes=()) -> Optional[TableUnits]:
     unreadable)."""
     if not isinstance(raw, dict) or (raw.get("scene") or {}).get("type") != "physical":
         return None
-    from actuator_design.io.user_units import user_units
     try:
-        from actuator_design.config import load_scene
         scene, _options, raw = load_scene({k: v for k, v in raw.items() if k != "study"})
     except Exception:  # noqa: BLE001 - the study reports a bad configuration itself
         return None
@@ -178,7 +178,6 @@ def _unit_factor(unit: str, dimension: str) -> Optional[float]:
     """SI value of one ``unit`` in ``dimension`` (a field in A/m, T as H = B/μ0), or None."""
     if not unit:
         return None
-    from actuator_design.model.units import parse_quantity
     try:
         return float(parse_quantity(f"1 {unit}", dimension, "unit"))
     except Exception:  # noqa: BLE001 - not a unit of this dimension

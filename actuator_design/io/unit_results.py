@@ -14,9 +14,11 @@ from __future__ import annotations
 from typing import Dict, Iterable, List, Optional, Tuple
 
 from actuator_design.io.display import number
-from actuator_design.model.units import MU0
+from actuator_design.io.unit_columns import length_noise
 from actuator_design.io.user_units import (VALUE_KEY_UNITS, parameter_physical, parameter_unit_label,
                                            physical_value_keys)
+from actuator_design.model.units import MU0
+from actuator_design.physics.parameters import parameter
 
 __all__ = ["units_line", "unit_suffix", "tip_in", "length_text", "parameter_conversion",
            "value_text", "scene_physical", "scene_text", "point_physical", "add_point_units",
@@ -46,7 +48,6 @@ def tip_in(tip: Dict[str, float], units) -> Dict[str, float]:
 
 def length_text(x_user: float, units) -> str:
     """A length already in the user's unit, printed (round-off of zero as 0)."""
-    from actuator_design.io.unit_columns import length_noise
     return number(x_user, ".6g", noise=length_noise(units))
 
 
@@ -56,7 +57,6 @@ def curvature_per_unit(kappa: float, units) -> float:
 
 
 def _param(name):
-    from actuator_design.physics.parameters import parameter
     return parameter(name) if isinstance(name, str) else name
 
 
@@ -68,7 +68,7 @@ def parameter_conversion(name, units) -> Tuple[Optional[str], Optional[str]]:
     unit = parameter_unit_label(p, units)
     if unit is not None:
         return unit, None
-    if p.field_magnitude or p.name == "h_r":
+    if p.field_magnitude or p.remanent_field:
         return None, (f"{p.name} stays dimensionless: this scene has no field scale "
                       "(its magnetic group per field is 0, e.g. chi_bar = 0)")
     if p.unit == "rad":

@@ -139,7 +139,7 @@ def _kind(param) -> Optional[str]:
     """How a lens parameter maps to a physical quantity: "field", "field2", "field_r" (h_r ∝ H),
     "angle", "force", "moment", "force_per_length", "force_per_area" (a stiffness per area, B0/ℓ⁴,
     such as an elastic bed's) or None (no physical meaning here)."""
-    if param.name == "h_r":
+    if param.remanent_field:
         return "field_r"
     if param.field_magnitude:
         return "field2" if param.transform == "sqrt" else "field"

@@ -29,14 +29,17 @@ import functools
 import math
 import os
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, Tuple
 
 import numpy as np
 
-from actuator_design.physics.tesseral import TesseralTerm, interior_modes, tesseral_potentials
+from actuator_design.calibration.data import read_bounded_text  # bounded, regular files only
+from actuator_design.model.source_fit import FittedField, reach_grid
 from actuator_design.model.sources import MappedCoil
 from actuator_design.model.units import QuantityError, parse_quantity
+from actuator_design.physics.harmonic import field_function
+from actuator_design.physics.tesseral import TesseralTerm, interior_modes, tesseral_potentials
 
 __all__ = ["CoilMap", "read_coil_map", "fit_map", "MAX_MAP_ORDER", "MAX_MAP_ROWS", "MAX_MAP_COILS"]
 
@@ -171,8 +174,6 @@ def parse_coil_map(text: str, source: str = "<map>") -> CoilMap:
 
 @functools.lru_cache(maxsize=8)
 def _read_cached(path: str, mtime_ns: int, ctime_ns: int, inode: int, size: int) -> CoilMap:
-    from actuator_design.calibration.data import read_bounded_text  # bounded, regular files only
-
     return parse_coil_map(read_bounded_text(path), source=os.path.basename(path))
 
 
@@ -286,12 +287,6 @@ def fit_map(sources, length: float, tol: float):
     their terms (dimensionless, per H0), H0 (A/m: the largest |H| of the fitted total over the
     reach |r| ≤ ℓ where every fit holds), the held-out error (the coils' misses added, per H0) and
     the gradient's error NaN (a map has no gradient samples)."""
-    from dataclasses import replace
-
-    from actuator_design.model.source_fit import FittedField
-    from actuator_design.physics.harmonic import field_function
-    from actuator_design.model.source_fit import reach_grid
-
     fits = []
     for s in sources:  # per ampere, then at the coil's current
         term, miss, order = _fit_coil(s, length, tol)

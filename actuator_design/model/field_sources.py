@@ -20,11 +20,13 @@ from typing import Tuple
 
 import numpy as np
 
-from actuator_design.physics.harmonic import field_function
+from actuator_design.model.coil_map import fit_map
+from actuator_design.model.scene import SourceField
 from actuator_design.model.source_fit import (FittedField, checked_gradient, fit_one, geometry,
                                               outside_sources, reach_grid)
 from actuator_design.model.sources import (CoilSource, MagnetSource, MappedCoil, magpylib_field,
                                            magpylib_objects)
+from actuator_design.physics.harmonic import field_function
 
 __all__ = ["MagnetSource", "CoilSource", "MappedCoil", "FittedField", "fit_sources", "source_field", "magpylib_field",
            "magpylib_objects", "FIT_TOLERANCE"]
@@ -60,7 +62,6 @@ def fit_sources(sources: Tuple, length: float, tol: float = FIT_TOLERANCE, check
     if any(isinstance(s, MappedCoil) for s in sources):
         if not all(isinstance(s, MappedCoil) for s in sources):
             raise ValueError("coils from a calibration map cannot be mixed with magnets or modelled coils")
-        from actuator_design.model.coil_map import fit_map
 
         return fit_map(sources, length, tol)
     geo = [geometry(s, length) for s in sources]
@@ -110,8 +111,6 @@ def source_field(sources, length: float, tol: float = FIT_TOLERANCE):
     -------
     (SourceField, float)
     """
-    from actuator_design.model.scene import SourceField
-
     sources = tuple(sources)
     fit = fit_sources(sources, float(length), float(tol))
     return SourceField(terms=fit.terms, sources=sources, length=float(length), fit_error=fit.fit_error,

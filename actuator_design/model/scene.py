@@ -13,7 +13,9 @@ is still built (so it can be continued or designed), a term that is absent is no
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field as dc_field, replace
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from dataclasses import replace
 from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
@@ -81,6 +83,21 @@ class ExpressionField:
     hy: str = "0"
     kind: str = dc_field(default="expression", init=False)
     is_uniform: bool = dc_field(default=False, init=False)
+
+
+def outside_region(terms, x: np.ndarray, y: np.ndarray) -> Optional[str]:
+    """Why the points (x, y) (units of ℓ) are not all where every fit holds, or None (``terms``: the
+    fitted expansions of :mod:`actuator_design.physics.harmonic`, each with its ``contains``)."""
+    for k, t in enumerate(terms):
+        inside = t.contains(x, y)
+        if not np.all(inside):
+            i = int(np.argmin(inside))
+            rho = math.hypot(float(x[i]) - t.centre[0], float(y[i]) - t.centre[1])
+            side = "closer to" if t.kind == "exterior" else "farther from"
+            return (f"the rod comes {side} source {k + 1}'s centre than its field representation holds "
+                    f"(at ({float(x[i]):.4g}, {float(y[i]):.4g}) rod lengths: distance {rho:.4g}, "
+                    f"{'at least' if t.kind == 'exterior' else 'at most'} {t.valid_radius:.4g})")
+    return None
 
 
 @dataclass(frozen=True)
@@ -168,16 +185,12 @@ class SourceField:
     def placed_terms(self) -> Tuple[Any, ...]:
         """The fitted expansions where the sources are: each centre moved by (dx, dy), each axis
         turned by its turn (:meth:`source_placements`)."""
-        from dataclasses import replace as _replace
-
         return tuple(t if (dx, dy, turn) == (0.0, 0.0, 0.0) else
-                     _replace(t, centre=(t.centre[0] + dx, t.centre[1] + dy), axis_angle=t.axis_angle + turn)
+                     replace(t, centre=(t.centre[0] + dx, t.centre[1] + dy), axis_angle=t.axis_angle + turn)
                      for t, (dx, dy, turn) in zip(self.terms, self.source_placements()))
 
     def region_problem(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
         """Why points (units of ℓ) of a state lie where the fit does not hold, or None."""
-        from actuator_design.physics.harmonic import outside_region
-
         return outside_region(self.placed_terms(), np.asarray(x, float), np.asarray(y, float))
 
 

@@ -145,12 +145,12 @@ def _project_tesseral(src, c, rho_s: float, modes, length: float, nodes: int = _
     a = src.axis_angle
     radial = np.column_stack([sin * np.cos(F.ravel() + a), sin * np.sin(F.ravel() + a), T.ravel()])
     pts = np.column_stack([c[0] + rho_s * radial[:, 0], c[1] + rho_s * radial[:, 1], rho_s * radial[:, 2]])
-    h_r = np.sum(magpylib_field([src], pts * length) * radial, 1)
+    h_radial = np.sum(magpylib_field([src], pts * length) * radial, 1)
     proj = np.zeros(len(modes))
     for k in range(0, len(pts), 4096):  # bounded memory: k points × every mode at a time
         sl = slice(k, k + 4096)
         Y = np.array(tesseral_potentials(c, a, rho_s, modes, pts[sl, 0], pts[sl, 1], pts[sl, 2]))
-        proj += Y @ (weight[sl] * h_r[sl])
+        proj += Y @ (weight[sl] * h_radial[sl])
     ls = np.array([l for l, _ in modes], float)
     return proj * (2 * ls + 1) / (2 * np.pi) * rho_s / (ls + 1)
 

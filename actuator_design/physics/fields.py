@@ -7,6 +7,7 @@ strength is not here: it is the scene's group ``h`` (THEORY §5).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Dict, Tuple
 
 import casadi as ca
@@ -14,6 +15,8 @@ import numpy as np
 
 from actuator_design.model.expressions import Expression
 from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
+from actuator_design.physics.harmonic import field_function
+from actuator_design.physics.tesseral import interior_modes, tesseral_in_plane
 
 __all__ = ["FieldModel", "field_model", "FieldCheckError", "check_current_free"]
 
@@ -188,8 +191,6 @@ class SourceFieldModel(FieldModel):
     (eight coils: one basis instead of eight)."""
 
     def __init__(self, field: SourceField):
-        from actuator_design.physics.harmonic import field_function
-
         self.terms = tuple(field.terms)
         n = len(self.terms)
         self.weight_params = tuple(f"source_weight_{k}" for k in range(n))
@@ -264,10 +265,6 @@ def _rigs(terms) -> list:
 
 def _rig_function(terms) -> ca.Function:
     """(x, y, w) → ĥ of Σ_k w_k ĥ_k for expansions of one geometry (:func:`_rigs`), one basis."""
-    from dataclasses import replace
-
-    from actuator_design.physics.tesseral import interior_modes, tesseral_in_plane
-
     x, y, w = ca.SX.sym("x"), ca.SX.sym("y"), ca.SX.sym("w", len(terms))
     modes = interior_modes(max(t.order for t in terms))
     combined = [0] * len(modes)

@@ -56,12 +56,14 @@ class HardMagnetic(EnergyTerm):
         Parameter("h_r", "hard-magnetic group h_r = mu0 M_r H A l^2 / B0", "1", "h_r",
                   read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
                   term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
-                  stiffness_power=-1.0, ensure=with_hard_magnetic_term),
+                  stiffness_power=-1.0, remanent_field=True, ensure=with_hard_magnetic_term,
+                  flag_help="hard-magnetic group h_r >= 0 (THEORY §9; adds an axial remanent magnetisation)"),
         Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
-                  designable=True),  # designed as a profile β(s) (inverse/nlp.py)
+                  designable=True,  # designed as a profile β(s) (inverse/nlp.py)
+                  flag_help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)"),
     )
 
     def __init__(self, field: FieldModel):

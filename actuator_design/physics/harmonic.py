@@ -25,14 +25,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Sequence, Union
+from typing import Sequence, Union
 
 import casadi as ca
-import numpy as np
 
 from actuator_design.physics.tesseral import Expansion, TesseralTerm, tesseral_in_plane, tesseral_potentials
 
-__all__ = ["HarmonicTerm", "TesseralTerm", "basis_potentials", "potential", "field_function", "outside_region"]
+__all__ = ["HarmonicTerm", "TesseralTerm", "basis_potentials", "potential", "field_function"]
 
 
 @dataclass(frozen=True)
@@ -92,17 +91,3 @@ def field_function(terms: Sequence[Union[HarmonicTerm, TesseralTerm]], with_z: b
     h = -ca.gradient(psi, r)
     ins = [x, y, z] if with_z else [x, y]
     return ca.Function("harmonic_field", ins, [h[i] for i in range(h.numel())])
-
-
-def outside_region(terms: Sequence[Union[HarmonicTerm, TesseralTerm]], x: np.ndarray, y: np.ndarray) -> Optional[str]:
-    """Why the points (x, y) (units of ℓ) are not all where every fit holds, or None."""
-    for k, t in enumerate(terms):
-        inside = t.contains(x, y)
-        if not np.all(inside):
-            i = int(np.argmin(inside))
-            rho = math.hypot(float(x[i]) - t.centre[0], float(y[i]) - t.centre[1])
-            side = "closer to" if t.kind == "exterior" else "farther from"
-            return (f"the rod comes {side} source {k + 1}'s centre than its field representation holds "
-                    f"(at ({float(x[i]):.4g}, {float(y[i]):.4g}) rod lengths: distance {rho:.4g}, "
-                    f"{'at least' if t.kind == 'exterior' else 'at most'} {t.valid_radius:.4g})")
-    return None

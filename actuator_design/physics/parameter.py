@@ -60,6 +60,12 @@ class Parameter:
         ``youngs_modulus`` tolerance, a fit of E).
     susceptibility_power : float
         The value is ∝ χ^susceptibility_power (h ∝ χ̄^½; the ``chi_bar`` tolerance).
+    remanent_field : bool
+        The value is a remanent-magnetisation group ∝ H (THEORY §9): on a physical scene it reads as
+        the applied field μ0 H through the rod's remanence, not through its susceptibility.
+    flag_help : str or None
+        The help of the parameter's own command-line flag on every scene command (``--<name>``, an
+        angle as ``--<name>-deg`` in degrees; :attr:`flag`); None: set it with ``--set`` only.
     """
 
     name: str
@@ -80,6 +86,13 @@ class Parameter:
     designable: bool = False
     stiffness_power: float = 0.0
     susceptibility_power: float = 0.0
+    remanent_field: bool = False
+    flag_help: Optional[str] = None
+
+    @property
+    def flag(self) -> str:
+        """Its command-line flag (``--h-r``; an angle in degrees: ``--magnetization-deg``)."""
+        return "--" + self.name.replace("_", "-") + ("-deg" if self.unit == "rad" else "")
 
     # -- values --------------------------------------------------------------------------------
     def get(self, scene: Scene) -> float:
@@ -139,12 +152,13 @@ THETA0 = Parameter("theta0", "clamp angle theta0", "rad", "theta0",
 def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
                      name: Optional[str] = None, lower: float = -math.inf, upper: float = math.inf,
                      residual: Optional[str] = None, field_power: int = 0,
-                     stiffness_power: float = 0.0) -> Parameter:
+                     stiffness_power: float = 0.0, flag_help: Optional[str] = None) -> Parameter:
     """A parameter of a plug-in term whose value lives in the scene's ``extra_terms``.
 
     Setting it adds the term (its other values 0) when the scene does not have it. ``unit`` is its
     dimensionless unit (``"B0/l^4"`` for a stiffness per area); ``stiffness_power`` e says the value
-    is ∝ B0^e (−1 for a value given in units of B0, THEORY §5).
+    is ∝ B0^e (−1 for a value given in units of B0, THEORY §5). ``flag_help`` gives it its own flag
+    on every scene command (:attr:`Parameter.flag`).
     """
     def read(sc: Scene) -> float:
         return float((sc.term_values(term) or {}).get(slot, 0.0))
@@ -157,4 +171,4 @@ def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,
 
     return Parameter(name or slot, description, unit, slot, read, write, term=term, lower=lower,
                      upper=upper, residual=residual, field_power=field_power, ensure=ensure,
-                     stiffness_power=stiffness_power)
+                     stiffness_power=stiffness_power, flag_help=flag_help)

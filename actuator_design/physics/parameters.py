@@ -34,11 +34,12 @@ import numpy as np
 from actuator_design.model.scene import Scene
 from actuator_design.model.units import DIMENSIONS
 from actuator_design.physics.parameter import THETA0, Parameter, plugin_parameter
+from actuator_design.physics.registry import registered_terms, registry_version, term_class
 
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
-           "physical_parameter", "entry_names", "stiffness_groups"]
+           "physical_parameter", "entry_names", "stiffness_groups", "remanent_group"]
 
 
 def _source_weight(k: int) -> Parameter:
@@ -114,8 +115,6 @@ _CACHE: Dict[str, object] = {"version": None, "registry": {}}
 
 def parameters() -> Dict[str, Parameter]:
     """Every parameter, name -> :class:`Parameter`, in term registration order, ``theta0`` last."""
-    from actuator_design.physics.registry import registered_terms, registry_version
-
     if _CACHE["version"] != registry_version():
         reg: Dict[str, Parameter] = {}
         for cls in registered_terms():
@@ -175,9 +174,14 @@ def prepare_scene(scene: Scene, names_: Sequence[str], what: str = "parameter") 
 
 
 def _present(scene: Scene, term: Optional[str]) -> bool:
-    from actuator_design.physics.registry import term_class
-
     return term is None or term_class(term).present(scene)
+
+
+def remanent_group(scene: Scene) -> float:
+    """The largest remanent-magnetisation group of the terms ``scene`` contains, in magnitude
+    (``Parameter.remanent_field``: h_r, THEORY §9); 0 for a rod without remanence."""
+    return max([0.0] + [abs(p.get(scene)) for p in parameters().values()
+                        if p.remanent_field and _present(scene, p.term)])
 
 
 def apply_values(scene: Scene, values: Mapping[str, float], what: str = "parameter") -> Scene:

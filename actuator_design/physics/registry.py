@@ -12,19 +12,25 @@ in :mod:`.extra_terms`, imported (and so registered) after the built-in ones.
 """
 from __future__ import annotations
 
+import importlib
+import pkgutil
 from typing import TYPE_CHECKING, Dict, List
 
+from actuator_design.model.scene import TermValues
+# the built-in terms register on import, in this order whatever the order of the names: hard_magnetic
+# (THEORY §9) imports terms first, so the soft-magnetic terms come before it
+from actuator_design.physics import extra_terms, hard_magnetic, terms  # noqa: F401
 from actuator_design.physics.registration import (_CONFIG_MODELS, _TERMS, _VERSION, register_term,
                                                   unregister_term)
+from actuator_design.physics.terms import EnergyTerm
 
 if TYPE_CHECKING:
-    from actuator_design.model.scene import Scene, TermValues
-    from actuator_design.physics.terms import EnergyTerm
+    from actuator_design.model.scene import Scene
 
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
            "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms", "build_terms",
-           "scene_wavenumber", "dense_hessian"]
+           "scene_wavenumber", "end_moment", "dense_hessian"]
 
 def registered_terms() -> List[type]:
     """Every registered term class: the built-in terms, then the shipped extra terms (by module
@@ -68,9 +74,7 @@ def registry_version() -> int:
 
 
 def _load_builtins() -> None:
-    from actuator_design.physics import terms  # noqa: F401  (registers the built-in terms on import)
-    from actuator_design.physics import hard_magnetic  # noqa: F401  (THEORY §9, after the soft-magnetic terms)
-
+    """Register the shipped extra terms once (the built-in ones registered when this module was imported)."""
     if not _EXTRA_LOADED:
         _EXTRA_LOADED.append(True)  # re-entrant calls (a module importing the registry) pass
         try:
@@ -86,11 +90,6 @@ _EXTRA_LOADED: List[bool] = []
 def _load_extra_terms() -> None:
     """Import every module of :mod:`.extra_terms` (by name): a term shipped with the package is one
     file there, registered on import, and needs no edit anywhere else."""
-    import importlib
-    import pkgutil
-
-    from actuator_design.physics import extra_terms
-
     for info in sorted(pkgutil.iter_modules(extra_terms.__path__), key=lambda m: m.name):
         if not info.name.startswith("_"):
             importlib.import_module(f"{extra_terms.__name__}.{info.name}")
@@ -161,8 +160,6 @@ def parse_term_config(spec, convert=None) -> "TermValues":
     TermConfigError
         No ``type``, an unregistered type, or a value its model rejects (one line naming the field).
     """
-    from actuator_design.model.scene import TermValues
-
     if not isinstance(spec, dict) or "type" not in spec:
         raise TermConfigError("", "type", f"each entry needs a 'type' (one of: {', '.join(plugin_names())}), "
                                           f"got {spec!r:.80}")
@@ -213,8 +210,6 @@ def parse_term_config(spec, convert=None) -> "TermValues":
 def plugin_names() -> List[str]:
     """Names of the registered terms a scene lists in ``extra_terms`` (YAML ``terms:``): the ones
     whose presence is the listing itself (not the built-in field, load and bending terms)."""
-    from actuator_design.physics.terms import EnergyTerm
-
     return [c.name for c in registered_terms() if c.present.__func__ is EnergyTerm.present.__func__]
 
 
@@ -239,6 +234,11 @@ def build_terms(scene: "Scene") -> List["EnergyTerm"]:
 def scene_wavenumber(scene: "Scene") -> float:
     """max(1, the wavenumbers of the terms ``scene`` contains) (units of 1/ℓ)."""
     return max([1.0] + [cls.wavenumber(scene) for cls in registered_terms() if cls.present(scene)])
+
+
+def end_moment(scene: "Scene") -> float:
+    """The largest dead moment a term of ``scene`` applies at the free end, in magnitude (B0/ℓ)."""
+    return max([0.0] + [abs(cls.end_moment(scene)) for cls in registered_terms() if cls.present(scene)])
 
 
 def dense_hessian(scene: "Scene") -> bool:

@@ -97,6 +97,12 @@ class EnergyTerm:
         return 0.0
 
     @classmethod
+    def end_moment(cls, scene: Scene) -> float:
+        """The dead moment this term applies at the free end (units of B0/ℓ; 0 when none): it makes
+        a boundary layer at the tip (mesh grading) and sizes the moment balance there."""
+        return 0.0
+
+    @classmethod
     def dense_hessian(cls, scene: Scene) -> bool:
         """Whether this term couples every node with every other (energy products of positions), so
         the Hessian is dense and the mesh has the dense memory budget (:mod:`actuator_design.config.limits`)."""
@@ -312,6 +318,10 @@ class TipMoment(EnergyTerm):
     @classmethod
     def wavenumber(cls, scene):
         return abs(scene.tip_moment)
+
+    @classmethod
+    def end_moment(cls, scene):
+        return float(scene.tip_moment or 0.0)
 
     def tip(self, tip, P):
         return -P["m_tip"] * tip.theta

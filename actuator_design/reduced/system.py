@@ -21,6 +21,8 @@ from typing import Dict, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
+from actuator_design.physics.parameters import parameter  # the parameter lens
+
 __all__ = ["ReducedSystem", "reduced_system", "substituted_energy", "SystemEvaluator", "KernelSystemEvaluator"]
 
 _CACHE: Dict[tuple, "ReducedSystem"] = {}
@@ -28,8 +30,6 @@ _CACHE: Dict[tuple, "ReducedSystem"] = {}
 
 def _slot(name: str) -> Tuple[str, object]:
     """(NLP parameter slot, slot expression of the symbol) of a lens parameter name."""
-    from actuator_design.physics.parameters import parameter  # the parameter lens
-
     par = parameter(name, "continuation parameter")
     return par.slot, par.slot_expr
 

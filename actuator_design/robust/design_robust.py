@@ -37,12 +37,13 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
-from actuator_design.model.profiles import constant_profile
-from actuator_design.model.scene import Scene, default_scene
 from actuator_design.contact.clearance import clearance_rows
 from actuator_design.inverse.nlp import (_LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots,
                                          couple_field_groups)
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, default_scene
+from actuator_design.physics import parameters as lens
+from actuator_design.robust.robustness import follow_segment
 from actuator_design.robust.tolerances import Tolerances, apply_deltas, perturb
 
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
@@ -430,8 +431,6 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
     -------
     RobustOutcome
     """
-    from actuator_design.robust.robustness import follow_segment
-
     corners = tol.corners()
     K = len(targets)
     snlp = get_scenario_nlp(nlp, K, len(corners))

@@ -24,8 +24,10 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
 from actuator_design.equilibrium.solver import get_solver
+from actuator_design.inverse.verify import stiffness_by_differences
+from actuator_design.model.scene import Scene
+from actuator_design.robust.robustness import follow_segment
 from actuator_design.robust.tolerances import Tolerances, perturb
 
 __all__ = ["StiffnessOverBox", "stiffness_over_box", "box_grid"]
@@ -107,9 +109,6 @@ def stiffness_over_box(scene: Scene, z: np.ndarray, tol: Tolerances, options: So
     -------
     StiffnessOverBox
     """
-    from actuator_design.inverse.verify import stiffness_by_differences
-    from actuator_design.robust.robustness import follow_segment
-
     solver = get_solver(scene, options)
     P0 = solver.parameter_vector(scene)
     out = StiffnessOverBox(float(target))

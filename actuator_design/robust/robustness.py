@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from dataclasses import replace as _replace
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from actuator_design.contact.clearance import clearance_check
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene, UniformField
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.robust.snap_location import locate_snap, snap_unit
+from actuator_design.model.scene import Scene, UniformField
+from actuator_design.robust.snap_location import locate_snap, snap_builds, snap_unit
 from actuator_design.robust.tolerances import Tolerances, apply_deltas, perturb
 
 __all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness", "fold_search_builds"]
@@ -275,8 +277,6 @@ def _fold_axes(scene: Scene) -> List[str]:
 def fold_search_builds(scene: Scene, options: Optional[SolverOptions] = None) -> List[Callable[[], None]]:
     """The solver builds of :func:`evaluate_robustness`'s fold search of ``scene``, as steps to
     run ahead of need (:func:`~actuator_design.robust.snap_location.snap_builds`)."""
-    from actuator_design.robust.snap_location import snap_builds
-
     return snap_builds(scene, options or SolverOptions(), _fold_axes(scene))
 
 
@@ -407,9 +407,6 @@ def _discretisation_error(scene, tol, states, offsets, solver, options) -> float
 
     The refined mesh's error is smaller by ~2^(2d) (LGL) or 4 (midpoint), so the change estimates
     the default mesh's tip error."""
-    from dataclasses import replace as _replace
-
-    from actuator_design.equilibrium.pipeline import solve
     fine = _replace(options, elements=2 * options.elements, accuracy=None)
     fine_solver = None
     worst = 0.0

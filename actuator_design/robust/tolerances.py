@@ -24,6 +24,8 @@ from typing import Dict, List, Mapping, Optional, Tuple
 from actuator_design.model.profiles import (Profile, constant_profile, expression_profile, legendre_profile,
                                             table_profile)
 from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
 
 __all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances"]
 
@@ -229,9 +231,6 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
         A relative change of E or χ̄ and a term that does not declare how its values scale
         (``EnergyTerm.scaling_declared``): its values would silently stay fixed.
     """
-    from actuator_design.physics import parameters as lens
-    from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
-
     if g["youngs_rel"] or g["chi_rel"]:
         for cls in registered_terms():
             if not cls.scaling_declared and cls.present(scene):

@@ -37,16 +37,17 @@ from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
-from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
-from actuator_design.model.units import MU0
+from actuator_design.equilibrium.pipeline import solve
 from actuator_design.hardware.current_design import _better, _coils, _even, _screen, coil_problem
 from actuator_design.hardware.current_map import CurrentMap, at_weights
-from actuator_design.schedules.current_schedule_nlp import CurrentOCP
-from actuator_design.inverse.settings import DesignSettings
-from actuator_design.schedules.dynamics import quasi_static
 from actuator_design.hardware.design import run_starts
+from actuator_design.inverse.settings import DesignSettings
+from actuator_design.model.scene import Scene
+from actuator_design.model.units import MU0
+from actuator_design.physics.fields import field_model
+from actuator_design.schedules.current_schedule_nlp import CurrentOCP
+from actuator_design.schedules.dynamics import quasi_static
 from actuator_design.schedules.schedule import ScheduleResult, verify_schedule
 from actuator_design.schedules.schedule_ocp import (MAX_NODES, NOT_WORSE_TOL, OBJECTIVES, control_effort,
                                                     node_grid)
@@ -407,8 +408,6 @@ def _checked(verified: ScheduleResult, scene: Scene, w: np.ndarray, times: np.nd
 
 def _largest_field_mT(scene: Scene, state, w: np.ndarray) -> float:
     """The largest |μ0 H| (mT) at the nodes of ``state`` with the coils at weights ``w``."""
-    from actuator_design.physics.fields import field_model
-
     model = field_model(scene.field)
     values = {**model.parameter_values(scene.field), **dict(zip(model.weight_params, map(float, w)))}
     hx, hy = model.evaluate(np.asarray(state.x, float), np.asarray(state.y, float), values)

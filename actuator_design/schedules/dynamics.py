@@ -35,6 +35,9 @@ import casadi as ca
 import numpy as np
 import scipy.linalg as sla
 
+from actuator_design.continuation.loading import follow_path
+from actuator_design.equilibrium.solver import get_solver
+
 __all__ = ["natural_frequencies", "relaxation_time", "quasi_static", "schedule_states", "DEFAULT_DAMPING_RATIO",
            "QUASI_STATIC_FACTOR"]
 
@@ -172,8 +175,6 @@ def schedule_states(scene, schedule, options=None) -> list:
     """The state at every step of a field schedule ([{"h", "phi"}, ...], from rest), by one loading
     path through it (:func:`~actuator_design.continuation.loading.follow_path`); fewer states than
     steps when the path stops (then :func:`quasi_static` makes no check)."""
-    from actuator_design.continuation.loading import follow_path
-
     steps = [{"h": float(q["h"]), "phi": float(q["phi"])} for q in schedule]
     if len(steps) < 2:
         return []
@@ -182,8 +183,6 @@ def schedule_states(scene, schedule, options=None) -> list:
 
 def _matrices(result):
     """(H, M): the reduced Hessian and the kinetic mass matrix at ``result``'s state, free nodes."""
-    from actuator_design.equilibrium.solver import get_solver
-
     sv = get_solver(result.scene, result.options)
     z = np.asarray(result.z, float)
     ker = sv.kernel  # the solver's compiled Hessian (the CasADi one takes ~0.1 s in a fitted field)

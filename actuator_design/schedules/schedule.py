@@ -21,12 +21,13 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from actuator_design.continuation.loading import follow_path  # verifies the whole schedule
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene, default_scene
 from actuator_design.inverse.design import DesignSettings, design
-from actuator_design.inverse.settings import normalise_phi, tip_error
 from actuator_design.inverse.nlp import DesignRequest, get_design_nlp, prepare_scene, remanence_only
+from actuator_design.inverse.settings import normalise_phi, tip_error
+from actuator_design.model.scene import Scene, default_scene
 
 __all__ = ["field_schedule", "verify_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
 
@@ -169,8 +170,6 @@ def verify_schedule(waypoints: Sequence[Sequence[float]], base: Scene, options: 
     ScheduleResult
         ``success`` (= ``verified``) when every check passes; the message says which failed.
     """
-    from actuator_design.continuation.loading import follow_path  # independent verification along the whole schedule
-
     wps = [tuple(float(v) for v in w) for w in waypoints]
     schedule, index = [dict(s) for s in schedule], list(index)
     start = replace(base, h=0.0) if "h" in schedule[0] else base  # (a schedule over coils starts them at 0)

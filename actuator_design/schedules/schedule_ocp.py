@@ -37,9 +37,10 @@ from typing import Callable, Dict, List, Optional, Sequence
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
+from actuator_design.equilibrium.single import solve_on
 from actuator_design.inverse.nlp import get_design_nlp
 from actuator_design.inverse.settings import DesignSettings
+from actuator_design.model.scene import Scene
 from actuator_design.schedules.schedule import ScheduleResult, field_schedule, verify_schedule
 from actuator_design.schedules.schedule_ocp_nlp import ScheduleOCP
 
@@ -290,8 +291,6 @@ def resample_nodes(greedy: ScheduleResult, times: np.ndarray, nodes: int, contro
     with each node's state ``theta`` solved on ``solver``'s mesh (``scene_at(u)``: the scene at
     controls u) from the greedy path's state at the greedy step before it (that path's own warm
     start)."""
-    from actuator_design.equilibrium.single import solve_on
-
     grid = node_grid(greedy.waypoint_index, times, nodes, controls)
     before = np.clip(np.searchsorted(times, grid["t"], side="right") - 1, 0, len(times) - 1)
     theta = []

@@ -9,9 +9,15 @@ the study process even when it is killed outright
 """
 from __future__ import annotations
 
+import multiprocessing
 import os
 import threading
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Iterator, List
+
+from actuator_design.study import worker  # called as worker.run_chunk: the seam a test replaces
+from actuator_design.study.dask_cluster import connect as connect_bounded
+from actuator_design.study.dask_cluster import run_on_dask
 
 __all__ = ["StopRequest", "serial", "processes", "connect", "on_dask"]
 
@@ -37,31 +43,25 @@ class StopRequest:
 
 def serial(tasks, stop: StopRequest) -> Iterator[List[dict]]:
     """Points in this process, one at a time (journaled per point), or a walked chunk at a time."""
-    from actuator_design.study.worker import run_chunk
     for t in tasks:
         if t.get("walk"):  # a walked chunk is one path from rest: journaled when it is done
             stop.check()
-            yield run_chunk(t)
+            yield worker.run_chunk(t)
             continue
         for item in t["points"]:
             stop.check()
-            yield run_chunk({**t, "points": [item]})
+            yield worker.run_chunk({**t, "points": [item]})
 
 
 def processes(tasks, workers: int) -> Iterator[List[dict]]:
     """Submit every chunk to a local process pool now; the generator yields results as they
     complete. Workers are forked when this process runs no other thread (they then inherit the
     imported modules: no start-up cost), spawned otherwise."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from actuator_design.study.worker import init_worker, run_chunk
-
     method = ("fork" if "fork" in multiprocessing.get_all_start_methods()
               and threading.active_count() == 1 else "spawn")
     ex = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context(method),
-                             initializer=init_worker, initargs=(os.getpid(),))
-    futures = [ex.submit(run_chunk, t) for t in tasks]
+                             initializer=worker.init_worker, initargs=(os.getpid(),))
+    futures = [ex.submit(worker.run_chunk, t) for t in tasks]
 
     def results():
         finished = False
@@ -89,7 +89,6 @@ def connect(scheduler):
     number of worker threads; the address is checked and every wait bounded
     (:func:`actuator_design.study.dask_cluster.connect`, which raises
     :class:`~actuator_design.study.dask_cluster.ClusterError`)."""
-    from actuator_design.study.dask_cluster import connect as connect_bounded
     return connect_bounded(scheduler)
 
 
@@ -98,5 +97,4 @@ def on_dask(tasks, client) -> Iterator[List[dict]]:
     workers or a lost scheduler stop it with a resumable
     :class:`~actuator_design.study.dask_cluster.ClusterError` once past their bounds
     (:func:`actuator_design.study.dask_cluster.run_on_dask`)."""
-    from actuator_design.study.dask_cluster import run_on_dask
     return run_on_dask(tasks, client)

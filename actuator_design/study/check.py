@@ -32,6 +32,7 @@ from typing import Iterator, List, Sequence, Tuple
 import numpy as np
 
 from actuator_design.config import ConfigError
+from actuator_design.config.dimensionless import physical_unit_of
 from actuator_design.config.field_specs import ExpressionSpec, PhysicalExpression
 from actuator_design.config.model import validate_config
 from actuator_design.study.grid import substitute
@@ -54,8 +55,6 @@ def check_units(raw: dict, axes) -> None:
         ``study.sweep.<key>``: the value with its unit, and that physical units need a physical
         scene.
     """
-    from actuator_design.config.dimensionless import physical_unit_of
-
     scene = raw.get("scene")
     if not (isinstance(scene, dict) and scene.get("type") == "dimensionless"):
         return

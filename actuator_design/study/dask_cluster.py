@@ -20,6 +20,7 @@ Every failure is a :class:`ClusterError`: one line naming ``--scheduler``.
 from __future__ import annotations
 
 import ipaddress
+import logging
 import math
 import os
 import re
@@ -27,9 +28,11 @@ import socket
 import struct
 import threading
 import time
+from concurrent.futures import CancelledError
 from typing import Dict, Iterator, List, Optional, Tuple
 from urllib.parse import urlsplit
 
+from actuator_design.study import worker  # called as worker.run_chunk: the seam a test replaces
 from actuator_design.study.errors import StudyError
 
 __all__ = ["ClusterError", "CONNECT_TIMEOUT_S", "WORKER_TIMEOUT_S", "CONNECT_TIMEOUT_ENV",
@@ -127,8 +130,6 @@ def quiet_distributed_logs() -> None:
     """Keep distributed's own log records (info, and the tracebacks it logs when a client gives
     up on a lost scheduler) off stderr: at the command line a failure is the one line of a
     :class:`ClusterError`. Imports distributed."""
-    import logging
-
     import distributed  # noqa: F401 - its import configures the loggers set here
 
     names = [n for n in logging.root.manager.loggerDict if n.split(".")[0] == "distributed"]
@@ -327,13 +328,11 @@ def run_on_dask(tasks: List[dict], client) -> Iterator[List[dict]]:
     """
     from distributed import as_completed
 
-    from actuator_design.study.worker import run_chunk
-
     connect_s, workers_s = timeouts()
     address = getattr(client.scheduler, "address", "the scheduler")
     futures = []
     try:
-        futures = client.map(run_chunk, [{**t, "single_threaded_blas": True} for t in tasks],
+        futures = client.map(worker.run_chunk, [{**t, "single_threaded_blas": True} for t in tasks],
                              pure=False)
         done = as_completed(futures, loop=client.loop)
         watch = _Watch(client, address, connect_s, workers_s)
@@ -392,8 +391,6 @@ class _Watch:
 
 def _result(future, address: str) -> List[dict]:
     """A finished chunk's records; the cluster's failures as a :class:`ClusterError`."""
-    from concurrent.futures import CancelledError
-
     from distributed import KilledWorker
 
     try:

@@ -52,7 +52,9 @@ from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
 
+from actuator_design import __version__
 from actuator_design.io.save import atomic_write, dumps_json
+from actuator_design.io.unit_columns import axis_unit_columns
 from actuator_design.study.outputs import _cell
 
 __all__ = ["STATUS_MEANINGS", "column_units", "build_dataset", "dataset_bytes", "write_dataset"]
@@ -178,7 +180,6 @@ def _user_unit_coordinates(axis, table: Dict[str, list]) -> Dict[str, tuple]:
     ``<key>_<unit>`` (``field.magnitude_mT``) → (column, unit, factor on the key's numbers)."""
     if not axis.numeric:
         return {}
-    from actuator_design.io.unit_columns import axis_unit_columns
     return {f"{axis.key}_{unit.replace('/', '_per_').replace(' ', '_')}": (column, unit, factor)
             for column, unit, factor in axis_unit_columns(axis, table)}
 
@@ -321,8 +322,6 @@ def write_dataset(path, plan, table: Dict[str, list]) -> Path:
     OSError
         The file system refused the write (``path`` is as it was).
     """
-    from actuator_design import __version__
-
     attrs = {"title": f"actuator-design study: {plan.name}", "config_name": plan.name,
              "config_path": plan.source, "actuator_design_version": __version__,
              "source": f"actuator-design {__version__} (study)", "study_id": plan.study_id,

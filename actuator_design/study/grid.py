@@ -20,6 +20,7 @@ from typing import Any, Dict, List, Sequence, Tuple
 import numpy as np
 
 from actuator_design.config import ConfigError
+from actuator_design.model.units import COMMON_UNITS, MU0, registry
 from actuator_design.study.spec import RangeSpec, SweepSpec
 
 __all__ = ["Axis", "resolve_axes", "grid_indices", "substitute", "point_values", "grid_size",
@@ -98,7 +99,6 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
     if not unit or not target:
         raise ConfigError(where, f"mixes plain numbers and values with units ({shown!r}): write "
                                  "every value of a key with its unit")
-    from actuator_design.model.units import MU0, registry
     ureg = registry()
     try:
         q, t = ureg.Quantity(mag, unit), ureg.Unit(target)
@@ -117,7 +117,6 @@ def _convert(mag: float, unit: str, target: str, where: str, shown) -> float:
 def _check_unit(unit: str, where: str, shown) -> None:
     if not unit:
         return
-    from actuator_design.model.units import COMMON_UNITS, registry
     if unit in COMMON_UNITS:  # known without pint
         return
     try:

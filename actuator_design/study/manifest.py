@@ -14,8 +14,9 @@ import os
 from pathlib import Path
 from typing import Dict, List, Optional
 
-from actuator_design.io.save import scene_to_dict
+from actuator_design import __version__
 from actuator_design.io.safe_files import open_regular
+from actuator_design.io.save import scene_to_dict
 from actuator_design.study.grid import point_values
 from actuator_design.study.journal import JOURNAL_NAME
 from actuator_design.study.lock import holder_of
@@ -81,7 +82,6 @@ def previous_manifest(folder) -> Optional[dict]:
 
 def manifest_base(plan, previous: Optional[dict]) -> dict:
     """The keys of the manifest that the plan fixes (``started``: of the first run)."""
-    from actuator_design import __version__
     scene = plan.config.to_scene()
     return {
         "manifest": "actuator-design study",

@@ -18,10 +18,12 @@ import os
 import platform
 import sys
 import uuid
+from importlib import metadata
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence
 
 from actuator_design.io.save import atomic_write, dumps_json
+from actuator_design.io.unit_columns import add_unit_columns, current_study_config, table_units
 
 __all__ = ["table_columns", "build_table", "write_csv", "write_parquet", "write_manifest",
            "versions"]
@@ -32,8 +34,6 @@ _PACKAGES = ("actuator-design", "casadi", "numpy", "scipy", "pydantic", "pint", 
 
 def versions() -> Dict[str, Optional[str]]:
     """Python, platform and the versions of the package and its dependencies (None: absent)."""
-    from importlib import metadata
-
     out: Dict[str, Optional[str]] = {"python": sys.version.split()[0],
                                      "platform": platform.platform()}
     for name in _PACKAGES:
@@ -69,7 +69,6 @@ def build_table(axes, indices, records: Dict[int, dict], outputs=None,
     and the group h as μ0 H in mT (``solve.physical.field_mT``, ``solve.h_mT``).
     """
     table = _plain_table(axes, indices, records, outputs)
-    from actuator_design.io.unit_columns import add_unit_columns, current_study_config, table_units
     add_unit_columns(table, axes, table_units(current_study_config() if raw is None else raw, axes))
     return table
 

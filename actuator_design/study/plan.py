@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 from typing import Any, List, Optional
 
 from actuator_design.config import ConfigError, load_config
-from actuator_design.io.save import dumps_json
 from actuator_design.io.safe_files import DIRECTORY, FILE, check_entries
+from actuator_design.io.save import dumps_json
 from actuator_design.study.check import check_points
 from actuator_design.study.errors import StudyError
 from actuator_design.study.grid import (DEFAULT_MAX_POINTS, check_grid_size, grid_indices, point_values,
@@ -151,8 +152,6 @@ def _inputs_digest(ident: dict, analyses, spec: SweepSpec, config) -> str:
     """Digest of what shapes every point's result besides its swept values: the configuration
     (without run settings), the analyses, the kept outputs, the resolved solver settings and the
     versions of the code (:data:`_CODE`)."""
-    from importlib import metadata
-
     code = {}
     for name in _CODE:
         try:

@@ -6,9 +6,15 @@ and the walks from rest of a ``solve`` study (:mod:`actuator_design.study.walk`)
 """
 from __future__ import annotations
 
+import fnmatch
 import time
 import warnings
 from typing import Any, Dict, List
+
+from actuator_design.analysis import registry
+from actuator_design.config import ConfigError, load_config
+from actuator_design.io.save import jsonable
+from actuator_design.study.grid import point_values, substitute
 
 __all__ = ["one_point", "flatten", "MAX_LIST"]
 
@@ -19,8 +25,6 @@ MAX_LIST = 8
 
 def flatten(obj: Any, prefix: str, out: Dict[str, Any] = None) -> Dict[str, Any]:
     """Scalars of nested dicts as ``{"prefix.a.b": value}`` (short lists by index)."""
-    from actuator_design.io.save import jsonable
-
     out = {} if out is None else out
     if isinstance(obj, dict):
         for k, v in obj.items():
@@ -36,10 +40,6 @@ def flatten(obj: Any, prefix: str, out: Dict[str, Any] = None) -> Dict[str, Any]
 
 def one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[str, Any]:
     """One point's record: its configuration validated, every analysis run on its scene."""
-    from actuator_design.analysis import registry
-    from actuator_design.config import ConfigError, load_config
-    from actuator_design.study.grid import point_values, substitute
-
     t0 = time.perf_counter()
     rec: Dict[str, Any] = {"index": int(index), "values": point_values(axes, idx), "status": "ok",
                            "message": "", "results": {}}
@@ -69,7 +69,6 @@ def one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[
         for w in caught:
             notes.append(f"warning: {' '.join(str(w.message).split())}")
     if outputs is not None:  # keep only the columns the study asked for (smaller journal)
-        import fnmatch
         rec["results"] = {k: v for k, v in rec["results"].items()
                           if any(fnmatch.fnmatchcase(k, p) for p in outputs)}
     if notes and rec["status"] not in ("invalid", "error"):

@@ -25,11 +25,13 @@ from __future__ import annotations
 
 from typing import Any, Dict, List, Literal, Optional, Union
 
-from pydantic import (ConfigDict, Field, StrictFloat, StrictInt, StrictStr,
-                      ValidationError, field_validator, model_validator)
+from pydantic import (ConfigDict, Field, StrictFloat, StrictInt, StrictStr, ValidationError, field_validator,
+                      model_validator)
 from pydantic_core import PydanticCustomError
 
-from actuator_design.config import ConfigError, StrictModel as _ConfigStrictModel
+from actuator_design.analysis import registry
+from actuator_design.config import ConfigError
+from actuator_design.config import StrictModel as _ConfigStrictModel
 
 __all__ = ["StrictModel", "spec_error", "translate", "validate_spec", "RangeSpec", "FigureSpec",
            "SweepSpec", "analysis_list"]
@@ -184,8 +186,6 @@ def analysis_list(spec: SweepSpec) -> List[Dict[str, Any]]:
     ConfigError
         ``study.analyses[i]``: unknown analysis or malformed entry.
     """
-    from actuator_design.analysis import registry
-
     known = registry.names()
     out = []
     for i, item in enumerate(spec.analyses):

@@ -35,7 +35,16 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from actuator_design.config import ConfigError, load_config
+from actuator_design.continuation.from_rest import path_from_rest
+from actuator_design.equilibrium.acceptance import accept, graded_options
 from actuator_design.equilibrium.balance import balance_many, operator_for
+from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.equilibrium.single import make_result, solve_on
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.equilibrium.stability_check import verdict_of
+from actuator_design.study.grid import Axis, point_values, substitute
+from actuator_design.study.point import flatten, one_point
 
 __all__ = ["WALK_CHUNK", "walkable", "plan_chunks", "run_walk_chunk", "wanted_keys"]
 
@@ -56,8 +65,6 @@ def wanted_keys(outputs: Optional[Sequence[str]]) -> Optional[List[str]]:
     A pattern keeps a key when the pattern's literal prefix (up to its first wildcard) and
     ``solve.<key>`` agree as far as both go (conservative: a key is never dropped wrongly).
     """
-    from actuator_design.equilibrium.result import EquilibriumResult
-
     if outputs is None:
         return None
     keys = []
@@ -75,9 +82,6 @@ def wanted_keys(outputs: Optional[Sequence[str]]) -> Optional[List[str]]:
 
 # -- planning (in the study process) ---------------------------------------------------------------
 def _scene_point(raw, axes, idx):
-    from actuator_design.config import load_config
-    from actuator_design.study.grid import substitute
-
     config = load_config(substitute(raw, axes, idx))
     return config.to_scene(), config.solver_options()
 
@@ -109,9 +113,6 @@ def walk_axis(raw, axes, indices) -> Optional[int]:
     parameter vectors tested (:func:`_is_ray`); the solver built for it is cached for the workers
     that fork from this process.
     """
-    from actuator_design.config import ConfigError
-    from actuator_design.equilibrium.solver import get_solver
-
     for a, axis in enumerate(axes):
         n = len(axis.values)
         if n < 3 or not axis.numeric:
@@ -177,8 +178,6 @@ def _kept(column: str, outputs: Tuple[str, ...]) -> bool:
 
 
 def _finish(rec, result, include, outputs, notes) -> Dict[str, Any]:
-    from actuator_design.study.point import flatten
-
     out = result.to_dict(include=include)
     out.pop("shape", None)
     flatten(out, "solve", rec["results"])
@@ -197,10 +196,6 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     """The :class:`EquilibriumResult` of one station, checked like a lone ``solve`` (``check``:
     its clamp force, clamp moment and residual when computed already, :func:`balance_many`;
     ``need_eigenvalues``: the result's eigenvalues are asked for)."""
-    from actuator_design.equilibrium.acceptance import accept
-    from actuator_design.equilibrium.single import make_result
-    from actuator_design.equilibrium.stability_check import verdict_of
-
     if not st.newton:  # IPOPT's answer after a kick or a snap: polished as a lone solve does
         return _polished_result(scene, opts, solver, st, lam, walked)
     verdict = verdict_of(solver, st.z, params, st.check, need_eigenvalues)
@@ -229,9 +224,6 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
 def _polished_result(scene, opts, solver, st, lam, walked):
     """The lone ``solve``'s last step from a state of the path: a strict solve on this mesh from
     it (IPOPT, Newton polish, saddle escapes), then the acceptance checks."""
-    from actuator_design.equilibrium.acceptance import accept
-    from actuator_design.equilibrium.single import solve_on
-
     result = solve_on(scene, opts, st.z, solver, strict=True)
     if st.branch_points:
         result.escaped_saddle = True
@@ -248,9 +240,6 @@ def _polished_result(scene, opts, solver, st, lam, walked):
 
 def _points(task):
     """Each point's record, scene and options (None where the configuration is invalid)."""
-    from actuator_design.config import ConfigError
-    from actuator_design.study.grid import Axis, point_values
-
     axes = [Axis.from_dict(a) for a in task["axes"]]
     out = []
     for i, idx in task["points"]:
@@ -277,10 +266,6 @@ def run_walk_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
         One journal record per emitted point (the worker's record format; ``time_s`` is the
         chunk's wall time divided by its points, except for points solved alone).
     """
-    from actuator_design.equilibrium.acceptance import graded_options
-    from actuator_design.continuation.from_rest import path_from_rest
-    from actuator_design.equilibrium.solver import get_solver
-
     t0 = time.perf_counter()
     emit = set(task.get("emit") or [i for i, _ in task["points"]])
     outputs = task.get("outputs")
@@ -366,9 +351,6 @@ def _walk_mesh(good, c, members, opts, include, outputs, records, get_solver, pa
 
 def _lone_solve(task, index, idx) -> Dict[str, Any]:
     """The point's record by the lone ``solve`` (mesh choice, from rest, straight-rod start)."""
-    from actuator_design.study.grid import Axis
-    from actuator_design.study.point import one_point
-
     axes = [Axis.from_dict(a) for a in task["axes"]]
     return one_point(task["raw"], axes, [{"type": "solve"}], index, idx, task.get("outputs"))
 

@@ -19,10 +19,15 @@ configuration failed validation) | ``error`` (an analysis raised).
 """
 from __future__ import annotations
 
+import signal
 import threading
 from typing import Any, Dict, List
 
+from actuator_design.parallel import die_with_parent, single_threaded_blas
+from actuator_design.study.grid import Axis
+from actuator_design.study.lock import close_inherited
 from actuator_design.study.point import one_point
+from actuator_design.study.walk import run_walk_chunk
 
 __all__ = ["run_chunk", "init_worker"]
 
@@ -47,17 +52,13 @@ def run_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
     list of dict
         One record per point (see the module docstring), in the order given.
     """
-    from actuator_design.study.grid import Axis
-
     if task.get("single_threaded_blas"):  # a Dask worker: set once per process
         global _BLAS_SET
         if not _BLAS_SET:
-            from actuator_design.parallel import single_threaded_blas
             single_threaded_blas()
             _BLAS_SET = True
     with _LOCK:
         if task.get("walk"):
-            from actuator_design.study.walk import run_walk_chunk
             return run_walk_chunk(task)
         axes = [Axis.from_dict(a) for a in task["axes"]]
         return [one_point(task["raw"], axes, task["analyses"], i, idx, task.get("outputs"))
@@ -67,13 +68,7 @@ def run_chunk(task: Dict[str, Any]) -> List[Dict[str, Any]]:
 def init_worker(parent_pid: int) -> None:
     """Process-pool initializer: workers leave Ctrl-C to the parent (which stops them), let go of
     the study folder's lock inherited by a fork, and die with the parent (also on ``kill -9``)."""
-    import signal
-
-    from actuator_design.parallel import die_with_parent
-    from actuator_design.study.lock import close_inherited
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     close_inherited()
     die_with_parent(parent_pid)
-    from actuator_design.parallel import single_threaded_blas
     single_threaded_blas()

@@ -10,6 +10,8 @@ from typing import Dict
 
 import numpy as np
 
+from actuator_design.calibration.report import user_unit
+
 __all__ = ["fit_figures", "fit_figure_pngs"]
 
 
@@ -27,8 +29,6 @@ def _axis_units(d, units):
     """``(values, label)`` functions of a data column: its unit in the user's units (a physical
     scene: lengths in the unit of ``rod.length``, fields as μ0 H in mT, forces in N), else the
     data file's."""
-    from actuator_design.calibration.report import user_unit
-
     def values(c, v):
         u = user_unit(c, units)
         return np.asarray(v, float) / u[1] if u is not None else d.as_given(c, v)

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -66,8 +67,6 @@ def design_figure(result, units=None, part: str = "whole"):
 def design_png(result, units=None, dpi: int = 150):
     """:func:`design_figure` encoded as PNG (:class:`~.style.FigureBytes`), its two halves drawn at
     once (:func:`~.style.png_side_by_side`; with a vector format asked for, the whole figure)."""
-    from functools import partial
-
     from actuator_design.viz.style import png_side_by_side
 
     return png_side_by_side([partial(design_figure, result, units, "left"),
@@ -242,8 +241,6 @@ def hardware_schedule_axes(sched, units=None):
     """(figure, right axes) of a hardware schedule's figure: the rod at every waypoint on the left
     (:func:`waypoint_panel` of ``sched.verification``, when verified) and the right axes for the
     schedule itself against time."""
-    from actuator_design.viz.style import new_figure
-
     fig = new_figure((11, 4.8))
     ax, ax_right = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.2, 1]})
     if sched.verification is not None:

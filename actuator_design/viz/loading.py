@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from actuator_design.io.user_units import parameter_physical, parameter_unit_label
+from actuator_design.model.units import MU0
+from actuator_design.physics.parameters import parameter
 from actuator_design.viz.style import new_figure
 
 __all__ = ["path_figure", "stiffness_figure", "load_deflection_figure"]
@@ -110,8 +113,6 @@ def path_figure(path, title: str = None, xscale: float = 1.0, xlabel: str = None
 
 def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None:
     """Energy in J; the ramped parameter (``xlabel`` given: in its own unit) in mT, N, N m or N/m."""
-    from actuator_design.physics.parameters import parameter
-    from actuator_design.io.user_units import parameter_unit_label
     from actuator_design.viz.units import parameter_axis, scaled_axis
 
     ax_a, ax_e = axes
@@ -128,7 +129,6 @@ def _physical_path_axes(path, axes, units, xlabel, retitle: bool = True) -> None
         parameter_axis(ax, p, units, xlabel, "x", data_max=hi)
     hy = path.hysteresis
     if retitle and label is not None and p.transform != "sqrt" and hy.get("loops"):
-        from actuator_design.io.user_units import parameter_physical
         ax_a.set_title(f"loading path — {len(path.jumps)} snap(s); hysteresis width "
                        f"{parameter_physical(p, hy['width'], units):.4g} {label}", fontsize=10)
 
@@ -154,7 +154,6 @@ def stiffness_figure(curve, title: str = None, si: bool = False, stiffness_scale
     has_field = curve.field_A_per_m is not None and np.all(np.isfinite(curve.field_A_per_m))
     use_si = si and curve.vertical_N_per_m is not None
     if use_si:
-        from actuator_design.model.units import MU0
         scale = stiffness_scale if stiffness_scale is not None else float(
             np.nanmedian(curve.vertical_N_per_m / curve.vertical))
         y, ref = curve.vertical_N_per_m, curve.lowload * scale

@@ -12,6 +12,10 @@ import math
 
 import numpy as np
 
+from actuator_design.io.display import degrees
+from actuator_design.model.scene import DipoleField, UniformField
+from actuator_design.model.sources import loops
+from actuator_design.physics.fields import field_model
 from actuator_design.viz.style import new_axes
 
 __all__ = ["plot_shape", "shape_figure"]
@@ -93,7 +97,6 @@ def shape_figure(result, title=None, units=None):
 # -- pieces ---------------------------------------------------------------------------------------
 def _default_title(result, units=None) -> str:
     scene = result.scene
-    from actuator_design.model.scene import UniformField
     from actuator_design.viz.units import load_text, scene_field_text
     parts = [scene_field_text(scene, units)]
     if isinstance(scene.field, UniformField):
@@ -109,7 +112,6 @@ def _default_title(result, units=None) -> str:
 
 def _window(xs, ys, field):
     """Square-ish plot window around the finite points (and a dipole), with a margin."""
-    from actuator_design.model.scene import DipoleField
     xs, ys = list(xs[np.isfinite(xs)]), list(ys[np.isfinite(ys)])
     if isinstance(field, DipoleField):
         xs.append(field.x0)
@@ -138,7 +140,6 @@ def _draw_clamp(ax, t0: float) -> None:
 
 
 def _draw_field(ax, scene, window, xs, ys, units=None, field_angle=None) -> None:
-    from actuator_design.model.scene import DipoleField, UniformField
     field = scene.field
     if field is None:
         return
@@ -191,7 +192,6 @@ def _draw_sources(ax, field) -> None:
             ax.annotate("", xy=c + 0.8 * half * e, xytext=c - 0.8 * half * e,
                         arrowprops=dict(arrowstyle="-|>", color="C3", lw=1.4), zorder=6)
             continue
-        from actuator_design.model.sources import loops
         pts = np.array([c + off / field.length * e + side * src.radius / field.length * n
                         for off, _ in loops(src) for side in (-1, 1)])
         ax.plot(pts[:, 0], pts[:, 1], ls="none", marker="s", ms=4, color="C1", zorder=4,
@@ -215,7 +215,6 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axi
         c = centre + 0.45 * size * k * n
         ax.annotate("", xy=c + size * e, xytext=c - size * e,
                     arrowprops=dict(arrowstyle="-|>", color="C2", lw=1.6), zorder=5)
-    from actuator_design.io.display import degrees
     from actuator_design.viz.units import field_text
     axis_note = "" if same_axis is None else f"\n(the same axis as {degrees(same_axis, '.4g')}°)"
     ax.text(centre[0], centre[1] - 1.25 * size,
@@ -225,8 +224,6 @@ def _draw_uniform(ax, phi: float, h: float, window, xs, ys, units=None, same_axi
 
 def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None:
     """Streamlines of the field direction ĥ/|ĥ| over the window, masked near singularities."""
-    from actuator_design.physics.fields import field_model
-    from actuator_design.model.scene import DipoleField
     model = field_model(field)
     gx = np.linspace(window[0], window[1], n)
     gy = np.linspace(window[2], window[3], n)

@@ -11,6 +11,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from actuator_design.io.unit_columns import current_study_config, derived_name, table_units, unit_column
 from actuator_design.viz.style import new_axes_grid
 
 __all__ = ["study_figures", "default_figures"]
@@ -51,8 +52,6 @@ def _plotted(column: str, table, axes, units):
     """``(column drawn, axis label)``: a physical study's column in the user's units when the
     table has it (:func:`actuator_design.io.unit_columns.unit_column`), else ``column`` itself — with
     a word when it has a user unit that could not be computed (e.g. χ̄ = 0: no field scale)."""
-    from actuator_design.io.unit_columns import derived_name, unit_column
-
     found = unit_column(column, table, axes, units)
     if found is not None:
         col, unit = found
@@ -77,8 +76,6 @@ def study_figures(axes, table: Dict[str, list], specs: List[dict],
         columns in the user's units where it has them (a swept field in mT as μ0 H, forces in N,
         lengths in the unit of ``rod.length``).
     """
-    from actuator_design.io.unit_columns import current_study_config, table_units
-
     units = table_units(current_study_config() if raw is None else raw, axes)
     by_key = {a.key: a for a in axes}
     out = {}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import importlib
 import io
 import os
 import sys
@@ -20,6 +21,8 @@ from functools import partial
 from typing import Callable, Dict, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
+
+from actuator_design import forked
 
 __all__ = ["new_figure", "new_axes", "new_axes_grid", "png_bytes", "png_side_by_side", "gif_bytes", "preload", "preload_steps", "no_offset_notation",
            "FigureBytes", "vector_format", "VECTOR_FORMATS"]
@@ -92,8 +95,6 @@ def preload_steps() -> List[Callable[[], None]]:
     """:func:`preload` in steps of at most ≈0.08 s, for waits that may end at any moment
     (:func:`actuator_design.forked.while_waiting`: a step is run only while a forked task still
     computes, so a wait overruns by one step at most; the rest loads when a figure is drawn)."""
-    import importlib
-
     return [_use_agg] + [partial(importlib.import_module, name) for name in _FIGURE_MODULES]
 
 
@@ -173,8 +174,6 @@ def png_side_by_side(parts: Sequence[Callable[[], object]], dpi: int = 150,
     -------
     FigureBytes
     """
-    from actuator_design import forked
-
     if _VECTOR_FORMAT.get() is not None:
         if whole is None:
             raise ValueError("png_side_by_side: a vector format was asked for (vector_format): give `whole`")

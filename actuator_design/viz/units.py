@@ -12,6 +12,11 @@ import math
 
 import numpy as np
 
+from actuator_design.io.display import degrees, number
+from actuator_design.io.unit_results import scene_physical
+from actuator_design.io.user_units import parameter_physical, parameter_unit_label
+from actuator_design.physics.parameters import parameter
+
 __all__ = ["scaled_axis", "length_axes", "field_axis", "parameter_axis", "field_text", "load_text", "groups_text",
            "NO_FIELD_SCALE"]
 
@@ -44,7 +49,6 @@ def scaled_axis(axis, factor: float, label: str) -> None:
 
 
 def _tick_text(value: float) -> str:
-    from actuator_design.io.display import number
     return number(value, ".6g", noise=0.0).replace("-", "\u2212")
 
 
@@ -89,8 +93,6 @@ def parameter_axis(ax, param, units, label: str, which: str = "x", data_max: flo
     """
     if units is None:
         return
-    from actuator_design.physics.parameters import parameter
-    from actuator_design.io.user_units import parameter_physical, parameter_unit_label
 
     p = parameter(param) if isinstance(param, str) else param
     unit = parameter_unit_label(p, units)
@@ -131,7 +133,6 @@ def scene_field_text(scene, units) -> str:
     rod without soft coupling (:func:`~actuator_design.io.unit_results.scene_physical`); else the
     group that carries the field (``h_r = 2`` when h = 0)."""
     if units is not None:
-        from actuator_design.io.unit_results import scene_physical
         mT = scene_physical(scene, units).get("field_mT")
         if mT is not None:
             return f"μ0H = {mT:.4g} mT"
@@ -151,13 +152,10 @@ def groups_text(scene, units=None) -> str:
     """A title's ``h = 1.5, φ = 90°, p = 0`` of a scene; on a physical scene the field as
     ``μ0H = 40 mT`` (of h, or of h_r for a hard-magnetic rod whose h has no field scale) and the
     tip load in N."""
-    from actuator_design.io.display import degrees
-
     g = scene.describe_groups()
     h, phi, p = g.get("h", 0.0), g.get("phi", 0.0), g.get("p", 0.0)
     field = f"h = {h:.4g}"
     if units is not None:
-        from actuator_design.io.unit_results import scene_physical
         mT = scene_physical(scene, units).get("field_mT")
         if mT is not None:
             field = f"μ0H = {mT:.4g} mT"

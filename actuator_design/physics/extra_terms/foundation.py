@@ -30,7 +30,8 @@ class Foundation(EnergyTerm):
     parameters = (
         plugin_parameter(NAME, "k_foundation", "elastic foundation stiffness k (spring force per length per "
                          "deflection)", "B0/l^4", lower=0.0, upper=1e10, residual="linear",
-                         stiffness_power=-1.0),
+                         stiffness_power=-1.0,
+                         flag_help="elastic foundation stiffness k >= 0, units of B0/l^4 (adds the foundation)"),
     )
 
     @classmethod

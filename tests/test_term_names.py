@@ -1,0 +1,161 @@
+"""Issue 18: no module outside ``physics/`` names a particular term or its groups.
+
+The terms carry everything about themselves; a module elsewhere that writes ``scene.h_r`` or
+``"tip_moment"`` must be edited whenever a term is added or changed. Not every module is there
+yet: STILL_NAMING_TERMS lists the ones that are, with how many times they name a term. The list
+only shrinks: a module not in it may not start naming terms, a listed one may not name them more
+often, and one that names them less often must have its count lowered here (or be taken off).
+Docstrings and comments do not count; names, attributes, keywords and string values do.
+"""
+import ast
+from collections import Counter
+from pathlib import Path
+
+from actuator_design.physics.registry import registered_terms
+
+PACKAGE = Path(__file__).resolve().parents[1] / "actuator_design"
+
+#: words naming a term's groups that are not a registered term's or parameter's name
+GROUP_WORDS = {"magnetization", "magnetisation", "remanence", "chi_bar", "chi_hat", "saturation"}
+
+
+def term_words() -> set:
+    """Every registered term's name (bending is every rod's, so not a particular term), every
+    parameter name of a term that is not a generic lens symbol (those with an underscore), and the
+    group words of GROUP_WORDS."""
+    terms = registered_terms()
+    words = {c.name for c in terms} - {"bending"}
+    words |= {p.name for c in terms for p in c.parameters if "_" in p.name}
+    return words | GROUP_WORDS
+
+
+def _docstring_nodes(tree) -> set:
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+                    and isinstance(first.value.value, str):
+                out.add(id(first.value))
+    return out
+
+
+def term_mentions(source: str, words: set) -> Counter:
+    """How often ``source`` names each of ``words`` in code (not in docstrings or comments)."""
+    tree = ast.parse(source)
+    docstrings = _docstring_nodes(tree)
+    found = Counter()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute):
+            word = node.attr
+        elif isinstance(node, ast.Name):
+            word = node.id
+        elif isinstance(node, ast.keyword):
+            word = node.arg
+        elif isinstance(node, ast.arg):
+            word = node.arg
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+            word = node.value
+        else:
+            continue
+        if word in words:
+            found[word] += 1
+    return found
+
+
+def mentions_outside_physics() -> dict:
+    words = term_words()
+    out = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        if rel.parts[0] == "physics":
+            continue
+        n = sum(term_mentions(path.read_text(encoding="utf-8"), words).values())
+        if n:
+            out[rel.as_posix()] = n
+    return out
+
+
+#: module -> how many times it still names a term (the ratchet; see the module docstring)
+STILL_NAMING_TERMS = {
+    "analysis/phase.py": 17,
+    "analysis/shooting_scan.py": 38,
+    "analysis/stiffness.py": 20,
+    "benchmarks/bvp.py": 8,
+    "benchmarks/floor.py": 3,
+    "benchmarks/problems.py": 14,
+    "benchmarks/runner.py": 2,
+    "calibration/identifiability.py": 1,
+    "calibration/intervals.py": 4,
+    "calibration/parameters.py": 6,
+    "calibration/plausibility.py": 1,
+    "calibration/problem.py": 17,
+    "calibration/report.py": 1,
+    "cli/design.py": 8,
+    "cli/validate.py": 32,
+    "config/checks.py": 1,
+    "config/dimensionless.py": 34,
+    "config/limits.py": 20,
+    "config/magnetic_specs.py": 40,
+    "config/model.py": 2,
+    "config/physical.py": 44,
+    "config/profile_specs.py": 1,
+    "config/source_specs.py": 2,
+    "equilibrium/result.py": 3,
+    "hardware/design.py": 4,
+    "hardware/pose_design.py": 4,
+    "inverse/choose.py": 3,
+    "inverse/design.py": 19,
+    "inverse/mirror.py": 12,
+    "inverse/nlp.py": 18,
+    "inverse/optimise.py": 4,
+    "inverse/poses.py": 27,
+    "inverse/screen.py": 7,
+    "inverse/settings.py": 3,
+    "inverse/shape.py": 10,
+    "inverse/verify.py": 11,
+    "io/unit_columns.py": 2,
+    "io/unit_results.py": 8,
+    "io/user_units.py": 2,
+    "model/magnetics.py": 9,
+    "model/materials.py": 1,
+    "model/scene.py": 26,
+    "model/sources.py": 9,
+    "reference/fold_bvp.py": 3,
+    "reference/jacobi.py": 4,
+    "reference/shooting.py": 2,
+    "reference/shooting_field.py": 5,
+    "reference/shooting_model.py": 8,
+    "robust/design_robust.py": 10,
+    "robust/design_robust_stage.py": 4,
+    "robust/robustness.py": 1,
+    "robust/tolerances.py": 3,
+    "viz/shape.py": 1,
+    "viz/units.py": 3,
+}
+
+
+def test_no_module_outside_physics_starts_naming_terms_and_the_list_only_shrinks():
+    now = mentions_outside_physics()
+    new = sorted(f"{m}: {n}" for m, n in now.items() if m not in STILL_NAMING_TERMS)
+    more = sorted(f"{m}: {now[m]} > {STILL_NAMING_TERMS[m]}" for m in now
+                  if m in STILL_NAMING_TERMS and now[m] > STILL_NAMING_TERMS[m])
+    assert not new and not more, ("modules outside physics/ naming a term (ask the term instead: "
+                                  "physics/terms.py):\n" + "\n".join(new + more))
+    fewer = sorted(f"{m}: {now.get(m, 0)} (listed {n})" for m, n in STILL_NAMING_TERMS.items() if now.get(m, 0) < n)
+    assert not fewer, "lower these counts in STILL_NAMING_TERMS (or drop the module):\n" + "\n".join(fewer)
+
+
+def test_the_scan_counts_code_and_not_docstrings_or_comments():
+    source = ('"""Names h_r."""\n'
+              "def f(scene, tip_force=None):  # h_r\n"
+              '    """h_r"""\n'
+              '    return scene.h_r, {"tip_moment": 1}, g(h_pos=2), "h_r and more"\n')
+    assert term_mentions(source, {"h_r", "tip_force", "tip_moment", "h_pos"}) == Counter(
+        {"h_r": 1, "tip_force": 1, "tip_moment": 1, "h_pos": 1})
+
+
+def test_the_words_cover_every_registered_term_and_its_named_parameters():
+    words = term_words()
+    assert {"hard_magnetic", "h_r", "magnetization", "tip_moment", "m_tip", "foundation", "k_foundation"} <= words
+    assert not {"h", "phi", "alpha", "bending"} & words  # generic lens symbols and every rod's bending
