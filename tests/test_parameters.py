@@ -276,3 +276,28 @@ def test_scene_with_values_in_a_dipole_field_writes_what_the_lens_writes():
     assert scene.with_values(h=2.0, p=1.0, alpha=0.3) == by_lens
     with pytest.raises(ValueError, match="phi can only be set for a uniform field"):
         scene.with_values(phi=0.5)
+
+
+def test_scaling_the_field_scales_every_group_it_drives_and_adds_no_term():
+    """h, h_pos and h_r are each ∝ H (THEORY §5, §9): the same rod in a field k times stronger has
+    each of them k times larger; h² would be k² (its slot is h's). A rod without a magnetisation
+    keeps none, whatever its stored h_r."""
+    from actuator_design.model.profiles import constant_profile
+
+    hard = replace(Scene(field=DipoleField(), h=0.7, h_pos=0.3, fibres=constant_profile(0.0),
+                         stiffness=constant_profile(1.0)), h_r=1.1, magnetization=constant_profile(0.2))
+    twice = lens.scale_field(hard, 2.0)
+    assert (twice.h, twice.h_pos, twice.h_r) == (1.4, 0.6, 2.2)
+    assert lens.remanent_group(twice) == 2.2 and lens.remanent_group(hard) == 1.1
+    others = lens.scale_field(replace(hard, h=5.0), 3.0, source=hard, magnitude=False)
+    assert (others.h, others.h_pos, others.h_r) == (5.0, pytest.approx(0.9), pytest.approx(3.3))
+    soft = replace(hard, magnetization=None)
+    assert lens.remanent_group(soft) == 0.0 and lens.scale_field(soft, 2.0).magnetization is None
+    assert [p.name for p, f in lens.field_groups()] == ["h", "h_pos", "h_r"]
+
+
+def test_a_tip_moment_is_the_end_moment_the_mesh_and_balance_see():
+    from actuator_design.physics.registry import end_moment
+
+    assert end_moment(default_scene()) == 0.0
+    assert end_moment(replace(default_scene(), tip_moment=-2.5)) == 2.5

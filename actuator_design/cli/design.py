@@ -43,7 +43,7 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACH
                                         add_rate_args, bad_input, check_out_dir, finite_float, load_config,
                                         parse_rates, stdout_to_stderr, table_csv_text)
 from actuator_design.io.display import degrees, number
-from actuator_design.physics.parameters import designable
+from actuator_design.physics.parameters import designable, parameters
 from actuator_design.cli.design_hardware import add_hardware_args
 from actuator_design.cli.design_force import parse_force, run_force
 from actuator_design.cli.design_units import (add_schedule_units, positive_target, quasi_static_line,
@@ -261,18 +261,16 @@ def _summary(res, units=None, table=None, qs=None) -> str:
         + (f"; stiffness {res.stiffness_target:.8g} [B0/l^3]" if res.stiffness_target is not None else ""),
         f"  variables   : {', '.join(res.vary)}",
         f"  design      : h = {d.get('h', float('nan')):.8g}, phi = {_phi_text(res)}, "
-        f"p = {number(d.get('p', float('nan')))}" + (f", h_r = {d['h_r']:.8g}" if "h_r" in d else ""),
+        f"p = {number(d.get('p', float('nan')))}"
+        # the other groups at the design field (a remanent rod's h_r, THEORY §9)
+        + "".join(f", {k} = {v:.8g}" for k, v in d.items() if k not in ("h", "phi", "p") and isinstance(v, float)),
     ]
-    if "alpha" in res.vary and "alpha" in d:
-        a = d["alpha"]["value"]
-        lines.append(f"  fibres      : alpha(s) from {degrees(a[0], '.3g')} deg (clamp) to "
-                     f"{degrees(a[-1], '.3g')} deg (tip), Legendre coefficients "
-                     f"{', '.join(number(c, '.4g') for c in d['alpha']['legendre_coefficients'])} rad")
-    if "magnetization" in res.vary and "magnetization" in d:
-        b = d["magnetization"]["value"]
-        lines.append(f"  magnetised  : beta(s) from {degrees(b[0], '.3g')} deg (clamp) to "
-                     f"{degrees(b[-1], '.3g')} deg (tip), Legendre coefficients "
-                     f"{', '.join(number(c, '.4g') for c in d['magnetization']['legendre_coefficients'])} rad")
+    for p in designable().values():  # the designed profiles: α(s), a remanent β(s)
+        if p.per_point and p.name in res.vary and p.name in d:
+            v = d[p.name]["value"]
+            lines.append(f"  {p.profile_label:<12}: {p.slot}(s) from {degrees(v[0], '.3g')} deg (clamp) to "
+                         f"{degrees(v[-1], '.3g')} deg (tip), Legendre coefficients "
+                         f"{', '.join(number(c, '.4g') for c in d[p.name]['legendre_coefficients'])} rad")
     phys = res.to_dict().get("physical")
     if phys:
         lines.append(f"  field       : {phys['field_A_per_m']:.6g} A/m ({phys['field_mT']:.4g} mT as mu0 H)")
@@ -309,7 +307,8 @@ def _summary(res, units=None, table=None, qs=None) -> str:
     if res.schedule:
         last = res.schedule[-1]
         lines.append(f"  schedule    : {len(res.schedule)} steps from h = 0 to h = {last['h']:.6g}"
-                     + (f", h_r = {last['h_r']:.6g}" if "h_r" in last else "")
+                     + "".join(f", {p.name} = {last[p.name]:.6g}" for p in parameters().values()
+                               if p.remanent_field and p.name in last)
                      + f" at phi = {degrees(last['phi'])} deg")
     lines.append(f"  optima      : {len(res.optima)} distinct local optima (see --json 'optima')")
     lines.append(f"  time        : {res.timings.get('total', float('nan')):.2f} s")

@@ -208,7 +208,7 @@ def add_physical(payload: dict, result, units) -> None:
     ``distributed_load_N_per_m`` (those it has) and ``units``."""
     if units is None or not isinstance(payload.get("physical"), dict):
         return
-    from actuator_design.io.unit_results import curvature_per_unit, scene_physical
+    from actuator_design.io.unit_results import curvature_per_unit, load_units, scene_physical
 
     u = units.length_unit
     added = {"length_unit": u, f"tip_x_{u}": units.length(result.tip["x"]),
@@ -220,9 +220,9 @@ def add_physical(payload: dict, result, units) -> None:
              **scene_physical(result.scene, units)}
     added["units"] = {k: v for k, v in {
         f"tip_x_{u}": u, f"tip_y_{u}": u, f"shape_{u}": u, f"gamma_rad_per_{u}": f"rad/{u}",
-        "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m", "tip_force_N": "N",
-        "tip_moment_N_m": "N m", "distributed_load_N_per_m": "N/m", "energy_J": "J",
-        "clamp_force_N": "N", "clamp_moment_Nm": "N m", "tip_x_m": "m", "tip_y_m": "m"}.items()
+        "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m", "energy_J": "J",
+        "clamp_force_N": "N", "clamp_moment_Nm": "N m", "tip_x_m": "m", "tip_y_m": "m",
+        **load_units(units)}.items()
         if k in added or k in payload["physical"]}
     payload["physical"] = {**added, **payload["physical"]}  # the SI keys as they were
 

@@ -42,8 +42,9 @@ def run(args: argparse.Namespace) -> int:
         from actuator_design.io.save import dumps_json, scene_to_dict
         out = {"valid": True, "config": str(args.config), "scene": scene_to_dict(scene),
                "groups": scene.describe_groups(), "terms": terms, "solver": options.as_dict()}
-        if scene.magnetization is not None:
-            out["magnetization"] = scene.magnetization.as_dict()
+        for said in _summaries(scene):  # the profiles terms carry (a remanent β(s): "magnetization")
+            if said.profile is not None:
+                out[said.profile.key] = said.profile.profile.as_dict()
         if summary is not None:
             out["magnetics"] = _summary_dict(summary)
         out["notes"] = notes
@@ -74,15 +75,26 @@ def _summary_dict(m) -> dict:
             "saturation_A_per_m": m.saturation, "remanence_A_per_m": m.remanence}
 
 
+def _summaries(scene):
+    """What every registered term says of ``scene`` (``EnergyTerm.summary``), in registration order."""
+    from actuator_design.physics.registry import registered_terms
+
+    return [cls.summary(scene) for cls in registered_terms()]
+
+
 def zero_coupling(scene) -> str:
     """Why the scene's field exerts no force or torque on the rod, or ``""`` when it does."""
     if scene.field is None:
         return ""
-    hard = scene.magnetization is not None and scene.h_r != 0.0
-    positional = not scene.field.is_uniform and scene.h_pos != 0.0
-    if scene.h != 0.0 or hard or positional:
+    from actuator_design.physics import parameters as lens
+    from actuator_design.physics.registry import term_class
+
+    # the groups the field drives besides its magnitude (h_pos, h_r), of the terms the scene has
+    driven = [p for p in lens.parameters().values() if p.field_power and not p.field_magnitude and not p.per_point
+              and (p.term is None or term_class(p.term).present(scene))]
+    if scene.h != 0.0 or any(p.get(scene) != 0.0 for p in driven):
         return ""
-    why = "h = 0" + (", h_r = 0" if scene.magnetization is not None else "")
+    why = "h = 0" + "".join(f", {p.name} = 0" for p in driven)
     if scene.field.is_uniform:
         why += " (in a uniform field the chi_hat term is a constant)"
     return f"the field exerts no force or torque on the rod: {why}; the rod stays as the loads leave it"
@@ -95,15 +107,11 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=(), un
     (obstacles in its length unit)."""
     from actuator_design.model.scene import DipoleField, ExpressionField, UniformField
 
+    said = _summaries(scene)
     groups = f"h = {scene.h:.6g}, h^2 = {scene.h ** 2:.6g}"
     if isinstance(scene.field, UniformField):
         groups += f", phi = {math.degrees(scene.field.phi):.6g} deg ({scene.field.phi:.6g} rad)"
-    if scene.field is not None and not scene.field.is_uniform:
-        groups += f", h_pos = {scene.h_pos:.6g}"
-    if scene.magnetization is not None:
-        groups += f", h_r = {scene.h_r:.6g}"
-    if scene.tip_force is not None:
-        groups += f", p = {scene.p:.6g}"
+    groups += "".join(f", {name} = {value:.6g}" for s in said for name, value in s.groups)
     field = scene.field
     if field is None:
         field_text = "none (no magnetic term)"
@@ -118,14 +126,7 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=(), un
         field_text = field.describe()
     else:  # pragma: no cover - future field kinds
         field_text = getattr(field, "kind", type(field).__name__)
-    loads = []
-    if scene.tip_force is not None:
-        loads.append(f"tip force (fx, fy) = ({scene.tip_force[0]:.6g}, {scene.tip_force[1]:.6g}) B0/l^2")
-    if scene.tip_moment is not None:
-        loads.append(f"tip moment {scene.tip_moment:.6g} B0/l")
-    if scene.distributed_load is not None:
-        q = scene.distributed_load
-        loads.append(f"distributed load (qx, qy) = ({q[0]:.6g}, {q[1]:.6g}) B0/l^3")
+    loads = [s.load for s in said if s.load]
     o = options
     lines = [
         f"config      : {source}" if source else None,
@@ -136,8 +137,8 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=(), un
         f"loads       : {'; '.join(loads) or 'none'}",
         f"clamp angle : {math.degrees(scene.theta0):.6g} deg",
         f"fibres      : {_profile(scene.fibres, 'alpha', deg=True)}",
-        (f"magnetisation: remanent, {_profile(scene.magnetization, 'beta', deg=True)}"
-         if scene.magnetization is not None else None),
+        *[f"{s.profile.label}, {_profile(s.profile.profile, s.profile.symbol, deg=s.profile.angle)}"
+          for s in said if s.profile is not None],
         _magnetics_line(summary),
         f"stiffness   : {_profile(scene.stiffness, 'b')}",
         f"terms       : {', '.join(terms)}",

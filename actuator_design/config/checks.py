@@ -16,6 +16,7 @@ import numpy as np
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.limits import group_problem, mesh_problem, scene_group_values
 from actuator_design.config.profile_specs import profile_problem
+from actuator_design.model.scene import profile_fields
 from actuator_design.physics.registry import dense_hessian
 from actuator_design.transcription import make_transcription
 
@@ -93,9 +94,9 @@ def check_profiles_at(profiles: Mapping[str, Tuple[object, bool]], options) -> N
 
 def check_profiles_on_mesh(scene, options, prefix: str = "") -> None:
     """:func:`check_profiles_at` for the fibre and stiffness profiles of a Scene."""
-    check_profiles_at({f"{prefix}fibres.expression": (scene.fibres, False),
-                       f"{prefix}stiffness.expression": (scene.stiffness, True),
-                       f"{prefix}magnetization.expression": (scene.magnetization, False)}, options)
+    # every profile of the scene (the fibres, the stiffness, a term's); only the stiffness must be positive
+    check_profiles_at({f"{prefix}{name}.expression": (getattr(scene, name), name == "stiffness")
+                       for name in profile_fields()}, options)
 
 
 def check_scene_and_options(scene, options, prefix: str = "") -> None:

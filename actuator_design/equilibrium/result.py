@@ -14,6 +14,7 @@ import numpy as np
 from actuator_design.io.display import degrees, number
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import registered_terms
 
 __all__ = ["EquilibriumResult"]
 
@@ -219,10 +220,9 @@ class EquilibriumResult:
         parts = [f"h = {number(sc.h)}"]
         if sc.field is None or sc.field.is_uniform:
             parts.append(f"phi = {degrees(sc.phi)} deg")
-        else:
-            parts.append(f"h_pos = {number(sc.h_pos)}")
-        if sc.magnetization is not None:
-            parts.append(f"h_r = {number(sc.h_r)}")
+        # the groups the terms show (h_pos of a non-uniform field, h_r of a remanent rod), p last and always
+        parts += [f"{name} = {number(value)}" for cls in registered_terms()
+                  for name, value in cls.summary(sc).groups if name != "p"]
         return ", ".join(parts + [f"p = {number(sc.p)}"])
 
     def summary(self) -> str:

@@ -20,6 +20,7 @@ from actuator_design.hardware.current_sqp import (CurrentProblem, SQPOutcome, le
                                                   within_limits)
 from actuator_design.hardware.map import HardwareMap
 from actuator_design.model.field_sources import source_field
+from actuator_design.physics.parameters import scale_field
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["HardwareDesign", "run_starts", "verify", "judge", "refitted", "VERIFY_TOL"]
@@ -129,8 +130,7 @@ def refitted(scene, sources, weights: tuple = ()):
     new, h0 = source_field(tuple(sources), f.length, f.fit_tolerance)
     new = replace(new, fit_tolerance=f.fit_tolerance, max_power=f.max_power, max_field=f.max_field, weights=weights)
     k = h0 / scene.scales.field
-    return replace(scene, field=new, h=scene.h * k, h_pos=scene.h_pos * k, h_r=scene.h_r * k,
-                   scales=replace(scene.scales, field=h0))
+    return scale_field(replace(scene, field=new, scales=replace(scene.scales, field=h0)), k)
 
 
 def run_starts(hmap: HardwareMap, prob: CurrentProblem, starts: Sequence[np.ndarray],

@@ -9,20 +9,9 @@ import casadi as ca
 
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
-from actuator_design.physics.registry import term_class, write_keeps_terms
 
 __all__ = ["couple_field_groups", "coupled_scene", "remanence_only"]
 
-
-
-def _field_driven():
-    """(lens parameter, f) of every slot driven by the field besides its magnitude (h_pos, h_r: f = 1,
-    in registration order)."""
-    out = {}
-    for p in lens.parameters().values():
-        if p.field_power and not p.field_magnitude and not p.per_point and p.slot not in out:
-            out[p.slot] = p
-    return [(p, p.field_power) for p in out.values()]
 
 
 def couple_field_groups(P, P0, h, slices) -> None:
@@ -30,7 +19,7 @@ def couple_field_groups(P, P0, h, slices) -> None:
     in place): g = h·g0/h0 for g in (h_r, h_pos), with g0, h0 the base scene's values in ``P0``
     (unchanged where h0 = 0)."""
     h0 = P0[slices["h"]]
-    for p, f in _field_driven():
+    for p, f in lens.field_groups(magnitude=False):
         g = p.slot
         if g in slices:
             moved = h * P0[slices[g]] / h0 if f == 1 else (h / h0) ** f * P0[slices[g]]
@@ -40,7 +29,7 @@ def couple_field_groups(P, P0, h, slices) -> None:
 def remanence_only(scene: Scene) -> bool:
     """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
     so it has no h to design (THEORY §9)."""
-    return lens.remanent_group(scene) > 0 and not scene.h > 0
+    return lens.remanent_group(scene, stored=True) > 0 and not scene.h > 0
 
 
 def coupled_scene(base: Scene, sc: Scene) -> Scene:
@@ -49,9 +38,4 @@ def coupled_scene(base: Scene, sc: Scene) -> Scene:
     if not base.h > 0:
         return sc
 
-    k = sc.h / base.h
-    for p, f in _field_driven():
-        value = p.get(base) * k ** f
-        if p.term is None or term_class(p.term).present(sc) or write_keeps_terms(p, sc, value):
-            sc = p.write(sc, value)
-    return sc
+    return lens.scale_field(sc, sc.h / base.h, source=base, magnitude=False)

@@ -18,6 +18,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint
 from actuator_design.model.scene import Scene
+from actuator_design.physics.parameters import remanent_group
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
@@ -334,8 +335,7 @@ def normalise_phi(phi: float, period: float = math.pi) -> float:
 def phi_period(scene) -> float:
     """The period of the energy in the field angle φ: π, or 2π with a hard-magnetic term of h_r ≠ 0
     (−h_r cos(θ + β − φ) changes sign under H → −H, THEORY §9)."""
-    hard = getattr(scene, "magnetization", None) is not None and getattr(scene, "h_r", 0.0) != 0.0
-    return 2 * math.pi if hard else math.pi
+    return 2 * math.pi if remanent_group(scene) != 0.0 else math.pi
 
 
 #: Decimal places a target pose is resolved to (rod lengths, rad): 1e-12, far below every

@@ -22,7 +22,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import typing
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, Optional
@@ -34,19 +33,13 @@ from actuator_design.physics.tesseral import TesseralTerm
 from actuator_design.model.profiles import (Profile, constant_profile, expression_profile, legendre_profile,
                                             table_profile)
 from actuator_design.model.scene import (DipoleField, ExpressionField, Scales, Scene, SourceField, TermValues,
-                                         UniformField)
+                                         UniformField, profile_fields)
 from actuator_design.model.sources import CoilSource, MagnetSource, MappedCoil
 
 __all__ = ["scene_from_dict", "read_result", "SavedResult"]
 
 _FIELDS = {"uniform": UniformField, "dipole": DipoleField, "expression": ExpressionField, "sources": SourceField}
 _OBSTACLES = {"wall": Wall, "peg": Peg, "polygon": Polygon, "lumen": Lumen}
-
-
-#: the Scene's profile fields -> whether they may be None (absent from an older file: None)
-_PROFILE_FIELDS = {name: type(None) in typing.get_args(hint)
-                   for name, hint in typing.get_type_hints(Scene).items()
-                   if hint is Profile or Profile in typing.get_args(hint)}
 
 
 def _tuples(value):
@@ -146,7 +139,7 @@ def _scene_from_dict(data: Dict[str, Any]) -> Scene:
         "extra_terms": tuple(TermValues(t["name"], _tuples(t["values"])) for t in data["extra_terms"]),
         "obstacles": tuple(obstacles),
     }
-    for name, optional in _PROFILE_FIELDS.items():  # every profile, whichever term it belongs to
+    for name, optional in profile_fields().items():  # every profile, whichever term it belongs to
         if not optional and data[name] is None:
             raise TypeError(f"{name}: a profile, got null")
         converted[name] = profile_from_dict(data.get(name) if optional else data[name])

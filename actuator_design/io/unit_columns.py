@@ -19,15 +19,22 @@ from typing import Dict, List, Optional, Sequence, Tuple
 from actuator_design.config import load_scene
 from actuator_design.io.user_units import user_units
 from actuator_design.model.units import MU0, parse_quantity
+from actuator_design.physics.parameters import parameter
 
-__all__ = ["TIP_UNITS", "LOAD_UNITS", "compliance_si", "stiffness_si", "data_unit",
+__all__ = ["TIP_UNITS", "load_unit", "compliance_si", "stiffness_si", "data_unit",
            "TableUnits", "table_units", "add_unit_columns", "unit_column", "axis_unit_columns",
            "derived_name", "study_config",
            "current_study_config", "length_noise"]
 
 #: SI unit of each tip quantity and tip load of the compliance matrix (THEORY §6-7).
 TIP_UNITS = {"x": "m", "y": "m", "angle": "rad"}
-LOAD_UNITS = {"fx": "N", "fy": "N", "m_tip": "N m"}
+#: SI unit of a load of the compliance matrix, by its dimensionless unit (the lens parameter's)
+_SI_OF_LOAD = {"B0/l^2": "N", "B0/l": "N m"}
+
+
+def load_unit(name: str) -> str:
+    """SI unit of the load ``name`` of the compliance matrix (``fx``, ``fy``: N; a tip moment: N m)."""
+    return _SI_OF_LOAD[parameter(name).unit]
 
 
 def length_noise(units) -> float:
@@ -42,7 +49,7 @@ def _tip_scale(name: str, units) -> float:
 
 
 def _load_scale(name: str, units) -> float:
-    return units.moment_scale if name == "m_tip" else units.force_scale
+    return units.moment_scale if load_unit(name) == "N m" else units.force_scale
 
 
 def compliance_si(C, tips: Sequence[str], loads: Sequence[str], units) -> Tuple[list, list]:
@@ -69,7 +76,7 @@ def compliance_si(C, tips: Sequence[str], loads: Sequence[str], units) -> Tuple[
 
 
 def _compliance_unit(tip: str, load: str) -> str:
-    num, den = TIP_UNITS[tip], LOAD_UNITS[load]
+    num, den = TIP_UNITS[tip], load_unit(load)
     if num == "m" and den == "N m":
         return "1/N"
     return f"{num}/({den})" if " " in den else f"{num}/{den}"
@@ -85,7 +92,7 @@ def stiffness_si(K, tips: Sequence[str], loads: Sequence[str], units) -> Tuple[l
 
 
 def _stiffness_unit(load: str, tip: str) -> str:
-    num, den = LOAD_UNITS[load], TIP_UNITS[tip]
+    num, den = load_unit(load), TIP_UNITS[tip]
     if num == "N m" and den == "m":
         return "N"
     return f"{num}/{den}"

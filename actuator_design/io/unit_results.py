@@ -18,7 +18,9 @@ from actuator_design.io.unit_columns import length_noise
 from actuator_design.io.user_units import (VALUE_KEY_UNITS, parameter_physical, parameter_unit_label,
                                            physical_value_keys)
 from actuator_design.model.units import MU0
+from actuator_design.physics import parameters as lens
 from actuator_design.physics.parameters import parameter
+from actuator_design.physics.registry import registered_terms, term_class
 
 __all__ = ["units_line", "unit_suffix", "tip_in", "length_text", "parameter_conversion",
            "value_text", "scene_physical", "scene_text", "point_physical", "add_point_units",
@@ -95,18 +97,61 @@ def scene_physical(scene, units) -> Dict[str, object]:
     if getattr(scene, "field", None) is not None:
         if units.has_field:
             out["field_mT"] = units.field_mT(scene.h)
-        elif units.has_remanent_field and scene.h_r:  # a hard-magnetic rod: the field of h_r
-            out["field_mT"] = units.field_mT_of_h_r(scene.h_r)
+        else:  # a hard-magnetic rod: the field of its remanent group (THEORY §9)
+            for p in lens.parameters().values():
+                if p.remanent_field and _present(scene, p) and p.get(scene) and units.has_remanent_field:
+                    out["field_mT"] = parameter_physical(p, p.get(scene), units)
+                    break
         if "field_mT" in out:
             out["field_A_per_m"] = out["field_mT"] * 1e-3 / MU0
-    if scene.tip_force is not None:
-        out["tip_force_N"] = [float(v) * units.force_scale for v in scene.tip_force]
-    if scene.tip_moment:
-        out["tip_moment_N_m"] = float(scene.tip_moment) * units.moment_scale
-    if scene.distributed_load is not None:
-        out["distributed_load_N_per_m"] = [float(v) * units.stiffness_scale
-                                           for v in scene.distributed_load]
+    for cls in registered_terms():  # the loads, each in N, N m, N/m (or Pa): tip_force_N, ...
+        load = _load_values(cls, scene, units)
+        if load is not None:
+            out[load[0]] = load[1]
     return out
+
+
+def load_units(units) -> Dict[str, str]:
+    """The unit of every load key :func:`scene_physical` can write (``tip_force_N``: N), one per
+    registered term whose values are all loads of one unit."""
+    keys = (_load_key(cls, units) for cls in registered_terms())
+    return {key[0]: key[1] for key in keys if key is not None}
+
+
+#: the suffix of a load's key in :func:`scene_physical` by its physical unit
+_LOAD_SUFFIX = {"N": "N", "N m": "N_m", "N/m": "N_per_m", "Pa": "Pa"}
+
+
+def _present(scene, p) -> bool:
+    return p.term is None or term_class(p.term).present(scene)
+
+
+def _load_key(cls, units):
+    """``(<term>_<unit suffix>, unit, parameters)`` of a term whose values (``scalar_params``) are
+    all loads of one unit: a force, a moment, a force per length or per area; None otherwise."""
+    by_slot: Dict[str, object] = {}
+    for p in cls.parameters:
+        by_slot.setdefault(p.slot, p)
+    params = [by_slot.get(slot) for slot in cls.scalar_params]
+    if not params or None in params:
+        return None
+    labels = {parameter_unit_label(p, units) for p in params}
+    label = labels.pop() if len(labels) == 1 else None
+    if label not in _LOAD_SUFFIX:
+        return None
+    return f"{cls.name}_{_LOAD_SUFFIX[label]}", label, params
+
+
+def _load_values(cls, scene, units):
+    """``(key, value or [values])`` of the load a term of ``scene`` applies, in the user's units
+    (:func:`_load_key`); None when the scene lacks the term or its single value is zero."""
+    key = _load_key(cls, units)
+    if key is None or not cls.present(scene):
+        return None
+    values = [parameter_physical(p, p.get(scene), units) for p in key[2]]
+    if len(values) == 1 and values[0] == 0.0:
+        return None
+    return key[0], values if len(values) > 1 else values[0]
 
 
 def scene_text(scene, units) -> str:
@@ -118,13 +163,12 @@ def scene_text(scene, units) -> str:
         parts.append(f"mu0 H = {number(d['field_mT'])} mT")
     elif getattr(scene, "field", None) is not None:
         parts.append("h stays dimensionless (this scene has no field scale)")
-    if "tip_force_N" in d:
-        parts.append("tip force (" + ", ".join(number(v) for v in d["tip_force_N"]) + ") N")
-    if "tip_moment_N_m" in d:
-        parts.append(f"tip moment {number(d['tip_moment_N_m'])} N m")
-    if "distributed_load_N_per_m" in d:
-        parts.append("distributed load (" + ", ".join(number(v) for v in d["distributed_load_N_per_m"])
-                     + ") N/m")
+    for cls in registered_terms():  # the loads: "tip force (0, 7e-05) N", "tip moment 1e-06 N m"
+        key = _load_key(cls, units)
+        if key is not None and key[0] in d:
+            v = d[key[0]]
+            text = "(" + ", ".join(number(x) for x in v) + ")" if isinstance(v, list) else number(v)
+            parts.append(f"{cls.load_name or cls.name.replace('_', ' ')} {text} {key[1]}")
     return ", ".join(parts)
 
 
@@ -167,8 +211,7 @@ def physical_header(units, params: Iterable = (), extra: Optional[Dict[str, str]
         if note is not None:
             notes.append(note)
     described = {"tip": u, "energy_J": "J", "field_mT": "mT (mu0 H)", "field_A_per_m": "A/m",
-                 **VALUE_KEY_UNITS, f"gamma_rad_per_{u}": f"rad/{u}", "tip_force_N": "N", "tip_moment_N_m": "N m",
-                 "distributed_load_N_per_m": "N/m", **(extra or {})}
+                 **VALUE_KEY_UNITS, f"gamma_rad_per_{u}": f"rad/{u}", **load_units(units), **(extra or {})}
     return {"length_unit": u, "units": described,
             "parameters": {n: (unit + " (mu0 H)" if unit == "mT" else unit) for n, unit in names.items()
                            if unit is not None},

@@ -88,9 +88,9 @@ class UserUnits:
         """Whether the hard-magnetic group h_r converts to A/m (dh_r/dH > 0)."""
         return self.h_r_per_field > 0.0
 
-    def field_mT_of_h_r(self, h_r: float) -> float:
-        """μ0 H in mT of the hard-magnetic group ``h_r`` (h_r ∝ H, THEORY §9)."""
-        return float(h_r) / self.h_r_per_field * MU0 * 1e3
+    def field_mT_of_h_r(self, group: float) -> float:
+        """μ0 H in mT of a value ``group`` of the hard-magnetic group h_r (h_r ∝ H, THEORY §9)."""
+        return float(group) / self.h_r_per_field * MU0 * 1e3
 
     def h_from_field(self, H_A_per_m: float) -> float:
         """The group h of a field strength H in A/m."""

@@ -12,7 +12,9 @@ is still built (so it can be continued or designed), a term that is absent is no
 """
 from __future__ import annotations
 
+import functools
 import math
+import typing
 from dataclasses import dataclass
 from dataclasses import field as dc_field
 from dataclasses import replace
@@ -32,6 +34,7 @@ __all__ = [
     "Scene",
     "TermValues",
     "default_scene",
+    "profile_fields",
 ]
 
 
@@ -449,3 +452,10 @@ def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float
         name="default dimensionless cantilever (THEORY §5)",
     )
 
+
+@functools.lru_cache(maxsize=None)
+def profile_fields() -> Dict[str, bool]:
+    """The :class:`Scene`'s profile fields, name -> whether it may be None: the fibres and the
+    stiffness every rod has, and those a term brings (a remanent magnetisation β(s), THEORY §9)."""
+    return {name: type(None) in typing.get_args(hint) for name, hint in typing.get_type_hints(Scene).items()
+            if hint is Profile or Profile in typing.get_args(hint)}

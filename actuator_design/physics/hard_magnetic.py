@@ -21,7 +21,7 @@ from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.terms import EnergyTerm
+from actuator_design.physics.terms import EnergyTerm, TermProfile, TermSummary
 
 __all__ = ["HardMagnetic", "with_hard_magnetic_term"]
 
@@ -62,13 +62,21 @@ class HardMagnetic(EnergyTerm):
                   read=_magnetization_angle,
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
-                  designable=True,  # designed as a profile β(s) (inverse/nlp.py)
+                  designable=True, profile_label="magnetised",  # designed as a profile β(s) (inverse/nlp.py)
                   flag_help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)"),
     )
 
     def __init__(self, field: FieldModel):
         self.field = field
         self.scalar_params = ("h_r",) + field.params
+
+    @classmethod
+    def summary(cls, scene: Scene) -> TermSummary:
+        if scene.magnetization is None:
+            return TermSummary()
+        return TermSummary(groups=(("h_r", scene.h_r),),
+                           profile=TermProfile("magnetization", "magnetisation: remanent", scene.magnetization,
+                                               "beta", True))
 
     @classmethod
     def present(cls, scene: Scene) -> bool:

@@ -63,6 +63,9 @@ class Parameter:
     remanent_field : bool
         The value is a remanent-magnetisation group ∝ H (THEORY §9): on a physical scene it reads as
         the applied field μ0 H through the rod's remanence, not through its susceptibility.
+    profile_label : str or None
+        What a designed profile of this parameter (``per_point``) is called in a summary
+        (``"fibres"`` for α(s)); its symbol there is :attr:`slot`.
     flag_help : str or None
         The help of the parameter's own command-line flag on every scene command (``--<name>``, an
         angle as ``--<name>-deg`` in degrees; :attr:`flag`); None: set it with ``--set`` only.
@@ -87,6 +90,7 @@ class Parameter:
     stiffness_power: float = 0.0
     susceptibility_power: float = 0.0
     remanent_field: bool = False
+    profile_label: Optional[str] = None
     flag_help: Optional[str] = None
 
     @property

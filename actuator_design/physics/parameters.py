@@ -31,15 +31,16 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from actuator_design.model.scene import Scene
+from actuator_design.model.scene import Scene, UniformField
 from actuator_design.model.units import DIMENSIONS
 from actuator_design.physics.parameter import THETA0, Parameter, plugin_parameter
-from actuator_design.physics.registry import registered_terms, registry_version, term_class
+from actuator_design.physics.registry import registered_terms, registry_version, term_class, write_keeps_terms
 
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
-           "physical_parameter", "entry_names", "stiffness_groups", "remanent_group"]
+           "physical_parameter", "entry_names", "stiffness_groups", "remanent_group",
+           "field_groups", "scale_field"]
 
 
 def _source_weight(k: int) -> Parameter:
@@ -177,11 +178,37 @@ def _present(scene: Scene, term: Optional[str]) -> bool:
     return term is None or term_class(term).present(scene)
 
 
-def remanent_group(scene: Scene) -> float:
-    """The largest remanent-magnetisation group of the terms ``scene`` contains, in magnitude
-    (``Parameter.remanent_field``: h_r, THEORY §9); 0 for a rod without remanence."""
+def remanent_group(scene: Scene, stored: bool = False) -> float:
+    """The largest remanent-magnetisation group of the terms ``scene`` contains in an applied field
+    (it may not have one yet), in magnitude (``Parameter.remanent_field``: h_r, THEORY §9); 0 for a
+    rod without remanence. With ``stored``, the value stored in the scene even where its term is
+    absent (h_r without a magnetisation)."""
+    in_field = scene if scene.field is not None else replace(scene, field=UniformField())
     return max([0.0] + [abs(p.get(scene)) for p in parameters().values()
-                        if p.remanent_field and _present(scene, p.term)])
+                        if p.remanent_field and (stored or _present(in_field, p.term))])
+
+
+def field_groups(magnitude: bool = True) -> List[Tuple[Parameter, int]]:
+    """(parameter, f) of every scalar group ∝ H^f that the applied field drives (h, h_pos, h_r:
+    f = 1; THEORY §5, §9), one per NLP slot, in registration order; without ``magnitude`` the field
+    magnitude's own group (h) is left out."""
+    out: Dict[str, Parameter] = {}
+    for p in parameters().values():
+        if p.field_power and not p.per_point and (magnitude or not p.field_magnitude) and p.slot not in out:
+            out[p.slot] = p
+    return [(p, p.field_power) for p in out.values()]
+
+
+def scale_field(scene: Scene, k: float, source: Optional[Scene] = None, magnitude: bool = True) -> Scene:
+    """``scene`` with every group the field drives set to its value in ``source`` (default: ``scene``)
+    times k^f: the same rod in the applied field scaled by k (:func:`field_groups`). A group of a term
+    the scene lacks is written only where that does not add the term."""
+    source = scene if source is None else source
+    for p, f in field_groups(magnitude):
+        value = p.get(source) * k ** f
+        if p.term is None or term_class(p.term).present(scene) or write_keeps_terms(p, scene, value):
+            scene = p.write(scene, value)
+    return scene
 
 
 def apply_values(scene: Scene, values: Mapping[str, float], what: str = "parameter") -> Scene:

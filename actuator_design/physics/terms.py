@@ -13,8 +13,8 @@ the scene lists it in ``extra_terms`` (with its values).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-from typing import Callable, Dict, List, Optional, Tuple
+from dataclasses import dataclass, replace
+from typing import Callable, Dict, List, NamedTuple, Optional, Tuple
 
 import casadi as ca
 import numpy as np
@@ -26,11 +26,40 @@ from actuator_design.physics.fields import FieldModel, field_model
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.registration import register_term
 
-__all__ = ["EnergyTerm", "structure_key", "scalar_parameter_values", "node_field_sources", "node_field_values",
+__all__ = ["EnergyTerm", "TermSummary", "TermProfile", "structure_key", "scalar_parameter_values", "node_field_sources", "node_field_values",
            "residual_slots", "Bending", "FieldOrientation", "FieldPosition", "TipForce", "TipMoment",
            "DistributedLoad"]
 
 NodeField = Callable[[Scene, np.ndarray], np.ndarray]
+
+
+class TermProfile(NamedTuple):
+    """A profile a term carries, as a scene's summary shows it."""
+
+    key: str  #: its key in ``validate --json`` (``"magnetization"``)
+    label: str  #: the summary's label (``"magnetisation: remanent"``)
+    profile: object  #: the :class:`~actuator_design.model.profiles.Profile`
+    symbol: str  #: its symbol (``"beta"``)
+    angle: bool  #: values in rad, shown in degrees
+
+
+@dataclass(frozen=True)
+class TermSummary:
+    """What a scene's summary (``actuator-design validate``) says of one term.
+
+    Attributes
+    ----------
+    groups : tuple of (str, float)
+        Its dimensionless groups as (name, value) (``("h_r", 2.0)``), shown after h and φ.
+    load : str or None
+        The load it applies, one phrase in units of B0 (``"tip moment 1 B0/l"``).
+    profile : TermProfile or None
+        A profile it carries (a remanent magnetisation β(s)).
+    """
+
+    groups: Tuple[Tuple[str, float], ...] = ()
+    load: Optional[str] = None
+    profile: Optional[TermProfile] = None
 
 
 class EnergyTerm:
@@ -55,6 +84,9 @@ class EnergyTerm:
     scaling_declared = False
     parameters: Tuple[Parameter, ...] = ()
     scalar_params: Tuple[str, ...] = ()
+    #: what a summary in physical units calls the load this term applies (``"tip force"``); None:
+    #: the term's name
+    load_name: Optional[str] = None
     node_fields: Dict[str, NodeField] = {}
 
     # -- presence in a scene -------------------------------------------------------------------
@@ -95,6 +127,12 @@ class EnergyTerm:
         """The inverse of the shortest length on which this term makes θ vary (units of 1/ℓ; 0 when
         it sets none): the a-priori mesh grading (:func:`actuator_design.equilibrium.accuracy.scene_wavenumber`)."""
         return 0.0
+
+    @classmethod
+    def summary(cls, scene: Scene) -> TermSummary:
+        """What a scene's summary says of this term (asked of every registered term: it decides
+        itself whether it has anything to say about ``scene``)."""
+        return TermSummary()
 
     @classmethod
     def end_moment(cls, scene: Scene) -> float:
@@ -190,7 +228,7 @@ class FieldOrientation(EnergyTerm):
                   ensure=_with_uniform_field, designable=True),
         Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
                   write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
-                  per_point=True, designable=True),
+                  per_point=True, designable=True, profile_label="fibres"),
     )
 
     def __init__(self, field: FieldModel):
@@ -248,6 +286,11 @@ class FieldPosition(EnergyTerm):
         self.scalar_params = ("h_pos",) + field.params
 
     @classmethod
+    def summary(cls, scene):
+        shown = scene.field is not None and not scene.field.is_uniform
+        return TermSummary(groups=(("h_pos", scene.h_pos),) if shown else ())
+
+    @classmethod
     def present(cls, scene):
         return scene.field is not None and not scene.field.is_uniform and scene.h_pos != 0.0
 
@@ -271,6 +314,7 @@ class TipForce(EnergyTerm):
     """−f·r(1): dead tip force f = (fx, fy), p = fy (THEORY §5)."""
 
     name = "tip_force"
+    load_name = "tip force"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("fx", "fy")
     parameters = (
@@ -290,6 +334,13 @@ class TipForce(EnergyTerm):
     def wavenumber(cls, scene):
         return math.sqrt(math.hypot(*scene.tip_force))  # the elastica's √|f|
 
+    @classmethod
+    def summary(cls, scene):
+        if scene.tip_force is None:
+            return TermSummary()
+        fx, fy = scene.tip_force
+        return TermSummary(groups=(("p", scene.p),), load=f"tip force (fx, fy) = ({fx:.6g}, {fy:.6g}) B0/l^2")
+
     def tip(self, tip, P):
         return -(P["fx"] * tip.x + P["fy"] * tip.y)
 
@@ -302,6 +353,7 @@ class TipMoment(EnergyTerm):
     """−m θ(1): dead tip moment, counter-clockwise positive."""
 
     name = "tip_moment"
+    load_name = "tip moment"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("m_tip",)
     parameters = (
@@ -323,6 +375,10 @@ class TipMoment(EnergyTerm):
     def end_moment(cls, scene):
         return float(scene.tip_moment or 0.0)
 
+    @classmethod
+    def summary(cls, scene):
+        return TermSummary(load=None if scene.tip_moment is None else f"tip moment {scene.tip_moment:.6g} B0/l")
+
     def tip(self, tip, P):
         return -P["m_tip"] * tip.theta
 
@@ -335,6 +391,7 @@ class DistributedLoad(EnergyTerm):
     """−q·r(s) per unit length: a dead distributed load such as weight."""
 
     name = "distributed_load"
+    load_name = "distributed load"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("qx", "qy")
     parameters = (
@@ -347,6 +404,11 @@ class DistributedLoad(EnergyTerm):
     @classmethod
     def present(cls, scene):
         return scene.distributed_load is not None
+
+    @classmethod
+    def summary(cls, scene):
+        q = scene.distributed_load
+        return TermSummary(load=None if q is None else f"distributed load (qx, qy) = ({q[0]:.6g}, {q[1]:.6g}) B0/l^3")
 
     @classmethod
     def wavenumber(cls, scene):

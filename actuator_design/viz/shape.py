@@ -16,6 +16,8 @@ from actuator_design.io.display import degrees
 from actuator_design.model.scene import DipoleField, UniformField
 from actuator_design.model.sources import loops
 from actuator_design.physics.fields import field_model
+from actuator_design.physics.parameters import parameter
+from actuator_design.physics.registry import term_class
 from actuator_design.viz.style import new_axes
 
 __all__ = ["plot_shape", "shape_figure"]
@@ -251,10 +253,10 @@ def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None
 
 def _draw_tip_force(ax, scene, tip, window, units=None) -> None:
     """An arrow of fixed length at the tip in the direction of the tip force, labelled."""
-    f = scene.tip_force
-    if f is None:
+    fx_p, fy_p = parameter("fx"), parameter("fy")  # the tip force's components, through the lens
+    if not term_class(fy_p.term).present(scene):
         return
-    fx, fy = float(f[0]), float(f[1])
+    fx, fy = fx_p.get(scene), fy_p.get(scene)
     mag = math.hypot(fx, fy)
     tx, ty = float(tip["x"]), float(tip["y"])
     if mag == 0.0 or not (math.isfinite(tx) and math.isfinite(ty)):

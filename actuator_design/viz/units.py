@@ -15,7 +15,7 @@ import numpy as np
 from actuator_design.io.display import degrees, number
 from actuator_design.io.unit_results import scene_physical
 from actuator_design.io.user_units import parameter_physical, parameter_unit_label
-from actuator_design.physics.parameters import parameter
+from actuator_design.physics.parameters import parameter, parameters, remanent_group
 
 __all__ = ["scaled_axis", "length_axes", "field_axis", "parameter_axis", "field_text", "load_text", "groups_text",
            "NO_FIELD_SCALE"]
@@ -136,8 +136,9 @@ def scene_field_text(scene, units) -> str:
         mT = scene_physical(scene, units).get("field_mT")
         if mT is not None:
             return f"μ0H = {mT:.4g} mT"
-    if scene.h == 0 and scene.magnetization is not None and scene.h_r > 0:
-        return f"h_r = {scene.h_r:.4g}"
+    if scene.h == 0 and remanent_group(scene) > 0:  # the remanent group of a hard-magnetic rod (THEORY §9)
+        p = next(p for p in parameters().values() if p.remanent_field and p.get(scene) > 0)
+        return f"{p.name} = {p.get(scene):.4g}"
     return f"h = {scene.h:.4g}"
 
 
