@@ -296,8 +296,10 @@ def test_scaling_the_field_scales_every_group_it_drives_and_adds_no_term():
     assert [p.name for p, f in lens.field_groups()] == ["h", "h_pos", "h_r"]
 
 
-def test_a_tip_moment_is_the_end_moment_the_mesh_and_balance_see():
-    from actuator_design.physics.registry import end_moment
+def test_a_tip_moment_and_a_tip_force_are_what_the_terms_apply_at_the_end():
+    from actuator_design.physics.registry import end_force, end_moment
 
     assert end_moment(default_scene()) == 0.0
     assert end_moment(replace(default_scene(), tip_moment=-2.5)) == 2.5
+    assert end_force(default_scene(p=0.25)) == (0.0, 0.25)
+    assert end_force(replace(default_scene(), tip_force=None)) is None

@@ -136,7 +136,6 @@ STILL_NAMING_TERMS = {
     "robust/robustness.py": 1,
     "robust/tolerances.py": 3,
     "schedules/schedule.py": 3,
-    "viz/shape.py": 2,
 }
 
 

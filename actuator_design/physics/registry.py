@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 __all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
            "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms", "build_terms",
-           "scene_wavenumber", "end_moment", "dense_hessian"]
+           "scene_wavenumber", "end_force", "end_moment", "dense_hessian"]
 
 def registered_terms() -> List[type]:
     """Every registered term class: the built-in terms, then the shipped extra terms (by module
@@ -234,6 +234,13 @@ def build_terms(scene: "Scene") -> List["EnergyTerm"]:
 def scene_wavenumber(scene: "Scene") -> float:
     """max(1, the wavenumbers of the terms ``scene`` contains) (units of 1/ℓ)."""
     return max([1.0] + [cls.wavenumber(scene) for cls in registered_terms() if cls.present(scene)])
+
+
+def end_force(scene: "Scene"):
+    """The dead force (fx, fy) the terms of ``scene`` apply at the free end, summed (B0/ℓ²), or None
+    when none applies one."""
+    forces = [f for cls in registered_terms() if cls.present(scene) for f in [cls.end_force(scene)] if f is not None]
+    return None if not forces else (sum(f[0] for f in forces), sum(f[1] for f in forces))
 
 
 def end_moment(scene: "Scene") -> float:

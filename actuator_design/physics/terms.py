@@ -135,6 +135,12 @@ class EnergyTerm:
         return TermSummary()
 
     @classmethod
+    def end_force(cls, scene: Scene) -> Optional[Tuple[float, float]]:
+        """The dead force (fx, fy) this term applies at the free end (units of B0/ℓ²; None when it
+        applies none): drawn as an arrow at the tip."""
+        return None
+
+    @classmethod
     def end_moment(cls, scene: Scene) -> float:
         """The dead moment this term applies at the free end (units of B0/ℓ; 0 when none): it makes
         a boundary layer at the tip (mesh grading) and sizes the moment balance there."""
@@ -333,6 +339,10 @@ class TipForce(EnergyTerm):
     @classmethod
     def wavenumber(cls, scene):
         return math.sqrt(math.hypot(*scene.tip_force))  # the elastica's √|f|
+
+    @classmethod
+    def end_force(cls, scene):
+        return None if scene.tip_force is None else (float(scene.tip_force[0]), float(scene.tip_force[1]))
 
     @classmethod
     def summary(cls, scene):

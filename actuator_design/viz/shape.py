@@ -16,8 +16,7 @@ from actuator_design.io.display import degrees
 from actuator_design.model.scene import DipoleField, UniformField
 from actuator_design.model.sources import loops
 from actuator_design.physics.fields import field_model
-from actuator_design.physics.parameters import parameter
-from actuator_design.physics.registry import term_class
+from actuator_design.physics.registry import end_force
 from actuator_design.viz.style import new_axes
 
 __all__ = ["plot_shape", "shape_figure"]
@@ -72,7 +71,7 @@ def plot_shape(result, ax=None, title=None, units=None, field_angle=None):
     ax.plot(ux, uy, ls="--", color="0.55", lw=1.2, label="undeformed", zorder=2)
     ax.plot(x, y, color="C0", lw=2.6, label="deformed", zorder=4)
     _draw_clamp(ax, t0)
-    _draw_tip_force(ax, scene, result.tip, window, units)
+    _draw_end_force(ax, scene, result.tip, window, units)
 
     ax.set_xlim(window[0], window[1])
     ax.set_ylim(window[2], window[3])
@@ -251,12 +250,12 @@ def _draw_streamlines(ax, field, scene, window, units=None, n: int = 41) -> None
     ax.plot([], [], color="C2", lw=0.7, label=f"field direction ({field.kind}, {scene_field_text(scene, units)})")
 
 
-def _draw_tip_force(ax, scene, tip, window, units=None) -> None:
+def _draw_end_force(ax, scene, tip, window, units=None) -> None:
     """An arrow of fixed length at the tip in the direction of the tip force, labelled."""
-    fx_p, fy_p = parameter("fx"), parameter("fy")  # the tip force's components, through the lens
-    if not term_class(fy_p.term).present(scene):
+    f = end_force(scene)  # the dead force the terms apply at the tip
+    if f is None:
         return
-    fx, fy = fx_p.get(scene), fy_p.get(scene)
+    fx, fy = f
     mag = math.hypot(fx, fy)
     tx, ty = float(tip["x"]), float(tip["y"])
     if mag == 0.0 or not (math.isfinite(tx) and math.isfinite(ty)):
