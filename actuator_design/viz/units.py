@@ -136,8 +136,9 @@ def scene_field_text(scene, units) -> str:
         mT = scene_physical(scene, units).get("field_mT")
         if mT is not None:
             return f"μ0H = {mT:.4g} mT"
-    if scene.h == 0 and remanent_group(scene) > 0:  # the remanent group of a hard-magnetic rod (THEORY §9)
-        p = next(p for p in parameters().values() if p.remanent_field and p.get(scene) > 0)
+    group = remanent_group(scene)  # the remanent group of a hard-magnetic rod (THEORY §9)
+    if scene.h == 0 and group > 0:
+        p = next(p for p in parameters().values() if p.remanent_field and abs(p.get(scene)) == group)
         return f"{p.name} = {p.get(scene):.4g}"
     return f"h = {scene.h:.4g}"
 
