@@ -392,7 +392,7 @@ def test_a_plug_in_value_the_field_drives_moves_with_a_designed_h():
     design NLP's parameter map (CasADi) and in the forward scene alike; h_r, h_pos ∝ h exactly."""
     import casadi as ca
 
-    from actuator_design.inverse.field_groups import couple_field_groups, coupled_scene
+    from actuator_design.inverse.design_map import couple_field_groups, coupled_scene
     from actuator_design.equilibrium.options import SolverOptions
     from actuator_design.physics.parameters import plugin_parameter
     from actuator_design.physics.registry import register_term, unregister_term

@@ -37,3 +37,43 @@ def test_the_buckling_fit_draws_the_jump_dotted():
     ax = fit_figures(r)["fit_data_vs_model"].axes[0]
     dotted = [ln for ln in ax.get_lines() if ln.get_linestyle() == ":"]
     assert len(dotted) == 1 and len(dotted[0].get_xdata()) == 2  # the two ends of the jump only
+
+
+def test_the_fits_stability_verdict_is_the_one_rule_at_a_marginal_state():
+    """Issue 18 (one stability rule): the fit's verdict is the package's rule (THEORY §7), not a
+    Cholesky factor of H_r alone, which calls a state stable as soon as λ0 > 0. The straight rod in a
+    transverse field (φ = π/2) is an equilibrium at every h; its lowest eigenvalue λ0(h) crosses 0 at
+    the buckling field. Found by secant steps on λ0 (the rule's own eigenvalues): a state with
+    0 < λ0 < τ is marginal, neither stable nor unstable, to both."""
+    import math
+
+    from actuator_design.calibration.branches import BranchSelector
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.equilibrium.solver import get_solver
+    from actuator_design.model.scene import default_scene
+
+    sc = default_scene(h=1.0, phi=math.pi / 2)
+    sv = get_solver(sc, SolverOptions())
+    z = np.zeros(sv.transcription.nodes.size)
+    lam0 = lambda h: sv.stability(z, sv.parameter_vector(sc.with_values(h=h))).eigenvalues[0]
+    a, b = 1.0, 2.0  # λ0(1) > 0 > λ0(2): the buckling field h_c ≈ π/(2√2) ≈ 1.11 lies between
+    la, lb = lam0(a), lam0(b)
+    assert la > 0 > lb
+    for _ in range(60):  # secant/bisection until 0 < λ0 < τ/10
+        c = b - lb * (b - a) / (lb - la)
+        if not a < c < b:
+            c = 0.5 * (a + b)
+        lc = lam0(c)
+        if 0 < lc < 1e-10:
+            break
+        a, la, b, lb = (c, lc, b, lb) if lc > 0 else (a, la, c, lc)
+    assert 0 < lc < 1e-10
+    P = sv.parameter_vector(sc.with_values(h=c))
+    ref = sv.stability(z, P)
+    assert ref.marginal and not ref.stable and ref.morse_index == 0
+    selector = BranchSelector(sv, np.zeros(0, int), [1], np.ones(1))
+    verdict, _ = selector.verdict(z, P)
+    assert (verdict.stable, verdict.marginal, verdict.morse_index) == (False, True, 0)
+    # and well inside the stable range it is certified stable
+    verdict, _ = selector.verdict(z, sv.parameter_vector(sc.with_values(h=0.5)))
+    assert verdict.stable and not verdict.marginal

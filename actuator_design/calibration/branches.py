@@ -1,9 +1,10 @@
 """Stable equilibria on the branch a measurement lies on, with exact output sensitivities.
 
 Only stable equilibria are accepted (THEORY §7): an unstable one is left along its unstable mode
-in the direction that brings the model closer to the measurement. Stability is first tested by a
-Cholesky factorisation of the reduced Hessian H_r (positive definite ⇒ stable, no eigen-analysis);
-the same factor then gives the implicit-function sensitivities dz/dq = −H_r⁻¹ ∂(∇_r Ê)/∂q.
+in the direction that brings the model closer to the measurement. Stability is judged by the
+package's one rule (THEORY §7), certified cheaply by a Cholesky factor of M^-1/2 H_r M^-1/2 − τ I
+(:mod:`actuator_design.equilibrium.stability_check`) before any eigen-analysis; the
+implicit-function sensitivities are dz/dq = −H_r⁻¹ ∂(∇_r Ê)/∂q.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import numpy as np
 import scipy.linalg
 
 from actuator_design.equilibrium.solver import EquilibriumSolver
+from actuator_design.equilibrium.stability_check import StabilityCheck, is_unstable
 
 __all__ = ["Verdict", "STABLE", "BranchSelector"]
 
@@ -89,17 +91,15 @@ class BranchSelector:
         self.out_scale = np.asarray(out_scale, float)
         layout = solver.layout
         de = solver.discrete
-        z, P = de.z, de.params
-        zr = ca.SX.sym("theta_free", z.numel() - 1)
+        z = de.z
+        zr, P, Er, gr = solver.reduced_energy
         zfull = ca.vertcat(P[layout.slices["theta0"]], zr)
-        Er = ca.substitute(de.energy, z, zfull)
-        gr = ca.gradient(Er, zr)
         Hr = ca.hessian(Er, zr)[0]
         tip = ca.substitute(ca.vertcat(*de.tip), z, zfull)
         slots = [int(i) for i in slot_index]
         # only the slot columns of ∂(∇Ê)/∂P and ∂T/∂P are needed (P also holds per-node fields)
         dense = ca.densify
-        self.f_state = _DenseCall(ca.Function("fit_state", [zr, P], [dense(Hr), dense(tip)]))
+        self.f_tip = _DenseCall(ca.Function("fit_tip", [zr, P], [dense(tip)]))
         sens = [Hr, tip, ca.jacobian(gr, P)[:, slots], ca.jacobian(tip, zr),
                 ca.jacobian(tip, P)[:, slots]]
         self.f_sens = _DenseCall(ca.Function("fit_sens", [zr, P], [dense(a) for a in sens]))
@@ -131,16 +131,18 @@ class BranchSelector:
         return raw
 
     def verdict(self, z: np.ndarray, P: np.ndarray) -> Tuple[Verdict, np.ndarray]:
-        """(stability verdict, outputs) at an equilibrium ``z``: Cholesky first, eigen-analysis
-        (Morse index, unstable mode) only when H_r is not positive definite."""
-        Hr, tip = self.f_state(z[1:], P)
+        """(stability verdict, outputs) at an equilibrium ``z``, by the package's one stability rule
+        (THEORY §7; :func:`~actuator_design.reduced.linalg.classify_spectrum`): a Cholesky factor of
+        M^-1/2 H_r M^-1/2 − τ I certifies "stable" cheaply; otherwise the eigen-analysis decides
+        (Morse index, marginal, unstable mode)."""
+        (tip,) = self.f_tip(z[1:], P)
         out = self.outputs(tip)
-        try:
-            np.linalg.cholesky(Hr)
+        check: List[StabilityCheck] = []
+        is_unstable(self.solver, z, P, out=check)
+        if check and check[0].certified:
             return STABLE, out
-        except np.linalg.LinAlgError:
-            v = self.solver.stability(z, P)
-            return Verdict(bool(v.stable), bool(v.marginal), int(v.morse_index), v.eigenvector), out
+        v = self.solver.stability(z, P)
+        return Verdict(bool(v.stable), bool(v.marginal), int(v.morse_index), v.eigenvector), out
 
     def stable_equilibrium(self, z0: np.ndarray, P: np.ndarray, misfit: Misfit):
         """Converge from ``z0``; leave an unstable equilibrium along its unstable mode in the

@@ -25,16 +25,16 @@ Re-solving with new values is a parameter change and a warm start, never a rebui
 """
 from __future__ import annotations
 
-from collections import OrderedDict
-
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Dict, Optional
+from typing import Optional, Tuple
 
 import casadi as ca
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scene
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.registry import build_terms
 from actuator_design.physics.terms import (node_field_sources, residual_slots, scalar_parameter_values,
@@ -43,7 +43,6 @@ from actuator_design.reduced.kernel import FastKernel
 from actuator_design.reduced.linalg import classify_spectrum
 from actuator_design.reduced.newton import RawSolution, damped_newton, fast_newton
 from actuator_design.reduced.positional import positional_hessian
-from actuator_design.model.scene import Scene
 from actuator_design.transcription import make_transcription
 
 __all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict", "FastKernel"]
@@ -137,6 +136,15 @@ class EquilibriumSolver:
         self._nlp = {"x": z, "p": P, "f": E, "g": z[0] - theta0}
         self._nlpsol = None
         self.build_time = time.perf_counter() - t0
+
+    @property
+    def reduced_energy(self) -> Tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+        """The package's one derivation of the reduced energy: ``(u, P, Ê, ∇Ê)``, symbolic, with
+        u = θ_1..θ_n (SX (n,)) the free unknowns, θ_0 = θ0(P) substituted (the clamp), P the NLP
+        parameters (SX (n_params,)), Ê(u; P) the energy and ∇_u Ê (n,) its gradient. The reduced
+        system (:mod:`actuator_design.reduced.system`), fits and hardware maps build on it."""
+        _, zr, P, _, Er, gr = self._sym
+        return zr, P, Er, gr
 
     # CasADi functions in the classic calling convention, built on first use
     @property

@@ -167,7 +167,8 @@ class HardwareMap:
         slots), ∂tip/∂z, the quadrature points and their Jacobians, and the pointwise quantity at a
         point with its derivatives (mapped over the points)."""
         solver = self.solver
-        z, zr, P, _, _, gr = solver._sym
+        zr, P, _, gr = solver.reduced_energy
+        z = solver.discrete.z
         lay = solver.layout
         seeds = np.zeros((lay.size, self.n))
         for k in range(self.n):

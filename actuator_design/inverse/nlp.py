@@ -22,8 +22,9 @@ shape-programming problem), with the same number of terms and the same smoothnes
 
 Field scaling (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H. The field is one physical field: the
 design varies h, and every other group it drives moves with it, h_r = h·(h_r0/h0) and
-h_pos = h·(h_pos0/h0) with the base scene's ratios (:func:`couple_field_groups`; a rod without soft
-coupling, h0 = 0, has no h to vary: :func:`prepare_scene` says so). The verification's loading path
+h_pos = h·(h_pos0/h0) with the base scene's ratios (:mod:`actuator_design.inverse.design_map`, the
+one map of every design NLP; a rod without soft coupling, h0 = 0, has no h to vary:
+:func:`prepare_scene` says so). The verification's loading path
 ramps the field H from 0 to the design's, so all groups grow linearly along it, h = t·h_d and
 h_r = t·h_r,d (:mod:`actuator_design.inverse.verify`).
 """
@@ -39,11 +40,10 @@ import numpy as np
 from actuator_design.contact.clearance import clearance_rows
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.inverse.field_groups import (couple_field_groups,  # noqa: F401 (re-exported)
-                                                  coupled_scene, remanence_only)
+from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
+                                                design_params, remanence_only, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
-from actuator_design.inverse.ldl import (SegmentedLDL, _bandwidth,  # noqa: F401 (importers use them)
-                                         _ldl_function, _ldl_pivots)
+from actuator_design.inverse.ldl import SegmentedLDL
 from actuator_design.model.profiles import constant_profile, legendre_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
@@ -141,18 +141,11 @@ class DesignNLP:
         self.nd = off
         zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
-        P = ca.SX(P0)
-        for v in self.vary:  # h, phi, p: their NLP slots from the parameter lens
-            if v in _LENS_VARIABLES:
-                P[lay.slices[lens.parameter(v).slot]] = d[self.dslices[v]]
-        if "h" in self.vary:
-            couple_field_groups(P, P0, d[self.dslices["h"]], lay.slices)
         self.vandermonde = None
         if self.profiles:
-            V = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1, self.alpha_terms - 1)
-            self.vandermonde = V
-        for v in self.profiles:  # α → slot "alpha", β → slot "beta"
-            P[lay.slices[lens.parameter(v).slot]] = ca.mtimes(ca.DM(V), d[self.dslices[v]])
+            self.vandermonde = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1,
+                                                                self.alpha_terms - 1)
+        P = design_params(P0, self.values(d), lay.slices, self.vandermonde)
 
         E, g, H = sv.f_grad_hess(zr, P)
         m = tr.mass[1:]
@@ -167,16 +160,7 @@ class DesignNLP:
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
         margin = ca.SX.sym("margin")
-        effort = 0
-        if "h" in self.vary:
-            effort += d[self.dslices["h"]] ** 2
-        if "p" in self.vary:
-            effort += d[self.dslices["p"]] ** 2
-        for v in self.profiles:
-            c = d[self.dslices[v]]
-            k = np.arange(self.alpha_terms, dtype=float)
-            # smoothness: ∫ α'² ds grows like k² c_k²; penalise variation, not the mean angle
-            effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
+        effort = design_effort(self.values(d))
         err = weights * (tip - target)
         # rate of change against the previous design (field schedules through waypoints)
         d_prev, w_rate = ca.SX.sym("d_prev", self.nd), ca.SX.sym("w_rate")
@@ -229,8 +213,7 @@ class DesignNLP:
                 p = ca.vertcat(p, q["k_target"])
                 rows += [q["sens"], q["stiff"]]
             if certified:  # the pivots, and the Schur entries lifted at the element joints
-                Ms = ca.DM(1.0 / np.sqrt(q["m"]))
-                cert = SegmentedLDL(ca.diag(Ms) @ q["H"] @ ca.diag(Ms) - q["margin"] * ca.SX.eye(q["n"]))
+                cert = SegmentedLDL(certificate_matrix(q["H"], q["m"], q["margin"]))
                 self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
                 x = ca.vertcat(x, cert.v)
                 rows += [cert.pivots, cert.rows]
@@ -252,9 +235,8 @@ class DesignNLP:
         ``(θ (n,), d (nd,), P0) -> (g/m (n,), M^-1/2 H M^-1/2 (n, n))``, the mass-scaled
         stationarity rows and reduced Hessian (the certificate's matrix before the margin)."""
         q = self._parts
-        Ms = ca.DM(1.0 / np.sqrt(q["m"]))
         return ca.Function("design_state", [q["x"][:self.n], q["x"][self.n:], q["p"][:self.solver.layout.size]],
-                           [q["eq"], ca.diag(Ms) @ q["H"] @ ca.diag(Ms)])
+                           [q["eq"], certificate_matrix(q["H"], q["m"])])
 
     # -- helpers --------------------------------------------------------------------------------
     def design_vector(self, h=None, phi=None, coefficients=None, p=None, magnetization=None) -> np.ndarray:
@@ -273,6 +255,20 @@ class DesignNLP:
                 d[self.dslices[name]] = c
         return d
 
+    def point(self, d: np.ndarray, base: Scene, z: np.ndarray, tip: np.ndarray, *, converged: bool,
+              status: str, stage: str) -> DesignPoint:
+        """The :class:`DesignPoint` of a design vector ``d`` (shape (nd,)); a value not designed is
+        ``base``'s, a profile not designed is empty. ``z``: θ at all nodes; ``tip``: (x, y, angle)."""
+        def scalar(name, default):
+            return float(d[self.dslices[name]][0]) if name in self.vary else default
+
+        def profile(name):
+            return np.asarray(d[self.dslices[name]], float) if name in self.vary else np.zeros(0)
+
+        return DesignPoint(h=scalar("h", base.h), phi=scalar("phi", base.phi), coefficients=profile("alpha"),
+                           p=scalar("p", base.p), z=z, tip=tip, converged=converged, status=status, stage=stage,
+                           magnetization=profile("magnetization"))
+
     def fix_gauge(self, d: np.ndarray) -> np.ndarray:
         """The design vector moved along the gauge orbit to α's mean c_0 = 0 (φ − c_0, α − c_0: the
         same equilibrium, see :func:`has_fibre_gauge`); ``d`` itself when the scene has no gauge."""
@@ -282,6 +278,20 @@ class DesignNLP:
             d[self.dslices["phi"]] -= c0
             d[self.dslices["alpha"].start] = 0.0
         return d
+
+    def values(self, d) -> Dict[str, object]:
+        """The design vector's values by name, in design order (scalars shape (1,), profiles their
+        Legendre coefficients): what :func:`~actuator_design.inverse.design_map.design_params` writes."""
+        return {v: d[self.dslices[v]] for v in self.vary}
+
+    def variable_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the design vector, shape (nd,) each: the scalars'
+        (:func:`~actuator_design.inverse.design_map.scalar_bounds`); profiles are bounded by rows."""
+        lo, hi = np.full(self.nd, -np.inf), np.full(self.nd, np.inf)
+        for v in self.vary:
+            if v in _LENS_VARIABLES:
+                lo[self.dslices[v]], hi[self.dslices[v]] = scalar_bounds(v, bounds)
+        return lo, hi
 
     def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
@@ -378,15 +388,8 @@ class DesignNLP:
         n_lift = cert.m if cert is not None else 0
         lbx, ubx = np.full(nx + n_lift, -np.inf), np.full(nx + n_lift, np.inf)
         b = req.bounds
-        if "h" in self.vary:
-            lbx[self.n + self.dslices["h"].start] = 0.0
-            ubx[self.n + self.dslices["h"].start] = b["h_max"]
-        if "phi" in self.vary:  # π-periodic energy: bounded to keep φ from wandering, wide enough
-            lbx[self.n + self.dslices["phi"].start] = -2 * np.pi  # for continuous rotating schedules
-            ubx[self.n + self.dslices["phi"].start] = 2 * np.pi
-        if "p" in self.vary:
-            lbx[self.n + self.dslices["p"].start] = -b["p_max"]
-            ubx[self.n + self.dslices["p"].start] = b["p_max"]
+        lo_d, hi_d = self.variable_bounds(b)
+        lbx[self.n:self.n + self.nd], ubx[self.n:self.n + self.nd] = lo_d, hi_d
         n_piv = self.n if certified else 0
         n_sens = self.n + 1 if stiff else 0
         lo_prof, hi_prof = self.profile_bounds(b)
@@ -411,15 +414,10 @@ class DesignNLP:
         zr, d = x[: self.n], x[self.n:self.n + self.nd]
         theta0 = P0[sv.layout.slices["theta0"]][0]
         tip = np.asarray(self.f_tip(zr, d, P0), float).ravel()
-        coeffs = d[self.dslices["alpha"]] if "alpha" in self.vary else np.zeros(0)
-        beta = d[self.dslices["magnetization"]] if "magnetization" in self.vary else np.zeros(0)
-        get = lambda name, default: float(d[self.dslices[name]][0]) if name in self.vary else default
         status = str(st.get("return_status"))
-        return DesignPoint(h=get("h", base.h), phi=get("phi", base.phi), coefficients=coeffs,
-                           p=get("p", base.p), z=np.concatenate([[theta0], zr]), tip=tip,
-                           converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
-                           status=status, stage=req.stage + ("+certificate" if certified else ""),
-                           magnetization=beta)
+        return self.point(d, base, np.concatenate([[theta0], zr]), tip,
+                          converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
+                          status=status, stage=req.stage + ("+certificate" if certified else ""))
 
 
 @dataclass

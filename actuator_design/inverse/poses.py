@@ -35,7 +35,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.mesh import check_mesh, check_state
-from actuator_design.inverse.nlp import PROFILE_VARIABLES, DesignPoint
+from actuator_design.inverse.nlp import PROFILE_VARIABLES
 from actuator_design.inverse.optimise import candidate, design_vector, search_set
 from actuator_design.inverse.settings import (Choice, DesignSettings, Optimised, normalise_phi, phi_period,
                                               tip_error)
@@ -304,12 +304,13 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
     if verify and all(p.verified for p in poses) and not schedule:
         notes.append("no snap-free schedule visits the poses in order")
     s_dense = np.linspace(0.0, 1.0, 201)
+    shared = snlp.shared_values(point.d)
     alpha = {"s": s_dense.tolist(), "value": scenes[0].fibres(s_dense).tolist(),
-             "legendre_coefficients": [float(c) for c in (point.d[:snlp.n_alpha] if snlp.n_alpha else coeffs)]}
+             "legendre_coefficients": [float(c) for c in shared.get("alpha", coeffs)]}
     magnetization = None
     if "magnetization" in vset:
         magnetization = {"s": s_dense.tolist(), "value": scenes[0].magnetization(s_dense).tolist(),
-                         "legendre_coefficients": [float(c) for c in point.d[snlp.n_alpha:snlp.n_shared]]}
+                         "legendre_coefficients": [float(c) for c in shared["magnetization"]]}
     timings["total"] = time.perf_counter() - t0
     head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok
             else "NOT a success")
@@ -391,13 +392,7 @@ def _check_pose(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, k)
     z = point.z[k][0]
     _, th, x, y = sv.summary(z, sv.parameter_vector(sc))
     dv = snlp.pose_vector(point.d, k)
-    get = lambda v, default: float(dv[nlp.dslices[v]][0]) if v in nlp.vary else default
-    dp = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi),
-                     coefficients=np.asarray(dv[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else
-                     np.zeros(0), p=get("p", sc.p), z=z, tip=np.array([x, y, th]), converged=True,
-                     status="joint", stage="poses",
-                     magnetization=(np.asarray(dv[nlp.dslices["magnetization"]])
-                                    if "magnetization" in nlp.vary else np.zeros(0)))
+    dp = nlp.point(dv, sc, z, np.array([x, y, th]), converged=True, status="joint", stage="poses")
     rob = evaluate_robustness(sc, z, tgt, tol, problem.options) if tol.active else None
     verified, stable, snap_free, label, sched, ach = False, False, False, "not verified (skipped)", [], \
         {"x": x, "y": y, "angle": th}

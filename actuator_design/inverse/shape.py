@@ -23,12 +23,13 @@ from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
-from actuator_design.inverse.nlp import DesignNLP, DesignPoint, _bandwidth, _ldl_pivots
+from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params
+from actuator_design.inverse.ldl import _bandwidth, _ldl_pivots
+from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignSettings, normalise_phi, phi_period
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene
-from actuator_design.physics import parameters as lens
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
 
 __all__ = ["ShapeResult", "design_shape", "read_shape_points", "MAX_SHAPE_POINTS"]
@@ -93,30 +94,18 @@ class ShapeDesignNLP:
         eye = np.eye(n + 1)
         L = np.column_stack([tr.theta_dense(eye[j], sig)[0] for j in range(n + 1)])  # θ(σ) = L z
         zr, d, P0 = ca.SX.sym("theta", n), ca.SX.sym("d", base.nd), ca.SX.sym("P0", lay.size)
-        P = ca.SX(P0)
-        for v, slot in (("h", "h"), ("phi", "phi"), ("p", "fy")):
-            if v in base.vary:
-                P[sl[slot]] = d[base.dslices[v]]
-        for v in base.profiles:  # α → slot "alpha", β (magnetization) → slot "beta"
-            P[sl[lens.parameter(v).slot]] = ca.mtimes(ca.DM(base.vandermonde), d[base.dslices[v]])
+        # the design NLP's map: a designed h moves the groups the field drives (h_r, h_pos) with it
+        P = design_params(P0, base.values(d), sl, base.vandermonde)
         th = ca.mtimes(ca.DM(L), ca.vertcat(P0[sl["theta0"]], zr))
         xs, ys = ca.mtimes(ca.DM(W), ca.cos(th)), ca.mtimes(ca.DM(W), ca.sin(th))
         tx, ty = ca.SX.sym("tx", len(s_points)), ca.SX.sym("ty", len(s_points))
         _, g, H = sv.f_grad_hess(zr, P)
         m = tr.mass[1:]
-        effort = 0
-        for v in ("h", "p"):
-            if v in base.vary:
-                effort += d[base.dslices[v]] ** 2
-        for v in base.profiles:
-            c = d[base.dslices[v]]
-            k = np.arange(base.alpha_terms, dtype=float)
-            effort += ca.dot(ca.DM(k**2 * (k + 1) ** 2 / 4.0), c**2)
+        effort = design_effort(base.values(d))
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
         alpha_rows = [ca.mtimes(ca.DM(base.vandermonde), d[base.dslices[v]]) for v in base.profiles]
-        Ms = ca.DM(1.0 / np.sqrt(m))
-        piv = ca.vertcat(*_ldl_pivots(ca.diag(Ms) @ H @ ca.diag(Ms) - margin * ca.SX.eye(n), _bandwidth(sv, n)))
+        piv = ca.vertcat(*_ldl_pivots(certificate_matrix(H, m, margin), _bandwidth(sv, n)))
         self.base, self.n, self.k = base, n, len(s_points)
         self.n_alpha_rows = base.n_alpha_rows  # the profile rows: α, then β (as in DesignNLP)
         self._x, self._p = ca.vertcat(zr, d), ca.vertcat(P0, tx, ty, w_eff, margin)
@@ -143,11 +132,9 @@ class ShapeDesignNLP:
         sv = b.solver
         P0 = sv.parameter_vector(base_scene)
         p = np.concatenate([P0, points[:, 1], points[:, 2], [1e-12, margin]])  # w: a tie-break only
-        lbx, ubx = np.full(n + b.nd, -np.inf), np.full(n + b.nd, np.inf)
-        for v, (lo, hi) in (("h", (0.0, bounds["h_max"])), ("phi", (-2 * np.pi, 2 * np.pi)),
-                            ("p", (-bounds["p_max"], bounds["p_max"]))):
-            if v in b.vary:
-                lbx[n + b.dslices[v].start], ubx[n + b.dslices[v].start] = lo, hi
+        lo_d, hi_d = b.variable_bounds(bounds)
+        lbx = np.concatenate([np.full(n, -np.inf), lo_d])
+        ubx = np.concatenate([np.full(n, np.inf), hi_d])
         lo_prof, hi_prof = b.profile_bounds(bounds)
         n_piv = n if certified else 0
         lbg = np.concatenate([np.zeros(n), np.zeros(n_piv), lo_prof])
@@ -237,12 +224,7 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
         return _failed(pts, problem, vset, f"the shape fit did not converge ({status})", timings)
     P = sv.parameter_vector(sc)
     _, th, x, y = sv.summary(z, P)
-    get = lambda v, default: float(d[nlp.dslices[v]][0]) if v in nlp.vary else default
-    pt = DesignPoint(h=get("h", sc.h), phi=get("phi", sc.phi), p=get("p", sc.p),
-                     coefficients=np.asarray(d[nlp.dslices["alpha"]]) if "alpha" in nlp.vary else np.zeros(0),
-                     z=z, tip=np.array([x, y, th]), converged=True, status=status, stage="shape",
-                     magnetization=(np.asarray(d[nlp.dslices["magnetization"]]) if "magnetization" in nlp.vary
-                                    else np.zeros(0)))
+    pt = nlp.point(d, sc, z, np.array([x, y, th]), converged=True, status=status, stage="shape")
     xs, ys = (np.asarray(v, float).ravel() for v in shape_nlp.f_points(z[1:], sv.parameter_vector(sc)))
     tol = settings.tolerances
     rob = evaluate_robustness(sc, z, None, tol, problem.options) if tol.active else None

@@ -23,7 +23,8 @@ import numpy as np
 
 from actuator_design.physics.parameters import parameter  # the parameter lens
 
-__all__ = ["ReducedSystem", "reduced_system", "substituted_energy", "SystemEvaluator", "KernelSystemEvaluator"]
+__all__ = ["ReducedSystem", "reduced_system", "substituted_energy", "params_at", "SystemEvaluator",
+           "KernelSystemEvaluator"]
 
 _CACHE: Dict[tuple, "ReducedSystem"] = {}
 
@@ -49,23 +50,27 @@ def substituted_energy(solver, names: Sequence[str]):
     Er : SX scalar
         Ê(u; P(λ…)).
     """
-    de, lay = solver.discrete, solver.layout
-    P = de.params
-    Pl = P
-    lams = []
+    lay = solver.layout
     for name in names:
-        slot, slot_expr = _slot(name)
+        slot, _ = _slot(name)
         if slot not in lay.slices:
             raise ValueError(f"{name}: this scene has no {slot!r} parameter (add the term to the scene)")
-        sl = lay.slices[slot]
-        lam = ca.SX.sym(f"lam_{name}")
-        expr = slot_expr(lam)
-        Pl = ca.vertcat(Pl[:sl.start], ca.repmat(expr, sl.stop - sl.start, 1), Pl[sl.stop:])
-        lams.append(lam)
-    u = ca.SX.sym("u", de.z.numel() - 1)
-    z_sub = ca.vertcat(Pl[lay.slices["theta0"]], u)
-    Er = ca.substitute(de.energy, ca.vertcat(de.z, P), ca.vertcat(z_sub, Pl))
+    lams = [ca.SX.sym(f"lam_{name}") for name in names]
+    u, P, Er, _ = solver.reduced_energy  # θ_0 = θ0(P): with θ0 among the names, θ0(λ) below
+    if lams:
+        Er = ca.substitute(Er, P, params_at(P, lay, names, lams))
     return u, lams, P, Er
+
+
+def params_at(P: ca.SX, layout, names: Sequence[str], lams: Sequence[ca.SX]) -> ca.SX:
+    """The NLP parameters ``P`` with every entry each name controls set from its symbol (by √λ for
+    ``h2``, every quadrature-point entry for ``alpha``)."""
+    Pl = P
+    for name, lam in zip(names, lams):
+        slot, slot_expr = _slot(name)
+        sl = layout.slices[slot]
+        Pl = ca.vertcat(Pl[:sl.start], ca.repmat(slot_expr(lam), sl.stop - sl.start, 1), Pl[sl.stop:])
+    return Pl
 
 
 class ReducedSystem:
@@ -140,14 +145,7 @@ class ReducedSystem:
                             ca.densify(ca.jacobian(tip, self.lam))])
 
     def _substituted_params(self):
-        lay = self.solver.layout
-        Pl = self.P
-        for name, lam in zip(self.names, self.lams):
-            slot, slot_expr = _slot(name)
-            sl = lay.slices[slot]
-            Pl = ca.vertcat(Pl[:sl.start], ca.repmat(slot_expr(lam), sl.stop - sl.start, 1),
-                            Pl[sl.stop:])
-        return Pl
+        return params_at(self.P, self.solver.layout, self.names, self.lams)
 
     @cached_property
     def f_g_P(self) -> ca.Function:

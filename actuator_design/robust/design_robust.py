@@ -25,49 +25,36 @@ a design holds is known when the full box fails.
 
 P_kc(d) maps the design vector and the corner's offsets (NLP parameters, so the box can change
 without a rebuild) to the forward NLP's parameter vector, with the scalings of :mod:`actuator_design.robust.tolerances`:
-h × k_h, h_r × k_hr (∝ H/E, THEORY §9), loads × k_p, φ, α and θ0 shifted.
+every slot a relative tolerance moves scaled by its factor (the lens' power laws: h ∝ H√(χ̄/E),
+h_r ∝ H/E, loads ∝ 1/E; THEORY §5, §9), φ, α and θ0 shifted.
 """
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence
 
 import casadi as ca
 import numpy as np
 
 from actuator_design.contact.clearance import clearance_rows
-from actuator_design.inverse.nlp import (_LENS_VARIABLES, DesignNLP, _bandwidth, _ldl_pivots,
-                                         couple_field_groups)
-from actuator_design.model.profiles import constant_profile
-from actuator_design.model.scene import Scene, default_scene
-from actuator_design.physics import parameters as lens
+from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
+from actuator_design.inverse.ldl import _bandwidth, _ldl_pivots
+from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
+from actuator_design.model.scene import Scene
 from actuator_design.robust.robustness import follow_segment
-from actuator_design.robust.tolerances import Tolerances, apply_deltas, perturb
+from actuator_design.robust.tolerances import Tolerances, perturb, scale_factor, scaled_slots
 
 __all__ = ["ScenarioDesignNLP", "ScenarioPoint", "RobustOutcome", "robustify", "get_scenario_nlp",
            "pose_designs"]
 
 _PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set per pose
-_N_OFFSETS = 6  # numbers per corner scenario (see _corner_offsets)
+_N_ANGLES = 3  # angle shifts per corner scenario after the scale factors: dphi, dalpha, dtheta0
 
 
-def _stiffness_slots():
-    """(slot, e) of every lens slot ∝ E^e that depends on nothing else the tolerance box moves: the
-    dead loads fx, fy, m_tip, qx, qy (e = −1, THEORY §5) and every plug-in term's values scaled by B0
-    (the field groups h, h_pos and h_r ∝ H/E are scaled on their own, by k_h and k_hr)."""
-    out = {}
-    for p in lens.parameters().values():
-        if (p.stiffness_power and not (p.field_power or p.susceptibility_power or p.per_point)
-                and p.slot not in out):
-            out[p.slot] = p.stiffness_power
-    return tuple(out.items())
-
-
-def __getattr__(name):  # ``_LOADS``: the slots scaled with E alone, read from the lens when asked
+def __getattr__(name):  # ``_LOADS``: the slots a relative tolerance scales, read from the lens when asked
     if name == "_LOADS":
-        return tuple(slot for slot, _ in _stiffness_slots())
+        return tuple(p.slot for p in scaled_slots())
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -88,25 +75,17 @@ class ScenarioPoint:
     scale: float
 
 
-def _corner_offsets(tol: Tolerances, scale: float) -> List[Dict[str, float]]:
-    """Per corner: k_h (factor on h), k_p (factor on loads), dphi, dalpha, dtheta0, k_hr (factor on
-    h_r = μ0 M_r H A ℓ²/B0 ∝ H/E, THEORY §9)."""
+def _corner_offsets(tol: Tolerances, scale: float, slots: Sequence[str]) -> List[List[float]]:
+    """Per corner: the factor on each of ``slots`` (:func:`~actuator_design.robust.tolerances.scale_factor`,
+    as the forward check's :func:`~actuator_design.robust.tolerances.apply_deltas` scales it: the field
+    groups ∝ H, E and χ̄ by their power laws, loads ∝ 1/E, THEORY §5, §9), then dphi, dalpha, dtheta0."""
+    by_slot = {p.slot: p for p in scaled_slots()}
     out = []
     for c in tol.corners():
         g = {a: c.get(a, 0.0) * getattr(tol, a) * scale for a in
              ("field_rel", "angle", "youngs_rel", "chi_rel", "fibre_angle", "clamp_angle")}
-        out.append({"k_h": (1 + g["field_rel"]) * math.sqrt((1 + g["chi_rel"]) / (1 + g["youngs_rel"])),
-                    "k_p": 1.0 / (1 + g["youngs_rel"]), "dphi": g["angle"], "dalpha": g["fibre_angle"],
-                    "dtheta0": g["clamp_angle"], "k_hr": _h_r_factor(g)})
+        out.append([scale_factor(by_slot[s], g) for s in slots] + [g["angle"], g["fibre_angle"], g["clamp_angle"]])
     return out
-
-
-def _h_r_factor(deltas: Dict[str, float]) -> float:
-    """The factor on h_r of a corner, read off the forward check's own perturbation
-    (:func:`~actuator_design.robust.tolerances.apply_deltas`) so that the scenario NLP and the branch-following check of
-    :mod:`actuator_design.robust.robustness` see the same corner scenes (physically h_r ∝ H/E, THEORY §9)."""
-    probe = replace(default_scene(h=1.0), h_r=1.0, magnetization=constant_profile(0.0))
-    return float(apply_deltas(probe, {a: v for a, v in deltas.items() if a not in ("angle", "fibre_angle")}).h_r)
 
 
 class ScenarioDesignNLP:
@@ -129,48 +108,37 @@ class ScenarioDesignNLP:
         n, K, C = base.n, self.K, self.C
         self.n = n
         self.per_pose = tuple(v for v in _PER_POSE if v in base.vary)
-        self.n_alpha = base.alpha_terms if "alpha" in base.vary else 0
-        self.n_beta = base.alpha_terms if "magnetization" in base.vary else 0
-        self.n_shared = self.n_alpha + self.n_beta  # the shared profiles: α, then β coefficients
+        #: the shared profiles (α, then β when designed), each ``base.alpha_terms`` coefficients
+        self.profiles = base.profiles
+        self.n_shared = len(self.profiles) * base.alpha_terms
         self.nd = self.n_shared + K * len(self.per_pose)
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)
-        offs = ca.SX.sym("offsets", _N_OFFSETS * max(C, 1))
+        #: the slots a corner scales (the field groups, loads, plug-in values: from the lens)
+        self.scaled = tuple(p.slot for p in scaled_slots() if p.slot in sl)
+        n_off = len(self.scaled) + _N_ANGLES
+        offs = ca.SX.sym("offsets", n_off * max(C, 1))
         target = ca.SX.sym("target", 3 * K)
         w_ang, margin, w_eff = ca.SX.sym("w_ang"), ca.SX.sym("margin"), ca.SX.sym("w_eff")
         t = ca.SX.sym("t", K)
         m = sv.transcription.mass[1:]
-        Ms = ca.DM(1.0 / np.sqrt(m))
         bw = _bandwidth(sv, n)
-        alpha = (ca.mtimes(ca.DM(base.vandermonde), d[:self.n_alpha]) if self.n_alpha else None)
-        beta = (ca.mtimes(ca.DM(base.vandermonde), d[self.n_alpha:self.n_shared]) if self.n_beta else None)
+        shared = self.shared_values(d)
 
-        def pose_params(k):
-            P = ca.SX(P0)
-            for j, v in enumerate(self.per_pose):
-                val = d[self.pose_index(k, v)]
-                P[sl[lens.parameter(v).slot]] = val
-            if "h" in self.per_pose:  # the groups the field drives move with h (THEORY §9)
-                couple_field_groups(P, P0, d[self.pose_index(k, "h")], sl)
-            if alpha is not None:
-                P[sl["alpha"]] = alpha
-            if beta is not None:
-                P[sl["beta"]] = beta
-            return P
+        def pose_values(k):
+            return {v: d[self.pose_index(k, v)] for v in self.per_pose}
+
+        def pose_params(k):  # the single-pose map: h moves the groups the field drives (THEORY §9)
+            return design_params(P0, {**pose_values(k), **shared}, sl, base.vandermonde)
 
         def scenario(P, c):
             if c == 0:
                 return P
-            k_h, k_p, dphi, dal, dth, k_hr = (offs[_N_OFFSETS * (c - 1) + i] for i in range(_N_OFFSETS))
+            vals = offs[n_off * (c - 1):n_off * c]
             Pc = ca.SX(P)
-            if "h_r" in sl:
-                Pc[sl["h_r"]] = P[sl["h_r"]] * k_hr
-            for name in ("h", "h_pos"):
-                if name in sl:
-                    Pc[sl[name]] = P[sl[name]] * k_h
-            for name, e in _stiffness_slots():
-                if name in sl:
-                    Pc[sl[name]] = P[sl[name]] * (k_p if e == -1.0 else k_p ** (-e))
+            for i, slot in enumerate(self.scaled):
+                Pc[sl[slot]] = P[sl[slot]] * vals[i]
+            dphi, dal, dth = (vals[n_off - _N_ANGLES + i] for i in range(_N_ANGLES))
             if "phi" in sl:
                 Pc[sl["phi"]] = P[sl["phi"]] + dphi
             if "alpha" in sl:
@@ -189,8 +157,7 @@ class ScenarioDesignNLP:
                 Pc = scenario(Pk, c)
                 _, g, H = sv.f_grad_hess(z, Pc)
                 eq.append(g / ca.DM(m))
-                A = ca.diag(Ms) @ H @ ca.diag(Ms) - margin * ca.SX.eye(n)
-                piv.append(ca.vertcat(*_ldl_pivots(A, bw)))
+                piv.append(ca.vertcat(*_ldl_pivots(certificate_matrix(H, m, margin), bw)))
                 tip_fn = sv.f_tip(ca.vertcat(Pc[sl["theta0"]], z), Pc)
                 tip = ca.vertcat(tip_fn[1], tip_fn[2], tip_fn[0])
                 tips.append(tip)
@@ -204,15 +171,9 @@ class ScenarioDesignNLP:
                     sq.append(e[0] ** 2 + e[1] ** 2 + w_ang * e[2] ** 2)
         effort = 0
         for k in range(K):
-            for v in ("h", "p"):
-                if v in self.per_pose:
-                    effort += d[self.pose_index(k, v)] ** 2
-        if self.n_shared:
-            kk = np.arange(base.alpha_terms, dtype=float)
-            smooth = ca.DM(kk**2 * (kk + 1) ** 2 / 4.0)
-            for lo in range(0, self.n_shared, base.alpha_terms):  # α, then β: the same smoothness
-                effort += ca.dot(smooth, d[lo:lo + base.alpha_terms] ** 2)
-        alpha_rows = [r for r in (alpha, beta) if r is not None]
+            effort = design_effort(pose_values(k), effort)
+        effort = design_effort(shared, effort)  # the shared profiles once
+        alpha_rows = [ca.mtimes(ca.DM(base.vandermonde), c) for c in shared.values()]
         self.n_alpha_rows = base.vandermonde.shape[0] * len(alpha_rows) if alpha_rows else 0
         x = ca.vertcat(*zs, d, t)
         p = ca.vertcat(P0, offs, target, w_ang, margin, w_eff)
@@ -231,33 +192,39 @@ class ScenarioDesignNLP:
         """Index of pose k's value ``name`` (h, phi or p) in the design vector."""
         return self.n_shared + k * len(self.per_pose) + self.per_pose.index(name)
 
+    def profile_slice(self, name: str) -> slice:
+        """Where the shared profile ``name``'s coefficients sit in the design vector."""
+        i, T = self.profiles.index(name), self.base.alpha_terms
+        return slice(i * T, (i + 1) * T)
+
+    def shared_values(self, d) -> Dict[str, object]:
+        """The shared profiles' coefficients by name (α, then β), from a design vector."""
+        return {v: d[self.profile_slice(v)] for v in self.profiles}
+
     def pose_vector(self, d: np.ndarray, k: int) -> np.ndarray:
         """The single-pose design vector (of :class:`DesignNLP`) of pose k."""
         b = self.base
-        vals = {v: float(d[self.pose_index(k, v)]) for v in self.per_pose}
-        return b.design_vector(h=vals.get("h"), phi=vals.get("phi"), p=vals.get("p"),
-                               coefficients=d[:self.n_alpha] if self.n_alpha else None,
-                               magnetization=d[self.n_alpha:self.n_shared] if self.n_beta else None)
+        dv = np.zeros(b.nd)
+        for v in self.per_pose:
+            dv[b.dslices[v]] = float(d[self.pose_index(k, v)])
+        for v in self.profiles:
+            dv[b.dslices[v]] = d[self.profile_slice(v)]
+        return dv
 
     def join(self, pose_vectors: Sequence[np.ndarray]) -> np.ndarray:
         """The scenario design vector from single-pose vectors (α and β taken from the first)."""
         b = self.base
         d = np.zeros(self.nd)
-        if self.n_alpha:
-            d[:self.n_alpha] = np.asarray(pose_vectors[0])[b.dslices["alpha"]]
-        if self.n_beta:
-            d[self.n_alpha:self.n_shared] = np.asarray(pose_vectors[0])[b.dslices["magnetization"]]
+        for v in self.profiles:
+            d[self.profile_slice(v)] = np.asarray(pose_vectors[0])[b.dslices[v]]
         for k, dv in enumerate(pose_vectors):
             for v in self.per_pose:
                 d[self.pose_index(k, v)] = float(np.asarray(dv)[b.dslices[v]][0])
         return d
 
     def _profile_bounds(self, bounds: Dict[str, float]):
-        """Bounds of the profile rows: |α(s_q)| ≤ alpha_max, then |β(s_q)| ≤ magnetization_max."""
-        rows = self.base.n_profile_rows
-        lim = np.concatenate([np.full(rows if n else 0, bounds.get(key, np.inf)) for n, key in
-                              ((self.n_alpha, "alpha_max"), (self.n_beta, "magnetization_max"))])
-        return -lim, lim
+        """Bounds of the profile rows, as the single-pose NLP's: |α(s_q)| ≤ alpha_max, then |β(s_q)|."""
+        return self.base.profile_bounds(bounds)
 
     def nlpsol(self, certified: bool):
         """Without the stability rows: exact Hessian; with them: quasi-Newton (built on first use)."""
@@ -279,9 +246,8 @@ class ScenarioDesignNLP:
         ``z0[k][c]`` (θ at all nodes; c = 0 the nominal state of pose k, then its corners)."""
         sv, K, C, n = self.base.solver, self.K, self.C, self.n
         P0 = sv.parameter_vector(base_scene)
-        offs = _corner_offsets(tol, scale) if C else []
-        ov = (np.array([[o["k_h"], o["k_p"], o["dphi"], o["dalpha"], o["dtheta0"], o["k_hr"]]
-                        for o in offs]).ravel() if C else np.array([1.0, 1.0, 0.0, 0.0, 0.0, 1.0]))
+        offs = _corner_offsets(tol, scale, self.scaled) if C else []
+        ov = np.array(offs).ravel() if C else np.array([1.0] * len(self.scaled) + [0.0] * _N_ANGLES)
         use_angle = any(len(tg) > 2 for tg in targets)
         tgt = np.concatenate([[tg[0], tg[1], tg[2] if len(tg) > 2 else 0.0] for tg in targets])
         p = np.concatenate([P0, ov, tgt, [1.0 if use_angle else 0.0, margin, w_eff]])
@@ -291,9 +257,7 @@ class ScenarioDesignNLP:
         for k in range(K):
             for v in self.per_pose:
                 i = nz + self.pose_index(k, v)
-                lo, hi = {"h": (0.0, bounds["h_max"]), "phi": (-2 * np.pi, 2 * np.pi),
-                          "p": (-bounds.get("p_max", np.inf), bounds.get("p_max", np.inf))}[v]
-                lbx[i], ubx[i] = lo, hi
+                lbx[i], ubx[i] = scalar_bounds(v, bounds)
         lbx[nz + self.nd:] = 0.0
         if self.base.gauge:  # α's mean pinned at 0, every pose's φ moved with it (DesignNLP.fix_gauge)
             d0 = np.array(d0, float)
@@ -324,7 +288,7 @@ class ScenarioDesignNLP:
             row = []
             for c in range(C + 1):
                 j = k * (C + 1) + c
-                th0 = theta0 + (offs[c - 1]["dtheta0"] if c > 0 else 0.0)
+                th0 = theta0 + (offs[c - 1][-1] if c > 0 else 0.0)  # the corner's dtheta0
                 row.append(np.concatenate([[th0], x[j * n:(j + 1) * n]]))
             z_out.append(row)
         return ScenarioPoint(d=x[nz:nz + self.nd], z=z_out, worst_error=[self._worst(tips, tgt, k) for k in range(K)],

@@ -27,7 +27,7 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
 
-__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances"]
+__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor"]
 
 #: name in the CLI/YAML → (attribute, kind): kind "rel" takes a percentage or fraction, "angle" takes
 #: degrees ("2deg") or radians (a plain number)
@@ -219,6 +219,34 @@ def apply_deltas(scene: Scene, deltas: Mapping[str, float]) -> Scene:
     return out
 
 
+def scaled_slots() -> Tuple[lens.Parameter, ...]:
+    """The lens parameters (one per NLP slot) whose values scale with the field, E or χ̄ by their
+    power laws (f, e, c): what a relative tolerance moves, in lens order."""
+    out, seen = [], set()
+    for p in lens.parameters().values():
+        if p.per_point or p.slot in seen:
+            continue
+        seen.add(p.slot)
+        if p.field_power or p.stiffness_power or p.susceptibility_power:
+            out.append(p)
+    return tuple(out)
+
+
+def scale_factor(p: lens.Parameter, deltas: Mapping[str, float]) -> float:
+    """The factor (1 + δH)^f ((1 + δχ)^c / (1 + δE)^−e) on the value of ``p`` at the relative changes
+    ``deltas`` (``field_rel``, ``chi_rel``, ``youngs_rel``), evaluated as :func:`apply_deltas` does
+    (one square root of the whole ratio for a half power), for NLPs that scale a slot by it."""
+    g = {attr: float(deltas.get(attr, 0.0)) for attr in ("field_rel", "chi_rel", "youngs_rel")}
+    f, e, c = p.field_power, p.stiffness_power, p.susceptibility_power
+    num, den = (1.0 + g["chi_rel"]) ** c, (1.0 + g["youngs_rel"]) ** (-e)
+    if (2 * e) % 2 or (2 * c) % 2:
+        ratio = (1.0 + g["chi_rel"]) ** (2 * c) / (1.0 + g["youngs_rel"]) ** (-2 * e)
+        return (1.0 + g["field_rel"]) ** f * math.sqrt(ratio)
+    if f:
+        return (1.0 + g["field_rel"]) ** f * num / den
+    return num / den
+
+
 def _scaled_values(scene: Scene, g: Mapping[str, float]):
     """(lens parameter, new value) for every slot of a term ``scene`` has whose value scales with the
     field, E or χ̄ by its power laws (f, e, c): v (1 + δH)^f ((1 + δχ)^c / (1 + δE)^−e), evaluated
@@ -237,13 +265,9 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
                 what = "youngs_modulus" if g["youngs_rel"] else "chi_bar"
                 raise ValueError(f"tolerance {what}: the scene's energy term {cls.name!r} does not declare how its "
                                  "values scale with the material (EnergyTerm.scaling_declared)")
-    seen = set()
-    for p in lens.parameters().values():
-        if p.per_point or p.slot in seen:
-            continue
-        seen.add(p.slot)
+    for p in scaled_slots():
         f, e, c = p.field_power, p.stiffness_power, p.susceptibility_power
-        v = p.get(scene) if (f or e or c) else 0.0
+        v = p.get(scene)
         if v == 0.0 or (p.term is not None and not term_class(p.term).present(scene)
                         and not write_keeps_terms(p, scene, v)):
             continue  # nothing to scale, or a term's value stored while it is absent whose write would add it

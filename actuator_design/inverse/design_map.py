@@ -1,0 +1,140 @@
+"""The one map from design values to the forward NLP's parameters, with their effort, bounds and
+stability certificate matrix (issue 18: one home for what every design NLP assembles).
+
+The single-pose design NLP (:mod:`actuator_design.inverse.nlp`), the shape fit
+(:mod:`actuator_design.inverse.shape`) and the scenario NLP of robust design
+(:mod:`actuator_design.robust.design_robust`) each lay out their own design vector (one pose, one
+shape, K poses sharing a profile), but they write a pose's values into the forward parameters, cost
+them and bound them here, so that the physics they optimise is the same:
+
+* a scalar design value goes into its NLP slot through the parameter lens (h, φ, p);
+* a designed field magnitude h moves every group the field drives with it (h_r, h_pos: THEORY §5,
+  §9; :func:`couple_field_groups`);
+* a designed profile (α, β) is a Legendre series evaluated at the quadrature points;
+* the effort is h² + p² + Σ_k k²(k+1)²/4 · c_k² per profile (∫ profile'² grows like k² c_k²: it
+  penalises variation, not the mean angle);
+* the certificate's matrix is M^-1/2 H_r M^-1/2 − μ I (THEORY §7), positive definite exactly when
+  λ_min(H_r, M) > μ.
+
+The field is one physical field (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H, so a design that
+varies h moves every other group the field drives with it, in the NLPs (:func:`couple_field_groups`)
+and in the forward scenes they stand for (:func:`coupled_scene`). The groups are read from the
+parameter lens (every slot whose ``field_power`` f ≠ 0 besides the field magnitude, ∝ (h/h0)^f), so a
+plug-in term's field-driven values follow too.
+"""
+from __future__ import annotations
+
+from typing import Mapping, Tuple
+
+import casadi as ca
+import numpy as np
+
+from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
+
+__all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
+           "certificate_matrix", "couple_field_groups", "coupled_scene", "remanence_only"]
+
+#: The scalar design values whose size the effort costs: the field magnitude and the tip load
+#: (the field angle costs nothing).
+EFFORT_SCALARS = ("h", "p")
+
+
+def design_params(P0: ca.SX, values: Mapping[str, ca.SX], slices, vandermonde=None) -> ca.SX:
+    """The forward NLP parameters of one pose's design values.
+
+    Parameters
+    ----------
+    P0 : casadi.SX, shape (n_params,)
+        The base scene's parameters (everything not designed).
+    values : mapping of str to casadi.SX
+        Design values by lens name, in the order they are written: scalars (shape (1,)) and
+        profiles (Legendre coefficients, shape (n_terms,)).
+    slices : dict of str to slice
+        The NLP layout's slots.
+    vandermonde : ndarray, shape (n_quadrature, n_terms), optional
+        Legendre basis at the quadrature points (needed when a profile is designed).
+
+    Returns
+    -------
+    casadi.SX, shape (n_params,)
+    """
+    P = ca.SX(P0)
+    for name, value in values.items():
+        par = lens.parameter(name)
+        if not par.per_point:
+            P[slices[par.slot]] = value
+    if "h" in values:
+        couple_field_groups(P, P0, values["h"], slices)
+    for name, value in values.items():
+        par = lens.parameter(name)
+        if par.per_point:
+            P[slices[par.slot]] = ca.mtimes(ca.DM(vandermonde), value)
+    return P
+
+
+def smoothness_weights(n_terms: int) -> np.ndarray:
+    """k²(k+1)²/4 for k = 0 … n_terms − 1: a Legendre coefficient's share of ∫ profile'² ds."""
+    k = np.arange(n_terms, dtype=float)
+    return k**2 * (k + 1) ** 2 / 4.0
+
+
+def design_effort(values: Mapping[str, ca.SX], total=0):
+    """``total`` plus the effort of one set of design values (see the module docstring): the
+    squares of :data:`EFFORT_SCALARS`, then each profile's smoothness, in lens order."""
+    for name in EFFORT_SCALARS:
+        if name in values:
+            total += values[name] ** 2
+    for name, value in values.items():
+        if lens.parameter(name).per_point:
+            total += ca.dot(ca.DM(smoothness_weights(value.numel())), value**2)
+    return total
+
+
+def scalar_bounds(name: str, bounds: Mapping[str, float]) -> Tuple[float, float]:
+    """(lower, upper) of a scalar design value: 0 ≤ h ≤ h_max, |p| ≤ p_max (inf when not given),
+    and |φ| ≤ 2π — the energy is π-periodic in φ; the bound keeps φ from wandering and is wide
+    enough for continuous rotating schedules."""
+    if name == "h":
+        return 0.0, float(bounds["h_max"])
+    if name == "p":
+        p_max = float(bounds.get("p_max", np.inf))
+        return -p_max, p_max
+    if name == "phi":
+        return -2 * np.pi, 2 * np.pi
+    raise ValueError(f"{name} is not a scalar design variable")
+
+
+def certificate_matrix(H: ca.SX, mass: np.ndarray, margin=None) -> ca.SX:
+    """M^-1/2 H M^-1/2 (− μ I with ``margin`` μ): the matrix whose LDLᵀ pivots certify
+    λ_min(H, M) ≥ μ (THEORY §7). ``H`` (n, n) the reduced Hessian, ``mass`` (n,) the lumped mass."""
+    Ms = ca.DM(1.0 / np.sqrt(np.asarray(mass, float)))
+    A = ca.diag(Ms) @ H @ ca.diag(Ms)
+    return A if margin is None else A - margin * ca.SX.eye(H.shape[0])
+
+
+def couple_field_groups(P, P0, h, slices) -> None:
+    """Write the groups the field drives besides h into the NLP parameter vector ``P`` (CasADi SX,
+    in place): g = h·g0/h0 for g in (h_r, h_pos), with g0, h0 the base scene's values in ``P0``
+    (unchanged where h0 = 0)."""
+    h0 = P0[slices["h"]]
+    for p, f in lens.field_groups(magnitude=False):
+        g = p.slot
+        if g in slices:
+            moved = h * P0[slices[g]] / h0 if f == 1 else (h / h0) ** f * P0[slices[g]]
+            P[slices[g]] = ca.if_else(h0 > 0, moved, P0[slices[g]])
+
+
+def remanence_only(scene: Scene) -> bool:
+    """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
+    so it has no h to design (THEORY §9)."""
+    return lens.remanent_group(scene, stored=True) > 0 and not scene.h > 0
+
+
+def coupled_scene(base: Scene, sc: Scene) -> Scene:
+    """``sc`` (``base`` with a designed h) with h_r and h_pos moved with h like the field they share,
+    as :func:`couple_field_groups` does in the NLP."""
+    if not base.h > 0:
+        return sc
+
+    return lens.scale_field(sc, sc.h / base.h, source=base, magnitude=False)
