@@ -22,7 +22,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.inverse.design import design
 from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene
 from actuator_design.inverse.settings import DesignSettings, normalise_phi, phi_period
-from actuator_design.inverse.verify import _ramp, _ramp_then_rotate
+from actuator_design.inverse.verify import _ramp, _ramp_then_rotate, ramped_groups
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.model.profiles import constant_profile
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
@@ -102,13 +102,15 @@ def test_the_verification_ramp_scales_h_r_with_the_field_like_h():
     """Along the ramp from zero field both groups are ∝ H (lens field_power 1): h/h_d = h_r/h_r,d =
     t at every step, ending at the design; a rotation keeps both at their design values."""
     assert lens.parameter("h").field_power == lens.parameter("h_r").field_power == 1
-    ramp = _ramp(0.8, 1.0, 0.0, 11, False, 2.5)
+    groups = ramped_groups(hard_scene(2.5, 1.0, h=0.8))  # h and h_r, each with its design value
+    ramp = _ramp(groups, 1.0, 0.0, 11, False)
     t = np.linspace(0, 1, 11)
     np.testing.assert_allclose([q["h"] for q in ramp], 0.8 * t ** lens.parameter("h").field_power)
     np.testing.assert_allclose([q["h_r"] for q in ramp], 2.5 * t ** lens.parameter("h_r").field_power)
-    turn = _ramp_then_rotate(0.8, 0.0, 1.0, 0.0, 11, False, 2.5)[11:]
+    turn = _ramp_then_rotate(groups, 0.0, 1.0, 0.0, 11, False)[11:]
     assert all(q["h"] == 0.8 and q["h_r"] == 2.5 for q in turn)
-    assert "h_r" not in _ramp(0.8, 1.0, 0.0, 3, False)[0]  # a soft rod's schedule is unchanged
+    soft = ramped_groups(Scene(field=UniformField(phi=1.0), h=0.8))
+    assert "h_r" not in _ramp(soft, 1.0, 0.0, 3, False)[0]  # a soft rod's schedule is unchanged
 
 
 def test_phi_period_is_two_pi_with_a_remanent_term():

@@ -115,8 +115,8 @@ def test_every_name_the_analyses_accept_is_a_lens_entry():
         "continue/critical/map --param": set(continue_.PARAM_NAMES),
         "path --param and schedule rows": set(path._DEGREE_NAMES) | set(path._DEGREE_NAMES.values()),
         "stiffness loads": set(stiffness.LOAD_NAMES),
-        "robust design: per-pose variables and loads": set(design_robust._PER_POSE)
-        | set(design_robust._LOADS),
+        "robust design: per-pose variables and the slots a tolerance scales": set(design_robust._PER_POSE)
+        | set(design_robust._SCALED),
         "tolerance box: physical axes": set(tolerances._SPEC) & set(lens.physical_parameters()),
         "scene flags (--h, --phi-deg, ...)": _scene_flag_names(),
     }

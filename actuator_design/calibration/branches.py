@@ -3,8 +3,7 @@
 Only stable equilibria are accepted (THEORY §7): an unstable one is left along its unstable mode
 in the direction that brings the model closer to the measurement. Stability is judged by the
 package's one rule (THEORY §7), certified cheaply by a Cholesky factor of M^-1/2 H_r M^-1/2 − τ I
-(:mod:`actuator_design.equilibrium.stability_check`) before any eigen-analysis; the
-implicit-function sensitivities are dz/dq = −H_r⁻¹ ∂(∇_r Ê)/∂q.
+before any eigen-analysis; the implicit-function sensitivities are dz/dq = −H_r⁻¹ ∂(∇_r Ê)/∂q.
 """
 from __future__ import annotations
 
@@ -16,7 +15,7 @@ import numpy as np
 import scipy.linalg
 
 from actuator_design.equilibrium.solver import EquilibriumSolver
-from actuator_design.equilibrium.stability_check import StabilityCheck, is_unstable
+from actuator_design.reduced.linalg import certified_stable, mass_scaled
 
 __all__ = ["Verdict", "STABLE", "BranchSelector"]
 
@@ -99,7 +98,8 @@ class BranchSelector:
         slots = [int(i) for i in slot_index]
         # only the slot columns of ∂(∇Ê)/∂P and ∂T/∂P are needed (P also holds per-node fields)
         dense = ca.densify
-        self.f_tip = _DenseCall(ca.Function("fit_tip", [zr, P], [dense(tip)]))
+        self.f_state = _DenseCall(ca.Function("fit_state", [zr, P], [dense(Hr), dense(tip)]))
+        self.inv_sqrt_mass = 1.0 / np.sqrt(np.asarray(solver.transcription.mass[1:], float))
         sens = [Hr, tip, ca.jacobian(gr, P)[:, slots], ca.jacobian(tip, zr),
                 ca.jacobian(tip, P)[:, slots]]
         self.f_sens = _DenseCall(ca.Function("fit_sens", [zr, P], [dense(a) for a in sens]))
@@ -133,13 +133,11 @@ class BranchSelector:
     def verdict(self, z: np.ndarray, P: np.ndarray) -> Tuple[Verdict, np.ndarray]:
         """(stability verdict, outputs) at an equilibrium ``z``, by the package's one stability rule
         (THEORY §7; :func:`~actuator_design.reduced.linalg.classify_spectrum`): a Cholesky factor of
-        M^-1/2 H_r M^-1/2 − τ I certifies "stable" cheaply; otherwise the eigen-analysis decides
-        (Morse index, marginal, unstable mode)."""
-        (tip,) = self.f_tip(z[1:], P)
+        M^-1/2 H_r M^-1/2 − τ I certifies "stable" (:func:`~actuator_design.reduced.linalg.certified_stable`);
+        otherwise the eigen-analysis decides (Morse index, marginal, unstable mode)."""
+        Hr, tip = self.f_state(z[1:], P)
         out = self.outputs(tip)
-        check: List[StabilityCheck] = []
-        is_unstable(self.solver, z, P, out=check)
-        if check and check[0].certified:
+        if certified_stable(mass_scaled(Hr, self.inv_sqrt_mass)):
             return STABLE, out
         v = self.solver.stability(z, P)
         return Verdict(bool(v.stable), bool(v.marginal), int(v.morse_index), v.eigenvector), out
@@ -209,8 +207,9 @@ class BranchSelector:
         return best
 
     def stable_sensitivity(self, z: np.ndarray, P: np.ndarray, dq: np.ndarray):
-        """:meth:`sensitivity` at an equilibrium proved stable by a Cholesky factor of H_r, or None
-        when H_r is not positive definite (the caller then runs the full branch selection).
+        """:meth:`sensitivity` at an equilibrium a Cholesky factor of H_r proves to have Morse index 0
+        (accepted: stable or marginal, :attr:`Verdict.accepted`), or None when H_r is not positive
+        definite (the caller then runs the full branch selection).
 
         Returns
         -------

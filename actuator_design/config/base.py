@@ -4,6 +4,8 @@
 * :func:`Q` is a float field read by :func:`~actuator_design.model.units.parse_quantity` (``"27.5 mm"``)
   in SI units of a dimension, with bounds checked after conversion.
 * :func:`tagged` is a ``type:``-tagged union whose tags are remembered for error messages.
+* :class:`NumberXY`, :class:`LengthXY`, :class:`ForceXY`, :class:`LineLoadXY`: (x, y) vectors,
+  dimensionless or SI.
 """
 from __future__ import annotations
 
@@ -13,10 +15,11 @@ from typing import Annotated, Union
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationInfo, model_validator
 from pydantic_core import PydanticCustomError
 
-from actuator_design.model.units import DIMENSIONS, QuantityError, parse_quantity
 from actuator_design.config.errors import UNION_TAGS, error
+from actuator_design.model.units import DIMENSIONS, QuantityError, parse_quantity
 
-__all__ = ["StrictModel", "Q", "Angle", "Number", "Positive", "tagged", "interval_text"]
+__all__ = ["StrictModel", "Q", "Angle", "Number", "Positive", "tagged", "interval_text", "NumberXY", "LengthXY",
+           "ForceXY", "LineLoadXY"]
 
 
 def _shown(value, dimension: str) -> str:
@@ -114,3 +117,31 @@ def tagged(field_names, *models, bare=None):
     if bare is not None:
         union = Annotated[union, BeforeValidator(lambda v: v if isinstance(v, dict) else bare(v))]
     return union
+
+
+class NumberXY(StrictModel):
+    """Dimensionless (x, y) components."""
+
+    x: Number = 0.0
+    y: Number = 0.0
+
+
+class LengthXY(StrictModel):
+    """Position (x, y), m; the clamp is at the origin, the rod along +x."""
+
+    x: Q("length") = 0.0
+    y: Q("length") = 0.0
+
+
+class ForceXY(StrictModel):
+    """Force (x, y), N."""
+
+    x: Q("force") = 0.0
+    y: Q("force") = 0.0
+
+
+class LineLoadXY(StrictModel):
+    """Force per unit length (x, y), N/m."""
+
+    x: Q("force_per_length") = 0.0
+    y: Q("force_per_length") = 0.0

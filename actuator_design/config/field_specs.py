@@ -12,12 +12,12 @@ from typing import Literal
 import numpy as np
 from pydantic import StrictStr, field_validator, model_validator
 
-from actuator_design.config.base import Angle, Number, Q, StrictModel, tagged
+from actuator_design.config.base import (Angle, ForceXY, LengthXY, LineLoadXY, Number, NumberXY, Q,
+                                         StrictModel, tagged)
 from actuator_design.config.errors import error
 from actuator_design.config.profile_specs import GRID
 from actuator_design.config.source_specs import (PhysicalCoilMap, PhysicalCoils, PhysicalMagnet,
                                                  PhysicalMagnets)
-from actuator_design.config.vectors import ForceXY, LengthXY, LineLoadXY, NumberXY
 from actuator_design.model.expressions import Expression, ExpressionError
 from actuator_design.model.scene import DipoleField, ExpressionField, SourceField, UniformField
 from actuator_design.physics.fields import field_model

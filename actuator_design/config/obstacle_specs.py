@@ -23,10 +23,9 @@ from typing import List, Literal, Optional
 
 from pydantic import Field, model_validator
 
-from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
-from actuator_design.config.base import Angle, Number, Q, StrictModel, tagged
+from actuator_design.config.base import Angle, LengthXY, Number, NumberXY, Q, StrictModel, tagged
 from actuator_design.config.errors import ConfigError, error
-from actuator_design.config.vectors import LengthXY, NumberXY
+from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
 
 __all__ = ["WallSpec", "PegSpec", "PolygonSpec", "ChannelSpec", "LumenSpec", "PhysicalWall", "PhysicalPeg",
            "PhysicalPolygon", "PhysicalChannel", "PhysicalLumen", "DimensionlessObstacle", "PhysicalObstacle", "MAX_OBSTACLES", "MAX_VERTICES"]

@@ -39,9 +39,8 @@ from typing import Any, List, Literal, Optional
 import numpy as np
 from pydantic import Field, PrivateAttr, StrictInt, model_validator
 
-from actuator_design.config.base import Angle, Q, StrictModel
+from actuator_design.config.base import Angle, LengthXY, Q, StrictModel
 from actuator_design.config.errors import error
-from actuator_design.config.vectors import LengthXY
 from actuator_design.model.coil_map import read_coil_map
 from actuator_design.model.field_sources import FIT_TOLERANCE, CoilSource, MagnetSource, source_field
 from actuator_design.model.sources import MappedCoil, plane_section, sections_overlap

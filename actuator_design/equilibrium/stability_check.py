@@ -20,7 +20,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from actuator_design.equilibrium.solver import StabilityVerdict
-from actuator_design.reduced.linalg import STABILITY_TOL, classify_spectrum
+from actuator_design.reduced.linalg import STABILITY_TOL, certified_stable, classify_spectrum
 
 __all__ = ["StabilityCheck", "is_unstable", "lowest_eigenvalues", "verdict_of"]
 
@@ -29,7 +29,7 @@ DENSE_MAX = 200
 #: default tolerance of the verdict, as ``EquilibriumSolver.stability``
 TOL = STABILITY_TOL
 
-_dsyevr, _dpotrf = lapack.dsyevr, lapack.dpotrf
+_dsyevr = lapack.dsyevr
 #: per kernel: the flat indices of its Hessian's nonzeros in a dense matrix, and their mass scaling
 _PATTERN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
@@ -77,8 +77,7 @@ def is_unstable(solver, z: np.ndarray, params: np.ndarray, tol: float = TOL,
     A = _scaled_hessian(solver, z, params)
     if A is None:
         return solver.stability(z, params, tol=tol).morse_index > 0
-    shifted = A - tol * np.eye(A.shape[0])
-    if _dpotrf(shifted, lower=0, clean=0, overwrite_a=1)[1] == 0:
+    if certified_stable(A, tol):
         if out is not None:
             out.append(StabilityCheck(True))
         return False

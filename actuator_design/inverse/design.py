@@ -53,7 +53,7 @@ from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResul
                                               DesignSettings, Optimised, Verification, canonical_target,
                                               check_h_max, normalise_phi, normalise_tip_angle, phi_period,
                                               tip_error)
-from actuator_design.inverse.verify import stiffness_by_differences
+from actuator_design.inverse.verify import schedule_rows, stiffness_by_differences
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene, UniformField, default_scene
 from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
@@ -451,9 +451,7 @@ def _take_verified(result: DesignResult, problem: DesignProblem, v: Verification
     # (the energy is π-periodic in φ, 2π with a hard-magnetic term: the end angle is equivalent)
     phi0 = float(v.schedule[0]["phi"])
     shift = normalise_phi(phi0, phi_period(result.design_scene)) - phi0
-    result.schedule = [{"h": float(s["h"]), "phi": float(s["phi"]) + shift,
-                        **({"h_r": float(s["h_r"])} if "h_r" in s else {}),
-                        **({"p": float(s["p"])} if "p" in s else {})} for s in v.schedule]
+    result.schedule = schedule_rows(v.schedule, shift)
     result.verified = True
     notes.append(f"verified by a loading path from zero field: {v.label}")
     fwd = v.forward

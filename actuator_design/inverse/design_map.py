@@ -48,8 +48,9 @@ def design_params(P0: ca.SX, values: Mapping[str, ca.SX], slices, vandermonde=No
     P0 : casadi.SX, shape (n_params,)
         The base scene's parameters (everything not designed).
     values : mapping of str to casadi.SX
-        Design values by lens name, in the order they are written: scalars (shape (1,)) and
-        profiles (Legendre coefficients, shape (n_terms,)).
+        Design values by lens name: scalars (shape (1,)) and profiles (Legendre coefficients,
+        shape (n_terms,)). The scalars are written first (in the mapping's order), then the field
+        groups are coupled to h, then the profiles are written.
     slices : dict of str to slice
         The NLP layout's slots.
     vandermonde : ndarray, shape (n_quadrature, n_terms), optional
@@ -92,7 +93,8 @@ def design_effort(values: Mapping[str, ca.SX], total=0):
 
 
 def scalar_bounds(name: str, bounds: Mapping[str, float]) -> Tuple[float, float]:
-    """(lower, upper) of a scalar design value: 0 ≤ h ≤ h_max, |p| ≤ p_max (inf when not given),
+    """(lower, upper) of a scalar design value: 0 ≤ h ≤ h_max, |p| ≤ p_max (unbounded when
+    ``bounds`` has no p_max; ``DesignSettings.bounds()`` always gives one),
     and |φ| ≤ 2π — the energy is π-periodic in φ; the bound keeps φ from wandering and is wide
     enough for continuous rotating schedules."""
     if name == "h":

@@ -9,7 +9,8 @@ from typing import List
 import casadi as ca
 import numpy as np
 
-__all__ = ["SegmentedLDL", "_ldl_function", "_ldl_pivots", "_bandwidth"]
+__all__ = ["SegmentedLDL", "_ldl_function", "_ldl_pivots", "_bandwidth", "CertificateTooLarge",
+           "check_certificate_size", "MAX_DENSE_CERTIFICATE_WORK"]
 
 
 @lru_cache(maxsize=32)
@@ -45,6 +46,35 @@ def _bandwidth(sv, n: int) -> int:
     sp = sv.f_grad_hess.sparsity_out(2)
     rows, cols = sp.get_triplet()
     return int(max((abs(r - c) for r, c in zip(rows, cols)), default=0))
+
+
+#: Most expression work a certified NLP may need for dense reduced Hessians: c·n·(n³/3 + I), with
+#: n unknowns, I the instructions of the reduced Hessian's function and c the copies (scenarios):
+#: the nested pivots of a dense matrix and their Jacobian. Measured with a dipole field's
+#: positional term: n = 20 (1.7e6) built in 6 s and 1.2 GB, n = 40 (1.1e7) in 45 s and 7 GB; the
+#: shipped dipole example, n = 80 (8.7e7), exhausted 24 GB. Banded Hessians are lifted at cuts
+#: (:class:`SegmentedLDL`) and not bounded here.
+MAX_DENSE_CERTIFICATE_WORK = 4e6
+
+
+class CertificateTooLarge(ValueError):
+    """The stability certificate of a dense reduced Hessian would exceed
+    :data:`MAX_DENSE_CERTIFICATE_WORK`; the message says why, in one line."""
+
+
+def check_certificate_size(sv, n: int, copies: int = 1) -> None:
+    """Raise :class:`CertificateTooLarge` when the certificate of ``copies`` dense n × n reduced
+    Hessians of the solver ``sv`` would be too big to build (banded ones always pass)."""
+    if n < 2 or _bandwidth(sv, n) < n - 1:
+        return
+    work = copies * n * (n ** 3 / 3.0 + sv.f_grad_hess.n_instructions())
+    if work > MAX_DENSE_CERTIFICATE_WORK:
+        raise CertificateTooLarge(
+            f"the stability certificate was not built: the reduced Hessian is dense ({n} unknowns"
+            f"{f', {copies} scenarios' if copies > 1 else ''}: an energy term couples every point to every "
+            f"other) and its LDLT pivots would need ~{work:.1e} expression operations (limit "
+            f"{MAX_DENSE_CERTIFICATE_WORK:.0e}, gigabytes of memory); only stable solutions found without it are kept "
+            "(fewer --elements or a lower --degree allow it)")
 
 
 #: A cut lifts the Schur complement when at most this many of its entries were changed since the

@@ -43,7 +43,7 @@ from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
                                                 design_params, remanence_only, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
-from actuator_design.inverse.ldl import SegmentedLDL
+from actuator_design.inverse.ldl import CertificateTooLarge, SegmentedLDL, check_certificate_size
 from actuator_design.model.profiles import constant_profile, legendre_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
@@ -213,6 +213,7 @@ class DesignNLP:
                 p = ca.vertcat(p, q["k_target"])
                 rows += [q["sens"], q["stiff"]]
             if certified:  # the pivots, and the Schur entries lifted at the element joints
+                check_certificate_size(self.solver, self.n)
                 cert = SegmentedLDL(certificate_matrix(q["H"], q["m"], q["margin"]))
                 self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
                 x = ca.vertcat(x, cert.v)
@@ -371,6 +372,13 @@ class DesignNLP:
                     w_eff: float) -> DesignPoint:
         sv = self.solver
         P0 = sv.parameter_vector(base)
+        if certified:
+            try:
+                check_certificate_size(sv, self.n)
+            except CertificateTooLarge as err:  # not a solve: the start, marked as not converged
+                tip = np.asarray(self.f_tip(np.asarray(x0_theta, float)[1:], d0, P0), float).ravel()
+                return self.point(np.asarray(d0, float), base, np.asarray(x0_theta, float), tip, converged=False,
+                                  status=str(err), stage=req.stage + "+certificate")
         use_angle = req.target is not None and len(req.target) > 2
         tgt = np.zeros(3) if req.target is None else np.array(
             [req.target[0], req.target[1], req.target[2] if use_angle else 0.0])

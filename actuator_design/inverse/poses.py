@@ -39,8 +39,10 @@ from actuator_design.inverse.nlp import PROFILE_VARIABLES
 from actuator_design.inverse.optimise import candidate, design_vector, search_set
 from actuator_design.inverse.settings import (Choice, DesignSettings, Optimised, normalise_phi, phi_period,
                                               tip_error)
+from actuator_design.inverse.verify import ramped_groups, schedule_rows
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
 from actuator_design.robust.design_robust import get_scenario_nlp, pose_designs, robustify
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
 from actuator_design.robust.tolerances import Tolerances
@@ -408,8 +410,7 @@ def _check_pose(snlp, nlp, scenes, point, targets, tol, problem, ch1, verify, k)
             state = final
             verified, stable, snap_free = True, bool(final.stable), bool(v.path.snap_free)
             ach = {"x": final.tip["x"], "y": final.tip["y"], "angle": final.tip["angle"]}
-            sched = [{"h": float(q["h"]), "phi": float(q["phi"]),
-                      **{k_: float(q[k_]) for k_ in ("h_r", "p") if k_ in q}} for q in v.schedule]
+            sched = schedule_rows(v.schedule)
     return PoseResult(tgt, ach, tip_error((ach["x"], ach["y"], ach["angle"]), tgt),
                       {"h": dp.h, "phi": normalise_phi(dp.phi, phi_period(sc)), "p": dp.p}, rob, verified, stable,
                       snap_free, sched, label, z, state), timings
@@ -426,14 +427,14 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
         prev, nxt = sched[-1], poses[k]
         # the rod at pose k, as the previous leg left it, in pose k's scene (same rod, its field)
         # the same field modulo the energy's period in φ (π; 2π with a hard-magnetic term) nearest
-        # the previous angle; h_r (∝ H, THEORY §9) moves with the field like h
+        # the previous angle; the remanent groups (h_r ∝ H, THEORY §9) move with the field like h
         phi_next = prev["phi"] + normalise_phi(nxt.design["phi"] - prev["phi"], phi_period(scenes[k]))
-        hard = "h_r" in prev
-        leg = [{"h": prev["h"], "phi": prev["phi"], **({"h_r": prev["h_r"]} if hard else {})},
-               {"h": nxt.design["h"], "phi": phi_next, **({"h_r": float(scenes[k].h_r)} if hard else {})}]
+        groups = {g: f for g, (_, f) in ramped_groups(scenes[k]).items() if g != "h" and g in prev}
+        leg = [{"h": prev["h"], "phi": prev["phi"], **{g: prev[g] for g in groups}},
+               {"h": nxt.design["h"], "phi": phi_next, **{g: lens.parameter(g).get(scenes[k]) for g in groups}}]
         start_scene = scenes[k - 1].with_values(h=prev["h"], phi=prev["phi"])
-        if hard:
-            start_scene = replace(start_scene, h_r=prev["h_r"])
+        for g in groups:
+            start_scene = lens.parameter(g).write(start_scene, prev[g])
         path = follow_path(start_scene, problem.options, leg, initial=poses[k - 1].z, max_dtheta=0.3)
         tip = path.final.tip if path.final is not None and path.final.success else None
         first = path.points[0].tip if path.points else None
@@ -445,7 +446,7 @@ def _visit_in_order(poses: List[PoseResult], scenes: List[Scene], problem, timin
             labels.append(f"pose {k + 1}: straight from pose {k}'s field, rotating "
                           f"{math.degrees(phi_next - prev['phi']):+.3g} deg")
             continue
-        down = [{"h": prev["h"] * t, "phi": prev["phi"], **({"h_r": prev["h_r"] * t} if hard else {}), "pose": k}
+        down = [{"h": prev["h"] * t, "phi": prev["phi"], **{g: prev[g] * t ** f for g, f in groups.items()}, "pose": k}
                 for t in np.linspace(1, 0, 6)[1:]]
         sched += down + [dict(q, pose=k + 1) for q in nxt.schedule]
         labels.append(f"pose {k + 1}: field down to zero, then its own schedule from rest ({nxt.label})")

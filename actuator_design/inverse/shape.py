@@ -24,10 +24,11 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params
-from actuator_design.inverse.ldl import _bandwidth, _ldl_pivots
+from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignSettings, normalise_phi, phi_period
+from actuator_design.inverse.verify import schedule_rows
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
@@ -114,6 +115,8 @@ class ShapeDesignNLP:
         self.f_points = ca.Function("shape_points", [zr, P0], [xs, ys])
 
     def nlpsol(self, certified: bool):
+        if certified:
+            check_certificate_size(self.base.solver, self.n)
         if certified not in self._nlps:
             eq, piv, alpha = self._rows
             g = ca.vertcat(eq, piv, alpha) if certified else ca.vertcat(eq, alpha)
@@ -139,6 +142,11 @@ class ShapeDesignNLP:
         n_piv = n if certified else 0
         lbg = np.concatenate([np.zeros(n), np.zeros(n_piv), lo_prof])
         ubg = np.concatenate([np.zeros(n), np.full(n_piv, np.inf), hi_prof])
+        if certified:
+            try:
+                check_certificate_size(sv, n)
+            except CertificateTooLarge as err:
+                return np.asarray(d0, float), np.asarray(z0, float), False, str(err)
         nlp = self.nlpsol(certified)
         sol = nlp(x0=np.concatenate([np.asarray(z0, float)[1:], d0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = nlp.stats()
@@ -237,8 +245,7 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
         if v.path is not None:
             state = v.path.final
             verified, stable, snap_free = True, bool(state.stable), bool(v.path.snap_free)
-            schedule = [{"h": float(q["h"]), "phi": float(q["phi"]), **({"h_r": float(q["h_r"])} if "h_r" in q else {})}
-                        for q in v.schedule]
+            schedule = schedule_rows(v.schedule)
             ev = state.evaluate(pts[:, 0])
             xs, ys = np.asarray(ev["x"], float), np.asarray(ev["y"], float)
     err = np.hypot(xs - pts[:, 1], ys - pts[:, 2])

@@ -5,14 +5,16 @@ another branch, a ramp at another angle followed by a rotation of the field).
 
 The ramp is one of the applied field's magnitude H, from 0 to the design's H_d: at the fraction
 t = H/H_d every field group is at its design value times t^field_power (the lens's
-``Parameter.field_power``, THEORY §5, §9): h = t·h_d and, with a hard-magnetic term, h_r = t·h_r,d
-(both linear in H; h² ∝ H²). A rotation keeps the magnitude, so h and h_r stay at their design
-values."""
+``Parameter.field_power``, THEORY §5, §9): h = t·h_d and, with remanence, h_r = t·h_r,d (both linear
+in H; h² ∝ H²). A schedule row names h and the remanent groups (:func:`ramped_groups`: a rod with
+remanence alone has no h to ramp); every other group the field drives (h_pos of a non-uniform
+field) follows h by the lens's rule, the path's base being the design scene. A rotation keeps the
+magnitude, so every group stays at its design value."""
 from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Dict, List, Optional
+from typing import Dict, List, Mapping, Sequence, Tuple
 
 import numpy as np
 
@@ -22,9 +24,10 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.inverse.settings import Choice, DesignProblem, Verification, normalise_phi, phi_period
 from actuator_design.model.scene import Scene, UniformField
-from actuator_design.physics.hard_magnetic import HardMagnetic
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import term_class
 
-__all__ = ["verify", "stiffness_by_differences"]
+__all__ = ["verify", "stiffness_by_differences", "ramped_groups", "schedule_rows"]
 
 
 def verify(problem: DesignProblem, choice: Choice) -> Verification:
@@ -50,12 +53,10 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     pt, options = choice.point, problem.options
     design_p = "p" in choice.candidate.vary
     forward = solve(choice.scene, options)  # a fresh forward NLP from the straight rod
-    start = replace(choice.scene, h=0.0)
-    hard = _hard_magnetic_group(choice.scene)  # h_r,d when the scene has the hard-magnetic term
-    if hard is not None:
-        start = replace(start, h_r=0.0)
-    if design_p:
-        start = start.with_values(p=0.0)
+    # the path's base is the design scene: every value a row does not name stays at the design's,
+    # and the groups that follow h by the lens's rule (h_pos) start at zero field with it
+    start = choice.scene
+    groups = ramped_groups(choice.scene)
     steps = problem.settings.ramp_steps
     obstacles, gap = tuple(start.obstacles), float(start.contact_gap)
     touched: List[str] = []
@@ -86,7 +87,7 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
                     ok = reaches(path)
         return ok, path
 
-    ramp = _ramp(pt.h, pt.phi, pt.p, steps, design_p, hard)
+    ramp = _ramp(groups, pt.phi, pt.p, steps, design_p)
     if not isinstance(choice.scene.field, UniformField):  # a field without an angle to set or turn
         ok, path = attempt([{k: v for k, v in step.items() if k != "phi"} for step in ramp])
         label = "magnitude ramp" + _contact_note(path)
@@ -100,7 +101,7 @@ def verify(problem: DesignProblem, choice: Choice) -> Verification:
     for sign in (wind, -wind):
         for delta_deg in (90, 45, 135):
             phi_a = pt.phi - sign * math.radians(delta_deg)
-            schedule = _ramp_then_rotate(pt.h, phi_a, pt.phi, pt.p, steps, design_p, hard)
+            schedule = _ramp_then_rotate(groups, phi_a, pt.phi, pt.p, steps, design_p)
             ok, path = attempt(schedule)
             if ok:
                 phi_label = round(math.degrees(normalise_phi(phi_a, phi_period(choice.scene)))) + 0  # no "-0"
@@ -124,28 +125,40 @@ def _contact_note(path) -> str:
     return f" (through contact on the way: {seen}; the design itself keeps clear of every obstacle)"
 
 
-def _hard_magnetic_group(scene: Scene) -> Optional[float]:
-    """The scene's h_r when it has the hard-magnetic term (THEORY §9), else None."""
-    return float(scene.h_r) if HardMagnetic.present(scene) else None
+def ramped_groups(scene: Scene) -> Dict[str, Tuple[float, int]]:
+    """The field groups a schedule row names, name -> (design value, power f: ∝ H^f): the magnitude
+    h and every remanent-magnetisation group of a term the scene has (h_r, THEORY §9; the lens's
+    ``Parameter.remanent_field``). Other groups the field drives follow h along the path."""
+    out = {"h": (float(scene.h), 1)}
+    for par, f in lens.field_groups(magnitude=False):
+        if par.remanent_field and (par.term is None or term_class(par.term).present(scene)):
+            out[par.name] = (par.get(scene), f)
+    return out
 
 
-def _field_groups(h: float, h_r: Optional[float], t: float) -> Dict[str, float]:
-    """The field groups at the fraction t = H/H_d of the design field: h·t and h_r·t (both ∝ H)."""
-    return {"h": h * t, **({"h_r": h_r * t} if h_r is not None else {})}
+def _field_groups(groups: Dict[str, Tuple[float, int]], t: float) -> Dict[str, float]:
+    """The named groups at the fraction t = H/H_d of the design field: g_d·t^f each."""
+    return {name: value * t ** f for name, (value, f) in groups.items()}
 
 
-def _ramp(h: float, phi: float, p: float, steps: int, design_p: bool,
-          h_r: Optional[float] = None) -> List[Dict[str, float]]:
-    """``steps`` points from zero field (and load) to (h[, h_r], φ[, p]) at the fixed angle φ."""
-    return [{**_field_groups(h, h_r, t), "phi": phi, **({"p": p * t} if design_p else {})}
+def _ramp(groups, phi: float, p: float, steps: int, design_p: bool) -> List[Dict[str, float]]:
+    """``steps`` points from zero field (and load) to the design's groups, φ[, p] at the fixed angle φ."""
+    return [{**_field_groups(groups, t), "phi": phi, **({"p": p * t} if design_p else {})}
             for t in np.linspace(0, 1, steps)]
 
 
-def _ramp_then_rotate(h, phi_a, phi, p, steps, design_p, h_r=None) -> List[Dict[str, float]]:
+def _ramp_then_rotate(groups, phi_a, phi, p, steps, design_p) -> List[Dict[str, float]]:
     """A ramp at φ_a, then a rotation of the field from φ_a to φ at full magnitude."""
-    turn = [{**_field_groups(h, h_r, 1.0), "phi": phi_a + (phi - phi_a) * t, **({"p": p} if design_p else {})}
+    turn = [{**_field_groups(groups, 1.0), "phi": phi_a + (phi - phi_a) * t, **({"p": p} if design_p else {})}
             for t in np.linspace(0, 1, steps)[1:]]
-    return _ramp(h, phi_a, p, steps, design_p, h_r) + turn
+    return _ramp(groups, phi_a, p, steps, design_p) + turn
+
+
+def schedule_rows(schedule: Sequence[Mapping[str, float]], phi_shift: float = 0.0) -> List[Dict[str, float]]:
+    """A verified schedule as output rows: h, φ (+ ``phi_shift``), then the other values each row
+    names (remanent groups, p), as floats."""
+    return [{"h": float(q["h"]), "phi": float(q["phi"]) + phi_shift,
+             **{k: float(v) for k, v in q.items() if k not in ("h", "phi")}} for q in schedule]
 
 
 def stiffness_by_differences(scene: Scene, options: SolverOptions, state, dp: float = 1e-5) -> float:

@@ -30,6 +30,7 @@ h_r ∝ H/E, loads ∝ 1/E; THEORY §5, §9), φ, α and θ0 shifted.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence
@@ -39,7 +40,7 @@ import numpy as np
 
 from actuator_design.contact.clearance import clearance_rows
 from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
-from actuator_design.inverse.ldl import _bandwidth, _ldl_pivots
+from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
 from actuator_design.model.scene import Scene
 from actuator_design.robust.robustness import follow_segment
@@ -52,8 +53,8 @@ _PER_POSE = _LENS_VARIABLES  # the scalar design variables (h, phi, p): one set 
 _N_ANGLES = 3  # angle shifts per corner scenario after the scale factors: dphi, dalpha, dtheta0
 
 
-def __getattr__(name):  # ``_LOADS``: the slots a relative tolerance scales, read from the lens when asked
-    if name == "_LOADS":
+def __getattr__(name):  # ``_SCALED``: the slots a relative tolerance scales, read from the lens when asked
+    if name == "_SCALED":
         return tuple(p.slot for p in scaled_slots())
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
@@ -228,6 +229,8 @@ class ScenarioDesignNLP:
 
     def nlpsol(self, certified: bool):
         """Without the stability rows: exact Hessian; with them: quasi-Newton (built on first use)."""
+        if certified:
+            check_certificate_size(self.base.solver, self.n, self.K * (self.C + 1))
         if certified not in self._nlps:
             eq, piv, rest = self._rows
             g = ca.vertcat(eq, piv, rest) if certified else ca.vertcat(eq, rest)
@@ -261,10 +264,11 @@ class ScenarioDesignNLP:
         lbx[nz + self.nd:] = 0.0
         if self.base.gauge:  # α's mean pinned at 0, every pose's φ moved with it (DesignNLP.fix_gauge)
             d0 = np.array(d0, float)
-            c0, d0[0] = d0[0], 0.0
+            i0 = self.profile_slice("alpha").start  # α's mean c_0
+            c0, d0[i0] = d0[i0], 0.0
             for k in range(K):
                 d0[self.pose_index(k, "phi")] -= c0
-            lbx[nz] = ubx[nz] = 0.0
+            lbx[nz + i0] = ubx[nz + i0] = 0.0
         lo_prof, hi_prof = self._profile_bounds(bounds)
         n_eq, n_piv = K * (C + 1) * n, (K * (C + 1) * n if certified else 0)
         nom_lb = np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K)
@@ -276,6 +280,12 @@ class ScenarioDesignNLP:
         zs = [np.asarray(zc, float)[1:] for zk in z0 for zc in zk]
         tips0 = np.asarray(self.f_tips(np.concatenate(zs + [d0, np.zeros(K)]), p), float)
         t0 = [self._worst(tips0, tgt, k) ** 2 + 1e-12 for k in range(K)]
+        if certified:
+            try:
+                check_certificate_size(sv, n, K * (C + 1))
+            except CertificateTooLarge as err:  # not a solve: the start, marked as not converged
+                return ScenarioPoint(d=np.asarray(d0, float), z=[list(zk) for zk in z0], worst_error=[math.inf] * K,
+                                     converged=False, status=str(err), scale=scale)
         nlp = self.nlpsol(certified)
         sol = nlp(x0=np.concatenate(zs + [d0, t0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         st = nlp.stats()
