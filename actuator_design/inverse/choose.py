@@ -71,10 +71,14 @@ def choose(problem: DesignProblem, searched: List[Optimised], hints: bool = True
             if stiffness is not None:
                 stable.stiffness = cand.nlp.stiffness(cand.base, stable)
             best = stable
+        else:  # e.g. the certificate was refused (CertificateTooLarge): say what is reported
+            notes.append(f"no stable nearest design was found ({stable.status}); the design reported is "
+                         "NOT stable")
     alternatives: Dict[str, bool] = {}
     if not reachable:
         what = "target" if stiffness is None else ("stiffness" if not target else "target pose and stiffness")
-        notes.append(f"the {what} is not reachable with {', '.join(cand.vary)}: the nearest stable design "
+        nearest = "nearest stable design" if getattr(best, "certified", True) else "nearest design"
+        notes.append(f"the {what} is not reachable with {', '.join(cand.vary)}: the {nearest} "
                      f"misses by {target_error(best, target, stiffness):.3g}"
                      + (" rod lengths" if stiffness is None else "") + " (reported as 'achieved')")
         h_max = problem.settings.h_max

@@ -200,7 +200,13 @@ class DesignNLP:
     def nlpsol(self, certified: bool, stiffness: bool = False):
         """The NLP without (``certified=False``) or with the LDLᵀ stability certificate, and with
         the stiffness constraint when ``stiffness``; each variant is built on first use. Without the
-        certificate, stability is checked at the solution (see :meth:`solve`)."""
+        certificate, stability is checked at the solution (see :meth:`solve`).
+
+        Raises
+        ------
+        CertificateTooLarge
+            ``certified`` for a dense reduced Hessian too big to certify
+            (:func:`~actuator_design.inverse.ldl.check_certificate_size`)."""
         key = (certified, stiffness)
         if key not in self._nlp:
             q = self._parts
@@ -322,7 +328,9 @@ class DesignNLP:
         The NLP without the stability certificate is tried first; when its solution violates
         λ_min(H_r, M) ≥ margin, the certified NLP (LDLᵀ pivots ≥ 0) is solved from the same start —
         unless ``certify`` is False, in which case the uncertified point is returned with
-        ``certified = False`` (a probe: the constrained optimum is never closer to the target).
+        ``certified = False`` (a probe: the constrained optimum is never closer to the target). A
+        certificate too big to build (a dense Hessian) gives a point not converged whose status
+        says so (:class:`~actuator_design.inverse.ldl.CertificateTooLarge`).
         """
         pt = self._solve(base, x0_theta, d0, req, certified=False)
         if pt.converged:

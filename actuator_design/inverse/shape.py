@@ -116,7 +116,7 @@ class ShapeDesignNLP:
 
     def nlpsol(self, certified: bool):
         if certified:
-            check_certificate_size(self.base.solver, self.n)
+            check_certificate_size(self.base.solver, self.n, exact_hessian=False)
         if certified not in self._nlps:
             eq, piv, alpha = self._rows
             g = ca.vertcat(eq, piv, alpha) if certified else ca.vertcat(eq, alpha)
@@ -144,7 +144,7 @@ class ShapeDesignNLP:
         ubg = np.concatenate([np.zeros(n), np.full(n_piv, np.inf), hi_prof])
         if certified:
             try:
-                check_certificate_size(sv, n)
+                check_certificate_size(sv, n, exact_hessian=False)
             except CertificateTooLarge as err:
                 return np.asarray(d0, float), np.asarray(z0, float), False, str(err)
         nlp = self.nlpsol(certified)

@@ -8,8 +8,9 @@ t = H/H_d every field group is at its design value times t^field_power (the lens
 ``Parameter.field_power``, THEORY §5, §9): h = t·h_d and, with remanence, h_r = t·h_r,d (both linear
 in H; h² ∝ H²). A schedule row names h and the remanent groups (:func:`ramped_groups`: a rod with
 remanence alone has no h to ramp); every other group the field drives (h_pos of a non-uniform
-field) follows h by the lens's rule, the path's base being the design scene. A rotation keeps the
-magnitude, so every group stays at its design value."""
+field) follows h by the lens's rule, the path's base being the design scene. (A rod with h = 0 has
+no magnitude for h_pos to follow: it stays at its design value, as it did before.) A rotation keeps
+the magnitude, so every group stays at its design value."""
 from __future__ import annotations
 
 import math

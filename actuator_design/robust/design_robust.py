@@ -40,7 +40,8 @@ import numpy as np
 
 from actuator_design.contact.clearance import clearance_rows
 from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
-from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
+from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, CertificateTooLarge, _bandwidth, _ldl_pivots,
+                                         check_certificate_size)
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
 from actuator_design.model.scene import Scene
 from actuator_design.robust.robustness import follow_segment
@@ -230,7 +231,7 @@ class ScenarioDesignNLP:
     def nlpsol(self, certified: bool):
         """Without the stability rows: exact Hessian; with them: quasi-Newton (built on first use)."""
         if certified:
-            check_certificate_size(self.base.solver, self.n, self.K * (self.C + 1))
+            check_certificate_size(self.base.solver, self.n, self.K * (self.C + 1), exact_hessian=False)
         if certified not in self._nlps:
             eq, piv, rest = self._rows
             g = ca.vertcat(eq, piv, rest) if certified else ca.vertcat(eq, rest)
@@ -282,7 +283,7 @@ class ScenarioDesignNLP:
         t0 = [self._worst(tips0, tgt, k) ** 2 + 1e-12 for k in range(K)]
         if certified:
             try:
-                check_certificate_size(sv, n, K * (C + 1))
+                check_certificate_size(sv, n, K * (C + 1), exact_hessian=False)
             except CertificateTooLarge as err:  # not a solve: the start, marked as not converged
                 return ScenarioPoint(d=np.asarray(d0, float), z=[list(zk) for zk in z0], worst_error=[math.inf] * K,
                                      converged=False, status=str(err), scale=scale)
@@ -446,6 +447,8 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
         if pt.converged:
             best, done, d, zs = pt, scale, pt.d, pt.z
             step = min(2.0 * step, max_step)
+        elif pt.status.startswith(CERTIFICATE_REFUSED):
+            break  # a smaller box has the same dense Hessian: the certificate stays refused
         else:
             step *= 0.5
     return RobustOutcome(best, done, attempts, snlp)

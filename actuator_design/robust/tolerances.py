@@ -249,8 +249,10 @@ def scale_factor(p: lens.Parameter, deltas: Mapping[str, float]) -> float:
 
 def _scaled_values(scene: Scene, g: Mapping[str, float]):
     """(lens parameter, new value) for every slot of a term ``scene`` has whose value scales with the
-    field, E or χ̄ by its power laws (f, e, c): v times :func:`scale_factor`, the factor the
-    scenario NLP of robust design multiplies its slots by, so both see the same corner scenes.
+    field, E or χ̄ by its power laws (f, e, c): v (1 + δH)^f ((1 + δχ)^c / (1 + δE)^−e), evaluated
+    as the tolerance box always has (h: v·((1 + δH)·√((1 + δχ)/(1 + δE))); h_r: v (1 + δH)/(1 + δE);
+    a load: (1/(1 + δE))·v), so that a corner scene does not move by round-off. The scenario NLP
+    multiplies its slots by :func:`scale_factor`, the same numbers up to one rounding.
 
     Raises
     ------
@@ -269,6 +271,14 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
         if v == 0.0 or (p.term is not None and not term_class(p.term).present(scene)
                         and not write_keeps_terms(p, scene, v)):
             continue  # nothing to scale, or a term's value stored while it is absent whose write would add it
-        new = v * scale_factor(p, g)  # the scenario NLP scales its slots by the same factor
+        f, e, c = p.field_power, p.stiffness_power, p.susceptibility_power
+        num, den = (1.0 + g["chi_rel"]) ** c, (1.0 + g["youngs_rel"]) ** (-e)
+        if (2 * e) % 2 or (2 * c) % 2:  # a half power: one square root of the whole ratio
+            ratio = (1.0 + g["chi_rel"]) ** (2 * c) / (1.0 + g["youngs_rel"]) ** (-2 * e)
+            new = v * ((1.0 + g["field_rel"]) ** f * math.sqrt(ratio))
+        elif f:
+            new = v * (1.0 + g["field_rel"]) ** f * num / den
+        else:
+            new = (num / den) * v
         if new != v:
             yield p, new
