@@ -107,6 +107,7 @@ def designed(scene):
     return target, design_pose(scene, target)
 
 
+@pytest.mark.slow  # the pose design fixture takes ~55 s; the default run keeps the CI budget
 def test_the_designed_pose_puts_the_tip_on_the_target_by_shooting_in_magpylibs_field(scene, designed):
     target, d = designed
     assert d.success and d.verified and d.holds_over_box and d.least_move, d.message
@@ -124,6 +125,7 @@ def test_the_designed_pose_puts_the_tip_on_the_target_by_shooting_in_magpylibs_f
     assert d.field_at_clamp[0] == pytest.approx(math.hypot(b[0], b[1]), rel=1e-6)
 
 
+@pytest.mark.slow  # the pose design fixture takes ~55 s; the default run keeps the CI budget
 def test_the_designed_pose_moves_no_more_than_the_pose_that_made_the_target_nor_its_neighbours(scene, designed):
     target, d = designed
     var, prob = pose_problem(scene, target)
@@ -219,6 +221,7 @@ def test_a_position_tolerance_on_coils_is_refused(capsys):
     assert "magnet's pose" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # the pose design fixture takes ~55 s; the default run keeps the CI budget
 def test_the_box_moves_the_magnet_turns_its_axis_and_scales_its_remanence(scene, designed):
     _, d = designed
     assert d.tolerances == Tolerances()

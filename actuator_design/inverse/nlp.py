@@ -200,13 +200,8 @@ class DesignNLP:
     def nlpsol(self, certified: bool, stiffness: bool = False):
         """The NLP without (``certified=False``) or with the LDLᵀ stability certificate, and with
         the stiffness constraint when ``stiffness``; each variant is built on first use. Without the
-        certificate, stability is checked at the solution (see :meth:`solve`).
-
-        Raises
-        ------
-        CertificateTooLarge
-            ``certified`` for a dense reduced Hessian too big to certify
-            (:func:`~actuator_design.inverse.ldl.check_certificate_size`)."""
+        certificate, stability is checked at the solution (see :meth:`solve`). ``certified`` raises
+        :class:`~actuator_design.inverse.ldl.CertificateTooLarge` for a dense Hessian too big to certify."""
         key = (certified, stiffness)
         if key not in self._nlp:
             q = self._parts
