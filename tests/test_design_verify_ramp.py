@@ -6,6 +6,7 @@ verification used to ramp h from a scene with h = 0 but h_pos at its design valu
 from zero field" started from a rod already bent by the χ̂ term. References: zero field leaves the
 unloaded rod straight (θ ≡ 0); along the ramp h_pos/h stays the design's ratio (both ∝ H); the
 path ends on the forward solve of the design scene."""
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -14,9 +15,12 @@ import pytest
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
+from actuator_design.inverse.design import DesignSettings, design
 from actuator_design.inverse.verify import ramped_groups, verify
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import DipoleField, Scene, default_scene
+from actuator_design.physics import parameters as lens
+from actuator_design.robust.tolerances import parse_tolerances
 
 
 def test_a_dipole_design_is_verified_by_a_ramp_that_starts_at_zero_field():
@@ -69,3 +73,24 @@ def test_the_certificate_of_a_big_dense_hessian_is_refused_before_it_exhausts_me
     for scene in (default_scene(h=1.0), default_scene(h=1.0).with_term("foundation", k_foundation=10.0)):
         nlp = get_design_nlp(prepare_scene(scene, ("h", "phi")), ("h", "phi"), SolverOptions(), 4)
         check_certificate_size(nlp.solver, nlp.n)  # passes
+
+
+def test_a_dipole_design_reports_every_group_it_moved_so_a_forward_solve_reproduces_it():
+    """Designing h in a non-uniform field moves h_pos with it (both ∝ H). The report names h_pos
+    at the design field, so the scene with the reported groups set one by one (as ``--set`` does)
+    is the designed state. Reference: the target is the tip of an independent forward solve at
+    1.3 × the base field (h and h_pos both × 1.3)."""
+    base = Scene(field=DipoleField(x0=1.2, y0=-0.5, moment_angle=0.0), h=0.02, h_pos=0.012,
+                 tip_force=None, fibres=constant_profile(0.0))
+    made = solve(replace(base, h=0.026, h_pos=0.0156))
+    assert made.success
+    res = design((made.tip["x"], made.tip["y"]), base, vary=("h",),
+                 settings=DesignSettings(ramp_steps=6, tolerances=parse_tolerances("none")))
+    assert res.success, res.message
+    assert res.design["h"] == pytest.approx(0.026, rel=1e-7)
+    assert res.design["h_pos"] == pytest.approx(0.0156, rel=1e-7)
+    scene = base
+    for name in ("h", "h_pos"):
+        scene = lens.set_value(scene, name, res.design[name])
+    again = solve(scene)
+    assert max(abs(again.tip[k] - res.achieved[k]) for k in ("x", "y", "angle")) < 1e-9

@@ -110,7 +110,7 @@ STILL_NAMING_TERMS = {
     "config/source_specs.py": 2,
     "hardware/pose_design.py": 6,
     "inverse/choose.py": 5,
-    "inverse/design.py": 25,
+    "inverse/design.py": 22,
     "inverse/design_map.py": 2,
     "inverse/mirror.py": 15,
     "inverse/nlp.py": 32,

@@ -52,7 +52,10 @@ def summary(res, units=None) -> str:
              f"  variables   : {', '.join(res.vary)}"]
     if d:
         lines.append(f"  design      : h = {number(d['h'], '.8g')}, phi = {degrees(d['phi'])} deg (field axis), "
-                     f"p = {number(d['p'])}")
+                     f"p = {number(d['p'])}"
+                     # the other groups at the design field (h_pos, h_r, THEORY §5, §9)
+                     + "".join(f", {k} = {v:.8g}" for k, v in d.items() if k not in ("h", "phi", "p")
+                               and isinstance(v, float)))
     lines.append(f"  fit         : rms error {res.rms_error:.3e}, largest {res.max_error:.3e}  [rod lengths]")
     phys = _physical(res, units)
     if phys:

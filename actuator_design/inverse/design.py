@@ -45,6 +45,7 @@ from actuator_design.contact.clearance import clearances, entered_at_rest
 from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
+from actuator_design.inverse.design_map import driven_values
 from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
@@ -397,8 +398,8 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
                 **({"magnetization": {"s": s_dense.tolist(), "value": choice.scene.magnetization(s_dense).tolist(),
                                       "legendre_coefficients": [float(c) for c in best.magnetization]}}
                    if "magnetization" in vary else {}),
-                # h_r at the design field (∝ H like h, THEORY §9) whenever the rod has remanence
-                **({"h_r": float(choice.scene.h_r)} if choice.scene.h_r > 0 else {})},
+                # the other groups at the design field (h_pos, h_r ∝ H like h: THEORY §5, §9)
+                **driven_values(choice.scene)},
         vary=vary, schedule=[], message="", scene=problem.base, design_scene=choice.scene, optima=choice.optima,
         alternatives=choice.alternatives, timings=timings, stiffness_target=stiffness,
         achieved_stiffness=getattr(best, "stiffness", None),

@@ -31,9 +31,10 @@ import numpy as np
 
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import term_class
 
 __all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
-           "certificate_matrix", "couple_field_groups", "coupled_scene", "remanence_only"]
+           "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "remanence_only"]
 
 #: The scalar design values whose size the effort costs: the field magnitude and the tip load
 #: (the field angle costs nothing).
@@ -140,3 +141,11 @@ def coupled_scene(base: Scene, sc: Scene) -> Scene:
         return sc
 
     return lens.scale_field(sc, sc.h / base.h, source=base, magnitude=False)
+
+
+def driven_values(scene: Scene) -> dict:
+    """The nonzero groups the field drives besides h in ``scene`` ({name: value}, registration
+    order; h_pos, h_r: THEORY §5, §9), for a report: a design that varies h moves them with it
+    (:func:`coupled_scene`), so h alone does not reproduce the designed state."""
+    return {p.name: float(p.get(scene)) for p, _ in lens.field_groups(magnitude=False)
+            if (p.term is None or term_class(p.term).present(scene)) and p.get(scene) != 0.0}
