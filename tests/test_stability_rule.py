@@ -1,16 +1,16 @@
-"""The stability rule has one home (issue 18 item 2): ``reduced.linalg.classify_spectrum``, used by
-``solver.stability``, ``stability_check`` and the signed distance to a singularity. Checked against
+"""The stability rule has one home (issue 18 item 2): ``reduced.stability.classify_spectrum``, used by
+``solver.stability``, the cheap path verdicts and the signed distance to a singularity. Checked against
 numpy's full spectrum and against the closed form of the transverse-field pitchfork."""
 import math
 
 import numpy as np
 import pytest
 
-from actuator_design.reduced.linalg import classify_spectrum, signed_distance_to_singularity
-from actuator_design.model.scene import default_scene
-from actuator_design.equilibrium.solver import get_solver
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.stability_check import is_unstable, verdict_of
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.model.scene import default_scene
+from actuator_design.reduced.linalg import signed_distance_to_singularity
+from actuator_design.reduced.stability import classify_spectrum, is_unstable, verdict_of
 
 
 @pytest.mark.parametrize("lam,expected", [

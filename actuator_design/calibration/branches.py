@@ -15,7 +15,8 @@ import numpy as np
 import scipy.linalg
 
 from actuator_design.equilibrium.solver import EquilibriumSolver
-from actuator_design.reduced.linalg import certified_stable, mass_scaled
+from actuator_design.reduced.linalg import mass_scaled
+from actuator_design.reduced.stability import certified_stable
 
 __all__ = ["Verdict", "STABLE", "BranchSelector"]
 
@@ -132,8 +133,8 @@ class BranchSelector:
 
     def verdict(self, z: np.ndarray, P: np.ndarray) -> Tuple[Verdict, np.ndarray]:
         """(stability verdict, outputs) at an equilibrium ``z``, by the package's one stability rule
-        (THEORY §7; :func:`~actuator_design.reduced.linalg.classify_spectrum`): a Cholesky factor of
-        M^-1/2 H_r M^-1/2 − τ I certifies "stable" (:func:`~actuator_design.reduced.linalg.certified_stable`);
+        (THEORY §7; :func:`~actuator_design.reduced.stability.classify_spectrum`): a Cholesky factor of
+        M^-1/2 H_r M^-1/2 − τ I certifies "stable" (:func:`~actuator_design.reduced.stability.certified_stable`);
         otherwise the eigen-analysis decides (Morse index, marginal, unstable mode)."""
         Hr, tip = self.f_state(z[1:], P)
         out = self.outputs(tip)

@@ -12,7 +12,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 import scipy.linalg as sla
 
-from actuator_design.reduced.linalg import classify_spectrum
+from actuator_design.reduced.stability import classify_spectrum
 
 __all__ = ["ContactVerdict", "ACTIVE", "CONTACT_WINDOW", "verdict", "one_per_contact", "contact_report",
            "point_loads", "penetration_text"]
@@ -81,7 +81,7 @@ def verdict(H: np.ndarray, A: np.ndarray, m: np.ndarray) -> ContactVerdict:
     ev = sla.eigh(0.5 * (Hz + Hz.T), 0.5 * (Mz + Mz.T), eigvals_only=True)
     # the package's one rule (scaled by the lowest eigenvalue: the largest grows without bound on a
     # short element beside a contact near the tip, and made a stable state "marginal")
-    morse, stable, marginal = classify_spectrum(ev, 1e-9)
+    morse, stable, marginal = classify_spectrum(ev)
     return ContactVerdict(ev[:6], morse, stable, marginal)
 
 

@@ -31,7 +31,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from actuator_design.equilibrium.stability_check import is_unstable
+from actuator_design.reduced.stability import is_unstable
 
 __all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
 
@@ -69,7 +69,7 @@ class StationState:
     snaps, branch_points : tuple of float
         Load fractions (of the path's full load) of the snaps and branch points met before it.
     check : StabilityCheck or None
-        What the path learnt of its stability there (:mod:`actuator_design.equilibrium.stability_check`).
+        What the path learnt of its stability there (:mod:`actuator_design.reduced.stability`).
     newton : bool
         A converged Newton point of the path; False for IPOPT's answer after a branch-point kick
         or a snap, which is not polished (a caller that reports it polishes it first).

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict
-from dataclasses import dataclass
 from typing import Optional, Tuple
 
 import casadi as ca
@@ -40,9 +39,9 @@ from actuator_design.physics.registry import build_terms
 from actuator_design.physics.terms import (node_field_sources, residual_slots, scalar_parameter_values,
                                            structure_key)
 from actuator_design.reduced.kernel import FastKernel
-from actuator_design.reduced.linalg import classify_spectrum
 from actuator_design.reduced.newton import RawSolution, damped_newton, fast_newton
 from actuator_design.reduced.positional import positional_hessian
+from actuator_design.reduced.stability import STABILITY_TOL, StabilityVerdict, kernel_verdict
 from actuator_design.transcription import make_transcription
 
 __all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict", "FastKernel"]
@@ -51,24 +50,6 @@ __all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict",
 #: mesh builds one, and an unbounded cache grew a test session past 3 GB
 SOLVER_CACHE_SIZE = 32
 _CACHE: "OrderedDict[tuple, EquilibriumSolver]" = OrderedDict()
-
-
-@dataclass
-class StabilityVerdict:
-    """Inertia of the reduced Hessian (THEORY §7).
-
-    eigenvalues : smallest generalised eigenvalues of (H_r, M_r), ascending; they approximate the
-        eigenvalues of the second-variation operator −(bη')' + q η with η(0) = 0, free end.
-    eigenvector : the eigenvector of the smallest one (full node vector, 0 at the clamp).
-    morse_index : number of eigenvalues < −tol.
-    stable : all eigenvalues > tol.
-    """
-
-    eigenvalues: np.ndarray
-    eigenvector: np.ndarray
-    morse_index: int
-    stable: bool
-    marginal: bool
 
 
 def _jit_options() -> dict:
@@ -404,19 +385,10 @@ class EquilibriumSolver:
         return fast_newton(self.kernel, z0, params[self._theta0_index],
                            tol * self.residual_scale(params), 10.0 * tol, max_iter)
 
-    def stability(self, z: np.ndarray, params: np.ndarray, k: int = 3, tol: float = 1e-9) -> StabilityVerdict:
-        """Generalised eigenvalues of the reduced Hessian against the lumped mass (THEORY §7)."""
-        ker = self.kernel
-        ker.set_params(params)
-        ker.evaluate(np.asarray(z, float)[1:])
-        lam, v0 = ker.lowest_eigenpairs(k)
-        Ms = np.sqrt(ker.inv_mass)
-        vec = np.zeros(np.size(z))
-        vec[1:] = Ms * v0
-        vec /= np.max(np.abs(vec))
-        morse, stable, marginal = classify_spectrum(lam, tol)
-        return StabilityVerdict(eigenvalues=lam[:k], eigenvector=vec, morse_index=morse, stable=stable,
-                                marginal=marginal)
+    def stability(self, z: np.ndarray, params: np.ndarray, k: int = 3, tol: float = STABILITY_TOL) -> StabilityVerdict:
+        """Generalised eigenvalues of the reduced Hessian against the lumped mass (THEORY §7), judged
+        by the one stability rule (:mod:`actuator_design.reduced.stability`)."""
+        return kernel_verdict(self.kernel, z, params, k, tol)
 
 
 def get_solver(scene: Scene, options: SolverOptions) -> EquilibriumSolver:

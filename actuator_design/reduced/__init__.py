@@ -6,6 +6,7 @@
 * :mod:`.positional` — the dense Hessian of an energy that reads positions, assembled as Φᵀ K Φ;
 * :mod:`.newton` — the equilibrium Newtons (damped, fast) and Newton on augmented systems;
 * :mod:`.linalg` — bordered solve, inertia, lowest eigenpairs (banded or dense storage);
+* :mod:`.stability` — the one stability rule and the verdicts made by it (THEORY §7);
 * :mod:`.fold` — the fold locator (Moore–Spence).
 """
 from actuator_design.reduced.fold import FoldPoint, locate_fold

@@ -22,38 +22,15 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import blas, lapack
 
-__all__ = ["classify_spectrum", "certified_stable", "STABILITY_TOL", "lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
+from actuator_design.reduced.stability import classify_spectrum
+
+__all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
            "banded_negatives", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
            "lu_det_sign", "mass_scaled", "null_vector"]
 
 _dsytrf, _dsyevr, _dsysv, _dpotrf = lapack.dsytrf, lapack.dsyevr, lapack.dsysv, lapack.dpotrf
 _dgbsv, _dpbtrf, _dsbmv = lapack.dgbsv, lapack.dpbtrf, blas.dsbmv
 _EPS = float(np.finfo(float).eps)
-
-
-#: Relative tolerance of the stability rule (:func:`classify_spectrum`).
-STABILITY_TOL = 1e-9
-
-
-def classify_spectrum(lam, tol: float = STABILITY_TOL) -> Tuple[int, bool, bool]:
-    """The stability rule, in one place: (Morse index, stable, marginal) from the smallest
-    eigenvalues ``lam`` (ascending) of the reduced Hessian against the mass (THEORY §7).
-
-    With the scale τ = tol · max(1, |λ0|): the Morse index counts λ < −τ, the state is stable when
-    λ0 > τ and marginal when |λ0| ≤ τ (a marginal eigenvalue is no direction of descent, and no
-    proof of stability either). Every stability verdict of the package is made by this rule.
-    """
-    lam = np.asarray(lam, float)
-    scale = tol * max(1.0, abs(float(lam[0])))
-    return int(np.sum(lam < -scale)), bool(lam[0] > scale), bool(abs(lam[0]) <= scale)
-
-
-def certified_stable(A: np.ndarray, tol: float = STABILITY_TOL) -> bool:
-    """Whether A − τ I has a Cholesky factor, A = M^-1/2 H M^-1/2 (n, n) dense: then every
-    eigenvalue exceeds τ and :func:`classify_spectrum` calls the state stable (Morse index 0, not
-    marginal) — the rule's verdict at the cost of one factorisation. False says only that the
-    eigenvalues must decide. ``A`` is not modified."""
-    return _dpotrf(A - tol * np.eye(A.shape[0]), lower=0, clean=0, overwrite_a=1)[1] == 0
 
 
 def mass_scaled(H: np.ndarray, inv_sqrt_mass: np.ndarray) -> np.ndarray:

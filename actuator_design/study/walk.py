@@ -42,7 +42,7 @@ from actuator_design.equilibrium.balance import balance_many, operator_for
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.equilibrium.single import make_result, solve_on
 from actuator_design.equilibrium.solver import get_solver
-from actuator_design.equilibrium.stability_check import verdict_of
+from actuator_design.reduced.stability import verdict_of
 from actuator_design.study.grid import Axis, point_values, substitute
 from actuator_design.study.point import flatten, one_point
 
