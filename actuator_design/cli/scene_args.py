@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from dataclasses import replace
 from typing import Dict, Optional
 
@@ -116,27 +117,49 @@ def add_set_arg(parser) -> None:
     """--set NAME=VALUE (repeatable), in its own argument group: any value of the parameter lens,
     e.g. a plug-in term's."""
     parser.add_argument_group("any value of the parameter lens").add_argument("--set", action="append", metavar="NAME=VALUE", dest="set_values",
-                       help="set a dimensionless scene value of the parameter lens (THEORY §5), adding its "
-                            "term when absent, e.g. a plug-in term's stiffness (repeatable; `actuator-design "
-                            "continue --help` lists the names under --param)")
+                       help="set a scene value of the parameter lens (THEORY §5), adding its term when "
+                            "absent, e.g. a plug-in term's stiffness (repeatable; `actuator-design continue "
+                            "--help` lists the names under --param). A plain number is dimensionless (angles "
+                            "in rad); a value with a unit is converted: angles ('phi=30deg') always, fields, "
+                            "loads and stiffnesses on a physical scene ('h=2mT': the applied field, which "
+                            "moves every group it drives with it)")
 
 
 def apply_set_flags(scene, args):
     """``scene`` with every ``--set NAME=VALUE`` applied through the parameter lens, in order (after
     the other scene flags: ``--set h=2`` wins over ``--h``). A command that does not rebuild its
     scene through :func:`build_scene` checks it again with :func:`check_flags`."""
+    from actuator_design.io.user_units import parameter_from_text, user_units
     from actuator_design.physics import parameters as lens
 
     for text in getattr(args, "set_values", None) or ():
         name, eq, value = text.partition("=")
-        name = name.strip()
+        name, value = name.strip(), value.strip()
         if not eq or not name:
             raise InputError(f"--set: expected NAME=VALUE, got {text!r:.80}")
         with bad_input("--set: "):
-            lens.parameter(name)
-        with bad_input("--set "):  # the lens names the parameter, its range and the value
-            scene = lens.set_value(scene, name, value.strip())
+            param = lens.parameter(name)
+        if _has_unit(value):  # converted by the scene's scales (one line naming --set NAME if it cannot be)
+            with bad_input():
+                number = parameter_from_text(value, param, user_units(scene), f"--set {name}")
+            with bad_input("--set "):
+                # a field given as a field is the applied field: every group it drives follows
+                scene = (lens.apply_values(scene, {name: number}) if param.field_magnitude
+                         else lens.set_value(scene, name, number))
+        else:
+            with bad_input("--set "):  # the lens names the parameter, its range and the value
+                scene = lens.set_value(scene, name, value)
     return scene
+
+
+def _has_unit(value: str) -> bool:
+    """Whether a --set value is a number followed by a unit ('30deg', '2 mT'), not a plain number
+    (which the lens reads and range-checks itself, 'nan' and 'inf' included)."""
+    try:
+        float(value)
+    except ValueError:
+        return bool(re.match(r"^\s*[+-]?(\d|\.\d)", value))
+    return False
 
 
 def check_flags(scene, options) -> None:
