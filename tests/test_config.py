@@ -409,6 +409,24 @@ def test_group_ranges_on_dimensionless_scenes():
     load_config(dimensionless(h=1e4, p=-1e5, tip_moment=1e5))  # the bounds themselves are valid
 
 
+def test_the_valid_ranges_are_the_terms_own_and_every_scene_is_checked_against_them():
+    """Issue 18: a term declares the range of its groups (``Parameter.valid_range``); the config's
+    ranges are read from the registered terms, and a scene built in Python is checked against them
+    whether or not it has the term (a remanent group of 2e8 is out of range even before a
+    magnetisation is given)."""
+    from actuator_design.config.checks import check_scene_groups
+    from actuator_design.config.limits import GROUP_RANGES
+    from actuator_design.physics import parameters as lens
+
+    for name, rng in GROUP_RANGES.items():
+        assert (rng.lo, rng.hi) == lens.parameter(name).valid_range
+    assert (GROUP_RANGES["h"].lo, GROUP_RANGES["h"].hi) == (0.0, 1e4)
+    for field, value, named in (("h_r", 2e8, "h_r"), ("tip_moment", -2e5, "m_tip"), ("h_pos", 1e5, "h_pos")):
+        with pytest.raises(ConfigError, match=rf"^scene\.{named}: must be a finite number in"):
+            check_scene_groups(Scene(**{field: value}), "scene.")
+    check_scene_groups(Scene(h_r=1e8, tip_moment=-1e5, h_pos=1e4), "scene.")  # the bounds are valid
+
+
 def test_derived_group_overflow_names_its_sources():
     message = error_of(physical(**{"rod.length": "1e308 m"}))
     assert message.startswith("scene.h: derived h = inf") and "rod.length = 1e+308 m" in message

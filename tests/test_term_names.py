@@ -102,7 +102,6 @@ STILL_NAMING_TERMS = {
     "cli/stiffness.py": 1,
     "cli/validate.py": 28,
     "config/dimensionless.py": 40,
-    "config/limits.py": 20,
     "config/magnetic_specs.py": 66,
     "config/model.py": 3,
     "config/physical.py": 61,

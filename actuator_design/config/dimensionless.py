@@ -123,7 +123,7 @@ class DimensionlessScene(StrictModel):
                 ("h", self.h, "h"), ("h_pos", self.h_pos, "h_pos"), ("h_r", self.h_r, "h_r"),
                 ("p", self.p, "p"),
                 ("fx", tip and tip.x, "tip_force.x"), ("p", tip and tip.y, "tip_force.y"),
-                ("tip_moment", self.tip_moment, "tip_moment"),
+                ("m_tip", self.tip_moment, "tip_moment"),
                 ("qx", load and load.x, "distributed_load.x"),
                 ("qy", load and load.y, "distributed_load.y")):
             problem = None if value is None else group_problem(group, value)

@@ -62,10 +62,12 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import Iterable, Optional, Tuple
+from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple
 
 import numpy as np
 from numpy.polynomial import legendre
+
+from actuator_design.physics import parameters as lens
 
 __all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS", "MEMORY_BUDGET",
            "BYTES_PER_UNKNOWN", "BYTES_PER_ENTRY", "ROUNDING_MARGIN", "ROUNDING_K", "smallest_spacing",
@@ -125,18 +127,27 @@ MAGNETIZATION_WHY = ("physically plausible: the strongest permanent magnets reac
 MAX_SUSCEPTIBILITY = 1.0e6
 SUSCEPTIBILITY_WHY = "physically plausible: no material exceeds about 1e6 (supermalloy)"
 
-_LOAD = 1e5
-#: The valid range of each dimensionless group (THEORY §5), by the name it has in a scene.
-GROUP_RANGES = {
-    "h": GroupRange("h", 0.0, 1e4),
-    "h_pos": GroupRange("h_pos", 0.0, 1e4),
-    "h_r": GroupRange("h_r", 0.0, 1e8),
-    "fx": GroupRange("fx", -_LOAD, _LOAD),
-    "p": GroupRange("p", -_LOAD, _LOAD),
-    "tip_moment": GroupRange("tip_moment", -_LOAD, _LOAD),
-    "qx": GroupRange("qx", -_LOAD, _LOAD),
-    "qy": GroupRange("qy", -_LOAD, _LOAD),
-}
+class _GroupRanges(Mapping):
+    """The valid range of each dimensionless group (THEORY §5), by its name in the parameter lens:
+    every scalar parameter a term declares a range for (``Parameter.valid_range``), read from the
+    registered terms when asked (a plug-in term registered later is seen too)."""
+
+    def _ranges(self) -> Dict[str, GroupRange]:
+        return {n: GroupRange(n, *p.valid_range) for n, p in lens.parameters().items()
+                if not p.per_point and p.valid_range != (-math.inf, math.inf)}
+
+    def __getitem__(self, name: str) -> GroupRange:
+        return self._ranges()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._ranges())
+
+    def __len__(self) -> int:
+        return len(self._ranges())
+
+
+#: The valid range of each dimensionless group (THEORY §5), by its lens name (``GROUP_RANGES["h"]``).
+GROUP_RANGES: Mapping[str, GroupRange] = _GroupRanges()
 
 
 def group_problem(name: str, value: float) -> Optional[str]:
@@ -148,19 +159,15 @@ def group_problem(name: str, value: float) -> Optional[str]:
 
 
 def scene_group_values(scene) -> Iterable[Tuple[str, float]]:
-    """``(group name, value)`` of every group a :class:`~actuator_design.model.scene.Scene` sets."""
-    yield "h", scene.h
-    yield "h_pos", scene.h_pos
-    if scene.magnetization is not None:
-        yield "h_r", scene.h_r
-    if scene.tip_force is not None:
-        yield "fx", scene.tip_force[0]
-        yield "p", scene.tip_force[1]
-    if scene.tip_moment is not None:
-        yield "tip_moment", scene.tip_moment
-    if scene.distributed_load is not None:
-        yield "qx", scene.distributed_load[0]
-        yield "qy", scene.distributed_load[1]
+    """``(group name, value)`` of every ranged group of a :class:`~actuator_design.model.scene.Scene`,
+    one per NLP slot (``p`` for the vertical tip load, not its alias ``fy``), in registration order
+    (0 where the scene lacks the term)."""
+    slots = set()
+    for name in GROUP_RANGES:
+        p = lens.parameter(name)
+        if p.slot not in slots:
+            slots.add(p.slot)
+            yield name, p.get(scene)
 
 
 def unknowns(transcription: str, elements: int, degree: int) -> int:

@@ -268,8 +268,8 @@ class PhysicalScene(StrictModel):
                 sources["fx"] = sources["p"] = rod.sources() + [
                     f"loads.tip_force = ({loads.tip_force.x:g}, {loads.tip_force.y:g}) N"]
             if loads.tip_moment is not None:
-                values["tip_moment"] = float(loads.tip_moment * np.float64(length) / b0)
-                sources["tip_moment"] = rod.sources() + [f"loads.tip_moment = {loads.tip_moment:g} N m"]
+                values["m_tip"] = float(loads.tip_moment * np.float64(length) / b0)
+                sources["m_tip"] = rod.sources() + [f"loads.tip_moment = {loads.tip_moment:g} N m"]
             q = loads.line_load(area)
             if q is not None:
                 line = np.float64(length) ** 3 / b0
@@ -302,7 +302,7 @@ class PhysicalScene(StrictModel):
             h_r=v.get("h_r", 0.0) if hard else 0.0,
             magnetization=_profile(self.magnetization, 0.0) if hard else None,
             tip_force=(v["fx"], v["p"]) if "p" in v else None,
-            tip_moment=v.get("tip_moment"),
+            tip_moment=v.get("m_tip"),
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field,

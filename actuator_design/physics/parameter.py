@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Optional
+from typing import Callable, Optional, Tuple
 
 import numpy as np
 
@@ -69,6 +69,11 @@ class Parameter:
     flag_help : str or None
         The help of the parameter's own command-line flag on every scene command (``--<name>``, an
         angle as ``--<name>-deg`` in degrees; :attr:`flag`); None: set it with ``--set`` only.
+    scene_range : (float, float) or None
+        The closed range a scene's value must lie in for the solver to honour it (checked for every
+        scene from a config or the command line, ``config/limits.py``; e.g. h ≤ 1e4: the clamp
+        layer of width ~1/h must stay resolvable, THEORY §5), when narrower than [lower, upper];
+        None: [lower, upper] (:attr:`valid_range`).
     """
 
     name: str
@@ -92,6 +97,12 @@ class Parameter:
     remanent_field: bool = False
     profile_label: Optional[str] = None
     flag_help: Optional[str] = None
+    scene_range: Optional[Tuple[float, float]] = None
+
+    @property
+    def valid_range(self) -> Tuple[float, float]:
+        """The closed range a scene's value must lie in (:attr:`scene_range`, else [lower, upper])."""
+        return self.scene_range if self.scene_range is not None else (self.lower, self.upper)
 
     @property
     def flag(self) -> str:

@@ -189,10 +189,13 @@ def _load(sc: Scene, i: int, v: Optional[float] = None):
 
 _H_KW = dict(term="field_orientation", lower=0.0, field_magnitude=True, residual="squared",
              ensure=_with_field)
+#: The valid ranges of the groups (config/limits.py): h ≤ 1e4 keeps the clamp layer of width ~1/h
+#: resolvable; a load's layer has width ~1/√|p| and its residuals grow like |p| (THEORY §5).
+H_RANGE, LOAD_RANGE = (0.0, 1e4), (-1e5, 1e5)
 #: dead loads are ∝ 1/B0 (THEORY §5)
-_F_KW = dict(term="tip_force", residual="linear", stiffness_power=-1.0,
+_F_KW = dict(term="tip_force", residual="linear", stiffness_power=-1.0, scene_range=LOAD_RANGE,
              ensure=lambda sc: sc if sc.tip_force is not None else replace(sc, tip_force=(0.0, 0.0)))
-_Q_KW = dict(unit="B0/l^3", term="distributed_load", residual="linear", stiffness_power=-1.0,
+_Q_KW = dict(unit="B0/l^3", term="distributed_load", residual="linear", stiffness_power=-1.0, scene_range=LOAD_RANGE,
              ensure=lambda sc: sc if sc.distributed_load is not None else replace(sc, distributed_load=(0.0, 0.0)))
 
 
@@ -225,10 +228,12 @@ class FieldOrientation(EnergyTerm):
     parameters = (
         Parameter("h", "field group h", "1", "h", read=lambda sc: sc.h,
                   write=lambda sc, v: replace(sc, h=v, field=sc.field or UniformField()),
-                  field_power=1, designable=True, stiffness_power=-0.5, susceptibility_power=0.5, **_H_KW),
+                  field_power=1, designable=True, stiffness_power=-0.5, susceptibility_power=0.5,
+                  scene_range=H_RANGE, **_H_KW),
         Parameter("h2", "h squared", "1", "h", read=lambda sc: sc.h ** 2,
                   write=lambda sc, v: replace(sc, h=float(np.sqrt(v)), field=sc.field or UniformField()),
-                  transform="sqrt", field_power=2, stiffness_power=-1.0, susceptibility_power=1.0, **_H_KW),
+                  transform="sqrt", field_power=2, stiffness_power=-1.0, susceptibility_power=1.0,
+                  scene_range=(0.0, H_RANGE[1] ** 2), **_H_KW),
         Parameter("phi", "uniform field angle phi", "rad", "phi", read=lambda sc: sc.phi,
                   write=lambda sc, v: replace(sc, field=UniformField(phi=v)), term="field_orientation",
                   ensure=_with_uniform_field, designable=True),
@@ -284,7 +289,7 @@ class FieldPosition(EnergyTerm):
         Parameter("h_pos", "positional field group h_pos (non-uniform fields)", "1", "h_pos",
                   read=lambda sc: sc.h_pos, write=lambda sc, v: replace(sc, h_pos=v),
                   term="field_position", lower=0.0, field_power=1, residual="squared",
-                  stiffness_power=-0.5, susceptibility_power=0.5),
+                  stiffness_power=-0.5, susceptibility_power=0.5, scene_range=H_RANGE),
     )
 
     def __init__(self, field: FieldModel):
@@ -369,7 +374,7 @@ class TipMoment(EnergyTerm):
     parameters = (
         Parameter("m_tip", "tip moment", "B0/l", "m_tip", read=lambda sc: sc.tip_moment or 0.0,
                   write=lambda sc, v: replace(sc, tip_moment=v), term="tip_moment", residual="linear",
-                  stiffness_power=-1.0,
+                  stiffness_power=-1.0, scene_range=LOAD_RANGE,
                   ensure=lambda sc: sc if sc.tip_moment is not None else replace(sc, tip_moment=0.0)),
     )
 
