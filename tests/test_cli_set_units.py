@@ -45,6 +45,8 @@ def test_a_field_with_a_unit_is_the_applied_field_and_moves_every_group_it_drive
     ([DIPOLE, "--set", "p=1 mT"], "--set p: expected a force"),
     (["--set", "phi=1e9deg"], "--set phi: must be a finite angle in"),
     (["--set", "phi=30 furlongs"], "--set phi"),
+    (["--set", "phi=1e300"], "--set phi: must be a finite angle in [-17453.3, 17453.3] rad, got 1e+300 rad"),
+    (["--set", "alpha=-2e4"], "--set alpha: must be a finite angle in"),
 ])
 def test_a_value_with_a_wrong_unit_is_one_line_naming_the_flag(capsys, argv, message):
     assert main(["solve", *argv]) == 2

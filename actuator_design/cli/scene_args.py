@@ -11,8 +11,8 @@ import re
 from dataclasses import replace
 from typing import Dict, Optional
 
-from actuator_design.cli.common import (InputError, bad_input, check_angle_deg, finite_float, load_config,
-                     nonnegative_float)
+from actuator_design.cli.common import (InputError, bad_input, check_angle_deg, check_parameter_angle,
+                                        finite_float, load_config, nonnegative_float)
 
 __all__ = ["SCENE_KEYS", "add_scene_args", "validate_study", "build_scene", "add_term_flags",
            "apply_term_flags", "add_set_arg", "apply_set_flags", "check_flags"]
@@ -149,6 +149,7 @@ def apply_set_flags(scene, args):
         else:
             with bad_input("--set "):  # the lens names the parameter, its range and the value
                 scene = lens.set_value(scene, name, value)
+            check_parameter_angle(name, float(value), f"--set {name}")  # an angle in rad within ±MAX_ANGLE_DEG
     return scene
 
 
