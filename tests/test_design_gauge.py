@@ -13,12 +13,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from actuator_design.inverse.design import DesignSettings
-from actuator_design.inverse.nlp import DesignRequest, get_design_nlp, prepare_scene
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.inverse.design import DesignSettings
+from actuator_design.inverse.design_map import prepare_scene
+from actuator_design.inverse.nlp import DesignRequest, get_design_nlp
 from actuator_design.model.profiles import constant_profile, legendre_profile
-from actuator_design.reference.shooting import ShootingParams, solve_shooting
 from actuator_design.model.scene import default_scene
+from actuator_design.reference.shooting import ShootingParams, solve_shooting
 
 OPTS = SolverOptions()
 VARY = ["h", "phi", "alpha"]

@@ -18,15 +18,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from actuator_design.physics import parameters as lens
+from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.design import design
-from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene
+from actuator_design.inverse.design_map import prepare_scene
+from actuator_design.inverse.nlp import DESIGN_VARIABLES
 from actuator_design.inverse.settings import DesignSettings, normalise_phi, phi_period
 from actuator_design.inverse.verify import _ramp, _ramp_then_rotate, ramped_groups
-from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.model.profiles import constant_profile
-from actuator_design.reference.shooting import ShootingParams, solve_shooting
 from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics import parameters as lens
+from actuator_design.reference.shooting import ShootingParams, solve_shooting
 
 DEFAULT = SolverOptions()
 

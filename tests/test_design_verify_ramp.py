@@ -59,8 +59,9 @@ def test_the_certificate_of_a_big_dense_hessian_is_refused_before_it_exhausts_me
     when its certified design NLP was built (the process was killed); the bound refuses it in one
     line, while banded Hessians and the foundation's smaller dense one keep their certificate."""
     from actuator_design.config import load_config
+    from actuator_design.inverse.design_map import prepare_scene
     from actuator_design.inverse.ldl import CertificateTooLarge, check_certificate_size
-    from actuator_design.inverse.nlp import get_design_nlp, prepare_scene
+    from actuator_design.inverse.nlp import get_design_nlp
 
     cfg = load_config(Path(__file__).resolve().parents[1] / "configs" / "permanent_magnet_dipole.yaml")
     dipole = get_design_nlp(prepare_scene(cfg.to_scene(), ("h",)), ("h",), cfg.solver_options(), 4)

@@ -11,21 +11,22 @@ import math
 
 import numpy as np
 import pytest
+from test_loading import shooting_fold
 
 from actuator_design.continuation.follow import continue_branch
-from actuator_design.inverse.design import DesignSettings, design
-from actuator_design.inverse.nlp import get_design_nlp, prepare_scene
-from actuator_design.robust.robustness import evaluate_robustness, follow_segment
-from actuator_design.robust.tolerances import Tolerances, parse_tolerances, perturb
-from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.inverse.design import DesignSettings, design
+from actuator_design.inverse.design_map import prepare_scene
+from actuator_design.inverse.nlp import get_design_nlp
 from actuator_design.model.profiles import (constant_profile, expression_profile, legendre_profile,
-                                      table_profile)
+                                            table_profile)
+from actuator_design.model.scene import default_scene
 from actuator_design.reference.closed_forms import critical_field_transverse
 from actuator_design.reference.shooting import ShootingParams, jacobi_morse_index, solve_shooting
-from actuator_design.model.scene import default_scene
-from actuator_design.equilibrium.solver import get_solver
-from test_loading import shooting_fold
+from actuator_design.robust.robustness import evaluate_robustness, follow_segment
+from actuator_design.robust.tolerances import Tolerances, parse_tolerances, perturb
 
 OPTS = SolverOptions()
 HALF_PI = 0.5 * math.pi

@@ -7,7 +7,7 @@ import math
 from typing import Dict, List, Optional
 
 from actuator_design.config.limits import GROUP_RANGES
-from actuator_design.inverse.nlp import DesignPoint, DesignRequest
+from actuator_design.inverse.nlp import PROFILE_VARIABLES, DesignPoint, DesignRequest
 from actuator_design.inverse.optimise import candidate, design_vector, optimise
 from actuator_design.inverse.screen import screen
 from actuator_design.inverse.settings import (Choice, DesignProblem, Optimised, normalise_phi, phi_period,
@@ -110,9 +110,9 @@ def optimum_dict(vary, pt: DesignPoint, target, period: float = math.pi) -> Dict
     """One entry of the ``optima`` list of the JSON contract (φ reported in (−period/2, period/2];
     ``magnetization_coefficients`` only when the magnetisation profile is designed)."""
     out = {"vary": list(vary), "h": pt.h, "phi": normalise_phi(pt.phi, period), "p": pt.p,
-           "alpha_coefficients": [float(c) for c in pt.coefficients],
-           **({"magnetization_coefficients": [float(c) for c in pt.magnetization]}
-              if "magnetization" in vary else {}),
+           # α's always (empty when not designed), every other profile's when it is designed
+           **{f"{v}_coefficients": [float(c) for c in pt.profile(v)] for v in PROFILE_VARIABLES
+              if v == "alpha" or v in vary},
            "tip": {"x": float(pt.tip[0]), "y": float(pt.tip[1]), "angle": float(pt.tip[2])},
            "error": tip_error(pt.tip, target) if target else 0.0, "stage": pt.stage}
     if getattr(pt, "stiffness", None) is not None:

@@ -45,10 +45,10 @@ from actuator_design.contact.clearance import clearances, entered_at_rest
 from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
-from actuator_design.inverse.design_map import driven_values
+from actuator_design.inverse.design_map import driven_values, prepare_scene, profile_report, remanence_only
 from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
-from actuator_design.inverse.nlp import DESIGN_VARIABLES, prepare_scene, remanence_only
+from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
 from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult,  # noqa: F401
                                               DesignSettings, Optimised, Verification, canonical_target,
@@ -385,19 +385,14 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     """
     best, vary, target, stiffness = choice.point, choice.candidate.vary, problem.target, problem.stiffness
     notes = list(problem.notes) + list(choice.notes)
-    s_dense = np.linspace(0.0, 1.0, 201)
     result = DesignResult(
         success=False, reachable=choice.reachable, verified=False, stable=False, snap_free=False, target=target,
         achieved={"x": best.tip[0], "y": best.tip[1], "angle": best.tip[2]},
         error=tip_error(best.tip, target) if target else 0.0,
         design={"h": best.h, "phi": normalise_phi(best.phi, phi_period(choice.scene)) if "phi" in vary
                 else best.phi, "p": best.p,
-                "alpha": {"s": s_dense.tolist(), "value": choice.scene.fibres(s_dense).tolist(),
-                          "legendre_coefficients": [float(c) for c in best.coefficients]},
-                # the remanent magnetisation angle β(s), rad, when it is designed (THEORY §9)
-                **({"magnetization": {"s": s_dense.tolist(), "value": choice.scene.magnetization(s_dense).tolist(),
-                                      "legendre_coefficients": [float(c) for c in best.magnetization]}}
-                   if "magnetization" in vary else {}),
+                # the fibre layout α(s), and the remanent magnetisation angle β(s) when it is designed
+                **profile_report(choice.scene, best.profiles, vary),
                 # the other groups at the design field (h_pos, h_r ∝ H like h: THEORY §5, §9)
                 **driven_values(choice.scene)},
         vary=vary, schedule=[], message="", scene=problem.base, design_scene=choice.scene, optima=choice.optima,
@@ -496,5 +491,5 @@ def run_design(scene, options, target=None, vary=None, stiffness=None, **setting
     res = design(target, scene=scene, vary=vary, options=options, settings=DesignSettings(**settings),
                  stiffness=stiffness)
     out = res.to_dict()
-    out["design"] = {k: v for k, v in out["design"].items() if k not in ("alpha", "magnetization")}
+    out["design"] = {k: v for k, v in out["design"].items() if k not in PROFILE_VARIABLES}
     return out

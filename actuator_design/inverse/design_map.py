@@ -24,17 +24,25 @@ plug-in term's field-driven values follow too.
 """
 from __future__ import annotations
 
-from typing import Mapping, Tuple
+from dataclasses import replace
+from typing import Mapping, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
 
-from actuator_design.model.scene import Scene
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import term_class
 
 __all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
-           "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "remanence_only"]
+           "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "prepare_scene",
+           "profile_report", "remanence_only"]
+
+#: The design variables (the lens entries flagged designable): scalars written into their NLP slots,
+#: and profiles designed as Legendre series (α(s), β(s))
+_SCALAR_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
+_PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point)
 
 #: The scalar design values whose size the effort costs: the field magnitude and the tip load
 #: (the field angle costs nothing).
@@ -149,3 +157,50 @@ def driven_values(scene: Scene) -> dict:
     (:func:`coupled_scene`), so h alone does not reproduce the designed state."""
     return {p.name: float(p.get(scene)) for p, _ in lens.field_groups(magnitude=False)
             if (p.term is None or term_class(p.term).present(scene)) and p.get(scene) != 0.0}
+
+
+def profile_report(scene: Scene, profiles: Mapping[str, np.ndarray], vary) -> dict:
+    """The design's profiles as its report gives them: {name: {"s", "value", "legendre_coefficients"}}
+    with the profile of ``scene`` (rad) at 201 points of s ∈ [0, 1] and its Legendre coefficients
+    from ``profiles`` (by lens name). The fibre layout α(s) always (coefficients empty when it is not
+    designed: the JSON contract), every other profile (β(s), THEORY §9) when ``vary`` designs it."""
+    s = np.linspace(0.0, 1.0, 201)
+    return {v: {"s": s.tolist(), "value": p.profile(scene)(s).tolist(),
+                "legendre_coefficients": [float(c) for c in profiles.get(v, ())]}
+            for v, p in lens.designable().items() if p.per_point and (v == "alpha" or v in vary)}
+
+
+def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
+    """Make sure the scene contains the terms the design varies (through the parameter lens: a
+    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``, the
+    hard-magnetic term for ``magnetization``) and a profile the Legendre series can replace for
+    ``alpha`` and ``magnetization``.
+
+    Raises
+    ------
+    ValueError
+        A variable its parameter says cannot be designed on this scene (``Parameter.design_check``:
+        β(s) without remanence), or h on a rod whose field acts through its remanence alone.
+    """
+    for v in vary:
+        check = lens.parameter(v).design_check
+        problem = check(scene) if check is not None else None
+        if problem:
+            raise ValueError(f"--vary {v}: {problem}")
+    groups = [p for p in lens.parameters().values() if p.remanent_field and p.get(scene) > 0]
+    if "h" in vary and groups and not scene.h > 0:  # the field acts through the remanent groups alone
+        profiles = [v for v in _PROFILE_VARIABLES if lens.parameter(v).term in {p.term for p in groups}]
+        raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
+                         f"through {', '.join(p.name for p in groups)} alone; design phi"
+                         f"{''.join(' and/or ' + v for v in profiles)} at the scene's field magnitude")
+    if ("h" in vary or "phi" in vary) and scene.field is None:
+        scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
+    try:
+        scene = lens.prepare_scene(scene, [v for v in vary if v in _SCALAR_VARIABLES], "design variable")
+    except ValueError as err:
+        raise ValueError(f"--vary {err}") from None
+    for v in _PROFILE_VARIABLES:  # a profile the Legendre series can replace
+        par = lens.parameter(v)
+        if v in vary and par.profile(scene).kind not in ("constant", "legendre"):
+            scene = par.with_profile(scene, constant_profile(0.0))
+    return scene

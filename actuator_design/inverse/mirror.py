@@ -73,9 +73,9 @@ def mirrored_problem(problem: DesignProblem) -> Optional[DesignProblem]:
 
 
 def _mirror_point(pt: DesignPoint) -> DesignPoint:
-    out = replace(pt, phi=-pt.phi, coefficients=-np.asarray(pt.coefficients, float), p=-pt.p,
-                  z=-np.asarray(pt.z, float), tip=np.array([pt.tip[0], -pt.tip[1], -pt.tip[2]]),
-                  magnetization=-np.asarray(pt.magnetization, float))
+    out = replace(pt, phi=-pt.phi, p=-pt.p, z=-np.asarray(pt.z, float),
+                  tip=np.array([pt.tip[0], -pt.tip[1], -pt.tip[2]]),
+                  profiles={k: -np.asarray(c, float) for k, c in pt.profiles.items()})
     for name in ("certified", "stiffness"):  # attributes some stages attach
         if hasattr(pt, name):
             setattr(out, name, getattr(pt, name))
@@ -86,9 +86,9 @@ def _mirror_optimum(d: Dict[str, object], period: float) -> Dict[str, object]:
     out = dict(d)
     out["phi"] = normalise_phi(-float(d["phi"]), period)
     out["p"] = -float(d["p"])
-    out["alpha_coefficients"] = [-float(c) for c in d.get("alpha_coefficients", [])]
-    if "magnetization_coefficients" in d:
-        out["magnetization_coefficients"] = [-float(c) for c in d["magnetization_coefficients"]]
+    for key, coefficients in d.items():  # every profile's Legendre coefficients (α, β) change sign
+        if key.endswith("_coefficients"):
+            out[key] = [-float(c) for c in coefficients]
     tip = d["tip"]
     out["tip"] = {"x": tip["x"], "y": -tip["y"], "angle": -tip["angle"]}
     return out

@@ -24,14 +24,14 @@ Field scaling (THEORY §5, §9): h ∝ H, h_pos ∝ H and h_r ∝ H. The field i
 design varies h, and every other group it drives moves with it, h_r = h·(h_r0/h0) and
 h_pos = h·(h_pos0/h0) with the base scene's ratios (:mod:`actuator_design.inverse.design_map`, the
 one map of every design NLP; a rod without soft coupling, h0 = 0, has no h to vary:
-:func:`prepare_scene` says so). The verification's loading path
+:func:`~actuator_design.inverse.design_map.prepare_scene` says so). The verification's loading path
 ramps the field H from 0 to the design's, so all groups grow linearly along it, h = t·h_d and
 h_r = t·h_r,d (:mod:`actuator_design.inverse.verify`).
 """
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Dict, Optional, Sequence, Tuple
 
 import casadi as ca
@@ -41,11 +41,11 @@ from actuator_design.contact.clearance import clearance_rows
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
-                                                design_params, remanence_only, scalar_bounds)
+                                                design_params, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
 from actuator_design.inverse.ldl import CertificateTooLarge, SegmentedLDL, check_certificate_size
-from actuator_design.model.profiles import constant_profile, legendre_profile
-from actuator_design.model.scene import Scene, UniformField
+from actuator_design.model.profiles import legendre_profile
+from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import build_terms
 from actuator_design.physics.terms import structure_key
@@ -60,7 +60,11 @@ DESIGN_VARIABLES = {n: (f"{n}(s), a Legendre series" if p.per_point else p.descr
 _LENS_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
 #: The designed profiles (per-point lens entries) and their bound's key in ``DesignRequest.bounds``.
 PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point)
-PROFILE_BOUNDS = {"alpha": "alpha_max", "magnetization": "magnetization_max"}
+
+
+def profile_bound(name: str) -> str:
+    """The bound (a key of ``DesignSettings.bounds()``) of a designed profile: |profile(s)| ≤ <name>_max."""
+    return f"{name}_max"
 
 _CACHE: Dict[tuple, "DesignNLP"] = {}
 #: Field group up to which stage A's effort weights apply as they are (the default h_max).
@@ -88,15 +92,24 @@ class DesignPoint:
 
     h: float
     phi: float
-    coefficients: np.ndarray  # Legendre coefficients of α(s); length K+1 (K = -1: α unchanged)
     p: float
     z: np.ndarray  # θ at all nodes
     tip: np.ndarray  # (x, y, angle)
     converged: bool
     status: str
     stage: str
-    #: Legendre coefficients of β(s) (rad); empty when the magnetisation is not designed
-    magnetization: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: the Legendre coefficients (rad) of each designed profile by its lens name (α(s), β(s):
+    #: :data:`PROFILE_VARIABLES`); a profile not designed is absent
+    profiles: Dict[str, np.ndarray] = field(default_factory=dict)
+
+    def profile(self, name: str) -> np.ndarray:
+        """The Legendre coefficients of the profile ``name`` (empty when it is not designed)."""
+        return np.asarray(self.profiles.get(name, np.zeros(0)), float)
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """The fibre layout α(s)'s Legendre coefficients (empty when it is not designed)."""
+        return self.profile("alpha")
 
 
 class DesignNLP:
@@ -106,7 +119,7 @@ class DesignNLP:
     ----------
     scene : Scene
         Base scene; values not designed stay as given. Must have a uniform field to vary ``phi``
-        and a tip force to vary ``p`` (``prepare_scene`` adds one).
+        and a tip force to vary ``p`` (:func:`~actuator_design.inverse.design_map.prepare_scene` adds one).
     vary : sequence of str
         Subset of :data:`DESIGN_VARIABLES`.
     options : SolverOptions
@@ -241,21 +254,28 @@ class DesignNLP:
                            [q["eq"], certificate_matrix(q["H"], q["m"])])
 
     # -- helpers --------------------------------------------------------------------------------
-    def design_vector(self, h=None, phi=None, coefficients=None, p=None, magnetization=None) -> np.ndarray:
-        """The design vector, shape (nd,), from the design values (``coefficients``: α's Legendre
-        coefficients, ``magnetization``: β's; missing trailing coefficients are 0)."""
+    def design_vector(self, h=None, phi=None, coefficients=None, p=None, profiles=None) -> np.ndarray:
+        """The design vector, shape (nd,), from the design values (``profiles``: each designed
+        profile's Legendre coefficients by lens name, ``coefficients`` α's alone; missing trailing
+        coefficients are 0)."""
         d = np.zeros(self.nd)
         for name, val in (("h", h), ("phi", phi), ("p", p)):
             if name in self.vary:
                 d[self.dslices[name]] = val
-        for name, coeffs in (("alpha", coefficients), ("magnetization", magnetization)):
-            if name in self.vary:
-                c = np.zeros(self.alpha_terms)
-                if coeffs is not None:
-                    cc = np.asarray(coeffs, float).ravel()[: self.alpha_terms]
-                    c[: cc.size] = cc
-                d[self.dslices[name]] = c
+        given = dict(profiles or {})
+        if coefficients is not None:
+            given["alpha"] = coefficients
+        for name in self.profiles:
+            c = np.zeros(self.alpha_terms)
+            if given.get(name) is not None:
+                cc = np.asarray(given[name], float).ravel()[: self.alpha_terms]
+                c[: cc.size] = cc
+            d[self.dslices[name]] = c
         return d
+
+    def point_vector(self, pt: "DesignPoint", phi=None) -> np.ndarray:
+        """The design vector of a design point (its φ replaced by ``phi`` when given)."""
+        return self.design_vector(h=pt.h, phi=pt.phi if phi is None else phi, p=pt.p, profiles=pt.profiles)
 
     def point(self, d: np.ndarray, base: Scene, z: np.ndarray, tip: np.ndarray, *, converged: bool,
               status: str, stage: str) -> DesignPoint:
@@ -264,12 +284,9 @@ class DesignNLP:
         def scalar(name, default):
             return float(d[self.dslices[name]][0]) if name in self.vary else default
 
-        def profile(name):
-            return np.asarray(d[self.dslices[name]], float) if name in self.vary else np.zeros(0)
-
-        return DesignPoint(h=scalar("h", base.h), phi=scalar("phi", base.phi), coefficients=profile("alpha"),
-                           p=scalar("p", base.p), z=z, tip=tip, converged=converged, status=status, stage=stage,
-                           magnetization=profile("magnetization"))
+        return DesignPoint(h=scalar("h", base.h), phi=scalar("phi", base.phi), p=scalar("p", base.p), z=z, tip=tip,
+                           converged=converged, status=status, stage=stage,
+                           profiles={v: np.asarray(d[self.dslices[v]], float) for v in self.profiles})
 
     def fix_gauge(self, d: np.ndarray) -> np.ndarray:
         """The design vector moved along the gauge orbit to α's mean c_0 = 0 (φ − c_0, α − c_0: the
@@ -297,7 +314,7 @@ class DesignNLP:
 
     def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
-        lim = np.concatenate([np.full(self.n_profile_rows, bounds.get(PROFILE_BOUNDS[v], np.inf))
+        lim = np.concatenate([np.full(self.n_profile_rows, bounds.get(profile_bound(v), np.inf))
                               for v in self.profiles] or [np.zeros(0)])
         return -lim, lim
 
@@ -310,10 +327,8 @@ class DesignNLP:
                 sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
         if "h" in self.vary:
             sc = coupled_scene(base, sc)
-        if "alpha" in self.vary:
-            sc = replace(sc, fibres=legendre_profile(d[self.dslices["alpha"]]))
-        if "magnetization" in self.vary:
-            sc = replace(sc, magnetization=legendre_profile(d[self.dslices["magnetization"]]))
+        for v in self.profiles:  # α(s), β(s) as their exact Legendre series
+            sc = lens.parameter(v).with_profile(sc, legendre_profile(d[self.dslices[v]]))
         return sc
 
     def solve(self, base: Scene, x0_theta: np.ndarray, d0: np.ndarray, req: "DesignRequest",
@@ -352,8 +367,7 @@ class DesignNLP:
         return 1.0 / compliance if compliance != 0.0 else float("inf")
 
     def _dvec(self, pt: DesignPoint) -> np.ndarray:
-        return self.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
-                                  magnetization=pt.magnetization)
+        return self.point_vector(pt)
 
     def _solve(self, base, x0_theta, d0, req: "DesignRequest", certified: bool) -> DesignPoint:
         """One stage from a start. Stage A is solved twice: first with a regularising effort
@@ -462,36 +476,3 @@ def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, al
     if key not in _CACHE:
         _CACHE[key] = DesignNLP(scene, vary, options, alpha_terms, clearance if scene.obstacles else 0.0)
     return _CACHE[key]
-
-
-def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
-    """Make sure the scene contains the terms the design varies (through the parameter lens: a
-    field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``, the
-    hard-magnetic term for ``magnetization``) and a profile the Legendre series can replace for
-    ``alpha`` and ``magnetization``.
-
-    Raises
-    ------
-    ValueError
-        ``magnetization`` varied on a scene with h_r = 0 (the remanence must be given: without it
-        the magnetisation does nothing).
-    """
-    if "magnetization" in vary and not scene.h_r > 0:
-        raise ValueError("--vary magnetization: the scene's h_r is 0; give the remanence in the scene "
-                         "(h_r > 0, or magnetics: remanence / remanent_flux_density) to design the "
-                         "magnetisation profile")
-    if "h" in vary and remanence_only(scene):
-        raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
-                         "through its remanence alone (h_r); design phi and/or magnetization at the "
-                         "scene's field magnitude")
-    if ("h" in vary or "phi" in vary) and scene.field is None:
-        scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
-    try:
-        scene = lens.prepare_scene(scene, [v for v in vary if v in _LENS_VARIABLES], "design variable")
-    except ValueError as err:
-        raise ValueError(f"--vary {err}") from None
-    if "alpha" in vary and scene.fibres.kind not in ("constant", "legendre"):
-        scene = replace(scene, fibres=constant_profile(0.0))
-    if "magnetization" in vary and scene.magnetization.kind not in ("constant", "legendre"):
-        scene = replace(scene, magnetization=constant_profile(0.0))
-    return scene

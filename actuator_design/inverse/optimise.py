@@ -11,8 +11,8 @@ from typing import List
 import numpy as np
 
 from actuator_design import forked
-from actuator_design.inverse.nlp import (STRONG_FIELD, DesignNLP, DesignPoint, DesignRequest, get_design_nlp,
-                                         prepare_scene)
+from actuator_design.inverse.design_map import prepare_scene
+from actuator_design.inverse.nlp import STRONG_FIELD, DesignNLP, DesignPoint, DesignRequest, get_design_nlp
 from actuator_design.inverse.screen import screen
 from actuator_design.inverse.settings import (Candidate, DesignProblem, Optimised, ScreenedStart,
                                               normalise_phi, phi_period, tip_error)
@@ -139,8 +139,7 @@ def warm_robust_nlp(problem: DesignProblem, vset) -> None:
 
 def design_vector(nlp: DesignNLP, pt: DesignPoint) -> np.ndarray:
     """The design vector, shape (nlp.nd,), of a design point."""
-    return nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
-                             magnetization=pt.magnetization)
+    return nlp.point_vector(pt)
 
 
 def _distinct(nlp: DesignNLP, base, optima: List[DesignPoint]) -> List[DesignPoint]:
@@ -148,8 +147,7 @@ def _distinct(nlp: DesignNLP, base, optima: List[DesignPoint]) -> List[DesignPoi
     2π with a hard-magnetic term)."""
     def key(pt):
         phi = normalise_phi(pt.phi, period)  # φ compared modulo the energy's period
-        return nlp.design_vector(h=pt.h, phi=phi, coefficients=pt.coefficients, p=pt.p,
-                                 magnetization=pt.magnetization)
+        return nlp.point_vector(pt, phi=phi)
 
     period = phi_period(base)
     out: List[DesignPoint] = []

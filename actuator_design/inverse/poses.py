@@ -34,6 +34,7 @@ from actuator_design.continuation.loading import follow_path
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
+from actuator_design.inverse.design_map import profile_report
 from actuator_design.inverse.mesh import check_mesh, check_state
 from actuator_design.inverse.nlp import PROFILE_VARIABLES
 from actuator_design.inverse.optimise import candidate, design_vector, search_set
@@ -248,9 +249,11 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
     tol = settings.tolerances
     no_box = Tolerances(field_rel=0.0, angle=0.0)
     nlp, base = ch1.candidate.nlp, ch1.candidate.base
-    coeffs, beta = ch1.point.coefficients, ch1.point.magnetization
     d_list, z_list = [design_vector(nlp, ch1.point)], [ch1.point.z]
-    fixed = replace(base, fibres=ch1.scene.fibres, magnetization=ch1.scene.magnetization)
+    fixed = base  # pose 1's profiles, shared by every pose
+    for v in PROFILE_VARIABLES:
+        par = lens.parameter(v)
+        fixed = par.with_profile(fixed, par.profile(ch1.scene))
     per_pose = tuple(v for v in vset if v not in PROFILE_VARIABLES)  # the profiles are shared
     for k, tgt in enumerate(targets[1:], start=2):
         pk = design_problem(tgt, fixed, per_pose, options, replace(settings, tolerances=no_box), None, t0)
@@ -265,7 +268,7 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
         phi = pt.phi + period * round((ch1.point.phi - pt.phi) / period)
         phi -= period * math.ceil((abs(phi) - 2 * math.pi) / period) * math.copysign(1.0, phi) \
             if abs(phi) > 2 * math.pi else 0.0  # (and within the NLP's bounds, ±2π)
-        d_list.append(nlp.design_vector(h=pt.h, phi=phi, p=pt.p, coefficients=coeffs, magnetization=beta))
+        d_list.append(nlp.design_vector(h=pt.h, phi=phi, p=pt.p, profiles=ch1.point.profiles))
         z_list.append(pt.z)
     timings["single_poses"] = time.perf_counter() - t0
     s = settings
@@ -305,14 +308,8 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
             notes.append(f"pose {k} does not hold over the box")
     if verify and all(p.verified for p in poses) and not schedule:
         notes.append("no snap-free schedule visits the poses in order")
-    s_dense = np.linspace(0.0, 1.0, 201)
-    shared = snlp.shared_values(point.d)
-    alpha = {"s": s_dense.tolist(), "value": scenes[0].fibres(s_dense).tolist(),
-             "legendre_coefficients": [float(c) for c in shared.get("alpha", coeffs)]}
-    magnetization = None
-    if "magnetization" in vset:
-        magnetization = {"s": s_dense.tolist(), "value": scenes[0].magnetization(s_dense).tolist(),
-                         "legendre_coefficients": [float(c) for c in shared["magnetization"]]}
+    report = profile_report(scenes[0], {**ch1.point.profiles, **snlp.shared_values(point.d)}, vset)
+    alpha, magnetization = report["alpha"], report.get("magnetization")
     timings["total"] = time.perf_counter() - t0
     head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok
             else "NOT a success")

@@ -10,7 +10,7 @@ from typing import List
 import numpy as np
 
 from actuator_design.equilibrium.pipeline import solve
-from actuator_design.inverse.nlp import DesignNLP, DesignPoint
+from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.settings import (Candidate, DesignProblem, DesignSettings, ScreenedStart,
                                               phi_period)
 from actuator_design.model.scene import Scene
@@ -49,9 +49,7 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
     base = replace(base, obstacles=())
     scored: List[ScreenedStart] = []
     prev = None
-    seeded = [(nlp.design_vector(h=pt.h, phi=pt.phi, coefficients=pt.coefficients, p=pt.p,
-                                 magnetization=pt.magnetization), seed) for seed in problem.seeds
-              for pt in (seed.point,)]
+    seeded = [(nlp.point_vector(seed.point), seed) for seed in problem.seeds]
     for d, seed in seeded + [(d, None) for d in start_grid(nlp, base, problem.settings)]:
         if seed is not None:  # a design found on another mesh: its own state, carried over
             r = _seeded_start(seed, nlp, nlp.scene_for(base, d), problem.options)
@@ -73,11 +71,7 @@ def screen(problem: DesignProblem, candidate: Candidate, keep: int = 4) -> List[
             if len(target) > 2:
                 dist = math.hypot(dist, r.tip["angle"] - target[2])
         if stiffness is not None:
-            h, phi, p = unpack(nlp, d, base)
-            coefficients = d[nlp.dslices["alpha"]] if "alpha" in nlp.vary else np.zeros(0)
-            beta = d[nlp.dslices["magnetization"]] if "magnetization" in nlp.vary else np.zeros(0)
-            pt = DesignPoint(h=h, phi=phi, coefficients=coefficients, p=p, z=r.z, tip=np.zeros(3),
-                             converged=True, status="", stage="screen", magnetization=beta)
+            pt = nlp.point(d, base, r.z, np.zeros(3), converged=True, status="", stage="screen")
             k = nlp.stiffness(base, pt)
             dist += abs(math.log(k / stiffness)) if (math.isfinite(k) and k > 0) else 1e3
         scored.append(ScreenedStart(dist, d, r.z))
@@ -142,7 +136,8 @@ def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np
                 for h in (hs if "h" in nlp.vary else [base.h]):
                     for phi in phis:
                         c = [base.fibres.value if base.fibres.kind == "constant" else 0.0, slope]
-                        out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p, magnetization=beta))
+                        out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p,
+                                                     profiles={"magnetization": beta}))
     return out
 
 

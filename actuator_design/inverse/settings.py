@@ -372,13 +372,16 @@ def target_error(pt: DesignPoint, target, stiffness: Optional[float]) -> float:
 
 
 def effort(pt: DesignPoint) -> float:
-    """The stage-B objective: h² + p² + the smoothness of α and β (Σ k²(k+1)²/4 c_k², cf. ∫α'²)."""
+    """The stage-B objective: h² + p² + the smoothness of each designed profile, α(s) and β(s)
+    (Σ k²(k+1)²/4 c_k², cf. ∫α'²)."""
     def smoothness(c) -> float:
         k = np.arange(len(c), dtype=float)
         return float(np.sum(k**2 * (k + 1) ** 2 / 4.0 * np.asarray(c, float) ** 2))
 
-    return float(pt.h**2 + pt.p**2 + smoothness(pt.coefficients)
-                 + smoothness(getattr(pt, "magnetization", np.zeros(0))))
+    total = pt.h**2 + pt.p**2
+    for coefficients in pt.profiles.values():  # in design order, as the NLP's effort
+        total += smoothness(coefficients)
+    return float(total)
 
 
 def rank(pt: DesignPoint, target, settings: DesignSettings, stiffness: Optional[float] = None):

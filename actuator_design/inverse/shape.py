@@ -23,7 +23,8 @@ from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
-from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, driven_values
+from actuator_design.inverse.design_map import (certificate_matrix, design_effort, design_params,
+                                                driven_values, profile_report)
 from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
@@ -259,14 +260,9 @@ def design_shape(points: np.ndarray, scene: Optional[Scene] = None, vary: Option
     if rob is not None:
         notes.append(("holds" if rob.holds else "does NOT hold") + f" over the box: the tip moves by at most "
                      f"{rob.worst_tip_error:.3g}; {rob.fold_distance.sentence()}")
-    s_dense = np.linspace(0.0, 1.0, 201)
     design = {"h": pt.h, "phi": normalise_phi(pt.phi, phi_period(sc)), "p": pt.p,
-              "alpha": {"s": s_dense.tolist(), "value": sc.fibres(s_dense).tolist(),
-                        "legendre_coefficients": [float(c) for c in pt.coefficients]}}
-    if "magnetization" in vset:  # the designed remanent magnetisation profile β(s), rad (THEORY §9)
-        design["magnetization"] = {"s": s_dense.tolist(), "value": sc.magnetization(s_dense).tolist(),
-                                   "legendre_coefficients": [float(c) for c in pt.magnetization]}
-    design.update(driven_values(sc))  # the other groups at the design field (THEORY §5, §9)
+              **profile_report(sc, pt.profiles, vset),  # α(s), and β(s) when designed (THEORY §9)
+              **driven_values(sc)}  # the other groups at the design field (THEORY §5, §9)
     timings["total"] = time.perf_counter() - t0
     return ShapeResult(ok, pts, np.column_stack([xs, ys]), rms, mx, design, vset, verified, stable, snap_free,
                        schedule, rob, "; ".join(notes), problem.base, sc, state, timings)

@@ -13,6 +13,7 @@ the field (``field_power = 1``), h² quadratic: a field ramp through the lens sc
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Optional
 
 import casadi as ca
 
@@ -34,6 +35,14 @@ def with_hard_magnetic_term(scene: Scene) -> Scene:
     if scene.magnetization is None:
         scene = replace(scene, magnetization=constant_profile(0.0))
     return scene
+
+
+def _needs_remanence(sc: Scene) -> Optional[str]:
+    """Why β(s) cannot be designed: without remanence the magnetisation does nothing."""
+    if sc.h_r > 0:
+        return None
+    return ("the scene's h_r is 0; give the remanence in the scene (h_r > 0, or magnetics: remanence / "
+            "remanent_flux_density) to design the magnetisation profile")
 
 
 def _magnetization_angle(sc: Scene) -> float:
@@ -64,6 +73,8 @@ class HardMagnetic(EnergyTerm):
                   write=lambda sc, v: replace(sc, magnetization=constant_profile(v)),
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
                   designable=True, profile_label="magnetised",  # designed as a profile β(s) (inverse/nlp.py)
+                  profile=lambda sc: sc.magnetization, with_profile=lambda sc, prof: replace(sc, magnetization=prof),
+                  design_check=_needs_remanence,
                   flag_help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)"),
     )
 

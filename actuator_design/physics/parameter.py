@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable, Optional, Tuple
+from typing import Any, Callable, Optional, Tuple
 
 import numpy as np
 
@@ -69,6 +69,14 @@ class Parameter:
     flag_help : str or None
         The help of the parameter's own command-line flag on every scene command (``--<name>``, an
         angle as ``--<name>-deg`` in degrees; :attr:`flag`); None: set it with ``--set`` only.
+    profile : callable (Scene) -> Profile, optional
+        A ``per_point`` parameter's whole profile in a scene (α(s): the fibres; β(s): the
+        magnetisation), what a design replaces by a Legendre series.
+    with_profile : callable (Scene, Profile) -> Scene, optional
+        A copy of the scene with that profile replaced.
+    design_check : callable (Scene) -> str or None, optional
+        Why the inverse design cannot vary this parameter on a scene (one clause for the message
+        ``--vary <name>: <clause>``), or None when it can.
     scene_range : (float, float) or None
         The closed range a scene's value must lie in for the solver to honour it (checked for every
         scene from a config or the command line, ``config/limits.py``; e.g. h ≤ 1e4: the clamp
@@ -98,6 +106,9 @@ class Parameter:
     profile_label: Optional[str] = None
     flag_help: Optional[str] = None
     scene_range: Optional[Tuple[float, float]] = None
+    profile: Optional[Callable[[Scene], Any]] = None
+    with_profile: Optional[Callable[[Scene, Any], Scene]] = None
+    design_check: Optional[Callable[[Scene], Optional[str]]] = None
 
     @property
     def valid_range(self) -> Tuple[float, float]:

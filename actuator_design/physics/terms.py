@@ -239,7 +239,8 @@ class FieldOrientation(EnergyTerm):
                   ensure=_with_uniform_field, designable=True),
         Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
                   write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
-                  per_point=True, designable=True, profile_label="fibres"),
+                  per_point=True, designable=True, profile_label="fibres", profile=lambda sc: sc.fibres,
+                  with_profile=lambda sc, prof: replace(sc, fibres=prof)),
     )
 
     def __init__(self, field: FieldModel):

@@ -17,11 +17,10 @@ from typing import Any, Callable, List, Optional, Tuple
 import numpy as np
 
 from actuator_design import forked
-from actuator_design.inverse.nlp import DesignPoint
 from actuator_design.inverse.optimise import design_vector
+from actuator_design.inverse.settings import Choice, DesignProblem, tip_error
 from actuator_design.robust.design_robust import robustify
 from actuator_design.robust.design_stiffness_box import StiffnessOverBox, stiffness_over_box
-from actuator_design.inverse.settings import Choice, DesignProblem, tip_error
 from actuator_design.robust.robustness import Robustness, evaluate_robustness, fold_search_builds
 
 __all__ = ["RobustReport", "robust_stage"]
@@ -197,15 +196,11 @@ def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, 
     scene = nlp.scene_for(cand.base, d)
     sv = nlp.solver
     _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
-    moved = DesignPoint(h=float(d[nlp.dslices["h"]][0]) if "h" in nlp.vary else pt.h,
-                        phi=float(d[nlp.dslices["phi"]][0]) if "phi" in nlp.vary else pt.phi,
-                        coefficients=(np.asarray(d[nlp.dslices["alpha"]]) if "alpha" in nlp.vary
-                                      else pt.coefficients),
-                        p=float(d[nlp.dslices["p"]][0]) if "p" in nlp.vary else pt.p,
-                        z=z, tip=np.array([x, y, th]), converged=True, status=out.point.status,
-                        stage="robust",
-                        magnetization=(np.asarray(d[nlp.dslices["magnetization"]])
-                                       if "magnetization" in nlp.vary else pt.magnetization))
+    moved = replace(nlp.point(d, cand.base, z, np.array([x, y, th]), converged=True, status=out.point.status,
+                              stage="robust"),
+                    h=pt.h if "h" not in nlp.vary else float(d[nlp.dslices["h"]][0]),
+                    phi=pt.phi if "phi" not in nlp.vary else float(d[nlp.dslices["phi"]][0]),
+                    p=pt.p if "p" not in nlp.vary else float(d[nlp.dslices["p"]][0]))
     if tip_error(moved.tip, target) > s.reach_tol:
         return choice, None, 0.0, None
     moved_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))

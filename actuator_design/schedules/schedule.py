@@ -25,7 +25,8 @@ from actuator_design.continuation.loading import follow_path  # verifies the who
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.inverse.design import DesignSettings, design
-from actuator_design.inverse.nlp import DesignRequest, get_design_nlp, prepare_scene, remanence_only
+from actuator_design.inverse.design_map import prepare_scene, remanence_only
+from actuator_design.inverse.nlp import DesignRequest, get_design_nlp
 from actuator_design.inverse.settings import normalise_phi, tip_error
 from actuator_design.model.scene import Scene, default_scene
 
