@@ -247,6 +247,8 @@ def run(args: argparse.Namespace) -> int:
                   f"{mT(s.lam[-1])}")
         for line in _contact_lines(res, param, mT, units):
             print(line)
+        for note in res.notes:
+            print(f"  note        : {note}")
         if units is not None:
             from actuator_design.io.unit_results import physical_header, scene_text, state_text, units_line
             k = len(br) - 1

@@ -133,6 +133,8 @@ class ContinuationResult:
     scene: Scene
     window: tuple
     contact_path: Optional[Any] = None  # LoadingPath on from the first touch (status "touch")
+    #: what the branch is and is not (e.g. a field group continued while the others it drives stay)
+    notes: List[str] = field(default_factory=list)
 
     @property
     def complete(self) -> bool:
@@ -153,4 +155,4 @@ class ContinuationResult:
                 "secondary_branches": [s.to_dict() for s in self.secondary],
                 "groups": self.scene.describe_groups(),
                 "contact_path": None if self.contact_path is None else self.contact_path.to_dict(),
-                "complete": self.complete}
+                "complete": self.complete, "notes": list(self.notes)}

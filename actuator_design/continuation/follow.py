@@ -41,6 +41,7 @@ from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.parameters import Parameter
+from actuator_design.physics.registry import term_class
 from actuator_design.reduced.system import reduced_system, substituted_energy
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
@@ -392,7 +393,23 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     if switch:
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
-    return ContinuationResult(param, br, sec, scene, win, contact)
+    return ContinuationResult(param, br, sec, scene, win, contact, notes=_alone_note(scene, param))
+
+
+def _alone_note(scene: Scene, param: str) -> List[str]:
+    """A note when ``param`` is the field magnitude and the scene has other groups the field drives
+    (h_pos in a non-uniform field, h_r: ∝ H too, THEORY §5, §9): the branch moves ``param`` alone,
+    which is not a change of the applied field (a loading path in it moves them all)."""
+    if not lens.parameter(param).field_magnitude:
+        return []
+    fixed = [p for p, _ in lens.field_groups(magnitude=False)
+             if p.get(scene) != 0.0 and (p.term is None or term_class(p.term).present(scene))]
+    if not fixed:
+        return []
+    return [f"{param} is continued alone: {', '.join(f'{p.name} = {p.get(scene):.6g}' for p in fixed)} "
+            f"(∝ the field too) stay{'s' if len(fixed) == 1 else ''} fixed, so the branch is not a change of "
+            f"the applied field; `actuator-design path --param {param}` ramps the field with every group "
+            "it drives"]
 
 
 def _in_contact_from_start(scene: Scene, options: SolverOptions, param: str, start: float, stop: float,
