@@ -111,7 +111,6 @@ STILL_NAMING_TERMS = {
     "inverse/choose.py": 2,
     "inverse/design.py": 17,
     "inverse/design_map.py": 2,
-    "inverse/mirror.py": 10,
     "inverse/nlp.py": 4,
     "inverse/poses.py": 8,
     "inverse/screen.py": 3,

@@ -22,6 +22,8 @@ from actuator_design.inverse.settings import (Candidate, Choice, DesignProblem, 
                                               normalise_tip_angle, phi_period)
 from actuator_design.model.profiles import Profile
 from actuator_design.model.scene import Scene, UniformField
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import term_class
 from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
 from actuator_design.robust.robustness import evaluate_robustness
 
@@ -45,18 +47,30 @@ def _negated(profile: Optional[Profile]) -> Optional[Profile]:
 
 def mirror_scene(scene: Scene) -> Optional[Scene]:
     """The reflection of ``scene`` in the rod's axis, or None when the scene has no exact mirror
-    the tool can build (a non-uniform field, a plug-in energy term); obstacles are reflected too."""
-    if scene.extra_terms or not (scene.field is None or isinstance(scene.field, UniformField)):
+    the tool can build (a non-uniform field, a term whose parameters declare no mirror, a profile
+    that cannot be negated); obstacles are reflected too. Each value is multiplied by its
+    parameter's ``mirror`` factor (the lens, one parameter a slot; a profile α(s), β(s) negated)."""
+    if not (scene.field is None or isinstance(scene.field, UniformField)):
         return None
-    fibres, beta = _negated(scene.fibres), _negated(scene.magnetization)
-    if fibres is None or (scene.magnetization is not None and beta is None):
-        return None
-    neg_y = lambda pair: None if pair is None else (float(pair[0]), -float(pair[1]))
-    return replace(scene, field=None if scene.field is None else UniformField(phi=-scene.field.phi),
-                   fibres=fibres, magnetization=beta, theta0=-scene.theta0,
-                   tip_force=neg_y(scene.tip_force), distributed_load=neg_y(scene.distributed_load),
-                   tip_moment=None if scene.tip_moment is None else -float(scene.tip_moment),
-                   obstacles=tuple(ob.mirrored() for ob in scene.obstacles))
+    out, slots = scene, set()
+    for p in lens.parameters().values():
+        if p.slot in slots:
+            continue
+        slots.add(p.slot)
+        if p.per_point and p.profile is not None:  # a profile, negated even where its term is absent
+            profile = p.profile(scene)
+            if profile is None or p.mirror == 1.0:
+                continue
+            negated = _negated(profile) if p.mirror == -1.0 else None
+            if negated is None:
+                return None
+            out = p.with_profile(out, negated)
+        elif p.term is None or term_class(p.term).present(scene):
+            if p.mirror is None:
+                return None
+            if p.mirror != 1.0:
+                out = p.write(out, p.mirror * p.get(scene))
+    return replace(out, obstacles=tuple(ob.mirrored() for ob in scene.obstacles))
 
 
 def mirrored_problem(problem: DesignProblem) -> Optional[DesignProblem]:

@@ -66,7 +66,7 @@ class HardMagnetic(EnergyTerm):
                   read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
                   term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
                   stiffness_power=-1.0, remanent_field=True, ensure=with_hard_magnetic_term,
-                  scene_range=(0.0, 1e8),  # as h²: a clamp layer of width ~1/√h_r
+                  scene_range=(0.0, 1e8), mirror=1.0,  # as h²: a clamp layer of width ~1/√h_r
                   flag_help="hard-magnetic group h_r >= 0 (THEORY §9; adds an axial remanent magnetisation)"),
         Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,
@@ -74,7 +74,7 @@ class HardMagnetic(EnergyTerm):
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
                   designable=True, profile_label="magnetised",  # designed as a profile β(s) (inverse/nlp.py)
                   profile=lambda sc: sc.magnetization, with_profile=lambda sc, prof: replace(sc, magnetization=prof),
-                  design_check=_needs_remanence,
+                  design_check=_needs_remanence, mirror=-1.0,
                   flag_help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)"),
     )
 

@@ -74,6 +74,10 @@ class Parameter:
         magnetisation), what a design replaces by a Legendre series.
     with_profile : callable (Scene, Profile) -> Scene, optional
         A copy of the scene with that profile replaced.
+    mirror : float or None
+        The factor the value takes when the plane is reflected in the rod's axis (y → −y, θ → −θ:
+        +1 for h, −1 for φ, a y-load, the tip moment, a profile α(s) or β(s) is negated); None: no
+        exact mirror is known (a scene where its term is present has none).
     design_check : callable (Scene) -> str or None, optional
         Why the inverse design cannot vary this parameter on a scene (one clause for the message
         ``--vary <name>: <clause>``), or None when it can.
@@ -109,6 +113,7 @@ class Parameter:
     profile: Optional[Callable[[Scene], Any]] = None
     with_profile: Optional[Callable[[Scene, Any], Scene]] = None
     design_check: Optional[Callable[[Scene], Optional[str]]] = None
+    mirror: Optional[float] = None
 
     @property
     def valid_range(self) -> Tuple[float, float]:
@@ -172,7 +177,7 @@ class Parameter:
 
 
 THETA0 = Parameter("theta0", "clamp angle theta0", "rad", "theta0",
-                   read=lambda sc: sc.theta0, write=lambda sc, v: replace(sc, theta0=v))
+                   read=lambda sc: sc.theta0, write=lambda sc, v: replace(sc, theta0=v), mirror=-1.0)
 
 
 def plugin_parameter(term: str, slot: str, description: str, unit: str = "1", *,

@@ -188,7 +188,7 @@ def _load(sc: Scene, i: int, v: Optional[float] = None):
 
 
 _H_KW = dict(term="field_orientation", lower=0.0, field_magnitude=True, residual="squared",
-             ensure=_with_field)
+             ensure=_with_field, mirror=1.0)
 #: The valid ranges of the groups (config/limits.py): h ≤ 1e4 keeps the clamp layer of width ~1/h
 #: resolvable; a load's layer has width ~1/√|p| and its residuals grow like |p| (THEORY §5).
 H_RANGE, LOAD_RANGE = (0.0, 1e4), (-1e5, 1e5)
@@ -236,10 +236,10 @@ class FieldOrientation(EnergyTerm):
                   scene_range=(0.0, H_RANGE[1] ** 2), **_H_KW),
         Parameter("phi", "uniform field angle phi", "rad", "phi", read=lambda sc: sc.phi,
                   write=lambda sc, v: replace(sc, field=UniformField(phi=v)), term="field_orientation",
-                  ensure=_with_uniform_field, designable=True),
+                  ensure=_with_uniform_field, designable=True, mirror=-1.0),
         Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
                   write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
-                  per_point=True, designable=True, profile_label="fibres", profile=lambda sc: sc.fibres,
+                  per_point=True, designable=True, profile_label="fibres", profile=lambda sc: sc.fibres, mirror=-1.0,
                   with_profile=lambda sc, prof: replace(sc, fibres=prof)),
     )
 
@@ -290,7 +290,7 @@ class FieldPosition(EnergyTerm):
         Parameter("h_pos", "positional field group h_pos (non-uniform fields)", "1", "h_pos",
                   read=lambda sc: sc.h_pos, write=lambda sc, v: replace(sc, h_pos=v),
                   term="field_position", lower=0.0, field_power=1, residual="squared",
-                  stiffness_power=-0.5, susceptibility_power=0.5, scene_range=H_RANGE),
+                  stiffness_power=-0.5, susceptibility_power=0.5, scene_range=H_RANGE, mirror=1.0),
     )
 
     def __init__(self, field: FieldModel):
@@ -331,11 +331,11 @@ class TipForce(EnergyTerm):
     scalar_params = ("fx", "fy")
     parameters = (
         Parameter("p", "vertical tip load p = fy", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
-                  write=lambda sc, v: _tip_force(sc, 1, v), designable=True, **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 1, v), designable=True, mirror=-1.0, **_F_KW),
         Parameter("fy", "tip force y component", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
-                  write=lambda sc, v: _tip_force(sc, 1, v), **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 1, v), mirror=-1.0, **_F_KW),
         Parameter("fx", "tip force x component", "B0/l^2", "fx", read=lambda sc: _tip_force(sc, 0),
-                  write=lambda sc, v: _tip_force(sc, 0, v), **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 0, v), mirror=1.0, **_F_KW),
     )
 
     @classmethod
@@ -375,7 +375,7 @@ class TipMoment(EnergyTerm):
     parameters = (
         Parameter("m_tip", "tip moment", "B0/l", "m_tip", read=lambda sc: sc.tip_moment or 0.0,
                   write=lambda sc, v: replace(sc, tip_moment=v), term="tip_moment", residual="linear",
-                  stiffness_power=-1.0, scene_range=LOAD_RANGE,
+                  stiffness_power=-1.0, scene_range=LOAD_RANGE, mirror=-1.0,
                   ensure=lambda sc: sc if sc.tip_moment is not None else replace(sc, tip_moment=0.0)),
     )
 
@@ -412,9 +412,9 @@ class DistributedLoad(EnergyTerm):
     scalar_params = ("qx", "qy")
     parameters = (
         Parameter("qx", "distributed load x component", slot="qx", read=lambda sc: _load(sc, 0),
-                  write=lambda sc, v: _load(sc, 0, v), **_Q_KW),
+                  write=lambda sc, v: _load(sc, 0, v), mirror=1.0, **_Q_KW),
         Parameter("qy", "distributed load y component", slot="qy", read=lambda sc: _load(sc, 1),
-                  write=lambda sc, v: _load(sc, 1, v), **_Q_KW),
+                  write=lambda sc, v: _load(sc, 1, v), mirror=-1.0, **_Q_KW),
     )
 
     @classmethod
