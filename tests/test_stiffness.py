@@ -128,3 +128,29 @@ def test_registered_analysis_returns_flat_row():
     row = get("stiffness")(default_scene(h=2.0), SolverOptions())
     assert row["vertical_stiffness"] == pytest.approx(lowload_stiffness(2.0), rel=1e-8)
     assert row["success"] and row["stable"]
+
+
+@pytest.mark.parametrize("extra, applies", [
+    ({}, True),
+    ({"distributed_load": (0.0, 0.0), "tip_moment": 0.0}, True),  # zero loads: no effect
+    ({"terms": {"foundation": {"k_foundation": 5.0}}}, False),  # a plug-in term that stiffens the rod
+    ({"h_r": 0.7, "magnetization": "0.3"}, False),  # remanent magnetisation
+])
+def test_the_closed_form_is_claimed_exact_exactly_when_the_computed_stiffness_is_it(extra, applies):
+    """``StiffnessCurve.lowload_applies`` (THEORY §6's s(h) is exact for this scene): checked against
+    the computed tangent stiffness of each scene at h = 1.5, which meets s(h) to 1e-6 exactly when
+    the claim is made (a foundation or a remanent magnetisation moves it by far more)."""
+    from actuator_design.model.profiles import constant_profile
+
+    sc = default_scene(h=1.5)
+    terms = extra.pop("terms", None)
+    if terms:
+        for name, values in terms.items():
+            sc = sc.with_term(name, **values)
+    if "magnetization" in extra:
+        extra["magnetization"] = constant_profile(float(extra["magnetization"]))
+    sc = replace(sc, **extra)
+    curve = stiffness_field_curve(sc, h_values=[1.5])
+    assert curve.success[0] and curve.lowload_applies is applies
+    matches = bool(abs(curve.vertical[0] / float(lowload_stiffness(1.5)) - 1.0) < 1e-6)
+    assert matches is applies, (curve.vertical[0], float(lowload_stiffness(1.5)))

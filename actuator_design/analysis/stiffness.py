@@ -42,6 +42,7 @@ from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
+from actuator_design.physics.registry import term_class
 from actuator_design.reduced.system import reduced_system
 from actuator_design.reference.closed_forms import lowload_stiffness
 
@@ -168,14 +169,13 @@ def companion_scene(scene: Scene, moment: bool = True):
         The companion scene and notes on what was added (empty when nothing was).
     """
     notes = []
-    if scene.tip_force is None:
-        scene = replace(scene, tip_force=(0.0, 0.0))
-        notes.append("the scene has no tip force term: a companion scene with a zero tip force was "
-                     "built (a different NLP structure, same equilibrium)")
-    if moment and scene.tip_moment is None:
-        scene = replace(scene, tip_moment=0.0)
-        notes.append("the scene has no tip moment term: a companion scene with a zero tip moment "
-                     "was built (a different NLP structure, same equilibrium)")
+    for name in LOAD_NAMES if moment else LOAD_NAMES[:2]:  # each probe load's term, added at zero
+        term = lens.parameter(name).term
+        if not term_class(term).present(scene):
+            scene = lens.parameter(name).require(scene)
+            what = term.replace("_", " ")
+            notes.append(f"the scene has no {what} term: a companion scene with a zero {what} was "
+                         "built (a different NLP structure, same equilibrium)")
     return scene, notes
 
 
@@ -285,15 +285,13 @@ def contact_compliance(eq: EquilibriumResult, scene: Scene, loads: Sequence[str]
     numpy.linalg.LinAlgError
         When a perturbed contact solve fails (no differences to take).
     """
-    base = {"fx": scene.tip_force[0], "fy": scene.tip_force[1], "m_tip": scene.tip_moment or 0.0}
     C = np.zeros((len(loads), len(loads)))
     rows = [LOAD_NAMES.index(name) for name in loads]
     for j, name in enumerate(loads):
         tips = []
         for sign in (-1.0, 1.0):
-            vals = dict(base, **{name: base[name] + sign * CONTACT_STEP})
-            sc = replace(scene, tip_force=(vals["fx"], vals["fy"]),
-                         tip_moment=vals["m_tip"] if scene.tip_moment is not None else None)
+            p = lens.parameter(name)  # the load stepped, the others as they are
+            sc = p.write(scene, p.get(scene) + sign * CONTACT_STEP)
             r = solve(sc, eq.options, initial=eq)
             if not r.success:
                 raise np.linalg.LinAlgError(f"a contact solve at {name} {sign:+g}·{CONTACT_STEP:g} failed: {r.message}")
@@ -380,14 +378,15 @@ class StiffnessCurve:
 
 
 def lowload_applies(scene: Scene) -> bool:
-    """Whether THEORY §6's s(h) is the exact low-load stiffness of ``scene`` (φ = 0 uniform field,
-    p = fx = 0, no moment or distributed load, b ≡ 1, α ≡ 0, θ0 = 0, no remanent magnetisation)."""
-    fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
+    """Whether THEORY §6's s(h) is the exact low-load stiffness of ``scene``: φ = 0 uniform field,
+    b ≡ 1, α ≡ 0, θ0 = 0, and every other term without effect (each scalar value of a term present
+    other than the field's is 0: no load, moment, remanent magnetisation or plug-in term)."""
+    field_term = lens.parameter("h").term
+    others = [p for p in lens.parameters().values()
+              if not p.per_point and p.term is not None and p.term != field_term and term_class(p.term).present(scene)]
     return (isinstance(scene.field, UniformField) and math.isclose(math.cos(2 * scene.phi), 1.0)
-            and fx == 0 and fy == 0 and not scene.tip_moment and scene.distributed_load is None
             and scene.fibres.is_constant and scene.fibres.value == 0 and scene.stiffness.is_constant
-            and scene.stiffness.value == 1 and scene.theta0 == 0
-            and (scene.magnetization is None or scene.h_r == 0))
+            and scene.stiffness.value == 1 and scene.theta0 == 0 and all(p.get(scene) == 0 for p in others))
 
 
 def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
@@ -415,14 +414,17 @@ def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
     if h_values.ndim != 1 or h_values.size == 0 or np.any(~np.isfinite(h_values)) or np.any(h_values < 0):
         raise ValueError("h_values: need a non-empty list of finite h >= 0")
     options = options or SolverOptions()
-    hard = scene.magnetization is not None and scene.field is not None
-    if hard and scene.h <= 0:
-        raise ValueError("h_values: the scene's h is 0, so a field sweep in h cannot scale its h_r "
-                         "(THEORY §9: h_r ∝ H); give the scene h > 0 or continue in h_r instead")
-    comp, notes = companion_scene(scene if hard else scene.with_values(h=float(h_values[0])), moment)
+    # the other groups the field drives, of the terms present (a hard rod's h_r, THEORY §9)
+    driven = [p.name for p, _ in lens.field_groups(magnitude=False)
+              if p.term is not None and term_class(p.term).present(scene)]
+    if driven and scene.h <= 0:
+        names = ", ".join(driven)
+        raise ValueError(f"h_values: the scene's h is 0, so a field sweep in h cannot scale its {names} "
+                         f"(THEORY §9: {names} ∝ H); give the scene h > 0 or continue in {driven[0]} instead")
+    comp, notes = companion_scene(scene if driven else scene.with_values(h=float(h_values[0])), moment)
 
-    def at_field(h: float) -> Scene:  # h and, for a hard rod, h_r ∝ H (the lens' field rule)
-        return lens.apply_values(comp, {"h": h}) if hard else comp.with_values(h=h)
+    def at_field(h: float) -> Scene:  # h and every group it drives ∝ H (the lens' field rule)
+        return lens.apply_values(comp, {"h": h}) if driven else comp.with_values(h=h)
 
     track = replace(options, method="newton", ensure_stable=False)
     solver = get_solver(comp, options)
