@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import warnings
 from dataclasses import replace
 from typing import Dict, Optional
 
@@ -129,7 +130,10 @@ def apply_set_flags(scene, args):
     """``scene`` with every ``--set NAME=VALUE`` applied through the parameter lens, in order (after
     the other scene flags: ``--set h=2`` wins over ``--h``). A command that does not rebuild its
     scene through :func:`build_scene` checks it again with :func:`check_flags`."""
+    from actuator_design.config.limits import group_problem, scene_group_values
     from actuator_design.io.user_units import parameter_from_text, user_units
+    from actuator_design.model.magnetics import ModelAssumptionWarning
+    from actuator_design.model.units import parse_quantity
     from actuator_design.physics import parameters as lens
 
     for text in getattr(args, "set_values", None) or ():
@@ -139,17 +143,33 @@ def apply_set_flags(scene, args):
             raise InputError(f"--set: expected NAME=VALUE, got {text!r:.80}")
         with bad_input("--set: "):
             param = lens.parameter(name)
-        if _has_unit(value):  # converted by the scene's scales (one line naming --set NAME if it cannot be)
+        table = lens.per_field(scene)
+        if _has_unit(value) and param.field_power and (table.get(name) or param.field_magnitude and any(table.values())):
+            # a field group given as a field is the applied field: every group it drives follows
+            with bad_input():
+                H = parse_quantity(value, "magnetic_field", f"--set {name}")
+            if not H >= 0:
+                raise InputError(f"--set {name}: the applied field must be >= 0, got {value!r} (turn the field "
+                                 "round with its angle instead)")
+            with bad_input(f"--set {name}: "):
+                scene = lens.set_field(scene, H)
+            for group, v in scene_group_values(scene):  # the groups the field gives, in their ranges
+                problem = group_problem(group, v) if group in table else None
+                if problem is not None:
+                    raise InputError(f"--set {name}: the field {value} gives {group} = {v:g}, which "
+                                     f"{problem.split(', got')[0]}")
+        elif _has_unit(value):  # converted by the scene's scales (one line naming --set NAME if it cannot be)
             with bad_input():
                 number = parameter_from_text(value, param, user_units(scene), f"--set {name}")
             with bad_input("--set "):
-                # a field given as a field is the applied field: every group it drives follows
-                scene = (lens.apply_values(scene, {name: number}) if param.field_magnitude
-                         else lens.set_value(scene, name, number))
+                scene = lens.set_value(scene, name, number)
         else:
             with bad_input("--set "):  # the lens names the parameter, its range and the value
                 scene = lens.set_value(scene, name, value)
             check_parameter_angle(name, float(value), f"--set {name}")  # an angle in rad within ±MAX_ANGLE_DEG
+    beyond = lens.beyond_model(scene) if getattr(args, "set_values", None) else None
+    if beyond is not None:  # as a YAML field beyond the particles' saturation is warned of
+        warnings.warn(f"--set: {beyond}", ModelAssumptionWarning, stacklevel=2)
     return scene
 
 
@@ -159,7 +179,8 @@ def _has_unit(value: str) -> bool:
     try:
         float(value)
     except ValueError:
-        return bool(re.match(r"^\s*[+-]?(\d|\.\d)", value))
+        return bool(re.match(r"^\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*[^\W\d_]", value)
+                    or re.match(r"^\s*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\s*°", value))
     return False
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from dataclasses import field as dataclass_field
 from typing import Dict, List, Literal, Optional, Tuple
 
 import numpy as np
@@ -34,6 +35,7 @@ from actuator_design.model.magnetics import check_assumptions, check_saturation
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
 from actuator_design.model.units import MU0
+from actuator_design.physics import parameters as lens
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -193,9 +195,9 @@ class _Derived:
     values: Dict[str, float]
     sources: Dict[str, List[str]]
     h0: float
-    h_per_field: float
     magnetics: Optional[MagneticSummary] = None
-    h_r_per_field: float = 0.0
+    #: every field-driven group at a unit field (dg/dH0 per A/m), by lens name
+    per_field: Dict[str, float] = dataclass_field(default_factory=dict)
 
 
 class PhysicalScene(StrictModel):
@@ -239,8 +241,8 @@ class PhysicalScene(StrictModel):
         rod = self.rod
         length, area, b0 = rod.length, rod.cross_section_area, rod.clamp_stiffness
         values, sources = {}, {}
-        h0 = h_per_field = h_r_per_field = 0.0
-        summary = None
+        h0 = 0.0
+        summary, per_field = None, {}
         if self.field is not None:
             _, h0 = self.field.to_field(length)
             summary = self.magnetics_summary()
@@ -250,13 +252,17 @@ class PhysicalScene(StrictModel):
                          if hasattr(self.field, k)]
             mag_src = ["magnetics.particles" if self.magnetics.particles else
                        f"magnetics.chi_bar = {chi_bar:g}"]
-            values["h"] = magnetic_group(chi_bar, h0, area, length, b0)
-            values["h_pos"] = magnetic_group(chi_hat, h0, area, length, b0)
+            def groups(H):  # every group the field drives, at the field H (each ∝ H)
+                out = {"h": magnetic_group(chi_bar, H, area, length, b0),
+                       "h_pos": magnetic_group(chi_hat, H, area, length, b0)}
+                if summary.remanence is not None:
+                    out["h_r"] = remanent_group(summary.remanence, H, area, length, b0)
+                return out
+
+            values.update(groups(h0))
+            per_field = groups(1.0)
             sources["h"] = sources["h_pos"] = rod.sources() + mag_src + field_src
-            h_per_field = magnetic_group(chi_bar, 1.0, area, length, b0)  # h is proportional to H0
-            if summary.remanence is not None:
-                values["h_r"] = remanent_group(summary.remanence, h0, area, length, b0)
-                h_r_per_field = remanent_group(summary.remanence, 1.0, area, length, b0)  # h_r ∝ H0
+            if "h_r" in per_field:
                 sources["h_r"] = rod.sources() + field_src + [
                     f"magnetics remanence M_r = {summary.remanence:g} A/m"]
         loads = self.loads or Loads()
@@ -276,7 +282,7 @@ class PhysicalScene(StrictModel):
                 values["qx"], values["qy"] = float(q[0] * line), float(q[1] * line)
                 given = "loads.weight" if loads.weight is not None else "loads.distributed"
                 sources["qx"] = sources["qy"] = rod.sources() + [f"{given} = ({q[0]:g}, {q[1]:g}) N/m"]
-        return _Derived(values, sources, float(h0), float(h_per_field), summary, float(h_r_per_field))
+        return _Derived(values, sources, float(h0), summary, {k: float(v) for k, v in per_field.items()})
 
     def magnetics_summary(self) -> Optional[MagneticSummary]:
         """The magnetic numbers and their reasons (:meth:`.magnetic_specs.Magnetics.resolve`)."""
@@ -296,6 +302,7 @@ class PhysicalScene(StrictModel):
         if d.magnetics is not None and d.magnetics.fibre_angle is not None:
             fibres = constant_profile(d.magnetics.fibre_angle)  # THEORY §10: the effective angle
         hard = field is not None and "h_r" in v
+        per = {k: v for k, v in d.per_field.items() if hard or not lens.parameter(k).remanent_field}
         return Scene(
             field=field, h=v.get("h", 0.0), h_pos=v.get("h_pos", 0.0),
             fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
@@ -305,11 +312,13 @@ class PhysicalScene(StrictModel):
             tip_moment=v.get("m_tip"),
             distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
             theta0=self.clamp.angle if self.clamp else 0.0,
-            scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=d.h_per_field,
-                          h_r_per_field=d.h_r_per_field if hard else 0.0,
+            scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
+                          h_r_per_field=per.get("h_r", 0.0),
                           mass_per_length=(float(self.rod.density) * self.rod.cross_section_area
                                            if self.rod.density is not None else 0.0),
-                          damping_ratio=float(self.rod.damping_ratio or 0.0)),
+                          damping_ratio=float(self.rod.damping_ratio or 0.0),
+                          per_field=tuple(per.items()),
+                          field_limit=self._field_limit(field, d.magnetics)),
             name=name or "physical cantilever", fibres_given=self.fibres is not None,
             fibres_physical=not self._isotropic_particles(),
             obstacles=obstacles_of(self.obstacles, length),
@@ -321,6 +330,17 @@ class PhysicalScene(StrictModel):
         so the only anisotropy is the body's and a fibre layout has no effect (THEORY §10)."""
         m = self.magnetics
         return bool(m is not None and m.particles is not None and m.susceptibilities()[0] == 0.0)
+
+    def _field_limit(self, field, summary: Optional[MagneticSummary]) -> float:
+        """The largest field scale H0 (A/m) the checks of :meth:`_check_assumptions` accept: the
+        particles' saturation field and ν M_s / χ_max, over max |ĥ| on the rod (inf: no limit known)."""
+        p = self.magnetics.particles if self.magnetics else None
+        if p is None or field is None:
+            return math.inf
+        limits = [p.saturation_field] if p.saturation_field is not None else []
+        if summary is not None and p.m_s is not None and summary.chi_max > 0:
+            limits.append(p.volume_fraction * p.m_s / summary.chi_max)
+        return float(min(limits) / max_shape_on_rod(field)) if limits else math.inf
 
     def _check_assumptions(self, field, h0: float, summary: Optional[MagneticSummary]) -> None:
         """Warn (ModelAssumptionWarning) about dense particles, a field above the saturation field,

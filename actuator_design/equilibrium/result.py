@@ -11,9 +11,10 @@ from typing import Callable, Dict, Optional
 
 import numpy as np
 
-from actuator_design.io.display import degrees, number
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.io.display import degrees, number
 from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import registered_terms
 
 __all__ = ["EquilibriumResult"]
@@ -162,7 +163,7 @@ class EquilibriumResult:
             "energy_J": self.energy * sc.moment,
             "clamp_force_N": (self.clamp_force * sc.force).tolist(),
             "clamp_moment_Nm": self.clamp_moment * sc.moment,
-            "field_A_per_m": sc.field,
+            "field_A_per_m": lens.applied_field(self.scene),  # of the groups, not the YAML's scale
         }
 
     #: the top-level keys of :meth:`to_dict`, in order

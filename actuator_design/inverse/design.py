@@ -57,6 +57,7 @@ from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResul
 from actuator_design.inverse.verify import schedule_rows, stiffness_by_differences
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene, UniformField, default_scene
+from actuator_design.physics import parameters as lens
 from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
 from actuator_design.robust.tolerances import parse_tolerances
 
@@ -261,6 +262,10 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     base = scene or default_scene(h=0.0)
     settings = _field_bound(settings, base)
     notes: List[str] = []
+    bound = lens.model_field_bound(base)
+    if bound is not None and 0.0 < bound[0] < settings.h_max:  # a stronger field is beyond the model
+        settings = replace(settings, h_max=bound[0])
+        notes.append(f"the field is bounded by h <= {bound[0]:.6g} ({bound[1]})")
     tol = settings.tolerances
     if tol.angle > 0 and base.field is not None and not isinstance(base.field, UniformField):
         settings = replace(settings, tolerances=replace(tol, angle=0.0))  # no angle to be off by
@@ -414,11 +419,14 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     if choice.reachable and "h" in vary and best.h >= problem.settings.h_max * (1.0 - 1e-4):
         notes.append(f"the design's field sits at its bound h = {problem.settings.h_max:g} (--h-max): "
                      "a stronger field was not allowed")
+    beyond = lens.beyond_model(choice.scene)  # a design beyond the magnetisation model's field
+    if beyond is not None:
+        notes.append(f"not a success: {beyond}; lower --h-max")
     accept = problem.settings.accept_tol
     # a tolerance box asked for and not checked is no success (issue: a stiffness target claimed it)
     robust_ok = robust.holds if robust is not None else not problem.settings.tolerances.active
     result.success = bool(result.reachable and result.verified and result.stable and result.snap_free
-                          and result.error <= accept and stiffness_ok and robust_ok)
+                          and result.error <= accept and stiffness_ok and robust_ok and beyond is None)
     if result.verified and result.reachable and robust is None and not robust_ok:
         notes.append(f"not a success: the design was not checked over the tolerance box "
                      f"({problem.settings.tolerances.describe()})")

@@ -145,8 +145,8 @@ def remanence_only(scene: Scene) -> bool:
 def coupled_scene(base: Scene, sc: Scene) -> Scene:
     """``sc`` (``base`` with a designed h) with h_r and h_pos moved with h like the field they share,
     as :func:`couple_field_groups` does in the NLP."""
-    if not base.h > 0:
-        return sc
+    if not base.h > 0:  # no ratio at zero field: a physical scene's groups per field (else none)
+        return lens.apply_values(replace(sc, h=0.0), {"h": sc.h}) if lens.per_field(sc) else sc
 
     return lens.scale_field(sc, sc.h / base.h, source=base, magnitude=False)
 
@@ -195,6 +195,10 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
                          f"{''.join(' and/or ' + v for v in profiles)} at the scene's field magnitude")
     if ("h" in vary or "phi" in vary) and scene.field is None:
         scene = replace(scene, field=UniformField(phi=0.0))  # keeps the scene's h as a start
+    if "h" in vary and not scene.h > 0 and lens.per_field(scene).get("h", 0.0) > 0:
+        # at zero field the design NLP could not move the other groups with h (their ratio to h is
+        # 0/0): the base at a field of 1 A/m gives it the physical scene's ratios (h is designed)
+        scene = lens.set_field(scene, 1.0)
     try:
         scene = lens.prepare_scene(scene, [v for v in vary if v in _SCALAR_VARIABLES], "design variable")
     except ValueError as err:

@@ -223,6 +223,14 @@ class Scales:
         √(ρA ℓ⁴/B0) of its vibrations (:mod:`actuator_design.schedules.dynamics`).
     damping_ratio : float
         The material's modal damping ratio ζ (0 when not given: a default is assumed).
+    per_field : tuple of (str, float)
+        Each group the applied field drives, per unit field, dg/dH0 per A/m, by its lens name: the
+        field is one field (THEORY §5, §9), so these fix every group at any field, zero included
+        (:func:`actuator_design.physics.parameters.set_field`). Empty when unknown.
+    field_limit : float
+        The largest field scale H0 (A/m) at which the magnetisation model holds: the particles'
+        saturation field, and the field at which the linear magnetisation reaches the composite's
+        saturation ν M_s (THEORY §11), over the rod; inf when unknown.
     """
 
     length: float
@@ -232,6 +240,8 @@ class Scales:
     h_r_per_field: float = 0.0
     mass_per_length: float = 0.0
     damping_ratio: float = 0.0
+    per_field: Tuple[Tuple[str, float], ...] = ()
+    field_limit: float = math.inf
 
     @property
     def force(self) -> float:

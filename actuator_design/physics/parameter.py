@@ -133,6 +133,8 @@ class Parameter:
     def validate(self, value) -> float:
         """``value`` as a float; ValueError naming the parameter and its range otherwise."""
         try:
+            if isinstance(value, str) and "_" in value:  # Python's 1_000 is no number a user writes
+                raise ValueError
             v = float(value)
         except (TypeError, ValueError):
             raise ValueError(f"{self.name}: must be a number, got {value!r}") from None

@@ -32,7 +32,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from actuator_design.model.scene import Scene, UniformField
-from actuator_design.model.units import DIMENSIONS
+from actuator_design.model.units import DIMENSIONS, MU0
 from actuator_design.physics.parameter import THETA0, Parameter, plugin_parameter
 from actuator_design.physics.registry import registered_terms, registry_version, term_class, write_keeps_terms
 
@@ -40,7 +40,8 @@ __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_va
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
            "physical_parameter", "entry_names", "stiffness_groups", "remanent_group",
-           "field_groups", "scale_field"]
+           "field_groups", "scale_field", "per_field", "set_field", "applied_field", "beyond_model",
+           "model_field_bound"]
 
 
 def _source_weight(k: int) -> Parameter:
@@ -199,6 +200,66 @@ def field_groups(magnitude: bool = True) -> List[Tuple[Parameter, int]]:
     return [(p, p.field_power) for p in out.values()]
 
 
+def per_field(scene: Scene) -> Dict[str, float]:
+    """Each group the field drives per unit applied field (dg/dH0 per A/m), by lens name, from the
+    scene's physical scales (``Scales.per_field``); empty for a dimensionless scene."""
+    return dict(getattr(scene.scales, "per_field", ()) or ())
+
+
+def set_field(scene: Scene, H: float) -> Scene:
+    """``scene`` in the applied field H (A/m, the scale H0 of its field): every group the field
+    drives set to its value per field times H (:func:`per_field`), zero field included (a group
+    with a value per field adds its term, e.g. the χ̂ term of a non-uniform field); a present group
+    that would be 0 keeps the smallest normal float (the NLP structure stays). ValueError for a
+    scene without the table."""
+    table = per_field(scene)
+    if not table:
+        raise ValueError("this scene has no physical field scale (a dimensionless scene): give the "
+                         "groups themselves")
+    for p, f in field_groups():
+        if p.name in table and (p.field_magnitude or table[p.name] != 0.0 or _present(scene, p.term)):
+            value = table[p.name] * float(H) ** f
+            if value == 0.0 and not p.field_magnitude and table[p.name] != 0.0:
+                value = np.finfo(float).tiny
+            scene = p.write(scene, value)
+    return scene
+
+
+def applied_field(scene: Scene) -> Optional[float]:
+    """The applied field H (A/m, the scale H0 of the scene's field) its groups stand for: from the
+    first group the field drives with a known value per field (h, else a remanent h_r), else the
+    scale the scene was built with; None for a dimensionless scene."""
+    if scene.scales is None:
+        return None
+    table = per_field(scene)
+    for p, _ in field_groups():
+        if table.get(p.name, 0.0) > 0.0 and (p.field_magnitude or _present(scene, p.term)):
+            return p.get(scene) / table[p.name]
+    return float(scene.scales.field)
+
+
+def model_field_bound(scene: Scene) -> Optional[Tuple[float, str]]:
+    """(h_bound, why): the largest field group h of the field the scene's magnetisation model holds
+    to (``Scales.field_limit``), with the reason in words; None when no limit is known."""
+    limit, h_per = getattr(scene.scales, "field_limit", math.inf), per_field(scene).get("h", 0.0)
+    if not (math.isfinite(limit) and h_per > 0.0):
+        return None
+    return h_per * limit, (f"{limit:.4g} A/m, the field up to which the particles' linear magnetisation holds "
+                           "(their saturation, THEORY §11)")
+
+
+def beyond_model(scene: Scene) -> Optional[str]:
+    """Why the scene's applied field lies beyond the field its magnetisation model holds to
+    (``Scales.field_limit``: the particles' saturation, THEORY §11), or None."""
+    H = applied_field(scene)
+    limit = getattr(scene.scales, "field_limit", math.inf)
+    if H is None or not H > limit * (1.0 + 1e-12):
+        return None
+    return (f"the applied field {H:.4g} A/m (mu0 H = {MU0 * H * 1e3:.4g} mT) exceeds {limit:.4g} A/m, the field "
+            "up to which the particles' linear magnetisation holds (their saturation, THEORY §11): the "
+            "magnetic coupling is overestimated there")
+
+
 def scale_field(scene: Scene, k: float, source: Optional[Scene] = None, magnitude: bool = True) -> Scene:
     """``scene`` with every group the field drives set to its value in ``source`` (default: ``scene``)
     times k^f: the same rod in the applied field scaled by k (:func:`field_groups`). A group of a term
@@ -215,8 +276,9 @@ def apply_values(scene: Scene, values: Mapping[str, float], what: str = "paramet
     """A copy of ``scene`` with the named parameters set, the field-scaling rule applied.
 
     Setting the field magnitude (``h`` or ``h2``) scales every other field-dependent value whose
-    term is present and that is not given too (THEORY §5: h_pos ∝ H like h), unless the scene's
-    magnitude is 0. A present term whose value would round to 0 keeps the smallest normal float
+    term is present and that is not given too (THEORY §5: h_pos ∝ H like h); from a scene at zero
+    field, where no ratio is known, a physical scene's groups per field set them
+    (:func:`set_field`; a dimensionless one's stay). A present term whose value would round to 0 keeps the smallest normal float
     instead, so the NLP structure does not change along a ramp (its square is 0.0).
 
     Raises
@@ -233,7 +295,12 @@ def apply_values(scene: Scene, values: Mapping[str, float], what: str = "paramet
         by_slot[p.slot] = p.name
     order = sorted(params, key=lambda p: not p.field_magnitude)  # the magnitude first
     for p in order:
-        if p.field_magnitude:
+        table = per_field(scene)
+        if p.field_magnitude and not p.get(scene) > 0 and table.get("h", 0.0) > 0 and scene.field is not None:
+            # from zero field no ratio is known: the physical scene's groups per field fix them all
+            # (the magnitude is set first; a value given too is set below, as given)
+            scene = set_field(scene, vals[p.name] ** (1.0 / p.field_power) / table["h"])
+        elif p.field_magnitude:
             old = p.get(scene)
             if old > 0 and scene.field is not None:
                 ratio = (vals[p.name] / old) ** (1.0 / p.field_power)  # H_new / H_old

@@ -1,0 +1,92 @@
+"""The applied field is one field (THEORY §5, §9, §11): every group it drives (h, h_pos, h_r) is
+fixed by the field, at zero field too, and the field a result reports is the one its groups stand for.
+
+A physical scene carries each group per unit field (``Scales.per_field``). References: the same
+YAML written at the other field (the config converts it from scratch), μ0 H by hand, and the
+particles' saturation field given in the YAML (configs/micro_rod.yaml: 400 kA/m)."""
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from actuator_design.cli.main import main
+from actuator_design.config import load_scene
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.inverse.design import DesignSettings, design
+from actuator_design.physics import parameters as lens
+from actuator_design.robust.tolerances import parse_tolerances
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+MU0 = 4e-7 * math.pi
+SOFT_HARD = """scene:
+  type: physical
+  rod: {{length: 20 mm, width: 5 mm, thickness: 1 mm, youngs_modulus: 1 MPa}}
+  magnetics: {{chi_bar: 0.2, chi_hat: 0, remanent_flux_density: 0.01 T}}
+  magnetization: 0 deg
+  field: {{type: uniform, magnitude: {mT} mT, angle: {deg} deg}}
+"""
+
+
+def soft_hard(tmp_path, mT, deg=90.0):
+    path = tmp_path / f"rod_{mT}_{deg}.yaml"
+    path.write_text(SOFT_HARD.format(mT=mT, deg=deg))
+    return path
+
+
+def _solve_json(capsys, *argv):
+    assert main(["solve", *argv, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_a_field_set_on_a_scene_at_zero_field_moves_every_group(tmp_path, capsys):
+    at_zero, at_ten = soft_hard(tmp_path, 0), soft_hard(tmp_path, 10)
+    ref = _solve_json(capsys, str(at_ten))
+    for argv in ([str(at_zero), "--set", "h=10 mT"], [str(at_ten), "--set", "h=0 mT", "--set", "h=10 mT"],
+                 [str(at_zero), "--set", "h_r=10 mT"]):
+        got = _solve_json(capsys, *argv)
+        assert got["groups"]["h"] == pytest.approx(ref["groups"]["h"], rel=1e-12), argv
+        assert got["groups"]["h_r"] == pytest.approx(ref["groups"]["h_r"], rel=1e-12), argv
+        assert (got["tip"]["x"], got["tip"]["y"]) == pytest.approx((ref["tip"]["x"], ref["tip"]["y"]), abs=1e-10)
+        assert got["physical"]["field_A_per_m"] == pytest.approx(10e-3 / MU0, rel=1e-12)  # the field set
+        assert got["physical"]["field_mT"] == pytest.approx(10.0, rel=1e-12)
+
+
+def test_a_design_from_a_scene_at_zero_field_moves_the_remanent_group_with_the_field(tmp_path):
+    """The user leaves the field at 0 for the design to find: the designed field must carry h_r
+    (∝ H) with it. Reference: the tip of the same rod's YAML at 40 mT and 60 deg."""
+    made = solve(load_scene(soft_hard(tmp_path, 40, 60))[0])
+    base = load_scene(soft_hard(tmp_path, 0, 60))[0]
+    res = design((made.tip["x"], made.tip["y"]), base, vary=("h", "phi"),
+                 settings=DesignSettings(ramp_steps=6, tolerances=parse_tolerances("none")))
+    assert res.success, res.message
+    H = res.design["h"] / base.scales.h_per_field
+    assert MU0 * H * 1e3 == pytest.approx(40.0, rel=1e-6)
+    assert res.design["h_r"] == pytest.approx(dict(base.scales.per_field)["h_r"] * H, rel=1e-9)
+
+
+def test_the_particles_saturation_bounds_the_design_and_is_warned_of(capsys):
+    """Beyond the particles' saturation field the linear magnetisation overestimates the coupling
+    (THEORY §11): a design stays below it (here the target needs more, so it is out of reach) and
+    a field set beyond it is warned of, as the same field in the YAML is."""
+    base = load_scene(CONFIGS / "micro_rod.yaml")[0]
+    assert base.scales.field_limit == pytest.approx(400e3, rel=1e-12)  # saturation_field, uniform field
+    res = design((0.3658522348, 0.9066888556), base, vary=("h", "phi"),
+                 settings=DesignSettings(h_max=40.0, ramp_steps=6, tolerances=parse_tolerances("none")))
+    assert not res.success and not res.reachable
+    assert res.design["h"] / base.scales.h_per_field <= 400e3 * (1 + 1e-9)
+    assert "linear magnetisation holds" in res.message
+    assert main(["solve", str(CONFIGS / "micro_rod.yaml"), "--set", "h=1500 kA/m"]) == 0
+    err = capsys.readouterr().err
+    assert "warning" in err and "exceeds 4e+05 A/m" in err
+    assert lens.beyond_model(base) is None  # the YAML's own 50 mT is within
+
+
+@pytest.mark.parametrize("value, message", [
+    ("h=-2 mT", "--set h: the applied field must be >= 0, got '-2 mT'"),
+    ("h=1e9 mT", "--set h: the field 1e9 mT gives h = "),
+])
+def test_a_field_out_of_range_is_one_line_naming_the_flag(tmp_path, capsys, value, message):
+    assert main(["solve", str(soft_hard(tmp_path, 10)), "--set", value]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
