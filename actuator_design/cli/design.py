@@ -285,8 +285,10 @@ def _summary(res, units=None, table=None, qs=None) -> str:
     if res.stiffness_target is not None and res.achieved_stiffness is not None:
         lines.append(f"  stiffness   : achieved {res.achieved_stiffness:.10g} [B0/l^3] (central differences of "
                      f"independent forward solves)")
-    lines.append(f"  verdict     : reachable {res.reachable}, verified {res.verified}, stable {res.stable} "
-                 f"(margin {res.stability_margin:.4g}), snap-free {res.snap_free}")
+    stability = (f"stable {res.stable} (margin {res.stability_margin:.4g})" if not math.isnan(res.stability_margin)
+                 else "stability not established (no verified state)")
+    lines.append(f"  verdict     : reachable {res.reachable}, verified {res.verified}, {stability}, "
+                 f"snap-free {res.snap_free}")
     if res.robustness is not None:
         lines.append(f"  robustness  : {res.robustness.sentence()}")
     elif res.tolerances is None:
