@@ -65,8 +65,10 @@ def test_mirror_targets_get_mirror_designs(target):
 
 def test_every_declared_mirror_factor_leaves_the_energy_invariant():
     """Symmetry check of the parameters' ``mirror`` factors (THEORY §4–5, §9): for any shape θ(s),
-    the energy of the scene at θ equals the energy of its mirror scene at −θ, every term present
-    (field, χ̂, fibre and magnetisation profiles, tip force and moment, distributed load, clamp angle)."""
+    the energy of the scene at θ equals the energy of its mirror scene at −θ, every term a mirror is
+    built for present (uniform field, fibre and magnetisation profiles, tip force and moment,
+    distributed load, clamp angle; the χ̂ term is a constant in a uniform field). Flipping any one
+    declared factor makes this fail (checked by hand for fx and h_r)."""
     from actuator_design.equilibrium.options import SolverOptions
     from actuator_design.equilibrium.solver import get_solver
     from actuator_design.model.profiles import constant_profile

@@ -8,10 +8,12 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
+from actuator_design.continuation.loading import follow_path
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.inverse.design import DesignSettings, design
 from actuator_design.physics import parameters as lens
@@ -78,7 +80,7 @@ def test_the_particles_saturation_bounds_the_design_and_is_warned_of(capsys):
     assert "linear magnetisation holds" in res.message
     assert main(["solve", str(CONFIGS / "micro_rod.yaml"), "--set", "h=1500 kA/m"]) == 0
     err = capsys.readouterr().err
-    assert "warning" in err and "exceeds 4e+05 A/m" in err
+    assert "warning" in err and "beyond 4e+05 A/m" in err
     assert lens.beyond_model(base) is None  # the YAML's own 50 mT is within
 
 
@@ -90,3 +92,61 @@ def test_a_field_out_of_range_is_one_line_naming_the_flag(tmp_path, capsys, valu
     assert main(["solve", str(soft_hard(tmp_path, 10)), "--set", value]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
+
+
+def test_a_loading_path_from_zero_field_ramps_every_group_with_the_field(tmp_path):
+    """A ramp of h from a scene at zero field (the ratio h_r/h is 0/0 there) follows the groups
+    per unit field: its end is the rod at that field. Reference: the YAML written at 10 mT."""
+    base = load_scene(soft_hard(tmp_path, 0))[0]
+    ref = solve(load_scene(soft_hard(tmp_path, 10))[0])
+    h10 = base.scales.h_per_field * 10e-3 / MU0
+    path = follow_path(base, None, {"h": [0.0, h10]})
+    assert path.success and path.final.scene.h_r == pytest.approx(ref.scene.h_r, rel=1e-12)
+    assert (path.final.tip["x"], path.final.tip["y"]) == pytest.approx((ref.tip["x"], ref.tip["y"]), abs=1e-8)
+
+
+def test_a_rod_without_soft_coupling_at_zero_field_has_no_field_to_design(tmp_path):
+    """A hard-magnetic rod (χ̄ = 0) at zero field: its field acts through h_r alone at the scene's
+    magnitude, which is 0 — there is nothing to design, and no soft coupling to invent."""
+    path = tmp_path / "hard0.yaml"
+    path.write_text(SOFT_HARD.format(mT=0, deg=90).replace("chi_bar: 0.2", "chi_bar: 0"))
+    base = load_scene(path)[0]
+    for vary in (None, ("h", "phi")):
+        with pytest.raises(ValueError, match="field is 0 and this rod has no soft-magnetic coupling"):
+            design((0.7, 0.6), base, vary=vary, settings=DesignSettings(tolerances=parse_tolerances("none")))
+
+
+DIPOLE_FAR = """scene:
+  type: physical
+  rod: {length: 20 mm, width: 5 mm, thickness: 1 mm, youngs_modulus: 1 MPa}
+  magnetics:
+    particles: {axis_ratio: 4, chi_par: 1000, chi_perp: 1000, volume_fraction: 0.02, saturation_field: 100 kA/m}
+  field: {type: dipole, moment: 0.05 A m^2, position: {x: 30 mm, y: -12 mm}, moment_angle: 0 deg}
+solver: {transcription: lgl, elements: 8, degree: 10}
+"""
+
+
+def test_the_saturation_check_sees_the_field_on_the_bent_rod(tmp_path):
+    """Near a magnet the bent rod meets a stronger field than the straight one. Reference: the
+    point dipole's field |ĥ| = |3(m·r)r/r⁵ − m/r³| on the solved shape, by hand."""
+    path = tmp_path / "dipole.yaml"
+    path.write_text(DIPOLE_FAR)
+    base = load_scene(path)[0]
+    f = base.field
+    x0, y0 = f.x0, f.y0
+
+    def shape_max(x, y):
+        rx, ry = np.asarray(x) - x0, np.asarray(y) - y0
+        r = np.hypot(rx, ry)
+        mx, my = math.cos(f.moment_angle), math.sin(f.moment_angle)
+        md = (mx * rx + my * ry) / r
+        return float(np.max(np.hypot((3 * md * rx / r - mx) / r**3, (3 * md * ry / r - my) / r**3)))
+
+    straight = shape_max(np.linspace(0, 1, 201), np.zeros(201))
+    H = 0.9 * base.scales.field_limit / straight  # within the limit on the straight rod
+    sc = lens.set_field(base, H)
+    r = solve(sc)
+    assert r.success and lens.beyond_model(sc) is None
+    bent = r.evaluate(np.linspace(0, 1, 201))
+    assert H * shape_max(bent["x"], bent["y"]) > base.scales.field_limit  # the bent rod goes beyond it
+    assert lens.beyond_model(sc, bent["x"], bent["y"]) is not None

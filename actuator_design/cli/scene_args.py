@@ -126,13 +126,12 @@ def add_set_arg(parser) -> None:
                             "moves every group it drives with it)")
 
 
-def apply_set_flags(scene, args):
+def apply_set_flags(scene, args, warn: bool = True):
     """``scene`` with every ``--set NAME=VALUE`` applied through the parameter lens, in order (after
     the other scene flags: ``--set h=2`` wins over ``--h``). A command that does not rebuild its
     scene through :func:`build_scene` checks it again with :func:`check_flags`."""
     from actuator_design.config.limits import group_problem, scene_group_values
     from actuator_design.io.user_units import parameter_from_text, user_units
-    from actuator_design.model.magnetics import ModelAssumptionWarning
     from actuator_design.model.units import parse_quantity
     from actuator_design.physics import parameters as lens
 
@@ -167,10 +166,21 @@ def apply_set_flags(scene, args):
             with bad_input("--set "):  # the lens names the parameter, its range and the value
                 scene = lens.set_value(scene, name, value)
             check_parameter_angle(name, float(value), f"--set {name}")  # an angle in rad within ±MAX_ANGLE_DEG
-    beyond = lens.beyond_model(scene) if getattr(args, "set_values", None) else None
-    if beyond is not None:  # as a YAML field beyond the particles' saturation is warned of
-        warnings.warn(f"--set: {beyond}", ModelAssumptionWarning, stacklevel=2)
+    if warn and getattr(args, "set_values", None):
+        warn_beyond_model(scene)
     return scene
+
+
+def warn_beyond_model(scene) -> None:
+    """Warn (ModelAssumptionWarning) when flags put the rod in a field beyond the one its
+    magnetisation model holds to, as a YAML field beyond the particles' saturation is warned of."""
+    from actuator_design.model.magnetics import ModelAssumptionWarning
+    from actuator_design.physics import parameters as lens
+
+    beyond = lens.beyond_model(scene)
+    if beyond is not None:
+        warnings.warn(f"the scene flags set a field beyond the model: {beyond}", ModelAssumptionWarning,
+                      stacklevel=3)
 
 
 def _has_unit(value: str) -> bool:
@@ -219,4 +229,7 @@ def apply_term_flags(scene, args):
         if value is not None:
             with bad_input(f"{p.flag}: "):
                 scene = lens.set_value(scene, p.name, math.radians(value) if p.unit == "rad" else value)
-    return apply_set_flags(scene, args)
+    scene = apply_set_flags(scene, args, warn=False)
+    if any(getattr(args, k, None) is not None for k in SCENE_KEYS) or getattr(args, "set_values", None):
+        warn_beyond_model(scene)  # once, whichever flag moved the field
+    return scene

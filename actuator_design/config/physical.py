@@ -332,15 +332,15 @@ class PhysicalScene(StrictModel):
         return bool(m is not None and m.particles is not None and m.susceptibilities()[0] == 0.0)
 
     def _field_limit(self, field, summary: Optional[MagneticSummary]) -> float:
-        """The largest field scale H0 (A/m) the checks of :meth:`_check_assumptions` accept: the
-        particles' saturation field and ν M_s / χ_max, over max |ĥ| on the rod (inf: no limit known)."""
+        """The largest field |H| on the rod (A/m) the checks of :meth:`_check_assumptions` accept: the
+        particles' saturation field and ν M_s / χ_max (inf: no limit known)."""
         p = self.magnetics.particles if self.magnetics else None
         if p is None or field is None:
             return math.inf
         limits = [p.saturation_field] if p.saturation_field is not None else []
         if summary is not None and p.m_s is not None and summary.chi_max > 0:
             limits.append(p.volume_fraction * p.m_s / summary.chi_max)
-        return float(min(limits) / max_shape_on_rod(field)) if limits else math.inf
+        return float(min(limits)) if limits else math.inf
 
     def _check_assumptions(self, field, h0: float, summary: Optional[MagneticSummary]) -> None:
         """Warn (ModelAssumptionWarning) about dense particles, a field above the saturation field,

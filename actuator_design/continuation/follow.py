@@ -402,8 +402,10 @@ def _alone_note(scene: Scene, param: str) -> List[str]:
     which is not a change of the applied field (a loading path in it moves them all)."""
     if not lens.parameter(param).field_magnitude:
         return []
+    table = lens.per_field(scene)  # (a physical scene at zero field has them per unit field)
     fixed = [p for p, _ in lens.field_groups(magnitude=False)
-             if p.get(scene) != 0.0 and (p.term is None or term_class(p.term).present(scene))]
+             if (p.get(scene) != 0.0 or table.get(p.name, 0.0) != 0.0)
+             and (p.term is None or term_class(p.term).present(scene))]
     if not fixed:
         return []
     return [f"{param} is continued alone: {', '.join(f'{p.name} = {p.get(scene):.6g}' for p in fixed)} "

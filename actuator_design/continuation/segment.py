@@ -15,10 +15,10 @@ from typing import Dict, List, Sequence, Tuple
 
 import numpy as np
 
+from actuator_design.continuation.problem import BifurcationProblem
+from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.reduced.system import ReducedSystem
-from actuator_design.model.scene import Scene
-from actuator_design.continuation.problem import BifurcationProblem
 
 __all__ = ["LensSegment", "SegmentProblem", "followers"]
 
@@ -78,9 +78,13 @@ class LensSegment:
         for q in map(lens.parameter, follow):
             if not mags:
                 raise RuntimeError(f"{q.name} follows the schedule but no field magnitude is scheduled")
-            m = self._pars[mags[0]]
-            self._laws.append((mags[0], q.get(base) / m.get(base) ** (q.field_power / m.field_power),
-                               q.field_power / m.field_power))
+            m, r = self._pars[mags[0]], q.field_power / self._pars[mags[0]].field_power
+            if m.get(base) > 0:
+                c = q.get(base) / m.get(base) ** r
+            else:  # from zero field: the physical scene's groups per field (q = t_q H^f, h = t_h H)
+                table = lens.per_field(base)
+                c = table[q.name] / table["h"] ** q.field_power
+            self._laws.append((mags[0], c, r))
         for lam in ((0.0, 0.5, 1.0) if self._laws else ()):  # the closed form is the lens' rule: check it
             got, sc = self.point(lam)[0], self.scene(lam)
             for name, value in zip(self.system_names, got):

@@ -263,7 +263,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     settings = _field_bound(settings, base)
     notes: List[str] = []
     bound = lens.model_field_bound(base)
-    if bound is not None and 0.0 < bound[0] < settings.h_max:  # a stronger field is beyond the model
+    if bound is not None and 0.0 < bound[0] < settings.h_max and (vary is None or "h" in vary):  # beyond the model
         settings = replace(settings, h_max=bound[0])
         notes.append(f"the field is bounded by h <= {bound[0]:.6g} ({bound[1]})")
     tol = settings.tolerances
@@ -286,7 +286,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
             if not (0 < settings.magnetization_max <= math.pi + 1e-12):
                 raise ValueError(f"magnetization_max must lie in (0, 180] deg, got "
                                  f"{math.degrees(settings.magnetization_max):g} deg")
-    elif base.h_r > 0 and target:  # a hard-magnetic rod designs with its own physics: the field,
+    elif lens.remanent_groups(base) and target:  # a hard-magnetic rod designs with its own physics: the field,
         # then the magnetisation profile β(s) (THEORY §9), never a fibre layout; without soft
         # coupling (h = 0) the field magnitude is the scene's and only its angle is designed
         field = ("phi",) if remanence_only(base) else ("h", "phi")
@@ -298,6 +298,11 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
+    if remanence_only(base) and not lens.remanent_group(base, stored=True) > 0:
+        names = ", ".join(p.name for p in lens.remanent_groups(base))
+        raise ValueError(f"the scene's field is 0 and this rod has no soft-magnetic coupling: the field acts on it "
+                         f"through {names} alone, at the scene's magnitude; give the field's magnitude in the "
+                         "scene (the design varies its angle and profiles)")
     if base.obstacles and (stiffness is not None or not target):
         refuse_contact(base, "design --target-stiffness")  # a pose with obstacles: the rod kept clear of them
     rest = entered_at_rest(base)
@@ -419,9 +424,11 @@ def result_of(problem: DesignProblem, choice: Choice, verification: Optional[Ver
     if choice.reachable and "h" in vary and best.h >= problem.settings.h_max * (1.0 - 1e-4):
         notes.append(f"the design's field sits at its bound h = {problem.settings.h_max:g} (--h-max): "
                      "a stronger field was not allowed")
-    beyond = lens.beyond_model(choice.scene)  # a design beyond the magnetisation model's field
+    # a design beyond the field its magnetisation model holds to, on the rod's verified shape
+    shape = state.evaluate(np.linspace(0.0, 1.0, 201)) if state is not None and state.success else {}
+    beyond = lens.beyond_model(choice.scene, shape.get("x"), shape.get("y"))
     if beyond is not None:
-        notes.append(f"not a success: {beyond}; lower --h-max")
+        notes.append(f"not a success: {beyond}" + ("; lower --h-max" if "h" in vary else ""))
     accept = problem.settings.accept_tol
     # a tolerance box asked for and not checked is no success (issue: a stiffness target claimed it)
     robust_ok = robust.holds if robust is not None else not problem.settings.tolerances.active

@@ -137,9 +137,9 @@ def couple_field_groups(P, P0, h, slices) -> None:
 
 
 def remanence_only(scene: Scene) -> bool:
-    """A rod with remanence and no soft coupling (h_r > 0, h = 0): the field acts through h_r alone,
-    so it has no h to design (THEORY §9)."""
-    return lens.remanent_group(scene, stored=True) > 0 and not scene.h > 0
+    """A rod with remanence and no soft coupling (h_r > 0, h = 0; on a physical scene at zero field,
+    per unit field): the field acts through h_r alone, so it has no h to design (THEORY §9)."""
+    return bool(lens.remanent_groups(scene)) and not lens.soft_coupled(scene)
 
 
 def coupled_scene(base: Scene, sc: Scene) -> Scene:
@@ -187,8 +187,8 @@ def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
         problem = check(scene) if check is not None else None
         if problem:
             raise ValueError(f"--vary {v}: {problem}")
-    groups = [p for p in lens.parameters().values() if p.remanent_field and p.get(scene) > 0]
-    if "h" in vary and groups and not scene.h > 0:  # the field acts through the remanent groups alone
+    groups = lens.remanent_groups(scene)
+    if "h" in vary and groups and not lens.soft_coupled(scene):  # the field acts through them alone
         profiles = [v for v in _PROFILE_VARIABLES if lens.parameter(v).term in {p.term for p in groups}]
         raise ValueError("--vary h: this rod has no soft-magnetic coupling (h = 0): the field acts on it "
                          f"through {', '.join(p.name for p in groups)} alone; design phi"

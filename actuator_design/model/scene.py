@@ -228,9 +228,9 @@ class Scales:
         field is one field (THEORY §5, §9), so these fix every group at any field, zero included
         (:func:`actuator_design.physics.parameters.set_field`). Empty when unknown.
     field_limit : float
-        The largest field scale H0 (A/m) at which the magnetisation model holds: the particles'
-        saturation field, and the field at which the linear magnetisation reaches the composite's
-        saturation ν M_s (THEORY §11), over the rod; inf when unknown.
+        The largest field |H| at a point of the rod (A/m) at which the magnetisation model holds:
+        the particles' saturation field, and the field at which the linear magnetisation reaches the
+        composite's saturation ν M_s (THEORY §11); inf when unknown.
     """
 
     length: float

@@ -33,6 +33,7 @@ import numpy as np
 
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.model.units import DIMENSIONS, MU0
+from actuator_design.physics.fields import field_model
 from actuator_design.physics.parameter import THETA0, Parameter, plugin_parameter
 from actuator_design.physics.registry import registered_terms, registry_version, term_class, write_keeps_terms
 
@@ -41,7 +42,7 @@ __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_va
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
            "physical_parameter", "entry_names", "stiffness_groups", "remanent_group",
            "field_groups", "scale_field", "per_field", "set_field", "applied_field", "beyond_model",
-           "model_field_bound"]
+           "model_field_bound", "field_shape_max", "remanent_groups", "soft_coupled"]
 
 
 def _source_weight(k: int) -> Parameter:
@@ -206,22 +207,38 @@ def per_field(scene: Scene) -> Dict[str, float]:
     return dict(getattr(scene.scales, "per_field", ()) or ())
 
 
+def remanent_groups(scene: Scene) -> List[Parameter]:
+    """The remanent-magnetisation groups of the rod (``Parameter.remanent_field``: h_r, THEORY §9),
+    those stored nonzero or nonzero per unit field (a physical scene at zero field has them too)."""
+    table = per_field(scene)
+    return [p for p in parameters().values()
+            if p.remanent_field and not p.per_point and (p.get(scene) > 0 or table.get(p.name, 0.0) > 0)]
+
+
+def soft_coupled(scene: Scene) -> bool:
+    """Whether the rod couples to the field through its susceptibility (h > 0, or h > 0 per unit
+    field on a physical scene at zero field)."""
+    return scene.h > 0 or per_field(scene).get("h", 0.0) > 0
+
+
 def set_field(scene: Scene, H: float) -> Scene:
     """``scene`` in the applied field H (A/m, the scale H0 of its field): every group the field
-    drives set to its value per field times H (:func:`per_field`), zero field included (a group
-    with a value per field adds its term, e.g. the χ̂ term of a non-uniform field); a present group
-    that would be 0 keeps the smallest normal float (the NLP structure stays). ValueError for a
-    scene without the table."""
+    drives set to its value per field times H (:func:`per_field`), zero field included: a group whose
+    term is present after the write (the χ̂ term of a non-uniform field is added by it, the χ̂ group
+    of a uniform field is left out), a present one that would be 0 keeping the smallest normal float
+    (the NLP structure stays). ValueError for a scene without the table."""
     table = per_field(scene)
     if not table:
         raise ValueError("this scene has no physical field scale (a dimensionless scene): give the "
                          "groups themselves")
     for p, f in field_groups():
-        if p.name in table and (p.field_magnitude or table[p.name] != 0.0 or _present(scene, p.term)):
+        if p.name in table:
             value = table[p.name] * float(H) ** f
             if value == 0.0 and not p.field_magnitude and table[p.name] != 0.0:
                 value = np.finfo(float).tiny
-            scene = p.write(scene, value)
+            written = p.write(scene, value)
+            if p.field_magnitude or _present(written, p.term):
+                scene = written
     return scene
 
 
@@ -242,22 +259,38 @@ def model_field_bound(scene: Scene) -> Optional[Tuple[float, str]]:
     """(h_bound, why): the largest field group h of the field the scene's magnetisation model holds
     to (``Scales.field_limit``), with the reason in words; None when no limit is known."""
     limit, h_per = getattr(scene.scales, "field_limit", math.inf), per_field(scene).get("h", 0.0)
-    if not (math.isfinite(limit) and h_per > 0.0):
+    shape = field_shape_max(scene)  # on the undeformed rod: the design's solved shape is checked too
+    if not (math.isfinite(limit) and h_per > 0.0 and shape > 0.0):
         return None
-    return h_per * limit, (f"{limit:.4g} A/m, the field up to which the particles' linear magnetisation holds "
-                           "(their saturation, THEORY §11)")
+    return h_per * limit / shape, (f"{limit:.4g} A/m on the rod, the field up to which the particles' linear "
+                                   "magnetisation holds (their saturation, THEORY §11)")
 
 
-def beyond_model(scene: Scene) -> Optional[str]:
-    """Why the scene's applied field lies beyond the field its magnetisation model holds to
-    (``Scales.field_limit``: the particles' saturation, THEORY §11), or None."""
+def field_shape_max(scene: Scene, x=None, y=None) -> float:
+    """max |ĥ| of the scene's field shape (|H| / H0) over the points (x, y) (units of ℓ; default:
+    the undeformed rod, x = s, y = 0); 0 without a field."""
+    if scene.field is None:
+        return 0.0
+    if x is None:
+        x, y = np.linspace(0.0, 1.0, 201), np.zeros(201)
+    model = field_model(scene.field)
+    with np.errstate(all="ignore"):
+        hx, hy = model.evaluate(np.asarray(x, float), np.asarray(y, float), model.parameter_values(scene.field))
+    return float(np.nanmax(np.hypot(hx, hy)))
+
+
+def beyond_model(scene: Scene, x=None, y=None) -> Optional[str]:
+    """Why the field on the rod (the undeformed one, or the points (x, y) of a solved shape) lies
+    beyond the field its magnetisation model holds to (``Scales.field_limit``: the particles'
+    saturation, THEORY §11), or None."""
     H = applied_field(scene)
     limit = getattr(scene.scales, "field_limit", math.inf)
-    if H is None or not H > limit * (1.0 + 1e-12):
+    local = None if H is None else H * field_shape_max(scene, x, y)
+    if local is None or not local > limit * (1.0 + 1e-12):
         return None
-    return (f"the applied field {H:.4g} A/m (mu0 H = {MU0 * H * 1e3:.4g} mT) exceeds {limit:.4g} A/m, the field "
-            "up to which the particles' linear magnetisation holds (their saturation, THEORY §11): the "
-            "magnetic coupling is overestimated there")
+    return (f"the field on the rod reaches {local:.4g} A/m (mu0 H = {MU0 * local * 1e3:.4g} mT), beyond {limit:.4g} "
+            "A/m, the field up to which the particles' linear magnetisation holds (their saturation, THEORY §11): "
+            "the magnetic coupling is overestimated there")
 
 
 def scale_field(scene: Scene, k: float, source: Optional[Scene] = None, magnitude: bool = True) -> Scene:
