@@ -109,7 +109,7 @@ STILL_NAMING_TERMS = {
     "config/source_specs.py": 2,
     "hardware/pose_design.py": 6,
     "inverse/choose.py": 2,
-    "inverse/design.py": 17,
+    "inverse/design.py": 15,
     "inverse/design_map.py": 2,
     "inverse/nlp.py": 4,
     "inverse/poses.py": 8,

@@ -45,7 +45,8 @@ from actuator_design.contact.clearance import clearances, entered_at_rest
 from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
-from actuator_design.inverse.design_map import driven_values, prepare_scene, profile_report, remanence_only
+from actuator_design.inverse.design_map import (driven_values, field_bound, prepare_scene, profile_report,
+                                                remanence_only)
 from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES
@@ -260,12 +261,8 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     if not isinstance(settings, DesignSettings):
         raise ValueError(f"settings: expected DesignSettings, got {type(settings).__name__}")
     base = scene or default_scene(h=0.0)
-    settings = _field_bound(settings, base)
-    notes: List[str] = []
-    bound = lens.model_field_bound(base)
-    if bound is not None and 0.0 < bound[0] < settings.h_max and (vary is None or "h" in vary):  # beyond the model
-        settings = replace(settings, h_max=bound[0])
-        notes.append(f"the field is bounded by h <= {bound[0]:.6g} ({bound[1]})")
+    h_max, notes = field_bound(settings.h_max, base, vary)
+    settings = replace(settings, h_max=h_max) if h_max != settings.h_max else settings
     tol = settings.tolerances
     if tol.angle > 0 and base.field is not None and not isinstance(base.field, UniformField):
         settings = replace(settings, tolerances=replace(tol, angle=0.0))  # no angle to be off by
@@ -329,15 +326,6 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
                          deadline=t0 + settings.time_limit,
                          fibres_fixed=fibres_fixed(base) and base.fibres_physical, notes=tuple(notes))
-
-
-def _field_bound(settings: DesignSettings, base: Scene) -> DesignSettings:
-    """The bound on h for a rod with remanence: h_r moves with h (h_r = h·h_r0/h0, THEORY §9) and
-    enters the equations as h² does (θ'' ~ h_r against θ'' ~ h²), so the field is bounded where
-    either reaches its limit: h ≤ h_max and h_r ≤ h_max², i.e. h ≤ min(h_max, h_max²·h0/h_r0)."""
-    if base.h_r > 0 and base.h > 0:
-        return replace(settings, h_max=min(settings.h_max, settings.h_max ** 2 * base.h / base.h_r))
-    return settings
 
 
 def fibres_fixed(scene: Scene) -> bool:

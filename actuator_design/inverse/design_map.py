@@ -25,7 +25,7 @@ plug-in term's field-driven values follow too.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Mapping, Sequence, Tuple
+from typing import List, Mapping, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
@@ -36,8 +36,8 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import term_class
 
 __all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
-           "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "prepare_scene",
-           "profile_report", "remanence_only"]
+           "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "field_bound",
+           "prepare_scene", "profile_report", "remanence_only"]
 
 #: The design variables (the lens entries flagged designable): scalars written into their NLP slots,
 #: and profiles designed as Legendre series (α(s), β(s))
@@ -134,6 +134,24 @@ def couple_field_groups(P, P0, h, slices) -> None:
         if g in slices:
             moved = h * P0[slices[g]] / h0 if f == 1 else (h / h0) ** f * P0[slices[g]]
             P[slices[g]] = ca.if_else(h0 > 0, moved, P0[slices[g]])
+
+
+def field_bound(h_max: float, base: Scene, vary=None) -> Tuple[float, List[str]]:
+    """The bound on the designed h and the notes that explain it.
+
+    A remanent group moves with h (h_r = h·h_r0/h0, THEORY §9) and enters the equations as h² does
+    (θ'' ~ h_r against θ'' ~ h²), so the field is bounded where either reaches its limit:
+    h ≤ min(h_max, h_max²·h0/h_r0). When h is designed, a physical scene's field is also kept below
+    the one its magnetisation model holds to (:func:`~actuator_design.physics.parameters.model_field_bound`)."""
+    notes: List[str] = []
+    for q in lens.remanent_groups(base):
+        if q.get(base) > 0 and base.h > 0:
+            h_max = min(h_max, h_max ** 2 * base.h / q.get(base))
+    bound = lens.model_field_bound(base)
+    if bound is not None and 0.0 < bound[0] < h_max and (vary is None or "h" in vary):
+        h_max = bound[0]
+        notes.append(f"the field is bounded by h <= {bound[0]:.6g} ({bound[1]})")
+    return h_max, notes
 
 
 def remanence_only(scene: Scene) -> bool:
