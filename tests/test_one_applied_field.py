@@ -6,6 +6,7 @@ YAML written at the other field (the config converts it from scratch), μ0 H by 
 particles' saturation field given in the YAML (configs/micro_rod.yaml: 400 kA/m)."""
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +17,11 @@ from actuator_design.config import load_scene
 from actuator_design.continuation.loading import follow_path
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.inverse.design import DesignSettings, design
+from actuator_design.model.profiles import constant_profile
+from actuator_design.model.scene import UniformField, default_scene
 from actuator_design.physics import parameters as lens
 from actuator_design.robust.tolerances import parse_tolerances
+from actuator_design.schedules.schedule import field_schedule
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 MU0 = 4e-7 * math.pi
@@ -44,8 +48,10 @@ def _solve_json(capsys, *argv):
 def test_a_field_set_on_a_scene_at_zero_field_moves_every_group(tmp_path, capsys):
     at_zero, at_ten = soft_hard(tmp_path, 0), soft_hard(tmp_path, 10)
     ref = _solve_json(capsys, str(at_ten))
+    h10 = ref["groups"]["h"]  # the same field as a plain group value (--h, --set h=...): still the field
     for argv in ([str(at_zero), "--set", "h=10 mT"], [str(at_ten), "--set", "h=0 mT", "--set", "h=10 mT"],
-                 [str(at_zero), "--set", "h_r=10 mT"]):
+                 [str(at_zero), "--set", "h_r=10 mT"], [str(at_zero), "--set", f"h={h10!r}"],
+                 [str(at_zero), "--h", repr(h10)]):
         got = _solve_json(capsys, *argv)
         assert got["groups"]["h"] == pytest.approx(ref["groups"]["h"], rel=1e-12), argv
         assert got["groups"]["h_r"] == pytest.approx(ref["groups"]["h_r"], rel=1e-12), argv
@@ -59,9 +65,9 @@ def test_a_design_from_a_scene_at_zero_field_moves_the_remanent_group_with_the_f
     (∝ H) with it. Reference: the tip of the same rod's YAML at 40 mT and 60 deg."""
     made = solve(load_scene(soft_hard(tmp_path, 40, 60))[0])
     base = load_scene(soft_hard(tmp_path, 0, 60))[0]
-    res = design((made.tip["x"], made.tip["y"]), base, vary=("h", "phi"),
+    res = design((made.tip["x"], made.tip["y"]), base,  # the default variables: h, phi, then beta(s)
                  settings=DesignSettings(ramp_steps=6, tolerances=parse_tolerances("none")))
-    assert res.success, res.message
+    assert res.success and res.vary == ("h", "phi"), res.message
     H = res.design["h"] / base.scales.h_per_field
     assert MU0 * H * 1e3 == pytest.approx(40.0, rel=1e-6)
     assert res.design["h_r"] == pytest.approx(dict(base.scales.per_field)["h_r"] * H, rel=1e-9)
@@ -150,3 +156,15 @@ def test_the_saturation_check_sees_the_field_on_the_bent_rod(tmp_path):
     bent = r.evaluate(np.linspace(0, 1, 201))
     assert H * shape_max(bent["x"], bent["y"]) > base.scales.field_limit  # the bent rod goes beyond it
     assert lens.beyond_model(sc, bent["x"], bent["y"]) is not None
+
+
+def test_a_schedule_of_a_soft_and_hard_rod_moves_h_r_with_h_at_every_point():
+    """The first waypoint's rows name h_r (∝ H like h); every later row must too, at the same
+    ratio (before, the rows disagreed and the schedule was refused as malformed). Reference: the
+    independent loading path through the rows reaches each waypoint (``verified``) and the ratio is
+    the scene's own h_r/h."""
+    sc = replace(default_scene(h=0.8), field=UniformField(phi=2.0), h_r=1.5, magnetization=constant_profile(0.4))
+    res = field_schedule([(0.9, 0.4), (0.89, 0.42)], sc)
+    assert res.success and res.verified, res.message
+    for row in res.schedule[1:]:
+        assert row["h_r"] == pytest.approx(row["h"] * 1.5 / 0.8, rel=1e-9)

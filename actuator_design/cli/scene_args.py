@@ -99,7 +99,7 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     else:
         scene, options, raw = loaded if loaded is not None else load_config(args.config)
         with bad_input("cannot apply the scene values to CONFIG: "):
-            scene = scene.with_values(h=vals.get("h"), p=vals.get("p"), phi=rad("phi_deg"), alpha=rad("alpha_deg"))
+            scene = with_scene_values(scene, h=vals.get("h"), p=vals.get("p"), phi=rad("phi_deg"), alpha=rad("alpha_deg"))
     scene = apply_term_flags(scene, args)
     changes = {k: getattr(args, k) for k in ("elements", "degree") if getattr(args, k, None) is not None}
     with bad_input("solver options: "):
@@ -114,6 +114,17 @@ def build_scene(args, defaults: Dict[str, float], study=None, loaded=None):
     return scene, options, raw
 
 
+def with_scene_values(scene, h=None, **values):
+    """``scene.with_values(h=…, p=…, phi=…, alpha=…)``, where on a physical scene a field group h is
+    the applied field: every group it drives follows it (the lens's rule; from zero field its groups
+    per unit field), so that no flag leaves h_r or h_pos at another field than h."""
+    from actuator_design.physics import parameters as lens
+
+    if h is not None and lens.per_field(scene) and scene.field is not None:
+        scene, h = lens.apply_values(scene, {"h": h}), None
+    return scene.with_values(h=h, **values)
+
+
 def add_set_arg(parser) -> None:
     """--set NAME=VALUE (repeatable), in its own argument group: any value of the parameter lens,
     e.g. a plug-in term's."""
@@ -123,7 +134,7 @@ def add_set_arg(parser) -> None:
                             "--help` lists the names under --param). A plain number is dimensionless (angles "
                             "in rad); a value with a unit is converted: angles ('phi=30deg') always, fields, "
                             "loads and stiffnesses on a physical scene ('h=2mT': the applied field, which "
-                            "moves every group it drives with it)")
+                            "moves every group it drives with it, as h given as a number does there)")
 
 
 def apply_set_flags(scene, args, warn: bool = True):
@@ -162,6 +173,9 @@ def apply_set_flags(scene, args, warn: bool = True):
                 number = parameter_from_text(value, param, user_units(scene), f"--set {name}")
             with bad_input("--set "):
                 scene = lens.set_value(scene, name, number)
+        elif param.field_magnitude and table and scene.field is not None:  # a physical scene's field group
+            with bad_input("--set "):  # the applied field: every group it drives follows it
+                scene = lens.apply_values(scene, {name: value})
         else:
             with bad_input("--set "):  # the lens names the parameter, its range and the value
                 scene = lens.set_value(scene, name, value)

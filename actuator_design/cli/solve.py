@@ -20,10 +20,9 @@ import math
 import sys
 
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
-                     finite_float, load_config, nonnegative_float,
-                     stdout_to_stderr)
-from actuator_design.io.display import number
+                                        finite_float, load_config, nonnegative_float, stdout_to_stderr)
 from actuator_design.cli.output import print_written, write_out
+from actuator_design.io.display import number
 
 __all__ = ["HELP", "add_args", "run", "build_inputs"]
 
@@ -131,7 +130,8 @@ def build_inputs(args: argparse.Namespace):
     else:
         scene, options, raw = load_config(args.config)
         with bad_input("cannot apply the scene flags to CONFIG: "):
-            scene = scene.with_values(**overrides)
+            from actuator_design.cli.scene_args import with_scene_values
+            scene = with_scene_values(scene, **overrides)
     from actuator_design.cli.scene_args import apply_term_flags
     scene = apply_term_flags(scene, args)
     changes = {f: getattr(args, f) for f in _SOLVER_FLAGS if getattr(args, f) is not None}

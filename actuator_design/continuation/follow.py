@@ -408,10 +408,12 @@ def _alone_note(scene: Scene, param: str) -> List[str]:
              and (p.term is None or term_class(p.term).present(scene))]
     if not fixed:
         return []
+    advice = (f"`actuator-design path --param {param}` ramps the field with every group it drives"
+              if lens.soft_coupled(scene) else  # no h per field: the field acts through the others alone
+              f"this rod's field acts through {', '.join(p.name for p in fixed)}: continue in that")
     return [f"{param} is continued alone: {', '.join(f'{p.name} = {p.get(scene):.6g}' for p in fixed)} "
             f"(∝ the field too) stay{'s' if len(fixed) == 1 else ''} fixed, so the branch is not a change of "
-            f"the applied field; `actuator-design path --param {param}` ramps the field with every group "
-            "it drives"]
+            f"the applied field; {advice}"]
 
 
 def _in_contact_from_start(scene: Scene, options: SolverOptions, param: str, start: float, stop: float,

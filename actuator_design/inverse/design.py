@@ -295,7 +295,7 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
-    if remanence_only(base) and not lens.remanent_group(base, stored=True) > 0:
+    if remanence_only(base) and not lens.remanent_group(base, stored=True) > np.finfo(float).tiny:  # zero field
         names = ", ".join(p.name for p in lens.remanent_groups(base))
         raise ValueError(f"the scene's field is 0 and this rod has no soft-magnetic coupling: the field acts on it "
                          f"through {names} alone, at the scene's magnitude; give the field's magnitude in the "

@@ -18,7 +18,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint
 from actuator_design.model.scene import Scene
-from actuator_design.physics.parameters import remanent_group
+from actuator_design.physics.parameters import applied_field, remanent_group
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
@@ -205,8 +205,9 @@ class DesignResult:
         H = None
         if sc is not None and sc.h_per_field > 0 and math.isfinite(self.design.get("h", float("nan"))):
             H = self.design["h"] / sc.h_per_field  # h ∝ H0: the designed field scale in A/m
-        elif sc is not None and "h" not in self.vary and sc.field > 0:
-            H = sc.field  # the field magnitude is the scene's (a rod without soft coupling)
+        elif sc is not None and "h" not in self.vary:  # the field magnitude is the scene's (no soft coupling)
+            applied = applied_field(self.design_scene if self.design_scene is not None else self.scene)
+            H = applied if applied is not None and applied > 0 else None
         if H is not None:
             # the designed field scale in A/m and as μ0H in mT
             out["physical"] = {"field_A_per_m": H, "stiffness_scale_N_per_m": sc.stiffness,

@@ -38,8 +38,9 @@ def with_hard_magnetic_term(scene: Scene) -> Scene:
 
 
 def _needs_remanence(sc: Scene) -> Optional[str]:
-    """Why β(s) cannot be designed: without remanence the magnetisation does nothing."""
-    if sc.h_r > 0:
+    """Why β(s) cannot be designed: without remanence the magnetisation does nothing (a physical
+    scene at zero field has it per unit field, ``Scales.per_field``)."""
+    if sc.h_r > 0 or dict(getattr(sc.scales, "per_field", ()) or ()).get("h_r", 0.0) > 0:
         return None
     return ("the scene's h_r is 0; give the remanence in the scene (h_r > 0, or magnetics: remanence / "
             "remanent_flux_density) to design the magnetisation profile")

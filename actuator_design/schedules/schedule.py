@@ -129,6 +129,8 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
     schedule = [dict(s) for s in first.schedule]
     index = [len(schedule) - 1]
     h_prev, phi_prev = schedule[-1]["h"], schedule[-1]["phi"]  # φ continuous with the path
+    # the other groups the first rows name (h_r: ∝ H like h, THEORY §9) keep their ratio to h
+    ratios = {g: (v / h_prev if h_prev > 0 else 0.0) for g, v in schedule[-1].items() if g not in ("h", "phi")}
     z_prev = first.path.final.z
     t1 = time.perf_counter()
     for k, wp in enumerate(wps[1:], start=1):
@@ -145,7 +147,9 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
                             f"state (nearest {tip_error(pt.tip, wp):.3g} rod lengths)")
         phi_next = nearest_axis_angle(pt.phi, phi_prev)
         for t in np.linspace(0, 1, substeps + 1)[1:]:
-            schedule.append({"h": float(h_prev + t * (pt.h - h_prev)), "phi": float(phi_prev + t * (phi_next - phi_prev))})
+            h_t = float(h_prev + t * (pt.h - h_prev))
+            schedule.append({"h": h_t, **{g: r * h_t for g, r in ratios.items()},
+                             "phi": float(phi_prev + t * (phi_next - phi_prev))})
         index.append(len(schedule) - 1)
         h_prev, phi_prev, z_prev = pt.h, phi_next, pt.z
     timings["waypoints"] = time.perf_counter() - t1
