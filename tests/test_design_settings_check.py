@@ -45,3 +45,11 @@ def test_the_cli_reports_the_same_line(tmp_path):
     with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
         code = main(["design", "--target-tip", "0.3,0.5", "--alpha-terms", "0", "--out", str(tmp_path / "out")])
     assert_rejected((code, o.getvalue(), e.getvalue()), tmp_path, "alpha_terms", "[1, 12]")
+
+
+def test_a_design_bound_in_degrees_is_refused_with_its_own_range(capsys):
+    """--alpha-max-deg is a bound in (0, 90] deg, not any angle: 1e9 names that range (it used to
+    name the generic angle range ±1e6 deg)."""
+    assert main(["design", "--target-tip", "0.3,0.5", "--alpha-max-deg", "1e9"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "alpha_max must lie in (0, 90] deg, got 1e+09 deg" in err[0], err

@@ -135,7 +135,7 @@ def check_scene_flags(args: argparse.Namespace) -> None:
     if isinstance(out, str) and not out.strip():  # '' would write into the current directory
         raise InputError("--out: an empty folder name; give the folder to write into, e.g. --out results")
     for dest, value in sorted(vars(args).items()):
-        if dest.endswith("_deg"):
+        if dest.endswith("_deg") and not dest.endswith("_max_deg"):  # (a bound has its own range: alpha_max)
             check_angle_deg(value, "--" + dest.replace("_", "-"))
     for dest, group in SCENE_FLAG_GROUPS.items():
         value = getattr(args, dest, None)
