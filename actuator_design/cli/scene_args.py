@@ -31,7 +31,7 @@ def add_scene_args(parser: argparse.ArgumentParser, defaults: Dict[str, float], 
     g = parser.add_argument_group("scene (dimensionless, THEORY §5; override CONFIG and its study)")
     g.add_argument("--h", type=nonnegative_float, metavar="H",
                    help=f"field group h >= 0 (default without CONFIG {defaults['h']:g}); on a physical CONFIG the "
-                        "applied field it stands for: every group the field drives (h_pos, h_r) follows it")
+                        "applied field it stands for: every group the field drives follows it")
     g.add_argument("--phi-deg", type=finite_float, metavar="DEG",
                    help=f"uniform field angle, degrees (default without CONFIG {defaults['phi_deg']:g})")
     g.add_argument("--p", type=finite_float, metavar="P",

@@ -49,7 +49,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--h", type=nonnegative_float, metavar="H",
                    help="field group h >= 0, h^2 = mu0 chi H^2 A l^2 / (2 B) (dimensionless; "
                         f"default without CONFIG {DEFAULTS['h']:g}); on a physical CONFIG the applied field it "
-                        "stands for: every group the field drives (h_pos, h_r) follows it")
+                        "stands for: every group the field drives follows it")
     g.add_argument("--phi-deg", type=finite_float, metavar="DEG",
                    help="angle of the uniform field to the undeformed rod, degrees "
                         f"(default without CONFIG {DEFAULTS['phi_deg']:g})")
