@@ -335,7 +335,7 @@ def test_weight_is_a_distributed_load():
 
 
 def test_particles_give_susceptibilities_and_warnings():
-    from actuator_design.model.magnetics import ModelAssumptionWarning, effective_susceptibilities
+    from actuator_design.physics.magnetic_composite import ModelAssumptionWarning, effective_susceptibilities
 
     particles = {**PARTICLES, "volume_fraction": 0.3, "saturation_field": "1 kA/m"}
     with warnings.catch_warnings(record=True) as caught:

@@ -1,4 +1,4 @@
-"""Tests of actuator_design.model.magnetics against independent references (THEORY §2).
+"""Tests of actuator_design.physics.magnetic_composite against independent references (THEORY §2).
 
 References used: the general ellipsoid demagnetising integral (scipy quad), a 60-digit
 evaluation of the closed form with ``decimal``, the sphere and slender-body asymptotes, and
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from actuator_design.model import magnetics
-from actuator_design.model.magnetics import (
+from actuator_design.physics import magnetic_composite as magnetics
+from actuator_design.physics.magnetic_composite import (
     ModelAssumptionWarning,
     check_assumptions,
     demagnetising_factors,

@@ -189,7 +189,7 @@ def apply_set_flags(scene, args, warn: bool = True):
 def warn_beyond_model(scene) -> None:
     """Warn (ModelAssumptionWarning) when flags put the rod in a field beyond the one its
     magnetisation model holds to, as a YAML field beyond the particles' saturation is warned of."""
-    from actuator_design.model.magnetics import ModelAssumptionWarning
+    from actuator_design.physics.magnetic_composite import ModelAssumptionWarning
     from actuator_design.physics import parameters as lens
 
     beyond = lens.beyond_model(scene)

@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
             if said.profile is not None:
                 out[said.profile.key] = said.profile.profile.as_dict()
         if summary is not None:
-            out["magnetics"] = _summary_dict(summary)
+            out["magnetics"] = summary.as_dict()
         out["notes"] = notes
         print(dumps_json(out))
     else:
@@ -58,21 +58,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _magnetics_summary(raw):
     """The physical scene's magnetic numbers (None for dimensionless scenes or no magnetics)."""
+    import warnings
+
     from actuator_design.config import load_config as load_model
     from actuator_design.config.physical import PhysicalScene
-
-    import warnings
     with warnings.catch_warnings():  # already issued once while loading
         warnings.simplefilter("ignore")
         model = load_model(raw)
     return model.scene.magnetics_summary() if isinstance(model.scene, PhysicalScene) else None
-
-
-def _summary_dict(m) -> dict:
-    return {"chi_bar": m.chi_bar, "chi_hat": m.chi_hat, "particle_chi_bar": m.particle_chi_bar,
-            "particle_chi_hat": m.particle_chi_hat, "effective_fibre_angle": m.fibre_angle,
-            "demagnetizing_factor": m.demagnetizing_factor, "chi_max": m.chi_max,
-            "saturation_A_per_m": m.saturation, "remanence_A_per_m": m.remanence}
 
 
 def _summaries(scene):
@@ -96,13 +89,13 @@ def zero_coupling(scene) -> str:
         return ""
     why = "h = 0" + "".join(f", {p.name} = 0" for p in driven)
     if scene.field.is_uniform:
-        why += " (in a uniform field the chi_hat term is a constant)"
+        why += " (in a uniform field the |h|^2 term is a constant)"
     return f"the field exerts no force or torque on the rod: {why}; the rod stays as the loads leave it"
 
 
 def describe(scene, options, terms, source: str = "", summary=None, notes=(), units=None) -> str:
     """A readable multi-line summary of a validated scene (no solve); ``summary`` is the physical
-    scene's :class:`~actuator_design.config.magnetic_specs.MagneticSummary`, ``notes`` the reasons
+    scene's :class:`~actuator_design.physics.magnetics_block.MagneticSummary`, ``notes`` the reasons
     and warnings to print, ``units`` a physical scene's :class:`~actuator_design.io.user_units.UserUnits`
     (obstacles in its length unit)."""
     from actuator_design.model.scene import DipoleField, ExpressionField, UniformField
@@ -139,7 +132,7 @@ def describe(scene, options, terms, source: str = "", summary=None, notes=(), un
         f"fibres      : {_profile(scene.fibres, 'alpha', deg=True)}",
         *[f"{s.profile.label}, {_profile(s.profile.profile, s.profile.symbol, deg=s.profile.angle)}"
           for s in said if s.profile is not None],
-        _magnetics_line(summary),
+        summary.line() if summary is not None else None,
         f"stiffness   : {_profile(scene.stiffness, 'b')}",
         f"terms       : {', '.join(terms)}",
         f"solver      : {o.transcription} (elements {o.elements}"
@@ -169,23 +162,6 @@ def _profile(profile, name: str, deg: bool = False) -> str:
         unit = " (rad)" if deg else ""
         return f"table of {len(d['s'])} points{unit}, linear interpolation in s"
     return f"{name}(s) = {d['expression']}" + (" (rad)" if deg else "")
-
-
-def _magnetics_line(m):
-    if m is None:
-        return None
-    out = f"magnetics   : chi_bar = {m.chi_bar:.6g}, chi_hat = {m.chi_hat:.6g}"
-    if m.particle_chi_bar is not None:
-        out += f" (particles only: chi_bar = {m.particle_chi_bar:.6g}, chi_hat = {m.particle_chi_hat:.6g})"
-    if m.demagnetizing_factor is not None:
-        out += f", body N_t = {m.demagnetizing_factor:.6g}"
-    if m.fibre_angle is not None:
-        out += f", effective fibre angle = {math.degrees(m.fibre_angle):.6g} deg"
-    if m.saturation is not None:
-        out += f", saturation nu M_s = {m.saturation:.6g} A/m"
-    if m.remanence is not None:
-        out += f", remanence M_r = {m.remanence:.6g} A/m"
-    return out
 
 
 def _scales(scales) -> str:

@@ -1,7 +1,7 @@
 """The ``type: physical`` scene: SI quantities non-dimensionalised with ℓ, B0 and H0 (THEORY §5).
 
 * h² = μ0 χ̄ H0² A ℓ² / (2 B0),  h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0), with χ̄, χ̂ from the
-  ``magnetics`` block (:mod:`.magnetic_specs`: particles, the body's shape anisotropy, THEORY §10);
+  ``magnetics`` block (:mod:`actuator_design.physics.magnetics_block`: particles, the body's shape anisotropy, THEORY §10);
 * hard-magnetic rods: h_r = μ0 M_r H0 A ℓ² / B0 (THEORY §9), the angle profile ``magnetization``;
 * tip force F ℓ²/B0, tip moment M ℓ/B0, distributed load q ℓ³/B0 (weight: q = ρ g A along gravity);
 * uniform field: H0 = magnitude; dipole of moment m: H0 = m/(4π ℓ³), positions /ℓ; expression
@@ -17,25 +17,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from dataclasses import field as dataclass_field
-from typing import Dict, List, Literal, Optional, Tuple
+from typing import Dict, List, Literal, Optional
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from actuator_design.config.base import Angle, Positive, Q, StrictModel
-from actuator_design.config.errors import ConfigError, error
+from actuator_design.config.base import Angle, Q, StrictModel
+from actuator_design.config.errors import error
 from actuator_design.config.field_specs import (ForceXY, LineLoadXY, PhysicalDipole, PhysicalField,
                                                 max_shape_on_rod)
 from actuator_design.config.limits import GROUP_RANGES, group_problem
-from actuator_design.config.magnetic_specs import Magnetics, MagneticSummary, Particles
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
 from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
-from actuator_design.model.magnetics import check_assumptions, check_saturation
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
-from actuator_design.model.units import MU0
 from actuator_design.physics import parameters as lens
+from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, Particles, magnetic_group,
+                                                     remanent_group)
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -170,24 +169,6 @@ class Clamp(StrictModel):
     angle: Angle = 0.0
 
 
-def magnetic_group(chi: float, field: float, area: float, length: float, stiffness: float) -> float:
-    """√(μ0 χ H0² A ℓ² / (2 B0)) (THEORY §5): h for χ = χ̄, h_pos for χ = χ̂. SI inputs.
-
-    Computed in float64 (the same operations as in plain floats), so an overflow gives inf, not an
-    exception.
-    """
-    with np.errstate(all="ignore"):
-        return float(np.sqrt(np.float64(MU0) * chi * np.float64(field) ** 2 * area
-                             * np.float64(length) ** 2 / (2.0 * stiffness)))
-
-
-def remanent_group(remanence: float, field: float, area: float, length: float, stiffness: float) -> float:
-    """h_r = μ0 M_r H0 A ℓ² / B0 (THEORY §9), SI inputs; float64 (an overflow gives inf)."""
-    with np.errstate(all="ignore"):
-        return float(np.float64(MU0) * remanence * np.float64(field) * area * np.float64(length) ** 2
-                     / stiffness)
-
-
 @dataclass
 class _Derived:
     """The dimensionless groups of a physical scene and the fields each comes from."""
@@ -246,25 +227,13 @@ class PhysicalScene(StrictModel):
         if self.field is not None:
             _, h0 = self.field.to_field(length)
             summary = self.magnetics_summary()
-            chi_bar, chi_hat = summary.chi_bar, summary.chi_hat
             field_src = [f"field.{k} = {getattr(self.field, k):g} {unit}" for k, unit in
                          (("magnitude", "A/m"), ("moment", "A m^2"), ("scale", "A/m"))
                          if hasattr(self.field, k)]
-            mag_src = ["magnetics.particles" if self.magnetics.particles else
-                       f"magnetics.chi_bar = {chi_bar:g}"]
-            def groups(H):  # every group the field drives, at the field H (each ∝ H)
-                out = {"h": magnetic_group(chi_bar, H, area, length, b0),
-                       "h_pos": magnetic_group(chi_hat, H, area, length, b0)}
-                if summary.remanence is not None:
-                    out["h_r"] = remanent_group(summary.remanence, H, area, length, b0)
-                return out
-
-            values.update(groups(h0))
-            per_field = groups(1.0)
-            sources["h"] = sources["h_pos"] = rod.sources() + mag_src + field_src
-            if "h_r" in per_field:
-                sources["h_r"] = rod.sources() + field_src + [
-                    f"magnetics remanence M_r = {summary.remanence:g} A/m"]
+            values.update(summary.field_groups(h0, area, length, b0))
+            per_field = summary.field_groups(1.0, area, length, b0)
+            for name, given in summary.group_sources().items():
+                sources[name] = rod.sources() + given + field_src
         loads = self.loads or Loads()
         with np.errstate(all="ignore"):
             force = np.float64(length) ** 2 / b0
@@ -285,7 +254,7 @@ class PhysicalScene(StrictModel):
         return _Derived(values, sources, float(h0), summary, {k: float(v) for k, v in per_field.items()})
 
     def magnetics_summary(self) -> Optional[MagneticSummary]:
-        """The magnetic numbers and their reasons (:meth:`.magnetic_specs.Magnetics.resolve`)."""
+        """The magnetic numbers and their reasons (:meth:`actuator_design.physics.magnetics_block.Magnetics.resolve`)."""
         if self.magnetics is None:
             return None
         fib = self.fibres.to_profile() if self.fibres is not None else constant_profile(0.0)
@@ -332,29 +301,13 @@ class PhysicalScene(StrictModel):
         return bool(m is not None and m.particles is not None and m.susceptibilities()[0] == 0.0)
 
     def _field_limit(self, field, summary: Optional[MagneticSummary]) -> float:
-        """The largest field |H| on the rod (A/m) the checks of :meth:`_check_assumptions` accept: the
-        particles' saturation field and ν M_s / χ_max (inf: no limit known)."""
-        p = self.magnetics.particles if self.magnetics else None
-        if p is None or field is None:
-            return math.inf
-        limits = [p.saturation_field] if p.saturation_field is not None else []
-        if summary is not None and p.m_s is not None and summary.chi_max > 0:
-            limits.append(p.volume_fraction * p.m_s / summary.chi_max)
-        return float(min(limits)) if limits else math.inf
+        """The largest field |H| on the rod (A/m) the model accepts (inf: no limit known)."""
+        return math.inf if field is None or self.magnetics is None else self.magnetics.field_limit(summary)
 
     def _check_assumptions(self, field, h0: float, summary: Optional[MagneticSummary]) -> None:
-        """Warn (ModelAssumptionWarning) about dense particles, a field above the saturation field,
-        or a linear magnetisation above the composite's saturation ν M_s (THEORY §11)."""
-        p = self.magnetics.particles if self.magnetics else None
-        if p is None:
-            return
-
-        h_max = None if field is None else h0 * max_shape_on_rod(field)
-        check_assumptions(volume_fraction=p.volume_fraction, field=h_max,
-                          saturation_field=p.saturation_field)
-        if h_max is not None and summary is not None and p.m_s is not None:
-            check_saturation(summary.chi_max, h_max, p.volume_fraction, p.m_s,
-                             p.material or "saturation_magnetization")
+        """Warn (ModelAssumptionWarning) when the largest field on the rod leaves the model (THEORY §11)."""
+        if self.magnetics is not None:
+            self.magnetics.check_assumptions(None if field is None else h0 * max_shape_on_rod(field), summary)
 
 
 def _profile(spec, default: float):

@@ -1,9 +1,13 @@
 """The ``magnetics:`` block of a physical scene: soft particles, the body's own shape anisotropy,
 saturation and the remanent magnetisation of hard-magnetic rods (THEORY §2, §9–§11).
 
+It is the material of the magnetic terms (the χ̄, χ̂ and remanent terms), so it lives with them:
+:meth:`MagneticSummary.field_groups` turns the material and an applied field into their groups, and
+the summary reports itself (``validate``); a physical scene asks it rather than naming the groups.
+
 * ``chi_bar``/``chi_hat``: the composite's effective susceptibilities given directly, or
 * ``particles``: spheroids (``axis_ratio``, ``chi_par``, ``chi_perp``, ``volume_fraction``), or a
-  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.model.materials`)
+  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.physics.filler_materials`)
   that supplies the susceptibility and the saturation magnetisation;
 * ``body_demagnetization`` (default true): with particles and a rectangular cross-section the body's
   demagnetisation is combined with the composite tensor (THEORY §10), N_t = w/(w + t) or
@@ -23,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Annotated, List, Optional
+from typing import Annotated, Dict, List, Optional
 
 import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
@@ -32,12 +36,14 @@ from actuator_design.config.base import Q, StrictModel
 from actuator_design.config.errors import error
 from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY,
                                            SUSCEPTIBILITY_WHY)
-from actuator_design.model.magnetics import (body_susceptibility, composite_tensor,
-                                             effective_susceptibilities, transverse_demagnetizing_factor)
-from actuator_design.model.materials import material
 from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
+from actuator_design.physics.filler_materials import material
+from actuator_design.physics.magnetic_composite import (body_susceptibility, check_assumptions,
+                                                        check_saturation, composite_tensor,
+                                                        effective_susceptibilities,
+                                                        transverse_demagnetizing_factor)
 
-__all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity"]
+__all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group"]
 
 
 def _flux_density(value):
@@ -161,6 +167,66 @@ class MagneticSummary:
     saturation: Optional[float] = None
     remanence: Optional[float] = None
     notes: List[str] = field(default_factory=list)
+    #: where χ̄ and χ̂ come from, for messages about the groups (``"magnetics.particles"``)
+    given: str = ""
+
+    def field_groups(self, field: float, area: float, length: float, stiffness: float) -> Dict[str, float]:
+        """Every dimensionless group the applied field drives in this material, at the field
+        ``field`` (A/m; each group ∝ it), by lens name: h and h_pos (THEORY §5), h_r of a
+        remanent magnetisation (THEORY §9). SI inputs: area m², length m, stiffness B0 in N m²."""
+        out = {"h": magnetic_group(self.chi_bar, field, area, length, stiffness),
+               "h_pos": magnetic_group(self.chi_hat, field, area, length, stiffness)}
+        if self.remanence is not None:
+            out["h_r"] = remanent_group(self.remanence, field, area, length, stiffness)
+        return out
+
+    def group_sources(self) -> Dict[str, List[str]]:
+        """The magnetic inputs each group of :meth:`field_groups` comes from (for messages)."""
+        out = {"h": [self.given], "h_pos": [self.given]}
+        if self.remanence is not None:
+            out["h_r"] = [f"magnetics remanence M_r = {self.remanence:g} A/m"]
+        return out
+
+    def as_dict(self) -> Dict[str, Optional[float]]:
+        """The numbers as ``validate --json`` reports them (magnetisations in A/m)."""
+        return {"chi_bar": self.chi_bar, "chi_hat": self.chi_hat, "particle_chi_bar": self.particle_chi_bar,
+                "particle_chi_hat": self.particle_chi_hat, "effective_fibre_angle": self.fibre_angle,
+                "demagnetizing_factor": self.demagnetizing_factor, "chi_max": self.chi_max,
+                "saturation_A_per_m": self.saturation, "remanence_A_per_m": self.remanence}
+
+    def line(self) -> str:
+        """The numbers as one line of a scene's summary (``validate``)."""
+        out = f"magnetics   : chi_bar = {self.chi_bar:.6g}, chi_hat = {self.chi_hat:.6g}"
+        if self.particle_chi_bar is not None:
+            out += (f" (particles only: chi_bar = {self.particle_chi_bar:.6g}, "
+                    f"chi_hat = {self.particle_chi_hat:.6g})")
+        if self.demagnetizing_factor is not None:
+            out += f", body N_t = {self.demagnetizing_factor:.6g}"
+        if self.fibre_angle is not None:
+            out += f", effective fibre angle = {math.degrees(self.fibre_angle):.6g} deg"
+        if self.saturation is not None:
+            out += f", saturation nu M_s = {self.saturation:.6g} A/m"
+        if self.remanence is not None:
+            out += f", remanence M_r = {self.remanence:.6g} A/m"
+        return out
+
+
+def magnetic_group(chi: float, field: float, area: float, length: float, stiffness: float) -> float:
+    """√(μ0 χ H0² A ℓ² / (2 B0)) (THEORY §5): h for χ = χ̄, h_pos for χ = χ̂. SI inputs.
+
+    Computed in float64 (the same operations as in plain floats), so an overflow gives inf, not an
+    exception.
+    """
+    with np.errstate(all="ignore"):
+        return float(np.sqrt(np.float64(MU0) * chi * np.float64(field) ** 2 * area
+                             * np.float64(length) ** 2 / (2.0 * stiffness)))
+
+
+def remanent_group(remanence: float, field: float, area: float, length: float, stiffness: float) -> float:
+    """h_r = μ0 M_r H0 A ℓ² / B0 (THEORY §9), SI inputs; float64 (an overflow gives inf)."""
+    with np.errstate(all="ignore"):
+        return float(np.float64(MU0) * remanence * np.float64(field) * area * np.float64(length) ** 2
+                     / stiffness)
 
 
 class Magnetics(StrictModel):
@@ -222,7 +288,8 @@ class Magnetics(StrictModel):
         """
         chi_bar, chi_hat = self.susceptibilities()
         out = MagneticSummary(chi_bar, chi_hat, chi_max=chi_bar + chi_hat,
-                              remanence=self.remanent_magnetization)
+                              remanence=self.remanent_magnetization,
+                              given="magnetics.particles" if self.particles else f"magnetics.chi_bar = {chi_bar:g}")
         p = self.particles
         if p is None:
             if self.chi_bar is not None and self.chi_bar == 0 and not self.remanent_magnetization:
@@ -263,3 +330,26 @@ class Magnetics(StrictModel):
             out.notes.append("chi_bar = 0: isotropic particles (THEORY §2) without the body's "
                              "demagnetisation give no torque in a uniform field")
         return out
+
+    def field_limit(self, summary: Optional[MagneticSummary]) -> float:
+        """The largest field |H| on the rod (A/m) :meth:`check_assumptions` accepts: the particles'
+        saturation field and ν M_s / χ_max (inf: no limit known; THEORY §11)."""
+        p = self.particles
+        if p is None:
+            return math.inf
+        limits = [p.saturation_field] if p.saturation_field is not None else []
+        if summary is not None and p.m_s is not None and summary.chi_max > 0:
+            limits.append(p.volume_fraction * p.m_s / summary.chi_max)
+        return float(min(limits)) if limits else math.inf
+
+    def check_assumptions(self, h_max: Optional[float], summary: Optional[MagneticSummary]) -> None:
+        """Warn (ModelAssumptionWarning) about dense particles, a largest field on the rod ``h_max``
+        (A/m; None: no field) above the saturation field, or a linear magnetisation above the
+        composite's saturation ν M_s (THEORY §11)."""
+        p = self.particles
+        if p is None:
+            return
+        check_assumptions(volume_fraction=p.volume_fraction, field=h_max, saturation_field=p.saturation_field)
+        if h_max is not None and summary is not None and p.m_s is not None:
+            check_saturation(summary.chi_max, h_max, p.volume_fraction, p.m_s,
+                             p.material or "saturation_magnetization")
