@@ -24,8 +24,7 @@ from pydantic import Field, model_validator
 
 from actuator_design.config.base import Angle, Q, StrictModel
 from actuator_design.config.errors import error
-from actuator_design.config.field_specs import (ForceXY, LineLoadXY, PhysicalDipole, PhysicalField,
-                                                max_shape_on_rod)
+from actuator_design.config.field_specs import PhysicalDipole, PhysicalField, max_shape_on_rod
 from actuator_design.config.limits import GROUP_RANGES, group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
 from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
@@ -33,6 +32,7 @@ from actuator_design.config.term_specs import TermEntries, check_terms, terms_fi
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
 from actuator_design.physics import parameters as lens
+from actuator_design.physics.load_block import Loads, Weight
 from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, Particles, magnetic_group,
                                                      remanent_group)
 
@@ -128,41 +128,6 @@ class Rod(StrictModel):
                 if getattr(self, n) is not None]
 
 
-class Weight(StrictModel):
-    """Self-weight q = ρ g A per unit length along the gravity direction ``gravity_angle``."""
-
-    density: Q("density", gt=0)
-    gravity_angle: Angle = -_HALF_PI
-    g: Q("acceleration", gt=0) = 9.81
-
-
-class Loads(StrictModel):
-    """Dead loads: tip force (N), tip moment (N m), distributed load (N/m) or weight."""
-
-    tip_force: Optional[ForceXY] = None
-    tip_moment: Optional[Q("moment")] = None
-    distributed: Optional[LineLoadXY] = None
-    weight: Optional[Weight] = None
-
-    @model_validator(mode="after")
-    def _check(self):
-        if self.distributed is not None and self.weight is not None:
-            raise error("give either distributed or weight, not both", "weight")
-        return self
-
-    def line_load(self, area: float):
-        """Distributed load (qx, qy) in N/m, or None."""
-        if self.weight is None:
-            return None if self.distributed is None else (self.distributed.x, self.distributed.y)
-        w = self.weight
-        with np.errstate(all="ignore"):
-            q = float(np.float64(w.density) * w.g * area)
-        # round-off of cos(-π/2) etc. to an exact zero, so "down" is exactly (0, -q)
-        cx, cy = (0.0 if abs(c) < 1e-15 else c for c in (math.cos(w.gravity_angle),
-                                                           math.sin(w.gravity_angle)))
-        return (q * cx, q * cy)
-
-
 class Clamp(StrictModel):
     """Clamp angle θ(0), rad."""
 
@@ -234,23 +199,10 @@ class PhysicalScene(StrictModel):
             per_field = summary.field_groups(1.0, area, length, b0)
             for name, given in summary.group_sources().items():
                 sources[name] = rod.sources() + given + field_src
-        loads = self.loads or Loads()
-        with np.errstate(all="ignore"):
-            force = np.float64(length) ** 2 / b0
-            if loads.tip_force is not None:
-                values["fx"] = float(loads.tip_force.x * force)
-                values["p"] = float(loads.tip_force.y * force)
-                sources["fx"] = sources["p"] = rod.sources() + [
-                    f"loads.tip_force = ({loads.tip_force.x:g}, {loads.tip_force.y:g}) N"]
-            if loads.tip_moment is not None:
-                values["m_tip"] = float(loads.tip_moment * np.float64(length) / b0)
-                sources["m_tip"] = rod.sources() + [f"loads.tip_moment = {loads.tip_moment:g} N m"]
-            q = loads.line_load(area)
-            if q is not None:
-                line = np.float64(length) ** 3 / b0
-                values["qx"], values["qy"] = float(q[0] * line), float(q[1] * line)
-                given = "loads.weight" if loads.weight is not None else "loads.distributed"
-                sources["qx"] = sources["qy"] = rod.sources() + [f"{given} = ({q[0]:g}, {q[1]:g}) N/m"]
+        load_values, load_given = (self.loads or Loads()).groups(length, area, b0)
+        values.update(load_values)
+        for name, given in load_given.items():
+            sources[name] = rod.sources() + given
         return _Derived(values, sources, float(h0), summary, {k: float(v) for k, v in per_field.items()})
 
     def magnetics_summary(self) -> Optional[MagneticSummary]:
@@ -272,14 +224,10 @@ class PhysicalScene(StrictModel):
             fibres = constant_profile(d.magnetics.fibre_angle)  # THEORY §10: the effective angle
         hard = field is not None and "h_r" in v
         per = {k: v for k, v in d.per_field.items() if hard or not lens.parameter(k).remanent_field}
-        return Scene(
-            field=field, h=v.get("h", 0.0), h_pos=v.get("h_pos", 0.0),
-            fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
-            h_r=v.get("h_r", 0.0) if hard else 0.0,
+        scene = Scene(
+            field=field, fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
             magnetization=_profile(self.magnetization, 0.0) if hard else None,
-            tip_force=(v["fx"], v["p"]) if "p" in v else None,
-            tip_moment=v.get("m_tip"),
-            distributed_load=(v["qx"], v["qy"]) if "qx" in v else None,
+            tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
                           h_r_per_field=per.get("h_r", 0.0),
@@ -293,6 +241,9 @@ class PhysicalScene(StrictModel):
             obstacles=obstacles_of(self.obstacles, length),
             contact_gap=0.5 * float(self.rod.thickness) / length if self.rod.thickness is not None else 0.0,
             extra_terms=terms_of(self.terms, length, b0))
+        for group, value in v.items():  # the field's and the loads' groups, each term added by the lens
+            scene = lens.set_value(scene, group, value)
+        return scene
 
     def _isotropic_particles(self) -> bool:
         """Spherical (or otherwise isotropic) particles: χ̄ = 0 of the particles alone (THEORY §2),
