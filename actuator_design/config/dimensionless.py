@@ -8,6 +8,11 @@ length ℓ. Every group must lie in its range (:data:`~actuator_design.config.li
 A value with a physical unit (``h: "1 kA/m"``, ``p: "1 mN"``) is refused in one line naming the
 field: physical units need a ``type: physical`` scene, whose rod and material convert them
 (angles may carry ``deg``/``rad``).
+
+The loads' keys and the magnetic groups beyond h are declared with their terms
+(:class:`~actuator_design.physics.load_block.DimensionlessLoads`,
+:class:`~actuator_design.physics.magnetics_block.DimensionlessMagnetics`); the scene sets every
+group through the parameter lens, which adds each group's term.
 """
 from __future__ import annotations
 
@@ -16,16 +21,19 @@ from typing import List, Literal, Optional
 
 from pydantic import Field, model_validator
 
-from actuator_design.config.base import Angle, Number, Q, StrictModel
+from actuator_design.config.base import Angle, Q, StrictModel
 from actuator_design.config.errors import error
-from actuator_design.config.field_specs import DimensionlessField, NumberXY
+from actuator_design.config.field_specs import DimensionlessField
 from actuator_design.config.limits import group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, DimensionlessObstacle, obstacles_of
-from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
+from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.model.units import COMMON_UNITS, registry
+from actuator_design.physics import parameters as lens
+from actuator_design.physics.load_block import DimensionlessLoads
+from actuator_design.physics.magnetics_block import DimensionlessMagnetics
 
 __all__ = ["DimensionlessScene"]
 
@@ -73,30 +81,23 @@ def _physical_unit_problem(data, path=()):
     return None
 
 
-def _xy(vec):
-    return None if vec is None else (vec.x, vec.y)
-
-
-class DimensionlessScene(StrictModel):
-    """The groups of THEORY §5 given directly (see the module docstring)."""
+class _SceneKeys(StrictModel):
+    """The keys of the rod, the field and the obstacles (the load and magnetic keys are their terms')."""
 
     type: Literal["dimensionless"]
     h: Optional[Q("dimensionless", ge=0)] = None
-    h_pos: Q("dimensionless", ge=0) = 0.0
     phi: Optional[Angle] = None
     field: Optional[DimensionlessField] = None
-    p: Optional[Number] = None
-    tip_force: Optional[NumberXY] = None
-    tip_moment: Optional[Number] = None
-    distributed_load: Optional[NumberXY] = None
     fibres: Optional[FibreProfile] = None
     stiffness: Optional[StiffnessProfile] = None
     clamp_angle: Angle = 0.0
-    h_r: Optional[Q("dimensionless", ge=0)] = None
-    magnetization: Optional[MagnetizationProfile] = None
     obstacles: Optional[List[DimensionlessObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
     contact_gap: Optional[Q("dimensionless", ge=0, le=1)] = None
     terms: TermEntries = terms_field()
+
+
+class DimensionlessScene(DimensionlessLoads, DimensionlessMagnetics, _SceneKeys):
+    """The groups of THEORY §5 given directly (see the module docstring)."""
 
     @model_validator(mode="before")
     @classmethod
@@ -116,44 +117,32 @@ class DimensionlessScene(StrictModel):
     def _check(self):
         if self.phi is not None and self.field is not None:
             raise error("give either phi (uniform field) or field, not both", "phi")
-        if self.p is not None and self.tip_force is not None:
-            raise error("give either p or tip_force, not both", "p")
-        tip, load = self.tip_force, self.distributed_load
-        for group, value, field in (
-                ("h", self.h, "h"), ("h_pos", self.h_pos, "h_pos"), ("h_r", self.h_r, "h_r"),
-                ("p", self.p, "p"),
-                ("fx", tip and tip.x, "tip_force.x"), ("p", tip and tip.y, "tip_force.y"),
-                ("m_tip", self.tip_moment, "tip_moment"),
-                ("qx", load and load.x, "distributed_load.x"),
-                ("qy", load and load.y, "distributed_load.y")):
-            problem = None if value is None else group_problem(group, value)
-            if problem is not None:
-                raise error(problem, field)
+        problem = None if self.h is None else group_problem("h", self.h)
+        if problem is not None:
+            raise error(problem, "h")
+        self.check_magnetic_groups()
+        self.check_loads()
         check_terms(self.terms)
         return self
 
     def to_scene(self, name: Optional[str] = None) -> Scene:
         if self.field is not None:
             field = self.field.to_field()
-        elif self.h is not None or self.phi is not None or self.hard_magnetic:
+        elif self.h is not None or self.phi is not None:
             field = UniformField(phi=self.phi or 0.0)
         else:
-            field = None
-        tip = (0.0, self.p) if self.p is not None else _xy(self.tip_force)
-        return Scene(field=field, h=self.h or 0.0, h_pos=self.h_pos,
-                     fibres=_profile(self.fibres, 0.0), stiffness=_profile(self.stiffness, 1.0),
-                     tip_force=tip, tip_moment=self.tip_moment,
-                     distributed_load=_xy(self.distributed_load), theta0=self.clamp_angle,
-                     scales=None, name=name or "dimensionless cantilever", h_r=self.h_r or 0.0,
-                     fibres_given=self.fibres is not None,
-                     magnetization=(_profile(self.magnetization, 0.0) if self.hard_magnetic else None),
-                     obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0),
-                     extra_terms=terms_of(self.terms))
-
-    @property
-    def hard_magnetic(self) -> bool:
-        """Whether the scene has a remanent magnetisation (``h_r`` or ``magnetization`` given)."""
-        return self.h_r is not None or self.magnetization is not None
+            field = None  # (a term that needs a field, e.g. a remanent one, adds it at strength 0)
+        scene = Scene(field=field, h=self.h or 0.0, fibres=_profile(self.fibres, 0.0),
+                      stiffness=_profile(self.stiffness, 1.0), theta0=self.clamp_angle, scales=None,
+                      tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
+                      name=name or "dimensionless cantilever", fibres_given=self.fibres is not None,
+                      obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0),
+                      extra_terms=terms_of(self.terms))
+        for group, value in {**self.magnetic_groups(), **self.load_groups()}.items():
+            scene = lens.set_value(scene, group, value)  # each group's term added by the lens
+        for profile_name, profile in self.magnetic_profiles().items():
+            scene = lens.parameter(profile_name).with_profile(scene, profile)
+        return scene
 
 
 def _profile(spec, default: float):

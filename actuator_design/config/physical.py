@@ -27,14 +27,14 @@ from actuator_design.config.errors import error
 from actuator_design.config.field_specs import PhysicalDipole, PhysicalField, max_shape_on_rod
 from actuator_design.config.limits import GROUP_RANGES, group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
-from actuator_design.config.profile_specs import FibreProfile, MagnetizationProfile, StiffnessProfile
+from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.load_block import Loads, Weight
-from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, Particles, magnetic_group,
-                                                     remanent_group)
+from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, MagnetizationProfile,
+                                                     Particles, magnetic_group, remanent_group)
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]

@@ -22,7 +22,7 @@ from actuator_design.model.profiles import Profile, constant_profile, expression
 from actuator_design.model.units import angle_range_problem
 
 __all__ = ["FibreConstant", "FibreTable", "FibreExpression", "StiffnessConstant", "StiffnessTable",
-           "StiffnessExpression", "FibreProfile", "StiffnessProfile", "MagnetizationProfile", "GRID",
+           "StiffnessExpression", "FibreProfile", "StiffnessProfile", "GRID",
            "profile_problem"]
 
 #: Arc lengths at which expression profiles are checked, shape (201,).
@@ -159,13 +159,11 @@ class StiffnessExpression(_ExpressionBase):
     positive_only: ClassVar[bool] = True
 
 
-def _constant(value):
+def constant_spec(value):
+    """A bare number as the spec of a constant profile."""
     return {"type": "constant", "value": value}
 
 
-FibreProfile = tagged(("fibres",), FibreConstant, FibreTable, FibreExpression, bare=_constant)
-#: The remanent magnetisation angle β(s) (THEORY §9) takes every form the fibre angle takes.
-MagnetizationProfile = tagged(("magnetization",), FibreConstant, FibreTable, FibreExpression,
-                              bare=_constant)
+FibreProfile = tagged(("fibres",), FibreConstant, FibreTable, FibreExpression, bare=constant_spec)
 StiffnessProfile = tagged(("stiffness", "stiffness_profile"), StiffnessConstant, StiffnessTable,
-                          StiffnessExpression, bare=_constant)
+                          StiffnessExpression, bare=constant_spec)

@@ -1,4 +1,5 @@
-"""The ``loads:`` block of a physical scene: the dead-load terms' configuration in SI units.
+"""The dead-load terms' configuration: the ``loads:`` block of a physical scene in SI units, and
+the loads of a dimensionless scene in units of B0 (:class:`DimensionlessLoads`).
 
 A tip force F (N), a tip moment M (N m), a distributed load q (N/m) or the rod's weight
 q = ρ g A along the gravity direction. It lives with the load terms (:mod:`.terms`): the block turns
@@ -13,11 +14,11 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 from pydantic import model_validator
 
-from actuator_design.config.base import Angle, Q, StrictModel
+from actuator_design.config.base import Angle, ForceXY, LineLoadXY, Number, NumberXY, Q, StrictModel
 from actuator_design.config.errors import error
-from actuator_design.config.field_specs import ForceXY, LineLoadXY
+from actuator_design.config.limits import group_problem
 
-__all__ = ["Weight", "Loads"]
+__all__ = ["Weight", "Loads", "DimensionlessLoads"]
 
 
 class Weight(StrictModel):
@@ -86,3 +87,36 @@ class Loads(StrictModel):
                 which = "loads.weight" if self.weight is not None else "loads.distributed"
                 given["qx"] = given["qy"] = [f"{which} = ({q[0]:g}, {q[1]:g}) N/m"]
         return values, given
+
+
+class DimensionlessLoads(StrictModel):
+    """The dead loads of a ``type: dimensionless`` scene, in units of B0 (THEORY §5): ``p`` (a
+    vertical tip force) or ``tip_force`` (x, y) in B0/ℓ², ``tip_moment`` in B0/ℓ,
+    ``distributed_load`` (x, y) in B0/ℓ³."""
+
+    p: Optional[Number] = None
+    tip_force: Optional[NumberXY] = None
+    tip_moment: Optional[Number] = None
+    distributed_load: Optional[NumberXY] = None
+
+    def check_loads(self) -> None:
+        """Raise the configuration error of the first load out of its range (or of p given with
+        tip_force); the scene's validator calls it, after the field's checks."""
+        if self.p is not None and self.tip_force is not None:
+            raise error("give either p or tip_force, not both", "p")
+        for group, value, key in self._given():
+            problem = group_problem(group, value)
+            if problem is not None:
+                raise error(problem, key)
+
+    def _given(self) -> List[Tuple[str, float, str]]:
+        """(lens name, value, YAML key) of every load component given."""
+        tip, q = self.tip_force, self.distributed_load
+        entries = [("p", self.p, "p"), ("fx", tip and tip.x, "tip_force.x"), ("p", tip and tip.y, "tip_force.y"),
+                   ("m_tip", self.tip_moment, "tip_moment"),
+                   ("qx", q and q.x, "distributed_load.x"), ("qy", q and q.y, "distributed_load.y")]
+        return [e for e in entries if e[1] is not None]
+
+    def load_groups(self) -> Dict[str, float]:
+        """The load groups given, by lens name (``p`` alone: a tip force (0, p))."""
+        return {group: float(value) for group, value, _ in self._given()}

@@ -32,10 +32,11 @@ from typing import Annotated, Dict, List, Optional
 import numpy as np
 from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, model_validator
 
-from actuator_design.config.base import Q, StrictModel
+from actuator_design.config.base import Q, StrictModel, tagged
 from actuator_design.config.errors import error
 from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY,
-                                           SUSCEPTIBILITY_WHY)
+                                           SUSCEPTIBILITY_WHY, group_problem)
+from actuator_design.config.profile_specs import FibreConstant, FibreExpression, FibreTable, constant_spec
 from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
 from actuator_design.physics.filler_materials import material
 from actuator_design.physics.magnetic_composite import (body_susceptibility, check_assumptions,
@@ -43,7 +44,8 @@ from actuator_design.physics.magnetic_composite import (body_susceptibility, che
                                                         effective_susceptibilities,
                                                         transverse_demagnetizing_factor)
 
-__all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group"]
+__all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group",
+           "MagnetizationProfile", "DimensionlessMagnetics"]
 
 
 def _flux_density(value):
@@ -353,3 +355,42 @@ class Magnetics(StrictModel):
         if h_max is not None and summary is not None and p.m_s is not None:
             check_saturation(summary.chi_max, h_max, p.volume_fraction, p.m_s,
                              p.material or "saturation_magnetization")
+
+
+#: The remanent magnetisation angle β(s) (THEORY §9) takes every form the fibre angle takes.
+MagnetizationProfile = tagged(("magnetization",), FibreConstant, FibreTable, FibreExpression, bare=constant_spec)
+
+
+class DimensionlessMagnetics(StrictModel):
+    """The magnetic groups of a ``type: dimensionless`` scene beyond h and φ (THEORY §5, §9):
+    ``h_pos`` (the χ̂ group, non-uniform fields), and for a hard-magnetic rod ``h_r`` with
+    ``magnetization``, the angle β(s) of the remanent magnetisation to the tangent (default 0 when
+    ``h_r`` is given; ``h_r`` default 0 when only β(s) is)."""
+
+    h_pos: Q("dimensionless", ge=0) = 0.0
+    h_r: Optional[Q("dimensionless", ge=0)] = None
+    magnetization: Optional[MagnetizationProfile] = None
+
+    def check_magnetic_groups(self) -> None:
+        """Raise the configuration error of the first group out of its range (the scene's validator
+        calls it, after h)."""
+        for group, value in self.magnetic_groups().items():
+            problem = group_problem(group, value)
+            if problem is not None:
+                raise error(problem, group)
+
+    @property
+    def hard_magnetic(self) -> bool:
+        """Whether the scene has a remanent magnetisation (``h_r`` or ``magnetization`` given)."""
+        return self.h_r is not None or self.magnetization is not None
+
+    def magnetic_groups(self) -> Dict[str, float]:
+        """The groups given, by lens name (h_r 0 when only the magnetisation is given)."""
+        out = {"h_pos": self.h_pos}
+        if self.hard_magnetic:
+            out["h_r"] = self.h_r or 0.0
+        return out
+
+    def magnetic_profiles(self) -> Dict[str, object]:
+        """The profiles given, by lens name (:class:`~actuator_design.model.profiles.Profile`)."""
+        return {} if self.magnetization is None else {"magnetization": self.magnetization.to_profile()}
