@@ -102,7 +102,7 @@ STILL_NAMING_TERMS = {
     "cli/stiffness.py": 1,
     "config/dimensionless.py": 1,
     "config/model.py": 3,
-    "config/physical.py": 11,
+    "config/physical.py": 4,
     "config/source_specs.py": 2,
     "hardware/pose_design.py": 6,
     "inverse/choose.py": 2,

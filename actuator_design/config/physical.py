@@ -33,8 +33,8 @@ from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.load_block import Loads, Weight
-from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, MagnetizationProfile,
-                                                     Particles, magnetic_group, remanent_group)
+from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, Particles,
+                                                     PhysicalMagnetization, magnetic_group, remanent_group)
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -146,8 +146,9 @@ class _Derived:
     per_field: Dict[str, float] = dataclass_field(default_factory=dict)
 
 
-class PhysicalScene(StrictModel):
-    """SI description, non-dimensionalised by ℓ, B0 and H0 (THEORY §5)."""
+class _SceneKeys(StrictModel):
+    """The keys of the rod, its material, the field, the loads, the clamp and the obstacles (the
+    remanent magnetisation's angle is its term's: :class:`PhysicalMagnetization`)."""
 
     type: Literal["physical"]
     rod: Rod
@@ -155,19 +156,22 @@ class PhysicalScene(StrictModel):
     field: Optional[PhysicalField] = None
     loads: Optional[Loads] = None
     fibres: Optional[FibreProfile] = None
-    magnetization: Optional[MagnetizationProfile] = None
+
+
+class _MoreKeys(StrictModel):
     clamp: Optional[Clamp] = None
     obstacles: Optional[List[PhysicalObstacle]] = Field(default=None, max_length=MAX_OBSTACLES)
     terms: TermEntries = terms_field()
+
+
+class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
+    """SI description, non-dimensionalised by ℓ, B0 and H0 (THEORY §5)."""
 
     @model_validator(mode="after")
     def _check(self):
         if self.field is not None and self.magnetics is None:
             raise error("required when a field is given", "magnetics")
-        if self.magnetization is not None and (self.magnetics is None
-                                               or self.magnetics.remanent_magnetization is None):
-            raise error("needs magnetics.remanence or magnetics.remanent_flux_density "
-                        "(a hard-magnetic rod, THEORY §9)", "magnetization")
+        self.check_magnetization(self.magnetics)
         if self.obstacles and self.rod.thickness is None:  # the gap to an obstacle is half of it
             raise error("required with obstacles (the rod's surface touches them, its centre line half "
                         "the thickness away); give rod.width and rod.thickness", "rod.thickness")
@@ -222,11 +226,9 @@ class PhysicalScene(StrictModel):
         fibres = _profile(self.fibres, 0.0)
         if d.magnetics is not None and d.magnetics.fibre_angle is not None:
             fibres = constant_profile(d.magnetics.fibre_angle)  # THEORY §10: the effective angle
-        hard = field is not None and "h_r" in v
-        per = {k: v for k, v in d.per_field.items() if hard or not lens.parameter(k).remanent_field}
+        per = d.per_field  # (every group the field drives, remanent ones only of a remanent rod)
         scene = Scene(
             field=field, fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
-            magnetization=_profile(self.magnetization, 0.0) if hard else None,
             tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
@@ -243,6 +245,9 @@ class PhysicalScene(StrictModel):
             extra_terms=terms_of(self.terms, length, b0))
         for group, value in v.items():  # the field's and the loads' groups, each term added by the lens
             scene = lens.set_value(scene, group, value)
+        if field is not None:  # (without a field the remanence has nothing to act on)
+            for profile_name, profile in self.magnetic_profiles().items():
+                scene = lens.parameter(profile_name).with_profile(scene, profile)
         return scene
 
     def _isotropic_particles(self) -> bool:

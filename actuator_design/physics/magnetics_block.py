@@ -45,7 +45,7 @@ from actuator_design.physics.magnetic_composite import (body_susceptibility, che
                                                         transverse_demagnetizing_factor)
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group",
-           "MagnetizationProfile", "DimensionlessMagnetics"]
+           "MagnetizationProfile", "DimensionlessMagnetics", "PhysicalMagnetization"]
 
 
 def _flux_density(value):
@@ -390,6 +390,23 @@ class DimensionlessMagnetics(StrictModel):
         if self.hard_magnetic:
             out["h_r"] = self.h_r or 0.0
         return out
+
+    def magnetic_profiles(self) -> Dict[str, object]:
+        """The profiles given, by lens name (:class:`~actuator_design.model.profiles.Profile`)."""
+        return {} if self.magnetization is None else {"magnetization": self.magnetization.to_profile()}
+
+
+class PhysicalMagnetization(StrictModel):
+    """The remanent magnetisation's angle β(s) to the tangent in a physical scene (``magnetization``,
+    THEORY §9; default 0): a hard-magnetic rod's, so it needs the scene's remanence."""
+
+    magnetization: Optional[MagnetizationProfile] = None
+
+    def check_magnetization(self, magnetics: Optional[Magnetics]) -> None:
+        """Raise the configuration error of a magnetisation angle without a remanence."""
+        if self.magnetization is not None and (magnetics is None or magnetics.remanent_magnetization is None):
+            raise error("needs magnetics.remanence or magnetics.remanent_flux_density "
+                        "(a hard-magnetic rod, THEORY §9)", "magnetization")
 
     def magnetic_profiles(self) -> Dict[str, object]:
         """The profiles given, by lens name (:class:`~actuator_design.model.profiles.Profile`)."""
