@@ -112,8 +112,6 @@ STILL_NAMING_TERMS = {
     "inverse/poses.py": 8,
     "inverse/screen.py": 3,
     "inverse/settings.py": 6,
-    "io/unit_results.py": 1,
-    "io/user_units.py": 13,
     "model/scene.py": 31,
     "model/sources.py": 9,
     "reference/fold_bvp.py": 3,

@@ -72,7 +72,7 @@ def parameter_conversion(name, units) -> Tuple[Optional[str], Optional[str]]:
         return unit, None
     if p.field_magnitude or p.remanent_field:
         return None, (f"{p.name} stays dimensionless: this scene has no field scale "
-                      "(its magnetic group per field is 0, e.g. chi_bar = 0)")
+                      f"({p.name} per A/m is 0 in this scene's material)")
     if p.unit == "rad":
         return None, f"{p.name} is an angle: reported in rad, it has no other unit"
     return None, f"{p.name} has no physical unit here: it stays dimensionless ({p.unit})"
@@ -99,7 +99,7 @@ def scene_physical(scene, units) -> Dict[str, object]:
             out["field_mT"] = units.field_mT(scene.h)
         else:  # a hard-magnetic rod: the field of its remanent group (THEORY §9)
             for p in lens.parameters().values():
-                if p.remanent_field and _present(scene, p) and p.get(scene) and units.has_remanent_field:
+                if p.remanent_field and _present(scene, p) and p.get(scene) and units.converts_field_of(p.name):
                     out["field_mT"] = parameter_physical(p, p.get(scene), units)
                     break
         if "field_mT" in out:

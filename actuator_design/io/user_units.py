@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Optional
+from typing import Optional, Tuple
 
 from actuator_design.model.units import MU0, angle_range_problem, parse_quantity, registry
 
@@ -48,9 +48,10 @@ class UserUnits:
         B0/ℓ², N.
     moment_scale : float
         B0/ℓ, N m.
-    h_r_per_field : float
-        dh_r/dH, per A/m (THEORY §9; 0 without a remanent magnetisation): the field of a
-        hard-magnetic rod whose soft group has no scale (χ̄ = 0) is read from h_r.
+    per_field : tuple of (str, float)
+        Every group the applied field drives, per A/m, by lens name (``Scales.per_field``): the
+        field of a remanent group (THEORY §9; e.g. a hard-magnetic rod whose soft group has no
+        scale, χ̄ = 0) is read through it.
     """
 
     length_m: float
@@ -60,7 +61,7 @@ class UserUnits:
     stiffness_scale: float
     force_scale: float
     moment_scale: float
-    h_r_per_field: float = 0.0
+    per_field: Tuple[Tuple[str, float], ...] = ()
 
     @property
     def has_field(self) -> bool:
@@ -83,14 +84,17 @@ class UserUnits:
         """μ0 H in mT for the group ``h``."""
         return self.field_A_per_m(h) * MU0 * 1e3
 
-    @property
-    def has_remanent_field(self) -> bool:
-        """Whether the hard-magnetic group h_r converts to A/m (dh_r/dH > 0)."""
-        return self.h_r_per_field > 0.0
+    def group_per_field(self, name: str) -> float:
+        """d(group)/dH of the lens group ``name``, per A/m (0 when the field does not drive it)."""
+        return dict(self.per_field).get(name, 0.0)
 
-    def field_mT_of_h_r(self, group: float) -> float:
-        """μ0 H in mT of a value ``group`` of the hard-magnetic group h_r (h_r ∝ H, THEORY §9)."""
-        return float(group) / self.h_r_per_field * MU0 * 1e3
+    def converts_field_of(self, name: str) -> bool:
+        """Whether a value of the field-driven group ``name`` converts to a field (d/dH > 0)."""
+        return self.group_per_field(name) > 0.0
+
+    def field_mT_of(self, name: str, group: float) -> float:
+        """μ0 H in mT of a value ``group`` of the lens group ``name`` that is ∝ H (THEORY §9)."""
+        return float(group) / self.group_per_field(name) * MU0 * 1e3
 
     def h_from_field(self, H_A_per_m: float) -> float:
         """The group h of a field strength H in A/m."""
@@ -131,7 +135,7 @@ def user_units(scene, raw: Optional[dict] = None) -> Optional[UserUnits]:
     return UserUnits(length_m=sc.length, length_unit=unit, metres_per_unit=per,
                      h_per_field=float(sc.h_per_field), stiffness_scale=sc.stiffness,
                      force_scale=sc.force, moment_scale=sc.moment,
-                     h_r_per_field=float(getattr(sc, "h_r_per_field", 0.0)))
+                     per_field=tuple((name, float(v)) for name, v in getattr(sc, "per_field", ())))
 
 
 # -- parameters of the lens with a physical meaning ----------------------------------------------------
@@ -155,7 +159,7 @@ def parameter_unit_label(param, units: Optional[UserUnits]) -> Optional[str]:
     if kind in ("field", "field2"):
         return "mT" if units.has_field else None
     if kind == "field_r":
-        return "mT" if units.has_remanent_field else None
+        return "mT" if units.converts_field_of(param.name) else None
     return {"force": "N", "moment": "N m", "force_per_length": "N/m", "force_per_area": "Pa"}[kind]
 
 
@@ -171,7 +175,7 @@ def parameter_physical(param, value: float, units: Optional[UserUnits]) -> Optio
     if kind == "field2":
         return units.field_mT(math.sqrt(max(float(value), 0.0)))
     if kind == "field_r":
-        return units.field_mT_of_h_r(value)
+        return units.field_mT_of(param.name, value)
     return float(value) * _scale(kind, units)
 
 
@@ -230,14 +234,15 @@ def _with_unit(text: str, param, units: Optional[UserUnits], flag: str) -> float
     if kind in ("field", "field2"):
         if not units.has_field:
             raise ValueError(f"{flag}: this scene cannot convert a field to {param.name} "
-                             "(its magnetic group per field is 0, e.g. chi_bar = 0)")
+                             f"({param.name} per A/m is 0 in this scene's material, e.g. without "
+                             "susceptibility)")
         h = units.h_from_field(parse_quantity(text, "magnetic_field", flag))
         return h * h if kind == "field2" else h
     if kind == "field_r":
-        if not units.has_remanent_field:
-            raise ValueError(f"{flag}: this scene cannot convert a field to h_r "
-                             "(it has no remanent magnetisation, magnetics.remanence)")
-        return parse_quantity(text, "magnetic_field", flag) * units.h_r_per_field
+        if not units.converts_field_of(param.name):
+            raise ValueError(f"{flag}: this scene cannot convert a field to {param.name} "
+                             f"({param.description}: 0 per A/m in this scene's material)")
+        return parse_quantity(text, "magnetic_field", flag) * units.group_per_field(param.name)
     dim = "pressure" if kind == "force_per_area" else kind
     return parse_quantity(text, dim, flag) / _scale(kind, units)
 
@@ -268,7 +273,7 @@ def physical_value_keys(param, value: float, units: Optional[UserUnits]) -> dict
         h = float(value) if kind == "field" else math.sqrt(max(float(value), 0.0))
         return {"field_mT": units.field_mT(h), "field_A_per_m": units.field_A_per_m(h)}
     if kind == "field_r":
-        mT = units.field_mT_of_h_r(value)
+        mT = units.field_mT_of(param.name, value)
         return {"field_mT": mT, "field_A_per_m": mT * 1e-3 / MU0}
     return {_KEYS[kind]: parameter_physical(param, value, units)}
 
