@@ -42,7 +42,7 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "load_config": ("config.model", "load_config"),
     "load_scene": ("config.model", "load_scene"),
     # the energy terms
-    "EnergyTerm": ("physics.terms", "EnergyTerm"),
+    "EnergyTerm": ("physics.term_protocol", "EnergyTerm"),
     "Bending": ("physics.terms", "Bending"),
     "FieldOrientation": ("physics.terms", "FieldOrientation"),
     "FieldPosition": ("physics.terms", "FieldPosition"),

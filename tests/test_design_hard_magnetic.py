@@ -15,7 +15,7 @@ import yaml
 
 from actuator_design.cli.main import main
 from actuator_design.config.model import load_config
-from actuator_design.physics.filler_materials import MATERIALS
+from actuator_design.physics.magnetic_composite import MATERIALS
 from actuator_design.reference.shooting import ShootingParams, shoot, solve_shooting
 
 MU0 = 4e-7 * math.pi

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from actuator_design.config import ConfigError, load_config
-from actuator_design.physics.magnetic_composite import (ModelAssumptionWarning, body_susceptibility, composite_tensor,
-                                       particle_susceptibilities, transverse_demagnetizing_factor)
-from actuator_design.physics.filler_materials import MATERIALS
 from actuator_design.model.units import MU0
+from actuator_design.physics.magnetic_composite import (MATERIALS, ModelAssumptionWarning,
+                                                        body_susceptibility, composite_tensor,
+                                                        particle_susceptibilities,
+                                                        transverse_demagnetizing_factor)
 
 ROD = {"length": "30 mm", "width": "10 mm", "thickness": "1 mm", "youngs_modulus": "1 MPa"}
 

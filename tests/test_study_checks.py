@@ -18,7 +18,7 @@ import yaml
 from actuator_design.cli.main import main
 from cli_checks import assert_rejected
 from actuator_design.config import ConfigError, load_config
-from actuator_design.physics.filler_materials import MATERIALS
+from actuator_design.physics.magnetic_composite import MATERIALS
 
 PHYSICAL = {
     "name": "checks",

@@ -37,7 +37,7 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.model.units import MU0, QuantityError, parse_quantity
 from actuator_design.physics.parameters import get_value, stiffness_groups
 from actuator_design.physics.registry import build_terms
-from actuator_design.physics.terms import scalar_parameter_values
+from actuator_design.physics.term_protocol import scalar_parameter_values
 from actuator_design.study.spec import validate_spec
 
 __all__ = ["FitProblem", "ConditionState"]

@@ -55,7 +55,7 @@ chi_bar, chi_hat, particles.chi_par, chi_perp  [0, 1e6]     the largest relative
 =============================================  ===========  =====================================
 
 The bounds are generous (about 1.5 times the strongest material) so that every real material,
-and every preset of :mod:`actuator_design.physics.filler_materials`, passes.
+and every preset of :mod:`actuator_design.physics.magnetic_composite`, passes.
 """
 from __future__ import annotations
 

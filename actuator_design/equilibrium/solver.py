@@ -36,8 +36,8 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.model.scene import Scene
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.registry import build_terms
-from actuator_design.physics.terms import (node_field_sources, residual_slots, scalar_parameter_values,
-                                           structure_key)
+from actuator_design.physics.term_protocol import (node_field_sources, residual_slots,
+                                                   scalar_parameter_values, structure_key)
 from actuator_design.reduced.kernel import FastKernel
 from actuator_design.reduced.newton import RawSolution, damped_newton, fast_newton
 from actuator_design.reduced.positional import positional_hessian

@@ -48,7 +48,7 @@ from actuator_design.model.profiles import legendre_profile
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import build_terms
-from actuator_design.physics.terms import structure_key
+from actuator_design.physics.term_protocol import structure_key
 
 __all__ = ["DESIGN_VARIABLES", "PROFILE_VARIABLES", "DesignNLP", "DesignPoint", "DesignRequest"]
 

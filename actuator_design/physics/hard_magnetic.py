@@ -17,12 +17,12 @@ from typing import Optional
 
 import casadi as ca
 
-from actuator_design.physics.parameter import Parameter
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
+from actuator_design.physics.parameter import Parameter
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.terms import EnergyTerm, TermProfile, TermSummary
+from actuator_design.physics.term_protocol import EnergyTerm, TermProfile, TermSummary
 
 __all__ = ["HardMagnetic", "with_hard_magnetic_term"]
 

@@ -7,7 +7,7 @@ the summary reports itself (``validate``); a physical scene asks it rather than 
 
 * ``chi_bar``/``chi_hat``: the composite's effective susceptibilities given directly, or
 * ``particles``: spheroids (``axis_ratio``, ``chi_par``, ``chi_perp``, ``volume_fraction``), or a
-  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.physics.filler_materials`)
+  filler preset ``material: carbonyl_iron | magnetite | ndfeb`` (:mod:`actuator_design.physics.magnetic_composite`)
   that supplies the susceptibility and the saturation magnetisation;
 * ``body_demagnetization`` (default true): with particles and a rectangular cross-section the body's
   demagnetisation is combined with the composite tensor (THEORY §10), N_t = w/(w + t) or
@@ -38,10 +38,9 @@ from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION,
                                            SUSCEPTIBILITY_WHY, group_problem)
 from actuator_design.config.profile_specs import FibreConstant, FibreExpression, FibreTable, constant_spec
 from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
-from actuator_design.physics.filler_materials import material
 from actuator_design.physics.magnetic_composite import (body_susceptibility, check_assumptions,
                                                         check_saturation, composite_tensor,
-                                                        effective_susceptibilities,
+                                                        effective_susceptibilities, material,
                                                         transverse_demagnetizing_factor)
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group",

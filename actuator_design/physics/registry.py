@@ -17,12 +17,11 @@ import pkgutil
 from typing import TYPE_CHECKING, Dict, List
 
 from actuator_design.model.scene import TermValues
-# the built-in terms register on import, in this order whatever the order of the names: hard_magnetic
-# (THEORY §9) imports terms first, so the soft-magnetic terms come before it
+# the built-in terms register on import; registered_terms() orders them (_rank) whichever came first
 from actuator_design.physics import extra_terms, hard_magnetic, terms  # noqa: F401
 from actuator_design.physics.registration import (_CONFIG_MODELS, _TERMS, _VERSION, register_term,
                                                   unregister_term)
-from actuator_design.physics.terms import EnergyTerm
+from actuator_design.physics.term_protocol import EnergyTerm
 
 if TYPE_CHECKING:
     from actuator_design.model.scene import Scene

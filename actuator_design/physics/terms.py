@@ -1,10 +1,6 @@
-"""One class per energy term of the dimensionless rod energy (THEORY §4–5), behind one interface.
-
-The total energy is Ê[θ] = ∫₀¹ Σ density(kinematics) ds + Σ tip(tip kinematics). A term reads the
-rod through a kinematics object (:mod:`.kinematics`: directors, curvature and — only if it asks —
-positions), scalar NLP parameters (``scalar_params``) and per-quadrature-point fields
-(``node_fields``: name -> how a scene evaluates it at arc lengths s, e.g. the fibre angle α and the
-relative stiffness b).
+"""The built-in energy terms of the dimensionless rod energy (THEORY §4–5): bending, the field's
+χ̄ and χ̂ terms and the dead loads, each one class behind the protocol of :mod:`.term_protocol`
+(the hard-magnetic term is :mod:`.hard_magnetic`).
 
 Adding a physics term = writing a subclass of :class:`EnergyTerm` and registering it
 (:func:`~actuator_design.physics.registration.register_term`); nothing else changes. A plug-in term is present in a scene when
@@ -13,144 +9,24 @@ the scene lists it in ``extra_terms`` (with its values).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import Callable, Dict, List, NamedTuple, Optional, Tuple
+from dataclasses import replace
+from typing import Optional
 
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics.parameter import Parameter
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
-from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
+from actuator_design.physics.parameter import Parameter
 from actuator_design.physics.registration import register_term
+from actuator_design.physics.term_protocol import (EnergyTerm, TermProfile,  # noqa: F401 (re-exported)
+                                                   TermSummary, node_field_sources, node_field_values,
+                                                   residual_slots, scalar_parameter_values, structure_key)
 
-__all__ = ["EnergyTerm", "TermSummary", "TermProfile", "structure_key", "scalar_parameter_values", "node_field_sources", "node_field_values",
-           "residual_slots", "Bending", "FieldOrientation", "FieldPosition", "TipForce", "TipMoment",
-           "DistributedLoad"]
-
-NodeField = Callable[[Scene, np.ndarray], np.ndarray]
-
-
-class TermProfile(NamedTuple):
-    """A profile a term carries, as a scene's summary shows it."""
-
-    key: str  #: its key in ``validate --json`` (``"magnetization"``)
-    label: str  #: the summary's label (``"magnetisation: remanent"``)
-    profile: object  #: the :class:`~actuator_design.model.profiles.Profile`
-    symbol: str  #: its symbol (``"beta"``)
-    angle: bool  #: values in rad, shown in degrees
-
-
-@dataclass(frozen=True)
-class TermSummary:
-    """What a scene's summary (``actuator-design validate``) says of one term.
-
-    Attributes
-    ----------
-    groups : tuple of (str, float)
-        Its dimensionless groups as (name, value) (``("h_r", 2.0)``), shown after h and φ.
-    load : str or None
-        The load it applies, one phrase in units of B0 (``"tip moment 1 B0/l"``).
-    profile : TermProfile or None
-        A profile it carries (a remanent magnetisation β(s)).
-    """
-
-    groups: Tuple[Tuple[str, float], ...] = ()
-    load: Optional[str] = None
-    profile: Optional[TermProfile] = None
-
-
-class EnergyTerm:
-    """Interface of an energy term; subclasses override what they contribute.
-
-    Attributes
-    ----------
-    name : str
-        Unique registry name (also the name used in ``Scene.extra_terms`` for plug-ins).
-    parameters : tuple of Parameter
-        The lens parameters this term contributes (:mod:`actuator_design.physics.parameters`).
-    scalar_params : tuple of str
-        Scalar NLP slots it reads (instances may extend them, e.g. with a field's slots).
-    node_fields : dict of str -> callable (Scene, s) -> ndarray
-        Per-quadrature-point fields it reads, and how a scene evaluates them.
-    """
-
-    name = "term"
-    #: every parameter states its power laws in the field, B0 and χ (``Parameter.field_power``,
-    #: ``stiffness_power``, ``susceptibility_power``): analyses that rescale a scene (a fit of E, a
-    #: tolerance box) may take the term
-    scaling_declared = False
-    parameters: Tuple[Parameter, ...] = ()
-    scalar_params: Tuple[str, ...] = ()
-    #: what a summary in physical units calls the load this term applies (``"tip force"``); None:
-    #: the term's name
-    load_name: Optional[str] = None
-    node_fields: Dict[str, NodeField] = {}
-
-    # -- presence in a scene -------------------------------------------------------------------
-    @classmethod
-    def present(cls, scene: Scene) -> bool:
-        """Whether ``scene`` contains this term (plug-ins: listed in ``scene.extra_terms``)."""
-        return scene.term_values(cls.name) is not None
-
-    @classmethod
-    def from_scene(cls, scene: Scene) -> "EnergyTerm":
-        """The term instance for a scene that contains it."""
-        return cls()
-
-    # -- energy ------------------------------------------------------------------------------
-    def density(self, kin: PlanarKinematics, P: Dict[str, ca.SX]):
-        """Energy per unit (dimensionless) length at each point, or ``None``."""
-        return None
-
-    def tip(self, tip: PlanarTip, P: Dict[str, ca.SX]):
-        """Energy concentrated at the free end, or ``None``."""
-        return None
-
-    def values(self, scene: Scene) -> Dict[str, float]:
-        """Numerical values of ``scalar_params`` for a scene (plug-ins: from ``extra_terms``)."""
-        tv = scene.term_values(self.name) or {}
-        return {k: float(tv.get(k, 0.0)) for k in self.scalar_params}
-
-    def residual_scale(self) -> Dict[str, str]:
-        """Slot -> ``"linear"`` or ``"squared"``: how its value sizes the stationarity residual."""
-        return {p.slot: p.residual for p in self.parameters if p.residual}
-
-    def structure(self) -> tuple:
-        return (self.name,)
-
-    # -- what the mesh and the memory budget need to know ----------------------------------------
-    @classmethod
-    def wavenumber(cls, scene: Scene) -> float:
-        """The inverse of the shortest length on which this term makes θ vary (units of 1/ℓ; 0 when
-        it sets none): the a-priori mesh grading (:func:`actuator_design.equilibrium.accuracy.scene_wavenumber`)."""
-        return 0.0
-
-    @classmethod
-    def summary(cls, scene: Scene) -> TermSummary:
-        """What a scene's summary says of this term (asked of every registered term: it decides
-        itself whether it has anything to say about ``scene``)."""
-        return TermSummary()
-
-    @classmethod
-    def end_force(cls, scene: Scene) -> Optional[Tuple[float, float]]:
-        """The dead force (fx, fy) this term applies at the free end (units of B0/ℓ²; None when it
-        applies none): drawn as an arrow at the tip."""
-        return None
-
-    @classmethod
-    def end_moment(cls, scene: Scene) -> float:
-        """The dead moment this term applies at the free end (units of B0/ℓ; 0 when none): it makes
-        a boundary layer at the tip (mesh grading) and sizes the moment balance there."""
-        return 0.0
-
-    @classmethod
-    def dense_hessian(cls, scene: Scene) -> bool:
-        """Whether this term couples every node with every other (energy products of positions), so
-        the Hessian is dense and the mesh has the dense memory budget (:mod:`actuator_design.config.limits`)."""
-        return False
+__all__ = ["EnergyTerm", "TermSummary", "TermProfile", "structure_key", "scalar_parameter_values", "node_field_sources",
+           "node_field_values", "residual_slots", "Bending", "FieldOrientation", "FieldPosition", "TipForce",
+           "TipMoment", "DistributedLoad"]
 
 
 # -- the built-in terms and their parameters ------------------------------------------------------
@@ -435,37 +311,3 @@ class DistributedLoad(EnergyTerm):
 
     def values(self, scene):
         return {"qx": scene.distributed_load[0], "qy": scene.distributed_load[1]}
-
-
-def structure_key(terms: List[EnergyTerm]) -> tuple:
-    """Hashable key of what is built symbolically: scenes with equal keys share one NLP."""
-    return tuple(t.structure() for t in terms)
-
-
-def scalar_parameter_values(terms: List[EnergyTerm], scene: Scene) -> Dict[str, float]:
-    out = {"theta0": scene.theta0}
-    for t in terms:
-        out.update(t.values(scene))
-    return {k: float(v) for k, v in out.items()}
-
-
-def node_field_sources(terms: List[EnergyTerm]) -> Dict[str, NodeField]:
-    """Per-point field name -> evaluator (Scene, s) -> values, over ``terms``, sorted by name."""
-    out: Dict[str, NodeField] = {}
-    for t in terms:
-        for name, fn in t.node_fields.items():
-            out.setdefault(name, fn)
-    return dict(sorted(out.items()))
-
-
-def node_field_values(terms: List[EnergyTerm], scene: Scene, s: np.ndarray) -> Dict[str, np.ndarray]:
-    """The per-point fields ``terms`` read, evaluated for ``scene`` at arc lengths ``s``."""
-    return {n: np.asarray(fn(scene, s), float) for n, fn in node_field_sources(terms).items()}
-
-
-def residual_slots(terms: List[EnergyTerm]) -> Dict[str, str]:
-    """Slot -> ``"linear"``/``"squared"`` over ``terms`` (their contribution to the residual scale)."""
-    out: Dict[str, str] = {}
-    for t in terms:
-        out.update(t.residual_scale())
-    return out

@@ -36,7 +36,7 @@ from scipy import sparse
 
 from actuator_design.physics.fields import FieldModel
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
-from actuator_design.physics.terms import node_field_sources
+from actuator_design.physics.term_protocol import node_field_sources
 
 __all__ = ["PositionalHessian", "positional_hessian", "MAPPED_ABOVE"]
 

@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
-from actuator_design.physics.terms import EnergyTerm, node_field_sources, node_field_values
+from actuator_design.physics.term_protocol import EnergyTerm, node_field_sources, node_field_values
 
 __all__ = ["ParamLayout", "DiscreteEnergy", "Transcription"]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from actuator_design.physics.parameter import plugin_parameter
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.terms import EnergyTerm
+from actuator_design.physics.term_protocol import EnergyTerm
 
 __all__ = ["Foundation"]
 
