@@ -34,39 +34,42 @@ from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.contact.guard import no_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.model.scene import Scene, UniformField
-from actuator_design.physics.registry import refuse_unsupported
+from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import registered_terms
+from actuator_design.physics.term_protocol import EnergyTerm
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
-
-#: Terms whose first integral :func:`first_integral` knows; scenes with others are refused.
-PHASE_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load",
-               "hard_magnetic")
 
 #: Points per trajectory.
 TRAJECTORY_POINTS = 401
 
 
+def _potentials(scene: Scene) -> List[Callable[[np.ndarray], np.ndarray]]:
+    """Each present term's part V(θ) of the first integral (``EnergyTerm.phase_potential``), in
+    registration order; ValueError naming the field that makes the equation depend on s, or
+    ``phase:`` and the first term without a first integral."""
+    parts = []
+    for cls in registered_terms():
+        if cls.present(scene):
+            part = cls.phase_potential(scene)
+            if part is None:
+                known = [c.name for c in registered_terms()
+                         if c.phase_potential.__func__ is not EnergyTerm.phase_potential.__func__]
+                raise ValueError(f"phase: the scene contains the energy term {cls.name!r}, which this "
+                                 f"analysis does not support (it supports: {', '.join(known)})")
+            parts.append(part)
+    return parts
+
+
 def check_autonomous(scene: Scene) -> None:
     """Raise ``ValueError`` naming the field when ``scene``'s Euler–Lagrange equation is not
     autonomous (then it has no phase portrait in (θ, θ'))."""
-    if scene.field is not None and not isinstance(scene.field, UniformField):
-        raise ValueError(f"field: phase portraits need a uniform field (or none), got a "
-                         f"{scene.field.kind} field")
-    if not scene.stiffness.is_constant:
-        raise ValueError("stiffness: phase portraits need a constant bending stiffness b(s)")
-    if not scene.fibres.is_constant:
-        raise ValueError("fibres: phase portraits need a constant fibre angle alpha(s)")
-    if scene.magnetization is not None and not scene.magnetization.is_constant:
-        raise ValueError("magnetization: phase portraits need a constant magnetisation angle beta(s)")
-    if scene.distributed_load is not None and any(q != 0 for q in scene.distributed_load):
-        raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
-                         "equation depend on s)")
-    refuse_unsupported(scene, PHASE_TERMS, "phase")
+    _potentials(scene)
 
 
 def first_integral(scene: Scene) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
-    """H(θ, θ') of ``scene`` (see the module docstring), vectorised over arrays of equal shape.
+    """H(θ, θ') of ``scene`` (see the module docstring), vectorised over arrays of equal shape: the
+    kinetic part ½ b θ'² and every present term's part V(θ) (``EnergyTerm.phase_potential``).
 
     Parameters
     ----------
@@ -78,19 +81,12 @@ def first_integral(scene: Scene) -> Callable[[np.ndarray, np.ndarray], np.ndarra
     callable
         ``H(theta, dtheta)`` → ndarray of the broadcast shape (units of B0/ℓ per unit length).
     """
-    check_autonomous(scene)
+    parts = _potentials(scene)
     b = float(scene.stiffness.value)
-    h2 = scene.h ** 2 if scene.field is not None else 0.0
-    shift = float(scene.fibres.value) - scene.phi
-    fx, fy = scene.tip_force if scene.tip_force is not None else (0.0, 0.0)
-    hard = scene.magnetization is not None and scene.field is not None
-    h_r = float(scene.h_r) if hard else 0.0
-    shift_r = (float(scene.magnetization.value) - scene.phi) if hard else 0.0
 
     def H(theta, dtheta):
         theta, dtheta = np.asarray(theta, float), np.asarray(dtheta, float)
-        return (0.5 * b * dtheta ** 2 + h2 * np.cos(theta + shift) ** 2 + fy * np.sin(theta)
-                + fx * np.cos(theta) + h_r * np.cos(theta + shift_r))
+        return 0.5 * b * dtheta ** 2 + sum(part(theta) for part in parts)
 
     return H
 
@@ -240,7 +236,7 @@ def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult
     if len(trajs) < len(equilibria):
         notes.append(f"{len(equilibria) - len(trajs)} non-converged equilibria were left out")
     th0 = float(scene.theta0)
-    m = float(scene.tip_moment or 0.0) / float(scene.stiffness.value)
+    m = sum(cls.end_moment(scene) for cls in registered_terms() if cls.present(scene)) / float(scene.stiffness.value)
     all_th = np.concatenate([[th0 - math.pi, th0 + math.pi]] + [t.theta for t in trajs])
     all_dth = np.concatenate([[1.0, -1.0, m]] + [t.dtheta for t in trajs])
     if theta_range is None:

@@ -16,6 +16,7 @@ from dataclasses import replace
 from typing import Optional
 
 import casadi as ca
+import numpy as np
 
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
@@ -98,6 +99,13 @@ class HardMagnetic(EnergyTerm):
     @classmethod
     def from_scene(cls, scene: Scene) -> "HardMagnetic":
         return cls(field_model(scene.field))
+
+    @classmethod
+    def phase_potential(cls, scene: Scene):
+        if not scene.magnetization.is_constant:
+            raise ValueError("magnetization: phase portraits need a constant magnetisation angle beta(s)")
+        h_r, shift = float(scene.h_r), float(scene.magnetization.value) - scene.phi
+        return lambda theta: h_r * np.cos(theta + shift)  # (the field's uniformity: FieldOrientation)
 
     def density(self, kin, P):
         u = kin.theta + kin.fields["beta"]

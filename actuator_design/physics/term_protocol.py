@@ -141,6 +141,21 @@ class EnergyTerm:
         return 0.0
 
     @classmethod
+    def phase_potential(cls, scene: Scene) -> Optional[Callable[[np.ndarray], np.ndarray]]:
+        """This term's part V(θ) of the first integral H(θ, θ') = ½ b θ'² + Σ V(θ) of an autonomous
+        scene (:mod:`actuator_design.analysis.phase`): its energy per unit length as a function of the
+        tangent angle alone, sign reversed (a tip load's work written along the rod), vectorised over
+        θ (units of B0/ℓ). None: the term has no such part (a scene with it has no phase portrait).
+
+        Raises
+        ------
+        ValueError
+            Naming the scene's value that makes the Euler–Lagrange equation depend on s (a varying
+            profile, a non-uniform field).
+        """
+        return None
+
+    @classmethod
     def dense_hessian(cls, scene: Scene) -> bool:
         """Whether this term couples every node with every other (energy products of positions), so
         the Hessian is dense and the mesh has the dense memory budget (:mod:`actuator_design.config.limits`)."""

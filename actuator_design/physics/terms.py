@@ -87,6 +87,12 @@ class Bending(EnergyTerm):
     def present(cls, scene):
         return True
 
+    @classmethod
+    def phase_potential(cls, scene):
+        if not scene.stiffness.is_constant:
+            raise ValueError("stiffness: phase portraits need a constant bending stiffness b(s)")
+        return np.zeros_like  # its ½ b θ'² is the first integral's kinetic part
+
     def density(self, kin, P):
         return 0.5 * kin.fields["b"] * kin.curvature**2
 
@@ -140,6 +146,15 @@ class FieldOrientation(EnergyTerm):
     @classmethod
     def dense_hessian(cls, scene):
         return not scene.field.is_uniform
+
+    @classmethod
+    def phase_potential(cls, scene):
+        if not isinstance(scene.field, UniformField):
+            raise ValueError(f"field: phase portraits need a uniform field (or none), got a {scene.field.kind} field")
+        if not scene.fibres.is_constant:
+            raise ValueError("fibres: phase portraits need a constant fibre angle alpha(s)")
+        h2, shift = scene.h ** 2, float(scene.fibres.value) - scene.phi
+        return lambda theta: h2 * np.cos(theta + shift) ** 2
 
     def density(self, kin, P):
         h2 = P["h"] ** 2
@@ -227,6 +242,11 @@ class TipForce(EnergyTerm):
         return None if scene.tip_force is None else (float(scene.tip_force[0]), float(scene.tip_force[1]))
 
     @classmethod
+    def phase_potential(cls, scene):
+        fx, fy = (float(f) for f in scene.tip_force)
+        return lambda theta: fy * np.sin(theta) + fx * np.cos(theta)  # −f·r(1) = −∫ f·(cos θ, sin θ) ds
+
+    @classmethod
     def summary(cls, scene):
         if scene.tip_force is None:
             return TermSummary()
@@ -268,6 +288,10 @@ class TipMoment(EnergyTerm):
         return float(scene.tip_moment or 0.0)
 
     @classmethod
+    def phase_potential(cls, scene):
+        return np.zeros_like  # it sets the end line b θ'(1) = m (end_moment), not H
+
+    @classmethod
     def summary(cls, scene):
         return TermSummary(load=None if scene.tip_moment is None else f"tip moment {scene.tip_moment:.6g} B0/l")
 
@@ -305,6 +329,13 @@ class DistributedLoad(EnergyTerm):
     @classmethod
     def wavenumber(cls, scene):
         return math.hypot(*scene.distributed_load) ** (1.0 / 3.0)
+
+    @classmethod
+    def phase_potential(cls, scene):
+        if any(q != 0 for q in scene.distributed_load):
+            raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
+                             "equation depend on s)")
+        return np.zeros_like
 
     def density(self, kin, P):
         return -(P["qx"] * kin.x + P["qy"] * kin.y)
