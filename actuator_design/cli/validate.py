@@ -89,7 +89,7 @@ def zero_coupling(scene) -> str:
         return ""
     why = "h = 0" + "".join(f", {p.name} = 0" for p in driven)
     if scene.field.is_uniform:
-        why += " (in a uniform field the |h|^2 term is a constant)"
+        why += " (in a uniform field the isotropic-susceptibility term, proportional to |H|^2, is a constant)"
     return f"the field exerts no force or torque on the rod: {why}; the rod stays as the loads leave it"
 
 

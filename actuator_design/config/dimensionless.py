@@ -117,6 +117,7 @@ class DimensionlessScene(DimensionlessLoads, DimensionlessMagnetics, _SceneKeys)
     def _check(self):
         if self.phi is not None and self.field is not None:
             raise error("give either phi (uniform field) or field, not both", "phi")
+        self.check_load_keys()
         problem = None if self.h is None else group_problem("h", self.h)
         if problem is not None:
             raise error(problem, "h")

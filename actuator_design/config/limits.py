@@ -55,7 +55,9 @@ chi_bar, chi_hat, particles.chi_par, chi_perp  [0, 1e6]     the largest relative
 =============================================  ===========  =====================================
 
 The bounds are generous (about 1.5 times the strongest material) so that every real material,
-and every preset of :mod:`actuator_design.physics.magnetic_composite`, passes.
+and every preset of :mod:`actuator_design.physics.magnetic_composite`, passes; they live with the
+material model (:data:`actuator_design.physics.magnetics_block.MAX_MAGNETIZATION`,
+:data:`~actuator_design.physics.magnetics_block.MAX_SUSCEPTIBILITY`).
 """
 from __future__ import annotations
 
@@ -71,8 +73,7 @@ from actuator_design.physics import parameters as lens
 
 __all__ = ["GroupRange", "GROUP_RANGES", "MAX_BANDED_ENTRIES", "MAX_DENSE_UNKNOWNS", "MEMORY_BUDGET",
            "BYTES_PER_UNKNOWN", "BYTES_PER_ENTRY", "ROUNDING_MARGIN", "ROUNDING_K", "smallest_spacing",
-           "group_problem", "unknowns", "mesh_problem", "scene_group_values", "MAX_MAGNETIZATION",
-           "MAX_SUSCEPTIBILITY", "MAGNETIZATION_WHY", "SUSCEPTIBILITY_WHY"]
+           "group_problem", "unknowns", "mesh_problem", "scene_group_values"]
 
 #: Peak memory a banded (local-term) mesh may need above the interpreter's, bytes.
 MEMORY_BUDGET = 0.85e9
@@ -115,17 +116,6 @@ class GroupRange:
         return math.isfinite(value) and self.lo <= value <= self.hi
 
 
-#: Largest magnetisation (remanence, saturation magnetisation, saturation field) a scene may give,
-#: A/m: about 1.5 × the saturation of Fe65Co35 (μ0 M_s ≈ 2.45 T, M_s ≈ 1.95 MA/m), the most
-#: strongly magnetised material known; NdFeB, the strongest permanent magnet, has M_r ≈ 1.1 MA/m
-#: (B_r ≈ 1.4 T); handbook values, e.g. Coey, *Magnetism and Magnetic Materials* (2010).
-MAX_MAGNETIZATION = 3.0e6
-MAGNETIZATION_WHY = ("physically plausible: the strongest permanent magnets reach about 1.1e6 A/m "
-                     "(1.4 T), no material is magnetised beyond about 2e6 A/m (2.5 T)")
-#: Largest susceptibility a scene may give (χ̄, χ̂, the particles' χ∥, χ⊥): the largest relative
-#: permeability of any material, μr ≈ 1e6 (supermalloy, a handbook value), χ = μr − 1.
-MAX_SUSCEPTIBILITY = 1.0e6
-SUSCEPTIBILITY_WHY = "physically plausible: no material exceeds about 1e6 (supermalloy)"
 
 class _GroupRanges(Mapping):
     """The valid range of each dimensionless group (THEORY §5), by its name in the parameter lens:

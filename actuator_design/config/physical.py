@@ -39,9 +39,6 @@ from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary,
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
 
-_HALF_PI = 0.5 * math.pi
-
-
 class Rod(StrictModel):
     """Rod geometry and stiffness: A = w t, I = w t³/12, B0 = E I (or ``bending_stiffness``)."""
 
@@ -201,8 +198,8 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
                          if hasattr(self.field, k)]
             values.update(summary.field_groups(h0, area, length, b0))
             per_field = summary.field_groups(1.0, area, length, b0)
-            for name, given in summary.group_sources().items():
-                sources[name] = rod.sources() + given + field_src
+            for name, given in summary.group_sources(field_src).items():
+                sources[name] = rod.sources() + given
         load_values, load_given = (self.loads or Loads()).groups(length, area, b0)
         values.update(load_values)
         for name, given in load_given.items():

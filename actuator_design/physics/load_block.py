@@ -16,7 +16,7 @@ from pydantic import model_validator
 
 from actuator_design.config.base import Angle, ForceXY, LineLoadXY, Number, NumberXY, Q, StrictModel
 from actuator_design.config.errors import error
-from actuator_design.config.limits import group_problem
+from actuator_design.physics import parameters as lens
 
 __all__ = ["Weight", "Loads", "DimensionlessLoads"]
 
@@ -99,13 +99,17 @@ class DimensionlessLoads(StrictModel):
     tip_moment: Optional[Number] = None
     distributed_load: Optional[NumberXY] = None
 
-    def check_loads(self) -> None:
-        """Raise the configuration error of the first load out of its range (or of p given with
-        tip_force); the scene's validator calls it, after the field's checks."""
+    def check_load_keys(self) -> None:
+        """Raise the configuration error of p given with tip_force (the scene's validator calls it
+        with its own checks of exclusive keys)."""
         if self.p is not None and self.tip_force is not None:
             raise error("give either p or tip_force, not both", "p")
+
+    def check_loads(self) -> None:
+        """Raise the configuration error of the first load out of its range (the scene's validator
+        calls it after the field's groups)."""
         for group, value, key in self._given():
-            problem = group_problem(group, value)
+            problem = lens.parameter(group).range_problem(value)
             if problem is not None:
                 raise error(problem, key)
 

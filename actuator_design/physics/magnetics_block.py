@@ -16,8 +16,7 @@ the summary reports itself (``validate``); a physical scene asks it rather than 
   a hard-magnetic rod (THEORY §9); its angle profile is the scene's ``magnetization``.
 
 Magnetisations (M_r, M_s, the saturation field) and susceptibilities must be physically plausible
-(:data:`~actuator_design.config.limits.MAX_MAGNETIZATION`,
-:data:`~actuator_design.config.limits.MAX_SUSCEPTIBILITY`): ``remanence: 1e12 A/m`` is one line
+(:data:`MAX_MAGNETIZATION`, :data:`MAX_SUSCEPTIBILITY`): ``remanence: 1e12 A/m`` is one line
 naming the field and its range, not a solver failure.
 
 :meth:`Magnetics.resolve` turns the block into the numbers the groups are made of, with the reasons
@@ -34,17 +33,30 @@ from pydantic import BeforeValidator, StrictBool, StrictStr, field_validator, mo
 
 from actuator_design.config.base import Q, StrictModel, tagged
 from actuator_design.config.errors import error
-from actuator_design.config.limits import (MAGNETIZATION_WHY, MAX_MAGNETIZATION, MAX_SUSCEPTIBILITY,
-                                           SUSCEPTIBILITY_WHY, group_problem)
 from actuator_design.config.profile_specs import FibreConstant, FibreExpression, FibreTable, constant_spec
 from actuator_design.model.units import MU0, QuantityError, parse_quantity, registry
+from actuator_design.physics import parameters as lens
 from actuator_design.physics.magnetic_composite import (body_susceptibility, check_assumptions,
                                                         check_saturation, composite_tensor,
                                                         effective_susceptibilities, material,
                                                         transverse_demagnetizing_factor)
 
 __all__ = ["Particles", "Magnetics", "MagneticSummary", "FluxDensity", "magnetic_group", "remanent_group",
-           "MagnetizationProfile", "DimensionlessMagnetics", "PhysicalMagnetization"]
+           "MagnetizationProfile", "DimensionlessMagnetics", "PhysicalMagnetization",
+           "MAX_MAGNETIZATION", "MAX_SUSCEPTIBILITY"]
+
+
+#: Largest magnetisation (remanence, saturation magnetisation, saturation field) a scene may give,
+#: A/m: about 1.5 × the saturation of Fe65Co35 (μ0 M_s ≈ 2.45 T, M_s ≈ 1.95 MA/m), the most
+#: strongly magnetised material known; NdFeB, the strongest permanent magnet, has M_r ≈ 1.1 MA/m
+#: (B_r ≈ 1.4 T); handbook values, e.g. Coey, *Magnetism and Magnetic Materials* (2010).
+MAX_MAGNETIZATION = 3.0e6
+MAGNETIZATION_WHY = ("physically plausible: the strongest permanent magnets reach about 1.1e6 A/m "
+                     "(1.4 T), no material is magnetised beyond about 2e6 A/m (2.5 T)")
+#: Largest susceptibility a scene may give (χ̄, χ̂, the particles' χ∥, χ⊥): the largest relative
+#: permeability of any material, μr ≈ 1e6 (supermalloy, a handbook value), χ = μr − 1.
+MAX_SUSCEPTIBILITY = 1.0e6
+SUSCEPTIBILITY_WHY = "physically plausible: no material exceeds about 1e6 (supermalloy)"
 
 
 def _flux_density(value):
@@ -69,7 +81,7 @@ def _flux_density(value):
 
 
 def _check_flux_density(m_r: float, value) -> None:
-    """μ0 M_r in [0, μ0 MAX_MAGNETIZATION] T (config.limits), named in tesla as written."""
+    """μ0 M_r in [0, μ0 MAX_MAGNETIZATION] T, named in tesla as written."""
     if not 0.0 <= m_r <= MAX_MAGNETIZATION:
         raise error(f"must be in [0, {MU0 * MAX_MAGNETIZATION:.3g}] T (μ0 × {MAX_MAGNETIZATION:g} "
                     f"A/m; {MAGNETIZATION_WHY}), got {value!r}")
@@ -79,7 +91,7 @@ def _check_flux_density(m_r: float, value) -> None:
 FluxDensity = Annotated[float, BeforeValidator(_flux_density)]
 
 
-#: Physically plausible magnetic material values (config.limits): a unit slip is refused in one line.
+#: Physically plausible magnetic material values: a unit slip is refused in one line.
 _SUSCEPTIBILITY = Q("dimensionless", ge=0, le=MAX_SUSCEPTIBILITY, why=SUSCEPTIBILITY_WHY)
 _SUSCEPTIBILITY_POSITIVE = Q("dimensionless", gt=0, le=MAX_SUSCEPTIBILITY, why=SUSCEPTIBILITY_WHY)
 _MAGNETIZATION = Q("magnetic_field", ge=0, le=MAX_MAGNETIZATION, why=MAGNETIZATION_WHY)
@@ -181,11 +193,12 @@ class MagneticSummary:
             out["h_r"] = remanent_group(self.remanence, field, area, length, stiffness)
         return out
 
-    def group_sources(self) -> Dict[str, List[str]]:
-        """The magnetic inputs each group of :meth:`field_groups` comes from (for messages)."""
-        out = {"h": [self.given], "h_pos": [self.given]}
+    def group_sources(self, field: List[str]) -> Dict[str, List[str]]:
+        """The inputs each group of :meth:`field_groups` comes from besides the rod (for messages):
+        the material's and ``field``, the applied field's inputs as given."""
+        out = {"h": [self.given] + field, "h_pos": [self.given] + field}
         if self.remanence is not None:
-            out["h_r"] = [f"magnetics remanence M_r = {self.remanence:g} A/m"]
+            out["h_r"] = field + [f"magnetics remanence M_r = {self.remanence:g} A/m"]
         return out
 
     def as_dict(self) -> Dict[str, Optional[float]]:
@@ -374,7 +387,7 @@ class DimensionlessMagnetics(StrictModel):
         """Raise the configuration error of the first group out of its range (the scene's validator
         calls it, after h)."""
         for group, value in self.magnetic_groups().items():
-            problem = group_problem(group, value)
+            problem = lens.parameter(group).range_problem(value)
             if problem is not None:
                 raise error(problem, group)
 
@@ -392,7 +405,11 @@ class DimensionlessMagnetics(StrictModel):
 
     def magnetic_profiles(self) -> Dict[str, object]:
         """The profiles given, by lens name (:class:`~actuator_design.model.profiles.Profile`)."""
-        return {} if self.magnetization is None else {"magnetization": self.magnetization.to_profile()}
+        return _profiles(self.magnetization)
+
+
+def _profiles(magnetization) -> Dict[str, object]:
+    return {} if magnetization is None else {"magnetization": magnetization.to_profile()}
 
 
 class PhysicalMagnetization(StrictModel):
@@ -409,4 +426,4 @@ class PhysicalMagnetization(StrictModel):
 
     def magnetic_profiles(self) -> Dict[str, object]:
         """The profiles given, by lens name (:class:`~actuator_design.model.profiles.Profile`)."""
-        return {} if self.magnetization is None else {"magnetization": self.magnetization.to_profile()}
+        return _profiles(self.magnetization)

@@ -120,6 +120,14 @@ class Parameter:
         """The closed range a scene's value must lie in (:attr:`scene_range`, else [lower, upper])."""
         return self.scene_range if self.scene_range is not None else (self.lower, self.upper)
 
+    def range_problem(self, value: float) -> Optional[str]:
+        """What is wrong with a scene's ``value`` of this parameter (not finite, or outside
+        :attr:`valid_range`), or None when it is in range."""
+        lo, hi = self.valid_range
+        if math.isfinite(value) and lo <= value <= hi:
+            return None
+        return f"must be a finite number in [{lo:g}, {hi:g}], got {value:g}"
+
     @property
     def flag(self) -> str:
         """Its command-line flag (``--h-r``; an angle in degrees: ``--magnetization-deg``)."""
