@@ -18,7 +18,8 @@ stationarity system from many initial shapes θ = θ0 + c s + d s² and the shap
 transverse modes; each new root is deflated (Farrell, Birkisson & Funke 2015) so that Newton
 cannot return to it.
 
-Every term of :data:`~.shooting_scan.SHOOTING_TERMS` is supported, the hard-magnetic torque of
+Every term that declares its part of the equation (``EnergyTerm.shooting_part``,
+:func:`~.shooting_scan.shooting_terms`) is supported, the hard-magnetic torque of
 THEORY §9 included; a scene with any other term is refused. Non-uniform fields are not supported
 (the field force depends on the rod's position).
 """
@@ -31,21 +32,25 @@ import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.model.scene import Scene
-from actuator_design.equilibrium.solver import get_solver
-from actuator_design.analysis.registration import register
-from actuator_design.analysis.shooting_scan import (MAX_REFINE, SAFETY, SHOOTING_TERMS, ShootingProblem,
-                                                    brackets, curvature_bound, gamma_bound, min_gamma_points,
-                                                    require_uniform, scan_validity, steps_for)
 from actuator_design.analysis.equilibria_deflation import find_equilibria_deflation
-from actuator_design.contact.guard import no_contact
 from actuator_design.analysis.equilibria_found import (EquilibriaResult, Equilibrium, _dedupe_add,
                                                        _nlp_options, confirm)
+from actuator_design.analysis.registration import register
+from actuator_design.analysis.shooting_scan import (MAX_REFINE, SAFETY, ShootingProblem, brackets,
+                                                    curvature_bound, gamma_bound, min_gamma_points,
+                                                    require_uniform, scan_validity, shooting_terms, steps_for)
+from actuator_design.contact.guard import no_contact
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.solver import get_solver
+from actuator_design.model.scene import Scene
 
 __all__ = ["ShootingProblem", "Equilibrium", "EquilibriaResult", "find_equilibria",
            "find_equilibria_deflation", "gamma_bound", "curvature_bound", "SAFETY", "MAX_REFINE",
-           "SHOOTING_TERMS"]
+           "SHOOTING_TERMS", "shooting_terms"]
+
+#: The terms the shooting scan integrates, as registered at import (a term registered later that
+#: declares its part is supported too: :func:`shooting_terms`).
+SHOOTING_TERMS = shooting_terms()
 
 _EPS = np.finfo(float).eps
 

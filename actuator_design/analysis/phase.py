@@ -35,8 +35,7 @@ from actuator_design.contact.guard import no_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.model.scene import Scene
-from actuator_design.physics.registry import registered_terms
-from actuator_design.physics.term_protocol import EnergyTerm
+from actuator_design.physics.registry import present_parts, signed_end_moment
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
 
@@ -48,17 +47,7 @@ def _potentials(scene: Scene) -> List[Callable[[np.ndarray], np.ndarray]]:
     """Each present term's part V(θ) of the first integral (``EnergyTerm.phase_potential``), in
     registration order; ValueError naming the field that makes the equation depend on s, or
     ``phase:`` and the first term without a first integral."""
-    parts = []
-    for cls in registered_terms():
-        if cls.present(scene):
-            part = cls.phase_potential(scene)
-            if part is None:
-                known = [c.name for c in registered_terms()
-                         if c.phase_potential.__func__ is not EnergyTerm.phase_potential.__func__]
-                raise ValueError(f"phase: the scene contains the energy term {cls.name!r}, which this "
-                                 f"analysis does not support (it supports: {', '.join(known)})")
-            parts.append(part)
-    return parts
+    return [part for _, part in present_parts(scene, "phase_potential", "phase")]
 
 
 def check_autonomous(scene: Scene) -> None:
@@ -236,7 +225,7 @@ def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult
     if len(trajs) < len(equilibria):
         notes.append(f"{len(equilibria) - len(trajs)} non-converged equilibria were left out")
     th0 = float(scene.theta0)
-    m = sum(cls.end_moment(scene) for cls in registered_terms() if cls.present(scene)) / float(scene.stiffness.value)
+    m = signed_end_moment(scene) / float(scene.stiffness.value)
     all_th = np.concatenate([[th0 - math.pi, th0 + math.pi]] + [t.theta for t in trajs])
     all_dth = np.concatenate([[1.0, -1.0, m]] + [t.dtheta for t in trajs])
     if theta_range is None:

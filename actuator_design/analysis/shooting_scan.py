@@ -43,13 +43,14 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from actuator_design.physics.registry import refuse_unsupported
-from actuator_design.model.scene import Scene, UniformField
+from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import declaring, present_parts, registered_terms, signed_end_moment
+from actuator_design.physics.term_protocol import snap_zero
 
 __all__ = ["ShootingProblem", "gamma_bound", "curvature_bound", "steps_for", "brackets",
-           "SHOOTING_TERMS", "SAFETY", "MAX_REFINE", "require_uniform", "growth_exponent",
+           "shooting_terms", "SAFETY", "MAX_REFINE", "require_uniform", "growth_exponent",
            "scan_validity", "TRUST_LIMIT", "MAX_STEPS", "min_gamma_points",
-           "MAX_GAMMA_POINTS", "remanent_group", "remanent_force", "is_autonomous"]
+           "MAX_GAMMA_POINTS", "is_autonomous"]
 
 #: Relative widening of the a-priori γ bound (and an absolute 1e-3).
 SAFETY = 0.05
@@ -58,64 +59,37 @@ MAX_REFINE = 4
 _EPS = np.finfo(float).eps
 
 
-def _snap(v):
-    """Zero trigonometric values within 4 ε of 0 (φ = π/2 given as a float is exactly symmetric)."""
-    v = np.asarray(v, float)
-    return np.where(np.abs(v) < 4 * _EPS, 0.0, v)
-
-
-#: The energy terms whose Euler–Lagrange equation (EL) the shooting scan integrates (module
-#: docstring); a scene with any other term is refused, never silently scanned without it.
-SHOOTING_TERMS = ("bending", "field_orientation", "tip_force", "tip_moment", "distributed_load",
-                  "hard_magnetic")
-
-
-def _require_uniform_field(scene: Scene) -> None:
-    if scene.field is not None and not isinstance(scene.field, UniformField):
-        raise ValueError(f"equilibria: only uniform fields (or none) are supported, this scene has a "
-                         f"{scene.field.kind} field")
+def _parts(scene: Scene):
+    """Every present term's :class:`~actuator_design.physics.term_protocol.ShootingPart`, in
+    registration order; ValueError naming a non-uniform field or the first term without one."""
+    return [part for _, part in present_parts(scene, "shooting_part", "equilibria (shooting scan)")]
 
 
 def require_uniform(scene: Scene) -> None:
-    """The shooting scan's requirements: a uniform field (or none) and only :data:`SHOOTING_TERMS`."""
-    _require_uniform_field(scene)
-    refuse_unsupported(scene, SHOOTING_TERMS, "equilibria (shooting scan)")
+    """The shooting scan's requirements: a uniform field (or none), and only terms that declare their
+    part of the equation (``EnergyTerm.shooting_part``: :func:`shooting_terms`)."""
+    _parts(scene)
 
 
-def remanent_group(scene: Scene) -> float:
-    """h_r of ``scene`` when it contains the hard-magnetic term (THEORY §9), else 0."""
-    return float(scene.h_r) if scene.magnetization is not None and scene.field is not None else 0.0
+def shooting_terms() -> tuple:
+    """The registered terms whose Euler–Lagrange equation (EL) the shooting scan integrates (module
+    docstring); a scene with any other term is refused, never silently scanned without it."""
+    return tuple(declaring("shooting_part"))
 
 
-def remanent_force(scene: Scene, s: np.ndarray):
-    """The hard-magnetic torque of a uniform field as an internal force (module docstring).
-
-    Parameters
-    ----------
-    scene : Scene
-        Uniform field (or none).
-    s : ndarray, shape (S,)
-        Arc-length points (units of ℓ).
-
-    Returns
-    -------
-    (n_rx, n_ry) : ndarrays, shape (S,)
-        n_r(s) = h_r (cos(β − φ), −sin(β − φ)) in units of B0/ℓ²; zeros without the term.
-    """
-    s = np.asarray(s, float)
-    h_r = remanent_group(scene)
-    if h_r == 0.0:
-        return np.zeros_like(s), np.zeros_like(s)
-    u = np.broadcast_to(np.asarray(scene.magnetization(s), float), s.shape) - scene.phi
-    return h_r * _snap(np.cos(u)), -h_r * _snap(np.sin(u))
+def _dead_force(parts, s: np.ndarray):
+    """The dead loads' internal force n(s) (n_x, n_y), arrays shaped like ``s``."""
+    nx, ny = 0.0, 0.0
+    for part in parts:
+        if part.force is not None and part.dead:
+            fx, fy = part.force(s)
+            nx, ny = nx + fx, ny + fy
+    return np.broadcast_to(nx, s.shape), np.broadcast_to(ny, s.shape)
 
 
 def is_autonomous(scene: Scene) -> bool:
     """b, α and β constant and no distributed load: (EL) does not depend on s explicitly."""
-    q = scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0)
-    beta_const = scene.magnetization is None or scene.magnetization.is_constant
-    return bool(scene.stiffness.is_constant and scene.fibres.is_constant and beta_const
-                and not (q[0] or q[1]))
+    return all(part.autonomous for part in _parts(scene))
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:
@@ -127,30 +101,33 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
         ``integral`` (always), ``first_integral`` (autonomous scenes, else ``None``), ``bound``
         (the smaller, before widening) and ``window`` (the widened half-width actually scanned).
     """
-    require_uniform(scene)
-    h2 = scene.h**2 if scene.field is not None else 0.0
-    f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
-    q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
-    m = float(scene.tip_moment or 0.0)
+    parts = _parts(scene)
+    m = signed_end_moment(scene)
     b0 = float(scene.stiffness(0.0))
-    loaded = bool(q[0] or q[1])
-    t = np.linspace(0.0, 1.0, 2001) if loaded else np.zeros(1)  # q = 0: n is constant
-    n_abs = np.hypot(f[0] + q[0] * t, f[1] + q[1] * t)
-    norm_f = float(np.linalg.norm(f))
-    int_n = min(norm_f + 0.5 * float(np.linalg.norm(q)) if loaded else norm_f, float(n_abs.max()))
-    h_r = remanent_group(scene)
-    integral = (abs(m) + h2 + h_r + int_n) / b0
+    varies = any(p.force is not None and p.dead and not p.autonomous for p in parts)
+    t = np.linspace(0.0, 1.0, 2001) if varies else np.zeros(1)  # a constant n: one point
+    n_abs = np.hypot(*_dead_force(parts, t))
+    int_n = min(sum(p.force_integral for p in parts if p.dead), float(n_abs.max()))
+    integral = (abs(m) + sum(p.torque for p in parts) + int_n) / b0
     first = None
-    if is_autonomous(scene):
-        b, a, th0 = float(scene.stiffness.value), float(scene.fibres.value), float(scene.theta0)
-        V0 = 0.5 * h2 * math.cos(2 * (th0 + a - scene.phi)) + f[1] * math.sin(th0) + f[0] * math.cos(th0)
-        if h_r:
-            V0 += h_r * math.cos(th0 + float(scene.magnetization.value) - scene.phi)
-        val = (m * m / b + h2 + 2 * h_r + 2 * norm_f - 2 * V0) / b
+    potentials = _potentials(scene) if all(p.autonomous for p in parts) else None
+    if potentials is not None:  # ½ b γ² ≤ ½ m²/b + max V − V(θ0), V the first integral's potential
+        b, th0 = float(scene.stiffness.value), np.array(float(scene.theta0))
+        rise = sum(p.potential_max for p in parts) - sum(float(v(th0)) for v in potentials)
+        val = (m * m / b + 2 * rise) / b
         first = math.sqrt(max(val, 0.0))
     bound = integral if first is None else min(integral, first)
     return {"integral": integral, "first_integral": first, "bound": bound,
             "window": bound * (1 + SAFETY) + 1e-3}
+
+
+def _potentials(scene: Scene):
+    """The present terms' parts of the first integral (``EnergyTerm.phase_potential``), or None when
+    a term declares none (the first-integral bound is then not taken)."""
+    names = set(declaring("phase_potential"))
+    if any(cls.present(scene) and cls.name not in names for cls in registered_terms()):
+        return None
+    return [v for _, v in present_parts(scene, "phase_potential", "equilibria (shooting scan)")]
 
 
 class ShootingProblem:
@@ -174,25 +151,22 @@ class ShootingProblem:
 
     def __init__(self, scenes, n_steps: int):
         scenes = [scenes] if isinstance(scenes, Scene) else list(scenes)
-        for sc in scenes:
-            require_uniform(sc)
+        parts = [_parts(sc) for sc in scenes]
         self.scenes, self.N = scenes, int(n_steps)
         s = np.linspace(0.0, 1.0, 2 * self.N + 1)
         self.s = s
-        self.autonomous = all(is_autonomous(sc) for sc in scenes)
+        self.autonomous = all(p.autonomous for ps in parts for p in ps)
         if self.autonomous:
             s = s[:1]  # the coefficients do not depend on s: evaluate them once
         col = lambda vals: np.asarray(vals, float).T[:, :, None]  # (B, S) -> (S, B, 1)
-        h2 = np.array([sc.h**2 if sc.field is not None else 0.0 for sc in scenes], float)
-        self.h2 = h2[None, :, None]
-        psi0 = [2 * (sc.fibres(s) - sc.phi) for sc in scenes]  # 2(α − φ), shape (S,) each
-        self.C, self.S = col(_snap(np.cos(psi0))), col(_snap(np.sin(psi0)))
+        self.h2 = np.array([sum(p.twofold for p in ps) for ps in parts], float)[None, :, None]
+        psi0 = [next((p.twofold_angle(s) for p in ps if p.twofold_angle is not None), np.zeros_like(s))
+                for ps in parts]  # 2(α − φ), shape (S,) each
+        self.C, self.S = col(snap_zero(np.cos(psi0))), col(snap_zero(np.sin(psi0)))
         self.invb = col([1.0 / sc.stiffness(s) for sc in scenes])
-        f = [sc.tip_force if sc.tip_force is not None else (0.0, 0.0) for sc in scenes]
-        q = [sc.distributed_load if sc.distributed_load is not None else (0.0, 0.0) for sc in scenes]
-        nr = [remanent_force(sc, s) for sc in scenes]
-        self.nx = col([fx + qx * (1 - s) + rx for (fx, _), (qx, _), (rx, _) in zip(f, q, nr)])
-        self.ny = col([fy + qy * (1 - s) + ry for (_, fy), (_, qy), (_, ry) in zip(f, q, nr)])
+        forces = [[p.force(s) for p in ps if p.force is not None] for ps in parts]
+        self.nx = col([sum((f[0] for f in fs), 0.0) + np.zeros_like(s) for fs in forces])
+        self.ny = col([sum((f[1] for f in fs), 0.0) + np.zeros_like(s) for fs in forces])
         # derived stage coefficients of M' = s·(A c − Bs s + nx) + D − ny c
         self.A = 2 * self.h2 * self.C
         self.Bs = 2 * self.h2 * self.S
@@ -200,7 +174,7 @@ class ShootingProblem:
         self.unit_b = bool(np.all(self.invb == 1.0))
         self.no_S = bool(np.all(self.S == 0.0))
         self.theta0 = np.array([sc.theta0 for sc in scenes], float)[:, None]
-        self.m = np.array([float(sc.tip_moment or 0.0) for sc in scenes])[:, None]
+        self.m = np.array([signed_end_moment(sc) for sc in scenes])[:, None]
         self.b0 = np.array([float(sc.stiffness(0.0)) for sc in scenes])[:, None]
 
     def residual(self, gammas: np.ndarray, jacobi: bool = False):
@@ -384,11 +358,9 @@ def curvature_bound(scene: Scene, window: float, bound: Optional[dict] = None) -
     ``bound``: :func:`gamma_bound` of ``scene`` when already known.
     """
     gb = gamma_bound(scene) if bound is None else bound
-    h2 = scene.h**2 if scene.field is not None else 0.0
-    f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
     if gb["first_integral"] is not None:
         b = float(scene.stiffness.value)
-        spread = h2 + 2 * float(np.linalg.norm(f)) + 2 * remanent_group(scene)
+        spread = sum(p.spread for p in _parts(scene))
         return math.sqrt(window**2 + 2 * spread / b)
     bmin = float(np.min(scene.stiffness(np.linspace(0, 1, 201))))
     b0 = float(scene.stiffness(0.0))
@@ -442,16 +414,13 @@ def growth_exponent(scene: Scene) -> float:
     most √(Q̄ / b_min), so by Gronwall every solution grows at most like e^{L s}, L = √(Q̄ / b_min).
     The same bound holds for the difference of two shots (rounding, RK4 truncation, γ to γ + δ).
     """
-    require_uniform(scene)
-    h2 = scene.h**2 if scene.field is not None else 0.0
-    f = np.array(scene.tip_force if scene.tip_force is not None else (0.0, 0.0), float)
-    q = np.array(scene.distributed_load if scene.distributed_load is not None else (0.0, 0.0), float)
-    # q = 0 or b constant: the same numbers at one point instead of 201
-    t = np.linspace(0.0, 1.0, 201) if q[0] or q[1] or not scene.stiffness.is_constant else np.zeros(1)
-    tq = t if q[0] or q[1] else t[:1]
-    n_max = float(np.max(np.hypot(f[0] + q[0] * (1 - tq), f[1] + q[1] * (1 - tq))))
+    parts = _parts(scene)
+    varies = any(p.force is not None and p.dead and not p.autonomous for p in parts)
+    # a constant n and b: the same numbers at one point instead of 201
+    t = np.linspace(0.0, 1.0, 201) if varies or not scene.stiffness.is_constant else np.zeros(1)
+    n_max = float(np.max(np.hypot(*_dead_force(parts, t if varies else t[:1]))))
     b_min = float(np.min(scene.stiffness(t[:1] if scene.stiffness.is_constant else t)))
-    return math.sqrt((2 * h2 + remanent_group(scene) + n_max) / b_min)
+    return math.sqrt((sum(p.jacobi for p in parts) + n_max) / b_min)
 
 
 def scan_validity(scene: Scene, window: float, rad_per_step: float = 0.1,

@@ -23,7 +23,8 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
 from actuator_design.physics.parameter import Parameter
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.term_protocol import EnergyTerm, TermProfile, TermSummary
+from actuator_design.physics.term_protocol import (EnergyTerm, ShootingPart, TermProfile, TermSummary,
+                                                   snap_zero)
 
 __all__ = ["HardMagnetic", "with_hard_magnetic_term"]
 
@@ -106,6 +107,22 @@ class HardMagnetic(EnergyTerm):
             raise ValueError("magnetization: phase portraits need a constant magnetisation angle beta(s)")
         h_r, shift = float(scene.h_r), float(scene.magnetization.value) - scene.phi
         return lambda theta: h_r * np.cos(theta + shift)  # (the field's uniformity: FieldOrientation)
+
+    @classmethod
+    def shooting_part(cls, scene: Scene) -> ShootingPart:
+        """In a uniform field the remanent torque is that of an internal force n_r(s) = h_r (cos(β − φ),
+        −sin(β − φ)): −h_r cos(θ + β − φ) = −n_r·(cos θ, sin θ) (THEORY §9)."""
+        h_r = float(scene.h_r)
+
+        def force(s):
+            s = np.asarray(s, float)
+            if h_r == 0.0:
+                return np.zeros_like(s), np.zeros_like(s)
+            u = np.broadcast_to(np.asarray(scene.magnetization(s), float), s.shape) - scene.phi
+            return h_r * snap_zero(np.cos(u)), -h_r * snap_zero(np.sin(u))
+
+        return ShootingPart(force=force, dead=False, torque=h_r, jacobi=h_r, potential_max=h_r, spread=2 * h_r,
+                            autonomous=scene.magnetization.is_constant)
 
     def density(self, kin, P):
         u = kin.theta + kin.fields["beta"]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
-from typing import TYPE_CHECKING, Dict, List
+from typing import TYPE_CHECKING, Dict, List, Tuple
 
 from actuator_design.model.scene import TermValues
 # the built-in terms register on import; registered_terms() orders them (_rank) whichever came first
@@ -26,10 +26,10 @@ from actuator_design.physics.term_protocol import EnergyTerm
 if TYPE_CHECKING:
     from actuator_design.model.scene import Scene
 
-__all__ = ["register_term", "unregister_term", "registered_terms", "term_class", "config_models",
+__all__ = ["declaring", "present_parts", "register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
            "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms", "build_terms",
-           "scene_wavenumber", "end_force", "end_moment", "dense_hessian"]
+           "scene_wavenumber", "end_force", "end_moment", "signed_end_moment", "dense_hessian"]
 
 def registered_terms() -> List[type]:
     """Every registered term class: the built-in terms, then the shipped extra terms (by module
@@ -109,6 +109,29 @@ def write_keeps_terms(p, scene, value) -> bool:
 def unsupported_terms(scene, supported) -> List[str]:
     """Names of the terms ``scene`` contains that are not in ``supported``."""
     return [c.name for c in registered_terms() if c.name not in supported and c.present(scene)]
+
+
+def declaring(method: str) -> List[str]:
+    """Names of the registered terms that declare the :class:`EnergyTerm` classmethod ``method``
+    (override it), in registration order."""
+    base = getattr(EnergyTerm, method).__func__
+    return [c.name for c in registered_terms() if getattr(c, method).__func__ is not base]
+
+
+def present_parts(scene, method: str, analysis: str) -> List[Tuple[type, object]]:
+    """(term class, ``cls.<method>(scene)``) for every term ``scene`` contains, in registration
+    order: what an analysis that asks each term for its part (a first integral, a shooting
+    equation) sums. ValueError naming ``analysis`` and the first term whose part is None (it has
+    none, so the analysis cannot honour it), or the term's own ValueError."""
+    out = []
+    for cls in registered_terms():
+        if cls.present(scene):
+            part = getattr(cls, method)(scene)
+            if part is None:
+                raise ValueError(f"{analysis}: the scene contains the energy term {cls.name!r}, which this "
+                                 f"analysis does not support (it supports: {', '.join(declaring(method))})")
+            out.append((cls, part))
+    return out
 
 
 def refuse_unsupported(scene, supported, analysis: str) -> None:
@@ -240,6 +263,12 @@ def end_force(scene: "Scene"):
     when none applies one."""
     forces = [f for cls in registered_terms() if cls.present(scene) for f in [cls.end_force(scene)] if f is not None]
     return None if not forces else (sum(f[0] for f in forces), sum(f[1] for f in forces))
+
+
+def signed_end_moment(scene: "Scene") -> float:
+    """The dead moment at the free end, the sum over the terms ``scene`` contains (units of B0/ℓ): the
+    end condition b θ'(1) = m."""
+    return sum(cls.end_moment(scene) for cls in registered_terms() if cls.present(scene)) + 0.0
 
 
 def end_moment(scene: "Scene") -> float:

@@ -21,8 +21,8 @@ from actuator_design.model.scene import Scene
 from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.parameter import Parameter
 
-__all__ = ["EnergyTerm", "TermSummary", "TermProfile", "NodeField", "structure_key", "scalar_parameter_values",
-           "node_field_sources", "node_field_values", "residual_slots"]
+__all__ = ["EnergyTerm", "TermSummary", "TermProfile", "ShootingPart", "NodeField", "structure_key",
+           "scalar_parameter_values", "node_field_sources", "node_field_values", "residual_slots", "snap_zero"]
 
 NodeField = Callable[[Scene, np.ndarray], np.ndarray]
 
@@ -35,6 +35,57 @@ class TermProfile(NamedTuple):
     profile: object  #: the :class:`~actuator_design.model.profiles.Profile`
     symbol: str  #: its symbol (``"beta"``)
     angle: bool  #: values in rad, shown in degrees
+
+
+def snap_zero(v):
+    """Trigonometric values within 4 ε of 0 as exact zeros (φ = π/2 given as a float is then exactly
+    symmetric)."""
+    v = np.asarray(v, float)
+    return np.where(np.abs(v) < 4 * np.finfo(float).eps, 0.0, v)
+
+
+@dataclass(frozen=True)
+class ShootingPart:
+    """A term's part of the planar Euler–Lagrange equation in a uniform field, as the shooting scan
+    integrates it (:mod:`actuator_design.analysis.shooting_scan`; THEORY §5, §7, §9): the moment
+    M = b θ' obeys M' = h² sin 2(θ + α − φ) − n_y cos θ + n_x sin θ, n(s) the sum of the terms'
+    internal forces, and the a-priori bounds on γ = θ'(0) add up the terms' numbers.
+
+    Attributes
+    ----------
+    twofold : float
+        h² of a two-fold torque h² sin 2(θ + α(s) − φ) (the χ̄ term), 0 for none.
+    twofold_angle : callable (s) -> ndarray, optional
+        2(α(s) − φ) at arc lengths s, rad.
+    force : callable (s) -> (ndarray, ndarray), optional
+        The internal force (n_x, n_y)(s) it adds, units of B0/ℓ² (a dead tip force f, a distributed
+        load's q (1 − s), a remanent torque written as a force).
+    dead : bool
+        ``force`` is a dead load's (bounded by :attr:`force_integral` and its largest size);
+        False: a torque written as a force, bounded by :attr:`torque`.
+    force_integral : float
+        A bound on ∫₀¹ |n| ds of its dead force.
+    torque : float
+        A bound on its torque's size (the integral bound on γ).
+    jacobi : float
+        A bound on its part of the Jacobi coefficient |Q| (the growth exponent, THEORY §7).
+    potential_max, spread : float
+        The largest value of its part of the first integral (:meth:`EnergyTerm.phase_potential`)
+        and that part's max − min, on an autonomous scene.
+    autonomous : bool
+        Its part does not depend on s (constant profiles, no distributed load).
+    """
+
+    twofold: float = 0.0
+    twofold_angle: Optional[Callable[[np.ndarray], np.ndarray]] = None
+    force: Optional[Callable[[np.ndarray], Tuple[np.ndarray, np.ndarray]]] = None
+    dead: bool = True
+    force_integral: float = 0.0
+    torque: float = 0.0
+    jacobi: float = 0.0
+    potential_max: float = 0.0
+    spread: float = 0.0
+    autonomous: bool = True
 
 
 @dataclass(frozen=True)
@@ -152,6 +203,18 @@ class EnergyTerm:
         ValueError
             Naming the scene's value that makes the Euler–Lagrange equation depend on s (a varying
             profile, a non-uniform field).
+        """
+        return None
+
+    @classmethod
+    def shooting_part(cls, scene: Scene) -> Optional[ShootingPart]:
+        """This term's part of the uniform-field Euler–Lagrange equation the shooting scan
+        integrates (:class:`ShootingPart`); None: the term has none (the scan refuses the scene).
+
+        Raises
+        ------
+        ValueError
+            Naming what the scan cannot integrate (a non-uniform field).
         """
         return None
 

@@ -20,7 +20,7 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
 from actuator_design.physics.parameter import Parameter
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.term_protocol import (EnergyTerm, TermProfile,  # noqa: F401 (re-exported)
+from actuator_design.physics.term_protocol import (EnergyTerm, ShootingPart, TermProfile,  # noqa: F401 (re-exported)
                                                    TermSummary, node_field_sources, node_field_values,
                                                    residual_slots, scalar_parameter_values, structure_key)
 
@@ -93,6 +93,10 @@ class Bending(EnergyTerm):
             raise ValueError("stiffness: phase portraits need a constant bending stiffness b(s)")
         return np.zeros_like  # its ½ b θ'² is the first integral's kinetic part
 
+    @classmethod
+    def shooting_part(cls, scene):
+        return ShootingPart(autonomous=scene.stiffness.is_constant)  # (b(s) is the scan's own)
+
     def density(self, kin, P):
         return 0.5 * kin.fields["b"] * kin.curvature**2
 
@@ -155,6 +159,15 @@ class FieldOrientation(EnergyTerm):
             raise ValueError("fibres: phase portraits need a constant fibre angle alpha(s)")
         h2, shift = scene.h ** 2, float(scene.fibres.value) - scene.phi
         return lambda theta: h2 * np.cos(theta + shift) ** 2
+
+    @classmethod
+    def shooting_part(cls, scene):
+        if not isinstance(scene.field, UniformField):
+            raise ValueError(f"equilibria: only uniform fields (or none) are supported, this scene has a "
+                             f"{scene.field.kind} field")
+        h2 = scene.h ** 2  # |M'| ≤ h², |Q| ≤ 2h², h² cos² ψ ∈ [0, h²]
+        return ShootingPart(twofold=h2, twofold_angle=lambda s: 2 * (scene.fibres(s) - scene.phi), torque=h2,
+                            jacobi=2 * h2, potential_max=h2, spread=h2, autonomous=scene.fibres.is_constant)
 
     def density(self, kin, P):
         h2 = P["h"] ** 2
@@ -247,6 +260,12 @@ class TipForce(EnergyTerm):
         return lambda theta: fy * np.sin(theta) + fx * np.cos(theta)  # −f·r(1) = −∫ f·(cos θ, sin θ) ds
 
     @classmethod
+    def shooting_part(cls, scene):
+        fx, fy = scene.tip_force
+        size = float(np.linalg.norm(np.array(scene.tip_force, float)))
+        return ShootingPart(force=lambda s: (fx, fy), force_integral=size, potential_max=size, spread=2 * size)
+
+    @classmethod
     def summary(cls, scene):
         if scene.tip_force is None:
             return TermSummary()
@@ -290,6 +309,10 @@ class TipMoment(EnergyTerm):
     @classmethod
     def phase_potential(cls, scene):
         return np.zeros_like  # it sets the end line b θ'(1) = m (end_moment), not H
+
+    @classmethod
+    def shooting_part(cls, scene):
+        return ShootingPart()  # it sets the end condition b θ'(1) = m (end_moment)
 
     @classmethod
     def summary(cls, scene):
@@ -336,6 +359,13 @@ class DistributedLoad(EnergyTerm):
             raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
                              "equation depend on s)")
         return np.zeros_like
+
+    @classmethod
+    def shooting_part(cls, scene):
+        qx, qy = scene.distributed_load  # n(s) = q (1 − s): ∫|n| ≤ |q|/2
+        return ShootingPart(force=lambda s: (qx * (1 - s), qy * (1 - s)),
+                            force_integral=0.5 * float(np.linalg.norm(np.array(scene.distributed_load, float))),
+                            autonomous=not (qx or qy))
 
     def density(self, kin, P):
         return -(P["qx"] * kin.x + P["qy"] * kin.y)
