@@ -84,7 +84,6 @@ def mentions_outside_physics() -> dict:
 #: module -> how many times it still names a term (the ratchet; see the module docstring)
 STILL_NAMING_TERMS = {
     "__init__.py": 1,
-    "analysis/stiffness.py": 1,
     "benchmarks/bvp.py": 8,
     "benchmarks/floor.py": 3,
     "benchmarks/problems.py": 15,

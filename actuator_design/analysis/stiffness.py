@@ -49,8 +49,9 @@ from actuator_design.reference.closed_forms import lowload_stiffness
 __all__ = ["Sensitivities", "sensitivities", "TipStiffness", "tip_stiffness",
            "StiffnessCurve", "stiffness_field_curve", "LOAD_NAMES"]
 
-#: Tip loads and the tip quantities they are work-conjugate to.
-LOAD_NAMES = ("fx", "fy", "m_tip")
+#: Tip loads (the lens entries each term declares conjugate to the free end's x, y and angle) and
+#: the tip quantities they are work-conjugate to.
+LOAD_NAMES = lens.tip_loads()
 TIP_NAMES = ("x", "y", "angle")
 
 _SENS: "weakref.WeakKeyDictionary[EquilibriumSolver, Sensitivities]" = weakref.WeakKeyDictionary()

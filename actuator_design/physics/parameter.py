@@ -74,6 +74,10 @@ class Parameter:
         magnetisation), what a design replaces by a Legendre series.
     with_profile : callable (Scene, Profile) -> Scene, optional
         A copy of the scene with that profile replaced.
+    conjugate : {"x", "y", "angle"} or None
+        The free end's quantity a dead end load is work-conjugate to (a tip force's components, a
+        tip moment): the tip stiffness's loads (:mod:`actuator_design.analysis.stiffness`); None:
+        none (an alias such as ``p`` of ``fy`` declares none).
     mirror : float or None
         The factor the value takes when the plane is reflected in the rod's axis (y → −y, θ → −θ:
         +1 for h, −1 for φ, a y-load, the tip moment, a profile α(s) or β(s) is negated); None: no
@@ -114,6 +118,7 @@ class Parameter:
     with_profile: Optional[Callable[[Scene, Any], Scene]] = None
     design_check: Optional[Callable[[Scene], Optional[str]]] = None
     mirror: Optional[float] = None
+    conjugate: Optional[str] = None
 
     @property
     def valid_range(self) -> Tuple[float, float]:

@@ -40,7 +40,7 @@ from actuator_design.physics.registry import registered_terms, registry_version,
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
            "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
-           "physical_parameter", "entry_names", "stiffness_groups", "remanent_group",
+           "physical_parameter", "entry_names", "tip_loads", "stiffness_groups", "remanent_group",
            "field_groups", "scale_field", "per_field", "set_field", "applied_field", "beyond_model",
            "model_field_bound", "field_shape_max", "remanent_groups", "soft_coupled"]
 
@@ -140,6 +140,13 @@ def parameter(name: str, what: str = "parameter") -> Parameter:
     if p is None:
         raise ValueError(f"unknown {what} {name!r} (allowed: {', '.join(reg)})")
     return p
+
+
+def tip_loads() -> Tuple[str, ...]:
+    """The dead end loads work-conjugate to the free end's x, y and angle, in that order
+    (``Parameter.conjugate``; those declared)."""
+    by = {p.conjugate: name for name, p in parameters().items() if p.conjugate}
+    return tuple(by[q] for q in ("x", "y", "angle") if q in by)
 
 
 def designable() -> Dict[str, Parameter]:

@@ -237,9 +237,9 @@ class TipForce(EnergyTerm):
         Parameter("p", "vertical tip load p = fy", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
                   write=lambda sc, v: _tip_force(sc, 1, v), designable=True, mirror=-1.0, **_F_KW),
         Parameter("fy", "tip force y component", "B0/l^2", "fy", read=lambda sc: _tip_force(sc, 1),
-                  write=lambda sc, v: _tip_force(sc, 1, v), mirror=-1.0, **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 1, v), mirror=-1.0, conjugate="y", **_F_KW),
         Parameter("fx", "tip force x component", "B0/l^2", "fx", read=lambda sc: _tip_force(sc, 0),
-                  write=lambda sc, v: _tip_force(sc, 0, v), mirror=1.0, **_F_KW),
+                  write=lambda sc, v: _tip_force(sc, 0, v), mirror=1.0, conjugate="x", **_F_KW),
     )
 
     @classmethod
@@ -290,7 +290,7 @@ class TipMoment(EnergyTerm):
     parameters = (
         Parameter("m_tip", "tip moment", "B0/l", "m_tip", read=lambda sc: sc.tip_moment or 0.0,
                   write=lambda sc, v: replace(sc, tip_moment=v), term="tip_moment", residual="linear",
-                  stiffness_power=-1.0, scene_range=LOAD_RANGE, mirror=-1.0,
+                  stiffness_power=-1.0, scene_range=LOAD_RANGE, mirror=-1.0, conjugate="angle",
                   ensure=lambda sc: sc if sc.tip_moment is not None else replace(sc, tip_moment=0.0)),
     )
 
