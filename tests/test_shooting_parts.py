@@ -76,3 +76,50 @@ def test_every_declaring_term_is_checked_here_or_carries_no_equation():
     for name in no_equation:
         part = term_class(name).shooting_part(SCENE)
         assert part.force is None and part.twofold == 0.0 and part.torque == 0.0
+
+
+def test_two_terms_with_a_two_fold_torque_are_both_integrated():
+    """A plug-in second easy axis k sin 2(θ − δ) beside the field's h² sin 2(θ − φ): the scan's
+    residual r(γ) = θ'(1) is the one of θ'' = h² sin 2(θ − φ) + k sin 2(θ − δ), integrated here by a
+    separate RK4 (a summed amplitude with one angle would be wrong)."""
+    from actuator_design.analysis.shooting_scan import ShootingProblem
+    from actuator_design.physics.parameter import plugin_parameter
+    from actuator_design.physics.registration import register_term, unregister_term
+    from actuator_design.physics.term_protocol import EnergyTerm, ShootingPart
+
+    delta, k = 0.6, 1.0
+
+    class SecondAxis(EnergyTerm):
+        name = "toy_second_axis"
+        scalar_params = ("k_toy_axis",)
+        parameters = (plugin_parameter("toy_second_axis", "k_toy_axis", "second axis", "B0/l", lower=0.0),)
+
+        def density(self, kin, P):
+            return -P["k_toy_axis"] * ca.cos(kin.theta - delta) ** 2
+
+        @classmethod
+        def shooting_part(cls, scene):
+            kk = scene.term_values(cls.name)["k_toy_axis"]
+            return ShootingPart(twofold=kk, twofold_angle=lambda s: np.full_like(np.asarray(s, float), -2 * delta),
+                                torque=kk, jacobi=2 * kk, potential_max=kk, spread=kk)
+
+    register_term(SecondAxis, replace=True)
+    try:
+        scene = Scene(field=UniformField(phi=0.2), h=1.0, tip_force=None).with_term(SecondAxis.name, k_toy_axis=k)
+        gammas = np.array([-0.5, 0.3, 0.8])
+        got = ShootingProblem(scene, 400).residual(gammas)
+    finally:
+        unregister_term(SecondAxis.name)
+
+    def reference(gamma, n=4000):
+        f = lambda y: np.array([y[1], np.sin(2 * (y[0] - 0.2)) + k * np.sin(2 * (y[0] - delta))])  # noqa: E731
+        y, ds = np.array([0.0, gamma]), 1.0 / n
+        for _ in range(n):
+            k1 = f(y)
+            k2 = f(y + ds / 2 * k1)
+            k3 = f(y + ds / 2 * k2)
+            k4 = f(y + ds * k3)
+            y = y + ds / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return y[1]
+
+    assert got == pytest.approx([reference(g) for g in gammas], rel=1e-9, abs=1e-10)

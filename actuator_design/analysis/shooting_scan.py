@@ -38,13 +38,15 @@ about that distance of a fold) can still be missed: this is stated in the result
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import Dict, Optional
 
 import numpy as np
 
 from actuator_design.model.scene import Scene
-from actuator_design.physics.registry import declaring, present_parts, registered_terms, signed_end_moment
+from actuator_design.physics.registry import (declaring, present_parts, registered_terms, registry_version,
+                                              signed_end_moment)
 from actuator_design.physics.term_protocol import snap_zero
 
 __all__ = ["ShootingProblem", "gamma_bound", "curvature_bound", "steps_for", "brackets",
@@ -62,7 +64,13 @@ _EPS = np.finfo(float).eps
 def _parts(scene: Scene):
     """Every present term's :class:`~actuator_design.physics.term_protocol.ShootingPart`, in
     registration order; ValueError naming a non-uniform field or the first term without one."""
-    return [part for _, part in present_parts(scene, "shooting_part", "equilibria (shooting scan)")]
+    return _parts_of(scene, registry_version())
+
+
+@functools.lru_cache(maxsize=4096)
+def _parts_of(scene: Scene, version: int):
+    # (a map asks for the same scene's bounds several times; the registry's version keys a re-registered term)
+    return tuple(part for _, part in present_parts(scene, "shooting_part", "equilibria (shooting scan)"))
 
 
 def require_uniform(scene: Scene) -> None:
@@ -78,18 +86,37 @@ def shooting_terms() -> tuple:
 
 
 def _dead_force(parts, s: np.ndarray):
-    """The dead loads' internal force n(s) (n_x, n_y), arrays shaped like ``s``."""
+    """The dead loads' internal force n(s) (n_x, n_y): arrays shaped like ``s``, or numbers for a
+    constant force."""
     nx, ny = 0.0, 0.0
     for part in parts:
         if part.force is not None and part.dead:
             fx, fy = part.force(s)
             nx, ny = nx + fx, ny + fy
-    return np.broadcast_to(nx, s.shape), np.broadcast_to(ny, s.shape)
+    return nx, ny
 
 
 def is_autonomous(scene: Scene) -> bool:
-    """b, α and β constant and no distributed load: (EL) does not depend on s explicitly."""
-    return all(part.autonomous for part in _parts(scene))
+    """b, α and β constant and no distributed load: (EL) does not depend on s explicitly (False for a
+    scene the scan refuses)."""
+    try:
+        return all(part.autonomous for part in _parts(scene))
+    except ValueError:
+        return False
+
+
+def _twofold(parts, s: np.ndarray):
+    """(h², cos ψ0(s), sin ψ0(s)) of the two-fold torque h² sin(2θ + ψ0(s)) the parts add up to:
+    one term's own (ψ0 = 2(α − φ)), several summed as k_i sin(2θ + ψ_i) = sin 2θ Σ k_i cos ψ_i +
+    cos 2θ Σ k_i sin ψ_i (h² = 1), none: zero."""
+    twofold = [p for p in parts if p.twofold_angle is not None]
+    if len(twofold) <= 1:
+        psi = twofold[0].twofold_angle(s) if twofold else np.zeros_like(s)
+        h2 = twofold[0].twofold if twofold else 0.0
+        return h2, snap_zero(np.cos(psi)), snap_zero(np.sin(psi))
+    angles = [(p.twofold, p.twofold_angle(s)) for p in twofold]
+    return (1.0, sum(k * snap_zero(np.cos(psi)) for k, psi in angles),
+            sum(k * snap_zero(np.sin(psi)) for k, psi in angles))
 
 
 def gamma_bound(scene: Scene) -> Dict[str, float]:
@@ -107,7 +134,7 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
     varies = any(p.force is not None and p.dead and not p.autonomous for p in parts)
     t = np.linspace(0.0, 1.0, 2001) if varies else np.zeros(1)  # a constant n: one point
     n_abs = np.hypot(*_dead_force(parts, t))
-    int_n = min(sum(p.force_integral for p in parts if p.dead), float(n_abs.max()))
+    int_n = min(sum(p.force_integral for p in parts if p.dead), float(np.max(n_abs)))
     integral = (abs(m) + sum(p.torque for p in parts) + int_n) / b0
     first = None
     potentials = _potentials(scene) if all(p.autonomous for p in parts) else None
@@ -124,10 +151,15 @@ def gamma_bound(scene: Scene) -> Dict[str, float]:
 def _potentials(scene: Scene):
     """The present terms' parts of the first integral (``EnergyTerm.phase_potential``), or None when
     a term declares none (the first-integral bound is then not taken)."""
+    return _potentials_of(scene, registry_version())
+
+
+@functools.lru_cache(maxsize=4096)
+def _potentials_of(scene: Scene, version: int):
     names = set(declaring("phase_potential"))
     if any(cls.present(scene) and cls.name not in names for cls in registered_terms()):
         return None
-    return [v for _, v in present_parts(scene, "phase_potential", "equilibria (shooting scan)")]
+    return tuple(v for _, v in present_parts(scene, "phase_potential", "equilibria (shooting scan)"))
 
 
 class ShootingProblem:
@@ -136,7 +168,7 @@ class ShootingProblem:
     Integrated with classical RK4 in ``n_steps`` equal steps, in the variables (c, s, M) =
     (cos θ, sin θ, b θ'): c' = −s M/b, s' = c M/b, M' = h² sin 2ψ − n_y c + n_x s, which needs no
     trigonometric function per stage (sin 2ψ = 2sc·cos 2(α−φ) + (c² − s²)·sin 2(α−φ)); n includes
-    the hard-magnetic force n_r (:func:`remanent_force`). The coefficients are precomputed at the
+    the hard-magnetic force n_r (``HardMagnetic.shooting_part``). The coefficients are precomputed at the
     2·n_steps + 1 half-step points with shape (S, B, 1) (S = 1 when every scene of the batch is
     autonomous: α, β, b constant, q = 0), so a (B, G) array of γ values is integrated at once with
     in-place numpy operations.
@@ -159,10 +191,9 @@ class ShootingProblem:
         if self.autonomous:
             s = s[:1]  # the coefficients do not depend on s: evaluate them once
         col = lambda vals: np.asarray(vals, float).T[:, :, None]  # (B, S) -> (S, B, 1)
-        self.h2 = np.array([sum(p.twofold for p in ps) for ps in parts], float)[None, :, None]
-        psi0 = [next((p.twofold_angle(s) for p in ps if p.twofold_angle is not None), np.zeros_like(s))
-                for ps in parts]  # 2(α − φ), shape (S,) each
-        self.C, self.S = col(snap_zero(np.cos(psi0))), col(snap_zero(np.sin(psi0)))
+        h2, C, S = zip(*(_twofold(ps, s) for ps in parts))
+        self.h2 = np.array(h2, float)[None, :, None]
+        self.C, self.S = col(C), col(S)
         self.invb = col([1.0 / sc.stiffness(s) for sc in scenes])
         forces = [[p.force(s) for p in ps if p.force is not None] for ps in parts]
         self.nx = col([sum((f[0] for f in fs), 0.0) + np.zeros_like(s) for fs in forces])

@@ -36,7 +36,12 @@ def registered_terms() -> List[type]:
     name), then the others in registration order — the same order whichever module was imported
     first (it orders the parameter lens and the NLP's slots)."""
     _load_builtins()
-    return sorted(_TERMS.values(), key=_rank)
+    if _ORDERED[0] != _VERSION[0]:  # sorted once per change of the registry (analyses ask per scene)
+        _ORDERED[:] = [_VERSION[0], tuple(sorted(_TERMS.values(), key=_rank))]
+    return list(_ORDERED[1])
+
+
+_ORDERED: list = [None, ()]
 
 
 _BUILTIN_MODULES = (f"{__package__}.terms", f"{__package__}.hard_magnetic")

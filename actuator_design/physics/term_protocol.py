@@ -22,7 +22,7 @@ from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.parameter import Parameter
 
 __all__ = ["EnergyTerm", "TermSummary", "TermProfile", "ShootingPart", "NodeField", "structure_key",
-           "scalar_parameter_values", "node_field_sources", "node_field_values", "residual_slots", "snap_zero"]
+           "scalar_parameter_values", "node_field_sources", "node_field_values", "residual_slots", "snap_zero", "zero_potential"]
 
 NodeField = Callable[[Scene, np.ndarray], np.ndarray]
 
@@ -35,6 +35,11 @@ class TermProfile(NamedTuple):
     profile: object  #: the :class:`~actuator_design.model.profiles.Profile`
     symbol: str  #: its symbol (``"beta"``)
     angle: bool  #: values in rad, shown in degrees
+
+
+def zero_potential(theta):
+    """The part V(θ) = 0 of a term that adds nothing to the first integral (shaped like θ)."""
+    return 0.0 * np.asarray(theta, float)
 
 
 def snap_zero(v):

@@ -20,9 +20,10 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics.fields import FieldModel, field_model
 from actuator_design.physics.parameter import Parameter
 from actuator_design.physics.registration import register_term
-from actuator_design.physics.term_protocol import (EnergyTerm, ShootingPart, TermProfile,  # noqa: F401 (re-exported)
-                                                   TermSummary, node_field_sources, node_field_values,
-                                                   residual_slots, scalar_parameter_values, structure_key)
+from actuator_design.physics.term_protocol import (EnergyTerm, ShootingPart,  # noqa: F401 (re-exported)
+                                                   TermProfile, TermSummary, node_field_sources,
+                                                   node_field_values, residual_slots, scalar_parameter_values,
+                                                   structure_key, zero_potential)
 
 __all__ = ["EnergyTerm", "TermSummary", "TermProfile", "structure_key", "scalar_parameter_values", "node_field_sources",
            "node_field_values", "residual_slots", "Bending", "FieldOrientation", "FieldPosition", "TipForce",
@@ -91,7 +92,7 @@ class Bending(EnergyTerm):
     def phase_potential(cls, scene):
         if not scene.stiffness.is_constant:
             raise ValueError("stiffness: phase portraits need a constant bending stiffness b(s)")
-        return np.zeros_like  # its ½ b θ'² is the first integral's kinetic part
+        return zero_potential  # its ½ b θ'² is the first integral's kinetic part
 
     @classmethod
     def shooting_part(cls, scene):
@@ -308,7 +309,7 @@ class TipMoment(EnergyTerm):
 
     @classmethod
     def phase_potential(cls, scene):
-        return np.zeros_like  # it sets the end line b θ'(1) = m (end_moment), not H
+        return zero_potential  # it sets the end line b θ'(1) = m (end_moment), not H
 
     @classmethod
     def shooting_part(cls, scene):
@@ -358,7 +359,7 @@ class DistributedLoad(EnergyTerm):
         if any(q != 0 for q in scene.distributed_load):
             raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
                              "equation depend on s)")
-        return np.zeros_like
+        return zero_potential
 
     @classmethod
     def shooting_part(cls, scene):
