@@ -223,7 +223,7 @@ def _physical_lines(data, st, curve, units) -> list:
     u, noise = units.length_unit, length_noise(units)
     field = (f"mu0 H = {number(phys['field_mT'])} mT ({number(phys['field_A_per_m'])} A/m)"
              if "field_mT" in phys else
-             "field: none converted (this scene has no field scale, e.g. chi_bar = 0)")
+             "field: none converted (this scene has no field scale: its material's coupling per field is 0)")
     lines = [f"  in the user's units      : {field}; tip ({number(phys['tip']['x'], noise=noise)}, "
              f"{number(phys['tip']['y'], noise=noise)}) {u}"]
     for title, key in (("compliance (SI)", "compliance"), ("stiffness C^-1 (SI)", "stiffness")):

@@ -115,8 +115,8 @@ class Config(StrictModel):
         stiffness = scene.rod.stiffness_profile if isinstance(scene, PhysicalScene) else scene.stiffness
         profiles = {
             "scene.fibres.expression": (None if scene.fibres is None else scene.fibres.to_profile(), False),
-            "scene.magnetization.expression": (None if getattr(scene, "magnetization", None) is None
-                                               else scene.magnetization.to_profile(), False),
+            **{f"scene.{name}.expression": (profile, False)  # the profiles the terms' keys carry (β(s))
+               for name, profile in scene.magnetic_profiles().items()},
             ("scene.rod.stiffness_profile.expression" if isinstance(scene, PhysicalScene)
              else "scene.stiffness.expression"): (None if stiffness is None else stiffness.to_profile(), True),
         }
