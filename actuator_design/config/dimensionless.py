@@ -26,9 +26,8 @@ from actuator_design.config.errors import error
 from actuator_design.config.field_specs import DimensionlessField
 from actuator_design.config.limits import group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, DimensionlessObstacle, obstacles_of
-from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile
+from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile, profile_or
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
-from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.model.units import COMMON_UNITS, registry
 from actuator_design.physics import parameters as lens
@@ -133,8 +132,8 @@ class DimensionlessScene(DimensionlessLoads, DimensionlessMagnetics, _SceneKeys)
             field = UniformField(phi=self.phi or 0.0)
         else:
             field = None  # (a term that needs a field, e.g. a remanent one, adds it at strength 0)
-        scene = Scene(field=field, h=self.h or 0.0, fibres=_profile(self.fibres, 0.0),
-                      stiffness=_profile(self.stiffness, 1.0), theta0=self.clamp_angle, scales=None,
+        scene = Scene(field=field, h=self.h or 0.0, fibres=profile_or(self.fibres, 0.0),
+                      stiffness=profile_or(self.stiffness, 1.0), theta0=self.clamp_angle, scales=None,
                       tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
                       name=name or "dimensionless cantilever", fibres_given=self.fibres is not None,
                       obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0),
@@ -144,7 +143,3 @@ class DimensionlessScene(DimensionlessLoads, DimensionlessMagnetics, _SceneKeys)
         for profile_name, profile in self.magnetic_profiles().items():
             scene = lens.parameter(profile_name).with_profile(scene, profile)
         return scene
-
-
-def _profile(spec, default: float):
-    return constant_profile(default) if spec is None else spec.to_profile()

@@ -27,7 +27,7 @@ from actuator_design.config.errors import error
 from actuator_design.config.field_specs import PhysicalDipole, PhysicalField, max_shape_on_rod
 from actuator_design.config.limits import GROUP_RANGES, group_problem
 from actuator_design.config.obstacle_specs import MAX_OBSTACLES, PhysicalObstacle, obstacles_of
-from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile
+from actuator_design.config.profile_specs import FibreProfile, StiffnessProfile, profile_or
 from actuator_design.config.term_specs import TermEntries, check_terms, terms_field, terms_of
 from actuator_design.model.profiles import constant_profile
 from actuator_design.model.scene import Scales, Scene
@@ -220,12 +220,12 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
         v = d.values
         field = None if self.field is None else self.field.to_field(length)[0]
         self._check_assumptions(field, d.h0, d.magnetics)
-        fibres = _profile(self.fibres, 0.0)
+        fibres = profile_or(self.fibres, 0.0)
         if d.magnetics is not None and d.magnetics.fibre_angle is not None:
             fibres = constant_profile(d.magnetics.fibre_angle)  # THEORY §10: the effective angle
         per = d.per_field  # (every group the field drives, remanent ones only of a remanent rod)
         scene = Scene(
-            field=field, fibres=fibres, stiffness=_profile(self.rod.stiffness_profile, 1.0),
+            field=field, fibres=fibres, stiffness=profile_or(self.rod.stiffness_profile, 1.0),
             tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
@@ -261,7 +261,3 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
         """Warn (ModelAssumptionWarning) when the largest field on the rod leaves the model (THEORY §11)."""
         if self.magnetics is not None:
             self.magnetics.check_assumptions(None if field is None else h0 * max_shape_on_rod(field), summary)
-
-
-def _profile(spec, default: float):
-    return constant_profile(default) if spec is None else spec.to_profile()

@@ -23,7 +23,7 @@ from actuator_design.model.units import angle_range_problem
 
 __all__ = ["FibreConstant", "FibreTable", "FibreExpression", "StiffnessConstant", "StiffnessTable",
            "StiffnessExpression", "FibreProfile", "StiffnessProfile", "GRID",
-           "profile_problem"]
+           "profile_problem", "profile_or"]
 
 #: Arc lengths at which expression profiles are checked, shape (201,).
 GRID = np.linspace(0.0, 1.0, 201)
@@ -157,6 +157,12 @@ class StiffnessExpression(_ExpressionBase):
     """Relative bending stiffness b(s) > 0 as an expression in s."""
 
     positive_only: ClassVar[bool] = True
+
+
+def profile_or(spec, default: float):
+    """The :class:`~actuator_design.model.profiles.Profile` of a profile ``spec``, or the constant
+    ``default`` when none is given."""
+    return constant_profile(default) if spec is None else spec.to_profile()
 
 
 def constant_spec(value):
