@@ -85,3 +85,24 @@ def test_every_term_the_package_registers_has_a_case():
     package = [c.name for c in registered_terms() if c.__module__.startswith("actuator_design.")]
     missing = sorted(set(package) - {c.split("@")[0] for c in CASES})
     assert not missing, f"terms without a hand-built test: {missing}"
+
+
+def _numbers(value):
+    if isinstance(value, dict):
+        return [x for v in value.values() for x in _numbers(v)]
+    if isinstance(value, (list, tuple)):
+        return [x for v in value for x in _numbers(v)]
+    return [value] if isinstance(value, (int, float)) and not isinstance(value, bool) else []
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_a_results_groups_report_every_value_the_terms_energy_uses(case):
+    """``describe_groups`` asks every term what to report: each NLP value a present term reads
+    (its ``values``) is among the numbers reported, so a result says what was solved."""
+    from actuator_design.physics.registry import describe_groups
+    scene = CASES[case][0]
+    reported = _numbers(describe_groups(scene))
+    term = term_class(case.split("@")[0]).from_scene(scene)
+    for slot, value in term.values(scene).items():
+        assert any(v == pytest.approx(value, abs=0) for v in reported), (slot, value, describe_groups(scene))
+    assert describe_groups(scene)["theta0"] == scene.theta0

@@ -107,7 +107,7 @@ STILL_NAMING_TERMS = {
     "inverse/poses.py": 8,
     "inverse/screen.py": 3,
     "inverse/settings.py": 6,
-    "model/scene.py": 31,
+    "model/scene.py": 17,
     "model/sources.py": 9,
     "reference/fold_bvp.py": 3,
     "reference/jacobi.py": 4,

@@ -16,6 +16,7 @@ from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import describe_groups
 
 __all__ = ["Equilibrium", "EquilibriaResult", "MAX_CONFIRM_ELEMENTS", "confirm", "refine_to_promise"]
 
@@ -136,7 +137,7 @@ class EquilibriaResult:
                 "stable_count": self.stable_count, "complete": bool(self.complete),
                 "incomplete_reason": self.incomplete_reason, "gamma_window": list(self.window), "method": self.method, "scan": self.scan,
                 "accurate": not self.inaccurate, "inaccurate_count": len(self.inaccurate),
-                "failures": self.failures, "groups": self.scene.describe_groups(),
+                "failures": self.failures, "groups": describe_groups(self.scene),
                 "units": {"gamma": "1/l", "length": "l", "energy": "B0/l", "angle": "rad"}}
 
 

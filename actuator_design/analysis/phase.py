@@ -35,7 +35,7 @@ from actuator_design.contact.guard import no_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.model.scene import Scene
-from actuator_design.physics.registry import present_parts, signed_end_moment
+from actuator_design.physics.registry import describe_groups, present_parts, signed_end_moment
 
 __all__ = ["first_integral", "check_autonomous", "PhaseTrajectory", "PhasePortrait", "phase_portrait"]
 
@@ -154,7 +154,7 @@ class PhasePortrait:
 
     def to_dict(self, grid: bool = False) -> dict:
         """Plain data; the H grid only with ``grid=True`` (it is large)."""
-        out = {"groups": self.scene.describe_groups(), "theta_range": [float(self.theta[0]), float(self.theta[-1])],
+        out = {"groups": describe_groups(self.scene), "theta_range": [float(self.theta[0]), float(self.theta[-1])],
                "dtheta_range": [float(self.dtheta[0]), float(self.dtheta[-1])],
                "theta0": self.theta0, "end_dtheta": self.end_dtheta,
                "levels": self.levels.tolist(),

@@ -31,7 +31,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``validate``: load, check the field, print the summary."""
     scene, options, raw = load_config(args.config)
-    from actuator_design.physics.registry import build_terms
+    from actuator_design.physics.registry import build_terms, describe_groups
     terms = [t.name for t in build_terms(scene)]
     summary = _magnetics_summary(raw)
     notes = list(summary.notes) if summary is not None else []
@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         from actuator_design.io.save import dumps_json, scene_to_dict
         out = {"valid": True, "config": str(args.config), "scene": scene_to_dict(scene),
-               "groups": scene.describe_groups(), "terms": terms, "solver": options.as_dict()}
+               "groups": describe_groups(scene), "terms": terms, "solver": options.as_dict()}
         for said in _summaries(scene):  # the profiles terms carry (a remanent β(s): "magnetization")
             if said.profile is not None:
                 out[said.profile.key] = said.profile.profile.as_dict()

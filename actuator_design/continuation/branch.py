@@ -13,6 +13,7 @@ from typing import Any, Dict, List, Optional, Tuple
 import numpy as np
 
 from actuator_design.model.scene import Scene
+from actuator_design.physics.registry import describe_groups
 
 __all__ = ["CriticalPoint", "Branch", "ContinuationResult"]
 
@@ -153,6 +154,6 @@ class ContinuationResult:
                 "folds": b["folds"], "branch_points": b["branch_points"], "status": b["status"],
                 "message": b["message"], "stats": b["stats"],
                 "secondary_branches": [s.to_dict() for s in self.secondary],
-                "groups": self.scene.describe_groups(),
+                "groups": describe_groups(self.scene),
                 "contact_path": None if self.contact_path is None else self.contact_path.to_dict(),
                 "complete": self.complete, "notes": list(self.notes)}

@@ -15,7 +15,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.io.display import degrees, number
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
-from actuator_design.physics.registry import registered_terms
+from actuator_design.physics.registry import describe_groups, registered_terms
 
 __all__ = ["EquilibriumResult"]
 
@@ -205,7 +205,7 @@ class EquilibriumResult:
             "contact": lambda: self.contact,
             "shape": lambda: {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
                               "theta": self.theta.tolist()},
-            "groups": lambda: self.scene.describe_groups(),
+            "groups": lambda: describe_groups(self.scene),
             "scales": lambda: None if self.scene.scales is None else self.scene.scales.as_dict(),
             "physical": self.physical,
             "units": lambda: {"length": "rod length", "energy": "B0/l", "force": "B0/l^2",

@@ -428,28 +428,6 @@ class Scene:
             scene = replace(scene, fibres=constant_profile(float(alpha)))
         return scene
 
-    def describe_groups(self) -> dict:
-        """The dimensionless groups used, as a plain dict (for results and reports)."""
-        out = {"h": self.h, "h_squared": self.h**2, "theta0": self.theta0}
-        if self.field is not None:
-            out["field"] = self.field.kind
-            if isinstance(self.field, UniformField):
-                out["phi"] = self.field.phi
-            if not self.field.is_uniform:
-                out["h_pos"] = self.h_pos
-        if self.tip_force is not None:
-            out["tip_force"] = list(self.tip_force)
-            out["p"] = self.p
-        if self.tip_moment is not None:
-            out["tip_moment"] = self.tip_moment
-        if self.distributed_load is not None:
-            out["distributed_load"] = list(self.distributed_load)
-        if self.magnetization is not None:
-            out["h_r"] = self.h_r
-        for t in self.extra_terms:
-            out[t.name] = t.as_dict()
-        return out
-
 
 def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
     """THEORY §5's dimensionless cantilever: uniform field (h, φ), vertical tip load p,

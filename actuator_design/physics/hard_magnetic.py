@@ -98,6 +98,10 @@ class HardMagnetic(EnergyTerm):
         return scene.magnetization is not None and scene.field is not None
 
     @classmethod
+    def result_groups(cls, scene: Scene) -> dict:
+        return {} if scene.magnetization is None else {"h_r": scene.h_r}
+
+    @classmethod
     def from_scene(cls, scene: Scene) -> "HardMagnetic":
         return cls(field_model(scene.field))
 

@@ -284,3 +284,12 @@ def end_moment(scene: "Scene") -> float:
 def dense_hessian(scene: "Scene") -> bool:
     """Whether a term of ``scene`` makes the energy's Hessian dense."""
     return any(cls.present(scene) and cls.dense_hessian(scene) for cls in registered_terms())
+
+
+def describe_groups(scene: "Scene") -> dict:
+    """The dimensionless groups of ``scene`` as a plain dict (a result's ``groups``): the clamp angle
+    and what every registered term says of itself (:meth:`EnergyTerm.result_groups`)."""
+    out = {"theta0": scene.theta0}
+    for cls in registered_terms():
+        out.update(cls.result_groups(scene))
+    return out

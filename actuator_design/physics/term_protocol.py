@@ -185,6 +185,14 @@ class EnergyTerm:
         return TermSummary()
 
     @classmethod
+    def result_groups(cls, scene: Scene) -> Dict[str, object]:
+        """What a result's ``groups`` (``result.json``, ``validate --json``) says of this term: its
+        dimensionless values by key, plain numbers and lists (asked of every registered term; a
+        plug-in term present in ``scene``: its values under its name)."""
+        values = scene.term_values(cls.name)
+        return {} if values is None else {cls.name: values}
+
+    @classmethod
     def end_force(cls, scene: Scene) -> Optional[Tuple[float, float]]:
         """The dead force (fx, fy) this term applies at the free end (units of B0/ℓ²; None when it
         applies none): drawn as an arrow at the tip."""

@@ -139,6 +139,15 @@ class FieldOrientation(EnergyTerm):
         return scene.field is not None
 
     @classmethod
+    def result_groups(cls, scene):
+        out = {"h": scene.h, "h_squared": scene.h**2}
+        if scene.field is not None:
+            out["field"] = scene.field.kind
+            if isinstance(scene.field, UniformField):
+                out["phi"] = scene.field.phi
+        return out
+
+    @classmethod
     def from_scene(cls, scene):
         return cls(field_model(scene.field))
 
@@ -208,6 +217,10 @@ class FieldPosition(EnergyTerm):
         return TermSummary(groups=(("h_pos", scene.h_pos),) if shown else ())
 
     @classmethod
+    def result_groups(cls, scene):
+        return {"h_pos": scene.h_pos} if scene.field is not None and not scene.field.is_uniform else {}
+
+    @classmethod
     def present(cls, scene):
         return scene.field is not None and not scene.field.is_uniform and scene.h_pos != 0.0
 
@@ -273,6 +286,10 @@ class TipForce(EnergyTerm):
         fx, fy = scene.tip_force
         return TermSummary(groups=(("p", scene.p),), load=f"tip force (fx, fy) = ({fx:.6g}, {fy:.6g}) B0/l^2")
 
+    @classmethod
+    def result_groups(cls, scene):
+        return {} if scene.tip_force is None else {cls.name: list(scene.tip_force), "p": scene.p}
+
     def tip(self, tip, P):
         return -(P["fx"] * tip.x + P["fy"] * tip.y)
 
@@ -319,6 +336,10 @@ class TipMoment(EnergyTerm):
     def summary(cls, scene):
         return TermSummary(load=None if scene.tip_moment is None else f"tip moment {scene.tip_moment:.6g} B0/l")
 
+    @classmethod
+    def result_groups(cls, scene):
+        return {} if scene.tip_moment is None else {cls.name: scene.tip_moment}
+
     def tip(self, tip, P):
         return -P["m_tip"] * tip.theta
 
@@ -349,6 +370,10 @@ class DistributedLoad(EnergyTerm):
     def summary(cls, scene):
         q = scene.distributed_load
         return TermSummary(load=None if q is None else f"distributed load (qx, qy) = ({q[0]:.6g}, {q[1]:.6g}) B0/l^3")
+
+    @classmethod
+    def result_groups(cls, scene):
+        return {} if scene.distributed_load is None else {cls.name: list(scene.distributed_load)}
 
     @classmethod
     def wavenumber(cls, scene):

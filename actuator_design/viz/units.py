@@ -154,8 +154,7 @@ def groups_text(scene, units=None) -> str:
     """A title's ``h = 1.5, φ = 90°, p = 0`` of a scene; on a physical scene the field as
     ``μ0H = 40 mT`` (of h, or of h_r for a hard-magnetic rod whose h has no field scale) and the
     tip load in N."""
-    g = scene.describe_groups()
-    h, phi, p = g.get("h", 0.0), g.get("phi", 0.0), g.get("p", 0.0)
+    h, phi, p = (parameter(name).get(scene) for name in ("h", "phi", "p"))
     field = f"h = {h:.4g}"
     if units is not None:
         mT = scene_physical(scene, units).get("field_mT")
