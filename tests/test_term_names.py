@@ -100,13 +100,7 @@ STILL_NAMING_TERMS = {
     "config/physical.py": 4,
     "config/source_specs.py": 2,
     "hardware/pose_design.py": 6,
-    "inverse/choose.py": 2,
-    "inverse/design.py": 15,
-    "inverse/design_map.py": 2,
-    "inverse/nlp.py": 4,
-    "inverse/poses.py": 8,
-    "inverse/screen.py": 3,
-    "inverse/settings.py": 6,
+    "inverse/settings.py": 1,
     "model/scene.py": 17,
     "model/sources.py": 9,
     "reference/fold_bvp.py": 3,
@@ -116,7 +110,6 @@ STILL_NAMING_TERMS = {
     "reference/shooting_model.py": 8,
     "robust/robustness.py": 1,
     "robust/tolerances.py": 3,
-    "schedules/schedule.py": 3,
 }
 
 

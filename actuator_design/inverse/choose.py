@@ -12,6 +12,7 @@ from actuator_design.inverse.optimise import candidate, design_vector, optimise
 from actuator_design.inverse.screen import screen
 from actuator_design.inverse.settings import (Choice, DesignProblem, Optimised, normalise_phi, phi_period,
                                               target_error, tip_error)
+from actuator_design.physics import parameters as lens
 
 __all__ = ["choose", "optimum_dict"]
 
@@ -45,7 +46,9 @@ def choose(problem: DesignProblem, searched: List[Optimised], hints: bool = True
     reachable = problem.rank(best)[0] == 0
     if reachable and not problem.user_vary and cand.vary != problem.variable_sets[0]:
         extra = [v for v in cand.vary if v not in problem.variable_sets[0]]
-        added = ("the magnetisation profile: a hard-magnetic rod" if "magnetization" in extra
+        remanent = [v for v in extra if v in lens.remanent_profiles(problem.base)]
+        added = (f"the {remanent[0]} profile {lens.parameter(remanent[0]).slot}(s): a remanent rod"
+                 if remanent
                  else "the fibre layout: the scene leaves it free" if "alpha" in extra
                  else "the field angle too")
         first = {("h", "phi"): "field magnitude and angle", ("phi",): "the field angle",

@@ -46,10 +46,10 @@ from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design_map import (driven_values, field_bound, prepare_scene, profile_report,
-                                                remanence_only)
+                                                without_soft_coupling)
 from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
-from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES
+from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES, profile_bound
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
 from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult,  # noqa: F401
                                               DesignSettings, Optimised, Verification, canonical_target,
@@ -268,8 +268,8 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         settings = replace(settings, tolerances=replace(tol, angle=0.0))  # no angle to be off by
         notes.append(f"the tolerance box has no field angle: this scene's field is not uniform "
                      f"(box: {settings.tolerances.describe()})")
-    if stiffness is not None and base.tip_force is None:
-        base = replace(base, tip_force=(0.0, 0.0))  # the stiffness is dp/dv1: p must be a term
+    if stiffness is not None:
+        base = lens.parameter("p").require(base)  # the stiffness is dp/dv1: p must be a term
     if vary is not None:
         unknown = [v for v in vary if v not in DESIGN_VARIABLES]
         if unknown or not vary:
@@ -278,24 +278,21 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
             raise ValueError("--vary alpha: the fibre layout has no effect on this actuator (isotropic "
                              "particles: the easy axis is the rod's tangent, THEORY §10); vary h, phi, p")
         sets = (tuple(vary),)
-        if "magnetization" in vary:
-            prepare_scene(base, vary)  # one clear error up front when the remanence is missing
-            if not (0 < settings.magnetization_max <= math.pi + 1e-12):
-                raise ValueError(f"magnetization_max must lie in (0, 180] deg, got "
-                                 f"{math.degrees(settings.magnetization_max):g} deg")
+        if any(lens.parameter(v).design_check is not None for v in vary):
+            prepare_scene(base, vary)  # one clear error up front when a profile would do nothing (no remanence)
     elif lens.remanent_groups(base) and target:  # a hard-magnetic rod designs with its own physics: the field,
         # then the magnetisation profile β(s) (THEORY §9), never a fibre layout; without soft
         # coupling (h = 0) the field magnitude is the scene's and only its angle is designed
-        field = ("phi",) if remanence_only(base) else ("h", "phi")
-        sets = (field, field + ("magnetization",))
+        field = ("phi",) if without_soft_coupling(base) else ("h", "phi")
+        sets = (field, field + lens.remanent_profiles(base))
     elif not target:  # a stiffness alone: the field magnitude, then its angle too (a transverse
         # field softens the straight rod below the axial field's s(0) = 3, THEORY §6)
-        sets = (("phi",),) if remanence_only(base) else (("h",), ("h", "phi"))
+        sets = (("phi",),) if without_soft_coupling(base) else (("h",), ("h", "phi"))
     else:  # the fibre layout is designed only when the scene leaves it free (issue 9: the user's
         # actuator is the user's)
         sets = ((AUTO_VARIABLE_SETS[0],) if fibres_fixed(base) or not base.fibres_physical
                 else AUTO_VARIABLE_SETS)
-    if remanence_only(base) and not lens.remanent_group(base, stored=True) > np.finfo(float).tiny:  # zero field
+    if without_soft_coupling(base) and not lens.remanent_group(base, stored=True) > np.finfo(float).tiny:  # zero field
         names = ", ".join(p.name for p in lens.remanent_groups(base))
         raise ValueError(f"the scene's field is 0 and this rod has no soft-magnetic coupling: the field acts on it "
                          f"through {names} alone, at the scene's magnitude; give the field's magnitude in the "
@@ -319,7 +316,8 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
                      "h scales the whole field (every source together)")
         if not sets:
             raise ValueError(f"nothing to design: a {base.field.kind} field has no angle and this rod's "
-                             "field strength is its remanence alone; give --vary magnetization")
+                             f"field acts through {', '.join(p.name for p in lens.remanent_groups(base))} alone; "
+                             f"give --vary {','.join(lens.remanent_profiles(base))}")
     for vset in sets:  # every set's terms, up front: a stage's error is then never bad input
         prepare_scene(base, vset)
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),
@@ -468,9 +466,8 @@ def _no_design(problem: DesignProblem, timings: Dict[str, float]) -> DesignResul
     """The result when no variable set produced a stable optimum within the bounds."""
     b, last = problem.settings.bounds(), problem.variable_sets[-1]
     limits = ", ".join([f"h <= {b['h_max']:g}"] + ([f"|p| <= {b['p_max']:g}"] if "p" in last else [])
-                       + ([f"|alpha| <= {math.degrees(b['alpha_max']):g} deg"] if "alpha" in last else [])
-                       + ([f"|magnetization| <= {math.degrees(b['magnetization_max']):g} deg"]
-                          if "magnetization" in last else []))
+                       + [f"|{name}| <= {math.degrees(b[profile_bound(name)]):g} deg"
+                          for name in PROFILE_VARIABLES if name in last])
     hint = (" (in an axial field the straight rod only stiffens: its stiffness is at least s(0) = 3 "
             "B0/l^3, THEORY §6)" if problem.stiffness is not None and not problem.target else "")
     return DesignResult(success=False, reachable=False, verified=False, stable=False, snap_free=False,

@@ -37,7 +37,7 @@ from actuator_design.physics.registry import term_class
 
 __all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
            "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "field_bound",
-           "prepare_scene", "profile_report", "remanence_only"]
+           "prepare_scene", "profile_report", "without_soft_coupling"]
 
 #: The design variables (the lens entries flagged designable): scalars written into their NLP slots,
 #: and profiles designed as Legendre series (α(s), β(s))
@@ -154,9 +154,10 @@ def field_bound(h_max: float, base: Scene, vary=None) -> Tuple[float, List[str]]
     return h_max, notes
 
 
-def remanence_only(scene: Scene) -> bool:
+def without_soft_coupling(scene: Scene) -> bool:
     """A rod with remanence and no soft coupling (h_r > 0, h = 0; on a physical scene at zero field,
-    per unit field): the field acts through h_r alone, so it has no h to design (THEORY §9)."""
+    per unit field): the field acts through its remanent groups alone, so it has no h to design
+    (THEORY §9)."""
     return bool(lens.remanent_groups(scene)) and not lens.soft_coupled(scene)
 
 

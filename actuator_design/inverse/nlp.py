@@ -59,7 +59,7 @@ DESIGN_VARIABLES = {n: (f"{n}(s), a Legendre series" if p.per_point else p.descr
                     for n, p in lens.designable().items()}
 _LENS_VARIABLES = tuple(n for n, p in lens.designable().items() if not p.per_point)
 #: The designed profiles (per-point lens entries) and their bound's key in ``DesignRequest.bounds``.
-PROFILE_VARIABLES = tuple(n for n, p in lens.designable().items() if p.per_point)
+PROFILE_VARIABLES = tuple(lens.designed_profiles())
 
 
 def profile_bound(name: str) -> str:
@@ -181,8 +181,8 @@ class DesignNLP:
 
         # tip compliance dy(1)/dfy by the implicit function theorem: H w = −∂g/∂fy, c = ∂y(1)/∂θ · w
         # (built into the NLP only for stiffness targets; needs a tip-force term in the scene)
-        self.has_tip_force = "fy" in lay.slices
-        if self.has_tip_force:
+        self.has_fy = "fy" in lay.slices
+        if self.has_fy:
             # differentiate at the actual fy in P (a designed p overwrites the base value's slot)
             fy = lay.slices["fy"]
             P_free = ca.SX.sym("P_free", lay.size)
@@ -201,7 +201,7 @@ class DesignNLP:
                            p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
                            eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows), clear=clear,
                            H=H, m=m, margin=margin, n=n)
-        if self.has_tip_force:
+        if self.has_fy:
             # stiffness k = 1/c: the constraint c·k_target − 1 = 0 (k_target an NLP parameter)
             self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
                                k_target=stiffness_target)
@@ -221,7 +221,7 @@ class DesignNLP:
             x, p = q["x"], q["p"]
             rows = [q["eq"]]
             if stiffness:
-                if not self.has_tip_force:
+                if not self.has_fy:
                     raise ValueError("a stiffness target needs a tip-force term in the scene")
                 x = ca.vertcat(x, q["w_sens"])
                 p = ca.vertcat(p, q["k_target"])

@@ -99,7 +99,9 @@ class MultiPoseResult:
     tolerances: Optional[Tolerances]
     scenes: List[Scene] = field(default_factory=list)
     timings: Dict[str, float] = field(default_factory=dict)
-    magnetization: Optional[Dict[str, object]] = None
+    #: the designed profiles besides α(s) by lens name (a magnetisation β(s), THEORY §9), each as
+    #: ``alpha``: {"s", "value", "legendre_coefficients"}; empty when none is designed
+    profiles: Dict[str, Dict[str, object]] = field(default_factory=dict)
     #: "inaccurate" when the mesh does not resolve a pose's designed state (then nothing is said
     #: about reachability); "" otherwise (the status follows from ``success``/``reachable``)
     status: str = ""
@@ -114,8 +116,7 @@ class MultiPoseResult:
 
     def to_dict(self) -> dict:
         return {"success": bool(self.success), "reachable": self.reachable, "robust": self.robust,
-                "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha, **({"magnetization": self.magnetization}
-                                                               if self.magnetization is not None else {})},
+                "poses": [p.to_dict() for p in self.poses], "design": {"alpha": self.alpha, **self.profiles},
                 "vary": list(self.vary), "schedule": self.schedule, "transitions": self.transitions,
                 "message": self.message, "status": self.status or ("success" if self.success else "failed"),
                 "tolerances": None if self.tolerances is None else self.tolerances.to_dict(),
@@ -309,13 +310,13 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
     if verify and all(p.verified for p in poses) and not schedule:
         notes.append("no snap-free schedule visits the poses in order")
     report = profile_report(scenes[0], {**ch1.point.profiles, **snlp.shared_values(point.d)}, vset)
-    alpha, magnetization = report["alpha"], report.get("magnetization")
+    alpha = report.pop("alpha")
     timings["total"] = time.perf_counter() - t0
     head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok
             else "NOT a success")
     return MultiPoseResult(ok, poses, alpha, vset, schedule, transitions, "; ".join([head] + notes), first.base,
                            tol if tol.active else None, scenes=scenes,
-                           timings=timings, magnetization=magnetization)
+                           timings=timings, profiles=report)
 
 
 #: Most single-pose optima of pose 1 tried as starts of the shared layout.

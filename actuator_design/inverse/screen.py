@@ -10,7 +10,7 @@ from typing import List
 import numpy as np
 
 from actuator_design.equilibrium.pipeline import solve
-from actuator_design.inverse.nlp import DesignNLP
+from actuator_design.inverse.nlp import PROFILE_VARIABLES, DesignNLP, profile_bound
 from actuator_design.inverse.settings import (Candidate, DesignProblem, DesignSettings, ScreenedStart,
                                               phi_period)
 from actuator_design.model.scene import Scene
@@ -124,20 +124,21 @@ def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np
     if with_alpha:
         slopes = [s for s in (-1.2, -0.6, 0.6, 1.2) if abs(s) <= settings.alpha_max]
     ps = [base.p] if "p" not in nlp.vary else [-2.0, 0.0, 2.0]
-    betas = [None]
-    if "magnetization" in nlp.vary:
-        b_max = settings.magnetization_max
+    others = [n for n in PROFILE_VARIABLES if n != "alpha" and n in nlp.vary]  # a magnetisation β(s)
+    starts = [{}]
+    for name in others:
+        b_max = settings.profile_max(profile_bound(name))
         betas = [[b, 0.0] for b in (0.0, math.pi / 2, -math.pi / 2, math.pi) if abs(b) <= b_max]
         betas += [[0.0, s] for s in (-1.0, 1.0) if abs(s) <= b_max]
+        starts = [{**start, name: beta} for start in starts for beta in betas]
     out = []
-    for beta in betas:
+    for profiles in starts:
         for slope in slopes:
             for p in ps:
                 for h in (hs if "h" in nlp.vary else [base.h]):
                     for phi in phis:
                         c = [base.fibres.value if base.fibres.kind == "constant" else 0.0, slope]
-                        out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p,
-                                                     profiles={"magnetization": beta}))
+                        out.append(nlp.design_vector(h=h, phi=phi, coefficients=c, p=p, profiles=profiles))
     return out
 
 

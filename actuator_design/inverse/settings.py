@@ -16,9 +16,9 @@ import numpy as np
 from actuator_design.config.limits import GROUP_RANGES
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.inverse.nlp import DesignNLP, DesignPoint
+from actuator_design.inverse.nlp import DesignNLP, DesignPoint, profile_bound
 from actuator_design.model.scene import Scene
-from actuator_design.physics.parameters import applied_field, remanent_group
+from actuator_design.physics.parameters import applied_field, designed_profiles, remanent_group
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
@@ -85,14 +85,16 @@ class DesignSettings:
         """One clear ``ValueError`` naming the first setting outside its range (on construction,
         and so on :func:`dataclasses.replace`: the settings are frozen)."""
         check_h_max(self.h_max)
+        profile_checks = []  # |profile(s)| <= bound, up to the profile's own largest bound
+        for name, p in designed_profiles().items():
+            bound, largest = self.profile_max(profile_bound(name)), _largest(p)
+            profile_checks.append((profile_bound(name), 0 < bound <= largest + 1e-12,
+                                   f"must lie in (0, {math.degrees(largest):g}] deg, got {math.degrees(bound):g} deg"))
         checks = (
             ("p_max", self.p_max >= 0 and math.isfinite(self.p_max), "must be a finite number >= 0"),
-            ("alpha_max", 0 < self.alpha_max <= math.pi / 2 + 1e-12,
-             f"must lie in (0, 90] deg, got {math.degrees(self.alpha_max):g} deg"),
+            *profile_checks,
             ("alpha_terms", isinstance(self.alpha_terms, (int, np.integer)) and 1 <= self.alpha_terms <= 12,
              "must be an integer in [1, 12]"),
-            ("magnetization_max", 0 < self.magnetization_max <= math.pi + 1e-12,
-             f"must lie in (0, 180] deg, got {math.degrees(self.magnetization_max):g} deg"),
             ("margin", self.margin >= 0 and math.isfinite(self.margin), "must be a finite number >= 0"),
             ("clearance", 0 <= self.clearance < 1, "must lie in [0, 1) rod lengths"),
             ("reach_tol", 0 < self.reach_tol < 1, "must lie in (0, 1) rod lengths"),
@@ -110,8 +112,20 @@ class DesignSettings:
                 raise ValueError(f"{name} {rule}" + ("" if "got" in rule else f", got {value!r}"))
 
     def bounds(self) -> Dict[str, float]:
-        return {"h_max": self.h_max, "p_max": self.p_max, "alpha_max": self.alpha_max,
-                "magnetization_max": self.magnetization_max}
+        """The design's bounds by key: h_max, p_max and each designed profile's ``<name>_max``
+        (:func:`~actuator_design.inverse.nlp.profile_bound`)."""
+        return {"h_max": self.h_max, "p_max": self.p_max,
+                **{profile_bound(n): self.profile_max(profile_bound(n)) for n in designed_profiles()}}
+
+    def profile_max(self, key: str) -> float:
+        """The bound ``key`` (``<name>_max``, rad) of a designed profile: the setting of that name, or
+        for a plug-in term's profile (no setting) its largest bound."""
+        return getattr(self, key) if hasattr(self, key) else _largest(designed_profiles()[key[:-len("_max")]])
+
+
+def _largest(p) -> float:
+    """A designed profile's largest allowed bound (rad; π when its term states none)."""
+    return p.design_bound if p.design_bound is not None else math.pi
 
 
 def check_h_max(h_max: float) -> None:

@@ -77,7 +77,7 @@ class HardMagnetic(EnergyTerm):
                   term="hard_magnetic", per_point=True, ensure=with_hard_magnetic_term,
                   designable=True, profile_label="magnetised",  # designed as a profile β(s) (inverse/nlp.py)
                   profile=lambda sc: sc.magnetization, with_profile=lambda sc, prof: replace(sc, magnetization=prof),
-                  design_check=_needs_remanence, mirror=-1.0,
+                  design_check=_needs_remanence, mirror=-1.0, design_bound=np.pi,
                   flag_help="constant remanent magnetisation angle beta to the tangent, degrees (THEORY §9)"),
     )
 

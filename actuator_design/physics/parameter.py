@@ -74,6 +74,10 @@ class Parameter:
         magnetisation), what a design replaces by a Legendre series.
     with_profile : callable (Scene, Profile) -> Scene, optional
         A copy of the scene with that profile replaced.
+    design_bound : float or None
+        A designed profile's (``per_point`` and :attr:`designable`) largest allowed bound on its size,
+        |profile(s)| ≤ bound (rad), which is also the design's default bound
+        (``DesignSettings.<name>_max``: π/2 for the fibre angle α, π for a magnetisation angle β).
     conjugate : {"x", "y", "angle"} or None
         The free end's quantity a dead end load is work-conjugate to (a tip force's components, a
         tip moment): the tip stiffness's loads (:mod:`actuator_design.analysis.stiffness`); None:
@@ -119,6 +123,7 @@ class Parameter:
     design_check: Optional[Callable[[Scene], Optional[str]]] = None
     mirror: Optional[float] = None
     conjugate: Optional[str] = None
+    design_bound: Optional[float] = None
 
     @property
     def valid_range(self) -> Tuple[float, float]:

@@ -39,7 +39,7 @@ from actuator_design.physics.registry import registered_terms, registry_version,
 
 __all__ = ["Parameter", "parameter", "parameters", "names", "get_value", "set_value",
            "scene_values", "apply_values", "prepare_scene", "plugin_parameter", "THETA0",
-           "designable", "degree_aliases", "PhysicalParameter", "physical_parameters",
+           "designable", "designed_profiles", "remanent_profiles", "degree_aliases", "PhysicalParameter", "physical_parameters",
            "physical_parameter", "entry_names", "tip_loads", "stiffness_groups", "remanent_group",
            "field_groups", "scale_field", "per_field", "set_field", "applied_field", "beyond_model",
            "model_field_bound", "field_shape_max", "remanent_groups", "soft_coupled"]
@@ -153,6 +153,19 @@ def designable() -> Dict[str, Parameter]:
     """The inverse design's variables, name -> :class:`Parameter`, in registration order
     (a ``per_point`` entry such as ``alpha`` or ``magnetization`` is designed as a profile)."""
     return {n: p for n, p in parameters().items() if p.designable}
+
+
+def designed_profiles() -> Dict[str, Parameter]:
+    """The profiles a design can vary (``per_point`` designables: the fibre angle α(s), a
+    magnetisation angle β(s)), name -> :class:`Parameter`, each with its ``design_bound``."""
+    return {n: p for n, p in designable().items() if p.per_point}
+
+
+def remanent_profiles(scene: Scene) -> Tuple[str, ...]:
+    """The designable profiles of the terms through which the field drives ``scene``'s remanence
+    (:func:`remanent_groups`: the magnetisation angle β(s) of a hard-magnetic rod, THEORY §9)."""
+    terms = {p.term for p in remanent_groups(scene)}
+    return tuple(n for n, p in designed_profiles().items() if p.term in terms)
 
 
 def degree_aliases() -> Dict[str, str]:

@@ -127,6 +127,7 @@ class FieldOrientation(EnergyTerm):
         Parameter("alpha", "constant fibre angle alpha", "rad", "alpha", read=_fibre_angle,
                   write=lambda sc, v: replace(sc, fibres=constant_profile(v)), term="field_orientation",
                   per_point=True, designable=True, profile_label="fibres", profile=lambda sc: sc.fibres, mirror=-1.0,
+                  design_bound=math.pi / 2,  # a fibre angle beyond ±90° is the same fibre
                   with_profile=lambda sc, prof: replace(sc, fibres=prof)),
     )
 

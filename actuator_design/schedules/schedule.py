@@ -25,10 +25,11 @@ from actuator_design.continuation.loading import follow_path  # verifies the who
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.inverse.design import DesignSettings, design
-from actuator_design.inverse.design_map import prepare_scene, remanence_only
+from actuator_design.inverse.design_map import prepare_scene, without_soft_coupling
 from actuator_design.inverse.nlp import DesignRequest, get_design_nlp
 from actuator_design.inverse.settings import normalise_phi, tip_error
 from actuator_design.model.scene import Scene, default_scene
+from actuator_design.physics import parameters as lens
 
 __all__ = ["field_schedule", "verify_schedule", "ScheduleResult", "nearest_axis_angle", "schedule_table", "SCHEDULE_COLUMNS"]
 
@@ -112,10 +113,10 @@ def field_schedule(waypoints: Sequence[Sequence[float]], scene: Optional[Scene] 
     options = options or SolverOptions()
     settings = settings or DesignSettings()
     vary = ("h", "phi")
-    if scene is not None and remanence_only(scene):
-        raise ValueError("schedule: this rod has no soft-magnetic coupling (h = 0; its field acts through the "
-                         "remanence alone, h_r): a schedule varies the soft-magnetic group h and the angle phi, so "
-                         "a purely hard-magnetic rod cannot be scheduled yet")
+    if scene is not None and without_soft_coupling(scene):
+        raise ValueError("schedule: this rod has no soft-magnetic coupling (h = 0; its field acts through "
+                         f"{', '.join(p.name for p in lens.remanent_groups(scene))} alone): a schedule varies the "
+                         "soft-magnetic group h and the angle phi, so a purely hard-magnetic rod cannot be scheduled yet")
     base = prepare_scene(scene or default_scene(h=0.0), vary)
     timings: Dict[str, float] = {}
 
