@@ -156,6 +156,30 @@ def test_fit_map_sets_h_r_by_theory_9_with_the_lens_exponents(tmp_path):
     assert q2[slot["h"]] ** 2 == pytest.approx(4 * q[slot["h"]] ** 2, rel=1e-12)
 
 
+def test_fit_map_from_a_scene_with_zero_material_numbers(tmp_path):
+    """χ̄ = 0 and M_r = 0 in the scene, both fitted from given starting values, with B0 fitted too:
+    the map's h and h_r are THEORY §5 and §9 written out here at the fitted values (the material's
+    coefficients come at unit values, not as ratios to the scene's zeros)."""
+    data = tmp_path / "d.csv"
+    data.write_text("field [kA/m], tip_angle [deg]\n" + "".join(f"{H}, {0.1 * H}\n" for H in (2, 4, 6, 8)))
+    B0 = 1e6 * W * T**3 / 12.0
+    config = {"scene": {"type": "physical",
+                        "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm",
+                                "bending_stiffness": f"{B0} N m^2"},
+                        "magnetics": {"chi_bar": 0.0, "remanence": "0 A/m"}, "magnetization": "0 deg",
+                        "field": {"type": "uniform", "magnitude": "5 kA/m", "angle": "90 deg"}},
+              "study": {"type": "fit", "parameters": {
+                  "chi_bar": {"initial": 0.3, "bounds": [0.01, 5]},
+                  "remanence": {"initial": "20 kA/m", "bounds": ["1 kA/m", "1 MA/m"]},
+                  "bending_stiffness": {"bounds": [B0 / 10, B0 * 10]}}}}
+    prob = prepare_fit(config, data)
+    th, H = np.array([0.7, 9e4, 2.5 * B0]), 6e3
+    q = np.asarray(prob.f_map(th, np.array([H, 0.0, 0.0, 0.0]))[0], float).ravel()
+    slot = {s: i for i, s in enumerate(prob.slots)}
+    assert q[slot["h_r"]] == pytest.approx(MU0 * th[1] * H * W * T * L**2 / th[2], rel=1e-12)
+    assert q[slot["h"]] == pytest.approx(math.sqrt(MU0 * th[0] * H**2 * W * T * L**2 / (2 * th[2])), rel=1e-12)
+
+
 def test_dimensionless_hard_scene_scales_h_r_with_the_measured_field(tmp_path):
     """A dimensionless scene's h_r is the group at reference_field: h_r(H) = h_r · H/H_ref."""
     data = tmp_path / "d.csv"

@@ -16,6 +16,7 @@ import numpy as np
 
 from actuator_design.model.units import registry
 from actuator_design.calibration.parameters import PARAMETERS, unit_of
+from actuator_design.physics.magnetics_block import MagneticSummary
 
 __all__ = ["null_direction", "choose_held", "identifiability_message", "combinations",
            "combination_value", "ZERO_SENSITIVITY"]
@@ -27,8 +28,6 @@ __all__ = ["null_direction", "choose_held", "identifiability_message", "combinat
 ZERO_SENSITIVITY = 1e-9
 
 
-#: The field groups a null direction may run along, and how they read in a message (THEORY §5, §9).
-_GROUP_TEXT = (("h", "h² ∝ χ̄ H²/B"), ("h_r", "h_r ∝ M_r H/B"))
 
 
 def null_direction(J: np.ndarray, tol: float):
@@ -80,7 +79,7 @@ def identifiability_message(names, free, vec, j, rel, is_log, problem,
     else:
         what = (f"{' and '.join(involved)} are not identifiable separately from these data "
                 f"(relative singular value {rel:.1e}")
-        for slot, text in _GROUP_TEXT:  # power laws on one field group (lens exponents)
+        for slot, text in MagneticSummary.POWER_LAWS.items():  # power laws on one field group (lens exponents)
             if all(PARAMETERS[n].exponent(slot) for n in involved):
                 what += f"; they enter only through the field group {text}"
                 break

@@ -12,10 +12,10 @@ from typing import Dict, List
 
 import numpy as np
 
-from actuator_design.model.units import MU0
 from actuator_design.calibration.identifiability import combination_value
-from actuator_design.calibration.parameters import (PARAMETERS, field_coefficient_exponent, group_exponent,
-                                                    unit_of)
+from actuator_design.calibration.parameters import PARAMETERS, group_exponent, unit_of
+from actuator_design.physics.parameters import field_groups, remanent_groups
+from actuator_design.physics.registry import term_class
 
 __all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
            "derived_quantities"]
@@ -94,36 +94,33 @@ def _log_interval(value: float, exponents: np.ndarray, cov_x: np.ndarray, tq: fl
 
 
 def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
-    """Physical scenes: the field coefficient c = h/H = √(μ0 χ̄ A ℓ²/(2B)) with its interval, and
-    for a hard-magnetic rod c_r = h_r/H = μ0 M_r A ℓ²/B (THEORY §9)."""
+    """Physical scenes: each group the field drives per unit field, c_g = g/H (``<g>_per_field``:
+    h/H = √(μ0 χ̄ A ℓ²/(2B)), THEORY §5; h_r/H = μ0 M_r A ℓ²/B of a remanent rod, §9), with its
+    interval from the lens exponents, for every such group whose term the scene has (a group that is
+    0 beside a nonzero one is left out: a purely remanent rod has no soft-magnetic coefficient); and
+    for a rod without remanence in a transverse field, the field of THEORY §6's buckling threshold."""
     if problem.kind != "physical" or problem.scene.field is None:
         return {}
-    names, c = problem.names, problem.const
-    val = dict(zip(names, theta))
-    chi = val.get("chi_bar", c["chi0"])
-    B = (val["youngs_modulus"] / c["E0"] * c["B0"]) if "youngs_modulus" in val else \
-        val.get("bending_stiffness", c["B0"])
-    coef = math.sqrt(MU0 * chi * c["A"] * c["L"] ** 2 / (2.0 * B))
-    # d log c / d log χ̄ = 1/2, d log c / d log E (or B) = −1/2
-    g = np.array([field_coefficient_exponent(names[i]) for i in free])
-    sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0
-    hard = problem.scene.magnetization is not None
+    names, scene = problem.names, problem.scene
+    coefs = problem.field_coefficients(dict(zip(names, theta)))
+    shown = {p.name: (p, f) for p, f in field_groups()
+             if p.name in coefs and p.term is not None and term_class(p.term).present(scene)}
     out = {}
-    if not (hard and chi == 0.0):  # a purely remanent rod has no soft-magnetic coefficient
-        out["h_per_field"] = {"value": coef, "unit": "m/A", "std": coef * sd,
-                              "ci": [coef * safe_exp(-tq * sd), coef * safe_exp(tq * sd)],
-                              "description": "h = c·H, c = sqrt(mu0 chi_bar A l^2 / (2 B))"}
-    if hard:
-        m_r = val.get("remanence", c["Mr0"])
-        coef_r = MU0 * m_r * c["A"] * c["L"] ** 2 / B
-        # d log c_r / d log M_r = 1, d log c_r / d log E (or B) = −1
-        g_r = np.array([group_exponent(names[i], "h_r") for i in free])
-        out["h_r_per_field"] = {**_log_interval(coef_r, g_r, cov_x, tq), "unit": "m/A",
-                                "description": "h_r = c_r·H, c_r = mu0 M_r A l^2 / B (THEORY §9)"}
-    # the transverse buckling threshold of THEORY §6 exists for the soft-magnetic rod only (a
+    for name, (p, f) in shown.items():
+        if coefs[name] == 0.0 and any(coefs[other] != 0.0 for other in shown):
+            continue
+        # d log c / d log(value): the lens exponents (½ for χ̄ in h, 1 for M_r in h_r, −½ or −1 for E)
+        g = np.array([group_exponent(names[i], p.slot) for i in free])
+        out[f"{name}_per_field"] = {**_log_interval(float(coefs[name]), g, cov_x, tq),
+                                    "unit": "m/A" if f == 1 else f"(m/A)^{f}",
+                                    "description": problem.material.FORMULAS[name]}
+    # the transverse buckling threshold of THEORY §6 exists for a rod without remanence only (a
     # remanent torque bends the rod at any field)
-    if abs(math.cos(problem.scene.phi)) < 1e-9 and coef > 0 and not hard:
+    coef = float(coefs.get("h", 0.0))
+    if abs(math.cos(scene.phi)) < 1e-9 and coef > 0 and not remanent_groups(scene):
         hc = math.pi / (2.0 * math.sqrt(2.0))  # THEORY §6, transverse buckling threshold
+        g = np.array([group_exponent(names[i], "h") for i in free])
+        sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0
         out["transverse_critical_field"] = {
             "value": hc / coef, "unit": "A/m", "std": hc / coef * sd,
             "ci": [hc / coef * safe_exp(-tq * sd), hc / coef * safe_exp(tq * sd)],

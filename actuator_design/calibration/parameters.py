@@ -12,7 +12,7 @@ from typing import Dict, Tuple
 
 from actuator_design.physics.parameters import PhysicalParameter, physical_parameters
 
-__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "FIT_TERMS", "unit_of",
+__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "unit_of",
            "field_coefficient_exponent", "group_exponent"]
 
 #: A fittable parameter is a physical parameter of the lens.
@@ -20,11 +20,6 @@ FitParameter = PhysicalParameter
 
 #: Fittable parameters: the lens's physical parameters (the same mapping, not a copy).
 PARAMETERS: Dict[str, PhysicalParameter] = physical_parameters()
-
-#: The energy terms whose groups the fit map sets (THEORY §5, §9; the positional term h_pos is a
-#: constant in the uniform fields a fit allows): a scene with any other term is refused.
-FIT_TERMS: Tuple[str, ...] = ("bending", "field_orientation", "field_position", "tip_force",
-                              "tip_moment", "distributed_load", "hard_magnetic")
 
 #: Measured output column → (component of the tip vector (θ(1), x(1), y(1)), is a length).
 OUTPUT_COMPONENT: Dict[str, Tuple[int, bool]] = {

@@ -34,8 +34,11 @@ from actuator_design.config import ConfigError
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene, UniformField
-from actuator_design.model.units import MU0, QuantityError, parse_quantity
-from actuator_design.physics.parameters import get_value, stiffness_groups
+from actuator_design.model.units import QuantityError, parse_quantity
+from actuator_design.physics.magnetics_block import MagneticSummary
+from actuator_design.physics.parameters import field_groups, get_value
+from actuator_design.physics.parameters import parameter as get_parameter
+from actuator_design.physics.parameters import stiffness_groups
 from actuator_design.physics.registry import build_terms
 from actuator_design.physics.term_protocol import scalar_parameter_values
 from actuator_design.study.spec import validate_spec
@@ -116,10 +119,9 @@ class FitProblem:
         cols, spec, src = self.data.columns, self.spec, self.data.source
         for name in self.names:
             if self.kind not in PARAMETERS[name].scenes:
+                here = [n for n, p in PARAMETERS.items() if self.kind in p.scenes and not p.through_field]
                 raise ConfigError(f"study.parameters.{name}",
-                                  f"cannot be fitted in a {self.kind} scene (fit "
-                                  f"{'chi_bar / youngs_modulus' if self.kind == 'physical' else 'h'} "
-                                  "instead)")
+                                  f"cannot be fitted in a {self.kind} scene (fit {' / '.join(here)} instead)")
         if self.kind == "physical":
             rod = self.config.scene.rod
             if "youngs_modulus" in self.names and rod.youngs_modulus is None:
@@ -128,11 +130,12 @@ class FitProblem:
             if "bending_stiffness" in self.names and rod.bending_stiffness is None:
                 raise ConfigError("study.parameters.bending_stiffness",
                                   "the scene gives rod.youngs_modulus: fit youngs_modulus")
-            mag = self.config.scene.magnetics
-            if "remanence" in self.names and (mag is None or mag.remanent_magnetization is None):
-                raise ConfigError("study.parameters.remanence",
-                                  "the scene has no remanent magnetisation: give "
-                                  "scene.magnetics.remanence (a starting value) to fit it")
+            material = self._material()
+            for name in self.names:
+                if PARAMETERS[name].material and getattr(material, name) is None:
+                    raise ConfigError(f"study.parameters.{name}",
+                                      f"the scene has no {PARAMETERS[name].description}: give "
+                                      f"scene.magnetics.{name} (a starting value) to fit it")
         if ("field_scale" in self.names or "field_offset" in self.names) and "field" not in cols:
             name = "field_scale" if "field_scale" in self.names else "field_offset"
             raise DataError(f"{src}: column 'field' missing: study.parameters.{name} needs measured "
@@ -161,17 +164,22 @@ class FitProblem:
     def _structure_scene(self, scene: Scene) -> Scene:
         """The scene with the terms the data need (a tip force for load columns)."""
         cols = self.data.columns
+        field_term = get_parameter("h").term  # the field magnitude's
         needs_field = ("field" in cols or "field_angle" in cols or
-                       any(PARAMETERS[n].term == "field_orientation" for n in self.names))
+                       any(PARAMETERS[n].term == field_term for n in self.names))
         if scene.field is not None and not isinstance(scene.field, UniformField):
             raise ConfigError("scene.field", f"fitting supports uniform fields (or none), got a "
                                              f"{scene.field.kind} field")
         if needs_field and scene.field is None:
             raise ConfigError("scene.field", "the fit involves the field (a field column or a field "
                                              "parameter): give the scene a uniform field")
-        if ({"load", "load_x", "load_y"} & set(cols)) and scene.tip_force is None:
-            scene = dataclasses.replace(scene, tip_force=(0.0, 0.0))
+        if {"load", "load_x", "load_y"} & set(cols):
+            scene = get_parameter("fy").require(scene)  # the load columns set its slots
         return scene
+
+    def _material(self):
+        """The rod's magnetic material (:class:`MagneticSummary`; χ̄ = χ̂ = 0 without magnetics)."""
+        return self.config.scene.magnetics_summary() or MagneticSummary.nonmagnetic()
 
     def _constants(self) -> None:
         """Known values the map θ → NLP parameters needs (SI; B0 = 1 for dimensionless)."""
@@ -180,12 +188,10 @@ class FitProblem:
             rod = self.config.scene.rod
             c["L"], c["A"], c["B0"] = rod.length, rod.cross_section_area, rod.clamp_stiffness
             c["E0"] = rod.youngs_modulus
-            mag = self.config.scene.magnetics
-            c["chi0"] = mag.susceptibilities()[0] if mag is not None else 0.0
-            c["Mr0"] = (mag.remanent_magnetization or 0.0) if mag is not None else 0.0
             c["H0"] = sc.scales.field
+            self.material = self._material()
         else:
-            c["L"], c["B0"], c["h0"], c["h_r0"] = 1.0, 1.0, sc.h, sc.h_r
+            c["L"], c["B0"] = 1.0, 1.0
             c["Href"] = (parse_quantity(self.spec.reference_field, "magnetic_field",
                                         "reference_field")
                          if self.spec.reference_field is not None else None)
@@ -193,9 +199,6 @@ class FitProblem:
                 raise ConfigError("study.reference_field", f"must be > 0, got "
                                                            f"{self.spec.reference_field!r}")
         c["phi0"], c["theta00"] = sc.phi, sc.theta0
-        c["f0"] = sc.tip_force or (0.0, 0.0)
-        c["q0"] = sc.distributed_load or (0.0, 0.0)
-        c["m0"] = sc.tip_moment or 0.0
         self.const = c
         # initial values (natural units): given, else the scene's value
         init = {}
@@ -216,14 +219,15 @@ class FitProblem:
         self.initial = init
 
     def _scene_value(self, name: str) -> float:
-        same_as = PARAMETERS[name].same_as
-        if same_as is not None:  # a value of the scene itself (h, the clamp angle θ0)
-            return get_value(self.scene, same_as)
-        c = self.const
-        return {"chi_bar": lambda: c["chi0"], "youngs_modulus": lambda: c["E0"],
-                "bending_stiffness": lambda: c["B0"], "remanence": lambda: c["Mr0"],
-                "field_scale": lambda: 1.0,
-                "field_offset": lambda: 0.0, "field_angle_offset": lambda: 0.0}[name]()
+        """The value the scene has of fitted parameter ``name`` (its default starting value)."""
+        p = PARAMETERS[name]
+        if p.same_as is not None:  # a value of the scene itself (h, the clamp angle θ0)
+            return get_value(self.scene, p.same_as)
+        if p.stiffness:  # B0 = E I: the rod's
+            return self.const["E0"] if name == "youngs_modulus" else self.const["B0"]
+        if p.material:
+            return float(getattr(self.material, name) or 0.0)
+        return 1.0 if p.log else 0.0  # the field's measurement model: a factor 1, an offset 0
 
     # -- symbolic map θ, inputs → NLP slots, and the sensitivity functions ----------------------
 
@@ -242,31 +246,20 @@ class FitProblem:
             H = u[0] if "field" in cols else None
         if H is not None:
             H = get("field_scale", 1.0) * H + get("field_offset", 0.0)
-        if self.kind == "physical":
-            if "youngs_modulus" in v:
-                B = v["youngs_modulus"] / c["E0"] * c["B0"]
-            else:
-                B = get("bending_stiffness", c["B0"])
-            chi = get("chi_bar", c["chi0"])
-            h = ca.sqrt(MU0 * chi * c["A"] * c["L"] ** 2 / (2.0 * B)) * H
-            # THEORY §9: linear in M_r, in H and in 1/B (h² is quadratic in H)
-            h_r = MU0 * get("remanence", c["Mr0"]) * c["A"] * c["L"] ** 2 / B * H
-        else:
-            B = c["B0"]
-            hh = get("h", c["h0"])
-            h = hh * H / c["Href"] if H is not None else hh
-            h_r = c["h_r0"] * H / c["Href"] if H is not None else c["h_r0"]
-        ratio = c["B0"] / B  # dimensionless loads scale with 1/B
-        scale_F = c["L"] ** 2 / B if self.kind == "physical" else 1.0
-        fx = u[2] * scale_F if "load_x" in cols else c["f0"][0] * ratio
-        fy = u[3] * scale_F if ("load" in cols or "load_y" in cols) else c["f0"][1] * ratio
-        phi = (u[1] if "field_angle" in cols else c["phi0"]) + get("field_angle_offset", 0.0)
+        B_rel = self.stiffness_ratio(v)
+        ratio = 1.0 / B_rel  # dimensionless loads scale with 1/B
         # the NLP slots a fit may change (lens slots; others keep the scene's value)
-        slot_expr = {
-            "h": h, "h_r": h_r, "phi": phi, "fx": fx, "fy": fy, "qx": c["q0"][0] * ratio,
-            "qy": c["q0"][1] * ratio, "m_tip": c["m0"] * ratio,
-            "theta0": get("clamp_angle", c["theta00"]),
-        }
+        slot_expr = {"phi": (u[1] if "field_angle" in cols else c["phi0"]) + get("field_angle_offset", 0.0),
+                     "theta0": get("clamp_angle", c["theta00"])}
+        slot_expr.update(self._field_group_map(v, H))
+        if self.kind == "physical":
+            scale_F = c["L"] ** 2 / (c["B0"] * B_rel)  # a measured load in N, p = P ℓ²/B
+        else:
+            scale_F = 1.0
+        if "load_x" in cols:
+            slot_expr["fx"] = u[2] * scale_F
+        if "load" in cols or "load_y" in cols:
+            slot_expr["fy"] = u[3] * scale_F
         scene_slots = scalar_parameter_values(build_terms(self.scene), self.scene)
         for slot, e in stiffness_groups():  # a plug-in term's values ∝ B^e follow a fitted stiffness
             if slot not in slot_expr and slot in scene_slots:
@@ -275,6 +268,57 @@ class FitProblem:
         self.slot_index = np.array([layout.slices[s].start for s in self.slots])
         q = ca.vertcat(*[ca.SX(slot_expr[s]) for s in self.slots])
         self.f_map = ca.Function("fit_map", [th, u], [q, ca.jacobian(q, th)])
+
+    def stiffness_ratio(self, values: dict):
+        """B / B0 at fitted ``values`` (by name; CasADi symbols or numbers): a fitted E or B0 scales
+        every group ∝ B^e (THEORY §5, :func:`stiffness_groups`); 1 when neither is fitted."""
+        fitted = [n for n in values if PARAMETERS[n].stiffness]
+        return values[fitted[0]] / self._scene_value(fitted[0]) if fitted else 1.0
+
+    def field_coefficients(self, values: dict) -> dict:
+        """A physical scene's groups per unit applied field, g = c_g H^f, by lens name (h, h_r, …;
+        those its material has), at fitted ``values`` (by name; CasADi symbols or numbers).
+
+        c_g is the material's coefficient (THEORY §5, §9: ``MagneticSummary.field_groups``) at unit
+        values of the fitted material numbers, scaled by their power laws
+        (``PhysicalParameter.groups``: χ̄^½ for h, M_r for h_r) and by (B/B0)^e."""
+        c = self.const
+        fitted = {n: x for n, x in values.items() if PARAMETERS[n].material}
+        per_unit = dataclasses.replace(self.material, **{n: 1.0 for n in fitted}).field_groups(
+            1.0, c["A"], c["L"], c["B0"])
+        B_rel, stiffness_powers = self.stiffness_ratio(values), dict(stiffness_groups())
+        out = {}
+        for p, _ in field_groups():
+            if p.name not in per_unit:
+                continue  # (the material has none: the scene's value, 0, is kept)
+            coef = per_unit[p.name]
+            for n, x in fitted.items():
+                e = PARAMETERS[n].exponent(p.slot)
+                coef = coef * (x if e == 1 else x ** e) if e else coef
+            e_B = stiffness_powers.get(p.slot, 0.0)
+            out[p.name] = coef * B_rel ** e_B if e_B else coef
+        return out
+
+    def _field_group_map(self, v: dict, H) -> dict:
+        """The groups the applied field drives (h, h_r, …: :func:`field_groups`), by NLP slot, as
+        expressions of the fitted values ``v`` (CasADi symbols by name) and the field ``H`` (None:
+        the scene's groups of a dimensionless scene without a field column): a physical scene's
+        c_g H^f (:meth:`field_coefficients`), a dimensionless scene's value (or the fitted one)
+        times (H / H_ref)^f."""
+        out, layout = {}, self.solver.layout
+        coefs = self.field_coefficients(v) if self.kind == "physical" else {}
+        for p, f in field_groups():
+            if p.slot not in layout.slices:
+                continue
+            field = None if H is None else (H if f == 1 else H ** f)
+            if self.kind == "physical":
+                if p.name in coefs:
+                    out[p.slot] = coefs[p.name] * field
+            else:
+                given = [n for n in v if PARAMETERS[n].same_as == p.name]
+                base = v[given[0]] if given else p.get(self.scene)
+                out[p.slot] = base if field is None else base * field / self.const["Href"] ** f
+        return out
 
     def _prepare_conditions(self) -> None:
         d = self.data

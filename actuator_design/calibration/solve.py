@@ -44,12 +44,13 @@ from actuator_design.calibration.identifiability import (choose_held, combinatio
 from actuator_design.calibration.interrupt import FitInterrupted, stop_on_signals
 from actuator_design.calibration.intervals import (combination_intervals, derived_quantities,
                                                    natural_covariance, parameter_entries)
-from actuator_design.calibration.parameters import FIT_TERMS, PARAMETERS
+from actuator_design.calibration.parameters import PARAMETERS
 from actuator_design.calibration.plausibility import magnitude_warnings
 from actuator_design.calibration.problem import FitProblem
 from actuator_design.calibration.result import FitResult
 from actuator_design.calibration.spec import FitSpec
 from actuator_design.config import ConfigError, load_config
+from actuator_design.physics.magnetics_block import MagneticSummary
 from actuator_design.physics.registry import refuse_unsupported, registered_terms
 from actuator_design.study.spec import validate_spec
 
@@ -72,12 +73,13 @@ def prepare_fit(config_source, data_source) -> FitProblem:
         raise ConfigError("study.type", f"a fit needs 'study: {{type: fit, parameters: ...}}', got "
                                         f"{study.get('type')!r}")
     spec = validate_spec(FitSpec, study)
-    # the fit map (problem.FitProblem._build_map) knows the groups of these terms, and scales a
-    # plug-in term's values by their declared power laws in B0 when they do not depend on the field;
+    # the fit map (problem.FitProblem._build_map) scales a term's values by their declared power laws
+    # in B0, and the groups the field drives by the magnetic material's coefficients per unit field;
     # any other term's values would be held fixed while the field or the stiffness changes, silently
-    scaled = [c.name for c in registered_terms() if c.scaling_declared and not any(
-        p.field_power or p.susceptibility_power for p in c.parameters)]
-    refuse_unsupported(config.to_scene(), list(FIT_TERMS) + scaled, "fit")
+    per_field = set(MagneticSummary.FORMULAS)
+    supported = [c.name for c in registered_terms() if c.scaling_declared and all(
+        p.slot in per_field or not (p.field_power or p.susceptibility_power) for p in c.parameters)]
+    refuse_unsupported(config.to_scene(), supported, "fit")
     if isinstance(data_source, MeasuredData):
         data = data_source
     else:

@@ -193,6 +193,18 @@ class MagneticSummary:
             out["h_r"] = remanent_group(self.remanence, field, area, length, stiffness)
         return out
 
+    @classmethod
+    def nonmagnetic(cls) -> "MagneticSummary":
+        """A rod without magnetics (no ``magnetics:`` block): zero susceptibilities, no remanence."""
+        return cls(chi_bar=0.0, chi_hat=0.0, given="no magnetics")
+
+    #: how each group of :meth:`field_groups` follows from the material, per unit field (for reports)
+    FORMULAS = {"h": "h = c·H, c = sqrt(mu0 chi_bar A l^2 / (2 B))",
+                "h_pos": "h_pos = c·H, c = sqrt(mu0 chi_hat A l^2 / (2 B))",
+                "h_r": "h_r = c_r·H, c_r = mu0 M_r A l^2 / B (THEORY §9)"}
+    #: each group's power laws in the material, the field and B (THEORY §5, §9), as messages show them
+    POWER_LAWS = {"h": "h² ∝ χ̄ H²/B", "h_pos": "h_pos² ∝ χ̂ H²/B", "h_r": "h_r ∝ M_r H/B"}
+
     def group_sources(self, field: List[str]) -> Dict[str, List[str]]:
         """The inputs each group of :meth:`field_groups` comes from besides the rod (for messages):
         the material's and ``field``, the applied field's inputs as given."""

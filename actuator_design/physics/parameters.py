@@ -401,6 +401,10 @@ class PhysicalParameter:
     stiffness : bool
         It sets B0 = E I (Young's modulus, the bending stiffness): its groups are every lens slot
         ∝ B0^e (:func:`stiffness_groups`; THEORY §5: h ∝ B^-½, loads and h_r ∝ 1/B).
+    material : bool
+        It is a number of the rod's magnetic material of the same name
+        (:class:`~actuator_design.physics.magnetics_block.MagneticSummary`: χ̄, M_r), from which the
+        groups the field drives follow (``MagneticSummary.field_groups``).
     """
 
     name: str
@@ -420,6 +424,7 @@ class PhysicalParameter:
         return DIMENSIONS[self.dimension].unit
 
     stiffness: bool = False
+    material: bool = False
 
     def exponent(self, slot: str) -> float:
         """e in group(slot) ∝ value^e (0 when the group does not depend on it)."""
@@ -446,13 +451,13 @@ _HARD = "hard_magnetic"
 _BOTH = ("physical", "dimensionless")
 _PHYSICAL = (
     PhysicalParameter("chi_bar", "orientational susceptibility χ̄", "dimensionless", True,
-                      ("physical",), groups=(("h", 0.5),), term=_FIELD),
+                      ("physical",), groups=(("h", 0.5),), term=_FIELD, material=True),
     PhysicalParameter("youngs_modulus", "Young's modulus E (B0 = E I)", "pressure", True,
                       ("physical",), stiffness=True),
     PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,
                       ("physical",), stiffness=True),
     PhysicalParameter("remanence", "remanent magnetisation M_r of the composite", "magnetic_field",
-                      True, ("physical",), groups=(("h_r", 1.0),), term=_HARD),
+                      True, ("physical",), groups=(("h_r", 1.0),), term=_HARD, material=True),
     PhysicalParameter("h", "field group h (THEORY §5)", "dimensionless", True, ("dimensionless",),
                       groups=(("h", 1.0),), same_as="h", term=_FIELD),
     PhysicalParameter("clamp_angle", "clamp angle θ0", "angle", False, _BOTH, same_as="theta0"),
