@@ -139,7 +139,7 @@ def summary_text(result: FitResult, units=None) -> str:
         if PARAMETERS[name].dimension == "angle":
             extra = f"  ({math.degrees(p['value']):.4g} deg)"
         if units is not None and PARAMETERS[name].dimension == "magnetic_field":
-            extra += f"  ({_mT_text(p, 'mu0 M_r' if name == 'remanence' else 'mu0 x')})"
+            extra += f"  ({_mT_text(p, 'mu0 ' + PARAMETERS[name].symbol)})"
         lines.append(f"    {name:<18s} = {p['value']:.6g}{unit} ± {p['std']:.2g}  "
                      f"[{p['ci'][0]:.6g}, {p['ci'][1]:.6g}]{extra}")
     for c in result.combinations:

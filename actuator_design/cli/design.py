@@ -58,6 +58,13 @@ HELP = "inverse design: the field (and fibres, load) that puts the tip at a targ
 _VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p, magnetization
 
 
+def _variable_text(p) -> str:
+    """A design variable in ``--vary``'s help: its description, a profile as a Legendre series."""
+    if p.per_point:
+        return f"{p.description.replace('constant ', '')} as a profile {p.slot}(s), a Legendre series"
+    return p.description
+
+
 def add_args(parser: argparse.ArgumentParser) -> None:
     from actuator_design.inverse.design import DesignSettings
 
@@ -88,18 +95,18 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--obstacle", type=int, metavar="K",
                         help="with --target-force: which obstacle of scene.obstacles (index, default 0)")
     parser.add_argument("--vary", metavar="LIST",
-                        help="design variables, comma separated from: h (field magnitude), phi (field "
-                             "angle), alpha (fibre layout), p (tip load), magnetization (remanent "
-                             "magnetisation profile beta(s) of a hard-magnetic rod, a Legendre series of "
-                             "--alpha-terms terms; needs h_r > 0); default: h,phi, adding alpha "
-                             "automatically when needed")
+                        help="design variables, comma separated from: " + ", ".join(
+                            f"{n} ({_variable_text(p)})" for n, p in designable().items())
+                        + "; default: h,phi, adding alpha automatically when needed (and a remanent rod's "
+                          "own profile)")
     g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
     g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
     g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")
     g.add_argument("--alpha-max-deg", type=finite_float,
                    help=f"largest |fibre angle|, degrees (default {math.degrees(d.alpha_max):g})")
-    g.add_argument("--alpha-terms", type=int, help=f"Legendre terms of alpha(s), and of the magnetisation "
-                   f"beta(s) when designed (default {d.alpha_terms})")
+    g.add_argument("--alpha-terms", type=int, help="Legendre terms of each designed profile ("
+                   + ", ".join(f"{p.slot}(s)" for p in designable().values() if p.per_point)
+                   + f"; default {d.alpha_terms})")
     g.add_argument("--margin", type=finite_float,
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
     g.add_argument("--tolerance", metavar="SPEC",

@@ -405,6 +405,8 @@ class PhysicalParameter:
         It is a number of the rod's magnetic material of the same name
         (:class:`~actuator_design.physics.magnetics_block.MagneticSummary`: χ̄, M_r), from which the
         groups the field drives follow (``MagneticSummary.field_groups``).
+    symbol : str
+        How a report writes it in a formula (``M_r`` in "mu0 M_r = 100 mT"; ``x`` for a plain value).
     """
 
     name: str
@@ -425,6 +427,7 @@ class PhysicalParameter:
 
     stiffness: bool = False
     material: bool = False
+    symbol: str = "x"
 
     def exponent(self, slot: str) -> float:
         """e in group(slot) ∝ value^e (0 when the group does not depend on it)."""
@@ -457,7 +460,7 @@ _PHYSICAL = (
     PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,
                       ("physical",), stiffness=True),
     PhysicalParameter("remanence", "remanent magnetisation M_r of the composite", "magnetic_field",
-                      True, ("physical",), groups=(("h_r", 1.0),), term=_HARD, material=True),
+                      True, ("physical",), groups=(("h_r", 1.0),), term=_HARD, material=True, symbol="M_r"),
     PhysicalParameter("h", "field group h (THEORY §5)", "dimensionless", True, ("dimensionless",),
                       groups=(("h", 1.0),), same_as="h", term=_FIELD),
     PhysicalParameter("clamp_angle", "clamp angle θ0", "angle", False, _BOTH, same_as="theta0"),
