@@ -160,3 +160,54 @@ def test_step_bounds_hold_for_natural_and_palc():
 def test_step_bound_settings_validate_themselves(field, value):
     with pytest.raises(ValueError, match=f"{field}: must be a number > 0"):
         ContinuationSettings(**{field: value})
+
+
+def _combined_rod():
+    from actuator_design.config.model import load_scene
+    from pathlib import Path
+    return load_scene(Path(__file__).resolve().parents[1] / "configs" / "combined_soft_hard_rod.yaml")[0]
+
+
+def test_h2_from_zero_field_moves_the_remanent_group_smoothly():
+    """Ramping h² from zero field on a rod with remanence: h_r ∝ H = √(h²) would leave zero with an
+    infinite slope in h²; the segment moves linearly in the field instead (h² = (λ h_b)², h_r ∝ λ),
+    its values are the lens' values and dp/dλ is exact (central differences of the lens' values give
+    it, and one-sided ones at λ = 0 converge to it at first order)."""
+    base = _combined_rod()
+    names, rows = ["h2"], np.array([[0.0], [4.0]])
+    follow = followers(base, names, rows)
+    assert follow == ["h_r"]
+    seg = LensSegment(base, names, rows[0], rows[1], follow)
+
+    def lens_values(l):
+        sc = seg.scene(l)
+        return np.array([lens.get_value(sc, n) for n in seg.system_names])
+
+    for lam in (0.37, 1.0):
+        p, _ = seg.point(lam)
+        assert np.allclose(p, lens_values(lam), rtol=1e-13, atol=0)
+    assert seg.values(0.5)["h2"] == pytest.approx(1.0, rel=1e-15)  # (½ · 2)²: linear in the field
+    p, dp = seg.point(0.37)  # h² and h_r are quadratic and linear in λ: central differences are exact
+    assert np.allclose((lens_values(0.37 + 1e-3) - lens_values(0.37 - 1e-3)) / 2e-3, dp, rtol=1e-9, atol=0)
+    p0, dp0 = seg.point(0.0)
+    assert np.all(np.isfinite(dp0)) and dp0[1] == pytest.approx(1.5 / 0.8 * 2.0, rel=1e-14)
+    one_sided = [np.max(np.abs((lens_values(d) - lens_values(0.0)) / d - dp0)) for d in (1e-3, 5e-4)]
+    assert one_sided[0] / one_sided[1] == pytest.approx(2.0, rel=0.05)
+
+
+def test_a_path_in_h2_from_zero_field_is_the_field_ramp_from_rest():
+    """The loading path over h² from 0 on a rod with remanence (it failed at t = 0 before) follows
+    the same states as the path over h from 0 (the same field ramp, written in h): both end on the
+    same state, and each state of the h² path is the equilibrium ``solve`` reaches from rest there."""
+    base = _combined_rod()
+    in_h2 = follow_path(base, schedule={"h2": [0.0, 4.0]})
+    in_h = follow_path(base, schedule={"h": [0.0, 2.0]})
+    assert in_h2.success and in_h.success and in_h2.snap_free
+    assert in_h2.final.tip["x"] == pytest.approx(in_h.final.tip["x"], abs=1e-8)
+    assert in_h2.final.tip["y"] == pytest.approx(in_h.final.tip["y"], abs=1e-8)
+    values = [pt.values["h2"] for pt in in_h2.points]
+    assert values == sorted(values) and values[0] == 0.0 and values[-1] == pytest.approx(4.0, rel=1e-14)
+    for pt in in_h2.points[3::6]:
+        r = solve(lens.apply_values(base, {"h2": pt.values["h2"]}))
+        assert r.success and r.stable
+        assert (r.tip["x"], r.tip["y"]) == pytest.approx((pt.tip["x"], pt.tip["y"]), abs=1e-7)

@@ -86,8 +86,7 @@ class Tracker:
     def _param_value(self, seg: LensSegment, k, lam):
         if self.param_index is None:
             return float(k + lam)
-        i = self.param_index
-        return float(seg.va[i] + lam * (seg.vb[i] - seg.va[i]))
+        return float(seg.values(lam)[self.names[self.param_index]])
 
     def _direction(self, seg: LensSegment):
         if self.param_index is None:

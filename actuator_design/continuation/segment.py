@@ -60,6 +60,14 @@ class LensSegment:
         field-scaling rule sets it (checked against :func:`actuator_design.physics.parameters.apply_values`
         on construction).
 
+    Notes
+    -----
+    A segment of a magnitude m ∝ H^f with f > 1 (``h2`` = h²) that starts or ends at zero field and
+    has a follower of a lower power (h_r ∝ H = m^(1/f), THEORY §9) moves linearly in the field
+    instead: m(λ) = (m_a^(1/f) + λ (m_b^(1/f) − m_a^(1/f)))^f, so that every value and the rod's state
+    are smooth in λ (linearly in h2, h_r and the state would leave zero field with an infinite slope
+    and no continuation could start). The schedule's points are the same; :meth:`values` gives m(λ).
+
     Attributes
     ----------
     system_names : tuple of str
@@ -85,6 +93,13 @@ class LensSegment:
                 table = lens.per_field(base)
                 c = table[q.name] / table["h"] ** q.field_power
             self._laws.append((mags[0], c, r))
+        # (index, f) of a magnitude followed in the field H itself (class notes), else None
+        self._in_field = None
+        if self._laws and any(r < 1.0 for _, _, r in self._laws):
+            i = mags[0]
+            f = float(self._pars[i].field_power)
+            if f > 1.0 and min(self.va[i], self.vb[i]) == 0.0:
+                self._in_field = (i, f)
         for lam in ((0.0, 0.5, 1.0) if self._laws else ()):  # the closed form is the lens' rule: check it
             got, sc = self.point(lam)[0], self.scene(lam)
             for name, value in zip(self.system_names, got):
@@ -95,8 +110,21 @@ class LensSegment:
     def values(self, lam: float) -> Dict[str, float]:
         """The scheduled values at λ, each kept in its parameter's range (λ may pass an end by
         rounding)."""
-        v = self.va + lam * (self.vb - self.va)
+        v = self._scheduled(lam)[0]
         return {p.name: min(max(float(x), p.lower), p.upper) for p, x in zip(self._pars, v)}
+
+    def _scheduled(self, lam: float) -> Tuple[np.ndarray, np.ndarray, float, float]:
+        """(values, slopes) of the scheduled parameters at λ, unclipped, and for a magnitude followed
+        in the field (class notes) x = m^(1/f) and dx/dλ (else nan, nan)."""
+        v, slope = self.va + lam * (self.vb - self.va), self.vb - self.va
+        if self._in_field is None:
+            return v, slope, math.nan, math.nan
+        i, f = self._in_field
+        a, b = self.va[i] ** (1.0 / f), self.vb[i] ** (1.0 / f)
+        x, dx = a + lam * (b - a), b - a
+        v, slope = v.copy(), slope.copy()
+        v[i], slope[i] = x ** f, f * max(x, 0.0) ** (f - 1.0) * dx
+        return v, slope, x, dx
 
     def scene(self, lam: float) -> Scene:
         """The scene at λ (through the lens, so every follower is set by its rule)."""
@@ -104,8 +132,8 @@ class LensSegment:
 
     def point(self, lam: float) -> Tuple[np.ndarray, np.ndarray]:
         """(p(λ), dp/dλ), each of shape (len(system_names),): scheduled values, then followers."""
-        sched = np.clip(self.va + lam * (self.vb - self.va), self._lower, self._upper)
-        slope = self.vb - self.va
+        sched, slope, x, dx = self._scheduled(lam)
+        sched = np.clip(sched, self._lower, self._upper)
         if not self._laws:
             return sched, slope
         p, dp = [*sched], [*slope]
@@ -115,7 +143,11 @@ class LensSegment:
             if value == 0.0 and c != 0.0:  # the lens keeps the smallest normal float (term kept)
                 value = math.copysign(_TINY, c)
             p.append(value)
-            dp.append(c * r * max(m, _TINY) ** (r - 1.0) * dm)
+            if self._in_field is not None and i == self._in_field[0]:  # q = c x^(f r): smooth in x
+                e = self._in_field[1] * r
+                dp.append(c * e * max(x, 0.0) ** (e - 1.0) * dx if e != 1.0 else c * dx)
+            else:
+                dp.append(c * r * max(m, _TINY) ** (r - 1.0) * dm)
         return np.array(p), np.array(dp)
 
     def params(self, lam: float, P: np.ndarray, layout) -> np.ndarray:
