@@ -194,3 +194,18 @@ def test_nonconvergence_is_reported_not_hidden():
     assert not r.success
     assert r.status != "converged"
     assert r.message
+
+
+@pytest.mark.parametrize("turns", [83, 2778, -2778])
+def test_a_clamp_angle_whole_turns_away_gives_the_same_rod(turns):
+    """θ0 and θ0 + 2πk clamp the same rod (every term is 2π-periodic in θ; a tip moment's −m θ(1)
+    up to a constant): the same tip position, the tip angle 2πk away, the same stability, for k up to
+    the ±1e6 deg a clamp angle may take (IPOPT, whose step tests are relative to |θ|, stopped early
+    there before)."""
+    base = replace(default_scene(h=40.0, phi=math.radians(170.0), p=3.0), theta0=math.radians(120.0),
+                   tip_moment=0.4)
+    far = replace(base, theta0=base.theta0 + 2.0 * math.pi * turns)
+    a, b = solve(base), solve(far)
+    assert a.success and b.success and a.stable and b.stable
+    assert (b.tip["x"], b.tip["y"]) == pytest.approx((a.tip["x"], a.tip["y"]), abs=1e-9)
+    assert b.tip["angle"] - 2.0 * math.pi * turns == pytest.approx(a.tip["angle"], abs=1e-9 * (1 + abs(turns)))

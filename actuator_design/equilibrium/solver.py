@@ -329,9 +329,21 @@ class EquilibriumSolver:
         return self.kernel.evaluate(np.asarray(z, float)[1:])
 
     def solve_ipopt(self, z0: np.ndarray, params: np.ndarray) -> RawSolution:
-        sol = self.nlpsol(x0=z0, p=params, lbg=0, ubg=0)
+        """IPOPT on the energy from ``z0`` (θ at the nodes, rad).
+
+        A clamp angle beyond ±π is solved in the frame turned back by the nearest whole number of
+        turns 2πk, and the answer turned forward again: the energy terms are 2π-periodic in θ up to
+        a constant (a tip moment's −m θ(1)), while IPOPT's step tests are relative to |θ| and stop
+        it early when θ is far from 0 (a clamp angle of 3e4 deg failed where 0 deg converged)."""
+        turns = 2.0 * np.pi * np.round(params[self._theta0_index] / (2.0 * np.pi))
+        if turns:
+            shifted = np.array(params, float)
+            shifted[self._theta0_index] -= turns
+            sol = self.nlpsol(x0=np.asarray(z0, float) - turns, p=shifted, lbg=0, ubg=0)
+        else:
+            sol = self.nlpsol(x0=z0, p=params, lbg=0, ubg=0)
         st = self.nlpsol.stats()
-        z = np.asarray(sol["x"], float).ravel()
+        z = np.asarray(sol["x"], float).ravel() + turns
         ok = bool(st.get("success", False))
         return RawSolution(z, ok, st.get("return_status", "unknown"),
                            "IPOPT: " + str(st.get("return_status", "")), int(st.get("iter_count", -1)),
