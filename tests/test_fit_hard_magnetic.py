@@ -180,6 +180,27 @@ def test_fit_map_from_a_scene_with_zero_material_numbers(tmp_path):
     assert q[slot["h"]] == pytest.approx(math.sqrt(MU0 * th[0] * H**2 * W * T * L**2 / (2 * th[2])), rel=1e-12)
 
 
+@pytest.mark.parametrize("axis_ratio", [1.0, 3.0])
+def test_fit_map_at_the_starting_values_is_the_scenes_own_groups(tmp_path, axis_ratio):
+    """A rod given by its particles, whose χ̄ includes the body's demagnetisation (THEORY §10; for
+    spheres χ̄ comes from the body alone): at the starting values and the scene's field the fit map
+    gives the h the scene itself has (before, it took the particles' χ̄ and gave spheres no h)."""
+    data = tmp_path / "d.csv"
+    data.write_text("field [kA/m], tip_angle [deg]\n" + "".join(f"{H}, {0.1 * H}\n" for H in (2, 4, 6, 8)))
+    config = {"scene": {"type": "physical", "fibres": "0 deg",
+                        "rod": {"length": "20 mm", "width": "5 mm", "thickness": "1 mm", "youngs_modulus": "1 MPa"},
+                        "magnetics": {"particles": {"material": "carbonyl_iron", "axis_ratio": axis_ratio,
+                                                    "volume_fraction": 0.1}},
+                        "field": {"type": "uniform", "magnitude": "5 kA/m", "angle": "90 deg"}},
+              "study": {"type": "fit", "parameters": {"chi_bar": {"bounds": [1e-4, 5]},
+                                                      "youngs_modulus": {"bounds": ["0.1 MPa", "10 MPa"]}}}}
+    prob = prepare_fit(config, data)
+    th = np.array([prob.initial[n] for n in prob.names])
+    q = np.asarray(prob.f_map(th, np.array([5e3, 0.0, 0.0, 0.0]))[0], float).ravel()
+    assert prob.scene.h > 0
+    assert q[prob.slots.index("h")] == pytest.approx(prob.scene.h, rel=1e-12)
+
+
 def test_dimensionless_hard_scene_scales_h_r_with_the_measured_field(tmp_path):
     """A dimensionless scene's h_r is the group at reference_field: h_r(H) = h_r · H/H_ref."""
     data = tmp_path / "d.csv"

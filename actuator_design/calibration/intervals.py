@@ -14,7 +14,7 @@ import numpy as np
 
 from actuator_design.calibration.identifiability import combination_value
 from actuator_design.calibration.parameters import PARAMETERS, group_exponent, unit_of
-from actuator_design.physics.parameters import field_groups, remanent_groups
+from actuator_design.physics.parameters import field_groups
 from actuator_design.physics.registry import term_class
 
 __all__ = ["safe_exp", "parameter_entries", "combination_intervals", "natural_covariance",
@@ -96,18 +96,20 @@ def _log_interval(value: float, exponents: np.ndarray, cov_x: np.ndarray, tq: fl
 def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
     """Physical scenes: each group the field drives per unit field, c_g = g/H (``<g>_per_field``:
     h/H = √(μ0 χ̄ A ℓ²/(2B)), THEORY §5; h_r/H = μ0 M_r A ℓ²/B of a remanent rod, §9), with its
-    interval from the lens exponents, for every such group whose term the scene has (a group that is
-    0 beside a nonzero one is left out: a purely remanent rod has no soft-magnetic coefficient); and
-    for a rod without remanence in a transverse field, the field of THEORY §6's buckling threshold."""
+    interval from the lens exponents, for every such group whose term the scene has (the field
+    magnitude's h is left out when it is 0 on a rod with a remanent term: a purely remanent rod has
+    no soft-magnetic coefficient); and for a rod without a remanent term in a transverse field, the
+    field of THEORY §6's buckling threshold."""
     if problem.kind != "physical" or problem.scene.field is None:
         return {}
     names, scene = problem.names, problem.scene
     coefs = problem.field_coefficients(dict(zip(names, theta)))
     shown = {p.name: (p, f) for p, f in field_groups()
              if p.name in coefs and p.term is not None and term_class(p.term).present(scene)}
+    remanent = any(p.remanent_field for p, _ in shown.values())  # (a remanent term, M_r fitted or not)
     out = {}
     for name, (p, f) in shown.items():
-        if coefs[name] == 0.0 and any(coefs[other] != 0.0 for other in shown):
+        if p.field_magnitude and remanent and coefs[name] == 0.0:
             continue
         # d log c / d log(value): the lens exponents (½ for χ̄ in h, 1 for M_r in h_r, −½ or −1 for E)
         g = np.array([group_exponent(names[i], p.slot) for i in free])
@@ -117,7 +119,7 @@ def derived_quantities(problem, theta, free, cov_x, tq) -> Dict[str, dict]:
     # the transverse buckling threshold of THEORY §6 exists for a rod without remanence only (a
     # remanent torque bends the rod at any field)
     coef = float(coefs.get("h", 0.0))
-    if abs(math.cos(scene.phi)) < 1e-9 and coef > 0 and not remanent_groups(scene):
+    if abs(math.cos(scene.phi)) < 1e-9 and coef > 0 and not remanent:
         hc = math.pi / (2.0 * math.sqrt(2.0))  # THEORY §6, transverse buckling threshold
         g = np.array([group_exponent(names[i], "h") for i in free])
         sd = float(math.sqrt(max(g @ cov_x @ g, 0.0))) if g.size else 0.0

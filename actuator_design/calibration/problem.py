@@ -119,9 +119,9 @@ class FitProblem:
         cols, spec, src = self.data.columns, self.spec, self.data.source
         for name in self.names:
             if self.kind not in PARAMETERS[name].scenes:
-                here = [n for n, p in PARAMETERS.items() if self.kind in p.scenes and not p.through_field]
-                raise ConfigError(f"study.parameters.{name}",
-                                  f"cannot be fitted in a {self.kind} scene (fit {' / '.join(here)} instead)")
+                hint = " / ".join(self._alternatives(name))
+                raise ConfigError(f"study.parameters.{name}", f"cannot be fitted in a {self.kind} scene"
+                                  + (f" (fit {hint} instead)" if hint else ""))
         if self.kind == "physical":
             rod = self.config.scene.rod
             if "youngs_modulus" in self.names and rod.youngs_modulus is None:
@@ -160,6 +160,20 @@ class FitProblem:
             raise DataError(f"{src}: {self.data.n} data point(s) with {len(self.data.outputs)} "
                             f"measured output(s) cannot determine {len(self.names)} parameter(s) "
                             "with uncertainties: give more measurements than parameters")
+
+    def _alternatives(self, name: str) -> List[str]:
+        """The parameters of this scene type that set a group ``name`` sets (h: χ̄ and the rod's
+        E or B0 on a physical scene; χ̄: h on a dimensionless one)."""
+        rod = self.config.scene.rod if self.kind == "physical" else None
+        out = []
+        for n, q in PARAMETERS.items():
+            if self.kind not in q.scenes or q.through_field:
+                continue
+            if q.stiffness and rod is not None and getattr(rod, n, None) is None:
+                continue  # (the rod gives the other of E and B0)
+            if any(q.exponent(slot) for slot, _ in PARAMETERS[name].groups):
+                out.append(n)
+        return out
 
     def _structure_scene(self, scene: Scene) -> Scene:
         """The scene with the terms the data need (a tip force for load columns)."""

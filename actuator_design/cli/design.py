@@ -61,7 +61,7 @@ _VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi,
 def _variable_text(p) -> str:
     """A design variable in ``--vary``'s help: its description, a profile as a Legendre series."""
     if p.per_point:
-        return f"{p.description.replace('constant ', '')} as a profile {p.slot}(s), a Legendre series"
+        return f"{p.description.replace('constant ', '')} as a profile {p.slot}(s)"
     return p.description
 
 
@@ -97,8 +97,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--vary", metavar="LIST",
                         help="design variables, comma separated from: " + ", ".join(
                             f"{n} ({_variable_text(p)})" for n, p in designable().items())
-                        + "; default: h,phi, adding alpha automatically when needed (and a remanent rod's "
-                          "own profile)")
+                        + "; a profile is a Legendre series of --alpha-terms terms; default: h,phi, adding "
+                          "alpha automatically when needed (a remanent rod: (h,)phi, then its own profile "
+                          "instead of alpha)")
     g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
     g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
     g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")

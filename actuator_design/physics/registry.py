@@ -287,9 +287,12 @@ def dense_hessian(scene: "Scene") -> bool:
 
 
 def describe_groups(scene: "Scene") -> dict:
-    """The dimensionless groups of ``scene`` as a plain dict (a result's ``groups``): the clamp angle
-    and what every registered term says of itself (:meth:`EnergyTerm.result_groups`)."""
+    """The dimensionless groups of ``scene`` as a plain dict (a result's ``groups``): the clamp angle,
+    what every registered term says of itself (:meth:`EnergyTerm.result_groups`), and the values of
+    a plug-in term the scene lists that is not registered (its name: its values)."""
     out = {"theta0": scene.theta0}
     for cls in registered_terms():
         out.update(cls.result_groups(scene))
+    for t in scene.extra_terms:
+        out.setdefault(t.name, t.as_dict())
     return out
