@@ -522,3 +522,12 @@ def test_expression_bounds():
     assert Expression("1/3 + s", ("s",)).evaluate({"s": 0.0}) == 1.0 / 3.0
     # 101-term sums are fine (depth 101 < 200)
     assert Expression("+".join(["s"] * 101), ("s",)).evaluate({"s": 2.0}) == 202.0
+
+
+@pytest.mark.parametrize("value", [0, -3, 100_001, 10**12, 2.5, True])
+def test_the_iteration_limit_is_bounded_in_python_and_in_yaml(value):
+    """max_iter bounds the work of one solve: an integer in [1, 100000] (IPOPT's default is 3000),
+    refused with the field's name from Python and from a configuration."""
+    with pytest.raises(ValueError, match=r"^max_iter must be an integer in \[1, 100000\]"):
+        SolverOptions(max_iter=value)
+    assert error_of({**dimensionless(h=1), "solver": {"max_iter": value}}).startswith("solver.max_iter: ")

@@ -18,7 +18,7 @@ from actuator_design.config.field_specs import is_non_uniform
 from actuator_design.config.limits import mesh_problem
 from actuator_design.config.physical import PhysicalScene
 from actuator_design.config.yaml_source import check_structure, read_yaml
-from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.options import MAX_ITERATIONS, SolverOptions
 from actuator_design.model.scene import ExpressionField, Scene
 from actuator_design.physics.fields import FieldCheckError, check_current_free, field_model
 
@@ -37,7 +37,7 @@ class SolverSpec(StrictModel):
     degree: Annotated[StrictInt, Field(ge=2, le=60)] = _DEFAULTS.degree
     method: Literal["ipopt", "newton", "fast"] = _DEFAULTS.method
     tol: Q("dimensionless", gt=0, lt=1) = _DEFAULTS.tol
-    max_iter: Annotated[StrictInt, Field(ge=1)] = _DEFAULTS.max_iter
+    max_iter: Annotated[StrictInt, Field(ge=1, le=MAX_ITERATIONS)] = _DEFAULTS.max_iter
     ensure_stable: StrictBool = _DEFAULTS.ensure_stable
     jit: StrictBool = False
     #: target tip accuracy (rod lengths): the cheapest resolution that meets it is chosen from an

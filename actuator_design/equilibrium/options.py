@@ -2,12 +2,13 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import asdict, dataclass
 from typing import Optional, Tuple
 
 from actuator_design.config.limits import mesh_problem  # the memory budget (README "Units and scenes")
 
-__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE", "STARTS", "MAX_LEVELS"]
+__all__ = ["SolverOptions", "TRANSCRIPTIONS", "METHODS", "MAX_DEGREE", "STARTS", "MAX_LEVELS", "MAX_ITERATIONS"]
 
 TRANSCRIPTIONS = ("lgl", "midpoint")
 METHODS = ("ipopt", "newton", "fast")
@@ -19,6 +20,9 @@ STARTS = ("rest", "straight")
 #: Most grading levels towards one end (element length 2^-40/E: far below any layer of h ≤ 1e4).
 MAX_LEVELS = 40
 MAX_SPLITS = 16  # extra element boundaries (contact points)
+#: Most iterations of one solve (IPOPT's default is 3000; a converging Newton needs tens): bounds the
+#: work a setting can cause.
+MAX_ITERATIONS = 100_000
 
 
 @dataclass(frozen=True)
@@ -132,6 +136,9 @@ class SolverOptions:
                 raise ValueError(f"{name} must lie in [0, {MAX_LEVELS}], got {getattr(self, name)}")
         if not (0 < self.tol < 1):
             raise ValueError(f"tol must lie in (0, 1), got {self.tol}")
+        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, numbers.Integral) \
+                or not 1 <= self.max_iter <= MAX_ITERATIONS:
+            raise ValueError(f"max_iter must be an integer in [1, {MAX_ITERATIONS}], got {self.max_iter!r}")
         split = tuple(float(v) for v in self.split_at)
         if len(split) > MAX_SPLITS or not all(math.isfinite(v) and 0.0 < v < 1.0 for v in split):
             raise ValueError(f"split_at: at most {MAX_SPLITS} arc lengths in (0, 1), got {self.split_at}")
