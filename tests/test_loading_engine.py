@@ -193,6 +193,12 @@ def test_h2_from_zero_field_moves_the_remanent_group_smoothly():
     assert np.all(np.isfinite(dp0)) and dp0[1] == pytest.approx(1.5 / 0.8 * 2.0, rel=1e-14)
     one_sided = [np.max(np.abs((lens_values(d) - lens_values(0.0)) / d - dp0)) for d in (1e-3, 5e-4)]
     assert one_sided[0] / one_sided[1] == pytest.approx(2.0, rel=0.05)
+    # the ends are the schedule's values exactly, and no field is made beyond them
+    assert seg.values(1.0)["h2"] == 4.0 and seg.values(0.0)["h2"] == 0.0
+    assert seg.point(-1e-3)[0][0] == 0.0 and seg.point(1.0 + 1e-3)[0][0] == pytest.approx(4.0, rel=1e-15)
+    # a follower whose energy is smooth in h² (h_pos² ∝ h² of a dipole field) keeps the straight segment
+    dip = LensSegment(dipole_scene(), names, rows[0], rows[1], followers(dipole_scene(), names, rows))
+    assert dip.values(0.5)["h2"] == 2.0
 
 
 def test_a_path_in_h2_from_zero_field_is_the_field_ramp_from_rest():

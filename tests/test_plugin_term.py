@@ -6,6 +6,7 @@ With bending alone (b = 1, no field, no loads) its Euler–Lagrange equation is 
 independent reference. The term is solved, continued in k through the parameter lens, designed
 with, and refused by the shooting scan that does not know it.
 """
+import dataclasses
 import math
 
 import numpy as np
@@ -67,6 +68,24 @@ def test_solve_matches_the_closed_form():
     assert r.el_residual < 1e-8
     # the clamp moment is b θ'(0) = θ* √k tanh √k
     assert abs(r.clamp_moment) == pytest.approx(0.5 * 2.0 * math.tanh(2.0), rel=1e-8)
+
+
+@pytest.mark.parametrize("theta0_deg", [200.0, 400.0])
+def test_a_term_of_the_absolute_angle_is_not_solved_whole_turns_away(theta0_deg):
+    """The spring pulls towards an absolute angle θ*, so the energy is not 2π-periodic in θ (the
+    term does not declare ``periodic_in_theta``): a clamp angle beyond ±π is solved as it is, not
+    turned back by whole turns. θ'' = k(θ − θ*), θ(0) = θ0, θ'(1) = 0: θ(1) = θ* + (θ0 − θ*)/cosh √k,
+    IPOPT's own answer included."""
+    from actuator_design.equilibrium.solver import get_solver
+    th0 = math.radians(theta0_deg)
+    sc = dataclasses.replace(spring_scene(4.0, 0.5), theta0=th0)
+    exact = 0.5 + (th0 - 0.5) / math.cosh(2.0)
+    r = solve(sc, SolverOptions(method="ipopt"))
+    assert r.success and r.tip["angle"] == pytest.approx(exact, abs=1e-8)
+    solver = get_solver(sc, SolverOptions())
+    params = solver.parameter_vector(sc)
+    raw = solver.solve_ipopt(solver.initial_guess(params), params)
+    assert raw.converged and raw.z[-1] == pytest.approx(exact, abs=1e-6)
 
 
 def test_lens_knows_the_plugin_parameters():

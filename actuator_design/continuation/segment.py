@@ -63,10 +63,12 @@ class LensSegment:
     Notes
     -----
     A segment of a magnitude m ∝ H^f with f > 1 (``h2`` = h²) that starts or ends at zero field and
-    has a follower of a lower power (h_r ∝ H = m^(1/f), THEORY §9) moves linearly in the field
-    instead: m(λ) = (m_a^(1/f) + λ (m_b^(1/f) − m_a^(1/f)))^f, so that every value and the rod's state
-    are smooth in λ (linearly in h2, h_r and the state would leave zero field with an infinite slope
-    and no continuation could start). The schedule's points are the same; :meth:`values` gives m(λ).
+    has a follower whose energy is of a lower power in the field (h_r ∝ H = m^(1/f) enters linearly,
+    THEORY §9; h_pos² ∝ m does not count) moves linearly in the field instead: m(λ) =
+    (m_a^(1/f) + λ (m_b^(1/f) − m_a^(1/f)))^f, the other scheduled values linearly in λ, so that every
+    value and the rod's state are smooth in λ (linearly in h2, h_r and the state would leave zero
+    field with an infinite slope and no continuation could start). The segment is then straight in
+    (H, the other values), its ends are the schedule's points, and :meth:`values` gives m(λ).
 
     Attributes
     ----------
@@ -95,7 +97,10 @@ class LensSegment:
             self._laws.append((mags[0], c, r))
         # (index, f) of a magnitude followed in the field H itself (class notes), else None
         self._in_field = None
-        if self._laws and any(r < 1.0 for _, _, r in self._laws):
+        # (a follower's energy is ∝ its value, or its square for a "squared" residual: h_pos²)
+        energy_powers = [r * (2.0 if lens.parameter(q).residual == "squared" else 1.0)
+                         for q, (_, _, r) in zip(follow, self._laws)]
+        if self._laws and any(e < 1.0 for e in energy_powers):
             i = mags[0]
             f = float(self._pars[i].field_power)
             if f > 1.0 and min(self.va[i], self.vb[i]) == 0.0:
@@ -121,9 +126,10 @@ class LensSegment:
             return v, slope, math.nan, math.nan
         i, f = self._in_field
         a, b = self.va[i] ** (1.0 / f), self.vb[i] ** (1.0 / f)
-        x, dx = a + lam * (b - a), b - a
+        x, dx = min(max(a + lam * (b - a), min(a, b)), max(a, b)), b - a  # (no field beyond the ends)
         v, slope = v.copy(), slope.copy()
-        v[i], slope[i] = x ** f, f * max(x, 0.0) ** (f - 1.0) * dx
+        v[i] = self.va[i] if lam == 0.0 else self.vb[i] if lam == 1.0 else x ** f  # the ends exactly
+        slope[i] = f * x ** (f - 1.0) * dx
         return v, slope, x, dx
 
     def scene(self, lam: float) -> Scene:

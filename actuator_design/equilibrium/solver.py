@@ -332,10 +332,13 @@ class EquilibriumSolver:
         """IPOPT on the energy from ``z0`` (θ at the nodes, rad).
 
         A clamp angle beyond ±π is solved in the frame turned back by the nearest whole number of
-        turns 2πk, and the answer turned forward again: the energy terms are 2π-periodic in θ up to
-        a constant (a tip moment's −m θ(1)), while IPOPT's step tests are relative to |θ| and stop
-        it early when θ is far from 0 (a clamp angle of 3e4 deg failed where 0 deg converged)."""
-        turns = 2.0 * np.pi * np.round(params[self._theta0_index] / (2.0 * np.pi))
+        turns 2πk, and the answer turned forward again, when every term is 2π-periodic in θ up to a
+        constant (``EnergyTerm.periodic_in_theta``: every built-in term; a tip moment's −m θ(1)):
+        IPOPT's step tests are relative to |θ| and stop it early when θ is far from 0 (a clamp angle
+        of 3e4 deg failed where 0 deg converged)."""
+        turns = 0.0
+        if all(t.periodic_in_theta for t in self.terms):
+            turns = 2.0 * np.pi * np.round(params[self._theta0_index] / (2.0 * np.pi))
         if turns:
             shifted = np.array(params, float)
             shifted[self._theta0_index] -= turns

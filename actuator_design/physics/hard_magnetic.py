@@ -62,6 +62,7 @@ class HardMagnetic(EnergyTerm):
     """−h_r (m̂·ĥ(r)), m̂ = (cos(θ+β), sin(θ+β)) (THEORY §9)."""
 
     name = "hard_magnetic"
+    periodic_in_theta = True
     scaling_declared = True
     node_fields = {"beta": lambda scene, s: scene.magnetization(s)}
     parameters = (

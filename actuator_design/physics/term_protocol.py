@@ -132,6 +132,11 @@ class EnergyTerm:
     #: ``stiffness_power``, ``susceptibility_power``): analyses that rescale a scene (a fit of E, a
     #: tolerance box) may take the term
     scaling_declared = False
+    #: its energy's θ-derivatives are 2π-periodic in θ (it reads θ through directors and positions,
+    #: or is linear in θ like a tip moment): a clamp angle may then be solved whole turns away
+    #: (:meth:`~actuator_design.equilibrium.solver.EquilibriumSolver.solve_ipopt`); False for a term
+    #: that reads θ itself (a spring to an absolute angle)
+    periodic_in_theta = False
     parameters: Tuple[Parameter, ...] = ()
     scalar_params: Tuple[str, ...] = ()
     #: what a summary in physical units calls the load this term applies (``"tip force"``); None:

@@ -81,6 +81,7 @@ class Bending(EnergyTerm):
     """½ b(s) θ'² (THEORY §4: ½ Ẽ I κ², scaled by B0/ℓ)."""
 
     name = "bending"
+    periodic_in_theta = True
     scaling_declared = True  # its parameters state their power laws
     node_fields = {"b": lambda scene, s: scene.stiffness(s)}
 
@@ -110,6 +111,7 @@ class FieldOrientation(EnergyTerm):
     """
 
     name = "field_orientation"
+    periodic_in_theta = True
     scaling_declared = True  # its parameters state their power laws
     node_fields = {"alpha": lambda scene, s: scene.fibres(s)}
     parameters = (
@@ -200,6 +202,7 @@ class FieldPosition(EnergyTerm):
     """−h_pos² |ĥ(r)|² (THEORY §4, the χ̂ term; built only for non-uniform fields)."""
 
     name = "field_position"
+    periodic_in_theta = True
     scaling_declared = True  # its parameters state their power laws
     parameters = (
         Parameter("h_pos", "positional field group h_pos (non-uniform fields)", "1", "h_pos",
@@ -245,6 +248,7 @@ class TipForce(EnergyTerm):
     """−f·r(1): dead tip force f = (fx, fy), p = fy (THEORY §5)."""
 
     name = "tip_force"
+    periodic_in_theta = True
     load_name = "tip force"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("fx", "fy")
@@ -303,6 +307,7 @@ class TipMoment(EnergyTerm):
     """−m θ(1): dead tip moment, counter-clockwise positive."""
 
     name = "tip_moment"
+    periodic_in_theta = True
     load_name = "tip moment"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("m_tip",)
@@ -353,6 +358,7 @@ class DistributedLoad(EnergyTerm):
     """−q·r(s) per unit length: a dead distributed load such as weight."""
 
     name = "distributed_load"
+    periodic_in_theta = True
     load_name = "distributed load"
     scaling_declared = True  # its parameters state their power laws
     scalar_params = ("qx", "qy")

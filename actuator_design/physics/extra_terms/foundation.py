@@ -25,6 +25,7 @@ class Foundation(EnergyTerm):
     """½ k y² per unit length: a Winkler foundation of stiffness k (B0/ℓ⁴) under the rod."""
 
     name = NAME
+    periodic_in_theta = True  # it reads positions only
     scaling_declared = True  # ∝ 1/B0 (THEORY §5), independent of the field
     scalar_params = ("k_foundation",)
     parameters = (

@@ -26,6 +26,7 @@ class TaperedLoad(EnergyTerm):
     """−((1 − s) q_root + s q_tip)·r(s) per unit length: a linearly varying dead load (B0/ℓ³)."""
 
     name = NAME
+    periodic_in_theta = True  # it reads positions only
     scaling_declared = True  # ∝ 1/B0 (THEORY §5), independent of the field
     scalar_params = _SLOTS
     node_fields = {"arclength": lambda scene, s: s}
