@@ -8,11 +8,11 @@ the measured outputs.
 """
 from __future__ import annotations
 
-from typing import Dict, Tuple
+from typing import Dict, List, Tuple
 
 from actuator_design.physics.parameters import PhysicalParameter, physical_parameters
 
-__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "unit_of",
+__all__ = ["FitParameter", "PARAMETERS", "OUTPUT_COMPONENT", "unit_of", "alternatives",
            "field_coefficient_exponent", "group_exponent"]
 
 #: A fittable parameter is a physical parameter of the lens.
@@ -43,3 +43,12 @@ def group_exponent(name: str, slot: str) -> float:
     E or B0 (THEORY §9)."""
     p = PARAMETERS[name]
     return 0.0 if p.through_field else p.exponent(slot)
+
+
+def alternatives(name: str, kind: str, rod=None) -> List[str]:
+    """The parameters of a ``kind`` scene that set a group fitted parameter ``name`` sets (for h: χ̄
+    and the rod's E or B0 on a physical scene; for χ̄: h on a dimensionless one); ``rod`` the
+    physical scene's rod (its E or B0 is the one given)."""
+    return [n for n, q in PARAMETERS.items() if kind in q.scenes and not q.through_field
+            and not (q.stiffness and getattr(rod, n, None) is None)
+            and any(q.exponent(slot) for slot, _ in PARAMETERS[name].groups)]

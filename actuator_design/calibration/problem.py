@@ -28,7 +28,7 @@ from actuator_design.calibration import limits
 from actuator_design.calibration.branches import BranchSelector
 from actuator_design.calibration.curves import model_curves
 from actuator_design.calibration.data import COLUMNS, DataError, MeasuredData
-from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS
+from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS, alternatives
 from actuator_design.calibration.spec import FitSpec
 from actuator_design.config import ConfigError
 from actuator_design.equilibrium.options import SolverOptions
@@ -119,7 +119,7 @@ class FitProblem:
         cols, spec, src = self.data.columns, self.spec, self.data.source
         for name in self.names:
             if self.kind not in PARAMETERS[name].scenes:
-                hint = " / ".join(self._alternatives(name))
+                hint = " / ".join(alternatives(name, self.kind, getattr(self.config.scene, "rod", None)))
                 raise ConfigError(f"study.parameters.{name}", f"cannot be fitted in a {self.kind} scene"
                                   + (f" (fit {hint} instead)" if hint else ""))
         if self.kind == "physical":
@@ -160,20 +160,6 @@ class FitProblem:
             raise DataError(f"{src}: {self.data.n} data point(s) with {len(self.data.outputs)} "
                             f"measured output(s) cannot determine {len(self.names)} parameter(s) "
                             "with uncertainties: give more measurements than parameters")
-
-    def _alternatives(self, name: str) -> List[str]:
-        """The parameters of this scene type that set a group ``name`` sets (h: χ̄ and the rod's
-        E or B0 on a physical scene; χ̄: h on a dimensionless one)."""
-        rod = self.config.scene.rod if self.kind == "physical" else None
-        out = []
-        for n, q in PARAMETERS.items():
-            if self.kind not in q.scenes or q.through_field:
-                continue
-            if q.stiffness and rod is not None and getattr(rod, n, None) is None:
-                continue  # (the rod gives the other of E and B0)
-            if any(q.exponent(slot) for slot, _ in PARAMETERS[name].groups):
-                out.append(n)
-        return out
 
     def _structure_scene(self, scene: Scene) -> Scene:
         """The scene with the terms the data need (a tip force for load columns)."""
@@ -243,8 +229,6 @@ class FitProblem:
             return float(getattr(self.material, name) or 0.0)
         return 1.0 if p.log else 0.0  # the field's measurement model: a factor 1, an offset 0
 
-    # -- symbolic map θ, inputs → NLP slots, and the sensitivity functions ----------------------
-
     # -- the map θ, inputs → NLP slots -----------------------------------------------------------
     def _build_map(self) -> None:
         """The CasADi map (θ, inputs u) → NLP slots q and dq/dθ (THEORY §5 groups)."""
@@ -284,51 +268,30 @@ class FitProblem:
         self.f_map = ca.Function("fit_map", [th, u], [q, ca.jacobian(q, th)])
 
     def stiffness_ratio(self, values: dict):
-        """B / B0 at fitted ``values`` (by name; CasADi symbols or numbers): a fitted E or B0 scales
-        every group ∝ B^e (THEORY §5, :func:`stiffness_groups`); 1 when neither is fitted."""
+        """B / B0 at fitted ``values`` (numbers or CasADi symbols; 1 without a fitted E or B0)."""
         fitted = [n for n in values if PARAMETERS[n].stiffness]
         return values[fitted[0]] / self._scene_value(fitted[0]) if fitted else 1.0
 
     def field_coefficients(self, values: dict) -> dict:
-        """A physical scene's groups per unit applied field, g = c_g H^f, by lens name (h, h_r, …;
-        those its material has), at fitted ``values`` (by name; CasADi symbols or numbers).
-
-        c_g is the material's coefficient (THEORY §5, §9: ``MagneticSummary.field_groups``) at unit
-        values of the fitted material numbers, scaled by their power laws
-        (``PhysicalParameter.groups``: χ̄^½ for h, M_r for h_r) and by (B/B0)^e."""
-        c = self.const
-        fitted = {n: x for n, x in values.items() if PARAMETERS[n].material}
-        per_unit = dataclasses.replace(self.material, **{n: 1.0 for n in fitted}).field_groups(
-            1.0, c["A"], c["L"], c["B0"])
-        B_rel, stiffness_powers = self.stiffness_ratio(values), dict(stiffness_groups())
-        out = {}
-        for p, _ in field_groups():
-            if p.name not in per_unit:
-                continue  # (the material has none: the scene's value, 0, is kept)
-            coef = per_unit[p.name]
-            for n, x in fitted.items():
-                e = PARAMETERS[n].exponent(p.slot)
-                coef = coef * (x if e == 1 else x ** e) if e else coef
-            e_B = stiffness_powers.get(p.slot, 0.0)
-            out[p.name] = coef * B_rel ** e_B if e_B else coef
-        return out
+        """A physical scene's groups per unit applied field, g = c_g H^f, by lens name (h, h_r, …),
+        at fitted ``values`` (by name; numbers or CasADi symbols): ``MagneticSummary.coefficients``
+        with the fitted material numbers and B/B0 (THEORY §5, §9)."""
+        c, material = self.const, {n: x for n, x in values.items() if PARAMETERS[n].material}
+        return self.material.coefficients(material, c["A"], c["L"], c["B0"], self.stiffness_ratio(values))
 
     def _field_group_map(self, v: dict, H) -> dict:
-        """The groups the applied field drives (h, h_r, …: :func:`field_groups`), by NLP slot, as
-        expressions of the fitted values ``v`` (CasADi symbols by name) and the field ``H`` (None:
-        the scene's groups of a dimensionless scene without a field column): a physical scene's
-        c_g H^f (:meth:`field_coefficients`), a dimensionless scene's value (or the fitted one)
-        times (H / H_ref)^f."""
+        """The groups the field drives (:func:`field_groups`) by NLP slot, of the fitted values ``v``
+        and the field ``H`` (None: a dimensionless scene's own): c_g H^f (:meth:`field_coefficients`),
+        or a dimensionless scene's value (or the fitted one) times (H / H_ref)^f."""
         out, layout = {}, self.solver.layout
         coefs = self.field_coefficients(v) if self.kind == "physical" else {}
         for p, f in field_groups():
+            field = None if H is None else (H if f == 1 else H ** f)
             if p.slot not in layout.slices:
                 continue
-            field = None if H is None else (H if f == 1 else H ** f)
-            if self.kind == "physical":
-                if p.name in coefs:
-                    out[p.slot] = coefs[p.name] * field
-            else:
+            if self.kind == "physical" and p.name in coefs:
+                out[p.slot] = coefs[p.name] * field
+            elif self.kind != "physical":
                 given = [n for n in v if PARAMETERS[n].same_as == p.name]
                 base = v[given[0]] if given else p.get(self.scene)
                 out[p.slot] = base if field is None else base * field / self.const["Href"] ** f

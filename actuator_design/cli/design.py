@@ -46,8 +46,8 @@ from actuator_design.io.display import degrees, number
 from actuator_design.physics.parameters import designable, parameters
 from actuator_design.cli.design_hardware import add_hardware_args
 from actuator_design.cli.design_force import parse_force, run_force
-from actuator_design.cli.design_units import (add_schedule_units, positive_target, quasi_static_line,
-                                              refuse_unknown_keys, unit_labels)
+from actuator_design.cli.design_units import (add_schedule_units, positive_target, profile_terms_help,
+                                              quasi_static_line, refuse_unknown_keys, unit_labels, vary_help)
 from actuator_design.cli.output import print_written, write_out
 from actuator_design.cli.scene_args import add_set_arg, apply_set_flags, check_flags
 
@@ -56,13 +56,6 @@ __all__ = ["HELP", "add_args", "run"]
 HELP = "inverse design: the field (and fibres, load) that puts the tip at a target, verified"
 
 _VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi, alpha, p, magnetization
-
-
-def _variable_text(p) -> str:
-    """A design variable in ``--vary``'s help: its description, a profile as a Legendre series."""
-    if p.per_point:
-        return f"{p.description.replace('constant ', '')} as a profile {p.slot}(s)"
-    return p.description
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -94,20 +87,13 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "number in rod lengths, or a length such as '0.2 mm' on a physical scene; default 0)")
     parser.add_argument("--obstacle", type=int, metavar="K",
                         help="with --target-force: which obstacle of scene.obstacles (index, default 0)")
-    parser.add_argument("--vary", metavar="LIST",
-                        help="design variables, comma separated from: " + ", ".join(
-                            f"{n} ({_variable_text(p)})" for n, p in designable().items())
-                        + "; a profile is a Legendre series of --alpha-terms terms; default: h,phi, adding "
-                          "alpha automatically when needed (a remanent rod: (h,)phi, then its own profile "
-                          "instead of alpha)")
+    parser.add_argument("--vary", metavar="LIST", help=vary_help())
     g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
     g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
     g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")
     g.add_argument("--alpha-max-deg", type=finite_float,
                    help=f"largest |fibre angle|, degrees (default {math.degrees(d.alpha_max):g})")
-    g.add_argument("--alpha-terms", type=int, help="Legendre terms of each designed profile ("
-                   + ", ".join(f"{p.slot}(s)" for p in designable().values() if p.per_point)
-                   + f"; default {d.alpha_terms})")
+    g.add_argument("--alpha-terms", type=int, help=profile_terms_help(d.alpha_terms))
     g.add_argument("--margin", type=finite_float,
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
     g.add_argument("--tolerance", metavar="SPEC",

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from actuator_design.cli.common import InputError, bad_input
+from actuator_design.physics.parameters import designable
 
 __all__ = ["refuse_unknown_keys", "unit_labels", "add_schedule_units", "quasi_static_line", "positive_target", "closing_lines",
            "tip_columns", "finish_schedule", "path_line", "hold_path", "substeps_arg"]
@@ -104,8 +105,8 @@ def finish_schedule(args, res, payload: dict, files, summary) -> int:
     """Write ``files()`` to ``--out`` (all or nothing), print the payload (``--json``) or the lines of
     ``summary(res, payload)``, and return the exit code of a hardware schedule: 0 verified, 4 a
     waypoint out of reach, 3 otherwise."""
-    from actuator_design.io.save import dumps_json
     from actuator_design.cli.output import print_written, write_out
+    from actuator_design.io.save import dumps_json
 
     written = write_out(args.out, files(), args.json) if args.out is not None else None
     if args.json:
@@ -148,3 +149,19 @@ def substeps_arg(args, study: dict) -> int:
     if not (isinstance(substeps, int) and 1 <= substeps <= 200):
         raise InputError(f"{name}: must be a whole number in [1, 200], got {substeps!r}")
     return substeps
+
+
+def vary_help() -> str:
+    """``design --vary``'s help: the lens's designable variables, a profile as a Legendre series."""
+    def text(p):
+        return f"{p.description.replace('constant ', '')} as a profile {p.slot}(s)" if p.per_point else p.description
+    return ("design variables, comma separated from: "
+            + ", ".join(f"{n} ({text(p)})" for n, p in designable().items())
+            + "; a profile is a Legendre series of --alpha-terms terms; default: h,phi, adding alpha "
+              "automatically when needed (a remanent rod: (h,)phi, then its own profile instead of alpha)")
+
+
+def profile_terms_help(default: int) -> str:
+    """``design --alpha-terms``' help: the Legendre terms of every profile a design can vary."""
+    profiles = ", ".join(f"{p.slot}(s)" for p in designable().values() if p.per_point)
+    return f"Legendre terms of each designed profile ({profiles}; default {default})"

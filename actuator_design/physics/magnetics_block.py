@@ -25,7 +25,7 @@ naming the field and its range, not a solver failure.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Annotated, Dict, List, Optional
 
 import numpy as np
@@ -204,6 +204,25 @@ class MagneticSummary:
                 "h_r": "h_r = c_r·H, c_r = mu0 M_r A l^2 / B (THEORY §9)"}
     #: each group's power laws in the material, the field and B (THEORY §5, §9), as messages show them
     POWER_LAWS = {"h": "h² ∝ χ̄ H²/B", "h_pos": "h_pos² ∝ χ̂ H²/B", "h_r": "h_r ∝ M_r H/B"}
+
+    def coefficients(self, values: Dict[str, object], area: float, length: float, stiffness: float,
+                     stiffness_ratio=1.0) -> Dict[str, object]:
+        """Each group the field drives per unit field (g = c_g H^f), by lens name, with the material
+        numbers ``values`` (by physical parameter name: χ̄, M_r; numbers or CasADi symbols) in place
+        of this material's and the bending stiffness B0 · ``stiffness_ratio`` (B0 in N m²): the
+        coefficients at unit values of those numbers (:meth:`field_groups`), times their power laws
+        (``PhysicalParameter.groups``) and (B/B0)^e (:func:`~actuator_design.physics.parameters.stiffness_groups`)."""
+        per_unit = replace(self, **{n: 1.0 for n in values}).field_groups(1.0, area, length, stiffness)
+        powers, out = dict(lens.stiffness_groups()), {}
+        for p, _ in lens.field_groups():
+            if p.name in per_unit:  # (the material has that group)
+                coef = per_unit[p.name]
+                for n, x in values.items():
+                    e = lens.physical_parameter(n).exponent(p.slot)
+                    coef = coef * (x if e == 1 else x ** e) if e else coef
+                e_B = powers.get(p.slot, 0.0)
+                out[p.name] = coef * stiffness_ratio ** e_B if e_B else coef
+        return out
 
     def group_sources(self, field: List[str]) -> Dict[str, List[str]]:
         """The inputs each group of :meth:`field_groups` comes from besides the rod (for messages):
