@@ -35,7 +35,7 @@ from actuator_design.equilibrium.accuracy import scene_wavenumber, tip_differenc
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import get_solver
-from actuator_design.physics.registry import end_moment
+from actuator_design.physics.registry import end_moment, tip_layer
 
 __all__ = ["solve_checked", "accept", "graded_options", "residual_problem", "moment_scale", "check_physical"]
 
@@ -49,7 +49,9 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
     The element next to the clamp gets length 2^-n/E ≤ 1/k (k from
     :func:`~actuator_design.equilibrium.accuracy.scene_wavenumber`), i.e. n = ⌈log2(k / E)⌉, when the uniform
     elements are longer than 3/k (below that, degree-10 elements resolve the layer already);
-    the same towards the tip when a tip moment is applied (its layer sits there). Midpoint meshes
+    the same towards the tip when a term makes a layer there (a tip moment, a fibre angle or a
+    magnetisation that varies along the rod, a field that varies in direction:
+    :func:`~actuator_design.physics.registry.tip_layer`). Midpoint meshes
     are not graded.
     """
     if options.transcription != "lgl":
@@ -57,7 +59,7 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
     k = scene_wavenumber(scene)
     E = int(options.elements)
     need = int(math.ceil(math.log2(k / E))) if k > 3.0 * E else 0
-    tip_need = need if end_moment(scene) != 0 else 0
+    tip_need = need if tip_layer(scene) else 0
     clamp = max(int(options.clamp_levels), need)
     tip = max(int(options.tip_levels), tip_need)
     if (clamp, tip) == (options.clamp_levels, options.tip_levels):

@@ -12,6 +12,7 @@ the field (``field_power = 1``), h² quadratic: a field ramp through the lens sc
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Optional
 
@@ -97,6 +98,18 @@ class HardMagnetic(EnergyTerm):
     @classmethod
     def present(cls, scene: Scene) -> bool:
         return scene.magnetization is not None and scene.field is not None
+
+    @classmethod
+    def wavenumber(cls, scene: Scene) -> float:
+        """√h_r: θ'' = h_r sin(θ + β − φ) linearised about the aligned state (THEORY §9), the
+        remanent counterpart of the soft term's √2 h (a gradient's scale is only known a posteriori)."""
+        return math.sqrt(abs(scene.h_r))
+
+    @classmethod
+    def tip_layer(cls, scene: Scene) -> bool:
+        """The rod lies along φ − β(s) but for the end layers: a varying β or field direction asks
+        for a curvature the free end cannot have."""
+        return scene.h_r != 0.0 and not (scene.magnetization.is_constant and scene.field.is_uniform)
 
     @classmethod
     def result_groups(cls, scene: Scene) -> dict:

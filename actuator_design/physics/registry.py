@@ -281,6 +281,12 @@ def end_moment(scene: "Scene") -> float:
     return max([0.0] + [abs(cls.end_moment(scene)) for cls in registered_terms() if cls.present(scene)])
 
 
+def tip_layer(scene: "Scene") -> bool:
+    """Whether a term of ``scene`` makes a boundary layer at the free end (a dead tip moment, or
+    :meth:`EnergyTerm.tip_layer`)."""
+    return end_moment(scene) != 0 or any(cls.present(scene) and cls.tip_layer(scene) for cls in registered_terms())
+
+
 def dense_hessian(scene: "Scene") -> bool:
     """Whether a term of ``scene`` makes the energy's Hessian dense."""
     return any(cls.present(scene) and cls.dense_hessian(scene) for cls in registered_terms())

@@ -210,6 +210,15 @@ class EnergyTerm:
         return 0.0
 
     @classmethod
+    def tip_layer(cls, scene: Scene) -> bool:
+        """Whether this term makes a boundary layer at the free end: the curvature it prefers there
+        is not the zero that a free end's θ'(1) = 0 imposes (a fibre angle or a magnetisation that
+        varies along the rod, or a field that varies in direction), so a strong term bends the rod
+        back over a length 1/k next to the tip. The mesh is then graded there too
+        (:func:`actuator_design.equilibrium.acceptance.graded_options`)."""
+        return False
+
+    @classmethod
     def phase_potential(cls, scene: Scene) -> Optional[Callable[[np.ndarray], np.ndarray]]:
         """This term's part V(θ) of the first integral H(θ, θ') = ½ b θ'² + Σ V(θ) of an autonomous
         scene (:mod:`actuator_design.analysis.phase`): its energy per unit length as a function of the

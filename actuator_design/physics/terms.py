@@ -161,6 +161,12 @@ class FieldOrientation(EnergyTerm):
         return math.sqrt(2.0) * max(abs(scene.h), abs(scene.h_pos))
 
     @classmethod
+    def tip_layer(cls, scene):
+        """The rod lies along φ − α(s) but for the end layers: a varying α or field direction
+        asks for a curvature the free end cannot have."""
+        return scene.h != 0.0 and not (scene.fibres.is_constant and scene.field.is_uniform)
+
+    @classmethod
     def dense_hessian(cls, scene):
         return not scene.field.is_uniform
 
