@@ -109,6 +109,11 @@ def check_physical(result):
             result.message += (f"; {problem}: the field there is not known to its stated accuracy (a rod "
                                "pulled onto a magnet leaves the region its field is fitted in)")
             return result
+    note = getattr(result.scene.field, "failure_note", None)
+    if not result.success and note is not None:
+        d = result.evaluate(np.linspace(0.0, 1.0, 401))
+        text = note(d["x"], d["y"])
+        result.message += f"; {text}" if text else ""
     if not result.success or result.options.keep_self_intersecting or not result.self_intersecting:
         return result
     result.success = False

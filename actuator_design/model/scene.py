@@ -72,6 +72,21 @@ class DipoleField:
     kind: str = dc_field(default="dipole", init=False)
     is_uniform: bool = dc_field(default=False, init=False)
 
+    def failure_note(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
+        """Why a solve may have failed, or None: the dipole lies within the rod's reach (|r0| < 1),
+        where its field grows as 1/ρ³ with nothing to stop the rod (``x``, ``y``: the reported
+        shape, units of ℓ, to say how close it came)."""
+        reach = math.hypot(self.x0, self.y0)
+        if not reach < 1.0:
+            return None
+        close = ""
+        if np.all(np.isfinite(x)) and np.all(np.isfinite(y)):
+            close = f"; the shape reported comes within {float(np.min(np.hypot(x - self.x0, y - self.y0))):.3g} of it"
+        return (f"the point dipole at ({self.x0:.4g}, {self.y0:.4g}) lies within the rod's reach ({reach:.4g} < 1 rod "
+                "length from the clamp): its field grows as 1/distance^3 and it has no body to stop the rod, so a "
+                "rod drawn towards it has no equilibrium" + close + "; place it farther than one rod length, or "
+                "give the magnet's body (a field of type magnet) and an obstacle where it is")
+
 
 @dataclass(frozen=True)
 class ExpressionField:
