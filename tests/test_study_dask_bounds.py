@@ -133,7 +133,9 @@ def test_listener_that_is_no_scheduler_ends_within_the_bound(tmp_path, capfd, mo
     finally:
         server.close()
     assert code == 2
-    assert elapsed < 1.0 + 2.0  # the 1 s bound, and the start of the command
+    # the 1 s bound, and the start of the command (with room for a second test process on the
+    # same cores; the default bound, 10 s, is far beyond)
+    assert elapsed < 1.0 + 5.0
     _one_error_line(capfd.readouterr().err, server.address, *words)
 
 
@@ -269,7 +271,7 @@ def test_lost_workers_raise_a_resumable_error_in_the_api(lonely_scheduler, monke
         t0 = time.monotonic()
         with pytest.raises(ClusterError, match="left mid-study") as info:
             next(gen)
-        assert time.monotonic() - t0 < 3
+        assert time.monotonic() - t0 < 5  # the 0.5 s bound (the default is 60 s), with room for a busy machine
     assert info.value.resumable
 
 

@@ -50,7 +50,7 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
     :func:`~actuator_design.equilibrium.accuracy.scene_wavenumber`), i.e. n = ⌈log2(k / E)⌉, when the uniform
     elements are longer than 3/k (below that, degree-10 elements resolve the layer already);
     the same towards the tip when a term makes a layer there (a tip moment, a fibre angle or a
-    magnetisation that varies along the rod, a field that varies in direction:
+    magnetisation that varies along the rod, a field that varies in direction, a distributed load:
     :func:`~actuator_design.physics.registry.tip_layer`). Midpoint meshes
     are not graded.
     """
@@ -110,7 +110,7 @@ def check_physical(result):
                                "pulled onto a magnet leaves the region its field is fitted in)")
             return result
     note = getattr(result.scene.field, "failure_note", None)
-    if not result.success and note is not None:
+    if not result.success and note is not None and not result.scene.obstacles:
         d = result.evaluate(np.linspace(0.0, 1.0, 401))
         text = note(d["x"], d["y"])
         result.message += f"; {text}" if text else ""

@@ -47,7 +47,8 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design_map import (driven_values, field_bound, prepare_scene, profile_report,
                                                 without_soft_coupling)
-from actuator_design.inverse.mesh import MAX_REGRADES, check_mesh, check_state, mesh_dict, regrade, unresolved
+from actuator_design.inverse.mesh import (MAX_REGRADES, check_mesh, check_state, grading, mesh_dict, regrade,
+                                          unresolved)
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
 from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES, profile_bound
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
@@ -136,8 +137,8 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
     if not check.ok:
         return _inaccurate(problem, mirror, choice, check, mesh, timings)
     if graded:
-        choice.notes.append(f"designed on the mesh graded towards the clamp for the design's field "
-                            f"({problem.options.clamp_levels} levels, as solve grades it): on the given "
+        choice.notes.append(f"designed on the mesh graded for the design's field ({grading(problem.options)}, "
+                            f"as solve grades it): on the given "
                             f"mesh the design did not meet the accuracy of solve")
     stage[0] = "robustness"
     tr = time.perf_counter()
@@ -220,7 +221,7 @@ def _inaccurate(problem: DesignProblem, mirror, choice: Choice, check, mesh, tim
         choice = mirror_choice(choice, phi_period(problem.base))
     o = problem.options
     where = (f"{o.elements} element{'s' if o.elements != 1 else ''} of degree {o.degree}"
-             + (f", graded {o.clamp_levels} levels towards the clamp" if o.clamp_levels else "")
+             + (f", graded {grading(o)}" if o.clamp_levels or o.tip_levels else "")
              if o.transcription == "lgl" else f"midpoint rule, {o.elements} intervals")
     result = result_of(problem, replace(choice, notes=[]), None, timings, None)
     # the state is no state of the rod: whether the target is reachable is not established

@@ -27,7 +27,7 @@ from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignProblem
 
 __all__ = ["MeshCheck", "check_mesh", "check_state", "unresolved", "refined_options", "regrade", "mesh_dict",
-           "Seed", "seed_of", "MAX_REGRADES"]
+           "grading", "Seed", "seed_of", "MAX_REGRADES"]
 
 #: Searches repeated on a regraded mesh at most (the design's field, and with it the grading, may
 #: move between searches).
@@ -97,9 +97,16 @@ def check_state(scene, solver, z: np.ndarray, options: SolverOptions) -> MeshChe
 
 
 def refined_options(choice: Choice, options: SolverOptions) -> SolverOptions:
-    """The design mesh graded towards the clamp for the chosen design's field (``options`` itself
+    """The design mesh graded towards the clamp (and the tip) for the chosen design's field (``options`` itself
     when it is already graded so, with ``adapt`` off, or for the midpoint rule)."""
     return graded_options(choice.scene, options) if options.adapt else options
+
+
+def grading(options: SolverOptions) -> str:
+    """How an LGL mesh is graded, in words: '3 levels towards the clamp and 3 levels towards the tip'."""
+    parts = [f"{n} level{'s' if n != 1 else ''} towards the {end}"
+             for n, end in ((int(options.clamp_levels), "clamp"), (int(options.tip_levels), "tip")) if n]
+    return " and ".join(parts) or "not graded"
 
 
 def mesh_dict(options: SolverOptions, check: Optional[MeshCheck], graded: bool) -> Dict[str, object]:

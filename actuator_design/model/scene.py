@@ -50,6 +50,10 @@ class UniformField:
     is_uniform: bool = dc_field(default=True, init=False)
 
 
+#: a failed solve whose shape comes closer than this to a point dipole (units of ℓ) was drawn onto it
+DIPOLE_CLOSE = 0.1
+
+
 @dataclass(frozen=True)
 class DipoleField:
     """Field of a point dipole (a small permanent magnet) lying in the plane of the rod.
@@ -73,19 +77,20 @@ class DipoleField:
     is_uniform: bool = dc_field(default=False, init=False)
 
     def failure_note(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
-        """Why a solve may have failed, or None: the dipole lies within the rod's reach (|r0| < 1),
-        where its field grows as 1/ρ³ with nothing to stop the rod (``x``, ``y``: the reported
-        shape, units of ℓ, to say how close it came)."""
+        """Why a solve failed, or None: the dipole lies within the rod's reach (|r0| < 1), where its
+        field grows as 1/ρ³ with nothing to stop the rod, and the reported shape (``x``, ``y``,
+        units of ℓ) came within :data:`DIPOLE_CLOSE` of it (a scene with obstacles is not asked)."""
         reach = math.hypot(self.x0, self.y0)
-        if not reach < 1.0:
+        if not (reach < 1.0 and np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
             return None
-        close = ""
-        if np.all(np.isfinite(x)) and np.all(np.isfinite(y)):
-            close = f"; the shape reported comes within {float(np.min(np.hypot(x - self.x0, y - self.y0))):.3g} of it"
+        closest = float(np.min(np.hypot(np.asarray(x) - self.x0, np.asarray(y) - self.y0)))
+        if not closest < DIPOLE_CLOSE:
+            return None
         return (f"the point dipole at ({self.x0:.4g}, {self.y0:.4g}) lies within the rod's reach ({reach:.4g} < 1 rod "
                 "length from the clamp): its field grows as 1/distance^3 and it has no body to stop the rod, so a "
-                "rod drawn towards it has no equilibrium" + close + "; place it farther than one rod length, or "
-                "give the magnet's body (a field of type magnet) and an obstacle where it is")
+                f"rod drawn towards it has no equilibrium; the shape reported comes within {closest:.3g} of it; place "
+                "it farther than one rod length, or give the magnet's body (a field of type magnet) and an "
+                "obstacle where it is")
 
 
 @dataclass(frozen=True)

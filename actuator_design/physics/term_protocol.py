@@ -213,8 +213,8 @@ class EnergyTerm:
     def tip_layer(cls, scene: Scene) -> bool:
         """Whether this term makes a boundary layer at the free end: the curvature it prefers there
         is not the zero that a free end's θ'(1) = 0 imposes (a fibre angle or a magnetisation that
-        varies along the rod, or a field that varies in direction), so a strong term bends the rod
-        back over a length 1/k next to the tip. The mesh is then graded there too
+        varies along the rod, a field that varies in direction, a distributed load), so a strong
+        term bends the rod back over a length 1/k next to the tip. The mesh is then graded there too
         (:func:`actuator_design.equilibrium.acceptance.graded_options`)."""
         return False
 

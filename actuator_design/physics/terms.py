@@ -393,6 +393,12 @@ class DistributedLoad(EnergyTerm):
         return math.hypot(*scene.distributed_load) ** (1.0 / 3.0)
 
     @classmethod
+    def tip_layer(cls, scene):
+        """The internal force q (1 − s) vanishes at the free end but its slope does not: the rod held
+        along a strong field (or hanging) is bent there by it, which the free end cannot follow."""
+        return any(q != 0.0 for q in scene.distributed_load)
+
+    @classmethod
     def phase_potential(cls, scene):
         if any(q != 0 for q in scene.distributed_load):
             raise ValueError("distributed_load: phase portraits need no distributed load (it makes the "
