@@ -36,3 +36,19 @@ def test_no_note_beyond_the_reach_far_from_it_or_on_success():
     near = DipoleField()
     assert near.failure_note(np.array([0.5]), np.array([-0.45])) is not None
     assert near.failure_note(np.array([np.nan]), np.array([0.0])) is None
+
+
+def test_validate_says_so_before_any_solve(tmp_path, capsys):
+    import json
+
+    from actuator_design.cli.main import main
+
+    def notes(y0):
+        path = tmp_path / f"dipole{y0}.yaml"
+        path.write_text("scene:\n  type: dimensionless\n  field: {type: dipole, position: {x: 0.5, y: %s}}\n"
+                        "  h: 1.0\n" % y0)
+        assert main(["validate", str(path), "--json"]) == 0
+        return json.loads(capsys.readouterr().out)["notes"]
+    assert any("lies within the rod's reach (0.9434 < 1 rod length" in n for n in notes(-0.8))
+    assert not any("reach" in n for n in notes(-1.2))
+    assert DipoleField(x0=0.5, y0=-1.2).reach_note() is None

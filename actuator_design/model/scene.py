@@ -76,21 +76,27 @@ class DipoleField:
     kind: str = dc_field(default="dipole", init=False)
     is_uniform: bool = dc_field(default=False, init=False)
 
-    def failure_note(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
-        """Why a solve failed, or None: the dipole lies within the rod's reach (|r0| < 1), where its
-        field grows as 1/ρ³ with nothing to stop the rod, and the reported shape (``x``, ``y``,
-        units of ℓ) came within :data:`DIPOLE_CLOSE` of it (a scene with obstacles is not asked)."""
+    def reach_note(self) -> Optional[str]:
+        """What to know before solving, or None: the dipole lies within the rod's reach (|r0| < 1),
+        where its field grows as 1/ρ³ with nothing to stop the rod."""
         reach = math.hypot(self.x0, self.y0)
-        if not (reach < 1.0 and np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        if not reach < 1.0:
+            return None
+        return (f"the point dipole at ({self.x0:.4g}, {self.y0:.4g}) lies within the rod's reach ({reach:.4g} < 1 rod "
+                "length from the clamp): its field grows as 1/distance^3 and it has no body to stop the rod, so a "
+                "rod drawn towards it has no equilibrium")
+
+    def failure_note(self, x: np.ndarray, y: np.ndarray) -> Optional[str]:
+        """Why a solve failed, or None: :meth:`reach_note`, when the reported shape (``x``, ``y``,
+        units of ℓ) came within :data:`DIPOLE_CLOSE` of the dipole (a scene with obstacles is not asked)."""
+        note = self.reach_note()
+        if note is None or not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
             return None
         closest = float(np.min(np.hypot(np.asarray(x) - self.x0, np.asarray(y) - self.y0)))
         if not closest < DIPOLE_CLOSE:
             return None
-        return (f"the point dipole at ({self.x0:.4g}, {self.y0:.4g}) lies within the rod's reach ({reach:.4g} < 1 rod "
-                "length from the clamp): its field grows as 1/distance^3 and it has no body to stop the rod, so a "
-                f"rod drawn towards it has no equilibrium; the shape reported comes within {closest:.3g} of it; place "
-                "it farther than one rod length, or give the magnet's body (a field of type magnet) and an "
-                "obstacle where it is")
+        return (f"{note}; the shape reported comes within {closest:.3g} of it; place it farther than one rod "
+                "length, or give the magnet's body (a field of type magnet) and an obstacle where it is")
 
 
 @dataclass(frozen=True)
