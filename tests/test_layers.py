@@ -109,3 +109,24 @@ def test_which_scenes_have_a_tip_layer():
     assert tip_layer(Scene(tip_moment=2.0)) and not tip_layer(Scene(tip_moment=0.0))
     assert tip_layer(Scene(distributed_load=(0.0, -1.0))) and not tip_layer(Scene(distributed_load=(0.0, 0.0)))
     assert not tip_layer(Scene(tip_force=(3.0, 4.0)))
+
+
+@pytest.mark.parametrize("name,top", [("h_r", 3000.0), ("h", 300.0)])
+def test_a_loading_path_is_followed_on_a_mesh_that_resolves_its_strongest_field(name, top):
+    """A path from zero field to h_r = 3000 (or h = 300) on one mesh: graded for the strongest scene
+    of the schedule, its last state meets the closed-form clamp layer (before: the start's
+    ungraded mesh, tip errors 6e-6 and 5e-4, and the path said success)."""
+    from actuator_design.continuation.loading import follow_path
+    from physical_references import layer_tip
+
+    if name == "h_r":
+        phi = 0.5 * math.pi
+        scene = Scene(field=UniformField(phi=phi), h_r=1.0, magnetization=constant_profile(0.0))
+        x, y = remanent_layer_tip(top, phi, 0.0)
+    else:
+        phi = math.radians(45.0)
+        scene = Scene(field=UniformField(phi=phi), h=1.0)
+        x, y = layer_tip(top, phi)
+    path = follow_path(scene, schedule={name: [0.0, top]})
+    assert path.success, path.message
+    assert max(abs(path.final.tip["x"] - x), abs(path.final.tip["y"] - y)) < 1e-8, (path.final.tip, x, y)

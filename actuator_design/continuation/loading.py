@@ -44,6 +44,8 @@ from actuator_design.continuation.loading_schedule import (Schedule, apply_value
                                                            normalise_schedule, prepare_scene, ramp,
                                                            scene_values)
 from actuator_design.continuation.loading_tracker import Tracker as _Tracker
+from actuator_design.continuation.segment import LensSegment, followers
+from actuator_design.equilibrium.acceptance import graded_for_scenes
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
@@ -65,10 +67,11 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         The scene; its values not named in the schedule stay fixed. Terms a scheduled parameter
         needs (a tip force for ``p``, a uniform field for ``h``/``phi``, …) are added at value zero.
     options : SolverOptions, optional
-        Transcription and resolution (default ``SolverOptions()``). The branch is continued by
-        the engine's Newton corrector (to ``tol`` × the solver's residual scale) and the states
-        at schedule points, folds and landings are solved with Newton without ``ensure_stable``;
-        the start and the snaps use IPOPT with ``ensure_stable``.
+        Transcription and resolution (default ``SolverOptions()``); with ``adapt`` the mesh is
+        graded for the strongest scene of the schedule (one mesh for the whole path). The branch
+        is continued by the engine's Newton corrector (to ``tol`` × the solver's residual scale)
+        and the states at schedule points, folds and landings are solved with Newton without
+        ``ensure_stable``; the start and the snaps use IPOPT with ``ensure_stable``.
     schedule : list of dict, or dict of lists
         Parameter settings in order (names of the parameter lens, dimensionless, angles in rad),
         e.g. ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}]`` or ``{"p": [0.5, -2, 0.5]}``;
@@ -100,6 +103,7 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     if scene.obstacles:
         return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
     base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
+    options = _graded_for_schedule(base, options, names, vals)
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
 
     prob0 = tr.problem(0)
@@ -133,6 +137,14 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     return LoadingPath(names=names, schedule=vals, param=tr.param, points=tr.points, jumps=tr.jumps,
                        bifurcations=tr.bifs, snap_free=bool(ok and not tr.jumps), hysteresis=hyst,
                        states=tr.states, final=cur, success=ok, message=msg)
+
+
+def _graded_for_schedule(base: Scene, options: SolverOptions, names, vals) -> SolverOptions:
+    """``options`` graded towards the clamp and the tip for the strongest scene of the schedule
+    (:func:`~actuator_design.equilibrium.acceptance.graded_for_scenes`): the whole path is followed
+    on one mesh, which must resolve the layers at its strongest field or load."""
+    follow = followers(base, names, vals)
+    return graded_for_scenes([LensSegment(base, names, v, v, follow).scene(0.0) for v in vals], options)
 
 
 def _through_itself(states, names, vals) -> Optional[str]:

@@ -37,7 +37,7 @@ from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import end_moment, tip_layer
 
-__all__ = ["solve_checked", "accept", "graded_options", "residual_problem", "moment_scale", "check_physical"]
+__all__ = ["solve_checked", "accept", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale", "check_physical"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
@@ -65,6 +65,17 @@ def graded_options(scene, options: SolverOptions) -> SolverOptions:
     if (clamp, tip) == (options.clamp_levels, options.tip_levels):
         return options
     return replace(options, clamp_levels=clamp, tip_levels=tip)
+
+
+def graded_for_scenes(scenes, options: SolverOptions) -> SolverOptions:
+    """``options`` graded for the most demanding of ``scenes`` (the most levels towards the clamp
+    and the tip any of them asks for, :func:`graded_options`): one mesh for a path or a branch
+    through all of them; ``options`` itself with ``adapt`` off."""
+    if not options.adapt:
+        return options
+    graded = [graded_options(sc, options) for sc in scenes]
+    return replace(options, clamp_levels=max([options.clamp_levels] + [g.clamp_levels for g in graded]),
+                   tip_levels=max([options.tip_levels] + [g.tip_levels for g in graded]))
 
 
 def moment_scale(result) -> float:
