@@ -130,3 +130,14 @@ def test_a_loading_path_is_followed_on_a_mesh_that_resolves_its_strongest_field(
     path = follow_path(scene, schedule={name: [0.0, top]})
     assert path.success, path.message
     assert max(abs(path.final.tip["x"] - x), abs(path.final.tip["y"] - y)) < 1e-8, (path.final.tip, x, y)
+
+
+def test_a_path_warm_started_by_node_values_stays_on_their_mesh():
+    """Node values fit the mesh they were made on: given them, the path is not regraded (it raised
+    'initial guess has shape (41,), expected (111,)' when it was)."""
+    from actuator_design.continuation.loading import follow_path
+
+    scene = Scene(field=UniformField(phi=1.0), h=1.0)
+    start = solve(scene)
+    path = follow_path(scene, schedule={"h": [1.0, 20.0]}, initial=start.z)
+    assert path.success and path.final.z.shape == start.z.shape, path.message

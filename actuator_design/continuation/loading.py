@@ -78,6 +78,8 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         :func:`ramp` builds up/down ramps. At least two points.
     initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
         Warm start of the first state (default: the straight rod); the first state is made stable.
+        Node values (an ndarray) are those of the mesh ``options`` describe: the path then stays
+        on that mesh, not graded for its schedule.
     max_step : float, optional
         Largest step, as a fraction of a schedule segment (0 < max_step ≤ 1). Default
         min(1, n_segments/20): about 20 steps over the whole path at least, and one per segment
@@ -103,7 +105,8 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     if scene.obstacles:
         return follow_contact_path(scene, options, schedule, max_step=max_step, max_dtheta=max_dtheta)
     base, names, vals, max_step = checked_schedule(scene, schedule, max_step, max_dtheta)
-    options = _graded_for_schedule(base, options, names, vals)
+    if not isinstance(initial, np.ndarray):  # (node values hold on the mesh they were made on)
+        options = _graded_for_schedule(base, options, names, vals)
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
 
     prob0 = tr.problem(0)
