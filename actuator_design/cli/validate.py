@@ -38,9 +38,9 @@ def run(args: argparse.Namespace) -> int:
     zero = zero_coupling(scene)
     if zero:
         notes.append(zero)
-    reach = getattr(scene.field, "reach_note", None)  # (a point dipole within the rod's reach)
-    if reach is not None and reach() and not scene.obstacles:
-        notes.append(reach() + " once the field is strong enough to pull it in")
+    reach = getattr(scene.field, "reach_note", lambda: None)()  # (a point dipole within the rod's reach)
+    if reach and not scene.obstacles:
+        notes.append(reach + " once the field is strong enough to pull it in")
     if args.json:
         from actuator_design.io.save import dumps_json, scene_to_dict
         out = {"valid": True, "config": str(args.config), "scene": scene_to_dict(scene),

@@ -37,7 +37,8 @@ from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import end_moment, tip_layer
 
-__all__ = ["solve_checked", "accept", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale", "check_physical"]
+__all__ = ["solve_checked", "accept", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale",
+           "check_physical"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6

@@ -138,8 +138,7 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
         return _inaccurate(problem, mirror, choice, check, mesh, timings)
     if graded:
         choice.notes.append(f"designed on the mesh graded for the design's field ({grading(problem.options)}, "
-                            f"as solve grades it): on the given "
-                            f"mesh the design did not meet the accuracy of solve")
+                            "as solve grades it): on the given mesh the design did not meet the accuracy of solve")
     stage[0] = "robustness"
     tr = time.perf_counter()
     # the verification of a moved design starts beside the robust stage's own branch following

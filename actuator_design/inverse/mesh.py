@@ -97,8 +97,8 @@ def check_state(scene, solver, z: np.ndarray, options: SolverOptions) -> MeshChe
 
 
 def refined_options(choice: Choice, options: SolverOptions) -> SolverOptions:
-    """The design mesh graded towards the clamp (and the tip) for the chosen design's field (``options`` itself
-    when it is already graded so, with ``adapt`` off, or for the midpoint rule)."""
+    """The design mesh graded towards the clamp (and the tip) for the chosen design's field
+    (``options`` itself when it is already graded so, with ``adapt`` off, or for the midpoint rule)."""
     return graded_options(choice.scene, options) if options.adapt else options
 
 
