@@ -78,3 +78,11 @@ def test_transverse_window_over_all_branches():
         assert abs(d["tip_angle"]) < 1e-10
         assert (d["equilibria_below"], d["equilibria_above"]) == (2 * m - 1, 2 * m + 1)
     assert registry.get("critical")  # registered
+
+
+def test_a_branch_stopped_inside_the_window_leaves_the_list_incomplete():
+    """With too few points per branch the fold at p ≈ 51 lies beyond where the branches stop: the
+    list of critical points is then not complete and says why (before: complete with one fold)."""
+    r = critical_points(default_scene(h=0.0, p=0.0), "p", (0.0, 60.0), max_points=15, n_samples=2)
+    assert not r.complete
+    assert any("stopped inside the window" in why for why in r.incomplete_reasons), r.incomplete_reasons

@@ -1,8 +1,11 @@
 """Continue an equilibrium branch in one parameter (pseudo-arclength), with stability, folds and
 branch points.
 
-The equilibrium at --from A (the solver's stable one, or the straight rod with --straight) is
-followed through folds until the parameter leaves [min(A, B), max(A, B)]. Parameters (--param):
+The equilibrium at --from A (the state reached from rest, or the straight rod with --straight) is
+followed through folds until the parameter leaves [min(A, B), max(A, B)], on one mesh graded for
+the window's more demanding end (with --straight, the mesh of the solver's settings). The states
+at the branch's least and greatest parameter value are held to the accuracy of `solve` (the JSON's
+`accurate`, `accuracy`): a branch that misses it exits 3 and says where. Parameters (--param):
 h, h2 (= h^2), phi (rad), p (vertical tip load), fx, fy, m_tip, qx, qy, alpha (constant fibre
 angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter; branch points are
 where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
@@ -261,6 +264,10 @@ def run(args: argparse.Namespace) -> int:
         print_written(written, args.json)
     if not res.complete:
         print(f"actuator-design: warning: the continuation stopped early: {res.branch.message}",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    if not res.accurate:
+        print(f"actuator-design: warning: the branch misses the accuracy of a solve {res.accuracy}",
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK

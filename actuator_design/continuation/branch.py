@@ -136,19 +136,28 @@ class ContinuationResult:
     contact_path: Optional[Any] = None  # LoadingPath on from the first touch (status "touch")
     #: what the branch is and is not (e.g. a field group continued while the others it drives stay)
     notes: List[str] = field(default_factory=list)
+    #: why the branch's states at its least and greatest parameter value miss the accuracy of a solve, or None
+    accuracy: Optional[str] = None
+
+    @property
+    def accurate(self) -> bool:
+        """Whether the branch's end states meet the accuracy of a solve (:attr:`accuracy` is None)."""
+        return self.accuracy is None
 
     @property
     def complete(self) -> bool:
-        """Whether the window was covered: the branch ended at its end (not at a step too small),
-        or at a touch followed on with contact by a successful loading path."""
+        """Whether the window was covered: the branch ended at its end or closed on itself (not at a
+        step too small, nor after its maximum number of points), or at a touch followed on with
+        contact by a successful loading path."""
         if self.branch.status == "touch":
             return self.contact_path is not None and bool(self.contact_path.success)
-        return self.branch.status != "step_too_small"
+        return self.branch.status not in ("step_too_small", "max_points")
 
     def to_dict(self) -> dict:
         """The ``continue --json`` contract: ``branch`` (points with the parameter value, tip angle,
         stable), ``folds`` and ``branch_points`` (value and tip angle each); ``contact_path``: the
-        loading path with contact on from the first touch (``path --json``'s contract), or None."""
+        loading path with contact on from the first touch (``path --json``'s contract), or None;
+        ``accurate`` and ``accuracy`` (why not, or None)."""
         b = self.branch.to_dict()
         return {"param": self.param, "window": list(self.window), "branch": b["points"],
                 "folds": b["folds"], "branch_points": b["branch_points"], "status": b["status"],
@@ -156,4 +165,5 @@ class ContinuationResult:
                 "secondary_branches": [s.to_dict() for s in self.secondary],
                 "groups": describe_groups(self.scene),
                 "contact_path": None if self.contact_path is None else self.contact_path.to_dict(),
-                "complete": self.complete, "notes": list(self.notes)}
+                "complete": self.complete, "notes": list(self.notes),
+                "accurate": self.accurate, "accuracy": self.accuracy}

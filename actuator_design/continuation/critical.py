@@ -340,6 +340,10 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                 for half in cont.switch(bp, (a, b), **kw):
                     if len(half) and not known(half.z[0], half.lam[0]):
                         branches.append(half)
+    for br in branches:  # a branch that stopped inside the window may have folds beyond where it stopped
+        if any(part in ("step_too_small", "max_points") for part in br.status.split(" / ")):
+            reasons.append(f"a branch through {param} = {br.lam[0]:.6g} .. {br.lam[-1]:.6g} stopped inside the "
+                           f"window ({br.message}): its folds and branch points beyond are not known")
     folds = _dedupe([cp for br in branches for cp in br.folds])
     bps = _dedupe([cp for br in branches for cp in br.branch_points])
     # counts between consecutive critical values

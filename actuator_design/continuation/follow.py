@@ -34,9 +34,11 @@ from actuator_design.contact.self_contact import least_self_clearance
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold,
                                           UserEvent, continuation)
 from actuator_design.continuation.branch import Branch, ContinuationResult, CriticalPoint
+from actuator_design.equilibrium.acceptance import graded_for_scenes, residual_problem, warm_values
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
@@ -173,14 +175,14 @@ class Continuation:
     # -- starting -----------------------------------------------------------------------------
     def start(self, lam0: float, initial=None) -> np.ndarray:
         """A converged point x = (u, λ0): Newton from ``initial`` (node vector, EquilibriumResult or
-        None for a solve of the scene at λ0 with the solver's own strategy)."""
-        if isinstance(initial, EquilibriumResult):
-            initial = initial.z
-        if initial is None:
-            res = solve(self.scene_at(lam0), replace(self.options, ensure_stable=True), solver=self.solver)
+        None for the state :func:`~actuator_design.equilibrium.pipeline.solve` reaches from rest at λ0)."""
+        if isinstance(initial, EquilibriumResult):  # (interpolated when solved on another mesh)
+            initial = warm_values(initial, self.solver.transcription.nodes)
+        if initial is None:  # the state reached from rest, on the mesh solve chooses for it
+            res = solve(self.scene_at(lam0), replace(self.options, ensure_stable=True))
             if not res.success:
                 raise RuntimeError(f"continuation: no equilibrium found at {self.name} = {lam0}: {res.message}")
-            initial = res.z
+            initial = warm_values(res, self.solver.transcription.nodes)
         u, ok, _ = self.correct_fixed(np.asarray(initial, float)[1:], lam0, max_iter=50)
         if not ok:
             raise RuntimeError(f"continuation: Newton did not converge at the start {self.name} = {lam0}")
@@ -353,9 +355,21 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     Returns
     -------
     ContinuationResult
+        With ``accuracy``: why the branch's states at its least and greatest parameter value miss the
+        accuracy of :func:`~actuator_design.equilibrium.pipeline.solve`, or None.
+
+    Notes
+    -----
+    The branch is followed on one mesh, graded for the most demanding end of the window
+    (:func:`~actuator_design.equilibrium.acceptance.graded_for_scenes`, with ``options.adapt``), unless
+    ``initial`` is given as node values (they hold on the mesh ``options`` make).
     """
-    cont = Continuation(scene, param, options)
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
+    options = options or SolverOptions()
+    if not isinstance(initial, np.ndarray):
+        ends = [v for v in (start, stop, *win) if math.isfinite(v)]
+        options = graded_for_scenes([set_param(scene, param, v) for v in ends], options)
+    cont = Continuation(scene, param, options)
     touch, itself = (), None
     if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
         least = least_clearance(cont.solver, scene.obstacles, scene.contact_gap)
@@ -389,11 +403,32 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
                           f"({'converged' if contact.success else 'FAILED'}: {contact.message})")
         else:
             br.message = f"{where} (through_contact off: the rod's contact states are not followed)"
+    if br.status == "max_points":
+        br.message += (f" at {param} = {br.lam[-1]:.6g}, short of the window [{win[0]:.6g}, {win[1]:.6g}]: "
+                       "raise max_points (--max-points) or the largest step ds_max (--ds-max, arclength "
+                       "in which the parameter counts with weight 1)")
     sec = []
     if switch:
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
-    return ContinuationResult(param, br, sec, scene, win, contact, notes=_alone_note(scene, param))
+    return ContinuationResult(param, br, sec, scene, win, contact, notes=_alone_note(scene, param),
+                              accuracy=_accuracy_problem(cont, br))
+
+
+def _accuracy_problem(cont: Continuation, br: Branch) -> Optional[str]:
+    """Why the branch's states at its least and greatest parameter value miss the accuracy
+    promise of ``solve`` (the Euler–Lagrange residual of :func:`~actuator_design.equilibrium.acceptance.residual_problem`),
+    or None: a branch's layers are widest at one end of its range and narrowest at the other."""
+    if len(br) == 0:
+        return None
+    for k in sorted({int(np.argmin(br.lam)), int(np.argmax(br.lam))}):
+        lam = float(br.lam[k])
+        state = solve_on(cont.scene_at(lam), cont.options, br.z[k], cont.solver)
+        why = residual_problem(state) if state.success else f"its state does not converge ({state.message})"
+        if why is not None:
+            return (f"at {cont.name} = {lam:.6g}: {why}; refine the mesh (--elements, --clamp-levels) or "
+                    "narrow the window")
+    return None
 
 
 def _alone_note(scene: Scene, param: str) -> List[str]:

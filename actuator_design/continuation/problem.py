@@ -15,8 +15,8 @@ from scipy.linalg import lapack
 
 from actuator_design.continuation.banded import BandedBordered, use_band
 from actuator_design.reduced.fold import locate_fold
-from actuator_design.reduced.linalg import (banded_negatives, ldl_negatives, lowest_eigenpair,
-                                            lowest_eigenpair_banded, lu_det_sign,
+from actuator_design.reduced.linalg import (FLOOR_EXCUSE, banded_negatives, ldl_negatives, lowest_eigenpair,
+                                            lowest_eigenpair_banded, lu_det_sign, rounding_floor,
                                             signed_distance_to_singularity)
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
@@ -109,19 +109,32 @@ class BifurcationProblem:
         """max_i |g_i| / m_i."""
         return float(np.max(np.abs(g / self.mass)))
 
+    def stationary(self, res: float, tol: float, H: np.ndarray, u: np.ndarray) -> bool:
+        """Whether the residual ``res`` = max_i |g_i| / m_i at ``u`` (Hessian ``H`` there) meets
+        ``tol``, or is within its rounding floor above it (:func:`~actuator_design.reduced.linalg.rounding_floor`:
+        the small end elements of a graded mesh put an absolute 1e-10 below what rounding allows)."""
+        if res <= tol:
+            return True
+        if not res <= (1.0 + FLOOR_EXCUSE) * tol:
+            return False
+        floor = rounding_floor(np.abs(H).sum(axis=1), 1.0 / self.mass, u)
+        return res <= tol + min(floor, FLOOR_EXCUSE * tol)
+
     # -- correctors -----------------------------------------------------------------------------
     def correct_fixed(self, u, lam, tol: float, max_iter: int = 20):
-        """Newton at fixed λ (steps clipped to 1 rad). Returns (u, converged, iterations)."""
+        """Newton at fixed λ (steps clipped to 1 rad), converged by :meth:`stationary`.
+        Returns (u, converged, iterations)."""
         def evaluate(u_):
             g, H, _ = self.ev(u_, lam)
             return g, H
 
-        return newton(evaluate, u, lambda u_, g: self.residual(g) <= tol, max_iter, clip_at=1.0)
+        return newton(evaluate, u, lambda u_, g: self.stationary(self.residual(g), tol, self.ev.H, u_),
+                      max_iter, clip_at=1.0)
 
     def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8,
                 start: Optional[np.ndarray] = None):
         """Newton on [G(x); rowᵀ(x − x_p)] = 0 from ``start`` (default x_p; PALC: row = W t;
-        natural: row = e_λ). Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
+        natural: row = e_λ), converged by :meth:`stationary` and |rowᵀ(x − x_p)| ≤ ``arc_tol``. Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
 
         The loop of :func:`~actuator_design.reduced.newton.newton` (same tests, same order) with
         the bordered Jacobian assembled in one Fortran buffer and solved by LAPACK ``dgesv``
@@ -137,7 +150,7 @@ class BifurcationProblem:
             arc = float(row @ (x - xp))
             if not (res < math.inf and abs(arc) < math.inf):
                 return x, False, it
-            if res <= tol and abs(arc) <= arc_tol:
+            if abs(arc) <= arc_tol and self.stationary(res, tol, H, x[:n]):
                 return x, True, it
             if it == max_iter:
                 break

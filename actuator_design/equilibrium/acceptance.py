@@ -38,7 +38,7 @@ from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import end_moment, tip_layer
 
 __all__ = ["solve_checked", "accept", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale",
-           "check_physical"]
+           "check_physical", "warm_values"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
@@ -173,13 +173,17 @@ def accept(result):
     return result
 
 
+def warm_values(guess, nodes: np.ndarray):
+    """θ at ``nodes`` (shape (n,), units of ℓ) from a warm start: node values as given, a result's
+    own node values when its nodes are these, else its solution interpolated onto them."""
+    if not hasattr(guess, "evaluate"):
+        return guess
+    same = guess.z is not None and guess.s.shape == nodes.shape and np.array_equal(guess.s, nodes)
+    return guess.z if same else guess.evaluate(nodes)["theta"]
+
+
 def _solve_warm(scene, opts, solver, guess):
-    nodes = solver.transcription.nodes
-    z0 = guess
-    if hasattr(guess, "evaluate"):  # a result: its own nodes when they are these, else interpolated
-        same = guess.z is not None and guess.s.shape == nodes.shape and np.array_equal(guess.s, nodes)
-        z0 = guess.z if same else guess.evaluate(nodes)["theta"]
-    return solve_on(scene, opts, z0, solver, strict=True)
+    return solve_on(scene, opts, warm_values(guess, solver.transcription.nodes), solver, strict=True)
 
 
 def _solve_from_start(scene, opts, solver):

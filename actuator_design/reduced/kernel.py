@@ -13,6 +13,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from actuator_design.reduced.linalg import lowest_eigenpairs as _lowest_eigenpairs
+from actuator_design.reduced.linalg import rounding_floor
 
 __all__ = ["FastKernel"]
 
@@ -115,13 +116,10 @@ class FastKernel:
         return float(self.r[0])
 
     def rounding_floor(self, zr: np.ndarray) -> float:
-        """The residual that rounding alone produces at ``zr``: 16 ε max_i Σ_j |H_ij| |z|∞ / m_i
-        (last evaluated H). For fine meshes (midpoint N ≳ 1000) it reaches 1e-10. The solvers
-        accept a residual above tolerance on this ground only up to 1e4 × tolerance (a huge
-        Hessian, e.g. a rod touching a dipole's singularity, must not excuse a large residual)."""
-        rowsum = np.bincount(self.rows, weights=np.abs(self.hnz), minlength=self.n)
-        return float(16.0 * np.finfo(float).eps * np.max(rowsum * self.inv_mass)
-                     * max(1.0, float(np.abs(zr).max(initial=0.0))))
+        """The residual that rounding alone produces at ``zr`` (last evaluated H;
+        :func:`~actuator_design.reduced.linalg.rounding_floor`). For fine meshes (midpoint N ≳ 1000)
+        it reaches 1e-10."""
+        return rounding_floor(np.bincount(self.rows, weights=np.abs(self.hnz), minlength=self.n), self.inv_mass, zr)
 
     def hessian_dense(self) -> np.ndarray:
         """The last evaluated Hessian as a dense array, shape (n, n)."""

@@ -19,6 +19,8 @@ from typing import Callable, Optional, Tuple
 
 import numpy as np
 
+from actuator_design.reduced.linalg import FLOOR_EXCUSE
+
 __all__ = ["RawSolution", "damped_newton", "fast_newton", "newton"]
 
 
@@ -86,7 +88,7 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
                 return done(zr, res)  # the step is rounding noise: nothing to improve
             res_new = k.evaluate(zr - step)
             return done(zr - step, res_new) if res_new <= atol else done(zr, res)
-        if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
+        if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
             return done(zr, res, " (at the rounding floor)")
         if it == max_iter:
             break
@@ -103,7 +105,7 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
             t *= 0.5
         else:
             k.evaluate(zr)
-            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
+            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
                 return done(zr, res, " (at the rounding floor)")
             break
         zr, res = zr - t * step, res_new
@@ -168,7 +170,7 @@ def fast_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: float,
         if res <= atol and not trusted:
             factored = False  # small gradient, step not certified: refresh the Hessian
             continue
-        if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), 1e4 * atol):
+        if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
             return done(zr, res, " (at the rounding floor)")
         zr_new = zr - step
         res_new = k.evaluate(zr_new, hessian=False)

@@ -1,0 +1,113 @@
+"""A branch continued into strong fields is followed on a mesh that resolves its clamp layer, and
+its end states are held to the accuracy of a solve.
+
+Reference: the closed-form strong-field clamp layer (``physical_references.layer_tip``,
+θ = φ + 2 atan(tan(−φ/2) e^(−√2 h s)) integrated by quad), independent of the collocation.
+Before: ``continue`` in h from 1 to 300 (φ = 45°) ran on the uniform mesh, ended 4.7e-4 off the
+closed form and said ``left_window`` (complete); graded, its corrector stalled at the rounding floor
+of the small end elements ("steps below 1e-07" at h = 1.04).
+"""
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from actuator_design.cli.main import main
+from actuator_design.continuation.follow import Continuation, continue_branch
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.model.scene import Scene, UniformField
+from physical_references import layer_tip
+
+PHI = math.radians(45.0)
+
+
+def _tip_error(branch, k):
+    x, y = layer_tip(float(branch.lam[k]), PHI)
+    return max(abs(branch.tips[k, 1] - x), abs(branch.tips[k, 2] - y))
+
+
+@pytest.mark.parametrize("start,stop", [(1.0, 300.0), (300.0, 1.0)])
+def test_a_branch_into_a_strong_field_meets_the_closed_form_clamp_layer(start, stop):
+    res = continue_branch(Scene(field=UniformField(phi=PHI), h=1.0), "h", start, stop)
+    br = res.branch
+    assert res.complete and res.accurate, (br.message, res.accuracy)
+    end = int(np.argmax(br.lam))
+    assert br.lam[end] == pytest.approx(300.0, abs=1e-9)
+    assert _tip_error(br, end) < 1e-9
+    # (the closed form holds where e^(−√2 h) is negligible: from h ≈ 30 on)
+    strong = np.flatnonzero(br.lam >= 30.0)
+    assert len(strong) > 10 and max(_tip_error(br, int(k)) for k in strong) < 1e-9
+    assert np.all(br.morse_index == 0)  # the aligning branch is stable throughout
+
+
+def test_an_unresolved_branch_says_so():
+    """On the uniform mesh (adapt off) the branch still covers the window but misses the accuracy
+    of a solve at its strong end, and says where (its tip is 4.7e-4 off the closed form there)."""
+    res = continue_branch(Scene(field=UniformField(phi=PHI), h=1.0), "h", 1.0, 300.0,
+                          options=SolverOptions(adapt=False))
+    assert res.complete and not res.accurate
+    assert "h = 300" in res.accuracy and "Euler–Lagrange residual" in res.accuracy
+    assert _tip_error(res.branch, len(res.branch) - 1) > 1e-5
+    payload = res.to_dict()
+    assert payload["accurate"] is False and payload["accuracy"] == res.accuracy
+
+
+def test_the_corrector_converges_at_the_rounding_floor_of_a_graded_mesh():
+    """A corrector step on a mesh graded 7 levels towards the clamp: max|g|/m stalls at 1–3e-10 there
+    (above tol = 1e-10), which is the rounding of the small end elements, not a failure."""
+    cont = Continuation(Scene(field=UniformField(phi=PHI), h=1.0), "h",
+                        replace(SolverOptions(), clamp_levels=7))
+    x0 = cont.start(1.0)
+    t, _ = cont.tangent(x0)
+    x, ok, _ = cont.correct(x0 + 0.05 * t, t, max_iter=8)
+    assert ok
+    g, H, _ = cont.ev(x[:-1], x[-1])
+    res = cont.problem.residual(g)
+    assert res <= 1e-10 + 1e4 * 1e-10  # within the excuse the floor may give
+    # a residual far above tolerance is not excused
+    assert not cont.problem.stationary(1e-5, 1e-10, H, x[:-1])
+
+
+def test_a_start_solved_on_another_mesh_is_interpolated():
+    scene = Scene(field=UniformField(phi=PHI), h=1.0)
+    coarse = solve(scene, SolverOptions(elements=8))
+    res = continue_branch(scene, "h", 1.0, 50.0, initial=coarse)
+    assert res.complete and res.accurate, res.branch.message
+    assert _tip_error(res.branch, len(res.branch) - 1) < 1e-9
+
+
+def test_cli_continue_exits_3_on_an_unresolved_branch(tmp_path, capsys):
+    """--straight keeps the solver's (uniform) mesh: up to h = 300 the branch misses the accuracy."""
+    code = main(["continue", "--h", "1", "--phi-deg", "45", "--param", "h", "--from", "1", "--to", "300",
+                 "--straight", "--json"])
+    out, err = capsys.readouterr()
+    payload = json.loads(out)
+    assert code == 3 and payload["complete"] and not payload["accurate"]
+    assert "misses the accuracy of a solve" in err
+    code = main(["continue", "--h", "1", "--phi-deg", "45", "--param", "h", "--from", "1", "--to", "300",
+                 "--json"])
+    payload = json.loads(capsys.readouterr()[0])
+    assert code == 0 and payload["accurate"] and payload["accuracy"] is None
+
+
+def test_a_branch_stopped_by_its_point_limit_is_not_complete():
+    """p from 0 to 1e4 takes ~2e4 steps of ds_max = 0.5: after max_points the branch stopped near
+    p = 1e3 and said complete (exit 0). Now it says where it stopped and what to raise; with a
+    larger ds_max it covers the window and its end meets scipy's solve_bvp (clamp layer √p = 100)."""
+    from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
+
+    scene = Scene(tip_force=(0.0, 0.0))
+    short = continue_branch(scene, "p", 0.0, 1e4)
+    assert short.branch.status == "max_points" and not short.complete
+    assert "--max-points" in short.branch.message and "--ds-max" in short.branch.message
+    res = continue_branch(scene, "p", 0.0, 1e4, ds_max=50.0)
+    assert res.complete and res.accurate, (res.branch.message, res.accuracy)
+    end = Scene(tip_force=(0.0, float(res.branch.lam[-1])))
+    assert res.branch.lam[-1] == pytest.approx(1e4, abs=1e-9)
+    ref = solve_bvp_peer(bvp_from_scene(end), 1e-10, guess_theta=lambda s: 0.5 * math.pi * (1.0 - np.exp(-100.0 * s)))
+    assert ref.success
+    angle, x, y = res.branch.tips[-1]
+    assert np.max(np.abs(np.array([x, y, angle]) - ref.tip)) < 1e-8
