@@ -86,3 +86,14 @@ def test_a_branch_stopped_inside_the_window_leaves_the_list_incomplete():
     r = critical_points(default_scene(h=0.0, p=0.0), "p", (0.0, 60.0), max_points=15, n_samples=2)
     assert not r.complete
     assert any("stopped inside the window" in why for why in r.incomplete_reasons), r.incomplete_reasons
+
+
+def test_critical_points_in_a_window_whose_strong_end_grades_the_mesh():
+    """p ∈ [0, 200]: the clamp layer √200 ≈ 14 grades the mesh of the solves at the strong samples;
+    the branches are followed on the window's mesh, the sample states interpolated onto it (before:
+    'operands could not be broadcast together with shapes (40,) (60,)'). Three folds, at the
+    shooting values."""
+    r = critical_points(default_scene(h=0.0, p=0.0), "p", (0.0, 200.0), n_samples=3)
+    assert r.complete, r.incomplete_reasons
+    refs = [reference_fold(10.3, -2.8)[0], reference_fold(51.0, -3.7)[0], reference_fold(119.6, -4.2)[0]]
+    assert [d["value"] for d in r.folds] == pytest.approx(refs, abs=1e-6)

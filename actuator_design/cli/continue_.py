@@ -3,9 +3,9 @@ branch points.
 
 The equilibrium at --from A (the state reached from rest, or the straight rod with --straight) is
 followed through folds until the parameter leaves [min(A, B), max(A, B)], on one mesh graded for
-the window's more demanding end (with --straight, the mesh of the solver's settings). The states
-at the branch's least and greatest parameter value are held to the accuracy of `solve` (the JSON's
-`accurate`, `accuracy`): a branch that misses it exits 3 and says where. Parameters (--param):
+the window's more demanding end. The states at the branch's least and greatest parameter value
+and at its sharpest clamp layer are held to the accuracy of `solve` (the JSON's `accurate`,
+`accuracy`, `success`): a branch that misses it exits 3 and says where. Parameters (--param):
 h, h2 (= h^2), phi (rad), p (vertical tip load), fx, fy, m_tip, qx, qy, alpha (constant fibre
 angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter; branch points are
 where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
@@ -42,11 +42,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from actuator_design.config.study_param_specs import PARAM_NAMES, ContinuationStudy
+
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
-                     check_parameter_angle, finite_float, stdout_to_stderr)
+                                        check_parameter_angle, finite_float, stdout_to_stderr)
 from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
 from actuator_design.cli.output import print_written, write_out
+from actuator_design.config.study_param_specs import PARAM_NAMES, ContinuationStudy
 
 __all__ = ["HELP", "add_args", "run", "ContinuationStudy", "PARAM_NAMES"]
 
@@ -65,7 +66,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     c.add_argument("--switch", action="store_true", default=None,
                    help="also follow the branches bifurcating at branch points")
     c.add_argument("--straight", action="store_true", default=None,
-                   help="start from the straight rod (Newton, no saddle escape) instead of the stable state")
+                   help="start from the straight rod (Newton, no saddle escape) instead of the state reached from rest")
     c.add_argument("--stop-at-touch", action="store_true", default=None,
                    help="stop where the rod first touches an obstacle or itself (default: follow on with contact)")
     add_output_args(parser, "branch.json, branch.csv and branch.png")
@@ -74,10 +75,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _csv(res, units=None) -> str:
     """``branch.csv``: one row per point; a physical scene adds the value in its unit (when the
     parameter has one) and the state in the user's units."""
-    from actuator_design.physics.parameters import parameter
     from actuator_design.io.unit_results import (parameter_conversion, state_columns, state_csv_note,
                                                  state_values, unit_suffix)
     from actuator_design.io.user_units import parameter_physical
+    from actuator_design.physics.parameters import parameter
 
     extra, note = [], ""
     p = parameter(res.param)
@@ -128,9 +129,9 @@ def add_units(payload: dict, res, units) -> None:
     payload["physical"] = command_physical(res.scene, units, [res.param])
     add_point_units(payload["branch"] + payload["folds"] + payload["branch_points"], res.param, units)
     if payload.get("contact_path"):  # the path's items carry their value as "param"
-        from actuator_design.physics.parameters import parameter
         from actuator_design.io.unit_results import point_physical
         from actuator_design.io.user_units import physical_value_keys
+        from actuator_design.physics.parameters import parameter
 
         cp = payload["contact_path"]
         for item in cp["points"] + cp["contact_events"] + cp["jumps"]:
@@ -156,8 +157,8 @@ def run(args: argparse.Namespace) -> int:
     param = _pick(args.param, study, "param")
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
-    from actuator_design.physics.parameters import parameter
     from actuator_design.io.user_units import parameter_from_text, user_units
+    from actuator_design.physics.parameters import parameter
 
     units = user_units(scene, raw)
     with bad_input():
@@ -184,10 +185,12 @@ def run(args: argparse.Namespace) -> int:
     straight = bool(_pick(args.straight, study, "straight", False))
     stop_at_touch = bool(_pick(args.stop_at_touch, study, "stop_at_touch", False))
 
-    from actuator_design.continuation.follow import continue_branch
-    from actuator_design.physics.parameters import set_value as set_param
-    from actuator_design.io.save import dumps_json
     import numpy as np
+
+    from actuator_design.continuation.branch_accuracy import branch_options
+    from actuator_design.continuation.follow import continue_branch
+    from actuator_design.io.save import dumps_json
+    from actuator_design.physics.parameters import set_value as set_param
 
     with bad_input(f"--param {param}: "):
         set_param(scene, param, start)
@@ -197,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
         if straight:  # the straight rod θ ≡ θ0 as the Newton start
             from actuator_design.equilibrium.solver import get_solver
             theta0 = start if param == "theta0" else scene.theta0
+            options = branch_options(scene, param, (start, stop), options)  # the mesh the branch would have
             n = get_solver(set_param(scene, param, start), options).transcription.nodes.size
             initial = np.full(n, theta0)
         try:

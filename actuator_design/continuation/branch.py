@@ -136,7 +136,7 @@ class ContinuationResult:
     contact_path: Optional[Any] = None  # LoadingPath on from the first touch (status "touch")
     #: what the branch is and is not (e.g. a field group continued while the others it drives stay)
     notes: List[str] = field(default_factory=list)
-    #: why the branch's states at its least and greatest parameter value miss the accuracy of a solve, or None
+    #: why the most demanding states of the branches miss the accuracy of a solve, or None (branch_accuracy)
     accuracy: Optional[str] = None
 
     @property
@@ -157,7 +157,8 @@ class ContinuationResult:
         """The ``continue --json`` contract: ``branch`` (points with the parameter value, tip angle,
         stable), ``folds`` and ``branch_points`` (value and tip angle each); ``contact_path``: the
         loading path with contact on from the first touch (``path --json``'s contract), or None;
-        ``accurate`` and ``accuracy`` (why not, or None)."""
+        ``accurate`` and ``accuracy`` (why not, or None); ``success``: complete and accurate (a study
+        records a branch that is not as not converged)."""
         b = self.branch.to_dict()
         return {"param": self.param, "window": list(self.window), "branch": b["points"],
                 "folds": b["folds"], "branch_points": b["branch_points"], "status": b["status"],
@@ -166,4 +167,5 @@ class ContinuationResult:
                 "groups": describe_groups(self.scene),
                 "contact_path": None if self.contact_path is None else self.contact_path.to_dict(),
                 "complete": self.complete, "notes": list(self.notes),
-                "accurate": self.accurate, "accuracy": self.accuracy}
+                "accurate": self.accurate, "accuracy": self.accuracy,
+                "success": bool(self.complete and self.accurate)}

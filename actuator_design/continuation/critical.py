@@ -31,15 +31,18 @@ from typing import List, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.physics import parameters as lens
-from actuator_design.continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
-from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.reduced import locate_fold as _locate_fold, null_vector, reduced_system
-from actuator_design.model.scene import Scene
-from actuator_design.continuation.follow import Branch, Continuation, CriticalPoint, get_param, set_param
 from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.analysis.registration import register
 from actuator_design.contact.guard import no_contact
+from actuator_design.continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
+from actuator_design.continuation.branch_accuracy import branch_options
+from actuator_design.continuation.follow import Branch, Continuation, CriticalPoint, get_param, set_param
+from actuator_design.equilibrium.acceptance import warm_values
+from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.model.scene import Scene
+from actuator_design.physics import parameters as lens
+from actuator_design.reduced import locate_fold as _locate_fold
+from actuator_design.reduced import null_vector, reduced_system
 
 __all__ = ["fold_function", "locate_fold", "FoldCurve", "fold_curve", "CriticalResult",
            "critical_points", "critical_curves", "count_equilibria"]
@@ -307,7 +310,8 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
         raise ValueError(f"window: {param} must be >= {par.lower:g}, got {a}")
     if b > par.upper:
         raise ValueError(f"window: {param} must be <= {par.upper:g}, got {b}")
-    cont = Continuation(scene, param, options)
+    cont = Continuation(scene, param, branch_options(scene, param, (a, b), options))
+    nodes = cont.solver.transcription.nodes
     samples = list(np.linspace(a, b, max(2, int(n_samples))))
     branches: List[Branch] = []
     kw = dict(ds=ds, ds_max=ds_max, max_points=max_points)
@@ -325,7 +329,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
         eqs = find_equilibria(cont.scene_at(lam), options)
         reasons.append(_incomplete(f"{param} = {lam:.6g}", eqs))
         for e in eqs.equilibria:
-            z = e.result.z
+            z = warm_values(e.result, nodes)  # (solved on the mesh chosen for that scene)
             if known(z, lam):
                 continue
             u, ok, _ = cont.correct_fixed(z[1:], lam)

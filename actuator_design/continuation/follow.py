@@ -34,11 +34,11 @@ from actuator_design.contact.self_contact import least_self_clearance
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold,
                                           UserEvent, continuation)
 from actuator_design.continuation.branch import Branch, ContinuationResult, CriticalPoint
-from actuator_design.equilibrium.acceptance import graded_for_scenes, residual_problem, warm_values
+from actuator_design.continuation.branch_accuracy import branch_accuracy, branch_options
+from actuator_design.equilibrium.acceptance import warm_values
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
@@ -47,7 +47,7 @@ from actuator_design.physics.registry import term_class
 from actuator_design.reduced.system import reduced_system, substituted_energy
 
 __all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
-           "continue_branch", "ContinuationResult", "system_function", "substituted_energy"]
+           "continue_branch", "branch_options", "ContinuationResult", "system_function", "substituted_energy"]
 
 _WHAT = "continuation parameter"
 
@@ -178,15 +178,23 @@ class Continuation:
         None for the state :func:`~actuator_design.equilibrium.pipeline.solve` reaches from rest at λ0)."""
         if isinstance(initial, EquilibriumResult):  # (interpolated when solved on another mesh)
             initial = warm_values(initial, self.solver.transcription.nodes)
-        if initial is None:  # the state reached from rest, on the mesh solve chooses for it
-            res = solve(self.scene_at(lam0), replace(self.options, ensure_stable=True))
-            if not res.success:
-                raise RuntimeError(f"continuation: no equilibrium found at {self.name} = {lam0}: {res.message}")
-            initial = warm_values(res, self.solver.transcription.nodes)
+        if initial is None:
+            initial = self.rest_state(self.scene_at(lam0))
         u, ok, _ = self.correct_fixed(np.asarray(initial, float)[1:], lam0, max_iter=50)
         if not ok:
             raise RuntimeError(f"continuation: Newton did not converge at the start {self.name} = {lam0}")
         return np.append(u, lam0)
+
+    def rest_state(self, scene: Scene) -> np.ndarray:
+        """θ at this mesh's nodes of the state :func:`~actuator_design.equilibrium.pipeline.solve`
+        reaches from rest in ``scene`` (on the mesh solve chooses, interpolated onto this one). A state
+        that misses solve's accuracy on that mesh is used all the same: the branch's own check
+        (:attr:`ContinuationResult.accuracy`) reports it."""
+        res = solve(scene, replace(self.options, ensure_stable=True))
+        if not (res.success or res.status == "inaccurate"):
+            raise RuntimeError(f"continuation: no equilibrium found at {self.name} = "
+                               f"{get_param(scene, self.name)}: {res.message}")
+        return warm_values(res, self.solver.transcription.nodes)
 
     # -- the main loop ------------------------------------------------------------------------
     def run(self, x0: np.ndarray, window: Tuple[float, float], *, direction: float = 1.0,
@@ -307,12 +315,8 @@ def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, in
     followed while it keeps clear), which must keep clear of them (``least`` > 0); ``initial``
     when given. None when it does not and ``through_contact``: the start is in contact."""
     if initial is None:
-        free = solve(replace(set_param(scene, param, start), obstacles=()),
-                     replace(cont.options, ensure_stable=True), solver=cont.solver)
-        if not free.success:
-            raise RuntimeError(f"continuation: no equilibrium found at {param} = {start}: {free.message}")
-        initial = free.z
-    z = np.asarray(initial.z if isinstance(initial, EquilibriumResult) else initial, float)
+        initial = cont.rest_state(replace(set_param(scene, param, start), obstacles=()))
+    z = np.asarray(warm_values(initial, cont.solver.transcription.nodes), float)
     if least(z) <= 0.0:
         if through_contact:
             return None
@@ -355,8 +359,9 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     Returns
     -------
     ContinuationResult
-        With ``accuracy``: why the branch's states at its least and greatest parameter value miss the
-        accuracy of :func:`~actuator_design.equilibrium.pipeline.solve`, or None.
+        With ``accuracy``: why the branches' most demanding states miss the accuracy of
+        :func:`~actuator_design.equilibrium.pipeline.solve`, or None
+        (:func:`~actuator_design.continuation.branch_accuracy.branch_accuracy`).
 
     Notes
     -----
@@ -365,11 +370,9 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     ``initial`` is given as node values (they hold on the mesh ``options`` make).
     """
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
-    options = options or SolverOptions()
     if not isinstance(initial, np.ndarray):
-        ends = [v for v in (start, stop, *win) if math.isfinite(v)]
-        options = graded_for_scenes([set_param(scene, param, v) for v in ends], options)
-    cont = Continuation(scene, param, options)
+        options = branch_options(scene, param, (start, stop, *win), options)
+    cont = Continuation(scene, param, options or SolverOptions())
     touch, itself = (), None
     if scene.obstacles:  # the free branch, followed until the rod first touches an obstacle
         least = least_clearance(cont.solver, scene.obstacles, scene.contact_gap)
@@ -412,23 +415,7 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
     return ContinuationResult(param, br, sec, scene, win, contact, notes=_alone_note(scene, param),
-                              accuracy=_accuracy_problem(cont, br))
-
-
-def _accuracy_problem(cont: Continuation, br: Branch) -> Optional[str]:
-    """Why the branch's states at its least and greatest parameter value miss the accuracy
-    promise of ``solve`` (the Euler–Lagrange residual of :func:`~actuator_design.equilibrium.acceptance.residual_problem`),
-    or None: a branch's layers are widest at one end of its range and narrowest at the other."""
-    if len(br) == 0:
-        return None
-    for k in sorted({int(np.argmin(br.lam)), int(np.argmax(br.lam))}):
-        lam = float(br.lam[k])
-        state = solve_on(cont.scene_at(lam), cont.options, br.z[k], cont.solver)
-        why = residual_problem(state) if state.success else f"its state does not converge ({state.message})"
-        if why is not None:
-            return (f"at {cont.name} = {lam:.6g}: {why}; refine the mesh (--elements, --clamp-levels) or "
-                    "narrow the window")
-    return None
+                              accuracy=branch_accuracy(cont, [br] + sec))
 
 
 def _alone_note(scene: Scene, param: str) -> List[str]:

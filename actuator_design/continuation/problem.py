@@ -16,7 +16,7 @@ from scipy.linalg import lapack
 from actuator_design.continuation.banded import BandedBordered, use_band
 from actuator_design.reduced.fold import locate_fold
 from actuator_design.reduced.linalg import (FLOOR_EXCUSE, banded_negatives, ldl_negatives, lowest_eigenpair,
-                                            lowest_eigenpair_banded, lu_det_sign, rounding_floor,
+                                            lowest_eigenpair_banded, lu_det_sign, rounding_floors,
                                             signed_distance_to_singularity)
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
@@ -24,6 +24,9 @@ from actuator_design.reduced.system import ReducedSystem
 __all__ = ["BifurcationProblem"]
 
 _dgesv, _dgetrf, _dgetrs = lapack.dgesv, lapack.dgetrf, lapack.dgetrs
+
+#: a Newton step (rad) below which a point whose residual is at its rounding floor is converged
+FLOOR_STEP = 1e-9
 
 
 class BifurcationProblem:
@@ -109,32 +112,38 @@ class BifurcationProblem:
         """max_i |g_i| / m_i."""
         return float(np.max(np.abs(g / self.mass)))
 
-    def stationary(self, res: float, tol: float, H: np.ndarray, u: np.ndarray) -> bool:
-        """Whether the residual ``res`` = max_i |g_i| / m_i at ``u`` (Hessian ``H`` there) meets
-        ``tol``, or is within its rounding floor above it (:func:`~actuator_design.reduced.linalg.rounding_floor`:
-        the small end elements of a graded mesh put an absolute 1e-10 below what rounding allows)."""
-        if res <= tol:
-            return True
-        if not res <= (1.0 + FLOOR_EXCUSE) * tol:
-            return False
-        floor = rounding_floor(np.abs(H).sum(axis=1), 1.0 / self.mass, u)
-        return res <= tol + min(floor, FLOOR_EXCUSE * tol)
+    def at_rounding_floor(self, g: np.ndarray, H: np.ndarray, u: np.ndarray, tol: float) -> bool:
+        """Whether every |g_i| / m_i at ``u`` (gradient ``g``, Hessian ``H`` there) is within ``tol``
+        plus that unknown's own rounding floor (:func:`~actuator_design.reduced.linalg.rounding_floors`,
+        at most :data:`~actuator_design.reduced.linalg.FLOOR_EXCUSE` × tol): the small end elements of
+        a graded mesh put an absolute 1e-10 below what rounding allows at their nodes."""
+        floors = rounding_floors(np.abs(H).sum(axis=1), 1.0 / self.mass, u)
+        return bool(np.all(np.abs(g) / self.mass <= tol + np.minimum(floors, FLOOR_EXCUSE * tol)))
 
     # -- correctors -----------------------------------------------------------------------------
     def correct_fixed(self, u, lam, tol: float, max_iter: int = 20):
-        """Newton at fixed λ (steps clipped to 1 rad), converged by :meth:`stationary`.
+        """Newton at fixed λ (steps clipped to 1 rad): converged at max_i |g_i| / m_i ≤ ``tol``, or
+        after a step below :data:`FLOOR_STEP` from a point :meth:`at_rounding_floor`.
         Returns (u, converged, iterations)."""
+        last = [None]
+
         def evaluate(u_):
             g, H, _ = self.ev(u_, lam)
+            last[0] = u_
             return g, H
 
-        return newton(evaluate, u, lambda u_, g: self.stationary(self.residual(g), tol, self.ev.H, u_),
-                      max_iter, clip_at=1.0)
+        def floor_step(g, du):
+            return float(np.max(np.abs(du))) <= FLOOR_STEP and self.at_rounding_floor(g, self.ev.H, last[0], tol)
+
+        return newton(evaluate, u, lambda u_, g: self.residual(g) <= tol, max_iter, clip_at=1.0,
+                      converged_after_step=floor_step)
 
     def correct(self, xp, row, tol: float, arc_tol: float = 1e-9, max_iter: int = 8,
                 start: Optional[np.ndarray] = None):
         """Newton on [G(x); rowᵀ(x − x_p)] = 0 from ``start`` (default x_p; PALC: row = W t;
-        natural: row = e_λ), converged by :meth:`stationary` and |rowᵀ(x − x_p)| ≤ ``arc_tol``. Steps larger than 2 (rad) fail. Returns (x, converged, iterations).
+        natural: row = e_λ), converged at max_i |g_i| / m_i ≤ ``tol`` and |rowᵀ(x − x_p)| ≤ ``arc_tol``, or
+        after a step below :data:`FLOOR_STEP` from a point :meth:`at_rounding_floor`. Steps larger
+        than 2 (rad) fail. Returns (x, converged, iterations).
 
         The loop of :func:`~actuator_design.reduced.newton.newton` (same tests, same order) with
         the bordered Jacobian assembled in one Fortran buffer and solved by LAPACK ``dgesv``
@@ -150,7 +159,7 @@ class BifurcationProblem:
             arc = float(row @ (x - xp))
             if not (res < math.inf and abs(arc) < math.inf):
                 return x, False, it
-            if abs(arc) <= arc_tol and self.stationary(res, tol, H, x[:n]):
+            if res <= tol and abs(arc) <= arc_tol:
                 return x, True, it
             if it == max_iter:
                 break
@@ -164,8 +173,13 @@ class BifurcationProblem:
                 Jb[:n, n] = gl
                 Jb[n] = row
                 dx, info = _dgesv(Jb, F, overwrite_a=1)[2:]
-            if info != 0 or not float(np.max(np.abs(dx))) <= 2.0:  # also NaN
+            step = float(np.max(np.abs(dx)))
+            if info != 0 or not step <= 2.0:  # also NaN
                 return x, False, it
+            if step <= FLOOR_STEP and abs(arc) <= arc_tol and self.at_rounding_floor(g, H, x[:n], tol):
+                # the residual is rounding: the step confirms the point (counted as the iterations that
+                # reached it, as a residual below tol is: the step control sees the same count)
+                return x + dx, True, it
             x = x + dx
         return x, False, max_iter
 

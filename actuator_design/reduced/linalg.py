@@ -26,7 +26,7 @@ from actuator_design.reduced.stability import classify_spectrum
 
 __all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
            "banded_negatives", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
-           "lu_det_sign", "mass_scaled", "null_vector", "rounding_floor", "FLOOR_EXCUSE"]
+           "lu_det_sign", "mass_scaled", "null_vector", "rounding_floor", "rounding_floors", "FLOOR_EXCUSE"]
 
 _dsytrf, _dsyevr, _dsysv, _dpotrf = lapack.dsytrf, lapack.dsyevr, lapack.dsysv, lapack.dpotrf
 _dgbsv, _dpbtrf, _dsbmv = lapack.dgbsv, lapack.dpbtrf, blas.dsbmv
@@ -38,12 +38,13 @@ _EPS = float(np.finfo(float).eps)
 FLOOR_EXCUSE = 1e4
 
 
-def rounding_floor(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray) -> float:
-    """The residual max_i |g_i| / m_i that rounding alone produces: 16 ε max_i (Σ_j |H_ij|) / m_i · max(1, |z|∞).
+def rounding_floors(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The residual |g_i| / m_i that rounding alone produces at each unknown:
+    16 ε (Σ_j |H_ij|) / m_i · max(1, |z|∞), shape (n,).
 
     The gradient's entries are sums of terms of size |H_ij| |z_j|, so they carry a rounding error
     of a few ε times that; divided by the small masses of a graded mesh's end elements it can
-    exceed an absolute tolerance of 1e-10.
+    exceed an absolute tolerance of 1e-10 there (and only there).
 
     Parameters
     ----------
@@ -54,7 +55,12 @@ def rounding_floor(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray) 
     z : ndarray
         The point (rad).
     """
-    return float(16.0 * _EPS * np.max(abs_rowsum * inv_mass) * max(1.0, float(np.abs(z).max(initial=0.0))))
+    return 16.0 * _EPS * abs_rowsum * inv_mass * max(1.0, float(np.abs(z).max(initial=0.0)))
+
+
+def rounding_floor(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray) -> float:
+    """The largest of :func:`rounding_floors`: the floor of max_i |g_i| / m_i."""
+    return float(np.max(rounding_floors(abs_rowsum, inv_mass, z)))
 
 
 def mass_scaled(H: np.ndarray, inv_sqrt_mass: np.ndarray) -> np.ndarray:
