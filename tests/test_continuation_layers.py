@@ -143,3 +143,20 @@ def test_a_branch_stopped_by_its_point_limit_is_not_complete():
     assert ref.success
     angle, x, y = res.branch.tips[-1]
     assert np.max(np.abs(np.array([x, y, angle]) - ref.tip)) < 1e-8
+
+
+def test_branches_through_folds_are_accurate():
+    """The elastica's branches from p = 55 turn at the folds p ≈ 10.3 and 51 inside the window: the
+    fold is a state of the branch (its least or greatest p), where no solve can confirm it by a
+    Newton step; the check holds it to the residual check as the corrector converged it (before:
+    every branch with a fold was 'inaccurate', exit 3)."""
+    from actuator_design.analysis.equilibria import find_equilibria
+    from actuator_design.model.scene import default_scene
+
+    scene = default_scene(h=0.0, p=55.0)
+    folded = 0
+    for e in find_equilibria(scene).equilibria:
+        res = continue_branch(scene, "p", 55.0, 0.0, initial=e.result, window=(0.0, 70.0))
+        assert res.accurate, res.accuracy
+        folded += bool(res.branch.folds)
+    assert folded >= 2

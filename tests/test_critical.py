@@ -97,3 +97,16 @@ def test_critical_points_in_a_window_whose_strong_end_grades_the_mesh():
     assert r.complete, r.incomplete_reasons
     refs = [reference_fold(10.3, -2.8)[0], reference_fold(51.0, -3.7)[0], reference_fold(119.6, -4.2)[0]]
     assert [d["value"] for d in r.folds] == pytest.approx(refs, abs=1e-6)
+
+
+def test_fold_curves_from_a_window_whose_strong_end_grades_the_mesh():
+    """critical_curves continues each fold of p ∈ [0, 200] in h² on the mesh its fold was found on
+    (before: 'could not broadcast (60,) into (40,)'); at h² = 0 they start at the shooting folds."""
+    from actuator_design.continuation.critical import critical_curves
+
+    curves = critical_curves(default_scene(h=0.0, p=0.0), "p", "h2", (0.0, 200.0), (0.0, 2.0), n_starts=1)
+    refs = [reference_fold(10.3, -2.8)[0], reference_fold(51.0, -3.7)[0], reference_fold(119.6, -4.2)[0]]
+    assert len(curves) == 3
+    for c, ref in zip(curves, refs):
+        k = int(np.argmin(np.abs(c.mu)))
+        assert c.mu[k] == 0.0 and c.lam[k] == pytest.approx(ref, abs=1e-5)

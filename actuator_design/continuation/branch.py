@@ -157,8 +157,9 @@ class ContinuationResult:
         """The ``continue --json`` contract: ``branch`` (points with the parameter value, tip angle,
         stable), ``folds`` and ``branch_points`` (value and tip angle each); ``contact_path``: the
         loading path with contact on from the first touch (``path --json``'s contract), or None;
-        ``accurate`` and ``accuracy`` (why not, or None); ``success``: complete and accurate (a study
-        records a branch that is not as not converged)."""
+        ``accurate`` and ``accuracy`` (why not, or None); ``success``: complete (not stopped by a too
+        small step or by ``max_points``) and accurate (a study records a branch that is not as not
+        converged)."""
         b = self.branch.to_dict()
         return {"param": self.param, "window": list(self.window), "branch": b["points"],
                 "folds": b["folds"], "branch_points": b["branch_points"], "status": b["status"],

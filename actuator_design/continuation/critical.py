@@ -424,8 +424,9 @@ def critical_curves(scene: Scene, param: str, second: str, window: Sequence[floa
                         break
             if not on:
                 try:
-                    curves.append(fold_curve(sc, param, second, cp.z, cp.value, second_window,
-                                             options=options, lam_window=(a, b)))
+                    curves.append(fold_curve(sc, param, second, cp.z, cp.value, second_window,  # (cp.z's mesh)
+                                             options=branch_options(sc, param, (a, b), options),
+                                             lam_window=(a, b)))
                 except RuntimeError:
                     continue
     curves.sort(key=lambda c: c.lam[0])

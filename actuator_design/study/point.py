@@ -65,7 +65,8 @@ def one_point(raw: dict, axes, analyses, index: int, idx, outputs=None) -> Dict[
                 flatten(out, name, rec["results"])
                 if isinstance(out, dict) and out.get("success") is False:
                     rec["status"] = "not_converged"
-                    notes.append(f"{name}: {' '.join(str(out.get('message', '')).split())}")
+                    why = "; ".join(str(out[k]) for k in ("message", "accuracy") if out.get(k))
+                    notes.append(f"{name}: {' '.join(why.split())}")
         for w in caught:
             notes.append(f"warning: {' '.join(str(w.message).split())}")
     if outputs is not None:  # keep only the columns the study asked for (smaller journal)
