@@ -110,3 +110,21 @@ def test_fold_curves_from_a_window_whose_strong_end_grades_the_mesh():
     for c, ref in zip(curves, refs):
         k = int(np.argmin(np.abs(c.mu)))
         assert c.mu[k] == 0.0 and c.lam[k] == pytest.approx(ref, abs=1e-5)
+
+
+def test_folds_located_and_continued_on_a_strongly_graded_mesh():
+    """Seven grading levels at the clamp: the stationarity of the Moore–Spence Newton stalls at the
+    rounding floor of the small end elements (1–3e-10 > tol); it is accepted after a Newton step
+    below 1e-9 rad (before: 'no fold of p near p = 10.3252'). The fold load is the shooting one."""
+    from dataclasses import replace
+
+    from actuator_design.equilibrium.options import SolverOptions
+
+    opts = replace(SolverOptions(), clamp_levels=7)
+    scene = default_scene(h=0.0, p=0.0)
+    cr = critical_points(scene, "p", (0.0, 20.0), options=opts, n_samples=2)
+    cp = cr.fold_points[0]
+    curve = fold_curve(scene, "p", "h2", cp.z, cp.value, (0.0, 2.0), options=opts, lam_window=(0.0, 20.0))
+    p1 = reference_fold(10.3, -2.8)[0]
+    assert curve.status == "left_window" and curve.lam[0] == pytest.approx(p1, abs=1e-9)
+    assert curve.mu[-1] == pytest.approx(2.0)

@@ -14,7 +14,7 @@ from typing import Tuple
 
 import numpy as np
 
-from actuator_design.reduced.fold import fold_converged, locate_fold
+from actuator_design.reduced.fold import fold_converged, fold_converged_at_floor, locate_fold
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
 
@@ -64,6 +64,7 @@ class FoldCurveProblem:
         m = self.m
         F, J, Fm = self.fn(x[:m], x[[m, -1]], x[m + 1:2 * m + 1], self.c, self.P)
         self.evaluations += 1
+        self._x = x
         self._J = np.column_stack([np.asarray(J), np.asarray(Fm).ravel()])
         return np.asarray(F).ravel(), self._J
 
@@ -80,8 +81,11 @@ class FoldCurveProblem:
         def converged(x, Fa):
             return fold_converged(Fa[:-1], self.mass, tol) and abs(Fa[-1]) <= arc_tol
 
+        def floor_step(Fa, dx):  # (self._J, the last x: where Fa was evaluated)
+            return abs(Fa[-1]) <= arc_tol and fold_converged_at_floor(Fa[:-1], dx, self._J, self._x, self.mass, tol)
+
         return newton(bordered, xp if start is None else start, converged, max_iter, reject_above=2.0,
-                      reject_slice=slice(0, self.m + 1))
+                      reject_slice=slice(0, self.m + 1), converged_after_step=floor_step)
 
     def correct_fixed(self, y, mu, tol: float, max_iter: int = 20):
         """The fold at fixed μ from y = (u, λ, v) (Moore–Spence). Returns (y, converged, iterations)."""

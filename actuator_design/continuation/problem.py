@@ -15,18 +15,15 @@ from scipy.linalg import lapack
 
 from actuator_design.continuation.banded import BandedBordered, use_band
 from actuator_design.reduced.fold import locate_fold
-from actuator_design.reduced.linalg import (FLOOR_EXCUSE, banded_negatives, ldl_negatives, lowest_eigenpair,
-                                            lowest_eigenpair_banded, lu_det_sign, rounding_floors,
-                                            signed_distance_to_singularity)
+from actuator_design.reduced.linalg import (FLOOR_STEP, banded_negatives, ldl_negatives, lowest_eigenpair,
+                                            lowest_eigenpair_banded, lu_det_sign,
+                                            signed_distance_to_singularity, within_rounding_floor)
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
 
 __all__ = ["BifurcationProblem"]
 
 _dgesv, _dgetrf, _dgetrs = lapack.dgesv, lapack.dgetrf, lapack.dgetrs
-
-#: a Newton step (rad) below which a point whose residual is at its rounding floor is converged
-FLOOR_STEP = 1e-9
 
 
 class BifurcationProblem:
@@ -113,12 +110,9 @@ class BifurcationProblem:
         return float(np.max(np.abs(g / self.mass)))
 
     def at_rounding_floor(self, g: np.ndarray, H: np.ndarray, u: np.ndarray, tol: float) -> bool:
-        """Whether every |g_i| / m_i at ``u`` (gradient ``g``, Hessian ``H`` there) is within ``tol``
-        plus that unknown's own rounding floor (:func:`~actuator_design.reduced.linalg.rounding_floors`,
-        at most :data:`~actuator_design.reduced.linalg.FLOOR_EXCUSE` × tol): the small end elements of
-        a graded mesh put an absolute 1e-10 below what rounding allows at their nodes."""
-        floors = rounding_floors(np.abs(H).sum(axis=1), 1.0 / self.mass, u)
-        return bool(np.all(np.abs(g) / self.mass <= tol + np.minimum(floors, FLOOR_EXCUSE * tol)))
+        """:func:`~actuator_design.reduced.linalg.within_rounding_floor` at ``u`` (gradient ``g``,
+        Hessian ``H`` there)."""
+        return within_rounding_floor(g, H, u, self.mass, tol)
 
     # -- correctors -----------------------------------------------------------------------------
     def correct_fixed(self, u, lam, tol: float, max_iter: int = 20):

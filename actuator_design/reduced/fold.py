@@ -20,11 +20,11 @@ from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 
-from actuator_design.reduced.linalg import null_vector
+from actuator_design.reduced.linalg import FLOOR_STEP, null_vector, within_rounding_floor
 from actuator_design.reduced.newton import newton
 from actuator_design.reduced.system import ReducedSystem
 
-__all__ = ["FoldPoint", "locate_fold", "fold_converged"]
+__all__ = ["FoldPoint", "locate_fold", "fold_converged", "fold_converged_at_floor"]
 
 
 @dataclass
@@ -53,6 +53,17 @@ def fold_converged(F: np.ndarray, mass: np.ndarray, tol: float) -> bool:
     n = mass.size
     return bool(np.max(np.abs(F[:n] / mass)) <= tol and np.max(np.abs(F[n:2 * n])) <= 1e-9
                 and abs(F[2 * n]) <= 1e-12)
+
+
+def fold_converged_at_floor(F: np.ndarray, dX: np.ndarray, J: np.ndarray, X: np.ndarray, mass: np.ndarray,
+                            tol: float) -> bool:
+    """:func:`fold_converged` with the stationarity within its rounding floor
+    (:func:`~actuator_design.reduced.linalg.within_rounding_floor`), after a Newton step ``dX`` below
+    :data:`~actuator_design.reduced.linalg.FLOOR_STEP` from X (residual F, Jacobian J, whose leading
+    n × n block is the Hessian): a graded mesh's small end elements."""
+    n = mass.size
+    return bool(float(np.max(np.abs(dX))) <= FLOOR_STEP and np.max(np.abs(F[n:2 * n])) <= 1e-9
+                and abs(F[2 * n]) <= 1e-12 and within_rounding_floor(F[:n], J[:n, :n], X[:n], mass, tol))
 
 
 def locate_fold(system: ReducedSystem, P: np.ndarray, u: np.ndarray, lam: float,
@@ -111,5 +122,16 @@ def locate_fold(system: ReducedSystem, P: np.ndarray, u: np.ndarray, lam: float,
         return np.asarray(F).ravel(), J
 
     X0 = np.concatenate([u, [lam], v])
-    X, ok, it = newton(evaluate, X0, lambda X, F: fold_converged(F, mass, tol), max_iter)
+    last = {}
+
+    def evaluate_kept(X):
+        F, J = evaluate(X)
+        last["X"], last["J"] = X, J
+        return F, J
+
+    def floor_step(F, dX):
+        return fold_converged_at_floor(F, dX, last["J"], last["X"], mass, tol)
+
+    X, ok, it = newton(evaluate_kept, X0, lambda X, F: fold_converged(F, mass, tol), max_iter,
+                       converged_after_step=floor_step)
     return FoldPoint(X[:n].copy(), float(X[n]), X[n + 1:].copy(), ok, it)

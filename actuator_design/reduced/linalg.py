@@ -26,7 +26,8 @@ from actuator_design.reduced.stability import classify_spectrum
 
 __all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
            "banded_negatives", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
-           "lu_det_sign", "mass_scaled", "null_vector", "rounding_floor", "rounding_floors", "FLOOR_EXCUSE"]
+           "lu_det_sign", "mass_scaled", "null_vector", "rounding_floor", "rounding_floors", "FLOOR_EXCUSE",
+           "FLOOR_STEP", "within_rounding_floor"]
 
 _dsytrf, _dsyevr, _dsysv, _dpotrf = lapack.dsytrf, lapack.dsyevr, lapack.dsysv, lapack.dpotrf
 _dgbsv, _dpbtrf, _dsbmv = lapack.dgbsv, lapack.dpbtrf, blas.dsbmv
@@ -61,6 +62,27 @@ def rounding_floors(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray)
 def rounding_floor(abs_rowsum: np.ndarray, inv_mass: np.ndarray, z: np.ndarray) -> float:
     """The largest of :func:`rounding_floors`: the floor of max_i |g_i| / m_i."""
     return float(np.max(rounding_floors(abs_rowsum, inv_mass, z)))
+
+
+#: a Newton step (rad) below which a point whose residual is within its rounding floor is converged
+FLOOR_STEP = 1e-9
+
+
+def within_rounding_floor(g: np.ndarray, H: np.ndarray, u: np.ndarray, mass: np.ndarray, tol: float) -> bool:
+    """Whether every |g_i| / m_i at ``u`` is within ``tol`` plus that unknown's own rounding floor
+    (:func:`rounding_floors`, at most :data:`FLOOR_EXCUSE` × tol): the small end elements of a
+    graded mesh put an absolute 1e-10 below what rounding allows at their nodes. The Newton
+    correctors accept such a point only after a step below :data:`FLOOR_STEP` from it.
+
+    Parameters
+    ----------
+    g, u, mass : ndarray, shape (n,)
+        Gradient, point (rad) and lumped masses.
+    H : ndarray, shape (n, n)
+        Hessian at ``u``.
+    """
+    floors = rounding_floors(np.abs(H).sum(axis=1), 1.0 / mass, u)
+    return bool(np.all(np.abs(g) / mass <= tol + np.minimum(floors, FLOOR_EXCUSE * tol)))
 
 
 def mass_scaled(H: np.ndarray, inv_sqrt_mass: np.ndarray) -> np.ndarray:
