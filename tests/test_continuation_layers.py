@@ -125,24 +125,25 @@ def test_a_branch_beside_an_obstacle_starts_from_a_result_on_another_mesh():
     assert _tip_error(res.branch, len(res.branch) - 1) < 1e-9
 
 
-def test_a_branch_stopped_by_its_point_limit_is_not_complete():
-    """p from 0 to 1e4 takes ~2e4 steps of ds_max = 0.5: after max_points the branch stopped near
-    p = 1e3 and said complete (exit 0). Now it says where it stopped and what to raise; with a
-    larger ds_max it covers the window and its end meets scipy's solve_bvp (clamp layer √p = 100)."""
+def test_a_wide_window_is_covered_and_a_branch_stopped_by_its_point_limit_is_not_complete():
+    """p from 0 to 1e4: at a largest step of 0.5 it took ~2e4 steps, stopped after max_points near
+    p = 1e3 and said complete (exit 0). The largest step now defaults to 1/400 of a wide window,
+    and the branch's end meets scipy's solve_bvp (clamp layer √p = 100); a branch stopped by its
+    point limit says where and what to raise, and is not complete."""
     from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
 
     scene = Scene(tip_force=(0.0, 0.0))
-    short = continue_branch(scene, "p", 0.0, 1e4)
-    assert short.branch.status == "max_points" and not short.complete
-    assert "--max-points" in short.branch.message and "--ds-max" in short.branch.message
-    res = continue_branch(scene, "p", 0.0, 1e4, ds_max=50.0)
+    res = continue_branch(scene, "p", 0.0, 1e4)
     assert res.complete and res.accurate, (res.branch.message, res.accuracy)
+    assert res.branch.lam[-1] == pytest.approx(1e4, abs=1e-9) and len(res.branch) < 1000
     end = Scene(tip_force=(0.0, float(res.branch.lam[-1])))
-    assert res.branch.lam[-1] == pytest.approx(1e4, abs=1e-9)
     ref = solve_bvp_peer(bvp_from_scene(end), 1e-10, guess_theta=lambda s: 0.5 * math.pi * (1.0 - np.exp(-100.0 * s)))
     assert ref.success
     angle, x, y = res.branch.tips[-1]
     assert np.max(np.abs(np.array([x, y, angle]) - ref.tip)) < 1e-8
+    short = continue_branch(scene, "p", 0.0, 1e4, max_points=50)
+    assert short.branch.status == "max_points" and not short.complete and not short.to_dict()["success"]
+    assert "--max-points" in short.branch.message and "--ds-max" in short.branch.message
 
 
 def test_branches_through_folds_are_accurate():

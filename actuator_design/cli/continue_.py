@@ -61,7 +61,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     c.add_argument("--from", dest="start", metavar="A", help="start value (units allowed, e.g. '2 mT')")
     c.add_argument("--to", dest="stop", metavar="B", help="end value (units allowed, e.g. '6 mT')")
     c.add_argument("--ds", type=finite_float, help="initial arclength step (> 0; default 0.05)")
-    c.add_argument("--ds-max", type=finite_float, help="largest arclength step (> 0; default 0.5)")
+    c.add_argument("--ds-max", type=finite_float, help="largest arclength step (> 0; default 0.5, or 1/400 of a wider window)")
     c.add_argument("--max-points", type=int, help="at most this many points per branch (default 2000)")
     c.add_argument("--switch", action="store_true", default=None,
                    help="also follow the branches bifurcating at branch points")
@@ -175,9 +175,9 @@ def run(args: argparse.Namespace) -> int:
         shown = args.start if args.start is not None else f"{start:g}"
         raise InputError(f"--from and --to must differ, got {shown} twice")
     ds = _pick(args.ds, study, "ds", 0.05)
-    ds_max = _pick(args.ds_max, study, "ds_max", 0.5)
+    ds_max = _pick(args.ds_max, study, "ds_max", None)
     max_points = _pick(args.max_points, study, "max_points", 2000)
-    if not ds > 0 or not ds_max > 0:
+    if not ds > 0 or not (ds_max is None or ds_max > 0):
         raise InputError(f"--ds, --ds-max: must be > 0, got {ds:g}, {ds_max:g}")
     if max_points < 2:
         raise InputError(f"--max-points: must be >= 2, got {max_points}")

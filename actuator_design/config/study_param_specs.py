@@ -23,7 +23,8 @@ class ContinuationStudy(StudyBase):
     start: float = Field(alias="from")
     to: float
     ds: float = Field(0.05, gt=0, le=10)
-    ds_max: float = Field(0.5, gt=0, le=100)
+    #: the largest arclength step; None: 0.5, or 1/400 of a wider window (continuation.follow.default_ds_max)
+    ds_max: Optional[float] = Field(None, gt=0, le=100)
     max_points: int = Field(2000, ge=2, le=10**6)
     switch: bool = False
     straight: bool = False

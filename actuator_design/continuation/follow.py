@@ -46,8 +46,8 @@ from actuator_design.physics.parameters import Parameter
 from actuator_design.physics.registry import term_class
 from actuator_design.reduced.system import reduced_system, substituted_energy
 
-__all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint",
-           "continue_branch", "branch_options", "ContinuationResult", "system_function", "substituted_energy"]
+__all__ = ["get_param", "set_param", "Continuation", "Branch", "CriticalPoint", "continue_branch",
+           "branch_options", "default_ds_max", "ContinuationResult", "system_function", "substituted_energy"]
 
 _WHAT = "continuation parameter"
 
@@ -325,9 +325,17 @@ def _free_start(cont: "Continuation", scene: Scene, param: str, start: float, in
     return z
 
 
+def default_ds_max(window: Sequence[float]) -> float:
+    """The largest arclength step of a branch over ``window``: 0.5, or 1/400 of a wider (finite)
+    window — the parameter counts with weight 1 in the arclength, so a branch in p to 1e4 would
+    otherwise need 2e4 points (at most ~400 at the largest step, plus the adaptive ones)."""
+    width = float(window[1]) - float(window[0])
+    return max(0.5, width / 400.0) if math.isfinite(width) else 0.5
+
+
 def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
                     options: Optional[SolverOptions] = None, initial=None, ds: float = 0.05,
-                    ds_max: float = 0.5, max_points: int = 2000, switch: bool = False,
+                    ds_max: Optional[float] = None, max_points: int = 2000, switch: bool = False,
                     window: Optional[Sequence[float]] = None, through_contact: bool = True) -> ContinuationResult:
     """Continue the equilibrium at ``param = start`` towards ``stop`` (through folds), within the
     window [min(start, stop), max(start, stop)] unless ``window`` is given.
@@ -351,6 +359,8 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
         Parameter values (units of the parameter: rad for angles).
     initial : ndarray (n_nodes,) or EquilibriumResult, optional
         Start equilibrium guess; default: :func:`~actuator_design.equilibrium.pipeline.solve` at ``start``.
+    ds, ds_max : float
+        Initial and largest arclength steps (ds_max default: :func:`default_ds_max`).
     switch : bool
         Also continue every branch bifurcating at a branch point found (each up to its first touch).
     through_contact : bool
@@ -370,6 +380,7 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     ``initial`` is given as node values (they hold on the mesh ``options`` make).
     """
     win = (min(start, stop), max(start, stop)) if window is None else tuple(window)
+    ds_max = default_ds_max(win) if ds_max is None else ds_max
     if not isinstance(initial, np.ndarray):
         options = branch_options(scene, param, (start, stop, *win), options)
     cont = Continuation(scene, param, options or SolverOptions())
