@@ -61,8 +61,9 @@ def test_high_field_cli_exits_3_and_says_why():
 
 
 def test_critical_over_a_huge_window_is_not_complete():
+    """An incomplete list exits 3 (it may miss critical points; it exited 0 with complete: false)."""
     p = cli("critical", "--param", "h", "--window", "0,1e6", "--json")
-    assert p.returncode == 0, p.stderr
+    assert p.returncode == 3, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] is False and d["incomplete_reasons"]
     assert all(not c["complete"] for c in d["counts"] if c["at"] > 100)

@@ -100,6 +100,8 @@ def find_equilibria_deflation(scene: Scene, options: Optional[SolverOptions] = N
     found.sort(key=lambda e: e.gamma)
     scan = {"starts": len(starts), "time_total_s": time.perf_counter() - t0,
             "note": "multistart deflated Newton: no completeness guarantee"}
-    return EquilibriaResult(scene, opts, found, False, (-W, W), scan, [], "deflation")
+    return EquilibriaResult(scene, opts, found, False, (-W, W), scan, [], "deflation",
+                            incomplete_reason="multistart deflated Newton finds equilibria but does not certify that "
+                                              "it found them all (the shooting scan does, where it can be trusted)")
 
 

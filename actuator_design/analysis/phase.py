@@ -151,6 +151,8 @@ class PhasePortrait:
     theta0: float
     end_dtheta: float
     notes: List[str] = field(default_factory=list)
+    #: the equilibria drawn are every equilibrium of the scene (certified by the search, or given)
+    complete: bool = True
 
     def to_dict(self, grid: bool = False) -> dict:
         """Plain data; the H grid only with ``grid=True`` (it is large)."""
@@ -159,6 +161,7 @@ class PhasePortrait:
                "theta0": self.theta0, "end_dtheta": self.end_dtheta,
                "levels": self.levels.tolist(),
                "trajectories": [t.to_dict() for t in self.trajectories], "notes": list(self.notes),
+               "complete": bool(self.complete),
                "units": {"theta": "rad", "dtheta": "rad per l", "H": "B0/l (per unit length)"}}
         if grid:
             out["theta"], out["dtheta"], out["H"] = self.theta.tolist(), self.dtheta.tolist(), self.H.tolist()
@@ -215,12 +218,14 @@ def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult
         raise ValueError(f"n_grid: must be >= 11, got {n_grid}")
     if int(n_levels) < 2:
         raise ValueError(f"n_levels: must be >= 2, got {n_levels}")
-    notes = []
+    notes, complete = [], True
     if equilibria is None:
         found = find_equilibria(scene, options)
         equilibria = [e.result for e in found.equilibria]
         if not found.complete:
-            notes.append("the equilibria search did not certify completeness (see its scan)")
+            complete = False
+            notes.append("the equilibria search did not certify completeness"
+                         + (f": {found.incomplete_reason}" if found.incomplete_reason else " (see its scan)"))
     trajs = [trajectory(r, H) for r in equilibria if r.success]
     if len(trajs) < len(equilibria):
         notes.append(f"{len(equilibria) - len(trajs)} non-converged equilibria were left out")
@@ -245,4 +250,4 @@ def phase_portrait(scene: Scene, equilibria: Optional[Sequence[EquilibriumResult
     u = np.linspace(0.0, math.sqrt(max(hi - lo, 1e-300)), int(n_levels) + 2)[1:-1]
     levels = np.unique(lo + u ** 2)
     return PhasePortrait(scene=scene, theta=th, dtheta=dth, H=grid, levels=levels, trajectories=trajs,
-                         theta0=th0, end_dtheta=m, notes=notes)
+                         theta0=th0, end_dtheta=m, notes=notes, complete=complete)

@@ -8,7 +8,9 @@ the tip angle (rad) and the number of equilibria just below and above it (shooti
 consecutive critical values). Parameters (--param) as for `continue`: h, h2, phi, p, fx, fy,
 m_tip, qx, qy, alpha, h_pos, h_r, magnetization, theta0 (angles in rad). E.g. an axial remanent
 magnetisation in an anti-parallel field (--h 0 --phi-deg 180 --h-r 0 --param h_r --window 0,5)
-buckles at h_r = pi^2/4 (THEORY §9).
+buckles at h_r = pi^2/4 (THEORY §9). Exit 0 when the list is complete; 3 (with the reasons) when
+the equilibria at a sample could not be certified complete or a branch stopped inside the window:
+the list may then miss critical points.
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --window accepts units for
@@ -28,11 +30,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from actuator_design.cli.common import (EXIT_OK, InputError, bad_input, check_out_dir, check_parameter_angle,
-                     stdout_to_stderr)
-from actuator_design.config.study_param_specs import PARAM_NAMES, CriticalStudy
+
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+                                        check_parameter_angle, stdout_to_stderr)
 from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
 from actuator_design.cli.output import print_written, write_out
+from actuator_design.config.study_param_specs import PARAM_NAMES, CriticalStudy
 
 __all__ = ["HELP", "add_args", "run", "CriticalStudy"]
 
@@ -54,9 +57,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def _csv(res, units=None) -> str:
     """``critical.csv``: one row per critical point; a physical scene adds the value in the
     parameter's unit (when it has one), the tip in the length unit and the energy in J."""
-    from actuator_design.physics.parameters import parameter
     from actuator_design.io.unit_results import parameter_conversion, unit_suffix
     from actuator_design.io.user_units import parameter_physical
+    from actuator_design.physics.parameters import parameter
 
     p = parameter(res.param)
     unit = parameter_conversion(p, units)[0] if units is not None else None
@@ -98,9 +101,9 @@ def run(args: argparse.Namespace) -> int:
     param = args.param or (study.param if study else None)
     if param is None:
         raise InputError("--param: required (or give it in the config's study section)")
-    from actuator_design.physics.parameters import parameter
     from actuator_design.io.user_units import (pair_from_text, parameter_unit_label, physical_value_keys,
                                                user_units)
+    from actuator_design.physics.parameters import parameter
 
     units = user_units(scene, raw)
     with bad_input():
@@ -115,9 +118,9 @@ def run(args: argparse.Namespace) -> int:
     if n_samples < 2:
         raise InputError(f"--samples: must be >= 2, got {n_samples}")
 
-    from actuator_design.physics.parameters import set_value as set_param
     from actuator_design.continuation.critical import critical_points
     from actuator_design.io.save import dumps_json
+    from actuator_design.physics.parameters import set_value as set_param
 
     with bad_input(f"--param {param}: "):
         set_param(scene, param, window[0])
@@ -170,4 +173,6 @@ def run(args: argparse.Namespace) -> int:
         print_written(written, args.json)
     for why in res.incomplete_reasons:
         print(f"actuator-design: warning: not complete at {why}", file=sys.stderr)
+    if not res.complete:  # the list may miss critical points: not an answer to call a success
+        return EXIT_NOT_CONVERGED
     return EXIT_OK

@@ -21,15 +21,18 @@ the figure's axes.
 
 JSON (--json): groups, trajectories (theta, dtheta, level, spread of H, stable, morse_index,
 tip_angle, energy, gamma), theta/dtheta ranges. --out DIR writes phase.json, trajectories.csv and
-phase.png. Exit codes: 0 success, 2 bad input (e.g. a scene whose equation is not autonomous).
+phase.png; `complete` says whether the equilibria drawn are certified to be all of them. Exit codes:
+0 success, 2 bad input (e.g. a scene whose equation is not autonomous), 3 when the equilibria
+search could not certify that it found them all (the portrait is written and may miss some).
 """
 from __future__ import annotations
 
 import argparse
 import math
+import sys
 
-from actuator_design.cli.common import (EXIT_OK, InputError, bad_input, check_out_dir, load_config,
-                                        stdout_to_stderr)
+from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
+                                        load_config, stdout_to_stderr)
 from actuator_design.cli.output import print_written, write_out
 from actuator_design.cli.path import add_scene_flags, csv_text, scene_and_options, study_settings
 
@@ -103,6 +106,10 @@ def run(args: argparse.Namespace) -> int:
         print(_summary(portrait, units))
     if written is not None:
         print_written(written, args.json)
+    if not portrait.complete:
+        print("actuator-design: warning: not complete: the portrait may miss equilibria (" + portrait.notes[0] + ")",
+              file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     return EXIT_OK
 
 

@@ -22,7 +22,7 @@ import numpy as np
 import scipy.linalg
 from scipy.linalg import blas, lapack
 
-from actuator_design.reduced.stability import classify_spectrum
+from actuator_design.reduced.stability import _ldl_inertia, classify_spectrum, ldl_negatives
 
 __all__ = ["lowest_eigenpairs", "lowest_eigenpairs_dense", "lowest_eigenpair", "lowest_eigenpair_banded",
            "banded_negatives", "inertia", "ldl_negatives", "signed_distance_to_singularity", "bordered_solve",
@@ -152,29 +152,6 @@ def lowest_eigenpairs_dense(H: np.ndarray, inv_mass: np.ndarray, k: int = 1):
     rows, cols = np.divmod(np.arange(n * n), n)
     lam, u = lowest_eigenpairs(rows, cols, np.asarray(H, float).ravel(), inv_mass, k, False, n - 1)
     return lam, np.sqrt(inv_mass) * u
-
-
-def _ldl_inertia(ldu: np.ndarray, ipiv: np.ndarray) -> int:
-    """Number of negative eigenvalues of D in a Bunch–Kaufman LDLᵀ = A (``dsytrf``/``dsysv``
-    output, upper storage): that of A by Sylvester's law of inertia."""
-    d = np.diagonal(ldu)
-    one = ipiv > 0
-    if one.all():  # 1×1 pivots only: the signs of D's diagonal
-        return int(np.count_nonzero(d < 0))
-    neg = int(np.count_nonzero(d[one] < 0))
-    # a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do not interleave, so
-    # the sorted negative entries pair up two by two
-    ks = np.flatnonzero(~one)
-    a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
-    det = a * c - b * b
-    return neg + int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
-
-
-def ldl_negatives(A: np.ndarray) -> int:
-    """Number of negative eigenvalues of a symmetric dense A from the inertia of its
-    Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia)."""
-    ldu, ipiv, _ = _dsytrf(A)
-    return _ldl_inertia(ldu, ipiv)
 
 
 def inertia(A: np.ndarray) -> Tuple[int, float]:

@@ -24,7 +24,7 @@ from typing import List, Optional, Tuple
 import numpy as np
 from scipy.linalg import lapack
 
-__all__ = ["STABILITY_TOL", "classify_spectrum", "certified_stable", "StabilityVerdict", "kernel_verdict",
+__all__ = ["STABILITY_TOL", "classify_spectrum", "morse_index", "ldl_negatives", "certified_stable", "StabilityVerdict", "kernel_verdict",
            "StabilityCheck", "is_unstable", "lowest_eigenvalues", "verdict_of"]
 
 #: Relative tolerance of the stability rule (:func:`classify_spectrum`).
@@ -32,7 +32,7 @@ STABILITY_TOL = 1e-9
 #: reduced systems up to this size are checked densely; bigger ones use ``solver.stability``
 DENSE_MAX = 200
 
-_dsyevr, _dpotrf = lapack.dsyevr, lapack.dpotrf
+_dsyevr, _dpotrf, _dsytrf = lapack.dsyevr, lapack.dpotrf, lapack.dsytrf
 #: per kernel: the flat indices of its Hessian's nonzeros in a dense matrix, and their mass scaling
 _PATTERN: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
@@ -44,6 +44,43 @@ def classify_spectrum(lam, tol: float = STABILITY_TOL) -> Tuple[int, bool, bool]
     lam = np.asarray(lam, float)
     scale = tol * max(1.0, abs(float(lam[0])))
     return int(np.sum(lam < -scale)), bool(lam[0] > scale), bool(abs(lam[0]) <= scale)
+
+
+def _ldl_inertia(ldu: np.ndarray, ipiv: np.ndarray) -> int:
+    """Number of negative eigenvalues of D in a Bunch–Kaufman LDLᵀ = A (``dsytrf``/``dsysv``
+    output, upper storage): that of A by Sylvester's law of inertia."""
+    d = np.diagonal(ldu)
+    one = ipiv > 0
+    if one.all():  # 1×1 pivots only: the signs of D's diagonal
+        return int(np.count_nonzero(d < 0))
+    neg = int(np.count_nonzero(d[one] < 0))
+    # a 2×2 block sits at (k, k+1) when ipiv[k] = ipiv[k+1] < 0; the blocks do not interleave, so
+    # the sorted negative entries pair up two by two
+    ks = np.flatnonzero(~one)
+    a, c, b = d[ks[0::2]], d[ks[1::2]], ldu[ks[0::2], ks[1::2]]
+    det = a * c - b * b
+    return neg + int(np.count_nonzero(det < 0)) + 2 * int(np.count_nonzero((det >= 0) & (a + c < 0)))
+
+
+def ldl_negatives(A: np.ndarray) -> int:
+    """Number of negative eigenvalues of a symmetric dense A from the inertia of its
+    Bunch–Kaufman LDLᵀ factorisation (Sylvester's law of inertia)."""
+    ldu, ipiv, _ = _dsytrf(A)
+    return _ldl_inertia(ldu, ipiv)
+
+
+def morse_index(A: np.ndarray, lam, tol: float = STABILITY_TOL) -> int:
+    """The rule's Morse index #(λ < −τ) of A = M^-1/2 H M^-1/2 (n, n) over its whole spectrum, given
+    its smallest eigenvalues ``lam`` (ascending): counted among them when one is above −τ, else
+    (every one computed is below −τ: there may be more) from the LDLᵀ inertia of A + τ I
+    (Sylvester's law). The lowest three alone capped the index at 3 (the straight rod at h = 10,
+    φ = 90° has index 5)."""
+    lam = np.asarray(lam, float)
+    index = classify_spectrum(lam, tol)[0]
+    if index < lam.size or lam.size >= A.shape[0]:
+        return index
+    scale = tol * max(1.0, abs(float(lam[0])))
+    return ldl_negatives(A + scale * np.eye(A.shape[0]))
 
 
 def certified_stable(A: np.ndarray, tol: float = STABILITY_TOL) -> bool:
@@ -85,6 +122,9 @@ def kernel_verdict(kernel, z: np.ndarray, params: np.ndarray, k: int = 3,
     vec[1:] = np.sqrt(kernel.inv_mass) * v0
     vec /= np.max(np.abs(vec))
     morse, stable, marginal = classify_spectrum(lam, tol)
+    if morse >= min(k, len(lam)) and len(lam) < kernel.n:  # every eigenvalue computed is negative
+        ms = np.sqrt(kernel.inv_mass)
+        morse = morse_index(ms[:, None] * kernel.hessian_dense() * ms[None, :], lam, tol)
     return StabilityVerdict(eigenvalues=lam[:k], eigenvector=vec, morse_index=morse, stable=stable,
                             marginal=marginal)
 
@@ -158,5 +198,8 @@ def verdict_of(solver, z: np.ndarray, params: np.ndarray, check: Optional[Stabil
     if lam is None:
         return solver.stability(z, params, tol=tol)
     morse, stable, marginal = classify_spectrum(lam, tol)
+    if morse == len(lam):  # every eigenvalue computed is negative: the whole spectrum counts
+        A = _scaled_hessian(solver, z, params)
+        morse = morse_index(0.5 * (A + A.T), lam, tol)
     return StabilityVerdict(eigenvalues=lam, eigenvector=None, morse_index=morse, stable=stable,
                             marginal=marginal)
