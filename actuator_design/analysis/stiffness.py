@@ -36,6 +36,7 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.analysis.registration import register
+from actuator_design.equilibrium.acceptance import graded_for_scenes, residual_problem
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
@@ -427,6 +428,8 @@ def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
     def at_field(h: float) -> Scene:  # h and every group it drives ∝ H (the lens' field rule)
         return lens.apply_values(comp, {"h": h}) if driven else comp.with_values(h=h)
 
+    # one mesh for the sweep, graded for its strongest field (the layer ~1/(√2 h) at the clamp)
+    options = graded_for_scenes([at_field(float(h)) for h in h_values], options)
     track = replace(options, method="newton", ensure_stable=False)
     solver = get_solver(comp, options)
     n = h_values.size
@@ -438,7 +441,10 @@ def stiffness_field_curve(scene: Scene, options: Optional[SolverOptions] = None,
         if not eq.stable and eq.success and prev is not None:
             eq = solve(sc, replace(options, ensure_stable=True), initial=eq, solver=solver)
         st = tip_stiffness(eq, moment=moment)
-        vert[i], ang[i], stab[i], succ[i] = st.vertical, eq.tip["angle"], eq.stable, eq.success
+        why = residual_problem(eq) if eq.success else None  # the accuracy promise of solve
+        vert[i], ang[i], stab[i], succ[i] = st.vertical, eq.tip["angle"], eq.stable, eq.success and why is None
+        if why is not None and not any(nt.startswith("inaccurate") for nt in notes):
+            notes.append(f"inaccurate from h = {h:.6g}: {why}; refine the mesh (solver.elements)")
         if eq.success:
             prev = eq
     applies = lowload_applies(scene)
