@@ -238,3 +238,20 @@ def test_field_ramp_in_a_dipole_field_scales_both_magnetic_groups():
     coarse = SolverOptions(elements=2, degree=6)  # the dipole NLP is slow to build: keep it small
     path = follow_path(sc, coarse, ramp("h", 0.0, 0.1))
     assert path.success and path.final.scene.h_pos == pytest.approx(0.05)
+
+
+def test_a_path_starting_under_a_large_load_starts_from_rest():
+    """p from −300 to −200: the first state is the one reached from rest (the rod hanging along the
+    load, tip angle ≈ −π/2, stable; independent shooting reference), not the straight rod's Newton
+    landing on a coiled branch (tip angle −7.8 rad, refused as crossing itself, exit 3)."""
+    from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
+
+    path = follow_path(default_scene(h=0.0, p=-300.0), schedule={"p": [-300.0, -200.0]})
+    assert path.success, path.message
+    first = path.states[0]
+    assert first.stable and abs(first.tip["angle"] + 0.5 * math.pi) < 1e-3
+    ref = solve_bvp_peer(bvp_from_scene(default_scene(h=0.0, p=-200.0)), 1e-10,
+                         guess_theta=lambda s: -0.5 * math.pi * (1.0 - np.exp(-math.sqrt(200.0) * s)))
+    assert ref.success
+    assert np.max(np.abs(np.array([path.final.tip["x"], path.final.tip["y"], path.final.tip["angle"]])
+                        - ref.tip)) < 1e-8

@@ -45,7 +45,7 @@ from actuator_design.continuation.loading_schedule import (Schedule, apply_value
                                                            scene_values)
 from actuator_design.continuation.loading_tracker import Tracker as _Tracker
 from actuator_design.continuation.segment import LensSegment, followers
-from actuator_design.equilibrium.acceptance import graded_for_scenes
+from actuator_design.equilibrium.acceptance import graded_for_scenes, warm_values
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.result import EquilibriumResult
@@ -77,7 +77,8 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
         e.g. ``[{"h": 0, "phi": 1.2}, {"h": 1.5, "phi": 1.2}]`` or ``{"p": [0.5, -2, 0.5]}``;
         :func:`ramp` builds up/down ramps. At least two points.
     initial : ndarray of shape (n_nodes,) or EquilibriumResult, optional
-        Warm start of the first state (default: the straight rod); the first state is made stable.
+        Warm start of the first state (default: the state reached from rest,
+        :func:`~actuator_design.equilibrium.pipeline.solve`); the first state is made stable.
         Node values (an ndarray) are those of the mesh ``options`` describe: the path then stays
         on that mesh, not graded for its schedule.
     max_step : float, optional
@@ -110,8 +111,8 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     tr = _Tracker(base, options, names, vals, max_step, max_dtheta)
 
     prob0 = tr.problem(0)
-    first = solve(prob0.segment.scene(0.0), replace(options, ensure_stable=True), initial=initial,
-                  solver=tr.solver)
+    first = solve(prob0.segment.scene(0.0), replace(options, ensure_stable=True),
+                  initial=_start_values(prob0.segment.scene(0.0), options, initial, tr.solver), solver=tr.solver)
     tr.record(prob0, 0, 0.0, first, "start")
     tr.states.append(first)
     cur, msg, ok = first, "", bool(first.success and first.stable)
@@ -140,6 +141,17 @@ def follow_path(scene: Scene, options: Optional[SolverOptions] = None, schedule:
     return LoadingPath(names=names, schedule=vals, param=tr.param, points=tr.points, jumps=tr.jumps,
                        bifurcations=tr.bifs, snap_free=bool(ok and not tr.jumps), hysteresis=hyst,
                        states=tr.states, final=cur, success=ok, message=msg)
+
+
+def _start_values(scene: Scene, options: SolverOptions, initial, solver):
+    """The first state's warm start on the path's mesh: node values as given, a result interpolated
+    onto the mesh, or (none given) the state ``solve`` reaches from rest in ``scene`` (a state that
+    misses solve's accuracy on its own mesh included: re-solved on the path's). None (the straight
+    rod) when no state is reached from rest."""
+    if initial is None:
+        rest = solve(scene, replace(options, ensure_stable=True))
+        initial = rest if (rest.success or rest.status == "inaccurate") else None
+    return None if initial is None else warm_values(initial, solver.transcription.nodes)
 
 
 def _graded_for_schedule(base: Scene, options: SolverOptions, names, vals) -> SolverOptions:
