@@ -255,3 +255,16 @@ def test_a_path_starting_under_a_large_load_starts_from_rest():
     assert ref.success
     assert np.max(np.abs(np.array([path.final.tip["x"], path.final.tip["y"], path.final.tip["angle"]])
                         - ref.tip)) < 1e-8
+
+
+@pytest.mark.parametrize("schedule", [{"h": [0.0, 300.0]}, {"h": [0.0, 3.0, 0.0]}])
+def test_the_transverse_pitchfork_is_continuous_both_ways_at_its_closed_form_field(schedule):
+    """φ = 90°: the first pitchfork h_crit = π/(2√2) (THEORY §6) is supercritical. Up to h = 300 the
+    path stepped 0.03 in h past it (1e-4 of the segment) and reported a snap releasing 1.8e-3; down
+    through it from the bent side it placed it 1.2e-3 off (the engine's step jumped branches)."""
+    path = follow_path(default_scene(h=0.0, phi=0.5 * math.pi), schedule=schedule)
+    assert path.success and path.snap_free and not path.jumps, path.message
+    hc = critical_field_transverse(1)
+    assert len(path.bifurcations) == len(schedule["h"]) - 1
+    for b in path.bifurcations:
+        assert b.param == pytest.approx(hc, abs=1e-9)

@@ -12,20 +12,22 @@ a jump otherwise.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import List, Optional, Tuple
 
 import numpy as np
+from scipy.optimize import brentq
 
 from actuator_design.continuation import PALC, BranchPoint, ContinuationSettings, Fold, continuation
+from actuator_design.continuation.loading_results import Bifurcation, Jump, PathPoint
 from actuator_design.continuation.segment import LensSegment, SegmentProblem, followers
 from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.result import EquilibriumResult
+from actuator_design.equilibrium.solver import get_solver
 from actuator_design.reduced.fold import locate_fold
 from actuator_design.reduced.linalg import lowest_eigenpairs_dense
 from actuator_design.reduced.system import reduced_system
-from actuator_design.equilibrium.result import EquilibriumResult
-from actuator_design.equilibrium.solver import get_solver
-from actuator_design.continuation.loading_results import Bifurcation, Jump, PathPoint
 
 __all__ = ["MAX_TRIALS", "Tracker"]
 
@@ -33,8 +35,10 @@ __all__ = ["MAX_TRIALS", "Tracker"]
 MAX_TRIALS = 20000
 #: Past a fold the landing is sought this far along the segment (λ), as before.
 _PAST_FOLD = 1e-7
-#: Past a branch point the unstable state is left this far (far enough that the unstable
-#: eigenvalue is well resolved, near enough that a supercritical branch is still close: ~√d).
+#: Past a branch point the unstable state is left this far in the scheduled values (far enough that
+#: the unstable eigenvalue is well resolved, near enough that a supercritical branch is still close:
+#: ~√d); in λ, this over the segment's span (a path in h from 0 to 300 stepped 0.03 past the
+#: supercritical pitchfork at h = 1.11 and called it a snap).
 _PAST_BRANCH_POINT = 1e-4
 #: A stable state past a branch point this close to the critical state (max nodal |Δθ|, rad;
 #: ~√(_PAST_BRANCH_POINT) with room) continues the path without a jump.
@@ -175,7 +179,7 @@ class Tracker:
                                       f"(smallest eigenvalue {br.min_eig[-1]:.3g}): {br.message}")
                     return None, f"no stable state to land on after the fold at t = {k + ev.lam:.10g}"
             else:
-                out = self._bifurcation(k, prob, ev)
+                out = self._bifurcation(k, prob, ev, float(br.lam[-1]))
                 if out is None:
                     return None, f"no stable state after the bifurcation at t = {k + ev.lam:.10g}"
             lam, cur = out
@@ -237,13 +241,31 @@ class Tracker:
                     return r, s
         return None, 0
 
-    def _bifurcation(self, k, prob: SegmentProblem, ev):
-        """Leave the branch just past a branch point at λ_c; continuous (supercritical) or a jump.
-        Returns (λ, state) to continue from, or None."""
+    def _merge_point(self, prob: SegmentProblem, lam_c: float, rc: EquilibriumResult, lam_last: float):
+        """Where the branch the path merges onto (stable at λ_c, the state ``rc``) loses stability:
+        the pitchfork itself. The engine's event is located on its step, whose corrected points jump
+        from the ending branch to this one somewhere between (a path lowering h through the buckling
+        field placed it 1.2e-3 off); the lowest eigenvalue of this branch, followed back towards
+        ``lam_last`` by Newton from ``rc``, crosses zero there (``brentq``). (λ_c, ``rc``) when it
+        does not change sign in between."""
+        def lowest(lam):
+            r = self._solve_track(prob, lam, rc.z)
+            return (float(r.eigenvalues[0]) if self._usable(r) else math.nan), r
+
+        lo, r_lo = lowest(lam_last)
+        hi = float(rc.eigenvalues[0])
+        if not (math.isfinite(lo) and lo < 0.0 < hi and np.max(np.abs(r_lo.z - rc.z)) <= _MERGE_DTHETA):
+            return lam_c, rc
+        lam = brentq(lambda x: lowest(x)[0], lam_last, lam_c, xtol=1e-14, rtol=4.0 * np.finfo(float).eps)
+        return lam, lowest(lam)[1]
+
+    def _bifurcation(self, k, prob: SegmentProblem, ev, lam_last: float):
+        """Leave the branch just past a branch point at λ_c; continuous (supercritical) or a jump
+        (``lam_last``: the last accepted λ before it). Returns (λ, state) to continue from, or None."""
         n, seg = prob.n, prob.segment
         lam_c = float(ev.lam)
         rc = self._solve_track(prob, lam_c, prob.full(ev.x[:n], lam_c))
-        d = min(_PAST_BRANCH_POINT, 1.0 - lam_c)
+        d = min(_PAST_BRANCH_POINT / seg.span, 1.0 - lam_c)  # (a step of the scheduled values, not of λ)
         lam_s = lam_c + d
         t = ev.tangent
         slope = t[:n] / t[n] if t is not None and abs(t[n]) > 1e-12 else np.zeros(n)
@@ -256,6 +278,7 @@ class Tracker:
             # the followed branch ends on a branch that is stable past λ_c (a supercritical pitchfork
             # crossed from its bent side, e.g. a field lowered through the buckling field): the rod
             # goes on continuously on that branch; nothing to choose (sign 0)
+            lam_c, rc = self._merge_point(prob, lam_c, rc, lam_last)
             self.record(prob, k, lam_c, rc, "critical")
             self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                          values=seg.values(lam_c), direction=self._direction(seg),

@@ -112,6 +112,12 @@ class LensSegment:
                 if abs(value - ref) > 1e-12 * max(1.0, abs(ref)):
                     raise RuntimeError(f"{name}: the segment gives {value!r}, the parameter lens {ref!r}")
 
+    @property
+    def span(self) -> float:
+        """max(1, the largest change of a scheduled value over the segment), in its own units: a
+        step of δ/span in λ moves no scheduled value by more than δ."""
+        return float(max(1.0, np.max(np.abs(self.vb - self.va), initial=0.0)))
+
     def values(self, lam: float) -> Dict[str, float]:
         """The scheduled values at λ, each kept in its parameter's range (λ may pass an end by
         rounding)."""
