@@ -161,3 +161,25 @@ def test_branches_through_folds_are_accurate():
         assert res.accurate, res.accuracy
         folded += bool(res.branch.folds)
     assert folded >= 2
+
+
+@pytest.mark.parametrize("ds_max", [None, 3.0])
+def test_no_branch_point_is_skipped_by_a_long_step(ds_max):
+    """The straight rod in a transverse field, h from 0 to 40: 18 pitchforks 2.2 apart. A step over
+    two of them changes the Morse index by 2 and the determinant's sign not at all: with ds_max = 2.5
+    two were skipped and the branch said complete. Such steps are now halved."""
+    from actuator_design.model.scene import default_scene
+    from actuator_design.reference.closed_forms import critical_field_transverse
+
+    res = continue_branch(default_scene(h=0.0, phi=0.5 * math.pi), "h", 0.0, 40.0, ds_max=ds_max)
+    refs = [critical_field_transverse(m) for m in range(1, 19)]
+    assert refs[-1] < 40.0 < critical_field_transverse(19)
+    found = [c.value for c in res.branch.branch_points]
+    assert len(found) == 18 and res.complete
+    assert found[:5] == pytest.approx(refs[:5], abs=1e-8)
+    assert np.all(np.diff(res.branch.morse_index) >= 0) and res.branch.morse_index[-1] == 18
+
+
+def test_cli_continue_rejects_a_negative_step(capsys):
+    assert main(["continue", "--param", "h", "--from", "0", "--to", "1", "--ds", "-1"]) == 2
+    assert "--ds" in capsys.readouterr()[1]

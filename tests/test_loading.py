@@ -257,12 +257,14 @@ def test_a_path_starting_under_a_large_load_starts_from_rest():
                         - ref.tip)) < 1e-8
 
 
-@pytest.mark.parametrize("schedule", [{"h": [0.0, 300.0]}, {"h": [0.0, 3.0, 0.0]}])
-def test_the_transverse_pitchfork_is_continuous_both_ways_at_its_closed_form_field(schedule):
+@pytest.mark.parametrize("schedule,max_step", [({"h": [0.0, 300.0]}, None), ({"h": [0.0, 3.0, 0.0]}, None),
+                                               ({"h": [0.0, 3.0, 0.0]}, 0.25), ({"h": [0.0, 3.0, 0.0]}, 0.05)])
+def test_the_transverse_pitchfork_is_continuous_both_ways_at_its_closed_form_field(schedule, max_step):
     """φ = 90°: the first pitchfork h_crit = π/(2√2) (THEORY §6) is supercritical. Up to h = 300 the
     path stepped 0.03 in h past it (1e-4 of the segment) and reported a snap releasing 1.8e-3; down
-    through it from the bent side it placed it 1.2e-3 off (the engine's step jumped branches)."""
-    path = follow_path(default_scene(h=0.0, phi=0.5 * math.pi), schedule=schedule)
+    through it from the bent side it placed it 1.2e-3 off (the engine's step jumped branches); the
+    branch merged onto is now continued back to its own branch point."""
+    path = follow_path(default_scene(h=0.0, phi=0.5 * math.pi), schedule=schedule, max_step=max_step)
     assert path.success and path.snap_free and not path.jumps, path.message
     hc = critical_field_transverse(1)
     assert len(path.bifurcations) == len(schedule["h"]) - 1

@@ -178,7 +178,7 @@ def run(args: argparse.Namespace) -> int:
     ds_max = _pick(args.ds_max, study, "ds_max", None)
     max_points = _pick(args.max_points, study, "max_points", 2000)
     if not ds > 0 or not (ds_max is None or ds_max > 0):
-        raise InputError(f"--ds, --ds-max: must be > 0, got {ds:g}, {ds_max:g}")
+        raise InputError(f"--ds, --ds-max: must be > 0, got {ds:g}, {ds_max!r}")
     if max_points < 2:
         raise InputError(f"--max-points: must be >= 2, got {max_points}")
     switch = bool(_pick(args.switch, study, "switch", False))

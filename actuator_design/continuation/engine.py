@@ -26,6 +26,10 @@ from actuator_design.continuation.settings import ContinuationSettings
 
 __all__ = ["Natural", "PALC", "ContinuationBranch", "continuation", "locate_event"]
 
+#: a step on which the Morse index changes by two or more is halved while longer than this many
+#: smallest steps (then it is taken: two eigenvalues that cross zero together)
+_DOUBLE_CROSSING_DS = 1e3
+
 
 @dataclass(frozen=True)
 class PALC:
@@ -255,6 +259,11 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
                 ok = False
             elif bounded and float(np.max(np.abs(xn[:n] - x[:n]), initial=0.0)) > st.max_du:
                 ok = False
+        if ok and want_bp and abs(idx - IDX[-1]) >= 2 and ds > _DOUBLE_CROSSING_DS * st.ds_min:
+            # two eigenvalues crossed zero on one step: two branch points whose determinant signs
+            # cancel (a wide window's largest step over pitchforks 2.2 apart in h skipped some);
+            # shorter steps take them one at a time (a true double crossing stays at small steps)
+            ok, it = False, st.max_corrector_iter
         if not ok:
             ds *= 0.5
             if ds < st.ds_min:

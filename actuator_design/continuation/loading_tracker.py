@@ -12,12 +12,10 @@ a jump otherwise.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from typing import List, Optional, Tuple
 
 import numpy as np
-from scipy.optimize import brentq
 
 from actuator_design.continuation import PALC, BranchPoint, ContinuationSettings, Fold, continuation
 from actuator_design.continuation.loading_results import Bifurcation, Jump, PathPoint
@@ -241,23 +239,26 @@ class Tracker:
                     return r, s
         return None, 0
 
-    def _merge_point(self, prob: SegmentProblem, lam_c: float, rc: EquilibriumResult, lam_last: float):
-        """Where the branch the path merges onto (stable at λ_c, the state ``rc``) loses stability:
-        the pitchfork itself. The engine's event is located on its step, whose corrected points jump
-        from the ending branch to this one somewhere between (a path lowering h through the buckling
-        field placed it 1.2e-3 off); the lowest eigenvalue of this branch, followed back towards
-        ``lam_last`` by Newton from ``rc``, crosses zero there (``brentq``). (λ_c, ``rc``) when it
-        does not change sign in between."""
-        def lowest(lam):
-            r = self._solve_track(prob, lam, rc.z)
-            return (float(r.eigenvalues[0]) if self._usable(r) else math.nan), r
-
-        lo, r_lo = lowest(lam_last)
-        hi = float(rc.eigenvalues[0])
-        if not (math.isfinite(lo) and lo < 0.0 < hi and np.max(np.abs(r_lo.z - rc.z)) <= _MERGE_DTHETA):
+    def _merge_point(self, prob: SegmentProblem, lam_c: float, rc: EquilibriumResult, ru: EquilibriumResult,
+                     lam_s: float, lam_last: float):
+        """Where the branch the path merges onto (stable at ``lam_s``, the state ``ru``) loses
+        stability: the pitchfork itself. The engine's event is located on the step of the ending
+        branch, whose corrected points jump onto this one somewhere in between (a path lowering h
+        through the buckling field placed it 1.2e-3 off); here this branch is continued back from
+        ``ru`` towards ``lam_last`` and its own branch point located by the engine (as on a path
+        that meets the pitchfork from this side). (λ_c, ``rc``) when that finds none."""
+        n = prob.n
+        settings = replace(self._settings(prob), window=(min(lam_last, lam_s), lam_s), direction=-1.0)
+        x0 = np.append(ru.z[1:], lam_s)
+        t0 = self._start_tangent(prob, x0)
+        br = continuation(prob, PALC(), settings, (BranchPoint(stop=True),), x0=x0,
+                          tangent=None if t0 is None else -t0)
+        ev = br.events[-1] if br.status == "event" and br.events else None
+        if ev is None or not ev.located:
             return lam_c, rc
-        lam = brentq(lambda x: lowest(x)[0], lam_last, lam_c, xtol=1e-14, rtol=4.0 * np.finfo(float).eps)
-        return lam, lowest(lam)[1]
+        lam = float(ev.lam)
+        r = self._solve_track(prob, lam, prob.full(ev.x[:n], lam))
+        return (lam, r) if self._usable(r) else (lam_c, rc)
 
     def _bifurcation(self, k, prob: SegmentProblem, ev, lam_last: float):
         """Leave the branch just past a branch point at λ_c; continuous (supercritical) or a jump
@@ -278,7 +279,7 @@ class Tracker:
             # the followed branch ends on a branch that is stable past λ_c (a supercritical pitchfork
             # crossed from its bent side, e.g. a field lowered through the buckling field): the rod
             # goes on continuously on that branch; nothing to choose (sign 0)
-            lam_c, rc = self._merge_point(prob, lam_c, rc, lam_last)
+            lam_c, rc = self._merge_point(prob, lam_c, rc, ru, lam_s, lam_last)
             self.record(prob, k, lam_c, rc, "critical")
             self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                          values=seg.values(lam_c), direction=self._direction(seg),
