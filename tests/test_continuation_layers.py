@@ -183,3 +183,22 @@ def test_no_branch_point_is_skipped_by_a_long_step(ds_max):
 def test_cli_continue_rejects_a_negative_step(capsys):
     assert main(["continue", "--param", "h", "--from", "0", "--to", "1", "--ds", "-1"]) == 2
     assert "--ds" in capsys.readouterr()[1]
+
+
+def test_a_critical_value_carries_its_discretisation_error():
+    """Pitchforks of the straight rod in a transverse field, h to 40 on the default mesh: the
+    bifurcating mode m has (2m − 1)/2 half-waves, and from m ≈ 7 the mesh's error in h_crit^(m) grows
+    (4.3e-3 at m = 18). Each branch point's estimate (relocated on a mesh of degree + 4) is that error
+    against the closed form, and the branch is not accurate once one exceeds 1e-6 relative."""
+    from actuator_design.model.scene import default_scene
+    from actuator_design.reference.closed_forms import critical_field_transverse
+
+    res = continue_branch(default_scene(h=0.0, phi=0.5 * math.pi), "h", 0.0, 40.0)
+    assert res.complete and not res.accurate and "branch point" in res.accuracy
+    for m, cp in enumerate(res.branch.branch_points, start=1):
+        true = abs(cp.value - critical_field_transverse(m))
+        if m >= 9:  # (below, both are rounding)
+            assert cp.value_error == pytest.approx(true, rel=0.2), (m, cp.value_error, true)
+        else:
+            assert cp.value_error < 1e-9 and true < 1e-9
+    assert res.to_dict()["branch_points"][-1]["value_error"] == pytest.approx(res.branch.branch_points[-1].value_error)

@@ -8,9 +8,11 @@ the tip angle (rad) and the number of equilibria just below and above it (shooti
 consecutive critical values). Parameters (--param) as for `continue`: h, h2, phi, p, fx, fy,
 m_tip, qx, qy, alpha, h_pos, h_r, magnetization, theta0 (angles in rad). E.g. an axial remanent
 magnetisation in an anti-parallel field (--h 0 --phi-deg 180 --h-r 0 --param h_r --window 0,5)
-buckles at h_r = pi^2/4 (THEORY §9). Exit 0 when the list is complete; 3 (with the reasons) when
-the equilibria at a sample could not be certified complete or a branch stopped inside the window:
-the list may then miss critical points.
+buckles at h_r = pi^2/4 (THEORY §9). Each value carries an estimate of its discretisation error
+(`value_error`: the point relocated on a mesh of degree + 4). Exit 0 when the list is complete and
+every value is within 1e-6 x max(1, |value|); 3 (with the reasons) when the equilibria at a sample
+could not be certified complete, a branch stopped inside the window, or a value misses that (its
+bifurcating mode is not resolved: refine the mesh).
 
 Units: dimensionless (THEORY §5): lengths in rod lengths l, energies in B0/l, loads in B0/l^2,
 angles in rad (the --phi-deg and --alpha-deg flags take degrees). --window accepts units for
@@ -173,6 +175,8 @@ def run(args: argparse.Namespace) -> int:
         print_written(written, args.json)
     for why in res.incomplete_reasons:
         print(f"actuator-design: warning: not complete at {why}", file=sys.stderr)
-    if not res.complete:  # the list may miss critical points: not an answer to call a success
+    if res.accuracy is not None:
+        print(f"actuator-design: warning: inaccurate: {res.accuracy}", file=sys.stderr)
+    if not res.complete or res.accuracy is not None:  # the list may miss points, or misplace one
         return EXIT_NOT_CONVERGED
     return EXIT_OK

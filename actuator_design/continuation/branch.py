@@ -7,6 +7,7 @@ contract). Built by :class:`~actuator_design.continuation.follow.Continuation` f
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple
 
@@ -53,13 +54,18 @@ class CriticalPoint:
     #: λ range that contains it: the step's end values widened by the arclength step (a bound on
     #: its uncertainty when not ``located``)
     interval: Optional[Tuple[float, float]] = None
+    #: estimated discretisation error of ``value`` (units of the parameter; nan: not estimated, inf:
+    #: not found on the finer mesh; JSON null for both),
+    #: :func:`~actuator_design.continuation.branch_accuracy.critical_value_error`
+    value_error: float = float("nan")
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "param": self.param, "value": float(self.value),
                 self.param: float(self.value), "tip_angle": float(self.tip["angle"]),
                 "tip": {k: float(v) for k, v in self.tip.items()}, "energy": float(self.energy),
                 "morse_index_before": int(self.morse_before), "morse_index_after": int(self.morse_after),
-                "located": bool(self.located)}
+                "located": bool(self.located),
+                "value_error": float(self.value_error) if math.isfinite(self.value_error) else None}
 
 
 @dataclass

@@ -35,7 +35,7 @@ from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.analysis.registration import register
 from actuator_design.contact.guard import no_contact
 from actuator_design.continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
-from actuator_design.continuation.branch_accuracy import branch_options
+from actuator_design.continuation.branch_accuracy import branch_options, critical_accuracy
 from actuator_design.continuation.follow import Branch, Continuation, CriticalPoint, get_param, set_param
 from actuator_design.equilibrium.acceptance import warm_values
 from actuator_design.equilibrium.options import SolverOptions
@@ -195,14 +195,19 @@ class CriticalResult:
     branch_point_objects: List[CriticalPoint] = field(default_factory=list, repr=False)
     complete: bool = True
     incomplete_reasons: List[str] = field(default_factory=list)
+    #: why a critical value misses its accuracy (its estimated error, ``value_error`` of each row,
+    #: above :data:`~actuator_design.continuation.branch_accuracy.CRITICAL_RTOL` × max(1, |λ*|)), or None
+    accuracy: Optional[str] = None
 
     def to_dict(self, branches: bool = False) -> dict:
         """The ``critical --json`` contract: ``folds`` and ``branch_points`` with the parameter
-        value, the tip angle and the number of equilibria on either side."""
+        value, the tip angle and the number of equilibria on either side (and ``value_error``);
+        ``accurate`` and ``accuracy``."""
         out = {"param": self.param, "window": list(self.window), "folds": self.folds,
                "branch_points": self.branch_points, "counts": self.counts, "samples": self.samples,
                "stats": self.stats, "complete": bool(self.complete),
-               "incomplete_reasons": list(self.incomplete_reasons)}
+               "incomplete_reasons": list(self.incomplete_reasons),
+               "accurate": self.accuracy is None, "accuracy": self.accuracy}
         if branches:
             out["branches"] = [b.to_dict() for b in self.branches]
         return out
@@ -350,6 +355,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                            f"window ({br.message}): its folds and branch points beyond are not known")
     folds = _dedupe([cp for br in branches for cp in br.folds])
     bps = _dedupe([cp for br in branches for cp in br.branch_points])
+    accuracy = critical_accuracy(cont, folds + bps)  # (each gets its value_error)
     # counts between consecutive critical values
     vals = sorted({round(c.value, 9) for c in folds + bps})
     edges = [a] + [v for v in vals if a < v < b] + [b]
@@ -379,7 +385,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
              "time_s": time.perf_counter() - t0}
     reasons = [r for r in reasons if r is not None]
     return CriticalResult(param, (a, b), rows(folds), rows(bps), branches, counts,
-                          [float(s) for s in samples], stats, folds, bps, not reasons, reasons)
+                          [float(s) for s in samples], stats, folds, bps, not reasons, reasons, accuracy)
 
 
 def critical_curves(scene: Scene, param: str, second: str, window: Sequence[float],
