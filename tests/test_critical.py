@@ -128,3 +128,15 @@ def test_folds_located_and_continued_on_a_strongly_graded_mesh():
     p1 = reference_fold(10.3, -2.8)[0]
     assert curve.status == "left_window" and curve.lam[0] == pytest.approx(p1, abs=1e-9)
     assert curve.mu[-1] == pytest.approx(2.0)
+
+
+def test_an_imperfect_pitchfork_with_a_point_only_bracketed_is_not_complete():
+    """φ = 90° with fibres at 0.57°: the imperfect pitchfork's folds are located (and accurate), but
+    a step jumping between its disconnected branches leaves a 'branch point' only bracketed, perhaps
+    none at all: the list says so and is not complete (it was, with exit 0)."""
+    r = critical_points(default_scene(h=0.0, phi=math.pi / 2, alpha=0.01), "h", (0.0, 4.0), n_samples=3)
+    d = r.to_dict()
+    assert d["accurate"] and all(f["value_error"] is not None and f["value_error"] < 1e-8 for f in d["folds"])
+    loose = [bp for bp in r.branch_point_objects if not bp.located]
+    assert (not r.complete and not d["success"]) if loose else r.complete
+    assert bool(loose) == any("only bracketed" in why for why in r.incomplete_reasons)

@@ -4,8 +4,10 @@ branch points.
 The equilibrium at --from A (the state reached from rest, or the straight rod with --straight) is
 followed through folds until the parameter leaves [min(A, B), max(A, B)], on one mesh graded for
 the window's more demanding end. The states at the branch's least and greatest parameter value
-and at its sharpest clamp layer are held to the accuracy of `solve` (the JSON's `accurate`,
-`accuracy`, `success`): a branch that misses it exits 3 and says where. Parameters (--param):
+and at its sharpest clamp layer are held to the accuracy of `solve`, and each located fold and
+branch point to 1e-6 x max(1, |value|) by its estimated error (`value_error`: relocated on a mesh of
+degree + 4); the JSON's `accurate`, `accuracy`, `success`: a branch that misses either exits 3 and
+says where. Parameters (--param):
 h, h2 (= h^2), phi (rad), p (vertical tip load), fx, fy, m_tip, qx, qy, alpha (constant fibre
 angle, rad), theta0 (clamp angle, rad). Folds are limit points of the parameter; branch points are
 where another branch crosses (e.g. the pitchforks at h_crit^(m) = (2m-1) pi/(2 sqrt 2) for
@@ -271,8 +273,7 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if not res.accurate:
-        print(f"actuator-design: warning: the branch misses the accuracy of a solve {res.accuracy}",
-              file=sys.stderr)
+        print(f"actuator-design: warning: the branch misses its accuracy: {res.accuracy}", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
 

@@ -174,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
     if written is not None:
         print_written(written, args.json)
     for why in res.incomplete_reasons:
-        print(f"actuator-design: warning: not complete at {why}", file=sys.stderr)
+        print(f"actuator-design: warning: not complete: {why}", file=sys.stderr)
     if res.accuracy is not None:
         print(f"actuator-design: warning: inaccurate: {res.accuracy}", file=sys.stderr)
     if not res.complete or res.accuracy is not None:  # the list may miss points, or misplace one

@@ -24,7 +24,8 @@ from actuator_design.reduced.fold import locate_fold
 from actuator_design.reduced.linalg import null_vector
 from actuator_design.reduced.newton import RawSolution
 
-__all__ = ["branch_options", "branch_accuracy", "critical_value_error", "critical_accuracy", "CRITICAL_RTOL"]
+__all__ = ["branch_options", "branch_accuracy", "critical_value_error", "critical_accuracy", "unlocated_note",
+           "CRITICAL_RTOL"]
 
 #: relative accuracy a critical value (a buckling field, a snap load) is held to: its estimated
 #: discretisation error (:func:`critical_value_error`) ≤ CRITICAL_RTOL × max(1, |λ*|)
@@ -86,27 +87,30 @@ def critical_value_error(cont, cp) -> float:
     lam = float(cp.value)
     fine = type(cont)(cont.scene_at(lam), cont.name, finer_options(cont.options))  # (a Continuation)
     z = cont.solver.transcription.theta_dense(np.asarray(cp.z, float), fine.solver.transcription.nodes)[0]
-    if cp.kind == "fold":
+    if cp.kind == "fold" or cp.morse_before == cp.morse_after:  # (a fold the engine saw as a branch point)
         fp = locate_fold(fine.system, fine.P, z[1:], lam, tol=max(fine.tol, 1e-11))
         return abs(fp.lam - lam) if fp.converged else math.inf
     u, ok, _ = fine.correct_fixed(z[1:], lam, max_iter=30)
     if not ok:
         return math.inf
     v = null_vector(np.array(fine.ev(u, lam)[1]), fine.mass)
-    step = 1e-6 * max(1.0, abs(lam))
-    u2, ok2, _ = fine.correct_fixed(u, lam + step, max_iter=30)
-    if not ok2:
-        return math.inf
-    mu, mu2 = (float(v @ np.asarray(fine.ev(w, l)[1]) @ v) for w, l in ((u, lam), (u2, lam + step)))
-    rate = (mu2 - mu) / step
-    return abs(mu / rate) if rate != 0.0 else math.inf
+    for step in (1e-6 * max(1.0, abs(lam)), -1e-6 * max(1.0, abs(lam))):  # (the branch may end on one side)
+        u2, ok2, _ = fine.correct_fixed(u, lam + step, max_iter=30)
+        if ok2:
+            mu, mu2 = (float(v @ np.asarray(fine.ev(w, l)[1]) @ v) for w, l in ((u, lam), (u2, lam + step)))
+            rate = (mu2 - mu) / step
+            return abs(mu / rate) if rate != 0.0 else math.inf
+    return math.inf
 
 
 def critical_accuracy(cont, points: Sequence, rtol: float = CRITICAL_RTOL) -> Optional[str]:
     """Why the critical values of ``points`` miss ``rtol`` × max(1, |λ*|) by
-    :func:`critical_value_error`, or None; each point gets ``value_error``."""
+    :func:`critical_value_error`, or None; each located point gets ``value_error`` (a point only
+    bracketed by the engine, not located, is not a question of the mesh: :func:`unlocated_note`)."""
     worst = None
     for cp in points:
+        if not cp.located:
+            continue
         cp.value_error = critical_value_error(cont, cp)
         limit = rtol * max(1.0, abs(cp.value))
         if not cp.value_error <= limit and (worst is None or cp.value_error > worst[0]):
@@ -115,5 +119,20 @@ def critical_accuracy(cont, points: Sequence, rtol: float = CRITICAL_RTOL) -> Op
         return None
     err, cp, limit = worst
     what = "a fold" if cp.kind == "fold" else "a branch point"
-    return (f"{what} at {cont.name} = {cp.value:.10g} moves by {err:.2g} (> {limit:.2g}) on a finer mesh: its "
-            "bifurcating mode is not resolved; refine the mesh (solver.elements, solver.degree)")
+    moved = f"moves by {err:.2g} (> {limit:.2g})" if math.isfinite(err) else "is not found"
+    return (f"{what} at {cont.name} = {cp.value:.10g} {moved} on a finer mesh (degree + 4): its mode is not "
+            "resolved; refine the mesh (solver.elements, solver.degree)")
+
+
+def unlocated_note(name: str, points: Sequence) -> Optional[str]:
+    """A line on the critical points of ``points`` the engine only bracketed (``located`` False: the
+    value is interpolated on its step, e.g. where a step jumped between the branches of an imperfect
+    pitchfork), or None."""
+    loose = [cp for cp in points if not cp.located]
+    if not loose:
+        return None
+    where = ", ".join(f"{cp.kind.replace('_', ' ')} near {name} = {cp.value:.6g}"
+                      + (f" (in [{cp.interval[0]:.6g}, {cp.interval[1]:.6g}])" if cp.interval else "")
+                      for cp in loose)
+    return (f"not located, only bracketed on a step: {where}; a smaller largest step (ds_max) may locate it, "
+            "or show it is none")

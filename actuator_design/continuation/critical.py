@@ -35,7 +35,7 @@ from actuator_design.analysis.equilibria import find_equilibria
 from actuator_design.analysis.registration import register
 from actuator_design.contact.guard import no_contact
 from actuator_design.continuation import PALC, ContinuationSettings, FoldCurveProblem, continuation
-from actuator_design.continuation.branch_accuracy import branch_options, critical_accuracy
+from actuator_design.continuation.branch_accuracy import branch_options, critical_accuracy, unlocated_note
 from actuator_design.continuation.follow import Branch, Continuation, CriticalPoint, get_param, set_param
 from actuator_design.equilibrium.acceptance import warm_values
 from actuator_design.equilibrium.options import SolverOptions
@@ -207,7 +207,8 @@ class CriticalResult:
                "branch_points": self.branch_points, "counts": self.counts, "samples": self.samples,
                "stats": self.stats, "complete": bool(self.complete),
                "incomplete_reasons": list(self.incomplete_reasons),
-               "accurate": self.accuracy is None, "accuracy": self.accuracy}
+               "accurate": self.accuracy is None, "accuracy": self.accuracy,
+               "success": bool(self.complete and self.accuracy is None)}
         if branches:
             out["branches"] = [b.to_dict() for b in self.branches]
         return out
@@ -332,7 +333,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     reasons: List[str] = []
     for lam in samples:
         eqs = find_equilibria(cont.scene_at(lam), options)
-        reasons.append(_incomplete(f"{param} = {lam:.6g}", eqs))
+        reasons.append(_incomplete(f"at {param} = {lam:.6g}", eqs))
         for e in eqs.equilibria:
             z = warm_values(e.result, nodes)  # (solved on the mesh chosen for that scene)
             if known(z, lam):
@@ -355,7 +356,10 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                            f"window ({br.message}): its folds and branch points beyond are not known")
     folds = _dedupe([cp for br in branches for cp in br.folds])
     bps = _dedupe([cp for br in branches for cp in br.branch_points])
-    accuracy = critical_accuracy(cont, folds + bps)  # (each gets its value_error)
+    accuracy = critical_accuracy(cont, folds + bps)  # (each located one gets its value_error)
+    loose = unlocated_note(param, folds + bps)
+    if loose:  # a value only bracketed, perhaps no critical point at all: the list is not certain
+        reasons.append(loose)
     # counts between consecutive critical values
     vals = sorted({round(c.value, 9) for c in folds + bps})
     edges = [a] + [v for v in vals if a < v < b] + [b]
@@ -363,7 +367,7 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
     for lo_, hi_ in zip(edges[:-1], edges[1:]):
         mid = 0.5 * (lo_ + hi_)
         eqs = find_equilibria(cont.scene_at(mid), options)
-        why = _incomplete(f"{param} = {mid:.6g}", eqs)
+        why = _incomplete(f"at {param} = {mid:.6g}", eqs)
         reasons.append(why)
         counts.append({"from": lo_, "to": hi_, "at": mid, "equilibria": eqs.count,
                        "stable": eqs.stable_count, "complete": why is None})

@@ -34,7 +34,8 @@ from actuator_design.contact.self_contact import least_self_clearance
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings, Fold,
                                           UserEvent, continuation)
 from actuator_design.continuation.branch import Branch, ContinuationResult, CriticalPoint
-from actuator_design.continuation.branch_accuracy import branch_accuracy, branch_options, critical_accuracy
+from actuator_design.continuation.branch_accuracy import (branch_accuracy, branch_options, critical_accuracy,
+                                                          unlocated_note)
 from actuator_design.equilibrium.acceptance import warm_values
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
@@ -425,9 +426,12 @@ def continue_branch(scene: Scene, param: str, start: float, stop: float, *,
     if switch:
         for bp in br.branch_points:
             sec += cont.switch(bp, win, ds=ds, ds_max=ds_max, max_points=max_points, stop_events=touch)
-    return ContinuationResult(param, br, sec, scene, win, contact, notes=_alone_note(scene, param),
-                              accuracy=branch_accuracy(cont, [br] + sec) or critical_accuracy(
-                                  cont, [cp for b in [br] + sec for cp in b.folds + b.branch_points]))
+    points = [cp for b in [br] + sec for cp in b.folds + b.branch_points]
+    critical = critical_accuracy(cont, points)  # (every located point gets its value_error)
+    loose = unlocated_note(param, points)
+    return ContinuationResult(param, br, sec, scene, win, contact,
+                              notes=_alone_note(scene, param) + ([loose] if loose else []),
+                              accuracy=branch_accuracy(cont, [br] + sec) or critical)
 
 
 def _alone_note(scene: Scene, param: str) -> List[str]:
