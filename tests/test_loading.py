@@ -269,4 +269,4 @@ def test_the_transverse_pitchfork_is_continuous_both_ways_at_its_closed_form_fie
     hc = critical_field_transverse(1)
     assert len(path.bifurcations) == len(schedule["h"]) - 1
     for b in path.bifurcations:
-        assert b.param == pytest.approx(hc, abs=1e-9)
+        assert b.located and b.param == pytest.approx(hc, abs=1e-9)

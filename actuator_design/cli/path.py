@@ -307,7 +307,7 @@ def _physical_lines(data, units=None) -> list:
     for b in data["bifurcations"]:
         bt = b["physical"]["tip"]
         lines.append(f"  continuous bifurcation at {where(b)}: tip ({_len(bt['x'], units)}, "
-                     f"{_len(bt['y'], units)}) {u}")
+                     f"{_len(bt['y'], units)}) {u}" + ("" if b.get("located", True) else " (at the step; not located)"))
     for e in data["contact_events"]:
         at = "" if e["s"] is None else f" at s = {_len(e['s'] * units.length_m / units.metres_per_unit, units)} {u}"
         when = where(e) if data["param"] else _values_text(e["values"], units)

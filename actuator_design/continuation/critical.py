@@ -289,7 +289,7 @@ def _dedupe(points: List[CriticalPoint], rtol: float = VALUE_RTOL) -> List[Criti
 def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                     options: Optional[SolverOptions] = None, n_samples: int = 5,
                     ds: float = 0.05, ds_max: float = 0.3, max_points: int = 3000,
-                    switch: bool = True) -> CriticalResult:
+                    switch: bool = True, check_accuracy: bool = True) -> CriticalResult:
     """Every fold and branch point of ``param`` in ``window`` over all branches (module docstring).
 
     Parameters
@@ -302,6 +302,9 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
         Parameter interval, a < b.
     n_samples : int
         Values of λ (ends included) at which all equilibria are computed and continued.
+    check_accuracy : bool
+        Estimate each critical value's discretisation error (``value_error``, ``accuracy``:
+        :func:`~actuator_design.continuation.branch_accuracy.critical_accuracy`).
 
     Returns
     -------
@@ -356,7 +359,8 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
                            f"window ({br.message}): its folds and branch points beyond are not known")
     folds = _dedupe([cp for br in branches for cp in br.folds])
     bps = _dedupe([cp for br in branches for cp in br.branch_points])
-    accuracy = critical_accuracy(cont, folds + bps)  # (each located one gets its value_error)
+    # (each located one gets its value_error)
+    accuracy = critical_accuracy(cont, folds + bps) if check_accuracy else None
     loose = unlocated_note(param, folds + bps)
     if loose:  # a value only bracketed, perhaps no critical point at all: the list is not certain
         reasons.append(loose)
@@ -416,7 +420,8 @@ def critical_curves(scene: Scene, param: str, second: str, window: Sequence[floa
     starts += [float(v) for v in seeds if lo <= float(v) <= hi]
     for mu in starts:
         sc = set_param(scene, second, mu)
-        cr = critical_points(sc, param, (a, b), options=options, n_samples=n_samples)
+        cr = critical_points(sc, param, (a, b), options=options, n_samples=n_samples,
+                             check_accuracy=False)  # (the fold curves' own points are what count)
         for cp in cr.fold_points:
             on = False
             for c in curves:

@@ -110,7 +110,9 @@ class Bifurcation:
     """A continuous loss of stability (supercritical bifurcation): the rod leaves the followed
     branch without a jump, onto one of the bifurcating stable branches (chosen by the sign of
     the unstable eigenvector: positive at the tip, ``sign``) — or, with ``sign`` 0, the followed
-    branch ends on a branch that is stable past the branch point (nothing to choose)."""
+    branch ends on a branch that is stable past the branch point (nothing to choose). ``located``:
+    False when only the engine's step bracketed it (a merge whose own branch point was not found
+    again: the value is the step's)."""
 
     t: float
     param: float
@@ -118,10 +120,12 @@ class Bifurcation:
     direction: int
     state: EquilibriumResult
     sign: int
+    located: bool = True
 
     def to_dict(self) -> dict:
         return {"t": self.t, "param": self.param, "values": dict(self.values),
-                "direction": self.direction, "state": _state_dict(self.state), "sign": self.sign}
+                "direction": self.direction, "state": _state_dict(self.state), "sign": self.sign,
+                "located": bool(self.located)}
 
 
 @dataclass
@@ -214,6 +218,7 @@ class LoadingPath:
                          f"energy released {j.energy_released:.6g} B0/l")
         for b in self.bifurcations:
             how = f"branch sign {b.sign:+d}" if b.sign else "onto the one stable branch"
+            how += "" if b.located else "; at the step, not located"
             lines.append(f"  continuous bifurcation at {self.param or 't'} = {b.param:.10g} ({how})")
         for e in self.contact_events:
             where = f" at s = {e['s']:.6g}" if e["s"] is not None else ""

@@ -239,14 +239,13 @@ class Tracker:
                     return r, s
         return None, 0
 
-    def _merge_point(self, prob: SegmentProblem, lam_c: float, rc: EquilibriumResult, ru: EquilibriumResult,
-                     lam_s: float, lam_last: float):
+    def _merge_point(self, prob: SegmentProblem, ru: EquilibriumResult, lam_s: float, lam_last: float):
         """Where the branch the path merges onto (stable at ``lam_s``, the state ``ru``) loses
         stability: the pitchfork itself. The engine's event is located on the step of the ending
         branch, whose corrected points jump onto this one somewhere in between (a path lowering h
         through the buckling field placed it 1.2e-3 off); here this branch is continued back from
         ``ru`` towards ``lam_last`` and its own branch point located by the engine (as on a path
-        that meets the pitchfork from this side). (λ_c, ``rc``) when that finds none."""
+        that meets the pitchfork from this side). (λ, state) there, or None when that finds none."""
         n = prob.n
         settings = replace(self._settings(prob), window=(min(lam_last, lam_s), lam_s), direction=-1.0)
         x0 = np.append(ru.z[1:], lam_s)
@@ -255,10 +254,10 @@ class Tracker:
                           tangent=None if t0 is None else -t0)
         ev = br.events[-1] if br.status == "event" and br.events else None
         if ev is None or not ev.located:
-            return lam_c, rc
+            return None
         lam = float(ev.lam)
         r = self._solve_track(prob, lam, prob.full(ev.x[:n], lam))
-        return (lam, r) if self._usable(r) else (lam_c, rc)
+        return (lam, r) if self._usable(r) else None
 
     def _bifurcation(self, k, prob: SegmentProblem, ev, lam_last: float):
         """Leave the branch just past a branch point at λ_c; continuous (supercritical) or a jump
@@ -279,11 +278,13 @@ class Tracker:
             # the followed branch ends on a branch that is stable past λ_c (a supercritical pitchfork
             # crossed from its bent side, e.g. a field lowered through the buckling field): the rod
             # goes on continuously on that branch; nothing to choose (sign 0)
-            lam_c, rc = self._merge_point(prob, lam_c, rc, ru, lam_s, lam_last)
+            merged = self._merge_point(prob, ru, lam_s, lam_last)
+            located = merged is not None
+            lam_c, rc = merged if located else (lam_c, rc)
             self.record(prob, k, lam_c, rc, "critical")
             self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                          values=seg.values(lam_c), direction=self._direction(seg),
-                                         state=rc, sign=0))
+                                         state=rc, sign=0, located=located))
             self.record(prob, k, lam_s, ru, "landing")
             return lam_s, ru
         _, H, _ = prob.ev(ru.z[1:], lam_s)
