@@ -204,12 +204,16 @@ def test_a_critical_value_carries_its_discretisation_error():
     assert res.to_dict()["branch_points"][-1]["value_error"] == pytest.approx(res.branch.branch_points[-1].value_error)
 
 
-def test_a_branch_point_only_bracketed_is_a_note_not_a_mesh_error(capsys):
-    """The bent branch from h = 4 (φ = 90°) turns at the pitchfork's vertex, which the engine only
-    brackets on its step: that is no question of the mesh (refining leaves it 3.6e-3 off), so the
-    branch is accurate, exits 0 and says the point was not located."""
+def test_the_vertex_of_a_pitchfork_is_located(capsys):
+    """The bent branch from h = 4 (φ = 90°) turns at the pitchfork's vertex h_crit = π/(2√2). Its
+    step over the vertex only bracketed it (3.6e-3 off, 'located': false; refining the mesh did not
+    help): a step whose event is not located is now halved until it is."""
+    from actuator_design.reference.closed_forms import critical_field_transverse
+
     code = main(["continue", "--h", "4", "--phi-deg", "90", "--param", "h", "--from", "4", "--to", "0", "--json"])
     payload = json.loads(capsys.readouterr()[0])
     assert code == 0 and payload["accurate"] and payload["success"]
-    assert any("not located" in n for n in payload["notes"])
-    assert all(bp["value_error"] is None for bp in payload["branch_points"] if not bp["located"])
+    assert not any("not located" in n for n in payload["notes"])
+    (bp,) = payload["branch_points"]
+    assert bp["located"] and bp["value"] == pytest.approx(critical_field_transverse(1), abs=1e-6)
+    assert bp["value_error"] < 1e-6

@@ -26,8 +26,9 @@ from actuator_design.continuation.settings import ContinuationSettings
 
 __all__ = ["Natural", "PALC", "ContinuationBranch", "continuation", "locate_event"]
 
-#: a step on which the Morse index changes by two or more is halved while longer than this many
-#: smallest steps (then it is taken: two eigenvalues that cross zero together)
+#: a step on which the Morse index changes by two or more, or whose event is only bracketed, is
+#: halved while longer than this many smallest steps (then it is taken: two eigenvalues that cross
+#: zero together, an event that is not located)
 _DOUBLE_CROSSING_DS = 1e3
 
 
@@ -289,6 +290,11 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
                 ev = locate_event(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
                              function=e.function)
                 step_events.append((ev, e.stop))
+        if any(not ev.located for ev, _ in step_events) and ds > _DOUBLE_CROSSING_DS * st.ds_min:
+            # an event the step only brackets (its corrected points jump between branches, e.g.
+            # across a pitchfork's vertex): shorter steps locate it (or, at the smallest, bracket it)
+            ds *= 0.5
+            continue
         stop_here = [ev for ev, stop in step_events if stop] if step_events else step_events
         if stop_here and any(not lo <= ev.lam <= hi for ev in stop_here):
             # a stopping event beyond the window: shorter steps reach the window's edge before it
