@@ -198,6 +198,8 @@ class CriticalResult:
     #: why a critical value misses its accuracy (its estimated error, ``value_error`` of each row,
     #: above :data:`~actuator_design.continuation.branch_accuracy.CRITICAL_RTOL` × max(1, |λ*|)), or None
     accuracy: Optional[str] = None
+    #: whether the critical values were checked (``accurate`` is null in the JSON when not)
+    accuracy_checked: bool = True
 
     def to_dict(self, branches: bool = False) -> dict:
         """The ``critical --json`` contract: ``folds`` and ``branch_points`` with the parameter
@@ -207,7 +209,7 @@ class CriticalResult:
                "branch_points": self.branch_points, "counts": self.counts, "samples": self.samples,
                "stats": self.stats, "complete": bool(self.complete),
                "incomplete_reasons": list(self.incomplete_reasons),
-               "accurate": self.accuracy is None, "accuracy": self.accuracy,
+               "accurate": (self.accuracy is None) if self.accuracy_checked else None, "accuracy": self.accuracy,
                "success": bool(self.complete and self.accuracy is None)}
         if branches:
             out["branches"] = [b.to_dict() for b in self.branches]
@@ -393,7 +395,8 @@ def critical_points(scene: Scene, param: str, window: Sequence[float], *,
              "time_s": time.perf_counter() - t0}
     reasons = [r for r in reasons if r is not None]
     return CriticalResult(param, (a, b), rows(folds), rows(bps), branches, counts,
-                          [float(s) for s in samples], stats, folds, bps, not reasons, reasons, accuracy)
+                          [float(s) for s in samples], stats, folds, bps, not reasons, reasons, accuracy,
+                          check_accuracy)
 
 
 def critical_curves(scene: Scene, param: str, second: str, window: Sequence[float],

@@ -290,7 +290,8 @@ def continuation(problem: BifurcationProblem, algorithm=PALC(),
                 ev = locate_event(problem, algorithm, st, x, t, s, "user", e.name, IDX[-1], idx,
                              function=e.function)
                 step_events.append((ev, e.stop))
-        if any(not ev.located for ev, _ in step_events) and ds > _DOUBLE_CROSSING_DS * st.ds_min:
+        if ds > _DOUBLE_CROSSING_DS * st.ds_min and any(not ev.located and (stop or lo <= ev.lam <= hi)
+                                                         for ev, stop in step_events):
             # an event the step only brackets (its corrected points jump between branches, e.g.
             # across a pitchfork's vertex): shorter steps locate it (or, at the smallest, bracket it)
             ds *= 0.5

@@ -305,7 +305,7 @@ class Tracker:
         if released <= 1e-6 * max(1.0, abs(ru.energy)):
             self.bifs.append(Bifurcation(t=float(k + lam_c), param=self._param_value(seg, k, lam_c),
                                          values=seg.values(lam_c), direction=self._direction(seg),
-                                         state=rc, sign=sign))
+                                         state=rc, sign=sign, located=bool(ev.located)))
             self.record(prob, k, lam_s, landing, "landing")
             return lam_s, landing
         to_state = self._solve_track(prob, lam_c, landing.z)
