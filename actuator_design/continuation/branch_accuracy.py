@@ -1,10 +1,12 @@
 """What a branch is followed on and what it promises: the mesh of a branch through a parameter
-window, and the accuracy check of its most demanding states (THEORY §5's clamp layers, whose width
-~1/k changes along the branch).
+window, the accuracy check of its most demanding states (THEORY §5's clamp layers, whose width
+~1/k changes along the branch), and the estimated discretisation error of its critical values.
 
 A branch is followed on one mesh (:mod:`actuator_design.continuation.follow`): it must resolve the
-layers at the window's most demanding end, and its states are held to the Euler–Lagrange residual
-check of a solve (:mod:`actuator_design.equilibrium.acceptance`).
+layers at the window's most demanding end, its states are held to the Euler–Lagrange residual
+check of a solve (:mod:`actuator_design.equilibrium.acceptance`), and each located fold and branch
+point is relocated on a finer mesh (a bifurcating mode of many half-waves is not resolved by a mesh
+that resolves the states: the 18th pitchfork of a transverse field on the default mesh).
 """
 from __future__ import annotations
 
