@@ -217,3 +217,16 @@ def test_the_vertex_of_a_pitchfork_is_located(capsys):
     (bp,) = payload["branch_points"]
     assert bp["located"] and bp["value"] == pytest.approx(critical_field_transverse(1), abs=1e-6)
     assert bp["value_error"] < 1e-6
+
+
+def test_the_text_output_shows_a_noteworthy_critical_value_error(capsys):
+    from actuator_design.io.display import critical_value_note
+
+    code = main(["continue", "--phi-deg", "90", "--h", "0", "--param", "h", "--from", "0", "--to", "40"])
+    out, err = capsys.readouterr()
+    lines = [ln for ln in out.splitlines() if "branch point at h = " in ln]
+    assert code == 3 and len(lines) == 18 and "misses its accuracy" in err
+    assert "error ~" not in lines[0] and "error ~0.004" in lines[-1]
+    assert critical_value_note(1.0, 1e-12, True) == "" and critical_value_note(1.0, float("nan"), True) == ""
+    assert "not located" in critical_value_note(1.0, 1e-12, False)
+    assert "not found" in critical_value_note(1.0, float("inf"), True)

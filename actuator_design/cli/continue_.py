@@ -245,12 +245,11 @@ def run(args: argparse.Namespace) -> int:
             return f" ({text})" if text else ""
         print(f"branch in {param}: {len(br)} points from {br.lam[0]:.6g}{mT(br.lam[0])} to "
               f"{br.lam[-1]:.6g}{mT(br.lam[-1])} ({br.status}: {br.message}); {br.stats['time_s']:.3f} s")
-        for cp in br.folds:
-            print(f"  fold at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
-                  f"(Morse index {cp.morse_before} -> {cp.morse_after})")
-        for cp in br.branch_points:
-            print(f"  branch point at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle {cp.tip['angle']:+.8f} rad "
-                  f"(Morse index {cp.morse_before} -> {cp.morse_after})")
+        from actuator_design.io.display import critical_value_note
+        for cp in br.folds + br.branch_points:
+            print(f"  {cp.kind.replace('_', ' ')} at {param} = {cp.value:.12g}{mT(cp.value)}, tip angle "
+                  f"{cp.tip['angle']:+.8f} rad (Morse index {cp.morse_before} -> {cp.morse_after}"
+                  f"{critical_value_note(cp.value, cp.value_error, cp.located)})")
         for s in res.secondary:
             print(f"  secondary branch from {s.origin}: {len(s)} points to {param} = {s.lam[-1]:.6g}"
                   f"{mT(s.lam[-1])}")

@@ -148,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(dumps_json(payload))
     else:
-        from actuator_design.io.display import ANGLE_NOISE_RAD, number
+        from actuator_design.io.display import ANGLE_NOISE_RAD, critical_value_note, number
         from actuator_design.io.unit_results import state_text
 
         def degrees_free(rad):  # a tip angle in rad, round-off of zero as 0
@@ -162,7 +162,8 @@ def run(args: argparse.Namespace) -> int:
             phys = f" ({d['field_mT']:.6g} mT)" if "field_mT" in d else (
                 f" ({next(v for k, v in d.items() if k.startswith('value_')):.6g} {unit})" if unit else "")
             print(f"  {d['kind']:12s} {param} = {d['value']:.12g}{phys}  tip angle {degrees_free(d['tip_angle'])} rad  "
-                  f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}")
+                  f"equilibria {d['equilibria_below']} -> {d['equilibria_above']}"
+                  + critical_value_note(d["value"], d.get("value_error"), d["located"]).replace(",", " ", 1))
             if units is not None:
                 print(f"      in the user's units: {state_text(d['tip'], d['energy'], units)}")
         if units is not None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import re
 
-__all__ = ["number", "degrees", "ANGLE_NOISE_RAD"]
+__all__ = ["number", "degrees", "critical_value_note", "ANGLE_NOISE_RAD"]
 
 #: Angles below this (rad) are round-off: ~10⁴ ulp of π, far below any angle a lab can set or
 #: measure (1.7e-12 rad is 1e-10 deg).
@@ -40,3 +40,17 @@ def number(value: float, spec: str = ".6g", noise: float = 0.0) -> str:
 def degrees(rad: float, spec: str = ".6g") -> str:
     """An angle given in rad, printed in degrees (round-off below :data:`ANGLE_NOISE_RAD` as 0)."""
     return number(math.degrees(float(rad)), spec, noise=math.degrees(ANGLE_NOISE_RAD))
+
+
+def critical_value_note(value: float, error, located: bool) -> str:
+    """What the text output says about a critical value's accuracy: "" when it was located and its
+    estimated error (``value_error``, units of the value; None or nan: not estimated) is below
+    1e-9 × max(1, |value|); else ", error ~E" (the estimate), ", not found on a finer mesh" (inf) or
+    ", not located: only bracketed on a step"."""
+    if not located:
+        return ", not located: only bracketed on a step"
+    if error is None or math.isnan(error):
+        return ""
+    if math.isinf(error):
+        return ", not found on a finer mesh"
+    return f", error ~{error:.1g}" if error > 1e-9 * max(1.0, abs(value)) else ""
