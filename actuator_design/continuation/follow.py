@@ -38,7 +38,7 @@ from actuator_design.continuation.branch_accuracy import (branch_accuracy, branc
                                                           unlocated_note)
 from actuator_design.equilibrium.acceptance import warm_values
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.pipeline import solve_from_rest
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene
@@ -191,8 +191,8 @@ class Continuation:
         reaches from rest in ``scene`` (on the mesh solve chooses, interpolated onto this one). A state
         that misses solve's accuracy on that mesh is used all the same: the branch's own check
         (:attr:`ContinuationResult.accuracy`) reports it."""
-        res = solve(scene, replace(self.options, ensure_stable=True))
-        if not (res.success or res.status == "inaccurate"):
+        res, converged = solve_from_rest(scene, self.options)
+        if not converged:
             raise RuntimeError(f"continuation: no equilibrium found at {self.name} = "
                                f"{get_param(scene, self.name)}: {res.message}")
         return warm_values(res, self.solver.transcription.nodes)

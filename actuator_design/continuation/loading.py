@@ -47,7 +47,7 @@ from actuator_design.continuation.loading_tracker import Tracker as _Tracker
 from actuator_design.continuation.segment import LensSegment, followers
 from actuator_design.equilibrium.acceptance import graded_for_scenes, warm_values
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.pipeline import solve
+from actuator_design.equilibrium.pipeline import solve, solve_from_rest
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.model.scene import Scene
 
@@ -149,8 +149,8 @@ def _start_values(scene: Scene, options: SolverOptions, initial, solver):
     misses solve's accuracy on its own mesh included: re-solved on the path's). None (the straight
     rod) when no state is reached from rest."""
     if initial is None:
-        rest = solve(scene, replace(options, ensure_stable=True))
-        initial = rest if (rest.success or rest.status == "inaccurate") else None
+        rest, converged = solve_from_rest(scene, options)
+        initial = rest if converged else None
     return None if initial is None else warm_values(initial, solver.transcription.nodes)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Optional, Union
+from typing import Optional, Tuple, Union
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene
 
-__all__ = ["solve", "solve_on", "solve_to_tolerance"]
+__all__ = ["solve", "solve_on", "solve_to_tolerance", "solve_from_rest"]
 
 
 def solve(scene: Scene, options: Optional[SolverOptions] = None,
@@ -86,6 +86,14 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
             return self_solve.solve_self_contact(scene, options,
                                                  initial if isinstance(initial, EquilibriumResult) else None)
     return result
+
+
+def solve_from_rest(scene: Scene, options: SolverOptions) -> Tuple[EquilibriumResult, bool]:
+    """The stable state :func:`solve` reaches from rest in ``scene``, and whether it converged — a
+    state that misses the accuracy promise on the mesh solve chose included: as the warm start of
+    an analysis on its own (finer) mesh, the analysis' own check decides."""
+    res = solve(scene, replace(options, ensure_stable=True))
+    return res, bool(res.success or res.status == "inaccurate")
 
 
 def _near_itself(state: EquilibriumResult) -> bool:
