@@ -1,6 +1,6 @@
 """The contact NLPs kept for reuse, bounded by their estimated memory.
 
-A contact NLP (:class:`~actuator_design.contact.equilibrium.ContactNLP`) is kept on its solver, so that the
+A contact NLP (:class:`~actuator_design.contact.contact_nlp.ContactNLP`) is kept on its solver, so that the
 states of a path and a repeated solve on one mesh reuse it. Its IPOPT solver holds the exact Hessian
 of the Lagrangian, dense in the nodes (positions are sums over the rod) and, for an energy that
 reads positions (a non-uniform field), costly per entry: on 24 elements of degree 10 in a current's

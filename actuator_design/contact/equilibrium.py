@@ -22,20 +22,17 @@ from __future__ import annotations
 import time
 import weakref
 from dataclasses import replace
-from typing import Dict, Optional
+from typing import Optional
 
-import casadi as ca
 import numpy as np
 
-from actuator_design.contact import cache as contact_cache
-from actuator_design.contact.clearance import PENETRATION_TOL, constrained_points, entering
-from actuator_design.contact.kkt import Buffered, HessianCallback, RowDerivatives
+from actuator_design.contact.clearance import PENETRATION_TOL, entering
+from actuator_design.contact.contact_nlp import ContactNLP, contact_nlp
 from actuator_design.contact.newton import kept_clear, newton_on_contact_set, pressing_rows, strict_minimum
 from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
                                             penetration_text, point_loads, verdict)
-from actuator_design.contact.self_contact import (GROW_ROUNDS, SLOTS, boundary_pairs, candidate_pairs,
-                                                  grown_pairs, nearest_pair, self_penetration,
-                                                  tangential_force)
+from actuator_design.contact.self_contact import (GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs,
+                                                  nearest_pair, self_penetration, tangential_force)
 from actuator_design.contact.split import (MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged,
                                            nearest_point)
 from actuator_design.continuation.from_rest import load_fraction
@@ -45,153 +42,7 @@ from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.equilibrium.single import make_result
 from actuator_design.equilibrium.solver import RawSolution, get_solver
 
-__all__ = ["solve_contact", "solve_once", "ContactVerdict"]
-
-class ContactNLP:
-    """The contact-constrained NLP of one solver and one set of obstacles (built once)."""
-
-    def __init__(self, solver, obstacles, gap: float, slots: int = 0):
-        tr, lay = solver.transcription, solver.layout
-        z = ca.SX.sym("z", tr.nodes.size)
-        P = ca.SX.sym("P", lay.size)
-        E = solver.f_energy(z, P)
-        # one row per distinct point, none at the clamp (fixed): :mod:`actuator_design.contact.clearance`
-        X, Y, self.s_points, self.w_points = constrained_points(tr, z)
-        self.obstacles, self.gap, self.slots = tuple(obstacles), float(gap), int(slots)
-        rows = [ob.distance(X, Y) - gap for ob in obstacles]
-        self.n_points = m = X.numel()
-        # self-contact: ``slots`` pairs of points chosen per solve by one-hot selection parameters
-        # (:mod:`actuator_design.contact.self_contact`), so that one NLP serves every pair set on this mesh; the clamp
-        # (fixed at the origin) is a point the rod may press on too
-        self.s_self, self.w_self = np.concatenate([[0.0], self.s_points]), np.concatenate([[0.0], self.w_points])
-        Sa, Sb = ca.SX.sym("Sa", self.slots, m + 1), ca.SX.sym("Sb", self.slots, m + 1)
-        if self.slots:
-            dx, dy = ca.mtimes(Sa - Sb, ca.vertcat(0, X)), ca.mtimes(Sa - Sb, ca.vertcat(0, Y))
-            rows.append((dx ** 2 + dy ** 2 - 4.0 * gap ** 2) / (4.0 * gap))
-        self.n_rows = len(self.obstacles) * m + self.slots
-        self._kernel, self._n_params, self._theta0 = solver.kernel, lay.size, lay.slices["theta0"].start
-        self._row_parts, self._row_derivatives = (z, X, Y), None
-        # IPOPT's Hessian assembled from its parts (:mod:`actuator_design.contact.kkt`), except for an energy that
-        # reads positions (a non-uniform field), whose own Hessian is dense and expensive to build
-        # symbolically (a dipole on 12 elements: 0.8 s, ~130 MB): IPOPT then differentiates the
-        # whole Lagrangian itself, as before
-        self._energy_parts, self._f_energy_hessian = (z, P, E), None
-        self._hess_callback = None if solver.discrete.uses_positions else HessianCallback(
-            "contact_hess_lag", z.numel(), lay.size + 2 * self.slots * (m + 1), 1 + self.n_rows,
-            self.lagrangian_hessian)
-        Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
-        g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
-        self.f_xy = ca.Function("contact_points", [z], [X, Y])
-        self.f_dist = ca.Function("obstacle_rows", [z], [ca.vertcat(*rows[:len(self.obstacles)])])
-        self.f_rows = ca.Function("contact_rows", [z, Pall], [ca.vertcat(*rows)])
-        self._problem = {"x": z, "p": Pall, "f": E, "g": g}
-        self._solvers: Dict[bool, ca.Function] = {}
-        # the Lagrangian's gradient and the rows' Jacobian, as IPOPT builds them: L = Ê + λᵀ g with
-        # λ_j = −μ_j ≤ 0 on the contact rows (its Hessian: :meth:`lagrangian_hessian`, :meth:`kkt`)
-        self.f_grad = self.f_jac_g = None
-
-    def nlpsol(self, warm: bool) -> ca.Function:
-        """IPOPT on this NLP, built on first use. Bounds are not relaxed: a contact point sits
-        exactly at the gap. ``warm`` (a start that is an equilibrium of a nearby scene on this mesh,
-        a contact point exactly at the gap) starts with a small barrier and does not push the start off the
-        constraints: with IPOPT's defaults (barrier 0.1, slacks pushed 1e-2 inside) the first step
-        lifted a tip pressed on a peg's flank off it and the rod slid past the peg, a snap reported
-        long before the contact branch's fold. A cold start (the straight rod with the loads applied)
-        keeps the defaults: their barrier keeps its first steps from jumping through an obstacle."""
-        if warm not in self._solvers:
-            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
-                    "ipopt.max_iter": 500, "ipopt.mu_strategy": "adaptive", "ipopt.bound_relax_factor": 0.0}
-            if warm:
-                opts.update({"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8,
-                             "ipopt.slack_bound_push": 1e-8, "ipopt.slack_bound_frac": 1e-8,
-                             "ipopt.mu_strategy": "monotone", "ipopt.warm_start_init_point": "yes"})
-            if self._hess_callback is not None:
-                opts["hess_lag"] = self._hess_callback
-            solver = self._solvers[warm] = ca.nlpsol("contact", "ipopt", self._problem, opts)
-            built = [solver.get_function(name) for name in ("nlp_grad", "nlp_jac_g")]
-            if self.f_grad is None:
-                self.f_grad, self.f_jac_g = built
-            contact_cache.charge(self, built if self._hess_callback is not None
-                                 else built + [solver.get_function("nlp_hess_l")])
-        return self._solvers[warm]
-
-    def parameters(self, P: np.ndarray, pairs=()) -> np.ndarray:
-        """The NLP's parameters: the solver's ``P`` and the one-hot selections of ``pairs`` (index
-        pairs into the clamp and the constrained points, ``s_self``, at most ``slots``; the unused
-        slots select nothing)."""
-        Sa, Sb = np.zeros((self.slots, self.n_points + 1)), np.zeros((self.slots, self.n_points + 1))
-        for q, (a, b) in enumerate(pairs):
-            Sa[q, a] = Sb[q, b] = 1.0
-        return np.concatenate([np.asarray(P, float), Sa.ravel(order="F"), Sb.ravel(order="F")])
-
-    def bounds(self, pairs=()):
-        """(lbg, ubg): the clamp row and the contact rows (≥ 0; an unused pair slot unbounded)."""
-        lbg = np.zeros(1 + self.n_rows)
-        lbg[1 + self.n_rows - self.slots + len(pairs):] = -np.inf
-        return lbg, np.concatenate([[0.0], np.full(self.n_rows, np.inf)])
-
-    def raise_callback_error(self) -> None:
-        """Raise what the Hessian callback raised during the last IPOPT solve, if anything."""
-        if self._hess_callback is not None:
-            self._hess_callback.raise_error()
-
-    def _pairs(self, P: np.ndarray) -> np.ndarray:
-        """Sa − Sb of the self-contact pair rows, shape (slots, m + 1), from the NLP's parameters."""
-        k = self.slots * (self.n_points + 1)
-        return (P[self._n_params:self._n_params + k] - P[self._n_params + k:]).reshape(
-            (self.slots, self.n_points + 1), order="F")
-
-    def _rows(self) -> RowDerivatives:
-        if self._row_derivatives is None:
-            self._row_derivatives = RowDerivatives(*self._row_parts, self.obstacles, self.gap, self.slots)
-            contact_cache.charge(self, self._row_derivatives.functions())
-        return self._row_derivatives
-
-    def lagrangian_hessian(self, z, P, sigma: float, lam_g) -> np.ndarray:
-        """σ∇²Ê + ∇²(λᵀg) at ``z`` (all nodes, the clamp's included), dense, shape (n, n): IPOPT's
-        ``hess_lag`` (:class:`~actuator_design.contact.kkt.HessianCallback`)."""
-        z, P = np.asarray(z, float), np.asarray(P, float)
-        lam = np.asarray(lam_g, float)[1:]
-        H = self._rows().rows_hessian_jacobian(z, self._pairs(P), lam, jacobian=False)[0]
-        if self._f_energy_hessian is None:
-            z_sym, P_sym, E = self._energy_parts
-            self._f_energy_hessian = Buffered(ca.Function("energy_hessian", [z_sym, P_sym],
-                                                          [ca.hessian(E, z_sym)[0]]))
-            contact_cache.charge(self, [self._f_energy_hessian.source])
-        return H + sigma * self._f_energy_hessian(z, P[:self._n_params])[0]
-
-    def lagrangian(self, z, P, lam_g):
-        """(∇_z L, ∇²_z L, ∂rows/∂z) at a solution, as :meth:`kkt` gives them (∇²_z L without the
-        energy's row and column 0: :mod:`actuator_design.contact.kkt`)."""
-        return self.kkt(z, P, lam_g)[:3]
-
-    def kkt(self, z, P, lam_g):
-        """(∇_z L, ∇²_z L, ∂rows/∂z, g): :meth:`lagrangian` and the rows' values (the clamp row first)."""
-        if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
-            self.nlpsol(False)
-        grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
-        # the Hessian and the Jacobian from their parts (:mod:`actuator_design.contact.kkt`): IPOPT's own took ~1 ms
-        # a call for a curved lumen
-        P = np.asarray(P, float).ravel()
-        H, jac, rows = self._rows().rows_hessian_jacobian(np.asarray(z, float), self._pairs(P),
-                                                          np.asarray(lam_g, float)[1:])
-        self._kernel.set_params(P[:self._n_params])
-        self._kernel.evaluate(np.asarray(z, float)[1:])
-        H[1:, 1:] += self._kernel.hessian_dense()
-        return grad, H, jac, np.concatenate([[z[0] - P[self._theta0]], rows])
-
-
-def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
-    """The contact NLP of ``solver``'s mesh for the scene's obstacles (and self-contact), kept on the
-    solver: it lives as long as the solver stays in :func:`~actuator_design.equilibrium.solver.get_solver`'s cache and the
-    memory budget of :mod:`actuator_design.contact.cache` keeps it."""
-    slots = SLOTS if self_contact else 0
-    cache = solver.__dict__.setdefault("_contact_nlps", {})
-    key = (scene.obstacles, scene.contact_gap, slots)
-    if key not in cache:
-        cache[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
-    contact_cache.keep(solver, key, cache[key])
-    return cache[key]
+__all__ = ["solve_contact", "solve_once", "contact_nlp", "ContactVerdict"]
 
 
 def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
@@ -335,13 +186,16 @@ STALLED = "Search_Direction_Becomes_Too_Small"
 
 
 def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: float = 1.0,
-               self_contact: bool = False, spread: int = 1, cold: bool = False, start: Optional[str] = None):
+               self_contact: bool = False, spread: int = 1, cold: bool = False, start: Optional[str] = None,
+               theta_start: Optional[np.ndarray] = None):
     """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
     straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
     boundaries from ``refine`` (the round before: its start is the one reported). ``fraction``
     scales every load and field (a ramp from rest); ``self_contact`` adds the rows of the pairs of
     points near each other in the start (:func:`~actuator_design.contact.self_contact.candidate_pairs`, with ``spread``);
-    ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair)."""
+    ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair);
+    ``theta_start``: θ at the mesh's nodes (rad) of a free equilibrium of a nearby scene, a warm start
+    like ``initial``."""
     solver = get_solver(scene, opts)
     nlp = contact_nlp(solver, scene, self_contact)
     P = solver.parameter_vector(scene)
@@ -352,8 +206,12 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     if warm is not None:
         z0 = np.asarray(warm.evaluate(np.asarray(solver.transcription.nodes, float))["theta"], float)
         z0[0] = scene.theta0
-    problem = _rest_state_problem(scene, nlp, z0) if warm is None else None
-    start = (start or "the previous state") if initial is not None else "the straight rod with the loads applied"
+    elif theta_start is not None:
+        z0 = np.array(theta_start, float)
+        z0[0] = scene.theta0
+    given = initial is not None or theta_start is not None
+    problem = _rest_state_problem(scene, nlp, z0) if warm is None and theta_start is None else None
+    start = (start or "the previous state") if given else "the straight rod with the loads applied"
     if refine is not None:
         start = refine.contact["start"]
     if problem is not None:  # a rod that cannot lie straight in its lumen starts along its centre line
@@ -378,7 +236,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         # a state of the previous scene on its own mesh is feasible: warm; a later round's start
         # (the round before, interpolated onto new element boundaries) may enter an obstacle at a
         # new point, and a small barrier from there jumped the rod past the peg: cold
-        warm_start = not cold and ((initial is not None and refine is None) or (self_contact and warm is not None))
+        warm_start = not cold and ((given and refine is None) or (self_contact and warm is not None))
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs  # the same NLP and pairs

@@ -67,21 +67,25 @@ def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, rea
     if cand.size == 0:
         return []
     cand = np.sort(cand[np.abs(s[cand[:, 0]] - s[cand[:, 1]]) >= neighbour_arc(gap)], axis=1)
-    dist = {(int(i), int(j)): float(np.hypot(*(pts[i] - pts[j]))) for i, j in cand}
-    near_arc = neighbour_arc(gap)
+    n = len(s)
+    d = np.hypot(*(pts[cand[:, 0]] - pts[cand[:, 1]]).T)
+    # the grid of pairs, bordered: a candidate's distance; a pair of neighbours along the rod is
+    # nearer (the distance falls towards them: no minimum at the edge), −inf; out of reach or off
+    # the grid, +inf
+    grid = np.full((n + 2, n + 2), np.inf)
+    grid[1:-1, 1:-1][np.abs(s[:, None] - s[None, :]) < neighbour_arc(gap)] = -np.inf
+    grid[cand[:, 0] + 1, cand[:, 1] + 1] = d
+    i, j = cand[:, 0] + 1, cand[:, 1] + 1
+    minimum = (d <= grid[i - 1, j]) & (d <= grid[i + 1, j]) & (d <= grid[i, j - 1]) & (d <= grid[i, j + 1])
+    order = np.flatnonzero(minimum)[np.argsort(d[minimum], kind="stable")]
 
-    def beside(q):  # a grid neighbour's distance: out of reach is far; a pair of neighbours along
-        if q in dist:  # the rod is nearer (the distance falls towards them: no minimum at the edge)
-            return dist[q]
-        inside = 0 <= q[0] < len(s) and 0 <= q[1] < len(s)
-        return -np.inf if inside and abs(s[q[0]] - s[q[1]]) < near_arc else np.inf
+    def is_candidate(q):
+        return 0 <= q[0] < n and 0 <= q[1] < n and np.isfinite(grid[q[0] + 1, q[1] + 1])
 
-    minima = [p for p, d in dist.items()
-              if all(d <= beside(q) for q in ((p[0] - 1, p[1]), (p[0] + 1, p[1]), (p[0], p[1] - 1), (p[0], p[1] + 1)))]
     chosen: List[Tuple[int, int]] = []
     centres: List[Tuple[int, int]] = []
     window = neighbour_arc(gap)
-    for i, j in sorted(minima, key=dist.get):
+    for i, j in (tuple(int(v) for v in cand[k]) for k in order):
         # along a valley of the distance (two turns side by side) every node pair is a minimum:
         # one per stretch of ``window`` of arc on both sides
         if any(abs(s[i] - s[a]) < window and abs(s[j] - s[b]) < window for a, b in centres):
@@ -89,7 +93,7 @@ def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, rea
         centres.append((i, j))
         for q in [(i, j)] + [(i + k, j) for k in range(-spread, spread + 1) if k] \
                 + [(i, j + k) for k in range(-spread, spread + 1) if k]:
-            if q in dist and q not in chosen:
+            if is_candidate(q) and q not in chosen:
                 chosen.append(q)
     return chosen[:slots]
 

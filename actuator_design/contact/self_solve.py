@@ -6,30 +6,37 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import Optional, Tuple
 
 import numpy as np
 
+from actuator_design.contact.contact_nlp import contact_nlp
 from actuator_design.contact.equilibrium import solve_contact, solve_once
-from actuator_design.contact.self_contact import self_penetration
+from actuator_design.contact.self_contact import candidate_pairs, self_penetration
+from actuator_design.continuation.from_rest import load_fraction, path_from_rest
 from actuator_design.equilibrium.acceptance import graded_options
+from actuator_design.equilibrium.solver import get_solver
 
-__all__ = ["solve_self_contact", "RAMP_DTHETA"]
+__all__ = ["solve_self_contact", "free_lead_in", "RAMP_DTHETA", "LEAD_STATIONS"]
 
 
 #: the ramp from rest: first, largest and smallest load-fraction steps
 RAMP_FIRST, RAMP_MAX, RAMP_MIN = 0.125, 0.25, 1.0 / 1024
 #: a ramp step that moves a nodal angle more than this (rad) is halved
 RAMP_DTHETA = 0.6
+#: stations of the contact-free lead-in (:func:`free_lead_in`): load fractions k/LEAD_STATIONS
+LEAD_STATIONS = 64
 
 
 def solve_self_contact(scene, options, initial=None):
     """The equilibrium of ``scene`` with self-contact (and its obstacles, if any), reached from rest.
 
-    The loads (every field and load slot, :func:`~actuator_design.continuation.from_rest.load_fraction`) are
-    ramped from zero on the graded mesh with the self-contact rows of the pairs near each step's
-    start; a step that fails, moves a nodal angle more than :data:`RAMP_DTHETA` or leaves the rod
-    inside itself is halved, down to :data:`RAMP_MIN` (then the result says where the ramp
-    stopped). At full load the contact solve's split rounds (:func:`~actuator_design.contact.equilibrium.solve_contact`)
+    While the rod stays clear of itself and of the obstacles the loads are ramped by the fast
+    contact-free path from rest (:func:`free_lead_in`); from there (or from rest) they are ramped
+    on the graded mesh with the self-contact rows of the pairs near each step's start; a step that
+    fails, moves a nodal angle more than :data:`RAMP_DTHETA` or leaves the rod inside itself is
+    halved, down to :data:`RAMP_MIN` (then the result says where the ramp stopped). At full load
+    the contact solve's split rounds (:func:`~actuator_design.contact.equilibrium.solve_contact`)
     put element boundaries at both points of each contact. With ``initial`` (an equilibrium of a
     nearby scene) the ramp is skipped.
     """
@@ -38,21 +45,23 @@ def solve_self_contact(scene, options, initial=None):
     t0 = time.perf_counter()
     opts = graded_options(scene, options) if options.adapt else options
     opts = replace(opts, split_at=())
-    state, t, dt, steps = None, 0.0, RAMP_FIRST, 0
+    t, theta = free_lead_in(scene, opts)
+    state, dt, steps = None, RAMP_FIRST, 0
     while t < 1.0:
         tn = min(1.0, t + dt)
-        r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True)
-        if not r.success and state is not None:  # the start violates a newly chosen pair: IPOPT's
-            r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True, cold=True)  # barrier
+        r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True, theta_start=theta)
+        if not r.success and theta is not None:  # the start violates a newly chosen pair: IPOPT's
+            r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True, cold=True,  # barrier
+                           theta_start=theta)
         steps += 1
         # the ramp keeps the rod on its side of itself (centre lines a gap apart); the contact
         # points' element boundaries, and with them the accuracy, come at full load
         ok = r.success and self_penetration(r, scene.contact_gap, tol=scene.contact_gap) is None
-        change = float(np.max(np.abs(r.theta - state.theta))) if state is not None else 0.0
+        change = float(np.max(np.abs(r.theta - theta))) if theta is not None else 0.0
         if ok and change <= RAMP_DTHETA:
             # the next step aims at 0.7 of the largest change (at most double, RAMP_MAX)
             grow = 2.0 if change <= 0.35 * RAMP_DTHETA else 0.7 * RAMP_DTHETA / change
-            state, t, dt = r, tn, min(grow * dt, RAMP_MAX)
+            state, theta, t, dt = r, np.asarray(r.theta, float), tn, min(grow * dt, RAMP_MAX)
             continue
         dt *= 0.5
         if dt < RAMP_MIN:  # reported: the last state reached (an equilibrium at that fraction), not
@@ -65,3 +74,30 @@ def solve_self_contact(scene, options, initial=None):
             return out
     return solve_contact(scene, options, state, self_contact=True,
                          start=f"rest, the loads ramped in {steps} steps with self-contact")
+
+
+def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
+    """How far the loads of ``scene`` go from rest before its rod comes near itself or an obstacle:
+    the last of the stations k/:data:`LEAD_STATIONS` of the contact-free path from rest
+    (:func:`~actuator_design.continuation.from_rest.path_from_rest`, Newton steps on the mesh of
+    ``opts``) before the first whose rod comes within 3·gap of itself or 2·gap of an obstacle at its
+    constrained points (its thickness and one more half-thickness), and θ there at the nodes (rad);
+    (0, None) when that is rest. Up to there the contact rows hold nothing, and the ramp with them
+    would follow the same states, an IPOPT solve each; from there its steps choose the pairs that
+    come near, as from any state of the ramp."""
+    gap = scene.contact_gap
+    solver = get_solver(scene, opts)
+    nlp = contact_nlp(solver, scene, self_contact=True)
+    P = solver.parameter_vector(scene)
+    lams = np.arange(1, LEAD_STATIONS + 1) / LEAD_STATIONS
+    path = path_from_rest(solver, P, stations=[(lam, load_fraction(solver, P, lam)) for lam in lams])
+    last = (0.0, None)
+    for lam, visit in zip(lams, path.visits):
+        z = np.asarray(visit.z, float)
+        X, Y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z))
+        near = candidate_pairs(nlp.s_self, X, Y, gap, reach=gap, slots=1) or (
+            scene.obstacles and np.min(np.asarray(nlp.f_dist(z), float)) < gap)
+        if near or not visit.newton or lam == 1.0:
+            break
+        last = (float(lam), z)
+    return last
