@@ -143,3 +143,55 @@ def free_coil_touch(stiffness_rate: float, gap: float, lo: float, hi: float) -> 
         return math.sqrt(out.fun) - 2 * gap
 
     return brentq(least, lo, hi, xtol=1e-13)
+
+
+def tip_on_body_reference(h_r: float, beta, phi: float, gap: float, side: float, guess, shape):
+    """A uniform hard-magnetic strip (THEORY §9: energy ∫ ½θ'² − h_r cos(θ + β(s) − φ)) whose tip
+    presses on its own body at one point s_a, by scipy's ``solve_bvp`` (its clamp layer, ~e^{−√h_r s},
+    defeats single shooting): a force F ν on the tip and −F ν on the body at s_a, ν =
+    side·(−sin θ_a, cos θ_a) the body's normal there (frictionless), the tip 2·gap from the body along
+    it. Along the rod m = θ', m' = −t × n + h_r sin(θ + β − φ), r' = t, with n = F ν beyond s_a and 0
+    before it; θ(0) = 0, m(1) = 0 (a free end). The two stretches [0, s_a] and [s_a, 1] are each mapped
+    onto τ ∈ [0, 1]; s_a, F and θ_a = θ(s_a) are the problem's unknown parameters.
+
+    Parameters
+    ----------
+    beta : callable s -> β(s) (rad), vectorised
+    side : +1 or −1
+        Which side of the body the tip lies on (the body's left normal: +1).
+    guess : (s_a, F)
+    shape : callable s -> (θ, θ', x, y), vectorised: the starting guess of the state.
+
+    Returns
+    -------
+    dict with ``s_a``, ``force``, ``clamp_moment`` (m(0)), ``tip`` (x, y, θ at s = 1), ``status`` and
+    ``rms`` (solve_bvp's largest relative residual).
+    """
+    from scipy.integrate import solve_bvp
+
+    def part(s, u, n, length):
+        th, m = u[0], u[1]
+        return length * np.vstack([m, -(np.cos(th) * n[1] - np.sin(th) * n[0]) + h_r * np.sin(th + beta(s) - phi),
+                                   np.cos(th), np.sin(th)])
+
+    def rhs(tau, u, p):
+        s_a, force, th_a = p
+        nu = side * np.array([-np.sin(th_a), np.cos(th_a)])
+        return np.vstack([part(s_a * tau, u[:4], np.zeros(2), s_a),
+                          part(s_a + (1.0 - s_a) * tau, u[4:], force * nu, 1.0 - s_a)])
+
+    def bc(ua, ub, p):
+        s_a, force, th_a = p
+        nu = side * np.array([-np.sin(th_a), np.cos(th_a)])
+        return np.concatenate([[ua[0], ua[2], ua[3]], ua[4:] - ub[:4], [ub[5]],
+                               ub[6:8] - ub[2:4] - 2.0 * gap * nu, [ub[0] - th_a]])
+
+    s_a, force = guess
+    tau = np.linspace(0.0, 1.0, 801)
+    u0 = np.vstack([np.vstack(shape(s_a * tau)), np.vstack(shape(s_a + (1.0 - s_a) * tau))])
+    th_a = float(shape(np.array([s_a]))[0][0])
+    sol = solve_bvp(rhs, bc, tau, u0, p=[s_a, force, th_a], tol=1e-10, max_nodes=200000)
+    end = sol.sol(1.0)[4:]
+    return {"s_a": float(sol.p[0]), "force": float(sol.p[1]), "clamp_moment": float(sol.sol(0.0)[1]),
+            "tip": (float(end[2]), float(end[3]), float(end[0])), "status": int(sol.status),
+            "rms": float(np.max(sol.rms_residuals))}

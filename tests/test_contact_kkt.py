@@ -47,8 +47,8 @@ def test_assembled_kkt_matches_casadi_derivatives_of_the_lagrangian(name):
     solver = get_solver(sc, r.options)
     nlp = contact_nlp(solver, sc, bool(r.contact.get("self_contact")))
     reference = _reference(nlp)
-    _, pairs, lam = r._contact_multipliers
-    P = nlp.parameters(solver.parameter_vector(sc), pairs)
+    _, pairs, lam, signs = r._contact_multipliers
+    P = nlp.parameters(solver.parameter_vector(sc), pairs, signs)
     used = np.isfinite(nlp.bounds(pairs)[0])
     rng = np.random.default_rng(7)
     for mult in (lam, np.where(used, rng.normal(size=lam.size), 0.0)):
@@ -80,8 +80,8 @@ def test_ipopt_with_the_assembled_hessian_lands_where_it_does_with_its_own(name)
     solver = get_solver(sc, r.options)
     nlp = contact_nlp(solver, sc, bool(r.contact.get("self_contact")))
     assert nlp._hess_callback is not None
-    pairs = r._contact_multipliers[1]
-    P = nlp.parameters(solver.parameter_vector(sc), pairs)
+    pairs, signs = r._contact_multipliers[1], r._contact_multipliers[3]
+    P = nlp.parameters(solver.parameter_vector(sc), pairs, signs)
     lbg, ubg = nlp.bounds(pairs)
     z0 = (_lumen_start(sc, np.asarray(solver.transcription.nodes, float)) if name == "lumen"
           else np.asarray(r.z, float) * 0.9)

@@ -369,3 +369,75 @@ def test_the_ramp_starts_where_the_free_arc_comes_near_itself():
     assert np.max(np.abs(theta - lam * moment * nodes)) < 1e-9
     r = solve(sc)
     assert r.success and r.contact["self_contact"] and abs(math.hypot(r.tip["x"], r.tip["y"]) - 2 * GAP) < 1e-9
+
+
+HARD = {"h_r": 400.0, "beta": "-2.5*pi*s", "phi": 0.5 * math.pi}
+
+
+@pytest.fixture(scope="module")
+def curled():
+    """Issue 20's strongly curled hard-magnetic strip: a magnetisation turning by 2.5π along it in a
+    transverse field winds it until its tip presses on its own body (exit 3 before: the split rounds
+    chased the tip between two constrained points for 30 rounds)."""
+    from actuator_design.model.scene import UniformField
+
+    return solve(Scene(field=UniformField(phi=HARD["phi"]), h_r=HARD["h_r"],
+                       magnetization=expression_profile(HARD["beta"]), contact_gap=GAP))
+
+
+def test_a_strongly_curled_hard_magnetic_strip_presses_its_tip_on_itself_as_shooting_says(curled):
+    from self_contact_references import tip_on_body_reference
+
+    r = curled
+    assert r.success and r.stable and r.contact["self_contact"], r.message
+    (s_a, s_b, force), = _pairs(r)
+    assert s_b == 1.0 and 0.0 < s_a < 1.0
+    tip, body = (next(p for p in r.contact["points"] if p["s"] == s) for s in (1.0, s_a))
+    th_a = float(r.evaluate(np.array([s_a]))["theta"][0])
+    side = float(np.sign(np.dot([tip["x"] - body["x"], tip["y"] - body["y"]], [-math.sin(th_a), math.cos(th_a)])))
+    def shape(s):  # solve_bvp's starting guess: the shape found, perturbed by 1e-3
+        e = r.evaluate(s)
+        return e["theta"] + 1e-3 * np.sin(s), e["dtheta"], e["x"], e["y"]
+
+    ref = tip_on_body_reference(HARD["h_r"], lambda s: -2.5 * math.pi * s, HARD["phi"], GAP, side,
+                                (s_a + 1e-3, 1.01 * force), shape)
+    assert ref["status"] == 0 and ref["rms"] < 1e-10
+    assert abs(r.tip["x"] - ref["tip"][0]) < 1e-8 and abs(r.tip["y"] - ref["tip"][1]) < 1e-8
+    assert abs(r.tip["angle"] - ref["tip"][2]) < 1e-7
+    assert abs(s_a - ref["s_a"]) < 1e-7 and abs(force - ref["force"]) < 1e-6 * ref["force"]
+    assert r.contact["tangential_force"] < 1e-6
+
+
+def test_the_curled_strip_is_below_every_admissible_neighbour(curled):
+    """A constrained minimum, by a second method: the energy ∫ ½θ'² − h_r cos(θ + β − φ) by quadrature
+    on the dense shape, against θ + ε δθ (smooth, zero at the clamp) that keeps the rod out of its own
+    thickness (positions integrated from θ); those that would enter it are not admissible."""
+    from scipy.spatial import cKDTree
+
+    s = np.linspace(0.0, 1.0, 8001)
+    th = curled.evaluate(s)["theta"]
+    beta = -2.5 * math.pi * s
+
+    def energy_and_clear(theta):
+        dth = np.gradient(theta, s, edge_order=2)
+        e = np.trapezoid(0.5 * dth ** 2 - HARD["h_r"] * np.cos(theta + beta - HARD["phi"]), s)
+        x = np.concatenate([[0.0], np.cumsum(0.5 * (np.cos(theta[1:]) + np.cos(theta[:-1])) * np.diff(s))])
+        y = np.concatenate([[0.0], np.cumsum(0.5 * (np.sin(theta[1:]) + np.sin(theta[:-1])) * np.diff(s))])
+        pts, ss = np.column_stack([x, y])[::4], s[::4]
+        near = cKDTree(pts).query_pairs(4 * GAP, output_type="ndarray")  # the least distance is ~2·gap
+        near = near[np.abs(ss[near[:, 0]] - ss[near[:, 1]]) >= neighbour_arc(GAP)]
+        return e, float(np.min(np.hypot(*(pts[near[:, 0]] - pts[near[:, 1]]).T), initial=4 * GAP))
+
+    e0, d0 = energy_and_clear(th)
+    assert d0 > 2 * GAP - 1e-5
+    rng = np.random.default_rng(11)
+    admissible = 0
+    for _ in range(60):
+        c = rng.normal(size=6)
+        delta = sum(ck * np.sin((k + 0.5) * math.pi * s) for k, ck in enumerate(c))
+        for eps in (1e-3, -1e-3, 1e-2, -1e-2):
+            e, d = energy_and_clear(th + eps * delta / np.max(np.abs(delta)))
+            if d >= min(d0, 2 * GAP):  # out of its own thickness (a state lifted off may press)
+                admissible += 1
+                assert e > e0, (eps, e - e0)
+    assert admissible >= 20

@@ -14,7 +14,7 @@ from typing import Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["constrained_points", "clearance_rows", "entering", "least_clearance", "clearance_check", "clearances",
+__all__ = ["constrained_points", "constrained_angles", "clearance_rows", "entering", "least_clearance", "clearance_check", "clearances",
            "entered_at_rest", "PENETRATION_TOL"]
 
 
@@ -36,14 +36,25 @@ def constrained_points(tr, z) -> Tuple[ca.SX, ca.SX, np.ndarray, np.ndarray]:
     thq, _ = tr.point_values(z)
     xq, yq = tr.point_positions(thq)
     xt, yt = tr.tip_position(thq)
+    first, s_points, w_points = _distinct_points(tr)
+    return ca.vertcat(xq, xt)[first], ca.vertcat(yq, yt)[first], s_points, w_points
+
+
+def constrained_angles(tr, z) -> ca.SX:
+    """θ at the points of :func:`constrained_points` (rad, shape (m,)), for θ at all nodes ``z``."""
+    thq, _ = tr.point_values(z)
+    return ca.vertcat(thq, z[z.numel() - 1])[_distinct_points(tr)[0]]
+
+
+def _distinct_points(tr) -> Tuple[list, np.ndarray, np.ndarray]:
+    """(indices into the quadrature points and the tip of the distinct points after the clamp, their
+    arc lengths, their summed quadrature weights)."""
     sq, wq = np.asarray(tr.quadrature_points, float), np.asarray(tr.quadrature_weights, float)
     s_all = np.concatenate([sq, [1.0]])
     w_all = np.concatenate([wq, [0.0]])
     keys = np.round(s_all, 13)
     first = [int(np.flatnonzero(keys == k)[0]) for k in np.unique(keys) if k > 0.0]
-    s_points = s_all[first]
-    w_points = np.array([w_all[keys == keys[i]].sum() for i in first])
-    return ca.vertcat(xq, xt)[first], ca.vertcat(yq, yt)[first], s_points, w_points
+    return first, s_all[first], np.array([w_all[keys == keys[i]].sum() for i in first])
 
 
 def clearance_rows(tr, z, obstacles: Sequence, gap: float) -> ca.SX:

@@ -13,11 +13,11 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.contact import cache as contact_cache
-from actuator_design.contact.clearance import constrained_points
+from actuator_design.contact.clearance import constrained_angles, constrained_points
 from actuator_design.contact.kkt import Buffered, HessianCallback, RowDerivatives
 from actuator_design.contact.self_contact import SLOTS
 
-__all__ = ["ContactNLP", "contact_nlp"]
+__all__ = ["ContactNLP", "contact_nlp", "corner_body"]
 
 
 class ContactNLP:
@@ -38,23 +38,31 @@ class ContactNLP:
         # (fixed at the origin) is a point the rod may press on too
         self.s_self, self.w_self = np.concatenate([[0.0], self.s_points]), np.concatenate([[0.0], self.w_points])
         Sa, Sb = ca.SX.sym("Sa", self.slots, m + 1), ca.SX.sym("Sb", self.slots, m + 1)
+        # a corner pair's plane row (:func:`corner_body`): the body point's one-hot selection B and the
+        # side ρ = ±1 of its tangent line the corner keeps to (ρ = 0: a point row)
+        B, rho = ca.SX.sym("B", self.slots, m + 1), ca.SX.sym("rho", self.slots)
+        T = constrained_angles(tr, z)
         if self.slots:
             dx, dy = ca.mtimes(Sa - Sb, ca.vertcat(0, X)), ca.mtimes(Sa - Sb, ca.vertcat(0, Y))
-            rows.append((dx ** 2 + dy ** 2 - 4.0 * gap ** 2) / (4.0 * gap))
+            th = ca.mtimes(B, ca.vertcat(z[0], T))
+            point = (dx ** 2 + dy ** 2 - 4.0 * gap ** 2) / (4.0 * gap)
+            plane = rho * (-dx * ca.sin(th) + dy * ca.cos(th)) - 2.0 * gap * rho ** 2
+            rows.append((1.0 - rho ** 2) * point + plane)
         self.n_rows = len(self.obstacles) * m + self.slots
         self._kernel, self._n_params, self._theta0 = solver.kernel, lay.size, lay.slices["theta0"].start
-        self._row_parts, self._row_derivatives = (z, X, Y), None
+        self._row_parts, self._row_derivatives = (z, X, Y, T), None
         # IPOPT's Hessian assembled from its parts (:mod:`actuator_design.contact.kkt`), except for an energy that
         # reads positions (a non-uniform field), whose own Hessian is dense and expensive to build
         # symbolically (a dipole on 12 elements: 0.8 s, ~130 MB): IPOPT then differentiates the
         # whole Lagrangian itself, as before
         self._energy_parts, self._f_energy_hessian = (z, P, E), None
         self._hess_callback = None if solver.discrete.uses_positions else HessianCallback(
-            "contact_hess_lag", z.numel(), lay.size + 2 * self.slots * (m + 1), 1 + self.n_rows,
+            "contact_hess_lag", z.numel(), lay.size + 3 * self.slots * (m + 1) + self.slots, 1 + self.n_rows,
             self.lagrangian_hessian)
-        Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb))
+        Pall = ca.vertcat(P, ca.vec(Sa), ca.vec(Sb), ca.vec(B), rho)
         g = ca.vertcat(z[0] - P[lay.slices["theta0"]], *rows)
         self.f_xy = ca.Function("contact_points", [z], [X, Y])
+        self.f_xyt = ca.Function("contact_points_angles", [z], [X, Y, T])
         self.f_dist = ca.Function("obstacle_rows", [z], [ca.vertcat(*rows[:len(self.obstacles)])])
         self.f_rows = ca.Function("contact_rows", [z, Pall], [ca.vertcat(*rows)])
         self._problem = {"x": z, "p": Pall, "f": E, "g": g}
@@ -88,14 +96,45 @@ class ContactNLP:
                                  else built + [solver.get_function("nlp_hess_l")])
         return self._solvers[warm]
 
-    def parameters(self, P: np.ndarray, pairs=()) -> np.ndarray:
-        """The NLP's parameters: the solver's ``P`` and the one-hot selections of ``pairs`` (index
+    def parameters(self, P: np.ndarray, pairs=(), planes=()) -> np.ndarray:
+        """The NLP's parameters: the solver's ``P``, the one-hot selections of ``pairs`` (index
         pairs into the clamp and the constrained points, ``s_self``, at most ``slots``; the unused
-        slots select nothing)."""
-        Sa, Sb = np.zeros((self.slots, self.n_points + 1)), np.zeros((self.slots, self.n_points + 1))
+        slots select nothing) and, per pair, the side ρ ∈ {−1, 0, 1} of a corner pair's plane row
+        (``planes``, :func:`plane_sides`; empty or 0: a point row)."""
+        shape = (self.slots, self.n_points + 1)
+        Sa, Sb, B, rho = np.zeros(shape), np.zeros(shape), np.zeros(shape), np.zeros(self.slots)
         for q, (a, b) in enumerate(pairs):
             Sa[q, a] = Sb[q, b] = 1.0
-        return np.concatenate([np.asarray(P, float), Sa.ravel(order="F"), Sb.ravel(order="F")])
+            side = float(planes[q]) if q < len(planes) else 0.0
+            body = corner_body(a, b, self.n_points)
+            if side and body is not None:
+                B[q, body], rho[q] = 1.0, side
+        return np.concatenate([np.asarray(P, float), Sa.ravel(order="F"), Sb.ravel(order="F"),
+                               B.ravel(order="F"), rho])
+
+    def plane_sides(self, z: np.ndarray, pairs, only=None) -> tuple:
+        """Per pair, the side ρ = sign((r_a − r_b)·n(θ_body)) of the body point's tangent line the
+        corner lies on in the state ``z`` (θ at the nodes), for the plane rows of a corner pair
+        (:func:`corner_body`); 0 for a pair of two body points or of two corners, and for a pair
+        not in ``only`` (when given)."""
+        X, Y, T = (np.concatenate([[0.0 if k < 2 else float(z[0])], np.asarray(v, float).ravel()])
+                   for k, v in enumerate(self.f_xyt(z)))
+        out = []
+        for a, b in pairs:
+            body = corner_body(a, b, self.n_points) if only is None or (a, b) in only else None
+            along = (X[a] - X[b]) * -np.sin(T[body]) + (Y[a] - Y[b]) * np.cos(T[body]) if body is not None else 0.0
+            out.append(float(np.sign(along)))
+        return tuple(out)
+
+    def pair_normals(self, z: np.ndarray, P: np.ndarray) -> dict:
+        """Slot → the unit direction (shape (2,)) a corner pair's plane row pushes its a-end along,
+        ρ n(θ_body), in the state ``z`` (θ at the nodes) with the NLP's parameters ``P``; point rows
+        push along r_a − r_b and are not listed."""
+        if not self.slots:
+            return {}
+        _, B, rho = self._pairs(np.asarray(P, float))
+        th = B @ self._rows().JT0 @ np.asarray(z, float)
+        return {int(q): rho[q] * np.array([-np.sin(th[q]), np.cos(th[q])]) for q in np.flatnonzero(rho)}
 
     def bounds(self, pairs=()):
         """(lbg, ubg): the clamp row and the contact rows (≥ 0; an unused pair slot unbounded)."""
@@ -108,11 +147,12 @@ class ContactNLP:
         if self._hess_callback is not None:
             self._hess_callback.raise_error()
 
-    def _pairs(self, P: np.ndarray) -> np.ndarray:
-        """Sa − Sb of the self-contact pair rows, shape (slots, m + 1), from the NLP's parameters."""
-        k = self.slots * (self.n_points + 1)
-        return (P[self._n_params:self._n_params + k] - P[self._n_params + k:]).reshape(
-            (self.slots, self.n_points + 1), order="F")
+    def _pairs(self, P: np.ndarray) -> tuple:
+        """(Sa − Sb, B, ρ) of the self-contact pair rows from the NLP's parameters: shapes
+        (slots, m + 1), (slots, m + 1), (slots,)."""
+        k, shape, n = self.slots * (self.n_points + 1), (self.slots, self.n_points + 1), self._n_params
+        diff = (P[n:n + k] - P[n + k:n + 2 * k]).reshape(shape, order="F")
+        return diff, P[n + 2 * k:n + 3 * k].reshape(shape, order="F"), P[n + 3 * k:]
 
     def _rows(self) -> RowDerivatives:
         if self._row_derivatives is None:
@@ -165,3 +205,20 @@ def contact_nlp(solver, scene, self_contact: bool = False) -> ContactNLP:
         cache[key] = ContactNLP(solver, scene.obstacles, scene.contact_gap, slots)
     contact_cache.keep(solver, key, cache[key])
     return cache[key]
+
+
+def corner_body(a: int, b: int, m: int):
+    """The body end of a corner pair (indices into the clamp, 0, and the m constrained points, the
+    tip last): the tip against a body point, or the clamp against one. A corner is a point of the rod
+    where it has no tangent to slide along; a pair's point row |r_a − r_b| ≥ 2·gap would let the
+    corner roll round the body point into the rod's thickness beside it (the tip of a curled strip
+    settled in the dip between two constrained points, 2.4e-5 inside, and the element boundaries
+    chased it for 30 rounds). Its plane row keeps the corner on its side of the body point's tangent
+    line, ρ (r_corner − r_body)·n_body ≥ 2·gap, pushing along the body's normal (frictionless); where
+    the body point is the corner's nearest (the split rounds put it there) the two rows agree to
+    second order. None for a pair of two body points or of two corners."""
+    if b == m and a != 0:
+        return a
+    if a == 0 and b != m:
+        return b
+    return None

@@ -92,7 +92,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     checked = None  # (state, where it enters an obstacle, where itself): the dense checks, made once
     while True:
         result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,
-                            self_contact=self_contact, start=start)
+                            self_contact=self_contact, start=start, planes=True)
         rounds += 1
         strong = [p for p in result.contact["points"] if not p["weak"]]
         interior = [p for p in strong if 0.0 < p["s"] < 1.0]
@@ -187,7 +187,7 @@ STALLED = "Search_Direction_Becomes_Too_Small"
 
 def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: float = 1.0,
                self_contact: bool = False, spread: int = 1, cold: bool = False, start: Optional[str] = None,
-               theta_start: Optional[np.ndarray] = None):
+               theta_start: Optional[np.ndarray] = None, planes: bool = False):
     """One IPOPT solve of the contact NLP on the mesh of ``opts`` (not yet accepted), from the
     straight rod or from ``initial``'s shape at the mesh's nodes; a later round of the element
     boundaries from ``refine`` (the round before: its start is the one reported). ``fraction``
@@ -195,7 +195,10 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     points near each other in the start (:func:`~actuator_design.contact.self_contact.candidate_pairs`, with ``spread``);
     ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair);
     ``theta_start``: θ at the mesh's nodes (rad) of a free equilibrium of a nearby scene, a warm start
-    like ``initial``."""
+    like ``initial``; ``planes``: a corner pair (the tip or the clamp against a body point) whose
+    body point is an element boundary the round before put at the corner's nearest point keeps the
+    corner on its side of the body point's tangent line instead of a point's distance
+    (:func:`~actuator_design.contact.contact_nlp.corner_body`; the split rounds)."""
     solver = get_solver(scene, opts)
     nlp = contact_nlp(solver, scene, self_contact)
     P = solver.parameter_vector(scene)
@@ -218,13 +221,16 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         shaped = _lumen_start(scene, np.asarray(solver.transcription.nodes, float))
         if shaped is not None and _rest_state_problem(scene, nlp, shaped) is None:
             z0, problem, start = shaped, None, "the rod laid along the lumen's centre line, the loads applied"
-    pairs = ()
+    pairs, kept = (), []
     if nlp.slots:
         X0, Y0 = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z0))
         pairs = candidate_pairs(nlp.s_self, X0, Y0, scene.contact_gap, slots=nlp.slots, spread=spread)
         kept = boundary_pairs(nlp.s_self, opts.split_at, refine if refine is not None else initial)
         pairs = tuple((kept + [q for q in pairs if q not in kept])[:nlp.slots])
-    Pall = nlp.parameters(P, pairs)
+    # a corner pair's plane row where the body point is an element boundary put at the corner's
+    # nearest point in the round before (a pair chosen afresh may have the corner beyond the body's end)
+    signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
+    Pall = nlp.parameters(P, pairs, signs)
     lbg, ubg = nlp.bounds(pairs)
     used = np.isfinite(lbg[1:])
     mass = np.asarray(solver.transcription.mass, float)
@@ -239,7 +245,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         warm_start = not cold and ((given and refine is None) or (self_contact and warm is not None))
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
-        same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs  # the same NLP and pairs
+        same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs and lam0[3] == signs  # the same rows
         rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
         newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
         if newton is not None and kept_clear(nlp, z0, Pall, newton):
@@ -268,7 +274,8 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                 # where no pair held it: those pairs are constrained too, and it is solved again from
                 # the same start (a ramp step that does so is halved instead: :mod:`actuator_design.contact.self_contact`)
                 pairs, same = grown, False
-                Pall = nlp.parameters(P, pairs)
+                signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
+                Pall = nlp.parameters(P, pairs, signs)
                 lbg, ubg = nlp.bounds(pairs)
                 used = np.isfinite(lbg[1:])
             status = str(ipopt.stats().get("return_status"))
@@ -307,10 +314,10 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                       iterations=iterations, stationarity=stationarity, message=message)
     result = make_result(scene, opts, solver, P, raw, stability, False, [], time.perf_counter() - t0)
     X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
-    result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs)
+    result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs, nlp.pair_normals(z, Pall))
     result.contact["start"] = start
     # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
-    result._contact_multipliers = (weakref.ref(nlp), pairs, lam)
+    result._contact_multipliers = (weakref.ref(nlp), pairs, lam, signs)
     loads = point_loads(result.contact)
     dense = result._dense
     result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)

@@ -12,7 +12,9 @@ matrices follow from the chain rule with small pieces (:mod:`actuator_design.con
 with the positions' Jacobian and the last term (diagonal for the spectral and midpoint
 transcriptions: positions are sums of cos θ and sin θ) from one small function each, and d with
 its first and second derivatives at the m points from the obstacle's own expression. A self-contact
-pair row (|r_a − r_b|² − 4 gap²)/(4 gap) is the same with d the squared distance over 4 gap.
+pair row (|r_a − r_b|² − 4 gap²)/(4 gap) is the same with d the squared distance over 4 gap; a
+corner pair's plane row ρ (r_a − r_b)·n(θ_B) − 2 gap (:func:`~actuator_design.contact.contact_nlp.corner_body`)
+adds the turning of the body point's normal with θ_B, which is linear in θ.
 
 Newton's KKT matrix (:meth:`ContactNLP.kkt`) adds the energy's Hessian from the solver's kernel,
 which has the clamp's θ eliminated: its row and column 0 carry the rows' part only. The clamp's
@@ -81,9 +83,11 @@ class RowDerivatives:
         Self-contact pair rows (after the obstacle rows).
     """
 
-    def __init__(self, z, X, Y, obstacles, gap: float, slots: int):
+    def __init__(self, z, X, Y, T, obstacles, gap: float, slots: int):
         self.m, self.n, self.gap, self.slots = int(X.numel()), int(z.numel()), float(gap), int(slots)
         self.f_pos = Buffered(ca.Function("contact_positions", [z], [X, Y, ca.jacobian(X, z), ca.jacobian(Y, z)]))
+        # θ at the clamp and the points is linear in z: its Jacobian is a constant
+        self.JT0 = np.asarray(ca.evalf(ca.jacobian(ca.vertcat(z[0], T), z)), float)
         w, v = ca.SX.sym("w", self.m), ca.SX.sym("v", self.m)
         self.f_pos_hess = Buffered(ca.Function("positions_hessian", [z, w, v],
                                                 [ca.hessian(ca.dot(w, X) + ca.dot(v, Y), z)[0]]))
@@ -108,8 +112,10 @@ class RowDerivatives:
         Parameters
         ----------
         z : ndarray, shape (n,)
-        pairs : ndarray, shape (slots, m + 1)
-            Sa − Sb of the pair rows' one-hot selections (the clamp first, then the points).
+        pairs : (ndarray, ndarray, ndarray)
+            (Sa − Sb, B, ρ) of the pair rows (:meth:`ContactNLP._pairs`): the one-hot selections'
+            difference and a corner pair's body selection, shapes (slots, m + 1) (the clamp first,
+            then the points), and its side, shape (slots,) (0: a point row).
         lam : ndarray, shape (n_rows,)
             The rows' multipliers (CasADi's sign).
         """
@@ -133,20 +139,34 @@ class RowDerivatives:
                 w[on] += lk[on] * dx[on]
                 v[on] += lk[on] * dy[on]
         if self.slots:
+            diff, B, rho = pairs
             JX0, JY0 = np.vstack([np.zeros(self.n), JX]), np.vstack([np.zeros(self.n), JY])
-            Dx, Dy = pairs @ np.concatenate([[0.0], X]), pairs @ np.concatenate([[0.0], Y])
-            JDx, JDy = pairs @ JX0, pairs @ JY0
+            Dx, Dy = diff @ np.concatenate([[0.0], X]), diff @ np.concatenate([[0.0], Y])
+            JDx, JDy = diff @ JX0, diff @ JY0
+            # a plane row ρ D·n(θ_B) − 2 gap ρ² (ρ = 0: the point row alone), n = (−sin, cos), t = (cos, sin)
+            th = B @ (self.JT0 @ z)
+            Jth = B @ self.JT0
+            nx, ny, tx, ty = -np.sin(th), np.cos(th), np.cos(th), np.sin(th)
+            Dn, Dt = Dx * nx + Dy * ny, Dx * tx + Dy * ty
+            point = 1.0 - rho ** 2
             if jacobian:
-                blocks.append((Dx[:, None] * JDx + Dy[:, None] * JDy) / (2.0 * self.gap))
-                values.append((Dx * Dx + Dy * Dy - 4.0 * self.gap ** 2) / (4.0 * self.gap))
+                blocks.append(point[:, None] * (Dx[:, None] * JDx + Dy[:, None] * JDy) / (2.0 * self.gap)
+                              + rho[:, None] * (nx[:, None] * JDx + ny[:, None] * JDy - Dt[:, None] * Jth))
+                values.append(point * (Dx * Dx + Dy * Dy - 4.0 * self.gap ** 2) / (4.0 * self.gap)
+                              + rho * Dn - 2.0 * self.gap * rho ** 2)
             lp = lam[len(self.f_obstacles) * self.m:]
             on = np.flatnonzero(lp)
             if on.size:
-                scale = lp[on] / (2.0 * self.gap)
+                scale = lp[on] * point[on] / (2.0 * self.gap)
                 H += JDx[on].T @ (scale[:, None] * JDx[on]) + JDy[on].T @ (scale[:, None] * JDy[on])
+                # the plane rows' coupling of the points' motion with the body's turning
+                lr = lp[on] * rho[on]
+                tJ = tx[on, None] * JDx[on] + ty[on, None] * JDy[on]
+                cross = tJ.T @ (lr[:, None] * Jth[on])
+                H -= cross + cross.T + Jth[on].T @ ((lr * Dn[on])[:, None] * Jth[on])
                 # the positions' own curvature, weighted by each pair's pull on its two points
-                w += (pairs[on].T @ (scale * Dx[on]))[1:]
-                v += (pairs[on].T @ (scale * Dy[on]))[1:]
+                w += (diff[on].T @ (scale * Dx[on] + lr * nx[on]))[1:]
+                v += (diff[on].T @ (scale * Dy[on] + lr * ny[on]))[1:]
         if np.any(w) or np.any(v):
             H += self.f_pos_hess(z, w, v)[0]
         if not blocks:

@@ -85,10 +85,14 @@ def verdict(H: np.ndarray, A: np.ndarray, m: np.ndarray) -> ContactVerdict:
     return ContactVerdict(ev[:6], morse, stable, marginal)
 
 
-def contact_report(scene, nlp, X, Y, mu, strong, weak, pairs: Sequence[Tuple[int, int]] = ()) -> dict:
+def contact_report(scene, nlp, X, Y, mu, strong, weak, pairs: Sequence[Tuple[int, int]] = (),
+                   normals: Optional[dict] = None) -> dict:
     """The ``contact`` dict of a result: ``points`` (one per obstacle contact; two per self-contact,
     ``obstacle`` None, ``self`` True and the other end's ``partner_s``), forces on the rod (units of
-    B0/ℓ², per length B0/ℓ³; SI too on a physical scene), the total force, and what the solve used."""
+    B0/ℓ², per length B0/ℓ³; SI too on a physical scene), the total force, and what the solve used.
+    ``normals``: pair slot → the direction its row pushes the a-end along (a corner pair's plane
+    row, :meth:`~actuator_design.contact.contact_nlp.ContactNLP.pair_normals`); else r_a − r_b."""
+    normals = normals or {}
     points: List[dict] = []
 
     def point(k, s, w, x, y, i, f, **extra):
@@ -108,7 +112,8 @@ def contact_report(scene, nlp, X, Y, mu, strong, weak, pairs: Sequence[Tuple[int
         i = len(scene.obstacles) * m + q
         if strong[i] or weak[i]:
             d = np.array([Xs[a] - Xs[b], Ys[a] - Ys[b]])
-            f = mu[i] * d / max(float(np.hypot(*d)), 1e-300)  # pushes a away from b, b from a
+            d = normals.get(q, d / max(float(np.hypot(*d)), 1e-300))
+            f = mu[i] * d  # pushes a away from b, b from a
             for j, o, sign in ((a, b, 1.0), (b, a, -1.0)):
                 point(None, nlp.s_self[j], nlp.w_self[j], Xs[j], Ys[j], i, sign * f, self=True,
                       partner_s=float(nlp.s_self[o]))
