@@ -49,3 +49,24 @@ def test_a_guessed_row_that_would_pull_is_refused():
     rows = pressing_rows(nlp, lam_ip, None, ()) + [tip_row]
     mass = np.asarray(solver.transcription.mass, float)
     assert newton_on_contact_set(nlp, z_ip, P, lbg, rows, mass, 1e-10) is None
+
+
+def test_a_self_contact_split_round_is_newtons_and_lands_on_ipopts_minimum():
+    """The coiled strip's last split round: its pairs are the round before's self-contacts (element
+    boundaries now), guessed to press. Newton's answer is IPOPT's on the same NLP and pairs — on a mesh
+    graded towards the tip, where |∇L|/m stalls at the rounding floor of the small end elements, above
+    1e-10 but within each unknown's floor (reduced.linalg.within_rounding_floor)."""
+    from actuator_design.model.profiles import expression_profile
+
+    scene = Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01)
+    r = solve(scene)
+    assert r.success and "Newton on the contact set of the round before" in r.message, r.message
+    solver = get_solver(scene, r.options)
+    nlp = contact_nlp(solver, scene, True)
+    _, pairs, lam_r, signs = r._contact_multipliers
+    P = nlp.parameters(solver.parameter_vector(scene), pairs, signs)
+    lbg, ubg = nlp.bounds(pairs)
+    sol = nlp.nlpsol(False)(x0=np.asarray(r.z, float) * 0.99, p=P, lbg=lbg, ubg=ubg)
+    z_ip, lam_ip = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
+    assert np.max(np.abs(r.z - z_ip)) < 1e-9
+    assert np.max(np.abs(lam_r - lam_ip)) < 1e-7 * np.max(np.abs(lam_ip))

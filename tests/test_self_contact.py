@@ -353,8 +353,8 @@ def test_the_ramp_starts_where_the_free_arc_comes_near_itself():
     """A uniform strip under a tip moment M is the arc θ = λ M s on the way from rest (closed form), its
     clamp and tip the nearest pair, 2 sin(κ/2)/κ apart at curvature κ. The contact-free lead-in of the
     self-contact ramp is that arc, and it stops at the last station k/64 before the clamp and the tip
-    come within three half-thicknesses (3·gap): from there the ramp's rows take over."""
-    from actuator_design.contact.self_solve import LEAD_STATIONS, free_lead_in
+    come within (2 + LEAD_MARGIN)·gap: from there the ramp's rows take over."""
+    from actuator_design.contact.self_solve import LEAD_MARGIN, LEAD_STATIONS, free_lead_in
     from actuator_design.equilibrium.acceptance import graded_options
     from actuator_design.equilibrium.solver import get_solver
 
@@ -363,7 +363,7 @@ def test_the_ramp_starts_where_the_free_arc_comes_near_itself():
     opts = replace(graded_options(sc, SolverOptions()), split_at=())
     lam, theta = free_lead_in(sc, opts)
     chord = lambda k: 2.0 * math.sin(k * moment / LEAD_STATIONS / 2.0) / (k * moment / LEAD_STATIONS)
-    clear = [k for k in range(1, LEAD_STATIONS) if chord(k) >= 3 * GAP]
+    clear = [k for k in range(1, LEAD_STATIONS) if chord(k) >= (2 + LEAD_MARGIN) * GAP]
     assert clear == list(range(1, len(clear) + 1)) and lam == len(clear) / LEAD_STATIONS
     nodes = np.asarray(get_solver(sc, opts).transcription.nodes, float)
     assert np.max(np.abs(theta - lam * moment * nodes)) < 1e-9

@@ -246,7 +246,10 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs and lam0[3] == signs  # the same rows
-        rows = pressing_rows(nlp, lam0[2] if same else None, None if cold or pairs else refine, opts.split_at)
+        # a split round's pairs start with the round before's self-contacts, now element boundaries
+        at_boundaries = tuple(1 + len(scene.obstacles) * nlp.n_points + q for q in range(len(kept)))
+        rows = pressing_rows(nlp, lam0[2] if same else None, None if cold else refine, opts.split_at,
+                             at_boundaries)
         newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
         if newton is not None and kept_clear(nlp, z0, Pall, newton):
             minimum = strict_minimum(nlp, newton, mass)

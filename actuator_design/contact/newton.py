@@ -23,6 +23,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from actuator_design.contact.report import ACTIVE, verdict
+from actuator_design.reduced.linalg import FLOOR_STEP, within_rounding_floor
 
 __all__ = ["newton_on_contact_set", "pressing_rows", "kept_clear", "strict_minimum", "MAX_ITER", "SWEEP"]
 
@@ -75,11 +76,18 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
     n, m = z0.size, A.size
     z, lam = np.array(z0, float), np.zeros(lbg.size)
     used = np.isfinite(lbg)
-    small = False
+    small, last = False, np.inf
+
+    def stationary(grad, H, z, target, last):
+        # within ``target``, or within each unknown's rounding floor after a step below FLOOR_STEP
+        # (the small end elements of a graded mesh beside a contact: |∇L|/m stalls at ~5e-10)
+        return (np.max(np.abs(grad[1:] / mass[1:])) <= target
+                or (last <= FLOOR_STEP and within_rounding_floor(grad[1:], H[1:, 1:], z[1:], mass[1:], target)))
+
     for it in range(MAX_ITER + 1):
         grad, H, jac, g = nlp.kkt(z, P, lam)
         if (small or it == MAX_ITER  # the answer's derivatives, evaluated once more after the last step
-                or (it > 0 and np.max(np.abs(grad[1:] / mass[1:])) <= SOLVED * tol
+                or (it > 0 and stationary(grad, H, z, SOLVED * tol, last)
                     and np.max(np.abs(g[A] - lbg[A])) <= ROW_TOL)):
             small = True
             break
@@ -95,8 +103,9 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
             return None
         z += step[:n]
         lam[A] += step[n:]
-        small = bool(np.max(np.abs(step[:n])) <= 1e-13 * (1.0 + np.max(np.abs(z))))
-    if not small or not np.all(np.isfinite(grad)) or np.max(np.abs(grad[1:] / mass[1:])) > tol:
+        last = float(np.max(np.abs(step[:n])))
+        small = bool(last <= 1e-13 * (1.0 + np.max(np.abs(z))))
+    if not small or not np.all(np.isfinite(grad)) or not stationary(grad, H, z, tol, last):
         return None
     if np.max(np.abs(g[A] - lbg[A])) > ROW_TOL:
         return None
@@ -137,21 +146,27 @@ def strict_minimum(nlp, newton, mass: np.ndarray):
     return (found, rows) if found.stable else None
 
 
-def pressing_rows(nlp, lam_before, refine, splits) -> Optional[List[int]]:
+def pressing_rows(nlp, lam_before, refine, splits, self_rows: Sequence[int] = ()) -> Optional[List[int]]:
     """The rows (indices into g) guessed to press: those with a force in ``lam_before`` (the
-    multipliers of the state before, on this NLP), or the rows at the obstacle contacts of
-    ``refine`` (the round before, on another mesh: each interior contact now an element boundary of
-    ``splits``, a tip contact the tip); None when there is no guess (a self-contact round)."""
+    multipliers of the state before, on this NLP), or the rows at the contacts of ``refine`` (the
+    round before, on another mesh: each interior obstacle contact now an element boundary of
+    ``splits``, a tip contact the tip; its self-contacts the pair rows ``self_rows``, one per
+    contact with both ends at boundaries); None when there is no guess (a self-contact the pairs
+    do not hold)."""
     if lam_before is not None:
         mu = -np.asarray(lam_before, float)[1:]
         return list(1 + np.flatnonzero(mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0)))))
     if refine is None:
         return None
     rows, s_pts, m = [], np.asarray(nlp.s_points, float), nlp.n_points
+    own = [p for p in refine.contact["points"] if p.get("self") and not p["weak"] and p["s"] < p["partner_s"]]
+    if len(own) != len(self_rows):
+        return None
+    rows += list(self_rows)
     for p in refine.contact["points"]:
-        if p["weak"]:
+        if p["weak"] or p.get("self"):
             continue
-        if p.get("self") or p["obstacle"] is None:
+        if p["obstacle"] is None:
             return None
         target = 1.0 if p["s"] == 1.0 else min(splits, key=lambda b: abs(b - p["s"]), default=None)
         j = int(np.argmin(np.abs(s_pts - target))) if target is not None else -1

@@ -17,7 +17,7 @@ from actuator_design.continuation.from_rest import load_fraction, path_from_rest
 from actuator_design.equilibrium.acceptance import graded_options
 from actuator_design.equilibrium.solver import get_solver
 
-__all__ = ["solve_self_contact", "free_lead_in", "RAMP_DTHETA", "LEAD_STATIONS"]
+__all__ = ["solve_self_contact", "free_lead_in", "RAMP_DTHETA", "LEAD_STATIONS", "LEAD_MARGIN"]
 
 
 #: the ramp from rest: first, largest and smallest load-fraction steps
@@ -26,6 +26,10 @@ RAMP_FIRST, RAMP_MAX, RAMP_MIN = 0.125, 0.25, 1.0 / 1024
 RAMP_DTHETA = 0.6
 #: stations of the contact-free lead-in (:func:`free_lead_in`): load fractions k/LEAD_STATIONS
 LEAD_STATIONS = 64
+#: ... which stop before the rod comes within (2 + LEAD_MARGIN)·gap of itself, or (1 + LEAD_MARGIN)·gap
+#: of an obstacle, at its constrained points: the ramp with the contact rows starts from a state
+#: that keeps every row, on the last station before the first touch
+LEAD_MARGIN = 0.25
 
 
 def solve_self_contact(scene, options, initial=None):
@@ -80,8 +84,8 @@ def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
     """How far the loads of ``scene`` go from rest before its rod comes near itself or an obstacle:
     the last of the stations k/:data:`LEAD_STATIONS` of the contact-free path from rest
     (:func:`~actuator_design.continuation.from_rest.path_from_rest`, Newton steps on the mesh of
-    ``opts``) before the first whose rod comes within 3·gap of itself or 2·gap of an obstacle at its
-    constrained points (its thickness and one more half-thickness), and θ there at the nodes (rad);
+    ``opts``) before the first whose rod comes within (2 + :data:`LEAD_MARGIN`)·gap of itself or
+    (1 + LEAD_MARGIN)·gap of an obstacle at its constrained points, and θ there at the nodes (rad);
     (0, None) when that is rest. Up to there the contact rows hold nothing, and the ramp with them
     would follow the same states, an IPOPT solve each; from there its steps choose the pairs that
     come near, as from any state of the ramp."""
@@ -95,8 +99,8 @@ def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
     for lam, visit in zip(lams, path.visits):
         z = np.asarray(visit.z, float)
         X, Y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z))
-        near = candidate_pairs(nlp.s_self, X, Y, gap, reach=gap, slots=1) or (
-            scene.obstacles and np.min(np.asarray(nlp.f_dist(z), float)) < gap)
+        near = candidate_pairs(nlp.s_self, X, Y, gap, reach=LEAD_MARGIN * gap, slots=1) or (
+            scene.obstacles and np.min(np.asarray(nlp.f_dist(z), float)) < LEAD_MARGIN * gap)
         if near or not visit.newton or lam == 1.0:
             break
         last = (float(lam), z)
