@@ -441,3 +441,16 @@ def test_the_curled_strip_is_below_every_admissible_neighbour(curled):
                 admissible += 1
                 assert e > e0, (eps, e - e0)
     assert admissible >= 20
+
+
+def test_the_lead_in_stops_before_a_branch_point():
+    """A strip compressed by an axial dead tip load 60 buckles at the Euler load π²/4 (closed form),
+    on the way from rest at λ = π²/240: the contact-free lead-in stops at the last station before it,
+    and the kick onto the bent branch is left to the ramp with the contact rows."""
+    from actuator_design.contact.self_solve import LEAD_STATIONS, free_lead_in
+    from actuator_design.equilibrium.acceptance import graded_options
+
+    sc = Scene(field=None, tip_force=(-60.0, 0.0), contact_gap=0.08)
+    lam, theta = free_lead_in(sc, replace(graded_options(sc, SolverOptions()), split_at=()))
+    assert lam == math.floor(LEAD_STATIONS * math.pi ** 2 / 240.0) / LEAD_STATIONS
+    assert np.max(np.abs(theta)) < 1e-12  # straight until it buckles

@@ -214,9 +214,10 @@ def corner_body(a: int, b: int, m: int):
     corner roll round the body point into the rod's thickness beside it (the tip of a curled strip
     settled in the dip between two constrained points, 2.4e-5 inside, and the element boundaries
     chased it for 30 rounds). Its plane row keeps the corner on its side of the body point's tangent
-    line, ρ (r_corner − r_body)·n_body ≥ 2·gap, pushing along the body's normal (frictionless); where
-    the body point is the corner's nearest (the split rounds put it there) the two rows agree to
-    second order. None for a pair of two body points or of two corners."""
+    line, |(r_corner − r_body)·n_body| ≥ 2·gap, written ρ (r_a − r_b)·n_body ≥ 2·gap with ρ the sign
+    of (r_a − r_b)·n_body in the start (:meth:`ContactNLP.plane_sides`), pushing along the body's
+    normal (frictionless); where the body point is the corner's nearest (the split rounds put it
+    there) the two rows agree to second order. None for a pair of two body points or of two corners."""
     if b == m and a != 0:
         return a
     if a == 0 and b != m:

@@ -196,9 +196,10 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     ``cold``: IPOPT's default barrier from any start (a start that violates a newly chosen pair);
     ``theta_start``: θ at the mesh's nodes (rad) of a free equilibrium of a nearby scene, a warm start
     like ``initial``; ``planes``: a corner pair (the tip or the clamp against a body point) whose
-    body point is an element boundary the round before put at the corner's nearest point keeps the
-    corner on its side of the body point's tangent line instead of a point's distance
-    (:func:`~actuator_design.contact.contact_nlp.corner_body`; the split rounds)."""
+    body point is an element boundary put at the corner's nearest point (by the round before, or
+    by ``initial``'s contact solve: a step of a path) keeps the corner on its side of the body
+    point's tangent line instead of a point's distance
+    (:func:`~actuator_design.contact.contact_nlp.corner_body`; :func:`solve_contact`'s rounds)."""
     solver = get_solver(scene, opts)
     nlp = contact_nlp(solver, scene, self_contact)
     P = solver.parameter_vector(scene)
@@ -230,6 +231,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     # a corner pair's plane row where the body point is an element boundary put at the corner's
     # nearest point in the round before (a pair chosen afresh may have the corner beyond the body's end)
     signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
+    signs = signs if any(signs) else ()  # point rows only: the ramp's rows
     Pall = nlp.parameters(P, pairs, signs)
     lbg, ubg = nlp.bounds(pairs)
     used = np.isfinite(lbg[1:])
@@ -278,6 +280,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                 # the same start (a ramp step that does so is halved instead: :mod:`actuator_design.contact.self_contact`)
                 pairs, same = grown, False
                 signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
+                signs = signs if any(signs) else ()
                 Pall = nlp.parameters(P, pairs, signs)
                 lbg, ubg = nlp.bounds(pairs)
                 used = np.isfinite(lbg[1:])

@@ -73,8 +73,9 @@ class RowDerivatives:
 
     Parameters
     ----------
-    z, X, Y : casadi.SX
-        The NLP's unknowns (nodal θ, shape (n,)) and the constrained points' positions (shape (m,)).
+    z, X, Y, T : casadi.SX
+        The NLP's unknowns (nodal θ, shape (n,)), the constrained points' positions and their angles
+        θ (shape (m,); linear in z).
     obstacles : sequence of obstacles
         Each with ``distance(x, y)`` in CasADi.
     gap : float

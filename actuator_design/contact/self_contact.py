@@ -14,7 +14,9 @@ to). A pair's row
     c(a, b) = (|r_a − r_b|² − (2 gap)²) / (4 gap) ≥ 0
 
 has the unit normal as its gradient at contact, so its multiplier is the contact force (units of
-B0/ℓ²), pushing r_a away from r_b and r_b away from r_a. As with obstacles, a contact point inside
+B0/ℓ²), pushing r_a away from r_b and r_b away from r_a. A corner (the tip or the clamp) pressing
+on a body point that an element boundary was put at keeps instead to the body point's tangent line
+(:func:`~actuator_design.contact.contact_nlp.corner_body`). As with obstacles, a contact point inside
 an element becomes an element boundary on *both* sides (:func:`nearest_pair`), and the solve is
 repeated until the pair stays put, so the point-to-point rows meet the point-to-curve contact;
 what tangential force a pair still carries (:func:`tangential_force`) is checked against the
@@ -194,10 +196,14 @@ def tangential_force(result) -> Optional[Tuple[float, float, float]]:
     """The largest tangential (friction-like) force of ``result``'s self-contacts (units of B0/ℓ²)
     and where (s_a, s_b), or None without self-contacts.
 
-    A pair's row pushes along the line between its two points, which is the normal of both turns
-    only where they are the nearest points of the two (frictionless contact); off it, the force
-    has a tangential part |F| max(|d̂·t|) over its interior ends (the tip and the clamp are corners)
-    that the moment balance cannot see, as it balances the force it is given."""
+    A pair's point row pushes along the line d̂ between its two points, which is the normal of both
+    turns only where they are the nearest points of the two (frictionless contact); off it, the
+    force has a tangential part |F| max(|d̂·t|) over its interior ends (the tip and the clamp are
+    corners) that the moment balance cannot see, as it balances the force it is given. A corner
+    pair's plane row (:func:`~actuator_design.contact.contact_nlp.corner_body`) pushes along the
+    body's normal, and the same |F| |d̂·t| measures the couple F (r_corner − r_body)·t its row
+    puts on the body point, over |r_corner − r_body|: zero where the body point is the corner's
+    nearest."""
     pts = [p for p in (result.contact or {}).get("points", [])
            if p.get("self") and not p["weak"] and p["s"] < p["partner_s"]]
     worst = None

@@ -69,7 +69,9 @@ def solve_self_contact(scene, options, initial=None):
             continue
         dt *= 0.5
         if dt < RAMP_MIN:  # reported: the last state reached (an equilibrium at that fraction), not
-            out = state if state is not None else r  # the rejected trial beyond it
+            if state is None and theta is not None:  # the rejected trial beyond it; the lead-in's end
+                state = solve_once(scene, opts, t0, fraction=t, self_contact=True, theta_start=theta)
+            out = state if state is not None else r
             out.success, out.status = False, "not_converged"
             out.message += (f"; the load ramp from rest with self-contact stopped at {100 * t:.4g} % of the "
                             f"loads (a snap, or a contact the ramp cannot follow)"
@@ -88,7 +90,9 @@ def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
     (1 + LEAD_MARGIN)·gap of an obstacle at its constrained points, and θ there at the nodes (rad);
     (0, None) when that is rest. Up to there the contact rows hold nothing, and the ramp with them
     would follow the same states, an IPOPT solve each; from there its steps choose the pairs that
-    come near, as from any state of the ramp."""
+    come near, as from any state of the ramp. It also stops before a snap or a branch point of the
+    path: a contact-free snap could carry the rod through itself, and the ramp meets them with the
+    contact rows."""
     gap = scene.contact_gap
     solver = get_solver(scene, opts)
     nlp = contact_nlp(solver, scene, self_contact=True)
@@ -101,7 +105,7 @@ def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
         X, Y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z))
         near = candidate_pairs(nlp.s_self, X, Y, gap, reach=LEAD_MARGIN * gap, slots=1) or (
             scene.obstacles and np.min(np.asarray(nlp.f_dist(z), float)) < LEAD_MARGIN * gap)
-        if near or not visit.newton or lam == 1.0:
+        if near or not visit.newton or visit.snaps or visit.branch_points or lam == 1.0:
             break
         last = (float(lam), z)
     return last
