@@ -454,3 +454,23 @@ def test_the_lead_in_stops_before_a_branch_point():
     lam, theta = free_lead_in(sc, replace(graded_options(sc, SolverOptions()), split_at=()))
     assert lam == math.floor(LEAD_STATIONS * math.pi ** 2 / 240.0) / LEAD_STATIONS
     assert np.max(np.abs(theta)) < 1e-12  # straight until it buckles
+
+
+def test_a_ramp_that_stops_says_when_its_shape_enters_its_own_thickness():
+    """A thin strip (gap 0.003) curled as the one above: the ramp from rest stops (the tip slides
+    along its body faster than the pairs follow), and the last state it reports may come within one
+    gap of itself. Whether it does is measured here on the dense shape (4001 points, points more than
+    2π·gap apart along the rod), and the message must say so exactly when it does."""
+    from actuator_design.model.scene import UniformField
+    from scipy.spatial import cKDTree
+
+    gap = 0.003
+    r = solve(Scene(field=UniformField(phi=HARD["phi"]), h_r=HARD["h_r"],
+                    magnetization=expression_profile(HARD["beta"]), contact_gap=gap))
+    assert not r.success and "ramp from rest with self-contact stopped" in r.message, r.message
+    d = r.evaluate(np.linspace(0.0, 1.0, 4001))
+    pts = np.column_stack([d["x"], d["y"]])
+    near = cKDTree(pts).query_pairs(2 * gap, output_type="ndarray")
+    near = near[np.abs(d["s"][near[:, 0]] - d["s"][near[:, 1]]) >= neighbour_arc(gap)]
+    least = float(np.min(np.hypot(*(pts[near[:, 0]] - pts[near[:, 1]]).T), initial=np.inf))
+    assert (least < 2 * gap - 1e-6) == ("enters its own thickness" in r.message), (least, r.message)

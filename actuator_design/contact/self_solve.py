@@ -77,6 +77,12 @@ def solve_self_contact(scene, options, initial=None):
                             f"loads (a snap, or a contact the ramp cannot follow)"
                             + (f": the shape is the last state reached, at {100 * t:.10g} % of every load"
                                if state is not None else ""))
+            inside = self_penetration(out, scene.contact_gap)
+            if inside is not None:  # the ramp's states may come within one gap of themselves
+                a, b, depth = inside
+                out.message += (f"; that shape enters its own thickness (s = {a:.4g} and s = {b:.4g} come "
+                                f"{2.0 * scene.contact_gap - depth:.3g} apart, less than 2 x gap = "
+                                f"{2.0 * scene.contact_gap:.3g} rod lengths): it is no physical state")
             return out
     return solve_contact(scene, options, state, self_contact=True,
                          start=f"rest, the loads ramped in {steps} steps with self-contact")
