@@ -70,3 +70,20 @@ def test_a_self_contact_split_round_is_newtons_and_lands_on_ipopts_minimum():
     z_ip, lam_ip = (np.asarray(sol[k], float).ravel() for k in ("x", "lam_g"))
     assert np.max(np.abs(r.z - z_ip)) < 1e-9
     assert np.max(np.abs(lam_r - lam_ip)) < 1e-7 * np.max(np.abs(lam_ip))
+
+
+def test_a_ramp_steps_forces_are_carried_to_the_same_pairs_or_not_guessed():
+    """carried_multipliers: the obstacle rows' forces stay where they are, a pressing pair's force
+    moves to that pair's new slot; a pressing pair that has no slot now, or another row (a plane row
+    for a point row), leaves no guess. Hand-built: 2 obstacle rows after the clamp row, 3 pair slots."""
+    from actuator_design.contact.newton import carried_multipliers
+
+    base = 3
+    lam = np.array([0.5, -1.0, 0.0, -2.0, 0.0, -3.0])  # clamp, 2 obstacle rows, pairs (1,9), (2,8), (4,9)
+    before = (((1, 9), (2, 8), (4, 9)), lam, ())
+    out = carried_multipliers(before, ((4, 9), (1, 9)), (), base)
+    assert np.array_equal(out, [0.5, -1.0, 0.0, -3.0, -2.0, 0.0])
+    assert carried_multipliers(before, ((1, 9), (2, 8)), (), base) is None  # (4, 9) pressed
+    assert carried_multipliers(before, ((4, 9), (1, 9)), (-1.0, 0.0), base) is None  # now a plane row
+    assert np.array_equal(carried_multipliers((((1, 9),), np.array([0.0, 0.0, 0.0, 0.0]), ()), ((5, 9),), (), base),
+                          np.zeros(4))
