@@ -28,12 +28,13 @@ import numpy as np
 
 from actuator_design.contact.clearance import PENETRATION_TOL, entering
 from actuator_design.contact.contact_nlp import ContactNLP, contact_nlp
-from actuator_design.contact.newton import (carried_multipliers, kept_clear, newton_on_contact_set, pressing_rows,
-                                           strict_minimum)
+from actuator_design.contact.newton import (carried_multipliers, kept_clear, newton_on_contact_set,
+                                            pressing_rows, strict_minimum)
 from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
                                             penetration_text, point_loads, verdict)
 from actuator_design.contact.self_contact import (GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs,
-                                                  nearest_pair, self_penetration, tangential_force)
+                                                  nearest_pair, self_contact_mesh, self_penetration,
+                                                  tangential_force)
 from actuator_design.contact.split import (MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged,
                                            nearest_point)
 from actuator_design.continuation.from_rest import load_fraction
@@ -85,6 +86,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     """
     t0 = time.perf_counter()
     self_contact = self_contact or bool(initial is not None and (initial.contact or {}).get("self_contact"))
+    options = self_contact_mesh(scene, options) if self_contact else options
     opts = graded_options(scene, options) if options.adapt else options
     splits, rounds = tuple(opts.split_at), 0
     if initial is not None and initial.contact is not None:

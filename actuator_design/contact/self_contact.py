@@ -29,6 +29,7 @@ constrained, so the rod stays on the side of itself it came from.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -37,7 +38,7 @@ from actuator_design.contact.clearance import constrained_points
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
            "least_self_clearance", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
-           "GROW_ROUNDS"]
+           "GROW_ROUNDS", "SELF_SPACING", "self_contact_mesh"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
@@ -98,6 +99,30 @@ def candidate_pairs(s: np.ndarray, x: np.ndarray, y: np.ndarray, gap: float, rea
             if is_candidate(q) and q not in chosen:
                 chosen.append(q)
     return chosen[:slots]
+
+
+#: the widest spacing of the constrained points a self-contact solve allows, in units of the gap: a
+#: pair row holds two points 2·gap apart, and between two body points h apart another point of the
+#: rod (its tip) can sink 2·gap − √(4 gap² − h²/4) into the body — all the way through at h = 4·gap
+#: (a strip 0.006 thick on 4 elements, points 0.037 apart, did); at 3·gap 0.68·gap, within the one
+#: gap the ramp from rest allows (:mod:`actuator_design.contact.self_solve`)
+SELF_SPACING = 3.0
+
+
+def self_contact_mesh(scene, options):
+    """``options`` with enough LGL elements that the constrained points of its mesh are at most
+    :data:`SELF_SPACING` × ``scene.contact_gap`` apart (the widest LGL gap of an element of length
+    1/E, the longest: grading and contact boundaries only shorten elements), at most
+    :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS`; ``options`` itself for the
+    midpoint rule, with ``adapt`` off (the mesh is the user's), or when it is fine enough."""
+    from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
+    from actuator_design.transcription.lgl import lgl_nodes_weights
+
+    if options.transcription != "lgl" or not options.adapt or not scene.contact_gap > 0:
+        return options
+    widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0
+    need = min(MAX_ELEMENTS, int(math.ceil(widest / (SELF_SPACING * scene.contact_gap))))
+    return options if need <= options.elements else replace(options, elements=need)
 
 
 #: times a self-contact solve is repeated with the pairs it passed through added (:func:`grown_pairs`)

@@ -12,7 +12,7 @@ import numpy as np
 
 from actuator_design.contact.contact_nlp import contact_nlp
 from actuator_design.contact.equilibrium import solve_contact, solve_once
-from actuator_design.contact.self_contact import candidate_pairs, self_penetration
+from actuator_design.contact.self_contact import candidate_pairs, self_contact_mesh, self_penetration
 from actuator_design.continuation.from_rest import load_fraction, path_from_rest
 from actuator_design.equilibrium.acceptance import graded_options
 from actuator_design.equilibrium.solver import get_solver
@@ -47,6 +47,7 @@ def solve_self_contact(scene, options, initial=None):
     if initial is not None:
         return solve_contact(scene, options, initial, self_contact=True)
     t0 = time.perf_counter()
+    options = self_contact_mesh(scene, options)
     opts = graded_options(scene, options) if options.adapt else options
     opts = replace(opts, split_at=())
     t, theta = free_lead_in(scene, opts)
