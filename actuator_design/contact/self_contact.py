@@ -35,6 +35,8 @@ from typing import List, Optional, Tuple
 import numpy as np
 
 from actuator_design.contact.clearance import constrained_points
+from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
+from actuator_design.transcription.lgl import lgl_nodes_weights
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
            "least_self_clearance", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
@@ -115,9 +117,6 @@ def self_contact_mesh(scene, options):
     1/E, the longest: grading and contact boundaries only shorten elements), at most
     :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS`; ``options`` itself for the
     midpoint rule, with ``adapt`` off (the mesh is the user's), or when it is fine enough."""
-    from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
-    from actuator_design.transcription.lgl import lgl_nodes_weights
-
     if options.transcription != "lgl" or not options.adapt or not scene.contact_gap > 0:
         return options
     widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0
