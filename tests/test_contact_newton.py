@@ -72,18 +72,13 @@ def test_a_self_contact_split_round_is_newtons_and_lands_on_ipopts_minimum():
     assert np.max(np.abs(lam_r - lam_ip)) < 1e-7 * np.max(np.abs(lam_ip))
 
 
-def test_a_ramp_steps_forces_are_carried_to_the_same_pairs_or_not_guessed():
-    """carried_multipliers: the obstacle rows' forces stay where they are, a pressing pair's force
-    moves to that pair's new slot; a pressing pair that has no slot now, or another row (a plane row
-    for a point row), leaves no guess. Hand-built: 2 obstacle rows after the clamp row, 3 pair slots."""
-    from actuator_design.contact.newton import carried_multipliers
+def test_a_state_presses_nowhere_when_no_contact_row_carries_a_force():
+    """nothing_pressed: the clamp row's multiplier is no contact force; a contact row's counts when
+    it is above ACTIVE relative to the largest (CasADi's sign: a pressing row has λ < 0)."""
+    from actuator_design.contact.newton import nothing_pressed
+    from actuator_design.contact.report import ACTIVE
 
-    base = 3
-    lam = np.array([0.5, -1.0, 0.0, -2.0, 0.0, -3.0])  # clamp, 2 obstacle rows, pairs (1,9), (2,8), (4,9)
-    before = (((1, 9), (2, 8), (4, 9)), lam, ())
-    out = carried_multipliers(before, ((4, 9), (1, 9)), (), base)
-    assert np.array_equal(out, [0.5, -1.0, 0.0, -3.0, -2.0, 0.0])
-    assert carried_multipliers(before, ((1, 9), (2, 8)), (), base) is None  # (4, 9) pressed
-    assert carried_multipliers(before, ((4, 9), (1, 9)), (-1.0, 0.0), base) is None  # now a plane row
-    assert np.array_equal(carried_multipliers((((1, 9),), np.array([0.0, 0.0, 0.0, 0.0]), ()), ((5, 9),), (), base),
-                          np.zeros(4))
+    assert nothing_pressed(np.array([5.0, 0.0, 0.0, 0.0]))
+    assert nothing_pressed(np.array([5.0, -0.5 * ACTIVE, 0.0, 1e-3]))  # below ACTIVE, or pulling
+    assert not nothing_pressed(np.array([5.0, 0.0, -2.0 * ACTIVE, 0.0]))
+    assert not nothing_pressed(np.array([0.0, -3.0, -1e-3, 0.0]))

@@ -28,8 +28,8 @@ import numpy as np
 
 from actuator_design.contact.clearance import PENETRATION_TOL, entering
 from actuator_design.contact.contact_nlp import ContactNLP, contact_nlp
-from actuator_design.contact.newton import (carried_multipliers, kept_clear, newton_on_contact_set,
-                                            pressing_rows, strict_minimum)
+from actuator_design.contact.newton import (kept_clear, newton_on_contact_set, nothing_pressed, pressing_rows,
+                                            strict_minimum)
 from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
                                             penetration_text, point_loads, verdict)
 from actuator_design.contact.self_contact import (GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs,
@@ -254,12 +254,12 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         # a split round's pairs start with the round before's self-contacts, now element boundaries
         at_boundaries = tuple(1 + len(scene.obstacles) * nlp.n_points + q for q in range(len(kept)))
         before = lam0[2] if same else None
-        if before is None and refine is None and not cold and self_contact:
-            # a ramp step: its pairs are chosen afresh, the forces of the step before carried over
-            # (from the lead-in's contact-free state: none)
-            before = (carried_multipliers(lam0[1:], pairs, signs, 1 + len(scene.obstacles) * nlp.n_points)
-                      if lam0 is not None and lam0[0]() is nlp
-                      else np.zeros(1 + nlp.n_rows) if theta_start is not None and initial is None else None)
+        if before is None and refine is None and not cold and self_contact and (
+                (lam0 is not None and lam0[0]() is nlp and nothing_pressed(lam0[2]))
+                or (lam0 is None and theta_start is not None and initial is None)):
+            # a ramp step from a state pressing nowhere (or the lead-in's contact-free state), its
+            # pairs chosen afresh: none guessed to press
+            before = np.zeros(1 + nlp.n_rows)
         rows = pressing_rows(nlp, before, None if cold else refine, opts.split_at, at_boundaries)
         newton = None if rows is None else newton_on_contact_set(nlp, z0, Pall, lbg, rows, mass, opts.tol)
         if newton is not None and kept_clear(nlp, z0, Pall, newton):

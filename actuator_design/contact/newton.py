@@ -25,7 +25,7 @@ import numpy as np
 from actuator_design.contact.report import ACTIVE, verdict
 from actuator_design.reduced.linalg import FLOOR_STEP, within_rounding_floor
 
-__all__ = ["newton_on_contact_set", "pressing_rows", "carried_multipliers", "kept_clear", "strict_minimum", "MAX_ITER", "SWEEP"]
+__all__ = ["newton_on_contact_set", "pressing_rows", "nothing_pressed", "kept_clear", "strict_minimum", "MAX_ITER", "SWEEP"]
 
 #: Newton iterations before the guess is given up (quadratic convergence from a start within
 #: a path step or a boundary move needs 3–6)
@@ -119,24 +119,14 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
     return z, lam, it, (grad, H, jac)
 
 
-def carried_multipliers(before, pairs, signs, base: int) -> Optional[np.ndarray]:
-    """The multipliers of the state ``before`` (its ``(pairs, lam, signs)`` on this NLP) carried
-    over to the rows of ``pairs`` and ``signs`` (a ramp step's pairs, chosen afresh from its start):
-    the obstacle rows' as they were (rows before ``base``), each pair's from the same pair with the
-    same row; None when a pressing pair of ``before`` has no such row now (no guess)."""
-    old_pairs, lam, old_signs = before
-    lam = np.asarray(lam, float)
-    out = np.zeros_like(lam)
-    out[:base] = lam[:base]
-    side = lambda sg, q: float(sg[q]) if q < len(sg) else 0.0
-    for k, pair in enumerate(old_pairs):
-        if lam[base + k] == 0.0:
-            continue
-        q = pairs.index(pair) if pair in pairs else None
-        if q is None or side(signs, q) != side(old_signs, k):
-            return None
-        out[base + q] = lam[base + k]
-    return out
+def nothing_pressed(lam: np.ndarray) -> bool:
+    """Whether no contact row of the multipliers ``lam`` (CasADi's sign, the clamp row first)
+    carries a force (relative to :data:`~actuator_design.contact.report.ACTIVE`): a ramp step from
+    such a state guesses that none presses after it either. (Carrying a pressing pair's force to the
+    pairs chosen afresh for the next step was tried: Newton's answers passed every check, yet led a
+    ramp where IPOPT's did not go on.)"""
+    mu = -np.asarray(lam, float)[1:]
+    return not np.any(mu > ACTIVE * max(1.0, float(np.max(mu, initial=0.0))))
 
 
 def kept_clear(nlp, z0: np.ndarray, P: np.ndarray, newton) -> bool:
