@@ -491,3 +491,18 @@ def test_the_self_contact_mesh_keeps_its_points_within_three_gaps(gap):
         assert opts.elements == SolverOptions().elements or np.max(np.diff(fewer.s_self)) > SELF_SPACING * gap
     else:
         assert widest > SELF_SPACING * gap  # a strip thinner than the largest mesh resolves
+
+
+@pytest.mark.parametrize("degree", [20, 60])
+def test_a_strip_thinner_than_the_budget_allows_gets_the_finest_mesh_allowed(degree):
+    """A gap of 1e-4 asks for more elements than the memory budget allows at high degree: the mesh
+    is the largest that fits (config.limits.mesh_problem, with room for grading and the contact
+    points' boundaries), and never an error."""
+    from actuator_design.config.limits import mesh_problem
+    from actuator_design.contact.self_contact import GRADING_ROOM, self_contact_mesh
+    from actuator_design.equilibrium.options import MAX_SPLITS
+
+    opts = self_contact_mesh(coil(contact_gap=1e-4), SolverOptions(degree=degree))
+    extra = opts.clamp_levels + opts.tip_levels + MAX_SPLITS + GRADING_ROOM
+    assert mesh_problem("lgl", opts.elements + extra, degree) is None
+    assert opts.elements == 200 or mesh_problem("lgl", int(opts.elements / 0.9) + 1 + extra, degree) is not None

@@ -34,8 +34,10 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
+from actuator_design.config.limits import mesh_problem
 from actuator_design.contact.clearance import constrained_points
 from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
+from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.transcription.lgl import lgl_nodes_weights
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
@@ -115,13 +117,23 @@ def self_contact_mesh(scene, options):
     """``options`` with enough LGL elements that the constrained points of its mesh are at most
     :data:`SELF_SPACING` × ``scene.contact_gap`` apart (the widest LGL gap of an element of length
     1/E, the longest: grading and contact boundaries only shorten elements), at most
-    :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS`; ``options`` itself for the
+    :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS` and what the memory budget allows
+    (:func:`~actuator_design.config.limits.mesh_problem`; a thinner strip than that is solved on the
+    finest mesh allowed, and its dense check says if it enters itself); ``options`` itself for the
     midpoint rule, with ``adapt`` off (the mesh is the user's), or when it is fine enough."""
     if options.transcription != "lgl" or not options.adapt or not scene.contact_gap > 0:
         return options
     widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0
     need = min(MAX_ELEMENTS, int(math.ceil(widest / (SELF_SPACING * scene.contact_gap))))
+    # within the memory budget, with room for the grading and the contact points' boundaries
+    extra = int(options.clamp_levels) + int(options.tip_levels) + MAX_SPLITS + GRADING_ROOM
+    while need > options.elements and mesh_problem("lgl", need + extra, int(options.degree)) is not None:
+        need = max(int(options.elements), need * 9 // 10)
     return options if need <= options.elements else replace(options, elements=need)
+
+
+#: grading levels :func:`~actuator_design.equilibrium.acceptance.graded_options` may still add
+GRADING_ROOM = 8
 
 
 #: times a self-contact solve is repeated with the pairs it passed through added (:func:`grown_pairs`)
