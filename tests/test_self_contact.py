@@ -474,23 +474,24 @@ def test_a_ramp_that_stops_says_when_its_shape_enters_its_own_thickness():
 @pytest.mark.parametrize("gap", [0.01, 0.003, 0.0004])
 def test_the_self_contact_mesh_keeps_its_points_within_three_gaps(gap):
     """The constrained points of the mesh a self-contact solve uses (measured on the contact NLP
-    built for it) are at most SELF_SPACING·gap apart, up to MAX_ELEMENTS; the graded mesh of the
-    scene itself is kept where it is fine enough."""
+    built for it) are at most SELF_SPACING·gap apart, up to SELF_MAX_NODES nodes, and a mesh at that
+    cap carries a note saying its points lie farther apart; the graded mesh of the scene itself is
+    kept where it is fine enough."""
     from actuator_design.contact.contact_nlp import contact_nlp
-    from actuator_design.contact.self_contact import SELF_SPACING, self_contact_mesh
-    from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
+    from actuator_design.contact.self_contact import SELF_MAX_NODES, SELF_SPACING, self_contact_mesh, spacing_note
     from actuator_design.equilibrium.solver import get_solver
 
     sc = coil(contact_gap=gap)
     opts = self_contact_mesh(sc, SolverOptions())
     nlp = contact_nlp(get_solver(sc, opts), sc, True)
     widest = float(np.max(np.diff(nlp.s_self)))
-    if opts.elements < MAX_ELEMENTS:
+    assert (widest <= SELF_SPACING * gap) == (spacing_note(sc, opts) is None)
+    if opts.elements < SELF_MAX_NODES // opts.degree:
         assert widest <= SELF_SPACING * gap
         fewer = contact_nlp(get_solver(sc, replace(opts, elements=opts.elements - 1)), sc, True)
         assert opts.elements == SolverOptions().elements or np.max(np.diff(fewer.s_self)) > SELF_SPACING * gap
     else:
-        assert widest > SELF_SPACING * gap  # a strip thinner than the largest mesh resolves
+        assert widest > SELF_SPACING * gap and "more than 3 half-thicknesses" in spacing_note(sc, opts)
 
 
 @pytest.mark.parametrize("degree", [20, 60])
@@ -502,7 +503,10 @@ def test_a_strip_thinner_than_the_budget_allows_gets_the_finest_mesh_allowed(deg
     from actuator_design.contact.self_contact import GRADING_ROOM, self_contact_mesh
     from actuator_design.equilibrium.options import MAX_SPLITS
 
+    from actuator_design.contact.self_contact import SELF_MAX_NODES
+
     opts = self_contact_mesh(coil(contact_gap=1e-4), SolverOptions(degree=degree))
     extra = opts.clamp_levels + opts.tip_levels + MAX_SPLITS + GRADING_ROOM
     assert mesh_problem("lgl", opts.elements + extra, degree) is None
-    assert opts.elements == 200 or mesh_problem("lgl", int(opts.elements / 0.9) + 1 + extra, degree) is not None
+    assert opts.elements == SELF_MAX_NODES // degree \
+        or mesh_problem("lgl", int(opts.elements / 0.9) + 1 + extra, degree) is not None

@@ -42,7 +42,7 @@ from actuator_design.transcription.lgl import lgl_nodes_weights
 
 __all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
            "least_self_clearance", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
-           "GROW_ROUNDS", "SELF_SPACING", "self_contact_mesh"]
+           "GROW_ROUNDS", "SELF_SPACING", "SELF_MAX_NODES", "self_contact_mesh", "spacing_note"]
 
 #: pairs of constrained points a self-contact NLP carries (rows; unused ones are unbounded)
 SLOTS = 8
@@ -117,14 +117,15 @@ def self_contact_mesh(scene, options):
     """``options`` with enough LGL elements that the constrained points of its mesh are at most
     :data:`SELF_SPACING` × ``scene.contact_gap`` apart (the widest LGL gap of an element of length
     1/E, the longest: grading and contact boundaries only shorten elements), at most
-    :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS` and what the memory budget allows
+    :data:`~actuator_design.equilibrium.accuracy.MAX_ELEMENTS`, :data:`SELF_MAX_NODES` and what the memory budget allows
     (:func:`~actuator_design.config.limits.mesh_problem`; a thinner strip than that is solved on the
     finest mesh allowed, and its dense check says if it enters itself); ``options`` itself for the
     midpoint rule, with ``adapt`` off (the mesh is the user's), or when it is fine enough."""
     if options.transcription != "lgl" or not options.adapt or not scene.contact_gap > 0:
         return options
     widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0
-    need = min(MAX_ELEMENTS, int(math.ceil(widest / (SELF_SPACING * scene.contact_gap))))
+    need = min(MAX_ELEMENTS, SELF_MAX_NODES // int(options.degree),
+               int(math.ceil(widest / (SELF_SPACING * scene.contact_gap))))
     # within the memory budget, with room for the grading and the contact points' boundaries
     extra = int(options.clamp_levels) + int(options.tip_levels) + MAX_SPLITS + GRADING_ROOM
     while need > options.elements and mesh_problem("lgl", need + extra, int(options.degree)) is not None:
@@ -134,6 +135,25 @@ def self_contact_mesh(scene, options):
 
 #: grading levels :func:`~actuator_design.equilibrium.acceptance.graded_options` may still add
 GRADING_ROOM = 8
+#: most nodes a self-contact mesh is given (its IPOPT Hessian is dense, and each boundary round
+#: builds a new NLP: a curled strip on 200 elements of degree 10 took over 1500 s and 3.8 GB, on 50
+#: elements 131 s); a thinner strip than this resolves is solved on it and told
+#: (:func:`spacing_note`)
+SELF_MAX_NODES = 300
+
+
+def spacing_note(scene, options) -> Optional[str]:
+    """What to know when the constrained points of ``options``' mesh lie farther apart than
+    :data:`SELF_SPACING` half-thicknesses (the rod is thinner than the finest self-contact mesh
+    allowed), or None."""
+    if options.transcription != "lgl" or not scene.contact_gap > 0:
+        return None
+    widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0 / int(options.elements)
+    if widest <= SELF_SPACING * scene.contact_gap:
+        return None
+    return (f"the points where self-contact is imposed lie up to {widest:.3g} apart, more than "
+            f"{SELF_SPACING:g} half-thicknesses ({SELF_SPACING * scene.contact_gap:.3g}): between them the rod "
+            "may pass through itself (a rod this thin needs more elements than a self-contact solve takes)")
 
 
 #: times a self-contact solve is repeated with the pairs it passed through added (:func:`grown_pairs`)

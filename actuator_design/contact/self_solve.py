@@ -12,7 +12,8 @@ import numpy as np
 
 from actuator_design.contact.contact_nlp import contact_nlp
 from actuator_design.contact.equilibrium import solve_contact, solve_once
-from actuator_design.contact.self_contact import candidate_pairs, self_contact_mesh, self_penetration
+from actuator_design.contact.self_contact import (candidate_pairs, self_contact_mesh, self_penetration,
+                                                  spacing_note)
 from actuator_design.continuation.from_rest import load_fraction, path_from_rest
 from actuator_design.equilibrium.acceptance import graded_options
 from actuator_design.equilibrium.solver import get_solver
@@ -78,6 +79,8 @@ def solve_self_contact(scene, options, initial=None):
                             f"loads (a snap, or a contact the ramp cannot follow)"
                             + (f": the shape is the last state reached, at {100 * t:.10g} % of every load"
                                if state is not None else ""))
+            note = spacing_note(scene, out.options)
+            out.message += f"; {note}" if note is not None else ""
             inside = self_penetration(out, scene.contact_gap)
             if inside is not None:  # the ramp's states may come within one gap of themselves
                 a, b, depth = inside
@@ -85,8 +88,12 @@ def solve_self_contact(scene, options, initial=None):
                                 f"{2.0 * scene.contact_gap - depth:.3g} apart, less than 2 x gap = "
                                 f"{2.0 * scene.contact_gap:.3g} rod lengths): it is no physical state")
             return out
-    return solve_contact(scene, options, state, self_contact=True,
-                         start=f"rest, the loads ramped in {steps} steps with self-contact")
+    out = solve_contact(scene, options, state, self_contact=True,
+                        start=f"rest, the loads ramped in {steps} steps with self-contact")
+    note = spacing_note(scene, out.options)
+    if note is not None:
+        out.message += f"; {note}"
+    return out
 
 
 def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
