@@ -15,7 +15,7 @@ import numpy as np
 from actuator_design.contact import cache as contact_cache
 from actuator_design.contact.clearance import constrained_angles, constrained_points
 from actuator_design.contact.kkt import Buffered, HessianCallback, RowDerivatives
-from actuator_design.contact.self_contact import SLOTS
+from actuator_design.contact.self_contact import SLOTS, neighbour_arc
 
 __all__ = ["ContactNLP", "contact_nlp", "corner_body"]
 
@@ -115,13 +115,18 @@ class ContactNLP:
     def plane_sides(self, z: np.ndarray, pairs, only=None) -> tuple:
         """Per pair, the side ρ = sign((r_a − r_b)·n(θ_body)) of the body point's tangent line the
         corner lies on in the state ``z`` (θ at the nodes), for the plane rows of a corner pair
-        (:func:`corner_body`); 0 for a pair of two body points or of two corners, and for a pair
-        not in ``only`` (when given)."""
+        (:func:`corner_body`); 0 for a pair of two body points or of two corners, for a pair not in
+        ``only`` (when given), and for a body point within :func:`~actuator_design.contact.self_contact.neighbour_arc`
+        of an end of the rod (the tip pressing on the rod beside the clamp slips over the clamp's
+        corner; a tangent line there would hold it beyond the rod's end)."""
         X, Y, T = (np.concatenate([[0.0 if k < 2 else float(z[0])], np.asarray(v, float).ravel()])
                    for k, v in enumerate(self.f_xyt(z)))
+        arc = neighbour_arc(self.gap)
         out = []
         for a, b in pairs:
             body = corner_body(a, b, self.n_points) if only is None or (a, b) in only else None
+            if body is not None and not arc <= self.s_self[body] <= 1.0 - arc:
+                body = None  # beside an end the corner's nearest may be that end, past the tangent line
             along = (X[a] - X[b]) * -np.sin(T[body]) + (Y[a] - Y[b]) * np.cos(T[body]) if body is not None else 0.0
             out.append(float(np.sign(along)))
         return tuple(out)
