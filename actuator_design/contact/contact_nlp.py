@@ -118,7 +118,8 @@ class ContactNLP:
         (:func:`corner_body`); 0 for a pair of two body points or of two corners, for a pair not in
         ``only`` (when given), and for a body point within :func:`~actuator_design.contact.self_contact.neighbour_arc`
         of an end of the rod (the tip pressing on the rod beside the clamp slips over the clamp's
-        corner; a tangent line there would hold it beyond the rod's end)."""
+        corner; a tangent line there would hold it beyond the rod's end); () when every pair gets a
+        point row."""
         X, Y, T = (np.concatenate([[0.0 if k < 2 else float(z[0])], np.asarray(v, float).ravel()])
                    for k, v in enumerate(self.f_xyt(z)))
         arc = neighbour_arc(self.gap)
@@ -129,7 +130,7 @@ class ContactNLP:
                 body = None  # beside an end the corner's nearest may be that end, past the tangent line
             along = (X[a] - X[b]) * -np.sin(T[body]) + (Y[a] - Y[b]) * np.cos(T[body]) if body is not None else 0.0
             out.append(float(np.sign(along)))
-        return tuple(out)
+        return tuple(out) if any(out) else ()  # point rows only: the ramp's rows, whose multipliers carry over
 
     def pair_normals(self, z: np.ndarray, P: np.ndarray) -> dict:
         """Slot → the unit direction (shape (2,)) a corner pair's plane row pushes its a-end along,

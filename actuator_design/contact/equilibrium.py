@@ -234,7 +234,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     # a corner pair's plane row where the body point is an element boundary put at the corner's
     # nearest point in the round before (a pair chosen afresh may have the corner beyond the body's end)
     signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
-    signs = signs if any(signs) else ()  # point rows only: the ramp's rows
     Pall = nlp.parameters(P, pairs, signs)
     lbg, ubg = nlp.bounds(pairs)
     used = np.isfinite(lbg[1:])
@@ -289,7 +288,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                 # the same start (a ramp step that does so is halved instead: :mod:`actuator_design.contact.self_contact`)
                 pairs, same = grown, False
                 signs = nlp.plane_sides(z0, pairs, only=kept) if planes and kept else ()
-                signs = signs if any(signs) else ()
                 Pall = nlp.parameters(P, pairs, signs)
                 lbg, ubg = nlp.bounds(pairs)
                 used = np.isfinite(lbg[1:])

@@ -123,7 +123,7 @@ def self_contact_mesh(scene, options):
     midpoint rule, with ``adapt`` off (the mesh is the user's), or when it is fine enough."""
     if options.transcription != "lgl" or not options.adapt or not scene.contact_gap > 0:
         return options
-    widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0
+    widest = _widest_lgl_gap(int(options.degree))
     need = min(MAX_ELEMENTS, SELF_MAX_NODES // int(options.degree),
                int(math.ceil(widest / (SELF_SPACING * scene.contact_gap))))
     # within the memory budget, with room for the grading and the contact points' boundaries
@@ -131,6 +131,12 @@ def self_contact_mesh(scene, options):
     while need > options.elements and mesh_problem("lgl", need + extra, int(options.degree)) is not None:
         need = max(int(options.elements), need * 9 // 10)
     return options if need <= options.elements else replace(options, elements=need)
+
+
+def _widest_lgl_gap(degree: int) -> float:
+    """The widest gap between the LGL nodes of an element of unit length (the longest elements of a
+    mesh of E are 1/E long: grading and contact boundaries only shorten elements)."""
+    return float(np.max(np.diff(lgl_nodes_weights(degree)[0]))) / 2.0
 
 
 #: grading levels :func:`~actuator_design.equilibrium.acceptance.graded_options` may still add
@@ -148,7 +154,7 @@ def spacing_note(scene, options) -> Optional[str]:
     allowed), or None."""
     if options.transcription != "lgl" or not scene.contact_gap > 0:
         return None
-    widest = float(np.max(np.diff(lgl_nodes_weights(int(options.degree))[0]))) / 2.0 / int(options.elements)
+    widest = _widest_lgl_gap(int(options.degree)) / int(options.elements)
     if widest <= SELF_SPACING * scene.contact_gap:
         return None
     return (f"the points where self-contact is imposed lie up to {widest:.3g} apart, more than "
