@@ -8,11 +8,12 @@ polygon), a peg under the rod's middle (one interior contact: element boundaries
 a rod through a 70 deg bend of a lumen (an interior and a tip contact), and a strip coiled by a tip
 moment until its turns press on each other (self-contact: a load ramp from rest, then element
 boundaries at both points of each contact), with its own peer, the same strip solved without
-self-contact (``coil peer``; its ratio is to that). ``first`` is the first
-call (it builds the transcription and the NLPs; the contact cases after the free one share its
-transcription), ``again`` the median of the repeated calls (cached NLPs); the ratios are to the
-free solve's times. Each contact case's answer is checked as the tests check it (success,
-stable); the numbers are printed, not judged.
+self-contact (``coil peer``; its ratio is to that).
+
+``first`` is the first call (it builds the transcription and the NLPs; the contact cases after the
+free one share its transcription), ``again`` the median of the repeated calls (cached NLPs, taken
+round-robin over the cases); the ratios are to the free solve's times. Each contact case's answer
+is checked as the tests check it (success, stable); the numbers are printed, not judged.
 """
 from __future__ import annotations
 
@@ -50,18 +51,19 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args(argv)
-    rows = {}
+    first, again, results = {}, {name: [] for name in CASES}, {}
     for name, scene in CASES.items():
-        opts = OPTIONS.get(name, SolverOptions())
         t = time.perf_counter()
-        r = solve(scene, opts)
-        first = time.perf_counter() - t
-        again = []
-        for _ in range(args.repeat):
+        results[name] = solve(scene, OPTIONS.get(name, SolverOptions()))
+        first[name] = time.perf_counter() - t
+    # the repeated calls round-robin over the cases, so that every case meets the machine's
+    # changing speed (other processes, clock) alike
+    for _ in range(args.repeat):
+        for name, scene in CASES.items():
             t = time.perf_counter()
-            solve(scene, opts)
-            again.append(time.perf_counter() - t)
-        rows[name] = (first, statistics.median(again), r)
+            solve(scene, OPTIONS.get(name, SolverOptions()))
+            again[name].append(time.perf_counter() - t)
+    rows = {name: (first[name], statistics.median(again[name]), results[name]) for name in CASES}
     print(f"{'case':30s} {'first s':>9s} {'again s':>9s} {'first/free':>11s} {'again/free':>11s}  result")
     for name, (first, again, r) in rows.items():
         f0, a0, _ = rows[PEER.get(name, "free")]

@@ -121,3 +121,50 @@ def test_an_obstacle_describes_itself_in_a_users_length_unit():
                                           "arc 6 mm turning 45 deg")
     assert lumen.describe() == ("lumen of radius 0.05 l from (0, 0) l at 0 deg: straight 0.5 l, "
                                 "arc 0.3 l turning 45 deg")
+
+
+def test_the_coarse_pass_of_the_entry_check_finds_what_sampling_every_point_finds():
+    """entering() samples the dense shape finely only where a coarse sample comes within half the
+    coarse spacing of an obstacle's gap (a signed distance is 1-Lipschitz, |r'| = 1). Against
+    sampling all n points (clearances): on free shapes bent into (or past) a peg, a wall, a box with
+    a peg and a lumen, at three gaps, the same entries (obstacle and arc length) to the depth's
+    last digits (the two ways integrate positions by different Gauss rules: 1e-9), and no entry
+    where there is none."""
+    from actuator_design.contact.clearance import clearances, entering
+    from actuator_design.contact.obstacles import Lumen, Peg
+
+    rng = np.random.default_rng(1)
+    sets = [(Lumen((-0.1, 0.0), 0.0, 0.06, (("straight", 0.3), ("arc", 0.5, math.radians(70)), ("straight", 0.6))),),
+            (Peg((0.6, -0.2), 0.1),), (Wall((0.0, -0.1), 0.5 * math.pi),),
+            (Polygon(((0.5, -0.5), (1.5, -0.5), (1.5, -0.1), (0.5, -0.1))), Peg((0.3, 0.2), 0.05))]
+    entries = 0
+    for trial in range(24):
+        r = solve(Scene(field=None, tip_force=(rng.uniform(-1.0, 1.0), rng.uniform(-4.0, 2.0))))
+        obstacles = sets[trial % len(sets)]
+        for gap in (0.0, 0.01, 0.05):
+            every = min(clearances(obstacles, gap, r), key=lambda c: c["min_distance"])
+            found = entering(obstacles, gap, r)
+            if every["min_distance"] >= -1e-6:
+                assert found is None
+                continue
+            entries += 1
+            assert found[:2] == (every["obstacle"], every["s"])
+            assert found[2] == pytest.approx(-every["min_distance"], abs=1e-9)
+    assert entries >= 20
+    # a shallow entry between two coarse samples: a peg put 3e-6 inside the gap under a point of a
+    # bent rod midway between them, so that every coarse sample reads clear (only the margin of half
+    # the coarse spacing finds it)
+    from actuator_design.contact.clearance import COARSE
+
+    r = solve(Scene(field=None, tip_force=(0.0, -1.0)))
+    s0 = 1195 / 2000  # a fine sample, 0.0037 and 0.0041 from the coarse samples 76/128 and 77/128
+    assert 76 / (COARSE - 1) < s0 < 77 / (COARSE - 1)
+    e = r.evaluate(np.array([s0]))
+    normal = np.array([-math.sin(e["theta"][0]), math.cos(e["theta"][0])])
+    for radius, side in ((0.1, -1.0), (0.3, 1.0)):
+        centre = np.array([e["x"][0], e["y"][0]]) + side * normal * (radius + 0.01 - 3e-6)
+        peg = (Peg(tuple(centre), radius),)
+        coarse = r.evaluate(np.linspace(0.0, 1.0, COARSE))
+        assert np.min(peg[0].distance(coarse["x"], coarse["y"])) - 0.01 > 1e-5
+        found = entering(peg, 0.01, r)
+        assert found is not None and found[:2] == (0, s0) and found[2] == pytest.approx(3e-6, abs=1e-9)

@@ -39,3 +39,43 @@ def test_boundary_rounds_cut_short_say_the_contact_was_still_moving(monkeypatch)
     assert not cut.success and cut.contact["boundary_rounds"] == 1
     assert "still moving after 1 boundary rounds" in cut.message and "more elements" not in cut.message
     assert math.hypot(cut.tip["x"] - full.tip["x"], cut.tip["y"] - full.tip["y"]) < 1e-2  # the same contact
+
+
+def _slope_root(scene, result, k, a, b):
+    """The root of ∇d(r(s))·t(s) in [a, b] by Brent's method on the obstacle's own normal (no
+    derivative of the slope, no bracket narrowing): the reference for nearest_point."""
+    from scipy.optimize import brentq
+
+    ob = scene.obstacles[k]
+
+    def slope(s):
+        e = result.evaluate(np.array([s]))
+        n = np.asarray(ob.normal(e["x"], e["y"]), float).ravel()
+        return n[0] * np.cos(e["theta"][0]) + n[1] * np.sin(e["theta"][0])
+    return brentq(slope, a, b, xtol=1e-15, rtol=1e-15)
+
+
+def test_nearest_point_is_the_root_of_the_distances_slope_also_at_a_kink():
+    """nearest_point (Newton's method on one smooth piece between nodes) against Brent's method on
+    the slope: on a peg's converged state, whose contact point is an element boundary where θ'
+    kinks (there, Newton across the kink converged only linearly: 3e-11 off), from starts on both
+    sides and afar, and on a lumen's bend; and at the same point from every start."""
+    import math
+
+    from actuator_design.contact.obstacles import Lumen, Peg
+    from actuator_design.contact.split import nearest_point
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.scene import Scene
+
+    cases = [Scene(field=None, tip_force=(0.0, -1.6), obstacles=(Peg((0.6, -0.2), 0.1),), contact_gap=0.025),
+             Scene(field=None, tip_force=(0.0, -20.0), obstacles=(Peg((0.5, -0.1), 0.05),), contact_gap=0.01),
+             Scene(field=None, contact_gap=0.01, obstacles=(Lumen((-0.1, 0.0), 0.0, 0.06, (
+                 ("straight", 0.3), ("arc", 0.5, math.radians(70)), ("straight", 0.6))),))]
+    for scene in cases:
+        r = solve(scene)
+        assert r.success, r.message
+        for p in [q for q in r.contact["points"] if 0.0 < q["s"] < 1.0 and not q["weak"]]:
+            ref = _slope_root(scene, r, p["obstacle"], p["s"] - 0.02, p["s"] + 0.02)
+            assert abs(ref - p["s"]) < 1e-8  # the converged boundary sits at the contact point
+            found = [nearest_point(scene, r, {**p, "s": p["s"] + d}) for d in (0.0, -0.03, 0.03, 0.09, -0.11)]
+            assert max(abs(f - ref) for f in found) < 1e-12, (found, ref)

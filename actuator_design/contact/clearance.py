@@ -69,10 +69,19 @@ def clearance_rows(tr, z, obstacles: Sequence, gap: float) -> ca.SX:
 PENETRATION_TOL = 1e-6
 
 
+#: samples of :func:`entering`'s coarse pass along the rod (spacing 1/(COARSE − 1) of its length)
+COARSE = 129
+
+
 def entering(obstacles: Sequence, gap: float, state, n: int = 2001,
              tol: float = PENETRATION_TOL) -> Optional[Tuple[int, float, float]]:
     """Where a solved ``state`` (an :class:`~actuator_design.equilibrium.result.EquilibriumResult`) comes closer
     to an obstacle than ``gap`` by more than ``tol``, sampled at ``n`` points along it.
+
+    A coarse pass first: a point of the rod between two coarse samples h apart lies within h/2 of
+    one of them (|r'| = 1) and a signed distance changes by at most that, so only the stretches
+    where a coarse sample comes within h/2 − tol of the gap are sampled at the ``n`` points, with
+    the same answer as sampling all of them.
 
     Returns
     -------
@@ -80,10 +89,30 @@ def entering(obstacles: Sequence, gap: float, state, n: int = 2001,
         The obstacle's index, the arc length (units of ℓ) and how deep (units of ℓ) the deepest
         entry is; None when the state keeps clear of every obstacle.
     """
-    worst = min(clearances(obstacles, gap, state, n), key=lambda c: c["min_distance"], default=None)
-    if worst is None or worst["min_distance"] >= -tol:
+    fine = np.linspace(0.0, 1.0, n)
+    if n > COARSE:
+        coarse = np.linspace(0.0, 1.0, COARSE)
+        c = state.evaluate(coarse)
+        near = np.zeros(COARSE - 1, bool)
+        for ob in obstacles:
+            dist = np.asarray(ob.distance(c["x"], c["y"]), float) - gap
+            with np.errstate(invalid="ignore"):
+                near |= ~(np.minimum(dist[:-1], dist[1:]) - 0.5 / (COARSE - 1) >= -tol)  # NaN: near
+        # the fine samples in the near stretches
+        keep = near[np.clip(np.searchsorted(coarse, fine, side="right") - 1, 0, COARSE - 2)]
+        if not np.any(keep):
+            return None
+        fine = fine[keep]
+    d = state.evaluate(fine)
+    worst = None
+    for k, ob in enumerate(obstacles):
+        dist = np.asarray(ob.distance(d["x"], d["y"]), float) - gap
+        i = int(np.argmin(dist))
+        if worst is None or dist[i] < worst[2]:
+            worst = (k, float(d["s"][i]), float(dist[i]))
+    if worst is None or worst[2] >= -tol:
         return None
-    return worst["obstacle"], worst["s"], -worst["min_distance"]
+    return worst[0], worst[1], -worst[2]
 
 
 def least_clearance(solver, obstacles: Sequence, gap: float):

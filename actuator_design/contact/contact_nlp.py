@@ -67,9 +67,9 @@ class ContactNLP:
         self.f_rows = ca.Function("contact_rows", [z, Pall], [ca.vertcat(*rows)])
         self._problem = {"x": z, "p": Pall, "f": E, "g": g}
         self._solvers: Dict[bool, ca.Function] = {}
-        # the Lagrangian's gradient and the rows' Jacobian, as IPOPT builds them: L = Ê + λᵀ g with
-        # λ_j = −μ_j ≤ 0 on the contact rows (its Hessian: :meth:`lagrangian_hessian`, :meth:`kkt`)
-        self.f_grad = self.f_jac_g = None
+        # the Lagrangian's gradient (:meth:`_gradient`): L = Ê + λᵀg with λ_j = −μ_j ≤ 0 on the
+        # contact rows (its Hessian: :meth:`lagrangian_hessian`, :meth:`kkt`)
+        self.f_grad = None
 
     def nlpsol(self, warm: bool) -> ca.Function:
         """IPOPT on this NLP, built on first use. Bounds are not relaxed: a contact point sits
@@ -90,11 +90,20 @@ class ContactNLP:
                 opts["hess_lag"] = self._hess_callback
             solver = self._solvers[warm] = ca.nlpsol("contact", "ipopt", self._problem, opts)
             built = [solver.get_function(name) for name in ("nlp_grad", "nlp_jac_g")]
-            if self.f_grad is None:
-                self.f_grad, self.f_jac_g = built
             contact_cache.charge(self, built if self._hess_callback is not None
                                  else built + [solver.get_function("nlp_hess_l")])
         return self._solvers[warm]
+
+    def _gradient(self) -> Buffered:
+        """∇_z L of L = σÊ + λᵀg (arguments z, P, σ, λ_g), built on first use: Newton's rounds need
+        it, and not IPOPT, whose construction (~0.1 s for a lumen) a round that Newton settles spares."""
+        if self.f_grad is None:
+            z, P, f, g = (self._problem[k] for k in ("x", "p", "f", "g"))
+            sigma, lam = ca.SX.sym("sigma"), ca.SX.sym("lam_g", g.numel())
+            grad = ca.gradient(sigma * f + ca.dot(lam, g), z)
+            self.f_grad = Buffered(ca.Function("lagrangian_gradient", [z, P, sigma, lam], [grad]))
+            contact_cache.charge(self, [self.f_grad.source])
+        return self.f_grad
 
     def parameters(self, P: np.ndarray, pairs=(), planes=()) -> np.ndarray:
         """The NLP's parameters: the solver's ``P``, the one-hot selections of ``pairs`` (index
@@ -186,9 +195,7 @@ class ContactNLP:
 
     def kkt(self, z, P, lam_g):
         """(∇_z L, ∇²_z L, ∂rows/∂z, g): :meth:`lagrangian` and the rows' values (the clamp row first)."""
-        if self.f_grad is None:  # no solve yet (a rest state inside an obstacle): IPOPT builds them
-            self.nlpsol(False)
-        grad = np.asarray(self.f_grad(z, P, 1.0, lam_g)[2], float).ravel()
+        grad = self._gradient()(z, P, 1.0, lam_g)[0].ravel().copy()
         # the Hessian and the Jacobian from their parts (:mod:`actuator_design.contact.kkt`): IPOPT's own took ~1 ms
         # a call for a curved lumen
         P = np.asarray(P, float).ravel()

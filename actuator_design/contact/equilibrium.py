@@ -247,7 +247,6 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
         # (the round before, interpolated onto new element boundaries) may enter an obstacle at a
         # new point, and a small barrier from there jumped the rod past the peg: cold
         warm_start = not cold and ((given and refine is None) or (self_contact and warm is not None))
-        ipopt = nlp.nlpsol(warm_start)
         lam0 = getattr(initial, "_contact_multipliers", None) if warm_start else None
         same = lam0 is not None and lam0[0]() is nlp and lam0[1] == pairs and lam0[3] == signs  # the same rows
         # a split round's pairs start with the round before's self-contacts, now element boundaries
@@ -270,7 +269,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
             status = "Solve_Succeeded"
             message = f"Newton on the contact set of the {'round' if refine is not None else 'state'} before (contact, from {start})"
         else:
-            iterations = 0
+            iterations, ipopt = 0, nlp.nlpsol(warm_start)
             for attempt in range(GROW_ROUNDS + 1):
                 if same:  # its contact forces as the start
                     sol = ipopt(x0=z0, p=Pall, lbg=lbg, ubg=ubg, lam_g0=lam0[2])

@@ -50,7 +50,6 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
     Parameters
     ----------
     nlp : ContactNLP
-        With its derivative functions built (:meth:`ContactNLP.nlpsol`).
     z0 : ndarray, shape (n,)
         Start (nodal θ, rad).
     P : ndarray
@@ -70,8 +69,6 @@ def newton_on_contact_set(nlp, z0: np.ndarray, P: np.ndarray, lbg: np.ndarray, r
         ``lam_g`` in CasADi's sign (L = Ê + λᵀg, so a pressing row has λ ≤ 0), zero off the set;
         the derivatives at the answer as :meth:`ContactNLP.lagrangian` gives them.
     """
-    if nlp.f_grad is None:
-        return None
     A = np.array([0] + sorted(set(int(r) for r in rows)), int)
     n, m = z0.size, A.size
     z, lam = np.array(z0, float), np.zeros(lbg.size)

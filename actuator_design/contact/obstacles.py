@@ -21,7 +21,7 @@ from typing import Tuple
 import casadi as ca
 import numpy as np
 
-__all__ = ["Wall", "Peg", "Polygon", "Lumen", "Obstacle"]
+__all__ = ["Wall", "Peg", "Polygon", "Lumen", "Obstacle", "distance_jet"]
 
 
 @dataclass(frozen=True)
@@ -164,6 +164,30 @@ def _gradient_function(obstacle) -> ca.Function:
     x, y = ca.SX.sym("x"), ca.SX.sym("y")
     d = obstacle.distance(x, y)
     f = ca.Function("normal", [x, y], [ca.jacobian(d, x), ca.jacobian(d, y)])
+    maps = {}  # the map over k points, by k (building one costs as much as evaluating it)
+
+    def normal(xs, ys):
+        if xs.size not in maps:
+            if len(maps) >= 16:
+                maps.clear()
+            maps[xs.size] = f.map(xs.size)
+        return maps[xs.size](xs.reshape(1, -1), ys.reshape(1, -1))
+    return normal
+
+
+def distance_jet(obstacle, x, y) -> Tuple[np.ndarray, np.ndarray]:
+    """∇d and ∇²d of ``obstacle``'s signed distance at the points (x, y): shapes (2, k) and
+    (3, k), the Hessian's rows (d_xx, d_xy, d_yy); from the obstacle's own CasADi expression."""
+    g, h = _jet_function(obstacle)(np.atleast_1d(np.asarray(x, float)), np.atleast_1d(np.asarray(y, float)))
+    return np.asarray(g, float).reshape(2, -1, order="F"), np.asarray(h, float).reshape(3, -1, order="F")
+
+
+@lru_cache(maxsize=64)
+def _jet_function(obstacle):
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    r = ca.vertcat(x, y)
+    H = ca.hessian(obstacle.distance(x, y), r)[0]
+    f = ca.Function("distance_jet", [x, y], [ca.gradient(obstacle.distance(x, y), r), ca.vertcat(H[0, 0], H[0, 1], H[1, 1])])
     return lambda xs, ys: f.map(xs.size)(xs.reshape(1, -1), ys.reshape(1, -1))
 
 
