@@ -1,4 +1,7 @@
-"""The split rounds' bookkeeping (actuator_design.contact.split): which rounds Anderson's mixing uses."""
+"""The split rounds' bookkeeping (actuator_design.contact.split): which rounds Anderson's mixing uses;
+and where they put element boundaries (actuator_design.contact.nearest), against other methods."""
+import math
+
 import numpy as np
 
 from actuator_design.contact.split import accelerated, extended
@@ -24,8 +27,6 @@ def test_boundary_rounds_cut_short_say_the_contact_was_still_moving(monkeypatch)
     """A peg under the rod's middle needs several boundary rounds (its contact point is first a
     quadrature point); capped at one, the rod still enters the peg between the constrained points
     and the result says the rounds stopped with the contact still moving, not "more elements"."""
-    import math
-
     import actuator_design.contact.equilibrium as contact
     from actuator_design.equilibrium.pipeline import solve
     from actuator_design.contact.obstacles import Peg
@@ -60,10 +61,8 @@ def test_nearest_point_is_the_root_of_the_distances_slope_also_at_a_kink():
     the slope: on a peg's converged state, whose contact point is an element boundary where θ'
     kinks (there, Newton across the kink converged only linearly: 3e-11 off), from starts on both
     sides and afar, and on a lumen's bend; and at the same point from every start."""
-    import math
-
     from actuator_design.contact.obstacles import Lumen, Peg
-    from actuator_design.contact.split import nearest_point
+    from actuator_design.contact.nearest import nearest_point
     from actuator_design.equilibrium.pipeline import solve
     from actuator_design.model.scene import Scene
 
@@ -79,3 +78,54 @@ def test_nearest_point_is_the_root_of_the_distances_slope_also_at_a_kink():
             assert abs(ref - p["s"]) < 1e-8  # the converged boundary sits at the contact point
             found = [nearest_point(scene, r, {**p, "s": p["s"] + d}) for d in (0.0, -0.03, 0.03, 0.09, -0.11)]
             assert max(abs(f - ref) for f in found) < 1e-12, (found, ref)
+
+
+def _pair_by_lbfgsb(result, s_a, s_b, half):
+    """The nearest pair by scipy's L-BFGS-B on |r(a) − r(b)|² with its exact gradient, from the
+    same start and within the same bounds: the reference for nearest_pair (a quasi-Newton method
+    on the whole window, no pieces, no Hessian)."""
+    from scipy.optimize import minimize
+
+    def dist2(v):
+        e = result.evaluate(np.asarray(v, float))
+        d = np.array([e["x"][0] - e["x"][1], e["y"][0] - e["y"][1]])
+        t = np.array([np.cos(e["theta"]), np.sin(e["theta"])])
+        return float(d @ d), np.array([2.0 * d @ t[:, 0], -2.0 * d @ t[:, 1]])
+    bounds = [(max(1e-9, s_a - half), min(1.0, s_a + half)), (max(1e-9, s_b - half), min(1.0, s_b + half))]
+    out = minimize(dist2, [s_a, s_b], jac=True, method="L-BFGS-B", bounds=bounds,
+                   options={"ftol": 1e-16, "gtol": 1e-15, "maxiter": 500})
+    return tuple(sorted(float(v) for v in out.x)), math.sqrt(out.fun)
+
+
+
+def test_nearest_pair_against_a_quasi_newton_minimisation():
+    """nearest_pair (Newton's method projected on one piece between nodes at a time, its Hessian
+    shifted at saddles) against L-BFGS-B on the whole window: every pair the split rounds of a
+    coiled strip ask for (tip against body, and two turns sliding along each other: a valley flat
+    to ~1e-6, from a start 0.08 of arc from the minimum), the same distance to 1e-14 and the same
+    pair to 1e-6 of arc (along a flat valley, round-off moves the minimum that far)."""
+    import actuator_design.contact.equilibrium as contact
+    from actuator_design.contact.nearest import nearest_pair
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.profiles import expression_profile
+    from actuator_design.model.scene import Scene
+
+    asked = []
+    real = contact.nearest_pair
+    contact.nearest_pair = lambda r, a, b, half: asked.append((r, a, b, half)) or real(r, a, b, half)
+    try:
+        for moment in (8.0, 8.5):
+            r = solve(Scene(field=None, tip_moment=moment, stiffness=expression_profile("exp(-s)"), contact_gap=0.01))
+            assert r.success, r.message
+    finally:
+        contact.nearest_pair = real
+    assert len(asked) >= 10 and max(abs(b - a) for _, a, b, _ in asked if b < 1.0) > 0.3
+    far = 0.0
+    for r, a, b, half in asked:
+        found = nearest_pair(r, a, b, half)
+        ref, ref_distance = _pair_by_lbfgsb(r, a, b, half)
+        e = r.evaluate(np.array(found))
+        assert math.hypot(e["x"][0] - e["x"][1], e["y"][0] - e["y"][1]) <= ref_distance + 1e-14
+        assert max(abs(f - q) for f, q in zip(found, ref)) < 1e-6
+        far = max(far, abs(found[0] - a))
+    assert far > 0.05  # a start far along a valley was among them

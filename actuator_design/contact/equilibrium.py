@@ -28,15 +28,14 @@ import numpy as np
 
 from actuator_design.contact.clearance import PENETRATION_TOL, entering
 from actuator_design.contact.contact_nlp import ContactNLP, contact_nlp
+from actuator_design.contact.nearest import nearest_pair, nearest_point
 from actuator_design.contact.newton import (kept_clear, newton_on_contact_set, nothing_pressed, pressing_rows,
                                             strict_minimum)
 from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
                                             penetration_text, point_loads, verdict)
 from actuator_design.contact.self_contact import (GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs,
-                                                  nearest_pair, self_contact_mesh, self_penetration,
-                                                  tangential_force)
-from actuator_design.contact.split import (MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged,
-                                           nearest_point)
+                                                  self_contact_mesh, self_penetration, tangential_force)
+from actuator_design.contact.split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged
 from actuator_design.continuation.from_rest import load_fraction
 from actuator_design.equilibrium.acceptance import accept, graded_options, moment_scale, residual_limit
 from actuator_design.equilibrium.balance import balance

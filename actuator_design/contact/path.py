@@ -29,7 +29,8 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from actuator_design.contact.self_contact import REACH, nearest_pair, self_penetration
+from actuator_design.contact.nearest import nearest_pair
+from actuator_design.contact.self_contact import REACH, self_penetration
 from actuator_design.continuation.loading_results import Jump, LoadingPath, PathPoint
 from actuator_design.continuation.loading_schedule import apply_values, checked_schedule
 from actuator_design.equilibrium.options import SolverOptions

@@ -17,7 +17,7 @@ has the unit normal as its gradient at contact, so its multiplier is the contact
 B0/ℓ²), pushing r_a away from r_b and r_b away from r_a. A corner (the tip or the clamp) pressing
 on a body point that an element boundary was put at keeps instead to the body point's tangent line
 (:func:`~actuator_design.contact.contact_nlp.corner_body`). As with obstacles, a contact point inside
-an element becomes an element boundary on *both* sides (:func:`nearest_pair`), and the solve is
+an element becomes an element boundary on *both* sides (:func:`~actuator_design.contact.nearest.nearest_pair`), and the solve is
 repeated until the pair stays put, so the point-to-point rows meet the point-to-curve contact;
 what tangential force a pair still carries (:func:`tangential_force`) is checked against the
 residual limit.
@@ -40,7 +40,7 @@ from actuator_design.equilibrium.accuracy import MAX_ELEMENTS
 from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.transcription.lgl import lgl_nodes_weights
 
-__all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "nearest_pair", "tangential_force",
+__all__ = ["neighbour_arc", "candidate_pairs", "self_penetration", "tangential_force",
            "least_self_clearance", "grown_pairs", "boundary_pairs", "SLOTS", "REACH",
            "GROW_ROUNDS", "SELF_SPACING", "SELF_MAX_NODES", "self_contact_mesh", "spacing_note"]
 
@@ -234,24 +234,6 @@ def self_penetration(state, gap: float, n: int = 2001, tol: float = 1e-6) -> Opt
     dist = np.hypot(*(pts[cand[:, 0]] - pts[cand[:, 1]]).T)
     i, j = sorted(cand[int(np.argmin(dist))])
     return float(d["s"][i]), float(d["s"][j]), float(2.0 * gap - dist.min())
-
-
-def nearest_pair(result, s_a: float, s_b: float, half: float) -> Tuple[float, float]:
-    """The pair of arc lengths nearest each other on ``result``'s shape, each within ``half`` of
-    ``s_a`` < ``s_b`` (the tip stays the tip): where a self-contact's two element boundaries go."""
-    def dist2(v):  # |r(σa) − r(σb)|² and its exact gradient (r' = t): finite differences left
-        e = result.evaluate(np.asarray(v, float))  # the valley between two turns flat to ~1e-6
-        d = np.array([e["x"][0] - e["x"][1], e["y"][0] - e["y"][1]])
-        t = np.array([np.cos(e["theta"]), np.sin(e["theta"])])
-        return float(d @ d), np.array([2.0 * d @ t[:, 0], -2.0 * d @ t[:, 1]])
-
-    bounds = [(max(1e-9, s_a - half), min(1.0, s_a + half)), (max(1e-9, s_b - half), min(1.0, s_b + half))]
-    from scipy.optimize import minimize
-
-    out = minimize(dist2, [s_a, s_b], jac=True, method="L-BFGS-B", bounds=bounds,
-                   options={"ftol": 1e-16, "gtol": 1e-15, "maxiter": 500})
-    a, b = (float(v) for v in out.x)
-    return (a, b) if a <= b else (b, a)
 
 
 def tangential_force(result) -> Optional[Tuple[float, float, float]]:

@@ -2,7 +2,7 @@
 
 A point force inside an element kinks θ', which one polynomial cannot follow: each contact point
 becomes an element boundary, at the point of the solved shape nearest its obstacle (or, for a
-self-contact, at the two points of the shape nearest each other), and the solve is repeated until
+self-contact, at the two points of the shape nearest each other: :mod:`.nearest`), and the solve is repeated until
 the boundaries stay put. The rounds are a fixed-point iteration s ← F(s) that converges linearly
 (a boundary pulls the contact point a fraction of the way); :func:`accelerated` takes it there in
 fewer rounds.
@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from actuator_design.contact.obstacles import distance_jet
-
-__all__ = ["accelerated", "extended", "merged", "nearest_point", "MAX_SPLIT_ROUNDS", "SPLIT_TOL", "MERGE", "DEPTH"]
+__all__ = ["accelerated", "extended", "merged", "MAX_SPLIT_ROUNDS", "SPLIT_TOL", "MERGE", "DEPTH"]
 
 #: rounds of solve → move the element boundaries to the contact points → solve (a safeguard: the
 #: rounds stop when the points stay put; obstacles take 1–5, the self-contact coil 10 at tip moment
@@ -28,14 +26,6 @@ SPLIT_TOL = 1e-8
 MERGE = 1e-6
 #: rounds of differences Anderson's mixing uses (:func:`accelerated`)
 DEPTH = 3
-#: points of the grid :func:`nearest_point` brackets the least distance on (one vectorised evaluation)
-GRID = 65
-#: :func:`nearest_point` stops after a Newton step this small (arc length; its error is then ~ its
-#: square), or where bisections narrowed the bracket to it
-ROOT_STEP = 1e-10
-#: a safeguard: Newton steps and bisections of :func:`nearest_point` (bisection alone reaches
-#: ROOT_STEP from a grid bracket in ~25)
-ROOT_ITERATIONS = 100
 
 
 def accelerated(history) -> tuple:
@@ -81,71 +71,3 @@ def merged(points) -> tuple:
         else:
             groups.append([s])
     return tuple(round(float(np.mean(g)), 12) for g in groups)
-
-
-def nearest_point(scene, result, point: dict) -> float:
-    """The arc length of the shape's point nearest the obstacle of a contact ``point``, within half
-    an element of it: the root of the distance's slope f(s) = ∇d(r(s))·t(s) next to the least
-    distance on a grid (a sign change, from approaching to leaving), else (the least distance at an
-    end of the interval, a kink) the bounded minimum of the distance near that grid point.
-
-    The root is bracketed on the grid (one evaluation of the shape), the bracket narrowed to one
-    piece between the mesh's nodes, and the root found there by Newton's method
-    with f'(s) = tᵀ∇²d t + θ' ∇d·n (n the rod's normal), kept inside the bracket (a step that
-    leaves it bisects it instead): from the bracket's secant point, two evaluations of one point
-    usually; it stops after a Newton step below :data:`ROOT_STEP`, whose error is then ~ that step
-    squared."""
-    ob = scene.obstacles[point["obstacle"]]
-    half = 0.5 / max(1, result.options.elements)
-    lo, hi = max(1e-9, point["s"] - half), min(1.0 - 1e-9, point["s"] + half)
-
-    def slope(s: np.ndarray):
-        """f and f' at the arc lengths ``s``."""
-        v = result.evaluate(s)
-        g, h = distance_jet(ob, v["x"], v["y"])
-        c, n = np.cos(v["theta"]), np.sin(v["theta"])
-        return (g[0] * c + g[1] * n,
-                h[0] * c * c + 2.0 * h[1] * c * n + h[2] * n * n + v["dtheta"] * (g[1] * c - g[0] * n))
-
-    grid = np.linspace(lo, hi, GRID)
-    e = result.evaluate(grid)
-    i = int(np.argmin(np.asarray(ob.distance(e["x"], e["y"]), float)))
-    ia, ib = max(i - 1, 0), min(i + 1, GRID - 1)
-    a, b = grid[ia], grid[ib]
-    f = slope(grid[ia:ib + 1])[0]
-    if f[0] < 0.0 < f[-1]:
-        k = 1 + int(np.argmax(f[1:] >= 0.0))  # the first point past the crossing
-        a, b, fa, fb = grid[ia + k - 1], grid[ia + k], f[k - 1], f[k]
-        # θ' kinks at element boundaries (a contact's point force): the nodes inside the bracket
-        # narrow it to a piece where f is smooth and Newton converges quadratically
-        nodes = np.asarray(result.s, float)
-        nodes = nodes[(nodes > a) & (nodes < b)]
-        if nodes.size:
-            s, fs = np.concatenate([[a], nodes, [b]]), np.concatenate([[fa], slope(nodes)[0], [fb]])
-            k = 1 + int(np.argmax(fs[1:] >= 0.0))
-            a, b, fa, fb = s[k - 1], s[k], fs[k - 1], fs[k]
-        if fb == 0.0:
-            return float(b)
-        s = a - fa * (b - a) / (fb - fa)
-        for _ in range(ROOT_ITERATIONS):
-            (v,), (dv,) = slope(np.array([s]))
-            if v == 0.0:
-                break
-            if v < 0.0:
-                a, fa = s, v
-            else:
-                b, fb = s, v
-            step = -v / dv if dv > 0.0 else np.nan
-            if a < s + step < b:
-                s += step
-                if abs(step) <= ROOT_STEP:
-                    break
-            else:
-                s = 0.5 * (a + b)
-                if b - a <= ROOT_STEP:
-                    break
-        return float(s)
-    from scipy.optimize import minimize_scalar  # here: scipy.optimize takes ~0.3 s to import
-
-    dist = lambda s: float(np.asarray(ob.distance(*(result.evaluate(np.array([s]))[k] for k in ("x", "y"))))[0])
-    return float(minimize_scalar(dist, bounds=(a, b), method="bounded", options={"xatol": 1e-12}).x)
