@@ -12,13 +12,13 @@ import numpy as np
 
 from actuator_design.contact.contact_nlp import contact_nlp
 from actuator_design.contact.equilibrium import solve_contact, solve_once
-from actuator_design.contact.self_contact import (candidate_pairs, self_contact_mesh, self_penetration,
-                                                  spacing_note)
+from actuator_design.contact.self_contact import (candidate_pairs, neighbour_arc, self_contact_mesh,
+                                                  self_penetration, spacing_note)
 from actuator_design.continuation.from_rest import load_fraction, path_from_rest
 from actuator_design.equilibrium.acceptance import graded_options
 from actuator_design.equilibrium.solver import get_solver
 
-__all__ = ["solve_self_contact", "free_lead_in", "RAMP_DTHETA", "LEAD_STATIONS", "LEAD_MARGIN"]
+__all__ = ["solve_self_contact", "free_lead_in", "RAMP_DTHETA", "LEAD_STATIONS", "LEAD_MARGIN", "LEAD_FIRST"]
 
 
 #: the ramp from rest: first, largest and smallest load-fraction steps
@@ -31,13 +31,16 @@ LEAD_STATIONS = 64
 #: of an obstacle, at its constrained points: the ramp with the contact rows starts from a state
 #: that keeps every row, on the last station before the first touch
 LEAD_MARGIN = 0.25
+#: the ramp's first step after a lead-in, in stations: the next station came near
+LEAD_FIRST = 1
 
 
 def solve_self_contact(scene, options, initial=None):
     """The equilibrium of ``scene`` with self-contact (and its obstacles, if any), reached from rest.
 
     While the rod stays clear of itself and of the obstacles the loads are ramped by the fast
-    contact-free path from rest (:func:`free_lead_in`); from there (or from rest) they are ramped
+    contact-free path from rest (:func:`free_lead_in`); from there (first by one of its stations,
+    :data:`LEAD_FIRST`: the next one came near; from rest by :data:`RAMP_FIRST`) they are ramped
     on the graded mesh with the self-contact rows of the pairs near each step's start; a step that
     fails, moves a nodal angle more than :data:`RAMP_DTHETA` or leaves the rod inside itself is
     halved, down to :data:`RAMP_MIN` (then the result says where the ramp stopped). At full load
@@ -52,7 +55,7 @@ def solve_self_contact(scene, options, initial=None):
     opts = graded_options(scene, options) if options.adapt else options
     opts = replace(opts, split_at=())
     t, theta = free_lead_in(scene, opts)
-    state, dt, steps = None, RAMP_FIRST, 0
+    state, dt, steps = None, (RAMP_FIRST if theta is None else LEAD_FIRST / LEAD_STATIONS), 0
     while t < 1.0:
         tn = min(1.0, t + dt)
         r = solve_once(scene, opts, t0, initial=state, fraction=tn, self_contact=True, theta_start=theta)
@@ -114,10 +117,15 @@ def free_lead_in(scene, opts) -> Tuple[float, Optional[np.ndarray]]:
     lams = np.arange(1, LEAD_STATIONS + 1) / LEAD_STATIONS
     path = path_from_rest(solver, P, stations=[(lam, load_fraction(solver, P, lam)) for lam in lams])
     last = (0.0, None)
+    # the pairs of points far enough apart along the rod to be a contact (the clamp first): where
+    # none comes within reach, candidate_pairs finds none either, and is not asked
+    far = np.triu(np.abs(nlp.s_self[:, None] - nlp.s_self[None, :]) >= neighbour_arc(gap), 1)
+    reach = (2.0 + LEAD_MARGIN) * gap
     for lam, visit in zip(lams, path.visits):
         z = np.asarray(visit.z, float)
         X, Y = (np.concatenate([[0.0], np.asarray(v, float).ravel()]) for v in nlp.f_xy(z))
-        near = candidate_pairs(nlp.s_self, X, Y, gap, reach=LEAD_MARGIN * gap, slots=1) or (
+        near = (not np.min(np.hypot(X[:, None] - X[None, :], Y[:, None] - Y[None, :])[far], initial=np.inf) > reach
+                and candidate_pairs(nlp.s_self, X, Y, gap, reach=LEAD_MARGIN * gap, slots=1)) or (
             scene.obstacles and np.min(np.asarray(nlp.f_dist(z), float)) < LEAD_MARGIN * gap)
         if near or not visit.newton or visit.snaps or visit.branch_points or lam == 1.0:
             break
