@@ -185,9 +185,9 @@ def distance_jet(obstacle, x, y) -> Tuple[np.ndarray, np.ndarray]:
 @lru_cache(maxsize=64)
 def _jet_function(obstacle):
     x, y = ca.SX.sym("x"), ca.SX.sym("y")
-    r = ca.vertcat(x, y)
-    H = ca.hessian(obstacle.distance(x, y), r)[0]
-    f = ca.Function("distance_jet", [x, y], [ca.gradient(obstacle.distance(x, y), r), ca.vertcat(H[0, 0], H[0, 1], H[1, 1])])
+    r, d = ca.vertcat(x, y), obstacle.distance(x, y)
+    H = ca.hessian(d, r)[0]
+    f = ca.Function("distance_jet", [x, y], [ca.gradient(d, r), ca.vertcat(H[0, 0], H[0, 1], H[1, 1])])
     return lambda xs, ys: f.map(xs.size)(xs.reshape(1, -1), ys.reshape(1, -1))
 
 
