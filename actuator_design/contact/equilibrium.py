@@ -324,6 +324,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                       status="converged" if converged else ("obstacle_at_rest" if problem else "not_converged"),
                       iterations=iterations, stationarity=stationarity, message=message)
     result = make_result(scene, opts, solver, P, raw, stability, False, [], time.perf_counter() - t0)
+    result.stats["method"] = "newton on the contact set" if newton is not None else "ipopt"
     X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
     result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs, nlp.pair_normals(z, Pall))
     result.contact["start"] = start

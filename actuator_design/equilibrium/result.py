@@ -262,7 +262,7 @@ class EquilibriumResult:
                     return f"against the rod at s = {p['partner_s']:.4g}"
                 return "tip" if p["s"] == 1.0 else "obstacle " + str(p["obstacle"] + 1)
             where = ", ".join(f"s = {p['s']:.4g} ({what(p)})" for p in strong[:4]) + (", ..." if len(strong) > 4 else "")
-            lines.append(f"  contact     : {len(strong)} point(s) in contact{': ' + where if strong else ''}; "
+            lines.append(f"  contact     : {len(strong)} contact(s){': ' + where if strong else ''}; "
                          f"total contact force ({number(c['total_force'][0])}, {number(c['total_force'][1])}) "
                          f"[B0/l^2]" + (f" = ({number(c['total_force_N'][0], '.4g')}, "
                                         f"{number(c['total_force_N'][1], '.4g')}) N" if "total_force_N" in c else "")
