@@ -14,8 +14,10 @@
 3. **Accuracy.** The Euler–Lagrange residual (the moment balance of THEORY §4, evaluated on the
    dense solution between the nodes: a strong-form, a-posteriori check of the discretisation) must
    be ≤ ``residual_tol`` × the moment scale max(1, |clamp moment|, |clamp force|, |tip moment|);
-   a result that fails is ``success=False``, ``status="inaccurate"`` (``options.accuracy``, the
-   two-level estimate of :mod:`actuator_design.equilibrium.accuracy`, is the way to ask for refinement).
+   with ``adapt`` a result that misses it is solved again on twice the elements, warm-started, up
+   to :data:`REFINE_DOUBLINGS` times; one that still fails is ``success=False``,
+   ``status="inaccurate"`` (``options.accuracy``, the two-level estimate of
+   :mod:`actuator_design.equilibrium.accuracy`, asks for a tip tolerance instead).
 4. **No self-intersection.** A shape crossing itself is not a physical equilibrium:
    ``success=False``, ``status="self_intersecting"``, unless ``options.keep_self_intersecting``;
    :func:`~actuator_design.equilibrium.pipeline.solve` then solves it with self-contact where the scene has a
@@ -31,17 +33,21 @@ from typing import Optional
 import numpy as np
 
 from actuator_design.continuation.from_rest import path_from_rest
-from actuator_design.equilibrium.accuracy import scene_wavenumber, tip_difference
+from actuator_design.config.limits import mesh_problem
+from actuator_design.equilibrium.accuracy import MAX_ELEMENTS, scene_wavenumber, tip_difference
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import get_solver
-from actuator_design.physics.registry import end_moment, tip_layer
+from actuator_design.physics.registry import dense_hessian, end_moment, tip_layer
 
-__all__ = ["solve_checked", "accept", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale",
+__all__ = ["solve_checked", "accept", "refined", "REFINE_DOUBLINGS", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale",
            "check_physical", "warm_values"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
+#: how often :func:`solve_checked` doubles the elements of a result that misses the residual limit
+#: (4 → 64 elements on the default mesh)
+REFINE_DOUBLINGS = 4
 
 
 def graded_options(scene, options: SolverOptions) -> SolverOptions:
@@ -103,8 +109,8 @@ def residual_problem(result) -> Optional[str]:
     limit = residual_limit(result.options)
     if result.el_residual <= limit * scale:
         return None
-    return (f"Euler–Lagrange residual {result.el_residual:.2e} > {limit:.1e} x moment scale "
-            f"{scale:.3g} (the mesh does not resolve the solution)")
+    return (f"Euler–Lagrange residual {result.el_residual:.3e} > {limit:.1e} x moment scale "
+            f"{scale:.3g} = {limit * scale:.3e} (the mesh does not resolve the solution)")
 
 
 def check_physical(result):
@@ -157,7 +163,43 @@ def solve_checked(scene, options: SolverOptions, initial=None):
         result = _solve_from_start(scene, opts, solver)
     else:
         result = _solve_warm(scene, opts, solver, initial)
+    if options.adapt:
+        result = refined(scene, result)
     return accept(result)
+
+
+def refined(scene, result):
+    """``result`` again on meshes of twice as many elements (the grading kept), each warm-started
+    from the one before, while it converged but misses the residual limit (check 3): an a-priori
+    mesh that a term's own scale does not tell (a magnetisation turning along the rod) is refined
+    until the promise holds, at most :data:`REFINE_DOUBLINGS` times and within the memory budget
+    (beyond, the last result says it is inaccurate). The message says so; the notes of the solve
+    from rest (snaps, branch points, other states) are kept."""
+    first = result
+    dense = (scene.field is not None and not scene.field.is_uniform) or dense_hessian(scene)
+    for _ in range(REFINE_DOUBLINGS):
+        problem = residual_problem(result) if result.success else None
+        elements = 2 * int(result.options.elements)
+        if problem is None or elements > MAX_ELEMENTS or mesh_problem(
+                result.options.transcription, elements + result.options.extra_elements,
+                int(result.options.degree), dense=dense) is not None:
+            break
+        finer = replace(result.options, elements=elements)
+        nxt = _solve_warm(scene, finer, get_solver(scene, finer), result)
+        if not nxt.success:
+            break
+        result = nxt
+    if result is not first:
+        notes = first.message.split("; ", 1)[1:]
+        result.message += (f"; the mesh refined to {result.options.elements} elements: on "
+                           f"{first.options.elements} the {residual_problem(first).split(' (')[0]}")
+        result.message += "".join(f"; {n}" for n in notes)
+        result.stats["from_rest"] = first.stats.get("from_rest")
+        for key in ("other_stable_states",):
+            if key in first.stats:
+                result.stats[key] = first.stats[key]
+        result.escaped_saddle = first.escaped_saddle
+    return result
 
 
 def accept(result):

@@ -70,7 +70,9 @@ class SolverOptions:
         result says when it reaches another stable state. ``"straight"``: the straight rod at the clamp angle.
     adapt : bool
         Let ``solve`` (no solver given) grade the mesh towards the clamp from the scene's boundary
-        layer width (``clamp_levels``/``tip_levels`` raised as needed); the Euler–Lagrange
+        layer width (``clamp_levels``/``tip_levels`` raised as needed), and double its elements while
+        the result misses ``residual_tol`` (at most 4 times,
+        :data:`~actuator_design.equilibrium.acceptance.REFINE_DOUBLINGS`); the Euler–Lagrange
         residual is checked against ``residual_tol`` either way.
     residual_tol : float
         Accuracy asked for: the largest accepted Euler–Lagrange (moment balance) residual relative

@@ -21,7 +21,8 @@ swept solver setting) is solved point by point, each from rest on its own.
 
 Only the result columns the study keeps are evaluated (:meth:`EquilibriumResult.to_dict` with
 ``include``); the accuracy checks behind ``success`` (Euler–Lagrange residual, self-intersection,
-:func:`actuator_design.equilibrium.acceptance.accept`) always run. Unlike a lone ``solve``, a study point is
+:func:`actuator_design.equilibrium.acceptance.accept`) always run, and a point that misses the
+residual limit is refined as a lone solve's is (:func:`~actuator_design.equilibrium.acceptance.refined`). Unlike a lone ``solve``, a study point is
 not also solved from the straight rod to look for another stable state (the ``equilibria``
 analysis lists them all); its ``solver.from_rest.walk`` is true.
 """
@@ -37,7 +38,7 @@ import numpy as np
 
 from actuator_design.config import ConfigError, load_config
 from actuator_design.continuation.from_rest import path_from_rest
-from actuator_design.equilibrium.acceptance import accept, graded_options
+from actuator_design.equilibrium.acceptance import accept, graded_options, refined
 from actuator_design.equilibrium.balance import balance_many, operator_for
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.equilibrium.single import make_result, solve_on
@@ -218,7 +219,7 @@ def _station_result(scene, opts, solver, params, st, lam, walked, elapsed, check
     result.stats["from_rest"] = {"reached": True, "walk": walked,
                                  "snaps_at": [v / lam for v in st.snaps],
                                  "branch_points_at": [v / lam for v in st.branch_points]}
-    return accept(result)
+    return accept(refined(scene, result) if opts.adapt else result)
 
 
 def _polished_result(scene, opts, solver, st, lam, walked):
@@ -235,7 +236,7 @@ def _polished_result(scene, opts, solver, st, lam, walked):
     result.stats["from_rest"] = {"reached": True, "walk": walked,
                                  "snaps_at": [v / lam for v in st.snaps],
                                  "branch_points_at": [v / lam for v in st.branch_points]}
-    return accept(result)
+    return accept(refined(scene, result) if opts.adapt else result)
 
 
 def _points(task):
