@@ -163,16 +163,7 @@ def _gradient_function(obstacle) -> ca.Function:
     """∇d of an obstacle's signed distance, as a Function of point coordinates (vectorised)."""
     x, y = ca.SX.sym("x"), ca.SX.sym("y")
     d = obstacle.distance(x, y)
-    f = ca.Function("normal", [x, y], [ca.jacobian(d, x), ca.jacobian(d, y)])
-    maps = {}  # the map over k points, by k (building one costs as much as evaluating it)
-
-    def normal(xs, ys):
-        if xs.size not in maps:
-            if len(maps) >= 16:
-                maps.clear()
-            maps[xs.size] = f.map(xs.size)
-        return maps[xs.size](xs.reshape(1, -1), ys.reshape(1, -1))
-    return normal
+    return _mapped(ca.Function("normal", [x, y], [ca.jacobian(d, x), ca.jacobian(d, y)]))
 
 
 def distance_jet(obstacle, x, y) -> Tuple[np.ndarray, np.ndarray]:
@@ -188,7 +179,21 @@ def _jet_function(obstacle):
     r, d = ca.vertcat(x, y), obstacle.distance(x, y)
     H = ca.hessian(d, r)[0]
     f = ca.Function("distance_jet", [x, y], [ca.gradient(d, r), ca.vertcat(H[0, 0], H[0, 1], H[1, 1])])
-    return lambda xs, ys: f.map(xs.size)(xs.reshape(1, -1), ys.reshape(1, -1))
+    return _mapped(f)
+
+
+def _mapped(f: ca.Function):
+    """``f`` of one point (x, y) as a function of arrays of points: its map over k points kept by k
+    (building one costs as much as evaluating it)."""
+    maps = {}
+
+    def over(xs, ys):
+        if xs.size not in maps:
+            if len(maps) >= 16:
+                maps.clear()
+            maps[xs.size] = f.map(xs.size)
+        return maps[xs.size](xs.reshape(1, -1), ys.reshape(1, -1))
+    return over
 
 
 @dataclass(frozen=True)

@@ -34,13 +34,20 @@ class DenseShape:
     def __init__(self, transcription, z: np.ndarray):
         self.tr, self.z = transcription, np.asarray(z, float)
         self._bp_xy = None  # x, y at the breakpoints, computed on first use
+        self._values = None  # the LGL interpolant's element values, computed on first use
+
+    def _theta(self, s):
+        """θ, θ' at ``s`` (LGL): its element values computed once for this shape."""
+        if self._values is None:
+            self._values = self.tr.element_values(self.z)
+        return self.tr.theta_dense(self.z, s, self._values)
 
     def _breakpoint_positions(self):
         if self._bp_xy is None:
-            bp, tr, z = self.tr.breakpoints, self.tr, self.z
+            bp = self.tr.breakpoints
             a, b = bp[:-1], bp[1:]
             sg = 0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * _GL_T[None, :]
-            thg, _ = tr.theta_dense(z, sg.ravel())
+            thg, _ = self._theta(sg.ravel())
             wg = 0.5 * (b - a)[:, None] * _GL_W[None, :]
             self._bp_xy = (np.concatenate(([0.0], np.cumsum((wg * np.cos(thg.reshape(sg.shape))).sum(1)))),
                            np.concatenate(([0.0], np.cumsum((wg * np.sin(thg.reshape(sg.shape))).sum(1)))))
@@ -57,15 +64,25 @@ class DenseShape:
         bp = tr.breakpoints
         a = bp[:-1]
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
-        th, dth = tr.theta_dense(z, s)
-        if s.ndim == 1 and s.size >= _MANY and np.all(np.diff(s) >= 0.0):
+        if not (s.ndim == 1 and s.size >= _MANY):  # few points: θ there and at their Gauss points at once
+            X0, Y0 = self._breakpoint_positions()
+            k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
+            lo = bp[k]
+            pts = lo[..., None] + 0.5 * (s - lo)[..., None] * (_GL_T + 1.0)
+            both, dboth = self._theta(np.concatenate([np.ravel(s), pts.ravel()]))
+            th, dth = both[:s.size].reshape(s.shape), dboth[:s.size].reshape(s.shape)
+            th_p = both[s.size:].reshape(pts.shape)
+            half = 0.5 * (s - lo)[..., None] * _GL_W
+            return th, dth, X0[k] + (half * np.cos(th_p)).sum(-1), Y0[k] + (half * np.sin(th_p)).sum(-1)
+        th, dth = self._theta(s)
+        if np.all(np.diff(s) >= 0.0):
             knots = np.union1d(s, bp)  # the breakpoints too: no kink of θ inside a piece
             if np.max(np.diff(knots)) * np.max(np.abs(dth)) <= _SHORT:
                 # a dense grid: positions by short Gauss rules between neighbouring samples, summed
                 # (4 angles per sample instead of 12: the pieces turn by ≤ 0.25 rad, the rule's
                 # error ~ 0.25^8/3.5e6 of a piece's length, below rounding)
                 lo, hi = knots[:-1], knots[1:]
-                thg = tr.theta_dense(z, (0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GL4_T).ravel())[0]
+                thg = self._theta((0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GL4_T).ravel())[0]
                 w = 0.5 * (hi - lo)[:, None] * _GL4_W
                 thg = thg.reshape(w.shape)
                 at = np.searchsorted(knots, s)
@@ -76,8 +93,7 @@ class DenseShape:
         k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
         lo = bp[k]
         pts = lo[:, None] + 0.5 * (s - lo)[:, None] * (_GL_T[None, :] + 1.0)
-        th_p, _ = tr.theta_dense(z, pts.ravel())
-        th_p = th_p.reshape(pts.shape)
+        th_p = self._theta(pts.ravel())[0].reshape(pts.shape)
         half = 0.5 * (s - lo)[:, None] * _GL_W[None, :]
         return th, dth, X0[k] + (half * np.cos(th_p)).sum(1), Y0[k] + (half * np.sin(th_p)).sum(1)
 

@@ -9,6 +9,7 @@ like (1/E)^(2d) in the energy and faster than any power of d (spectral convergen
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Optional, Tuple
 
 import casadi as ca
 import numpy as np
@@ -168,7 +169,15 @@ class LGL(Transcription):
             x0, y0 = xe[-1], ye[-1]
         return ca.vertcat(*xs), ca.vertcat(*ys)
 
-    def theta_dense(self, z, s):
+    def element_values(self, z) -> Tuple[np.ndarray, np.ndarray]:
+        """θ and θ' at every element's nodes, shapes (E, d + 1) (rad, rad per ℓ): what
+        :meth:`theta_dense` interpolates, for a caller that evaluates one ``z`` many times."""
+        zel = np.asarray(z, float)[np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]]
+        return zel, (zel @ differentiation_matrix(self.d).T) / self._J[:, None]
+
+    def theta_dense(self, z, s, values: Optional[Tuple[np.ndarray, np.ndarray]] = None):
+        """θ and θ' at arc lengths ``s`` (any shape) of the interpolant of the nodal values ``z``;
+        ``values``: :meth:`element_values` of ``z``, computed once by the caller."""
         shape = np.shape(s)
         s = np.clip(np.atleast_1d(np.asarray(s, float)).ravel(), 0.0, 1.0)
         if self.uniform:
@@ -179,8 +188,7 @@ class LGL(Transcription):
             t = (s - self._bp[e]) / self._J[e] - 1.0
         # every point at once: its element's nodal values and their derivative, weighted by the
         # barycentric row of its local coordinate (no loop over elements: few points are common)
-        zel = np.asarray(z, float)[np.arange(self.E)[:, None] * self.d + np.arange(self.d + 1)[None, :]]
-        dzel = (zel @ differentiation_matrix(self.d).T) / self._J[:, None]
+        zel, dzel = self.element_values(z) if values is None else values
         M = _interp_matrix(self.d, t)
         return (np.einsum("ij,ij->i", M, zel[e]).reshape(shape),
                 np.einsum("ij,ij->i", M, dzel[e]).reshape(shape))
