@@ -129,3 +129,22 @@ def test_nearest_pair_against_a_quasi_newton_minimisation():
         assert max(abs(f - q) for f, q in zip(found, ref)) < 1e-6
         far = max(far, abs(found[0] - a))
     assert far > 0.05  # a start far along a valley was among them
+
+
+def test_nearest_pair_from_a_start_one_rounding_off_a_node():
+    """A start within round-off of an element boundary, the step pointing across it (a dense
+    check's grid point 0.3 beside the node 0.30000000000000004 of a coil's 5-element mesh): the
+    step was cut to nothing at the face and the start came back as the answer (distance 0.033
+    instead of 0.024); now the search moves onto the face and on, to L-BFGS-B's minimum."""
+    from actuator_design.contact.nearest import nearest_pair
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.profiles import expression_profile
+    from actuator_design.model.scene import Scene
+
+    r = solve(Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01))
+    assert r.success and np.any(np.abs(r.s - 0.3) < 1e-15), r.message
+    for a in (0.3, 0.3 + 1e-12, 0.3 - 5e-11):
+        found = nearest_pair(r, a, 0.7225, 0.1)
+        e = r.evaluate(np.array(found))
+        _, ref_distance = _pair_by_lbfgsb(r, a, 0.7225, 0.1)
+        assert math.hypot(e["x"][0] - e["x"][1], e["y"][0] - e["y"][1]) <= ref_distance + 1e-12

@@ -80,8 +80,9 @@ def entering(obstacles: Sequence, gap: float, state, n: int = 2001,
 
     A coarse pass first: a point of the rod between two coarse samples h apart lies within h/2 of
     one of them (|r'| = 1) and a signed distance changes by at most that, so only the stretches
-    where a coarse sample comes within h/2 − tol of the gap are sampled at the ``n`` points, with
-    the same answer as sampling all of them.
+    where a coarse sample comes within h/2 − tol of the gap are sampled at the ``n`` points: the
+    same entry as sampling all of them (its depth up to round-off: positions at a subset of the
+    points are integrated by another Gauss rule).
 
     Returns
     -------

@@ -43,7 +43,7 @@ from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.equilibrium.single import make_result
 from actuator_design.equilibrium.solver import RawSolution, get_solver
 
-__all__ = ["solve_contact", "solve_once", "contact_nlp", "ContactVerdict"]
+__all__ = ["mesh_limited", "solve_contact", "solve_once", "contact_nlp", "ContactVerdict"]
 
 
 def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]:
@@ -124,6 +124,7 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     if checked is None or checked[0] is not result:
         checked = (result,) + _dense_checks(scene, result, self_contact)
     inside = penetration_text(scene, *checked[1:])
+    result.contact["entering"] = inside
     if inside is not None and result.success:
         result.success, result.status = False, "inaccurate"
         if rounds >= MAX_SPLIT_ROUNDS:
@@ -135,6 +136,19 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     if self_contact and result.success:
         _check_frictionless(result)
     return accept(result)
+
+
+def mesh_limited(result) -> bool:
+    """Whether a contact result misses only the residual check, which a finer mesh meets
+    (:func:`~actuator_design.equilibrium.acceptance.refined`): it converged, its shape enters no
+    obstacle and not itself, its boundary rounds settled, and no self-contact carries a tangential
+    force; not a result cut short by its rounds (a contact that slides) or one the mesh cannot hold."""
+    c = result.contact or {}
+    if not (result.success or result.status == "inaccurate") or c.get("entering") is not None:
+        return False
+    if c.get("boundary_rounds", 0) >= MAX_SPLIT_ROUNDS:
+        return False
+    return c.get("tangential_force", 0.0) <= residual_limit(result.options) * moment_scale(result)
 
 
 def _check_frictionless(result) -> None:
@@ -324,7 +338,8 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
                       status="converged" if converged else ("obstacle_at_rest" if problem else "not_converged"),
                       iterations=iterations, stationarity=stationarity, message=message)
     result = make_result(scene, opts, solver, P, raw, stability, False, [], time.perf_counter() - t0)
-    result.stats["method"] = "newton on the contact set" if newton is not None else "ipopt"
+    result.stats["method"] = ("none" if problem is not None else
+                              "newton on the contact set" if newton is not None else "ipopt")
     X, Y = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
     result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs, nlp.pair_normals(z, Pall))
     result.contact["start"] = start

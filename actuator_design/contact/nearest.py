@@ -152,6 +152,11 @@ def nearest_pair(result, s_a: float, s_b: float, half: float) -> Tuple[float, fl
             room = np.where(p > 0.0, (box[:, 1] - v) / p, np.where(p < 0.0, (box[:, 0] - v) / p, np.inf))
         first = int(np.argmin(room))
         t, moved, cut = min(1.0, float(room[first])), 0.0, room[first] <= 1.0
+        if cut and t < ROOT_STEP:  # a face within round-off of the start (a grid point one ulp off
+            v = v.copy()           # a node): onto it, and on from there
+            v[first] = box[first, 1] if p[first] > 0.0 else box[first, 0]
+            phi, g, H = jet(v)
+            continue
         while t >= ROOT_STEP:
             trial = np.clip(v + t * p, box[:, 0], box[:, 1])
             if cut:  # exactly on the face it meets (a node: the next piece's end)

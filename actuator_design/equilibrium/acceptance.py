@@ -40,8 +40,8 @@ from actuator_design.equilibrium.single import solve_on
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import dense_hessian, end_moment, tip_layer
 
-__all__ = ["solve_checked", "accept", "refined", "REFINE_DOUBLINGS", "graded_options", "graded_for_scenes", "residual_problem", "moment_scale",
-           "check_physical", "warm_values"]
+__all__ = ["solve_checked", "accept", "refined", "REFINE_DOUBLINGS", "graded_options", "graded_for_scenes",
+           "residual_problem", "moment_scale", "check_physical", "warm_values"]
 
 #: tip difference (rod lengths, rad) above which two equilibria count as different states
 DISTINCT = 1e-6
@@ -168,37 +168,78 @@ def solve_checked(scene, options: SolverOptions, initial=None):
     return accept(result)
 
 
-def refined(scene, result):
+def refined(scene, result, resolve=None, refinable=None):
     """``result`` again on meshes of twice as many elements (the grading kept), each warm-started
     from the one before, while it converged but misses the residual limit (check 3): an a-priori
     mesh that a term's own scale does not tell (a magnetisation turning along the rod) is refined
     until the promise holds, at most :data:`REFINE_DOUBLINGS` times and within the memory budget
-    (beyond, the last result says it is inaccurate). The message says so; the notes of the solve
-    from rest (snaps, branch points, other states) are kept."""
+    (beyond, the last result says it is inaccurate). LGL only: the midpoint rule's limit 10/N
+    falls as fast as its residual. The message says so; the notes of the solve from rest (snaps,
+    branch points, other states) are kept; ``stats`` sum the solves' iterations and times.
+
+    Parameters
+    ----------
+    scene : Scene
+    result : EquilibriumResult
+        Before the checks (a free solve) or after them (a contact solve, ``"inaccurate"``).
+    resolve : callable (options, warm) -> EquilibriumResult, optional
+        The solve on the finer ``options`` from the state ``warm`` (default: one solve on that mesh;
+        a contact solve passes its own, with its boundary rounds).
+    refinable : callable (EquilibriumResult) -> bool, optional
+        Whether a result's failure is one a finer mesh mends (a contact solve's: not one cut short
+        by its boundary rounds).
+    """
     first = result
+    if result.options.transcription != "lgl":
+        return result
     dense = (scene.field is not None and not scene.field.is_uniform) or dense_hessian(scene)
+    solves, stopped = [result], None
     for _ in range(REFINE_DOUBLINGS):
-        problem = residual_problem(result) if result.success else None
+        usable = (result.success or result.status == "inaccurate") and (refinable is None or refinable(result))
+        if not usable or residual_problem(result) is None:
+            break
+        if result.self_intersecting and not result.options.keep_self_intersecting:
+            stopped = "the shape crosses itself"  # refused whatever its accuracy
+            break
         elements = 2 * int(result.options.elements)
-        if problem is None or elements > MAX_ELEMENTS or mesh_problem(
-                result.options.transcription, elements + result.options.extra_elements,
-                int(result.options.degree), dense=dense) is not None:
+        opts = result.options
+        if elements > MAX_ELEMENTS or mesh_problem(opts.transcription, elements + opts.extra_elements,
+                                                   int(opts.degree), dense=dense) is not None:
+            stopped = f"{elements} elements would exceed the mesh budget"
             break
         finer = replace(result.options, elements=elements)
-        nxt = _solve_warm(scene, finer, get_solver(scene, finer), result)
-        if not nxt.success:
+        nxt = (resolve(finer, result) if resolve is not None
+               else _solve_warm(scene, finer, get_solver(scene, finer), result))
+        if not (nxt.success or nxt.status == "inaccurate"):
+            stopped = f"the solve on {elements} elements failed ({nxt.status})"
             break
         result = nxt
+        solves.append(result)
+    else:
+        if residual_problem(result) is not None:
+            stopped = f"after {REFINE_DOUBLINGS} doublings"
     if result is not first:
-        notes = first.message.split("; ", 1)[1:]
-        result.message += (f"; the mesh refined to {result.options.elements} elements: on "
-                           f"{first.options.elements} the {residual_problem(first).split(' (')[0]}")
+        # the notes of the solve from rest, not its solver's own
+        notes = [n for n in first.message.split("; ")[1:]
+                 if n.startswith(("from rest", "the loading path from rest", "another stable state"))]
+        still = residual_problem(result)
+        result.message += (f"; the mesh refined to {result.options.elements} elements (on "
+                           f"{first.options.elements} the {residual_problem(first).split(' (')[0]})")
+        if still is not None:
+            result.message += f", still missing the limit: {still.split(' (')[0]}"
+        if stopped is not None:
+            result.message += f"; refinement stopped: {stopped}"
         result.message += "".join(f"; {n}" for n in notes)
-        result.stats["from_rest"] = first.stats.get("from_rest")
-        for key in ("other_stable_states",):
+        for key in ("from_rest", "other_stable_states"):
             if key in first.stats:
                 result.stats[key] = first.stats[key]
-        result.escaped_saddle = first.escaped_saddle
+        result.stats["refined_from_elements"] = int(first.options.elements)
+        for key in ("iterations", "solve_time_s"):
+            if all(isinstance(r.stats.get(key), (int, float)) for r in solves):
+                result.stats[key] = sum(r.stats[key] for r in solves)
+        result.escaped_saddle = first.escaped_saddle or result.escaped_saddle
+    elif stopped is not None and stopped != "the shape crosses itself":
+        result.message += f"; the mesh was not refined: {stopped}"
     return result
 
 
