@@ -82,3 +82,25 @@ def test_a_state_presses_nowhere_when_no_contact_row_carries_a_force():
     assert nothing_pressed(np.array([5.0, -0.5 * ACTIVE, 0.0, 1e-3]))  # below ACTIVE, or pulling
     assert not nothing_pressed(np.array([5.0, 0.0, -2.0 * ACTIVE, 0.0]))
     assert not nothing_pressed(np.array([0.0, -3.0, -1e-3, 0.0]))
+
+
+def test_a_newton_answer_too_far_from_its_start_is_not_vouched_for():
+    """kept_clear samples the straight way from the start to Newton's answer every SWEEP of the
+    largest point motion; beyond SWEEP_STEPS samples it no longer vouches for the way (IPOPT
+    decides): the samples were capped at 64 whatever the length, coarser than a thin strip's
+    thickness. From a start a load step away the way is checked; from the rod bent the other way
+    (the tip moves 0.4 rod lengths) it is not."""
+    from actuator_design.contact.newton import SWEEP, SWEEP_STEPS, kept_clear
+
+    solver, nlp, P, lbg, z_ip, lam_ip = _peg_problem()
+    s = np.asarray(solver.transcription.nodes, float)
+    mass = np.asarray(solver.transcription.mass, float)
+    rows = pressing_rows(nlp, lam_ip, None, ())
+    near = z_ip + 0.05 * np.sin(np.pi * s)
+    near[0] = 0.0
+    assert kept_clear(nlp, near, P, newton_on_contact_set(nlp, near, P, lbg, rows, mass, 1e-10))
+    mirrored = -z_ip
+    X0, Y0 = (np.asarray(v, float).ravel() for v in nlp.f_xy(mirrored))
+    X1, Y1 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z_ip))
+    assert np.max(np.hypot(X1 - X0, Y1 - Y0)) > SWEEP_STEPS * SWEEP
+    assert not kept_clear(nlp, mirrored, P, (z_ip, lam_ip))

@@ -25,7 +25,8 @@ import numpy as np
 from actuator_design.contact.report import ACTIVE, verdict
 from actuator_design.reduced.linalg import FLOOR_STEP, within_rounding_floor
 
-__all__ = ["newton_on_contact_set", "pressing_rows", "nothing_pressed", "kept_clear", "strict_minimum", "MAX_ITER", "SWEEP"]
+__all__ = ["newton_on_contact_set", "pressing_rows", "nothing_pressed", "kept_clear", "strict_minimum", "MAX_ITER",
+           "SWEEP", "SWEEP_STEPS"]
 
 #: Newton iterations before the guess is given up (quadratic convergence from a start within
 #: a path step or a boundary move needs 3–6)
@@ -33,6 +34,8 @@ MAX_ITER = 12
 #: the spacing (rod lengths of the largest point motion) at which Newton's way from its start to
 #: its answer is checked against the obstacles (:func:`kept_clear`)
 SWEEP = 0.005
+#: the most samples :func:`kept_clear` takes along a way
+SWEEP_STEPS = 64
 #: a KKT point whose stationarity is this fraction of the requested ``tol`` is solved (Newton's
 #: next step would be below round-off)
 SOLVED = 0.1
@@ -128,14 +131,21 @@ def nothing_pressed(lam: np.ndarray) -> bool:
 
 def kept_clear(nlp, z0: np.ndarray, P: np.ndarray, newton) -> bool:
     """Whether the rows off the contact set stay clear along the straight way from the start to
-    Newton's answer, sampled every :data:`SWEEP` of the largest motion of a constrained point
-    (each row at least where it started, if that was inside by round-off). Newton's one long step
-    may jump a rod past a peg, where IPOPT's interior point keeps every iterate on the free side."""
+    Newton's answer, sampled every :data:`SWEEP` (with self-contact rows: every gap, if less) of
+    the largest motion of a constrained point (each row at least where it started, if that was
+    inside by round-off); False for a way longer than :data:`SWEEP_STEPS` samples. Newton's one
+    long step may jump a rod past a peg, where IPOPT's interior point keeps every iterate on the
+    free side. (The samples were capped at 64 before, whatever the way's length: a thin strip's
+    point could pass through the rod's own turn between two of them.)"""
     z, lam = newton[:2]
     free = lam[1:] == 0.0
     X0, Y0 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z0))
     X1, Y1 = (np.asarray(v, float).ravel() for v in nlp.f_xy(z))
-    steps = int(min(64, np.ceil(np.max(np.hypot(X1 - X0, Y1 - Y0), initial=0.0) / SWEEP)))
+    # a point passing through the rod's own turn is inside it over 4·gap of its way
+    spacing = min(SWEEP, nlp.gap) if nlp.slots else SWEEP
+    steps = int(np.ceil(np.max(np.hypot(X1 - X0, Y1 - Y0), initial=0.0) / spacing))
+    if steps > SWEEP_STEPS:  # too long a way to vouch for: IPOPT decides
+        return False
     floor = np.minimum(np.asarray(nlp.f_rows(z0, P), float).ravel()[free], 0.0) - 1e-12
     for t in np.arange(1, steps + 1) / steps:
         if np.any(np.asarray(nlp.f_rows(z0 + t * (z - z0), P), float).ravel()[free] < floor):
