@@ -196,11 +196,20 @@ def test_a_refinement_that_cannot_meet_the_limit_says_so():
     """h_r = 3000, β = −3πs: refined from 4 elements the residual still misses the limit (the sweep
     of the review: 2e-2 against 7e-3 at 16 elements, and no mesh up to 200 elements converged to a
     reference). The result is inaccurate and says both that it was refined and that it still misses
-    the limit, and why the refinement stopped; before, a refined message read as if resolved."""
+    the limit (once), and why the refinement stopped; before, a refined message read as if resolved.
+    And a residual asked for below what rounding allows (1e-15 relative): the refinement stops
+    where a doubling no longer halves the residual, and the most accurate mesh is the answer."""
     from actuator_design.equilibrium.options import SolverOptions
 
     scene = Scene(field=UniformField(phi=0.5 * math.pi), h_r=3000.0, magnetization=expression_profile("-3*pi*s"))
     r = solve(scene, SolverOptions(keep_self_intersecting=True))
     assert not r.success and r.status == "inaccurate", r.message
-    assert "the mesh refined to" in r.message and "still missing the limit" in r.message
+    assert "the mesh refined to" in r.message and r.message.count("accuracy: Euler–Lagrange residual") == 1
     assert "refinement stopped: " in r.message and r.stats["refined_from_elements"] == 4
+    assert r.message.index("refinement stopped") < r.message.index("accuracy:")
+
+    strip = Scene(field=UniformField(phi=0.5 * math.pi), h_r=100.0, magnetization=expression_profile("-2.5*pi*s"))
+    floor = solve(strip, SolverOptions(residual_tol=1e-15))
+    assert floor.status == "inaccurate" and "residual no longer fell" in floor.message, floor.message
+    finer = solve(strip, SolverOptions(residual_tol=1e-15, elements=2 * floor.options.elements, adapt=False))
+    assert floor.el_residual < finer.el_residual  # the most accurate of the meshes tried

@@ -33,8 +33,8 @@ from actuator_design.contact.newton import (kept_clear, newton_on_contact_set, n
                                             strict_minimum)
 from actuator_design.contact.report import (ACTIVE, ContactVerdict, contact_report, one_per_contact,
                                             penetration_text, point_loads, verdict)
-from actuator_design.contact.self_contact import (GROW_ROUNDS, boundary_pairs, candidate_pairs, grown_pairs,
-                                                  self_contact_mesh, self_penetration, tangential_force)
+from actuator_design.contact.self_contact import (GROW_ROUNDS, SELF_MAX_NODES, boundary_pairs, candidate_pairs,
+                                                  grown_pairs, self_contact_mesh, self_penetration, tangential_force)
 from actuator_design.contact.split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged
 from actuator_design.continuation.from_rest import load_fraction
 from actuator_design.equilibrium.acceptance import accept, graded_options, moment_scale, residual_limit
@@ -148,6 +148,9 @@ def mesh_limited(result) -> bool:
         return False
     if c.get("boundary_rounds", 0) >= MAX_SPLIT_ROUNDS:
         return False
+    opts = result.options
+    if c.get("self_contact") and opts.degree * (2 * opts.elements + opts.extra_elements) > SELF_MAX_NODES:
+        return False  # a self-contact NLP's Hessian is dense: its mesh stays within the node cap
     return c.get("tangential_force", 0.0) <= residual_limit(result.options) * moment_scale(result)
 
 

@@ -35,7 +35,7 @@ LEAD_MARGIN = 0.25
 LEAD_FIRST = 1
 
 
-def solve_self_contact(scene, options, initial=None):
+def solve_self_contact(scene, options, initial=None, start: Optional[str] = None):
     """The equilibrium of ``scene`` with self-contact (and its obstacles, if any), reached from rest.
 
     While the rod stays clear of itself and of the obstacles the loads are ramped by the fast
@@ -46,10 +46,10 @@ def solve_self_contact(scene, options, initial=None):
     halved, down to :data:`RAMP_MIN` (then the result says where the ramp stopped). At full load
     the contact solve's split rounds (:func:`~actuator_design.contact.equilibrium.solve_contact`)
     put element boundaries at both points of each contact. With ``initial`` (an equilibrium of a
-    nearby scene) the ramp is skipped.
+    nearby scene) the ramp is skipped (``start`` names it in the message).
     """
     if initial is not None:
-        return solve_contact(scene, options, initial, self_contact=True)
+        return solve_contact(scene, options, initial, self_contact=True, start=start)
     t0 = time.perf_counter()
     options = self_contact_mesh(scene, options)
     opts = graded_options(scene, options) if options.adapt else options

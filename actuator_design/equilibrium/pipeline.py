@@ -91,8 +91,9 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
             result = self_solve.solve_self_contact(scene, options,
                                                    initial if isinstance(initial, EquilibriumResult) else None)
             if options.adapt and isinstance(result, EquilibriumResult):  # (not a test's stand-in)
-                result = refined(scene, result, lambda finer, warm: self_solve.solve_self_contact(scene, finer, warm),
-                                 contact_equilibrium.mesh_limited)
+                def finer_self_contact(finer, warm):
+                    return self_solve.solve_self_contact(scene, finer, warm, start="its state on the coarser mesh")
+                result = refined(scene, result, finer_self_contact, contact_equilibrium.mesh_limited)
     return result
 
 
