@@ -195,7 +195,7 @@ def refined(scene, result, resolve=None, refinable=None):
     first = result
     if result.options.transcription != "lgl":
         return result
-    dense = (scene.field is not None and not scene.field.is_uniform) or dense_hessian(scene)
+    dense = dense_hessian(scene)  # a non-uniform field's term, or a plug-in's, says so itself
 
     def ok(r) -> bool:  # a result a finer mesh may mend (or that is mended)
         return (r.success or r.status == "inaccurate") and (refinable is None or refinable(r))
@@ -240,9 +240,7 @@ def refined(scene, result, resolve=None, refinable=None):
                 f"{residual_problem(first).split(' (')[0]})")
         if stopped is not None and residual_problem(result) is not None:
             note += f"; refinement stopped: {stopped}"
-        # right after the solver's own clause: an accuracy note the checks add (or added) follows it
-        head, _, tail = result.message.partition("; ")
-        result.message = "; ".join([head, note] + notes + ([tail] if tail else []))
+        result.message = _after_solver_clause(result.message, [note] + notes)
         for key in ("from_rest", "other_stable_states"):
             if key in first.stats:
                 result.stats[key] = first.stats[key]
@@ -252,9 +250,15 @@ def refined(scene, result, resolve=None, refinable=None):
                 result.stats[key] = sum(r.stats[key] for r in solves)
         result.escaped_saddle = first.escaped_saddle or result.escaped_saddle
     elif stopped is not None and stopped != "the shape crosses itself":
-        head, _, tail = result.message.partition("; ")
-        result.message = "; ".join([head, f"the mesh was not refined: {stopped}"] + ([tail] if tail else []))
+        result.message = _after_solver_clause(result.message, [f"the mesh was not refined: {stopped}"])
     return result
+
+
+def _after_solver_clause(message: str, clauses) -> str:
+    """``message`` with ``clauses`` right after its first clause (the solver's own): an accuracy
+    note the checks add (or added) follows them."""
+    head, _, tail = message.partition("; ")
+    return "; ".join([head, *clauses] + ([tail] if tail else []))
 
 
 def accept(result):
