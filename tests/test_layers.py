@@ -213,3 +213,16 @@ def test_a_refinement_that_cannot_meet_the_limit_says_so():
     assert floor.status == "inaccurate" and "residual no longer fell" in floor.message, floor.message
     finer = solve(strip, SolverOptions(residual_tol=1e-15, elements=2 * floor.options.elements, adapt=False))
     assert floor.el_residual < finer.el_residual  # the most accurate of the meshes tried
+
+
+def test_an_inaccurate_contact_result_does_not_advise_the_accuracy_option():
+    """A contact solve does not apply --accuracy (its mesh follows its contact points): an
+    inaccurate one advised it all the same; it now advises more elements."""
+    from actuator_design.contact.obstacles import Wall
+    from actuator_design.equilibrium.options import SolverOptions
+
+    scene = Scene(field=UniformField(phi=0.5 * math.pi), h_r=100.0, magnetization=expression_profile("-2.5*pi*s"),
+                  contact_gap=0.01, obstacles=(Wall((0.0, -5.0), 0.5 * math.pi),))
+    r = solve(scene, SolverOptions(adapt=False))
+    assert r.status == "inaccurate" and "accuracy: Euler–Lagrange residual" in r.message, r.message
+    assert "--accuracy" not in r.message and "solver.elements" in r.message

@@ -269,8 +269,10 @@ def accept(result):
     if problem is not None and result.success:
         result.success = False
         result.status = "inaccurate"
-        result.message += (f"; accuracy: {problem}; solve --accuracy TOL (SolverOptions.accuracy) "
-                           "refines until a tip tolerance is met")
+        # a contact solve does not apply the accuracy option (its mesh follows its contact points)
+        advice = ("more elements (solver.elements) refine it" if result.contact is not None else
+                  "solve --accuracy TOL (SolverOptions.accuracy) refines until a tip tolerance is met")
+        result.message += f"; accuracy: {problem}; {advice}"
     return result
 
 
