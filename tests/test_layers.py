@@ -226,3 +226,15 @@ def test_an_inaccurate_contact_result_does_not_advise_the_accuracy_option():
     r = solve(scene, SolverOptions(adapt=False))
     assert r.status == "inaccurate" and "accuracy: Euler–Lagrange residual" in r.message, r.message
     assert "--accuracy" not in r.message and "solver.elements" in r.message
+
+
+def test_the_summary_counts_the_graded_elements():
+    """h = 300 grades the mesh towards the clamp: the summary's solver line said "elements 4" for a
+    mesh of 11; it now names the graded ones, which are in the JSON's clamp_levels/tip_levels."""
+    from actuator_design.model.scene import default_scene
+
+    r = solve(default_scene(h=300.0, phi=1.5))
+    extra = r.options.clamp_levels + r.options.tip_levels + len(r.options.split_at)
+    assert extra > 0 and f"(elements {r.options.elements} + {extra} graded or at contacts," in r.summary()
+    plain = solve(default_scene(h=1.0, phi=1.5))
+    assert plain.options.extra_elements == 0 and f"(elements {plain.options.elements}," in plain.summary()

@@ -245,6 +245,7 @@ class EquilibriumResult:
             f"  accuracy    : EL residual {self.el_residual:.2e}, stationarity {self.stationarity:.2e}"
             + ("" if self.error_estimate is None else f", estimated tip error {self.error_estimate:.2e} [l]"),
             f"  solver      : {self.options.transcription} (elements {self.options.elements}"
+            + (f" + {self.options.extra_elements} graded or at contacts" if self.options.extra_elements else "")
             + (f", degree {self.options.degree}" if self.options.transcription == "lgl" else "")
             + f"), {self.stats.get('method', '')}, {self.stats.get('iterations', '?')} iterations, "
             f"{1e3 * float(self.stats.get('solve_time_s', 0)):.2f} ms",
