@@ -64,18 +64,8 @@ class DenseShape:
         bp = tr.breakpoints
         a = bp[:-1]
         s = np.clip(np.asarray(s, float), 0.0, 1.0)
-        if not (s.ndim == 1 and s.size >= _MANY):  # few points: θ there and at their Gauss points at once
-            X0, Y0 = self._breakpoint_positions()
-            k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
-            lo = bp[k]
-            pts = lo[..., None] + 0.5 * (s - lo)[..., None] * (_GL_T + 1.0)
-            both, dboth = self._theta(np.concatenate([np.ravel(s), pts.ravel()]))
-            th, dth = both[:s.size].reshape(s.shape), dboth[:s.size].reshape(s.shape)
-            th_p = both[s.size:].reshape(pts.shape)
-            half = 0.5 * (s - lo)[..., None] * _GL_W
-            return th, dth, X0[k] + (half * np.cos(th_p)).sum(-1), Y0[k] + (half * np.sin(th_p)).sum(-1)
-        th, dth = self._theta(s)
-        if np.all(np.diff(s) >= 0.0):
+        if s.ndim == 1 and s.size >= _MANY and np.all(np.diff(s) >= 0.0):
+            th, dth = self._theta(s)
             knots = np.union1d(s, bp)  # the breakpoints too: no kink of θ inside a piece
             if np.max(np.diff(knots)) * np.max(np.abs(dth)) <= _SHORT:
                 # a dense grid: positions by short Gauss rules between neighbouring samples, summed
@@ -89,13 +79,17 @@ class DenseShape:
                 X = np.concatenate(([0.0], np.cumsum((w * np.cos(thg)).sum(1))))
                 Y = np.concatenate(([0.0], np.cumsum((w * np.sin(thg)).sum(1))))
                 return th, dth, X[at], Y[at]
+        # each point from the breakpoint before it by a 12-point Gauss rule: θ at the points and at
+        # their Gauss points in one interpolation
         X0, Y0 = self._breakpoint_positions()
         k = np.clip(np.searchsorted(bp, s, side="right") - 1, 0, len(a) - 1)
         lo = bp[k]
-        pts = lo[:, None] + 0.5 * (s - lo)[:, None] * (_GL_T[None, :] + 1.0)
-        th_p = self._theta(pts.ravel())[0].reshape(pts.shape)
-        half = 0.5 * (s - lo)[:, None] * _GL_W[None, :]
-        return th, dth, X0[k] + (half * np.cos(th_p)).sum(1), Y0[k] + (half * np.sin(th_p)).sum(1)
+        pts = lo[..., None] + 0.5 * (s - lo)[..., None] * (_GL_T + 1.0)
+        both, dboth = self._theta(np.concatenate([np.ravel(s), pts.ravel()]))
+        th, dth = both[:s.size].reshape(s.shape), dboth[:s.size].reshape(s.shape)
+        th_p = both[s.size:].reshape(pts.shape)
+        half = 0.5 * (s - lo)[..., None] * _GL_W
+        return th, dth, X0[k] + (half * np.cos(th_p)).sum(-1), Y0[k] + (half * np.sin(th_p)).sum(-1)
 
 
 class Balance:

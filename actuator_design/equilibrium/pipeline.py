@@ -69,9 +69,7 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
         result = contact_equilibrium.solve_contact(scene, options,
                                                    initial if isinstance(initial, EquilibriumResult) else None)
         if options.adapt:  # a mesh that misses the residual limit: the contact solve on a finer one
-            def finer_contact(finer, warm):
-                return contact_equilibrium.solve_contact(scene, finer, warm, start="its state on the coarser mesh")
-            result = refined(scene, result, finer_contact, contact_equilibrium.mesh_limited)
+            result = _refined_contact(scene, result, contact_equilibrium.solve_contact)
     elif options.accuracy is not None and solver is None:
         result = check_physical(solve_to_tolerance(scene, options.accuracy,
                                                    options=replace(options, accuracy=None), initial=initial))
@@ -91,10 +89,17 @@ def solve(scene: Scene, options: Optional[SolverOptions] = None,
             result = self_solve.solve_self_contact(scene, options,
                                                    initial if isinstance(initial, EquilibriumResult) else None)
             if options.adapt and isinstance(result, EquilibriumResult):  # (not a test's stand-in)
-                def finer_self_contact(finer, warm):
-                    return self_solve.solve_self_contact(scene, finer, warm, start="its state on the coarser mesh")
-                result = refined(scene, result, finer_self_contact, contact_equilibrium.mesh_limited)
+                result = _refined_contact(scene, result, self_solve.solve_self_contact)
     return result
+
+
+def _refined_contact(scene: Scene, result: EquilibriumResult, contact_solve) -> EquilibriumResult:
+    """A contact ``result`` refined as any solve's (:func:`~actuator_design.equilibrium.acceptance.refined`),
+    each finer mesh by ``contact_solve(scene, options, initial, start=...)`` from the coarser state,
+    while the residual is all it misses (:func:`~actuator_design.contact.equilibrium.mesh_limited`)."""
+    return refined(scene, result,
+                   lambda finer, warm: contact_solve(scene, finer, warm, start="its state on the coarser mesh"),
+                   contact_equilibrium.mesh_limited)
 
 
 def solve_from_rest(scene: Scene, options: SolverOptions) -> Tuple[EquilibriumResult, bool]:
