@@ -147,3 +147,27 @@ def test_an_equilibrium_result_travels_whole():
     assert copy._clamp_curvature() == r._clamp_curvature()
     for a, b in zip(r._balance(), copy._balance()):
         np.testing.assert_allclose(b, a, rtol=0, atol=1e-14)
+
+
+def test_a_contact_result_travels_whole():
+    """A contact result pickles too (a study's worker sends it back): its balance, with the contact
+    forces as point loads, is the original's; a self-contact result likewise."""
+    import math
+    import pickle
+
+    import numpy as np
+
+    from actuator_design.contact.obstacles import Wall
+    from actuator_design.equilibrium.pipeline import solve
+    from actuator_design.model.profiles import expression_profile
+    from actuator_design.model.scene import Scene
+
+    wall = Scene(field=None, tip_force=(0.0, -1.0), obstacles=(Wall((0.0, -0.1), 0.5 * math.pi),))
+    coil = Scene(field=None, tip_moment=8.5, stiffness=expression_profile("exp(-s)"), contact_gap=0.01)
+    for scene in (wall, coil):
+        r = solve(scene)
+        assert r.success and r.contact["points"], r.message
+        copy = pickle.loads(pickle.dumps(r))
+        assert copy.contact == r.contact and copy.tip == r.tip
+        np.testing.assert_array_equal(copy.clamp_force, r.clamp_force)
+        assert copy.el_residual == r.el_residual

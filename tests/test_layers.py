@@ -238,3 +238,16 @@ def test_the_summary_counts_the_graded_elements():
     assert extra > 0 and f"(elements {r.options.elements} + {extra} graded or at contacts," in r.summary()
     plain = solve(default_scene(h=1.0, phi=1.5))
     assert plain.options.extra_elements == 0 and f"(elements {plain.options.elements}," in plain.summary()
+
+
+def test_the_summary_names_the_path_from_rest_that_did_the_work():
+    """At h = 300 the loading path from rest's Newton steps reach the state and IPOPT takes 0
+    iterations: the solver line said only "ipopt, 0 iterations"; it now counts the path's steps,
+    Newton solves and time, as recorded in stats["from_rest"]."""
+    from actuator_design.model.scene import default_scene
+
+    r = solve(default_scene(h=300.0, phi=1.5))
+    path = r.stats["from_rest"]
+    assert path["steps"] > 1
+    line = next(l for l in r.summary().splitlines() if l.strip().startswith("solver"))
+    assert f"after a path from rest of {path['steps']} steps ({path['newton_solves']} Newton solves," in line

@@ -38,8 +38,8 @@ from actuator_design.contact.self_contact import (GROW_ROUNDS, SELF_MAX_NODES, b
 from actuator_design.contact.split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged
 from actuator_design.continuation.from_rest import load_fraction
 from actuator_design.equilibrium.acceptance import accept, graded_options, moment_scale, residual_limit
-from actuator_design.equilibrium.balance import balance
 from actuator_design.equilibrium.options import MAX_SPLITS
+from actuator_design.equilibrium.dense_shape import Balance
 from actuator_design.equilibrium.single import make_result
 from actuator_design.equilibrium.solver import RawSolution, get_solver
 
@@ -348,9 +348,7 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     result.contact["start"] = start
     # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
     result._contact_multipliers = (weakref.ref(nlp), pairs, lam, signs)
-    loads = point_loads(result.contact)
-    dense = result._dense
-    result._balance = lambda: balance(solver, P, dense, scene, z, point_loads=loads)
+    result._balance = Balance(solver, P, result._dense, scene, z, point_loads=point_loads(result.contact))
     return result
 
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 
 from actuator_design.equilibrium.balance import balance
-from actuator_design.equilibrium.solver import get_solver
 
 __all__ = ["DenseShape", "Balance", "clamp_curvature", "self_intersecting", "never_intersects", "nan_shape",
            "nan_balance"]
@@ -93,26 +92,26 @@ class DenseShape:
 
 
 class Balance:
-    """() -> the force and moment balance of a result (:func:`actuator_design.equilibrium.balance.balance`).
+    """() -> the force and moment balance of a result (:func:`actuator_design.equilibrium.balance.balance`),
+    computed once.
 
-    Pickled without its solver (CasADi functions do not pickle); a copy builds the solver of its
-    scene and options again on first use and checks that its nodes are the result's.
+    Pickled as its value (CasADi functions do not pickle, and a contact result's mesh is not the one
+    its scene and options build): a result sent back by a worker carries its balance, computed there.
     """
 
-    def __init__(self, solver, params, dense: DenseShape, scene, options, z):
-        self.solver, self.params, self.dense, self.scene, self.options, self.z = solver, params, dense, scene, options, z
+    def __init__(self, solver, params, dense: DenseShape, scene, z, point_loads=None):
+        self.solver, self.params, self.dense, self.scene, self.z = solver, params, dense, scene, z
+        self.point_loads = point_loads
+        self._value = None
 
     def __getstate__(self):
-        return {**self.__dict__, "solver": None}
+        return {"_value": self()}
 
     def __call__(self):
-        if self.solver is None:
-            solver = get_solver(self.scene, self.options)
-            if not np.array_equal(solver.transcription.nodes, self.dense.tr.nodes):
-                raise ValueError("this result's balance needs the solver it was computed with (its mesh is not "
-                                 "the one its scene and options build)")
-            self.solver = solver
-        return balance(self.solver, self.params, self.dense, self.scene, self.z)
+        if self._value is None:
+            self._value = balance(self.solver, self.params, self.dense, self.scene, self.z,
+                                  point_loads=self.point_loads)
+        return self._value
 
 
 def clamp_curvature(transcription, z) -> float:

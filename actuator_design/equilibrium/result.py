@@ -97,6 +97,23 @@ class EquilibriumResult:
     #: () -> θ'(0) from the transcription's interpolant, when the solver gave it
     _clamp_curvature: Optional[Callable] = field(default=None, repr=False)
 
+    def _path_text(self) -> str:
+        """The loading path from rest that led to the solver's start, when one was taken (its
+        Newton steps, not the solver's iterations, then did the work)."""
+        path = self.stats.get("from_rest") or {}
+        if not path.get("steps"):
+            return ""
+        steps = int(path["steps"])
+        return (f", after a path from rest of {steps} step{'s' * (steps != 1)} "
+                f"({path.get('newton_solves', '?')} Newton solves, {1e3 * float(path.get('time_s', 0.0)):.2f} ms)")
+
+    def __getstate__(self) -> dict:
+        """Pickled (a worker sending its result back) without a contact result's warm-start
+        multipliers: they refer to a live NLP of the process that solved it."""
+        state = dict(self.__dict__)
+        state.pop("_contact_multipliers", None)
+        return state
+
     # -- lazily evaluated diagnostics ------------------------------------------------------------
     @cached_property
     def _nodes_xy(self):
@@ -248,7 +265,7 @@ class EquilibriumResult:
             + (f" + {self.options.extra_elements} graded or at contacts" if self.options.extra_elements else "")
             + (f", degree {self.options.degree}" if self.options.transcription == "lgl" else "")
             + f"), {self.stats.get('method', '')}, {self.stats.get('iterations', '?')} iterations, "
-            f"{1e3 * float(self.stats.get('solve_time_s', 0)):.2f} ms",
+            f"{1e3 * float(self.stats.get('solve_time_s', 0)):.2f} ms" + self._path_text(),
         ]
         if self.escaped_saddle:
             lines.append("  note        : the solver first stopped at an unstable equilibrium and was "

@@ -132,5 +132,5 @@ def make_result(scene, options, solver, params, raw: RawSolution, verdict, escap
         energy=energy, stationarity=raw.stationarity,
         eigenvalues=np.asarray(verdict.eigenvalues), morse_index=verdict.morse_index, stable=verdict.stable,
         marginal=verdict.marginal, escaped_saddle=escaped, stats=stats, z=z.copy(), _dense=dense,
-        _balance=Balance(solver, params, dense, scene, options, z), _intersects=self_intersecting,
+        _balance=Balance(solver, params, dense, scene, z), _intersects=self_intersecting,
         _clamp_curvature=partial(clamp_curvature, solver.transcription, z))
