@@ -96,7 +96,7 @@ STILL_NAMING_TERMS = {
     "config/source_specs.py": 2,
     "hardware/pose_design.py": 6,
     "inverse/settings.py": 1,
-    "model/scene.py": 17,
+    "model/scene.py": 11,
     "model/sources.py": 9,
     "reference/fold_bvp.py": 3,
     "reference/jacobi.py": 4,

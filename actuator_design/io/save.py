@@ -83,12 +83,14 @@ def scene_to_dict(scene) -> Dict[str, object]:
     """All fields of a :class:`~actuator_design.model.scene.Scene` as plain data, enough to rebuild it
     (:func:`actuator_design.io.saved.scene_from_dict`).
 
-    One key per field of the dataclass, whatever term it belongs to: profiles via ``Profile.as_dict``,
+    One key per field of the dataclass and per term value (``scene.values``), whatever term it
+    belongs to: profiles via ``Profile.as_dict``,
     plug-in terms as ``{"name", "values"}``, scales via ``Scales.as_dict`` (derived SI units) and,
     exactly, ``scales_fields`` (the dataclass's own fields); angles in rad, lengths in ℓ.
     """
     out = {"name": scene.name}  # first, as a reader looks for it
-    out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene))
+    out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene) if f.name != "values")
+    out.update((name, _plain(value)) for name, value in scene.values)  # each term's value under its own name
     out["scales"] = None if scene.scales is None else scene.scales.as_dict()
     out["scales_fields"] = scene.scales
     return jsonable(out)

@@ -29,6 +29,7 @@ from typing import Any, Dict, Optional
 from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.physics.harmonic import HarmonicTerm
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES, VECTOR
 from actuator_design.physics.tesseral import TesseralTerm
 from actuator_design.model.profiles import (Profile, constant_profile, expression_profile, legendre_profile,
                                             table_profile)
@@ -139,11 +140,35 @@ def _scene_from_dict(data: Dict[str, Any]) -> Scene:
         "extra_terms": tuple(TermValues(t["name"], _tuples(t["values"])) for t in data["extra_terms"]),
         "obstacles": tuple(obstacles),
     }
+    profiles = {}
     for name, optional in profile_fields().items():  # every profile, whichever term it belongs to
         if not optional and data[name] is None:
             raise TypeError(f"{name}: a profile, got null")
-        converted[name] = profile_from_dict(data.get(name) if optional else data[name])
-    return _build(Scene, data, **converted)
+        profiles[name] = profile_from_dict(data.get(name) if optional else data[name])
+    values = {**_term_values(data), **{k: v for k, v in profiles.items() if k in SCENE_VALUES}}
+    converted.update((k, v) for k, v in profiles.items() if k not in SCENE_VALUES)
+    return dataclasses.replace(_build(Scene, data, **converted), **values)
+
+
+def _term_values(data: Dict[str, Any]) -> Dict[str, Any]:
+    """The terms' values (:data:`~actuator_design.physics.registration.SCENE_VALUES`) a saved scene
+    gives, profiles aside; one it leaves out keeps its default."""
+    out = {}
+    for name, spec in SCENE_VALUES.items():
+        if name not in data or spec.kind == PROFILE:
+            continue
+        value = data[name]
+        if value is None and not spec.optional:
+            value = math.nan  # JSON's null for NaN or ±inf
+        elif value is not None:
+            value = _tuples(value)
+            numbers = value if spec.kind == VECTOR else (value,)
+            if (spec.kind == VECTOR and (not isinstance(value, tuple) or len(value) != 2)) or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
+                raise TypeError(f"{name}: {'an (x, y) pair of numbers' if spec.kind == VECTOR else 'a number'}, "
+                                f"got {value!r}")
+        out[name] = value
+    return out
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from actuator_design.model.profiles import Profile, constant_profile
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES
 
 __all__ = [
     "UniformField",
@@ -324,39 +325,47 @@ class TermValues:
 
 
 @dataclass(frozen=True)
-class Scene:
-    """A dimensionless magneto-elastic cantilever (THEORY §4–5).
+class _SceneFields:
+    """The rod's own fields of a :class:`Scene` (its terms' values are ``values``)."""
+
+    field: Optional[Field] = dc_field(default_factory=UniformField)
+    h: float = 0.0
+    fibres: Profile = dc_field(default_factory=lambda: constant_profile(0.0))
+    stiffness: Profile = dc_field(default_factory=lambda: constant_profile(1.0))
+    theta0: float = 0.0
+    scales: Optional[Scales] = None
+    name: str = "dimensionless cantilever"
+    extra_terms: Tuple[TermValues, ...] = ()
+    fibres_given: bool = False
+    fibres_physical: bool = True
+    obstacles: Tuple[Any, ...] = ()
+    contact_gap: float = 0.0
+    values: Tuple[Tuple[str, Any], ...] = ()
+
+
+class Scene(_SceneFields):
+    """A dimensionless magneto-elastic cantilever (THEORY §4–5): the rod, the applied field, the
+    obstacles, and the values of its energy terms.
 
     Attributes
     ----------
     field : Field or None
         Applied field shape; ``None`` builds no magnetic term.
     h : float
-        Orientational group, h² = μ0 χ̄ H0² A ℓ² / (2 B0) ≥ 0 (THEORY §5).
-    h_pos : float
-        Positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for
-        non-uniform fields (in a uniform field it is a constant).
-    h_r : float
-        Hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field.
-    magnetization : Profile or None
-        Angle β(s) of the remanent magnetisation to the tangent, rad; ``None`` builds no
-        hard-magnetic term (a present term with h_r = 0 is still built, like every term).
+        Orientational group, h² = μ0 χ̄ H0² A ℓ² / (2 B0) ≥ 0 (THEORY §5): the field's strength.
     fibres : Profile
         Fibre angle α(s), rad, s ∈ [0, 1].
     stiffness : Profile
         Relative bending stiffness b(s) = B(s)/B0 > 0, b(0) = 1 for physical scenes.
-    tip_force : (fx, fy) or None
-        Dead tip force, units of B0/ℓ². ``p`` of THEORY §5 is ``fy``.
-    tip_moment : float or None
-        Dead tip moment, units of B0/ℓ, counter-clockwise positive.
-    distributed_load : (qx, qy) or None
-        Dead load per unit length (e.g. weight), units of B0/ℓ³.
     theta0 : float
         Clamp angle, rad.
     scales : Scales or None
         Present for physical scenes.
     name : str
         Free text for reports.
+    extra_terms : tuple of TermValues
+        Plug-in energy terms present in the scene, with their values (the extension point: which
+        terms are listed is structural, their values are not).
     fibres_given : bool
         The fibre layout was given by the user (a config's ``fibres``): it is fabricated, so inverse
         design keeps it unless asked to vary it (``--vary ...,alpha``).
@@ -364,9 +373,6 @@ class Scene:
         The fibre layout is a property of the actuator that changes its response (True), or not
         (False: isotropic particles, whose easy axis is set by the body, the rod's tangent, THEORY
         §10): inverse design then never designs α(s).
-    extra_terms : tuple of TermValues
-        Plug-in energy terms present in the scene, with their values (the extension point: which
-        terms are listed is structural, their values are not).
     obstacles : tuple of Wall or Peg
         Rigid frictionless obstacles (:mod:`actuator_design.contact.obstacles`); ``solve`` then finds a
         contact equilibrium (:mod:`actuator_design.contact.equilibrium`).
@@ -374,26 +380,30 @@ class Scene:
         The rod's half-thickness, units of ℓ (set from ``rod.thickness`` for a physical scene): the
         distance its centre line keeps from an obstacle, and half the distance it keeps from itself
         (self-contact, :mod:`actuator_design.contact.self_contact`); 0: no self-contact.
+    values : tuple of (str, object)
+        The built-in terms' values (the loads, the positional and remanent groups, the
+        magnetisation), every one the terms declare, by name
+        (:data:`actuator_design.physics.registration.SCENE_VALUES`, which says what each is, its
+        units and default). Given and read by name: ``Scene(tip_force=(0.0, 1.0))``,
+        ``scene.tip_force``, ``dataclasses.replace(scene, tip_force=...)``.
     """
 
-    field: Optional[Field] = dc_field(default_factory=UniformField)
-    h: float = 0.0
-    h_pos: float = 0.0
-    fibres: Profile = dc_field(default_factory=lambda: constant_profile(0.0))
-    stiffness: Profile = dc_field(default_factory=lambda: constant_profile(1.0))
-    tip_force: Optional[Tuple[float, float]] = (0.0, 0.0)
-    tip_moment: Optional[float] = None
-    distributed_load: Optional[Tuple[float, float]] = None
-    theta0: float = 0.0
-    scales: Optional[Scales] = None
-    name: str = "dimensionless cantilever"
-    extra_terms: Tuple[TermValues, ...] = ()
-    fibres_given: bool = False
-    h_r: float = 0.0
-    magnetization: Optional[Profile] = None
-    fibres_physical: bool = True
-    obstacles: Tuple[Any, ...] = ()
-    contact_gap: float = 0.0
+    def __init__(self, *args, **kwargs):
+        given = {k: kwargs.pop(k) for k in [k for k in kwargs if k in SCENE_VALUES]}
+        super().__init__(*args, **kwargs)
+        unknown = [k for k, _ in self.values if k not in SCENE_VALUES]
+        if unknown:
+            raise TypeError(f"Scene: unknown term value(s) {', '.join(map(repr, unknown))} "
+                            f"(known: {', '.join(SCENE_VALUES)})")
+        merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(self.values), **given}
+        object.__setattr__(self, "values", tuple((k, merged[k]) for k in SCENE_VALUES))
+
+    def __getattr__(self, name: str):
+        # called only when ordinary lookup fails: a term's value (never a dunder, or ``values``
+        # itself while unpickling)
+        if name in SCENE_VALUES and "values" in self.__dict__:
+            return dict(self.__dict__["values"])[name]
+        raise AttributeError(f"'{type(self).__name__}' object has no attribute {name!r}")
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:
@@ -469,7 +479,8 @@ def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float
 
 @functools.lru_cache(maxsize=None)
 def profile_fields() -> Dict[str, bool]:
-    """The :class:`Scene`'s profile fields, name -> whether it may be None: the fibres and the
-    stiffness every rod has, and those a term brings (a remanent magnetisation β(s), THEORY §9)."""
-    return {name: type(None) in typing.get_args(hint) for name, hint in typing.get_type_hints(Scene).items()
-            if hint is Profile or Profile in typing.get_args(hint)}
+    """The :class:`Scene`'s profiles, name -> whether it may be None: the fibres and the stiffness
+    every rod has, and those a term brings (a remanent magnetisation β(s), THEORY §9)."""
+    rod = {name: type(None) in typing.get_args(hint) for name, hint in typing.get_type_hints(_SceneFields).items()
+           if hint is Profile or Profile in typing.get_args(hint)}
+    return {**rod, **{name: v.optional for name, v in SCENE_VALUES.items() if v.kind == PROFILE}}

@@ -1,16 +1,27 @@
-"""Where energy-term classes are registered: the store, and nothing that loads or queries it.
+"""Where energy-term classes are registered, and what the built-in terms keep in a scene: the
+stores, and nothing that loads or queries them.
 
 A leaf: a term module (the built-in :mod:`~actuator_design.physics.terms`, the shipped
 :mod:`~actuator_design.physics.extra_terms`) registers itself here on import, and
 :mod:`~actuator_design.physics.registry` (which imports the term modules) answers every question
 about the registered terms. Users register through ``ad.register_term`` (the registry re-exports
 :func:`register_term`).
+
+A :class:`~actuator_design.model.scene.Scene` is the rod (its fibres, stiffness, clamp), the applied
+field with its strength ``h``, the obstacles, and the values of its terms: those of
+:data:`SCENE_VALUES` (read as attributes, ``scene.tip_force``, written as keywords,
+``Scene(tip_force=(0, 1))`` or ``dataclasses.replace``) and the plug-in terms' ``extra_terms``. The
+scene names none of them: a term's values change here and in the term's own module
+(:mod:`.terms`, :mod:`.hard_magnetic`), not in the model, io or config. Which terms a scene
+*contains* is structural: a value that may be None (``optional``) builds no term when it is None; a
+present term with value zero is still built (so it can be continued or designed).
 """
 from __future__ import annotations
 
-from typing import Dict, Optional
+from dataclasses import dataclass
+from typing import Any, Dict, Optional
 
-__all__ = ["register_term", "unregister_term"]
+__all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -56,3 +67,50 @@ def unregister_term(name: str) -> None:
     _TERMS.pop(name, None)
     _CONFIG_MODELS.pop(name, None)
     _VERSION[0] += 1
+
+
+#: the kinds of value: a float, an (x, y) pair of floats, a Profile of s ∈ [0, 1]
+NUMBER, VECTOR, PROFILE = "number", "vector", "profile"
+
+
+@dataclass(frozen=True)
+class SceneValue:
+    """One value a built-in term keeps in a scene.
+
+    Attributes
+    ----------
+    name : str
+        The attribute and keyword (and the key in a saved scene).
+    default : object
+        Its value in a scene that does not give it (None: the term is absent).
+    kind : str
+        :data:`NUMBER`, :data:`VECTOR` or :data:`PROFILE`.
+    optional : bool
+        Whether None is allowed (and means: no such term).
+    doc : str
+        What it is, with its units.
+    """
+
+    name: str
+    default: Any
+    kind: str
+    optional: bool
+    doc: str
+
+
+#: name -> declaration, in the order a saved scene lists them
+SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
+    SceneValue("h_pos", 0.0, NUMBER, False,
+               "positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for non-uniform "
+               "fields (in a uniform field it is a constant)"),
+    SceneValue("tip_force", (0.0, 0.0), VECTOR, True,
+               "dead tip force (fx, fy), units of B0/ℓ²; THEORY §5's p is fy (present by default, at zero)"),
+    SceneValue("tip_moment", None, NUMBER, True, "dead tip moment, units of B0/ℓ, counter-clockwise positive"),
+    SceneValue("distributed_load", None, VECTOR, True,
+               "dead load per unit length (qx, qy) (e.g. weight), units of B0/ℓ³"),
+    SceneValue("h_r", 0.0, NUMBER, False,
+               "hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field"),
+    SceneValue("magnetization", None, PROFILE, True,
+               "angle β(s) of the remanent magnetisation to the tangent, rad; None builds no hard-magnetic "
+               "term (a present term with h_r = 0 is still built)"),
+)}
