@@ -397,13 +397,7 @@ class Scene(_SceneFields):
                             f"(known: {', '.join(SCENE_VALUES)})")
         merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(self.values), **given}
         object.__setattr__(self, "values", tuple((k, merged[k]) for k in SCENE_VALUES))
-
-    def __getattr__(self, name: str):
-        # called only when ordinary lookup fails: a term's value (never a dunder, or ``values``
-        # itself while unpickling)
-        if name in SCENE_VALUES and "values" in self.__dict__:
-            return dict(self.__dict__["values"])[name]
-        raise AttributeError(f"'{type(self).__name__}' object has no attribute {name!r}")
+        object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:
@@ -463,6 +457,14 @@ class Scene(_SceneFields):
         if alpha is not None:
             scene = replace(scene, fibres=constant_profile(float(alpha)))
         return scene
+
+
+def _term_value(name: str, doc: str) -> property:
+    return property(lambda scene: scene._by_name[name], doc=doc)
+
+
+for _name, _value in SCENE_VALUES.items():  # scene.<name>: read-only, as every field of the frozen scene
+    setattr(Scene, _name, _term_value(_name, _value.doc))
 
 
 def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
