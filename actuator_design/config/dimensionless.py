@@ -33,6 +33,7 @@ from actuator_design.model.units import COMMON_UNITS, registry
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.load_block import DimensionlessLoads
 from actuator_design.physics.magnetics_block import DimensionlessMagnetics
+from actuator_design.physics.registration import without_optional_terms
 
 __all__ = ["DimensionlessScene"]
 
@@ -134,7 +135,7 @@ class DimensionlessScene(DimensionlessLoads, DimensionlessMagnetics, _SceneKeys)
             field = None  # (a term that needs a field, e.g. a remanent one, adds it at strength 0)
         scene = Scene(field=field, h=self.h or 0.0, fibres=profile_or(self.fibres, 0.0),
                       stiffness=profile_or(self.stiffness, 1.0), theta0=self.clamp_angle, scales=None,
-                      tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
+                      **without_optional_terms(),  # a term is added when given
                       name=name or "dimensionless cantilever", fibres_given=self.fibres is not None,
                       obstacles=obstacles_of(self.obstacles), contact_gap=float(self.contact_gap or 0.0),
                       extra_terms=terms_of(self.terms))

@@ -35,6 +35,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.load_block import Loads, Weight
 from actuator_design.physics.magnetics_block import (Magnetics, MagneticSummary, Particles,
                                                      PhysicalMagnetization, magnetic_group, remanent_group)
+from actuator_design.physics.registration import without_optional_terms
 
 __all__ = ["Rod", "Particles", "Magnetics", "Weight", "Loads", "Clamp", "PhysicalScene",
            "magnetic_group", "remanent_group"]
@@ -168,7 +169,7 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
     def _check(self):
         if self.field is not None and self.magnetics is None:
             raise error("required when a field is given", "magnetics")
-        self.check_magnetization(self.magnetics)
+        self.check_with_magnetics(self.magnetics)  # the term parts mixed in check themselves
         if self.obstacles and self.rod.thickness is None:  # the gap to an obstacle is half of it
             raise error("required with obstacles (the rod's surface touches them, its centre line half "
                         "the thickness away); give rod.width and rod.thickness", "rod.thickness")
@@ -226,7 +227,7 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
         per = d.per_field  # (every group the field drives, remanent ones only of a remanent rod)
         scene = Scene(
             field=field, fibres=fibres, stiffness=profile_or(self.rod.stiffness_profile, 1.0),
-            tip_force=None,  # a Scene's default has the tip-force term; a load is added when given
+            **without_optional_terms(),  # a term is added when given
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
                           h_r_per_field=per.get("h_r", 0.0),

@@ -449,7 +449,7 @@ class PhysicalMagnetization(StrictModel):
 
     magnetization: Optional[MagnetizationProfile] = None
 
-    def check_magnetization(self, magnetics: Optional[Magnetics]) -> None:
+    def check_with_magnetics(self, magnetics: Optional[Magnetics]) -> None:
         """Raise the configuration error of a magnetisation angle without a remanence."""
         if self.magnetization is not None and (magnetics is None or magnetics.remanent_magnetization is None):
             raise error("needs magnetics.remanence or magnetics.remanent_flux_density "

@@ -21,7 +21,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
-__all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE"]
+__all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
+           "without_optional_terms"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -114,3 +115,9 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
                "angle β(s) of the remanent magnetisation to the tangent, rad; None builds no hard-magnetic "
                "term (a present term with h_r = 0 is still built)"),
 )}
+
+
+def without_optional_terms() -> Dict[str, Any]:
+    """Every optional value as None, as keywords of a Scene: a scene that holds only the terms it is
+    then given (a Scene's defaults hold some: the tip-force term, at zero), as a config builds it."""
+    return {name: None for name, value in SCENE_VALUES.items() if value.optional}
