@@ -13,6 +13,7 @@ is still built (so it can be continued or designed), a term that is absent is no
 from __future__ import annotations
 
 import functools
+import inspect
 import math
 import typing
 from dataclasses import dataclass
@@ -465,6 +466,11 @@ def _term_value(name: str, doc: str) -> property:
 
 for _name, _value in SCENE_VALUES.items():  # scene.<name>: read-only, as every field of the frozen scene
     setattr(Scene, _name, _term_value(_name, _value.doc))
+# help(Scene) and IDEs show the term values as keywords, after the rod's fields
+Scene.__signature__ = inspect.signature(_SceneFields).replace(parameters=[
+    *inspect.signature(_SceneFields).parameters.values(),
+    *(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=value.default)
+      for name, value in SCENE_VALUES.items())])
 
 
 def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
