@@ -130,6 +130,11 @@ def _hostile(data, path, value):
     (("fibres",), {"type": "spline"}),              # an unknown profile
     (("fibres",), ...),                             # a profile every scene has, missing
     (("stiffness",), None),                         # ... or null
+    (("tip_force",), [0.0]),                        # a term's pair of the wrong length
+    (("tip_force",), "oops"),                       # ... or text
+    (("h_r",), "zz"),                               # text for a term's number
+    (("h_r",), True),                               # ... or a truth value
+    (("tip_moment",), [1.0, 2.0]),                  # a list for a term's number
 ])
 def test_hostile_scene_data_is_one_value_error(path, value):
     scene = load_scene(Path(__file__).resolve().parents[1] / "configs" / "magnet_cylinder_hard_strip.yaml")[0]
@@ -137,3 +142,12 @@ def test_hostile_scene_data_is_one_value_error(path, value):
     with pytest.raises(ValueError) as err:
         scene_from_dict(_hostile(data, path, value))
     assert str(err.value).startswith("scene") and "\n" not in str(err.value)
+
+
+def test_a_stray_values_key_is_not_read():
+    """A term's value is read from its own key: a ``values`` entry (the scene's store, which
+    ``scene_to_dict`` does not write) cannot put text where a number belongs."""
+    data = json.loads(dumps_json(scene_to_dict(Scene(h=1.0, h_r=0.5))))
+    data["values"] = [["h_r", "zz"], ["tip_force", "oops"], [1, 2, 3]]
+    scene = scene_from_dict(data)
+    assert scene == Scene(h=1.0, h_r=0.5)

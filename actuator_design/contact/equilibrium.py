@@ -347,9 +347,28 @@ def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: floa
     result.contact = contact_report(scene, nlp, X, Y, mu, strong, weak, pairs, nlp.pair_normals(z, Pall))
     result.contact["start"] = start
     # a warm start's multipliers (the next state of a path), with the (cached) NLP they belong to
-    result._contact_multipliers = (weakref.ref(nlp), pairs, lam, signs)
+    result._contact_multipliers = WarmMultipliers((weakref.ref(nlp), pairs, lam, signs))
     result._balance = Balance(solver, P, result._dense, scene, z, point_loads=point_loads(result.contact))
     return result
+
+
+class WarmMultipliers(tuple):
+    """(weak reference to the NLP, pairs, multipliers, signs) of a contact result: the warm start of
+    the next state of a path in this process. Copies share it; a pickle (a result a worker sends
+    back) holds None instead, as the NLP lives in the process that solved it."""
+
+    def __reduce__(self):
+        return _nothing, ()
+
+    def __copy__(self):
+        return self
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+def _nothing():
+    return None
 
 
 def _lumen_start(scene, s: np.ndarray) -> Optional[np.ndarray]:

@@ -300,7 +300,7 @@ def _solve_from_start(scene, opts, solver):
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
             "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
     straight = solve_on(scene, opts, None, solver, strict=True)
-    straight.stats["from_rest"] = info
+    straight.stats["from_rest"] = {**info, "solved_from": "straight rod"}
     if not path.reached:
         straight.message += (f"; the loading path from rest stopped at {path.lam:.3g} of the load, "
                              "so this is the straight-rod start")
@@ -310,7 +310,7 @@ def _solve_from_start(scene, opts, solver):
                                 abs(straight.tip["angle"] - th1)) <= DISTINCT:
         return straight  # the straight-rod start reaches the state reached from rest
     result = solve_on(scene, opts, path.z, solver, strict=True)
-    result.stats["from_rest"] = info
+    result.stats["from_rest"] = {**info, "solved_from": "path"}
     if path.branch_points:  # the path stopped at a state turned unstable and left it along its mode
         result.escaped_saddle = True
         result.message += (f"; from rest the rod left an unstable equilibrium along its unstable mode at "

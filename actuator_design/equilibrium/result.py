@@ -98,21 +98,14 @@ class EquilibriumResult:
     _clamp_curvature: Optional[Callable] = field(default=None, repr=False)
 
     def _path_text(self) -> str:
-        """The loading path from rest that led to the solver's start, when one was taken (its
-        Newton steps, not the solver's iterations, then did the work)."""
+        """The loading path from rest whose state the solver started from, when it did (the path's
+        Newton steps, not the solver's iterations, then did most of the work)."""
         path = self.stats.get("from_rest") or {}
-        if not path.get("steps"):
-            return ""
+        if not path.get("steps") or path.get("solved_from") != "path":
+            return ""  # (the straight-rod start was solved: the message says why)
         steps = int(path["steps"])
-        return (f", after a path from rest of {steps} step{'s' * (steps != 1)} "
+        return (f", from the state a path from rest of {steps} step{'s' * (steps != 1)} reached "
                 f"({path.get('newton_solves', '?')} Newton solves, {1e3 * float(path.get('time_s', 0.0)):.2f} ms)")
-
-    def __getstate__(self) -> dict:
-        """Pickled (a worker sending its result back) without a contact result's warm-start
-        multipliers: they refer to a live NLP of the process that solved it."""
-        state = dict(self.__dict__)
-        state.pop("_contact_multipliers", None)
-        return state
 
     # -- lazily evaluated diagnostics ------------------------------------------------------------
     @cached_property

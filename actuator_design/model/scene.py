@@ -18,7 +18,7 @@ import math
 import typing
 from dataclasses import dataclass
 from dataclasses import field as dc_field
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
@@ -325,9 +325,10 @@ class TermValues:
         return {k: float(v) for k, v in self.values}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class _SceneFields:
-    """The rod's own fields of a :class:`Scene` (its terms' values are ``values``)."""
+    """The rod's own fields of a :class:`Scene` (its terms' values are ``values``); keywords only, as
+    the terms' values are."""
 
     field: Optional[Field] = dc_field(default_factory=UniformField)
     h: float = 0.0
@@ -389,9 +390,13 @@ class Scene(_SceneFields):
         ``scene.tip_force``, ``dataclasses.replace(scene, tip_force=...)``.
     """
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, **kwargs):
         given = {k: kwargs.pop(k) for k in [k for k in kwargs if k in SCENE_VALUES]}
-        super().__init__(*args, **kwargs)
+        unknown = sorted(set(kwargs) - {f.name for f in fields(_SceneFields)})
+        if unknown:
+            raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(repr, unknown))} (the rod's: "
+                            f"{', '.join(f.name for f in fields(_SceneFields))}; the terms': {', '.join(SCENE_VALUES)})")
+        super().__init__(**kwargs)
         unknown = [k for k, _ in self.values if k not in SCENE_VALUES]
         if unknown:
             raise TypeError(f"Scene: unknown term value(s) {', '.join(map(repr, unknown))} "
