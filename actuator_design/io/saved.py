@@ -29,7 +29,7 @@ from typing import Any, Dict, Optional
 from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.physics.harmonic import HarmonicTerm
-from actuator_design.physics.registration import PROFILE, SCENE_VALUES, VECTOR
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES
 from actuator_design.physics.tesseral import TesseralTerm
 from actuator_design.model.profiles import (Profile, constant_profile, expression_profile, legendre_profile,
                                             table_profile)
@@ -119,6 +119,10 @@ def scene_from_dict(data: Dict[str, Any]) -> Scene:
     except (KeyError, TypeError, AttributeError, IndexError) as exc:
         what = f"{exc.args[0]!r} missing" if isinstance(exc, KeyError) else str(exc)
         raise ValueError(f"scene: not a saved scene ({what})") from None
+    except ValueError as exc:  # (the scene's own checks: "Scene: h_r must be ...")
+        if str(exc).startswith("scene"):
+            raise
+        raise ValueError(f"scene: not a saved scene ({exc})") from None
     return scene
 
 
@@ -153,23 +157,11 @@ def _scene_from_dict(data: Dict[str, Any]) -> Scene:
 
 def _term_values(data: Dict[str, Any]) -> Dict[str, Any]:
     """The terms' values (:data:`~actuator_design.physics.registration.SCENE_VALUES`) a saved scene
-    gives, profiles aside; one it leaves out keeps its default."""
-    out = {}
-    for name, spec in SCENE_VALUES.items():
-        if name not in data or spec.kind == PROFILE:
-            continue
-        value = data[name]
-        if value is None and not spec.optional:
-            value = math.nan  # JSON's null for NaN or ±inf
-        elif value is not None:
-            value = _tuples(value)
-            numbers = value if spec.kind == VECTOR else (value,)
-            if (spec.kind == VECTOR and (not isinstance(value, tuple) or len(value) != 2)) or not all(
-                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in numbers):
-                raise TypeError(f"{name}: {'an (x, y) pair of numbers' if spec.kind == VECTOR else 'a number'}, "
-                                f"got {value!r}")
-        out[name] = value
-    return out
+    gives, profiles aside (one it leaves out keeps its default); the scene checks each
+    (:meth:`~actuator_design.physics.registration.SceneValue.checked`). A null where None is not
+    allowed is JSON's NaN, which it refuses."""
+    return {name: math.nan if data[name] is None and not spec.optional else _tuples(data[name])
+            for name, spec in SCENE_VALUES.items() if name in data and spec.kind != PROFILE}
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from actuator_design.model.profiles import Profile, constant_profile
-from actuator_design.physics.registration import PROFILE, SCENE_VALUES
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES, is_number
 
 __all__ = [
     "UniformField",
@@ -383,25 +383,27 @@ class Scene(_SceneFields):
         distance its centre line keeps from an obstacle, and half the distance it keeps from itself
         (self-contact, :mod:`actuator_design.contact.self_contact`); 0: no self-contact.
     values : tuple of (str, object)
-        The built-in terms' values (the loads, the positional and remanent groups, the
-        magnetisation), every one the terms declare, by name
-        (:data:`actuator_design.physics.registration.SCENE_VALUES`, which says what each is, its
-        units and default). Given and read by name: ``Scene(tip_force=(0.0, 1.0))``,
-        ``scene.tip_force``, ``dataclasses.replace(scene, tip_force=...)``.
+        Every value the built-in terms declare (:data:`actuator_design.physics.registration.SCENE_VALUES`:
+        what each is, its units, default and kind), by name; given and read by name, checked:
+        ``Scene(tip_force=(0.0, 1.0))``, ``scene.tip_force``, ``dataclasses.replace(scene, h_r=2.0)``.
     """
 
     def __init__(self, **kwargs):
-        given = {k: kwargs.pop(k) for k in [k for k in kwargs if k in SCENE_VALUES]}
-        unknown = sorted(set(kwargs) - {f.name for f in fields(_SceneFields)})
+        rod = [f.name for f in fields(_SceneFields)]
+        unknown = sorted(set(kwargs) - set(rod) - set(SCENE_VALUES))
+        unknown += [repr(k) for k, _ in kwargs.get("values", ()) if k not in SCENE_VALUES]
         if unknown:
-            raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(repr, unknown))} (the rod's: "
-                            f"{', '.join(f.name for f in fields(_SceneFields))}; the terms': {', '.join(SCENE_VALUES)})")
-        super().__init__(**kwargs)
-        unknown = [k for k, _ in self.values if k not in SCENE_VALUES]
-        if unknown:
-            raise TypeError(f"Scene: unknown term value(s) {', '.join(map(repr, unknown))} "
-                            f"(known: {', '.join(SCENE_VALUES)})")
-        merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(self.values), **given}
+            raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(str, unknown))} (the rod's: "
+                            f"{', '.join(rod)}; the terms': {', '.join(SCENE_VALUES)})")
+        super().__init__(**{k: v for k, v in kwargs.items() if k in rod})
+        merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(self.values)}
+        merged.update((k, v) for k, v in kwargs.items() if k in SCENE_VALUES)
+        merged = {k: spec.checked(merged[k]) for k, spec in SCENE_VALUES.items()}
+        for name in ("h", "theta0", "contact_gap"):
+            value = getattr(self, name)
+            if not (is_number(value) and math.isfinite(value)) or (name == "contact_gap" and value < 0):
+                raise ValueError(f"Scene: {name} must be a finite number{' >= 0' * (name == 'contact_gap')}, "
+                                 f"got {value!r}")
         object.__setattr__(self, "values", tuple((k, merged[k]) for k in SCENE_VALUES))
         object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
 
@@ -454,9 +456,7 @@ class Scene(_SceneFields):
             scene = replace(scene, h=float(h), field=scene.field or UniformField())
         if phi is not None:
             if scene.field is not None and not isinstance(scene.field, UniformField):
-                raise ValueError(
-                    f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field"
-                )
+                raise ValueError(f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field")
             scene = replace(scene, field=UniformField(phi=float(phi)))
         if p is not None:
             scene = replace(scene, tip_force=((scene.tip_force or (0.0, 0.0))[0], float(p)))

@@ -1,8 +1,9 @@
 """Where energy-term classes are registered, and what the built-in terms keep in a scene: the
 stores, and nothing that loads or queries them.
 
-A leaf: a term module (the built-in :mod:`~actuator_design.physics.terms`, the shipped
-:mod:`~actuator_design.physics.extra_terms`) registers itself here on import, and
+A leaf (it imports only the model's profiles, no CasADi: the scene imports it). A term module (the
+built-in :mod:`~actuator_design.physics.terms`, the shipped :mod:`~actuator_design.physics.extra_terms`)
+registers itself here on import, and
 :mod:`~actuator_design.physics.registry` (which imports the term modules) answers every question
 about the registered terms. Users register through ``ad.register_term`` (the registry re-exports
 :func:`register_term`).
@@ -18,11 +19,16 @@ present term with value zero is still built (so it can be continued or designed)
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
+import numpy as np
+
+from actuator_design.model.profiles import Profile
+
 __all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
-           "without_optional_terms"]
+           "without_optional_terms", "is_number"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -98,12 +104,32 @@ class SceneValue:
     optional: bool
     doc: str
 
+    def checked(self, value):
+        """``value`` as a scene keeps it (floats, a tuple for a pair); ValueError naming this value
+        and what it must be (a NaN, a wrong length or type) otherwise."""
+        if value is None and self.optional:
+            return None
+        if self.kind == PROFILE:
+            if isinstance(value, Profile):
+                return value
+            what = "a Profile (e.g. constant_profile(0.0))"
+        elif self.kind == VECTOR:
+            if (isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2
+                    and all(is_number(v) and math.isfinite(v) for v in value)):
+                return (float(value[0]), float(value[1]))
+            what = "an (x, y) pair of finite numbers"
+        else:
+            if is_number(value) and math.isfinite(value):
+                return float(value)
+            what = "a finite number"
+        raise ValueError(f"Scene: {self.name} must be {what}{' or None' * self.optional}, got {value!r} ({self.doc})")
+
 
 #: name -> declaration, in the order a saved scene lists them
 SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
     SceneValue("h_pos", 0.0, NUMBER, False,
-               "positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for non-uniform "
-               "fields (in a uniform field it is a constant)"),
+               "positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for "
+               "non-uniform fields (in a uniform field it is a constant)"),
     SceneValue("tip_force", (0.0, 0.0), VECTOR, True,
                "dead tip force (fx, fy), units of B0/ℓ²; THEORY §5's p is fy (present by default, at zero)"),
     SceneValue("tip_moment", None, NUMBER, True, "dead tip moment, units of B0/ℓ, counter-clockwise positive"),
@@ -115,6 +141,11 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
                "angle β(s) of the remanent magnetisation to the tangent, rad; None builds no hard-magnetic "
                "term (a present term with h_r = 0 is still built)"),
 )}
+
+
+def is_number(value) -> bool:
+    """A real number (numpy's included), not a truth value."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
 
 
 def without_optional_terms() -> Dict[str, Any]:

@@ -1,0 +1,73 @@
+"""A scene's term values (issue 18): declared by the terms (``physics.registration.SCENE_VALUES``),
+given as keywords, read as attributes, and checked when the scene is built, so that a NaN or a
+wrong shape from Python is one clear error naming the value, as it is from a config."""
+import dataclasses
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+import actuator_design as ad
+from actuator_design.model.scene import Scene
+from actuator_design.physics.registration import SCENE_VALUES
+
+SAMPLES = {"h_pos": 0.25, "tip_force": (0.5, -1.0), "tip_moment": 2.0, "distributed_load": (0.0, -0.3),
+           "h_r": 1.5, "magnetization": ad.constant_profile(0.2)}
+
+
+def test_every_declared_value_has_a_sample_here():
+    assert set(SAMPLES) == set(SCENE_VALUES)
+
+
+@pytest.mark.parametrize("name", sorted(SAMPLES))
+def test_a_value_given_is_read_back_and_replace_keeps_the_others(name):
+    scene = Scene(**{name: SAMPLES[name]})
+    assert getattr(scene, name) == SAMPLES[name]
+    other = next(n for n in SAMPLES if n != name)
+    moved = dataclasses.replace(scene, **{other: SAMPLES[other]})
+    assert getattr(moved, name) == SAMPLES[name] and getattr(moved, other) == SAMPLES[other]
+    assert pickle.loads(pickle.dumps(moved)) == moved
+    for n, spec in SCENE_VALUES.items():  # the rest keep their declared defaults
+        if n != name:
+            assert getattr(scene, n) == spec.default
+
+
+def test_equal_meaning_is_equal_scenes_with_equal_hashes():
+    assert Scene(h_r=0) == Scene() and hash(Scene(h_r=0)) == hash(Scene())
+    assert Scene(tip_force=[0, 1]) == Scene(tip_force=(0.0, 1.0))  # a list is kept as a tuple (hashable)
+    assert hash(Scene(tip_force=np.array([0.0, 1.0]))) == hash(Scene(tip_force=(0.0, 1.0)))
+
+
+@pytest.mark.parametrize("kwargs, names", [
+    (dict(h=math.nan), "h must be a finite number"),
+    (dict(theta0=math.inf), "theta0 must be a finite number"),
+    (dict(contact_gap=-0.01), "contact_gap must be a finite number >= 0"),
+    (dict(tip_force=(math.nan, 0.0)), "tip_force must be an (x, y) pair of finite numbers"),
+    (dict(tip_force=(0.0, 1.0, 2.0)), "tip_force must be an (x, y) pair"),
+    (dict(distributed_load="down"), "distributed_load must be an (x, y) pair"),
+    (dict(tip_moment=math.inf), "tip_moment must be a finite number or None"),
+    (dict(h_r=True), "h_r must be a finite number, got True"),
+    (dict(h_pos=None), "h_pos must be a finite number, got None"),
+    (dict(magnetization=0.3), "magnetization must be a Profile"),
+])
+def test_bad_values_are_one_error_naming_the_value(kwargs, names):
+    with pytest.raises(ValueError) as err:
+        Scene(**kwargs)
+    assert str(err.value).startswith(f"Scene: {names}") and "\n" not in str(err.value)
+
+
+def test_unknown_and_positional_arguments_are_refused():
+    with pytest.raises(TypeError, match="unknown keyword.*'?tip_forse'?.*the terms': .*tip_force"):
+        Scene(tip_forse=(0.0, 1.0))
+    with pytest.raises(TypeError, match="unknown keyword.*'bogus'"):
+        Scene(values=(("bogus", 1.0),))
+    with pytest.raises(TypeError):
+        Scene(None, 1.0)  # the fields' order is no interface
+
+
+def test_solve_of_a_nan_scene_never_starts():
+    """From Python a NaN field strength crashed deep in the mesh grading (IndexError); it is now
+    refused where the scene is built."""
+    with pytest.raises(ValueError, match="Scene: h must be a finite number"):
+        ad.solve(ad.Scene(h=float("nan")))
