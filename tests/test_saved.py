@@ -135,6 +135,8 @@ def _hostile(data, path, value):
     (("h_r",), "zz"),                               # text for a term's number
     (("h_r",), True),                               # ... or a truth value
     (("tip_moment",), [1.0, 2.0]),                  # a list for a term's number
+    (("h",), 10**400),                              # an integer no float holds
+    (("scales_fields", "length"), 10**400),          # ... in the scales
 ])
 def test_hostile_scene_data_is_one_value_error(path, value):
     scene = load_scene(Path(__file__).resolve().parents[1] / "configs" / "magnet_cylinder_hard_strip.yaml")[0]

@@ -50,11 +50,31 @@ def test_equal_meaning_is_equal_scenes_with_equal_hashes():
     (dict(h_r=True), "h_r must be a finite number, got True"),
     (dict(h_pos=None), "h_pos must be a finite number, got None"),
     (dict(magnetization=0.3), "magnetization must be a Profile"),
+    (dict(h_r="1.5"), "h_r must be a finite number"),                 # text is no number
+    (dict(tip_moment=10**400), "tip_moment must be a finite number"),  # an int beyond float (OverflowError)
+    (dict(tip_force=np.array(1.0)), "tip_force must be an (x, y) pair"),
+    (dict(tip_force=np.eye(2)), "tip_force must be an (x, y) pair"),    # its repr spans lines
+    (dict(tip_force=list(range(500))), "tip_force must be an (x, y) pair"),
 ])
 def test_bad_values_are_one_error_naming_the_value(kwargs, names):
     with pytest.raises(ValueError) as err:
         Scene(**kwargs)
     assert str(err.value).startswith(f"Scene: {names}") and "\n" not in str(err.value)
+    assert len(str(err.value)) < 300  # the value is quoted short
+
+
+def test_any_real_scalar_is_a_number():
+    """numpy's 0-d arrays, CasADi's DM and fractions are numbers (the lens' writes take them too):
+    the scene keeps them as floats, so that it hashes and compares as any other."""
+    import casadi as ca
+    from fractions import Fraction
+
+    assert Scene(theta0=np.array(0.3)) == Scene(theta0=0.3)
+    assert Scene(tip_moment=ca.DM(0.3)).tip_moment == 0.3
+    assert Scene(h_r=Fraction(3, 2)).h_r == 1.5
+    assert Scene(tip_force=(np.array(0.0), np.array(1.0))).tip_force == (0.0, 1.0)
+    assert Scene(tip_force=ca.DM([0.0, 1.0])).tip_force == (0.0, 1.0)
+    assert type(Scene(h=np.float32(1.5)).h) is float
 
 
 def test_unknown_and_positional_arguments_are_refused():

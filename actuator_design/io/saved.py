@@ -29,7 +29,7 @@ from typing import Any, Dict, Optional
 from actuator_design.contact.obstacles import Lumen, Peg, Polygon, Wall
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.physics.harmonic import HarmonicTerm
-from actuator_design.physics.registration import PROFILE, SCENE_VALUES
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES, short_repr
 from actuator_design.physics.tesseral import TesseralTerm
 from actuator_design.model.profiles import (Profile, constant_profile, expression_profile, legendre_profile,
                                             table_profile)
@@ -64,8 +64,13 @@ def _build(cls, data: Dict[str, Any], **converted):
         value = data[f.name]
         if value is None and isinstance(f.default, float):  # JSON's null for NaN or ±inf
             value = f.default if not math.isfinite(f.default) else math.nan
-        if f.type in ("float", float) and not (isinstance(value, (int, float)) and not isinstance(value, bool)):
-            raise TypeError(f"{f.name}: a number, got {value!r}")
+        if f.type in ("float", float):
+            if not (isinstance(value, (int, float)) and not isinstance(value, bool)):
+                raise TypeError(f"{f.name}: a number, got {short_repr(value)}")
+            try:
+                value = float(value)
+            except OverflowError:
+                raise TypeError(f"{f.name}: a number, got an integer too large for a float") from None
         kwargs[f.name] = _tuples(value)
     return cls(**kwargs)
 
@@ -119,7 +124,7 @@ def scene_from_dict(data: Dict[str, Any]) -> Scene:
     except (KeyError, TypeError, AttributeError, IndexError) as exc:
         what = f"{exc.args[0]!r} missing" if isinstance(exc, KeyError) else str(exc)
         raise ValueError(f"scene: not a saved scene ({what})") from None
-    except ValueError as exc:  # (the scene's own checks: "Scene: h_r must be ...")
+    except (ValueError, OverflowError) as exc:  # the scene's own checks ("Scene: h_r must be ..."), prefixed
         if str(exc).startswith("scene"):
             raise
         raise ValueError(f"scene: not a saved scene ({exc})") from None

@@ -24,7 +24,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from actuator_design.model.profiles import Profile, constant_profile
-from actuator_design.physics.registration import PROFILE, SCENE_VALUES, is_number
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES, real_number, short_repr
 
 __all__ = [
     "UniformField",
@@ -400,10 +400,11 @@ class Scene(_SceneFields):
         merged.update((k, v) for k, v in kwargs.items() if k in SCENE_VALUES)
         merged = {k: spec.checked(merged[k]) for k, spec in SCENE_VALUES.items()}
         for name in ("h", "theta0", "contact_gap"):
-            value = getattr(self, name)
-            if not (is_number(value) and math.isfinite(value)) or (name == "contact_gap" and value < 0):
+            value = real_number(getattr(self, name))
+            if value is None or (name == "contact_gap" and value < 0):
                 raise ValueError(f"Scene: {name} must be a finite number{' >= 0' * (name == 'contact_gap')}, "
-                                 f"got {value!r}")
+                                 f"got {short_repr(getattr(self, name))}")
+            object.__setattr__(self, name, value)
         object.__setattr__(self, "values", tuple((k, merged[k]) for k in SCENE_VALUES))
         object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
 

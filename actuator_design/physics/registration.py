@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
 from actuator_design.model.profiles import Profile
 
 __all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
-           "without_optional_terms", "is_number"]
+           "without_optional_terms", "real_number", "real_pair", "short_repr"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -114,15 +114,17 @@ class SceneValue:
                 return value
             what = "a Profile (e.g. constant_profile(0.0))"
         elif self.kind == VECTOR:
-            if (isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2
-                    and all(is_number(v) and math.isfinite(v) for v in value)):
-                return (float(value[0]), float(value[1]))
+            pair = real_pair(value)
+            if pair is not None:
+                return pair
             what = "an (x, y) pair of finite numbers"
         else:
-            if is_number(value) and math.isfinite(value):
-                return float(value)
+            number = real_number(value)
+            if number is not None:
+                return number
             what = "a finite number"
-        raise ValueError(f"Scene: {self.name} must be {what}{' or None' * self.optional}, got {value!r} ({self.doc})")
+        raise ValueError(f"Scene: {self.name} must be {what}{' or None' * self.optional}, got {short_repr(value)} "
+                         f"({self.doc})")
 
 
 #: name -> declaration, in the order a saved scene lists them
@@ -143,9 +145,35 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
 )}
 
 
-def is_number(value) -> bool:
-    """A real number (numpy's included), not a truth value."""
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+def real_number(value) -> Optional[float]:
+    """``value`` as a finite float when it is one real number (numpy's and CasADi's scalars
+    included; not a truth value or text), else None."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        return None
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    return number if math.isfinite(number) else None
+
+
+def real_pair(value) -> Optional[Tuple[float, float]]:
+    """``value`` as an (x, y) tuple of finite floats when it is two real numbers, else None."""
+    if hasattr(value, "full"):  # a CasADi DM: its numbers (numpy functions on it warn)
+        value = value.full()
+    if isinstance(value, (str, bytes)) or np.size(value) != 2:
+        return None
+    try:
+        x, y = (real_number(v) for v in np.ravel(np.asarray(value, dtype=object)))
+    except (TypeError, ValueError):
+        return None
+    return None if x is None or y is None else (x, y)
+
+
+def short_repr(value, limit: int = 60) -> str:
+    """``repr(value)`` on one line, at most ``limit`` characters (an error message quotes it)."""
+    text = " ".join(repr(value).split())
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def without_optional_terms() -> Dict[str, Any]:
