@@ -66,8 +66,9 @@ def test_bad_values_are_one_error_naming_the_value(kwargs, names):
 def test_any_real_scalar_is_a_number():
     """numpy's 0-d arrays, CasADi's DM and fractions are numbers (the lens' writes take them too):
     the scene keeps them as floats, so that it hashes and compares as any other."""
-    import casadi as ca
     from fractions import Fraction
+
+    import casadi as ca
 
     assert Scene(theta0=np.array(0.3)) == Scene(theta0=0.3)
     assert Scene(tip_moment=ca.DM(0.3)).tip_moment == 0.3

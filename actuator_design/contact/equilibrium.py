@@ -38,8 +38,8 @@ from actuator_design.contact.self_contact import (GROW_ROUNDS, SELF_MAX_NODES, b
 from actuator_design.contact.split import MAX_SPLIT_ROUNDS, MERGE, SPLIT_TOL, accelerated, extended, merged
 from actuator_design.continuation.from_rest import load_fraction
 from actuator_design.equilibrium.acceptance import accept, graded_options, moment_scale, residual_limit
-from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.equilibrium.dense_shape import Balance
+from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.equilibrium.single import make_result
 from actuator_design.equilibrium.solver import RawSolution, get_solver
 

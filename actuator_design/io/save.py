@@ -84,9 +84,9 @@ def scene_to_dict(scene) -> Dict[str, object]:
     (:func:`actuator_design.io.saved.scene_from_dict`).
 
     One key per field of the dataclass and per term value (``scene.values``), whatever term it
-    belongs to: profiles via ``Profile.as_dict``,
-    plug-in terms as ``{"name", "values"}``, scales via ``Scales.as_dict`` (derived SI units) and,
-    exactly, ``scales_fields`` (the dataclass's own fields); angles in rad, lengths in ℓ.
+    belongs to: profiles via ``Profile.as_dict``, plug-in terms as ``{"name", "values"}``, scales via
+    ``Scales.as_dict`` (derived SI units) and, exactly, ``scales_fields`` (the dataclass's own
+    fields); angles in rad, lengths in ℓ.
     """
     out = {"name": scene.name}  # first, as a reader looks for it
     out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene) if f.name != "values")
