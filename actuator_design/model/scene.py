@@ -4,11 +4,9 @@ A :class:`Scene` is the output of configuration (``actuator_design.config``) and
 physics layer. All values are dimensionless per THEORY §5: lengths in units of the rod length ℓ,
 energies in units of B0/ℓ (B0 the bending stiffness at the clamp), fields in units of a field scale
 H0 whose strength is folded into the group ``h``. A physical scene carries its :class:`Scales` so
-results can be converted back.
-
-Which energy terms a scene *contains* is structural: ``field is None`` means no magnetic term is
-built, ``tip_force is None`` means no load term, and so on. A term that is present with value zero
-is still built (so it can be continued or designed), a term that is absent is not.
+results can be converted back. Which energy terms a scene *contains* is structural: ``field is
+None`` builds no magnetic term, a term value None no term
+(:data:`actuator_design.physics.registration.SCENE_VALUES`); a term present at zero is still built.
 """
 from __future__ import annotations
 
@@ -345,6 +343,13 @@ class _SceneFields:
     values: Tuple[Tuple[str, Any], ...] = ()
 
 
+_ROD = tuple(f.name for f in fields(_SceneFields))
+
+
+class _Checked(tuple):
+    """A scene's ``values``, each checked by its declaration."""
+
+
 class Scene(_SceneFields):
     """A dimensionless magneto-elastic cantilever (THEORY §4–5): the rod, the applied field, the
     obstacles, and the values of its energy terms.
@@ -389,23 +394,25 @@ class Scene(_SceneFields):
     """
 
     def __init__(self, **kwargs):
-        rod = [f.name for f in fields(_SceneFields)]
-        unknown = sorted(set(kwargs) - set(rod) - set(SCENE_VALUES))
-        unknown += [repr(k) for k, _ in kwargs.get("values", ()) if k not in SCENE_VALUES]
+        given = {k: kwargs.pop(k) for k in [k for k in kwargs if k in SCENE_VALUES]}
+        old = kwargs.get("values", ())
+        unknown = sorted(set(kwargs) - set(_ROD)) + [repr(k) for k, _ in old if k not in SCENE_VALUES]
         if unknown:
             raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(str, unknown))} (the rod's: "
-                            f"{', '.join(rod)}; the terms': {', '.join(SCENE_VALUES)})")
-        super().__init__(**{k: v for k, v in kwargs.items() if k in rod})
-        merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(self.values)}
-        merged.update((k, v) for k, v in kwargs.items() if k in SCENE_VALUES)
-        merged = {k: spec.checked(merged[k]) for k, spec in SCENE_VALUES.items()}
+                            f"{', '.join(_ROD)}; the terms': {', '.join(SCENE_VALUES)})")
+        super().__init__(**kwargs)
+        if isinstance(old, _Checked):  # a scene's own (a replace passes them on): checked when it was built
+            merged = {**dict(old), **{k: SCENE_VALUES[k].checked(v) for k, v in given.items()}}
+        else:
+            merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(old), **given}
+            merged = {k: spec.checked(merged[k]) for k, spec in SCENE_VALUES.items()}
         for name in ("h", "theta0", "contact_gap"):
             value = real_number(getattr(self, name))
             if value is None or (name == "contact_gap" and value < 0):
                 raise ValueError(f"Scene: {name} must be a finite number{' >= 0' * (name == 'contact_gap')}, "
                                  f"got {short_repr(getattr(self, name))}")
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "values", tuple((k, merged[k]) for k in SCENE_VALUES))
+        object.__setattr__(self, "values", _Checked((k, merged[k]) for k in SCENE_VALUES))
         object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
 
     # -- plug-in terms ---------------------------------------------------------------------------
@@ -446,11 +453,9 @@ class Scene(_SceneFields):
     def with_values(self, *, h=None, phi=None, p=None, alpha=None) -> "Scene":
         """Return a copy with the dimensionless values of THEORY §5 overridden.
 
-        Overriding ``phi`` requires a uniform field (or no field: one is added); overriding ``h``
-        adds a uniform field if the scene has none; overriding ``p`` adds a tip force if the scene
-        has none (its x component 0); ``alpha`` (rad) sets a constant fibre angle. The same writes as
-        the parameter lens' ``h``, ``phi``, ``p`` and ``alpha`` (``actuator_design.physics.parameters``),
-        without its range checks.
+        ``phi`` requires a uniform field (or none: one is added); ``h`` adds a uniform field if the
+        scene has none; ``p`` adds a tip force if it has none (x component 0); ``alpha`` (rad) sets
+        a constant fibre angle. The lens' writes (``physics.parameters``) without its range checks.
         """
         scene = self
         if h is not None:
@@ -482,13 +487,8 @@ Scene.__signature__ = inspect.signature(_SceneFields).replace(parameters=[
 def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float = 0.0) -> Scene:
     """THEORY §5's dimensionless cantilever: uniform field (h, φ), vertical tip load p,
     constant fibre angle α, clamp angle 0, nothing else."""
-    return Scene(
-        field=UniformField(phi=float(phi)),
-        h=float(h),
-        fibres=constant_profile(float(alpha)),
-        tip_force=(0.0, float(p)),
-        name="default dimensionless cantilever (THEORY §5)",
-    )
+    return Scene(field=UniformField(phi=float(phi)), h=float(h), fibres=constant_profile(float(alpha)),
+                 tip_force=(0.0, float(p)), name="default dimensionless cantilever (THEORY §5)")
 
 
 @functools.lru_cache(maxsize=None)
