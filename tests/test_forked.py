@@ -152,6 +152,7 @@ def test_an_equilibrium_result_travels_whole():
 def test_a_contact_result_travels_whole():
     """A contact result pickles too (a study's worker sends it back): its balance, with the contact
     forces as point loads, is the original's; a self-contact result likewise."""
+    import copy as cp
     import math
     import pickle
 
@@ -171,3 +172,7 @@ def test_a_contact_result_travels_whole():
         assert copy.contact == r.contact and copy.tip == r.tip
         np.testing.assert_array_equal(copy.clamp_force, r.clamp_force)
         assert copy.el_residual == r.el_residual
+        # the warm start of a path's next state lives in this process: a pickle drops it, a copy keeps it
+        assert copy._contact_multipliers is None
+        assert cp.copy(r)._contact_multipliers is r._contact_multipliers
+        assert cp.deepcopy(r)._contact_multipliers is r._contact_multipliers
