@@ -7,10 +7,12 @@ tagged unions removed from the path (``scene.field.magnitude``, not ``scene.fiel
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List, Optional
+from typing import Dict, List, Optional
 
 from pydantic import ValidationError
 from pydantic_core import PydanticCustomError
+
+from actuator_design.physics.registration import short_repr  # (a hostile value must not flood a message)
 
 __all__ = ["ConfigError", "error", "dotted", "translate", "first_non_finite", "UNION_TAGS"]
 
@@ -79,17 +81,11 @@ def translate(err: ValidationError) -> ConfigError:
     elif kind == "extra_forbidden":
         detail = "unknown key"
     elif kind in ("model_attributes_type", "model_type", "dict_type"):
-        detail = f"expected a mapping of keys to values, got {_short_repr(value)}"
+        detail = f"expected a mapping of keys to values, got {short_repr(value, 80)}"
     else:
         msg = e["msg"].removeprefix("Value error, ")
-        detail = f"{msg[:1].lower()}{msg[1:]}, got {_short_repr(value)}"
+        detail = f"{msg[:1].lower()}{msg[1:]}, got {short_repr(value, 80)}"
     return ConfigError(dotted(loc), detail)
-
-
-def _short_repr(value: Any, limit: int = 80) -> str:
-    """``repr(value)`` cut to ``limit`` characters (a hostile value must not flood the message)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + "...'"
 
 
 def first_non_finite(obj, path=()):
