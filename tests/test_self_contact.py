@@ -7,6 +7,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import actuator_design.contact.equilibrium as equilibrium
+import actuator_design.contact.self_solve as self_solve
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.contact.obstacles import Peg
 from actuator_design.equilibrium.options import SolverOptions
@@ -358,6 +360,37 @@ def test_a_round_that_passed_through_itself_gets_the_crossing_pairs():
     assert grown_pairs(crossing, GAP, None, ((1, 2), (3, 4), (5, 6))) is None  # no free slot
     apart, _, _ = nlp(3 * GAP)  # strand b parallel to a, 3·gap above it: clear
     assert grown_pairs(apart, GAP, None, ()) is None
+
+
+def test_the_ramps_last_state_is_the_first_boundary_round(monkeypatch):
+    """The ramp from rest ends with a contact solve at full load on the rounds' first mesh: the
+    boundary rounds start from it instead of solving it again, one solve fewer, the same answer as
+    when they solve it again (to round-off of the rounds' stopping rule)."""
+    calls, seen = [], {}
+    counted = equilibrium.solve_once
+
+    def counting(*args, **kwargs):
+        calls.append(kwargs.get("fraction", 1.0))
+        return counted(*args, **kwargs)
+
+    def captured(scene, options, state, **kwargs):
+        seen.update(scene=scene, options=options, state=state, kwargs=kwargs)
+        return equilibrium.solve_contact(scene, options, state, **kwargs)
+
+    monkeypatch.setattr(equilibrium, "solve_once", counting)
+    monkeypatch.setattr(self_solve, "solve_once", counting)
+    monkeypatch.setattr(self_solve, "solve_contact", captured)
+    fast = solve(coil())
+    assert seen["kwargs"]["first"] is seen["state"] and seen["state"].contact is not None
+    rounds_fast = len(calls) - calls.index(1.0) - 1  # the solves after the ramp's last step
+    del calls[:]
+    kwargs = {k: v for k, v in seen["kwargs"].items() if k != "first"}
+    again = equilibrium.solve_contact(seen["scene"], seen["options"], seen["state"], **kwargs)
+    assert fast.success and again.success, (fast.message, again.message)
+    assert rounds_fast == len(calls) - 1 == fast.contact["boundary_rounds"] - 1
+    assert np.allclose(fast.contact["split_at"], again.contact["split_at"], atol=1e-7)
+    assert abs(fast.tip["angle"] - again.tip["angle"]) < 1e-7
+    assert "the loads ramped in" in fast.message
 
 
 def test_the_ramp_starts_where_the_free_arc_comes_near_itself():

@@ -59,7 +59,8 @@ def _rest_state_problem(scene, nlp: ContactNLP, z0: np.ndarray) -> Optional[str]
             f"at s = {nlp.s_points[j]:.4g}: contact equilibria are sought from a free rest state")
 
 
-def solve_contact(scene, options, initial=None, self_contact: bool = False, start: Optional[str] = None):
+def solve_contact(scene, options, initial=None, self_contact: bool = False, start: Optional[str] = None,
+                  first=None):
     """A contact equilibrium of ``scene`` (its obstacles, and with ``self_contact`` the rod against
     itself), or a failed result saying why.
 
@@ -76,6 +77,9 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     until those points stay put (at most :data:`~actuator_design.contact.split.MAX_SPLIT_ROUNDS` rounds; the
     residual check judges the last), from the second round on with Anderson's mixing
     (:func:`~actuator_design.contact.split.accelerated`), each round a new mesh and a new NLP.
+    ``first``: a contact solve of ``scene`` itself (all loads) on the mesh of the first round, from
+    ``initial`` (the last step of a ramp from rest to full load): it is the first round (solving
+    it again would give it once more).
 
     Returns
     -------
@@ -93,8 +97,12 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     history, result = [], None  # (splits, F(splits)) of the rounds with the same points; the state
     checked = None  # (state, where it enters an obstacle, where itself): the dense checks, made once
     while True:
-        result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,
-                            self_contact=self_contact, start=start, planes=True)
+        if rounds == 0 and first is not None and first.options == replace(opts, split_at=splits):
+            result = first
+            result.contact["start"] = start
+        else:
+            result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,
+                                self_contact=self_contact, start=start, planes=True)
         rounds += 1
         strong = [p for p in result.contact["points"] if not p["weak"]]
         interior = [p for p in strong if 0.0 < p["s"] < 1.0]

@@ -91,7 +91,7 @@ def solve_self_contact(scene, options, initial=None, start: Optional[str] = None
                                 f"{2.0 * scene.contact_gap - depth:.3g} apart, less than 2 x gap = "
                                 f"{2.0 * scene.contact_gap:.3g} rod lengths): it is no physical state")
             return out
-    out = solve_contact(scene, options, state, self_contact=True,
+    out = solve_contact(scene, options, state, self_contact=True, first=state,
                         start=f"rest, the loads ramped in {steps} steps with self-contact")
     note = spacing_note(scene, out.options)
     if note is not None:
