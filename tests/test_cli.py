@@ -400,3 +400,23 @@ def test_a_list_starting_with_a_negative_number_is_a_value_not_an_option(value):
     assert spaced.target_tip == joined.target_tip
     with pytest.raises(UsageError, match="expected one argument"):  # an option-looking word is still one
         build_parser(only="design").parse_args(["design", "--target-tip", "-x"])
+
+
+@pytest.mark.parametrize("command, flag, parts, joined", [
+    ("design", "--target-tip", ["0.3,0.5", "0.6,0.2"], "0.3,0.5;0.6,0.2"),
+    ("design", "--tolerance", ["field=5%", "youngs_modulus=10%"], "field=5%,youngs_modulus=10%"),
+    ("design", "--vary", ["h,phi", "alpha"], "h,phi,alpha"),
+    ("schedule", "--waypoints", ["0.9,0.3", "0.7,0.5;0.5,0.6"], "0.9,0.3;0.7,0.5;0.5,0.6"),
+])
+def test_a_list_flag_given_twice_adds_to_its_list(command, flag, parts, joined):
+    """``--target-tip A --target-tip B`` designed for B alone, and ``--tolerance field=5%
+    --tolerance youngs_modulus=10%`` judged the design without the field's tolerance (argparse keeps
+    the last value): a repeat now adds to the list, as the list written out in one flag does."""
+    from actuator_design.cli.main import build_parser
+
+    dest = flag.lstrip("-").replace("-", "_")
+    repeated = build_parser(only=command).parse_args([command] + [w for p in parts for w in (flag, p)])
+    once = build_parser(only=command).parse_args([command, flag, joined])
+    assert getattr(repeated, dest) == getattr(once, dest) == joined
+    single = build_parser(only=command).parse_args([command, flag, parts[0]])
+    assert getattr(single, dest) == parts[0]

@@ -17,13 +17,26 @@ __all__ = [
     "nonnegative_float", "bad_input", "load_config", "check_out_dir",
     "stdout_to_stderr", "SCENE_FLAG_GROUPS", "check_scene_flags", "add_rate_args", "parse_rates",
     "table_csv_text", "check_angle_deg", "check_parameter_angle",
-    "MAX_ANGLE_DEG", "EXIT_NOT_VERIFIED", "EXIT_UNREACHABLE",
+    "MAX_ANGLE_DEG", "EXIT_NOT_VERIFIED", "EXIT_UNREACHABLE", "repeatable",
 ]
 
 PROG = "actuator-design"
 EXIT_OK, EXIT_INTERNAL, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 0, 1, 2, 3
 #: the verdicts of design and schedule: found but not verified (or not robust), and out of reach
 EXIT_NOT_VERIFIED, EXIT_UNREACHABLE = 3, 4
+
+
+def repeatable(separator: str) -> type:
+    """An argparse action for a flag that takes a list (``--tolerance field=5%,angle=1deg``,
+    ``--target-tip '0.3,0.5;0.6,0.2'``) whose repeats add to the list, joined by ``separator``:
+    ``--tolerance field=5% --tolerance youngs_modulus=10%`` is ``--tolerance
+    field=5%,youngs_modulus=10%``. argparse's own would keep the last one and drop the others
+    without a word (a design judged without the field tolerance the user asked for)."""
+    class Repeatable(argparse.Action):
+        def __call__(self, parser, namespace, values, option_string=None):
+            before = getattr(namespace, self.dest, None)
+            setattr(namespace, self.dest, values if before is None else f"{before}{separator}{values}")
+    return Repeatable
 
 
 class UsageError(Exception):

@@ -41,7 +41,7 @@ import math
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError,
                                         add_rate_args, bad_input, check_out_dir, finite_float, load_config,
-                                        parse_rates, stdout_to_stderr, table_csv_text)
+                                        parse_rates, repeatable, stdout_to_stderr, table_csv_text)
 from actuator_design.io.display import degrees, number
 from actuator_design.physics.parameters import designable, parameters
 from actuator_design.cli.design_hardware import add_hardware_args
@@ -65,10 +65,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
                         help="scene (and optional `study: {type: design, target: [x, y], ...}`); "
                              "omit for the default scene")
-    parser.add_argument("--target-tip", metavar="X,Y[,ANGLE_DEG]",
+    parser.add_argument("--target-tip", metavar="X,Y[,ANGLE_DEG]", action=repeatable(";"),
                         help="target tip position (rod lengths unless --target-units) and optional "
                              "tip angle in degrees; several poses separated by ';' (one actuator: one "
-                             "fibre layout, one field per pose), e.g. '0.3,0.5;0.6,0.2'")
+                             "fibre layout, one field per pose), e.g. '0.3,0.5;0.6,0.2', or the flag once per pose")
     parser.add_argument("--target-shape", metavar="FILE.csv",
                         help="a target shape instead of a tip: a CSV with header s,x,y (s in (0, 1], x, y in "
                              "rod lengths unless --target-units), fitted in least squares")
@@ -87,7 +87,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "number in rod lengths, or a length such as '0.2 mm' on a physical scene; default 0)")
     parser.add_argument("--obstacle", type=int, metavar="K",
                         help="with --target-force: which obstacle of scene.obstacles (index, default 0)")
-    parser.add_argument("--vary", metavar="LIST", help=vary_help())
+    parser.add_argument("--vary", metavar="LIST", action=repeatable(","), help=vary_help())
     g = parser.add_argument_group("bounds and tolerances (dimensionless, THEORY §5)")
     g.add_argument("--h-max", type=finite_float, help=f"largest field group h (default {d.h_max:g})")
     g.add_argument("--p-max", type=finite_float, help=f"largest |p| when p is designed (default {d.p_max:g})")
@@ -96,10 +96,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--alpha-terms", type=int, help=profile_terms_help(d.alpha_terms))
     g.add_argument("--margin", type=finite_float,
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
-    g.add_argument("--tolerance", metavar="SPEC",
+    g.add_argument("--tolerance", metavar="SPEC", action=repeatable(","),
                    help="the lab's tolerance box the design must hold over, e.g. 'field=5%%,angle=2deg' "
                         "(the default); also youngs_modulus=10%%, chi_bar=10%%, fibre_angle=1deg, "
-                        "clamp_angle=1deg; 'none' for the nominal design only")
+                        "clamp_angle=1deg (the flag repeated adds to the list); 'none' for the nominal design only")
     g.add_argument("--time-limit", type=finite_float, metavar="S",
                    help=f"wall-clock budget of the search in seconds (default {d.time_limit:g}); once spent, "
                         "no further starting design is optimised")

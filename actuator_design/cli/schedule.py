@@ -30,7 +30,7 @@ from pathlib import Path
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, InputError, add_rate_args, bad_input,
                                         check_out_dir, finite_float, load_config, parse_rates,
-                                        stdout_to_stderr, table_csv_text)
+                                        repeatable, stdout_to_stderr, table_csv_text)
 from actuator_design.cli.design_units import (path_line, positive_target, quasi_static_line,
                                               refuse_unknown_keys)
 from actuator_design.cli.output import print_written, write_out
@@ -44,7 +44,7 @@ HELP = "a field schedule (h, phi) that moves the tip through waypoints, verified
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
                         help="scene (and optional `study: {type: schedule, waypoints: [[x, y], ...]}`)")
-    parser.add_argument("--waypoints", metavar="X1,Y1;X2,Y2;...",
+    parser.add_argument("--waypoints", metavar="X1,Y1;X2,Y2;...", action=repeatable(";"),
                         help="tip waypoints in rod lengths, in visiting order")
     parser.add_argument("--path-csv", metavar="FILE",
                         help="a sampled tip path: CSV with columns x, y (rod lengths), one row per point")
