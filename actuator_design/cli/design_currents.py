@@ -11,7 +11,7 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACH
                                         stdout_to_stderr)
 from actuator_design.cli.output import emit
 
-__all__ = ["run_currents", "tail_lines", "finish", "progress_line", "refuse_flags"]
+__all__ = ["run_currents", "run_current_shape", "tail_lines", "finish", "progress_line", "refuse_flags"]
 
 _NOT_FOR_HARDWARE = ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
                      "rotation_rate")
@@ -40,6 +40,25 @@ def run_currents(args, scene, options, raw, target, vary, settings) -> int:
     return finish(args, res, scene.scales.length, _summary, "designed state (coil currents)")
 
 
+def run_current_shape(args, scene, options, raw, vary, settings) -> int:
+    """``design --target-shape`` on a coil scene: the currents whose rod passes nearest the points
+    (:func:`~actuator_design.hardware.current_shape.design_current_shape`); exit codes as for a tip."""
+    from actuator_design.cli.design_shape import read_points
+    from actuator_design.hardware.current_design import coil_problem
+    from actuator_design.hardware.current_shape import design_current_shape
+
+    refuse_flags(args, vary, "the coils' currents (each within its max_current)",
+                 "the coils' max_current, resistance, max_power and max_field are its limits")
+    pts = read_points(args.target_shape, args.target_units or "rod", scene)
+    with bad_input():
+        coil_problem(scene, pts[-1, 1:])
+    with stdout_to_stderr(args.json):
+        res = design_current_shape(scene, pts, tolerances=settings.tolerances, options=options,
+                                   verify=not args.no_verify, accept_tol=settings.accept_tol,
+                                   progress=progress_line())
+    return finish(args, res, scene.scales.length, _shape_summary, "designed state (coil currents)")
+
+
 def progress_line():
     """Progress on stderr, one line a stage, when it is a terminal (else None)."""
     return (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
@@ -55,7 +74,17 @@ def finish(args, res, length: float, summary, title: str) -> int:
                            "target_mm": [v * length * 1e3 for v in res.target[:2]],
                            "tip_error_mm": res.tip_error * length * 1e3,
                            "worst_tip_error_mm": res.worst_tip_error * length * 1e3}
-    emit(args, res, lambda: state_files(payload, res.state, title), lambda r: summary(r, length), payload=payload)
+    shape = payload.get("shape")
+    if shape is not None:  # a shape target: its fit in mm too, and the fit's table
+        payload["physical"].update(rms_error_mm=shape["rms_error"] * length * 1e3,
+                                   max_error_mm=shape["max_error"] * length * 1e3)
+
+    def files():
+        out = state_files(payload, res.state, title)
+        if shape is not None:
+            out["shape_fit.csv"] = _fit_table(res, length)
+        return out
+    emit(args, res, files, lambda r: summary(r, length), payload=payload)
     if res.success:
         return EXIT_OK
     return EXIT_UNREACHABLE if res.status == "unreachable" else EXIT_NOT_VERIFIED
@@ -80,6 +109,36 @@ def _summary(res, length: float) -> str:
              f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod"]
     axes = f"{res.tolerances.describe()}; currents each, the mount by the angle" if res.tolerances else ""
     return "\n".join(lines + tail_lines(res, length, axes))
+
+
+def _shape_summary(res, length: float) -> str:
+    mm = lambda v: f"{v * length * 1e3:.6g} mm"
+    if not res.currents:
+        return "\n".join(["actuator-design: coil currents for a target shape",
+                          f"  note        : {res.message}", f"  RESULT      : {res.status.upper()}"])
+    amps = ", ".join(f"{i:.6g} A" for i in res.currents)
+    limits = ", ".join(f"{i:.4g} A" for i in res.max_current)
+    lines = ["actuator-design: coil currents for a target shape",
+             f"  points      : {len(res.points)} (s, x, y) along the centreline",
+             f"  currents    : {amps}  (limits {limits}; started from "
+             + ", ".join(f"{i:.4g} A" for i in res.start_currents) + ")",
+             f"  field       : mu0 H = {res.field_at_clamp[0] * 1e3:.6g} mT at the clamp, at "
+             f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod",
+             f"  fit         : rms error {res.rms_error:.3e} ({mm(res.rms_error)}), largest {res.max_error:.3e} "
+             f"rod lengths ({mm(res.max_error)}); accepted up to {res.accept_tol:g} rms"]
+    axes = f"{res.tolerances.describe()}; currents each, the mount by the angle" if res.tolerances else ""
+    tail = [line for line in tail_lines(res, length, axes) if not line.startswith("  achieved")]
+    return "\n".join(lines + [line.replace("worst tip miss", "worst miss at a point") for line in tail])
+
+
+def _fit_table(res, length: float) -> str:
+    """shape_fit.csv: each point's target and fit, in rod lengths and mm."""
+    rows = ["# units: s, x, y in rod lengths; *_mm in mm",
+            "s,x_target,y_target,x_fitted,y_fitted,x_target_mm,y_target_mm,x_fitted_mm,y_fitted_mm"]
+    for (s, x, y), (fx, fy) in zip(res.points, res.fitted):
+        vals = [float(s), float(x), float(y), float(fx), float(fy)]
+        rows.append(",".join(repr(v) for v in vals + [v * length * 1e3 for v in vals[1:]]))
+    return "\n".join(rows) + "\n"
 
 
 def tail_lines(res, length: float, box_axes: str) -> list:

@@ -116,7 +116,8 @@ class HardwareMap:
         Returns ``tip`` (3,) of the state from rest (nan if none), ``reached`` (a state from rest
         that keeps to where every source's fit holds, at the rod's quadrature points — else
         ``region`` says why), ``stable`` and ``same_branch`` (the two states agree to 1e-6 rad:
-        switching on at the corner lands on the designed branch)."""
+        switching on at the corner lands on the designed branch), and ``z`` the state from rest
+        (node angles, rad) where it was reached."""
         P = self.solver.parameter_vector(scene)
         path = path_from_rest(self.solver, P)
         self.solves += path.solves + 1
@@ -132,15 +133,16 @@ class HardwareMap:
         followed = solve(scene, self.options, initial=np.asarray(z_design, float), solver=self.solver)
         same = bool(followed.success and float(np.max(np.abs(np.asarray(followed.z) - z))) <= 1e-6)
         return {"tip": np.array([tip_x, tip_y, tip_theta]), "reached": True,
-                "stable": bool(self.solver.stability(z, P).stable), "same_branch": same}
+                "stable": bool(self.solver.stability(z, P).stable), "same_branch": same, "z": z}
 
     def result(self, w: np.ndarray, z: np.ndarray) -> EquilibriumResult:
         """The equilibrium result at ``w`` from its state ``z`` (one polishing solve on the map's
         mesh, with its stability verdict and diagnostics)."""
         return solve(self.at(self.scene, w), self.options, initial=z, solver=self.solver)
 
-    def _state_derivative(self, z: np.ndarray, w: np.ndarray) -> np.ndarray:
-        """du/dw = −H⁻¹ ∂g/∂w at the equilibrium z, shape (n_u, n)."""
+    def state_derivative(self, z: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """du/dw = −H⁻¹ ∂g/∂w at the equilibrium z (node angles, the clamp's included) at the
+        setting w: shape (n_u, n), u the node angles after the clamp's."""
         P = self.solver.parameter_vector(self.at(self.scene, w))
         ker = self.solver.kernel
         ker.set_params(P)
@@ -149,7 +151,7 @@ class HardwareMap:
 
     def _derivatives(self, z: np.ndarray, w: np.ndarray) -> dict:
         P = self.solver.parameter_vector(self.at(self.scene, w))
-        du = self._state_derivative(z, w)
+        du = self.state_derivative(z, w)
         tip_theta, tip_x, tip_y = (float(v) for v in self.solver.f_tip(z, P))
         tip_jac = np.asarray(self._tip_z(z, P), float)[:, 1:] @ du  # rows x, y, θ
         x, y, jx, jy = (np.asarray(v, float) for v in self._points(z))

@@ -32,6 +32,7 @@ from actuator_design.inverse.settings import Choice, DesignSettings, normalise_p
 from actuator_design.inverse.verify import schedule_rows
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene
+from actuator_design.transcription.arc_points import arc_point_maps
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
 
 __all__ = ["ShapeResult", "design_shape", "read_shape_points", "MAX_SHAPE_POINTS"]
@@ -74,27 +75,9 @@ class ShapeDesignNLP:
     """The least-squares shape NLP for a design NLP's variables and fixed arc lengths s_i."""
 
     def __init__(self, base: DesignNLP, s_points: Sequence[float]):
-        sv, tr, lay = base.solver, base.solver.transcription, base.solver.layout
+        sv, lay = base.solver, base.solver.layout
         n, sl = base.n, lay.slices
-        gx, gw = np.polynomial.legendre.leggauss(16)
-        bps = np.asarray(tr.breakpoints, float)
-        sig, W = [], np.zeros((len(s_points), 0))
-        blocks = []
-        for i, si in enumerate(s_points):
-            for a, b in zip(bps[:-1], bps[1:]):
-                if a >= si:
-                    break
-                b2 = min(b, si)
-                sig.append(0.5 * (a + b2) + 0.5 * (b2 - a) * gx)
-                blocks.append((i, 0.5 * (b2 - a) * gw))
-        sig = np.concatenate(sig)
-        W = np.zeros((len(s_points), sig.size))
-        col = 0
-        for i, w in blocks:
-            W[i, col:col + w.size] = w
-            col += w.size
-        eye = np.eye(n + 1)
-        L = np.column_stack([tr.theta_dense(eye[j], sig)[0] for j in range(n + 1)])  # θ(σ) = L z
+        L, W = arc_point_maps(sv.transcription, s_points)  # θ(σ) = L z, x_i = W cos θ(σ)
         zr, d, P0 = ca.SX.sym("theta", n), ca.SX.sym("d", base.nd), ca.SX.sym("P0", lay.size)
         # the design NLP's map: a designed h moves the groups the field drives (h_r, h_pos) with it
         P = design_params(P0, base.values(d), sl, base.vandermonde)
@@ -102,7 +85,7 @@ class ShapeDesignNLP:
         xs, ys = ca.mtimes(ca.DM(W), ca.cos(th)), ca.mtimes(ca.DM(W), ca.sin(th))
         tx, ty = ca.SX.sym("tx", len(s_points)), ca.SX.sym("ty", len(s_points))
         _, g, H = sv.f_grad_hess(zr, P)
-        m = tr.mass[1:]
+        m = sv.transcription.mass[1:]
         effort = design_effort(base.values(d))
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
