@@ -128,3 +128,22 @@ def test_flags_that_do_not_apply_are_refused_in_one_line(tmp_path, capsys, argv_
     rc = main(["design", str(CONFIG), "--target-shape", str(csv)] + argv_tail)
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and words in err[0], err
+
+
+@pytest.mark.slow  # eight coils: the screen, the fit and the descent (~35 s)
+def test_with_more_coils_than_the_points_fix_the_fit_spends_the_least_power_found():
+    """Eight coils of a calibration map, two points (four equations): the fit leaves a family of
+    currents, and the design lowers the power along it (the tip design's feasible descent) below
+    that of the currents the points came from, keeping the fit; verified from rest."""
+    scene = load_scene(CONFIG.parent / "emns_8coil_map.yaml")[0]
+    given = np.array([3.0, -2.0, 1.5, 4.0, -1.0, 2.5, -3.0, 1.0])
+    pts = _points_at(scene, given, np.array([0.5, 1.0]))
+    d = design_current_shape(scene, pts)
+    assert d.success and d.verified and d.least_effort, d.message
+    assert d.rms_error <= 1e-6
+    resistance = np.array([c.resistance for c in scene.field.sources])
+    assert d.power == pytest.approx(float(resistance @ np.square(d.currents)), rel=1e-12)
+    assert d.power < 0.5 * float(resistance @ given ** 2)
+    r = solve(scene_at_currents(scene, d.currents))  # independently: the points from rest at those currents
+    ev = r.evaluate(pts[:, 0])
+    assert np.max(np.hypot(ev["x"] - pts[:, 1], ev["y"] - pts[:, 2])) <= 2e-6

@@ -14,11 +14,15 @@ The search is Gauss–Newton in a trust region (each step the least linearised m
 the power and the linearised field limit: the tip design's least-miss step,
 :func:`~actuator_design.hardware.current_sqp._least_miss_step`), a step taken when the state from
 rest there keeps every limit and lowers the miss by at least a tenth of the predicted decrease. It
-stops where no step is left or the linearised fit would gain less than :data:`FIT_GAIN` of itself,
-or, while the fit is not yet accepted, where the miss shrank by less than 0.1 % over six
+stops where the points are met to :data:`EXACT` or the linearised fit would gain less than
+:data:`FIT_GAIN` of itself, or, while the fit is not yet accepted, where the miss shrank by less than 0.1 % over six
 iterations (the nearest shape: its minimum may sit where the state from rest changes branch, a
 kink the steps only crawl along). It runs from the tip design's screened starts (the last point
-taken as a tip target), each in a forked copy of this process, and keeps the best fit. Then, as every design over hardware: **verified** on
+taken as a tip target), each in a forked copy of this process, and keeps the best fit. With more
+coils than equations (2 per point) and the fit accepted, the tip design's feasible descent then
+lowers the power among the fits as good (every coordinate kept within twice its miss, at least the
+tip design's tolerance; ``least_effort`` says whether it settled); otherwise the fit fixes the
+currents. Then, as every design over hardware: **verified** on
 magpylib's field refitted at the currents (solved from rest on its own mesh: the points must agree
 with the design's to :data:`~actuator_design.hardware.design.VERIFY_TOL` and the state be stable),
 and **judged over the lab's tolerance box** (every corner switched on from rest must be stable and
@@ -42,19 +46,22 @@ from actuator_design.hardware.current_design import (CurrentDesign, _active, _co
                                                      _screen, coil_problem, scene_at_currents)
 from actuator_design.hardware.current_map import CurrentMap, at_weights
 from actuator_design.hardware.current_sqp import (DELTA_MAX, DELTA_MIN, DELTA_START, STALL_FRACTION,
-                                                  STALL_ITERATIONS, STEP_TOL, _least_miss_step, within_limits)
+                                                  STALL_ITERATIONS, _feasible_descent, _least_miss_step,
+                                                  within_limits)
 from actuator_design.hardware.design import VERIFY_TOL
 from actuator_design.model.scene import Scene
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 from actuator_design.transcription.arc_points import arc_points_function
 
-__all__ = ["design_current_shape", "CurrentShapeDesign", "ACCEPT_TOL", "MAX_ITERATIONS", "FIT_GAIN"]
+__all__ = ["design_current_shape", "CurrentShapeDesign", "ACCEPT_TOL", "MAX_ITERATIONS", "FIT_GAIN", "EXACT"]
 
 #: the fit a success needs by default (rms over the points, rod lengths): as the ideal-field shape design's
 ACCEPT_TOL = 1e-3
 #: a step whose linearised fit would lower ½|miss|² by less than this fraction of itself ends the
 #: search (the rms fit could change by ~half of it: far below any tolerance a lab states)
 FIT_GAIN = 1e-10
+#: every point met to this (rod lengths): the fit is exact to the positions' round-off, and stops
+EXACT = 1e-12
 #: Gauss–Newton iterations from each start (each one forward evaluation at least); the verdict rests
 #: on the fit, the limits and stability, never on this count
 MAX_ITERATIONS = 60
@@ -128,6 +135,8 @@ def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> Optional[t
     history, k = [], prob.target.size // 2
     for it in range(1, MAX_ITERATIONS + 1):
         history.append(half(pt))
+        if float(np.max(np.abs(pt["tip"] - prob.target))) <= EXACT:
+            break  # met to round-off of the positions: nothing left to gain
         if (len(history) > STALL_ITERATIONS and math.sqrt(2 * history[-1] / k) > accept_tol
                 and history[-1] > (1 - STALL_FRACTION) * history[-1 - STALL_ITERATIONS]):
             break  # off the accepted fit, the miss no longer shrinks (the nearest shape found: the
@@ -138,9 +147,11 @@ def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> Optional[t
             break
         step = float(np.max(np.abs(d) / prob.half))
         pred = half(pt) - 0.5 * float(np.sum((e + J @ d) ** 2))
-        # stationary: no step left, or the linearised fit gains less than FIT_GAIN of itself (the
-        # nearest shape of a target out of reach: Gauss–Newton converges only linearly there)
-        if step <= STEP_TOL or pred <= FIT_GAIN * half(pt) or pred <= 1e-30:
+        # stationary: the linearised fit gains less than FIT_GAIN of itself (the nearest shape of
+        # a target out of reach, where Gauss–Newton converges only linearly), or nothing is left
+        # (a step that small may still be worth taking where the field is weak and a current
+        # moves the rod little: only its gain decides)
+        if pred <= FIT_GAIN * half(pt) or pred <= 1e-30:
             break
         new = smap.evaluate(w + d)
         if new is not None and within_limits(prob, w + d, new) and half(pt) - half(new) >= 0.1 * pred:
@@ -218,6 +229,16 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                        "currents and the screen's ramps)")
         return out
     w, pt, out.iterations = best
+    miss = float(np.max(np.abs(pt["tip"] - prob.target)))
+    if i0.size > prob.target.size and math.sqrt(np.mean((pt["tip"] - prob.target) ** 2) * 2) <= accept_tol:
+        # more coils than the points fix, the fit accepted: the least power among the fits as good
+        # (every coordinate within twice its miss, at least the tip design's tolerance: near the
+        # straight rod a point's motion along it is second order, and the fit stalls ~1e-7 short of
+        # exact), by the tip design's feasible descent; the currents are then one answer, not one
+        # point of a family the search happened to end on
+        keep = replace(prob, tip_tol=max(prob.tip_tol, 2.0 * miss))
+        w, pt, out.iterations, out.least_effort = _feasible_descent(keep, smap.evaluate, w, pt, out.iterations,
+                                                                    [], progress)
     out.currents = tuple((w * i0).tolist())
     out.state = cmap.result(w, pt["z"])
     out.tip = pt["tip_point"]
