@@ -323,3 +323,10 @@ def test_strong_field_fold_distance_is_located_beyond_the_design_mesh():
     assert fd.h_rel_up is not None and fd.errors["h_rel_up"] < 1e-4
     ref = abs(_rod_fold_near(sc, z, "h", sc.h * (1 + fd.h_rel_up)))
     assert fd.h_rel_up == pytest.approx(ref / sc.h - 1.0, abs=fd.errors["h_rel_up"] + 1e-7)
+
+
+def test_none_with_other_tolerances_is_refused_naming_it():
+    """``--tolerance none --tolerance field=5%`` joins to 'none,field=5%': 'none' empties the box,
+    so it stands alone (the message says so, not that it is no NAME=VALUE)."""
+    with pytest.raises(ValueError, match="'none' empties the box and stands alone"):
+        parse_tolerances("none,field=5%")

@@ -393,6 +393,15 @@ def test_the_ramps_last_state_is_the_first_boundary_round(monkeypatch):
     assert "the loads ramped in" in fast.message
 
 
+def test_a_solve_that_stops_at_the_ramps_last_state_names_the_ramp_as_its_start(monkeypatch):
+    """The ramp's last state is the first boundary round; when the rounds stop there (here: one
+    round allowed), the result's message names where the solve started, as the contact report does."""
+    monkeypatch.setattr(equilibrium, "MAX_SPLIT_ROUNDS", 1)
+    r = solve(coil())
+    assert "(contact, from rest, the loads ramped in" in r.message, r.message
+    assert r.contact["start"].startswith("rest, the loads ramped in") and r.contact["boundary_rounds"] == 1
+
+
 def test_the_ramp_starts_where_the_free_arc_comes_near_itself():
     """A uniform strip under a tip moment M is the arc θ = λ M s on the way from rest (closed form), its
     clamp and tip the nearest pair, 2 sin(κ/2)/κ apart at curvature κ. The contact-free lead-in of the

@@ -7,7 +7,7 @@ from actuator_design.cli.common import InputError
 from actuator_design.cli.design_currents import run_currents
 from actuator_design.cli.design_pose import run_pose
 
-__all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet"]
+__all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet", "check_position_tolerance"]
 
 
 def add_hardware_args(parser) -> None:
@@ -20,9 +20,7 @@ def add_hardware_args(parser) -> None:
 def hardware_design(args, scene, options, raw, target, vary, settings, stiffness):
     """Route a design over hardware: coil currents on a scene of coils, a magnet's pose on a scene
     with a moving magnet (one tip target); the exit code, or None for every other design."""
-    if getattr(args, "position_tolerance", None) is not None and not has_moving_magnet(scene):
-        raise InputError("--position-tolerance: applies to a design over a magnet's pose (a magnet with a "
-                         "travel) only")
+    check_position_tolerance(args, scene)
     if stiffness is not None or target is None or isinstance(target, list):
         return None
     if is_coil_scene(scene):
@@ -30,6 +28,14 @@ def hardware_design(args, scene, options, raw, target, vary, settings, stiffness
     if has_moving_magnet(scene):
         return run_pose(args, scene, options, raw, target, vary, settings)
     return None
+
+
+def check_position_tolerance(args, scene) -> None:
+    """--position-tolerance applies to a design over a magnet's pose only (InputError otherwise:
+    another design would ignore it)."""
+    if getattr(args, "position_tolerance", None) is not None and not has_moving_magnet(scene):
+        raise InputError("--position-tolerance: applies to a design over a magnet's pose (a magnet with a "
+                         "travel) only")
 
 
 def has_moving_magnet(scene) -> bool:

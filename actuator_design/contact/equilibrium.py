@@ -98,7 +98,9 @@ def solve_contact(scene, options, initial=None, self_contact: bool = False, star
     checked = None  # (state, where it enters an obstacle, where itself): the dense checks, made once
     while True:
         if rounds == 0 and first is not None and first.options == replace(opts, split_at=splits):
-            result = first
+            result = first  # its message and contact report name the start of the whole solve
+            result.message = result.message.replace(f"(contact, from {first.contact['start']})",
+                                                    f"(contact, from {start})")
             result.contact["start"] = start
         else:
             result = solve_once(scene, replace(opts, split_at=splits), t0, initial, refine=result,

@@ -46,7 +46,7 @@ from actuator_design.hardware.current_design import (CurrentDesign, _active, _co
                                                      _screen, coil_problem, scene_at_currents)
 from actuator_design.hardware.current_map import CurrentMap, at_weights
 from actuator_design.hardware.current_sqp import (DELTA_MAX, DELTA_MIN, DELTA_START, STALL_FRACTION,
-                                                  STALL_ITERATIONS, _feasible_descent, _least_miss_step,
+                                                  STALL_ITERATIONS, _feasible_descent, _least_miss_step, _stopped_short,
                                                   within_limits)
 from actuator_design.hardware.design import VERIFY_TOL
 from actuator_design.model.scene import Scene
@@ -78,9 +78,9 @@ class CurrentShapeDesign(CurrentDesign):
     fitted : ndarray, shape (k, 2)
         The design state's centreline at the same s.
     rms_error, max_error : float
-        Of |r(s_i) − target_i| over the points. ``tip_error`` is ``max_error`` (the largest miss
-        over the points) and ``worst_tip_error`` the largest over the box's corners; ``target`` is
-        the last point.
+        Of |r(s_i) − target_i| over the points (rod lengths). ``tip_error`` is a tip design's
+        measure over every point, the largest |dx| or |dy|, and ``worst_tip_error`` its largest over
+        the box's corners (nan where a corner was not reached); ``target`` is the last point.
     accept_tol : float
         The rms fit a success needs.
     """
@@ -124,26 +124,32 @@ class _ShapeMap:
                 "tip_jac": np.vstack([jx[:, 1:] @ du, jy[:, 1:] @ du])}
 
 
-def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> Optional[tuple]:
-    """Gauss–Newton in a trust region from ``w0`` (see the module docstring): (w, point,
-    iterations) at the end, or None where the start's state from rest does not keep the limits."""
+def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> tuple:
+    """Gauss–Newton in a trust region from ``w0`` (see the module docstring): (the end, the
+    solves it took), the end (w, point, iterations, settled) or None where the start's state from
+    rest does not keep the limits. ``settled``: it ended met exactly or stationary (the linearised
+    fit gains nothing, or no step within the limits lowers it), not stalled, cut short by its trust
+    region or by :data:`MAX_ITERATIONS`."""
+    n0 = smap.cmap.solves
     pt = smap.evaluate(w0)
     if pt is None or not within_limits(prob, w0, pt):
-        return None
-    w, delta, it = np.asarray(w0, float).copy(), DELTA_START, 0
+        return None, smap.cmap.solves - n0
+    w, delta, it, settled = np.asarray(w0, float).copy(), DELTA_START, 0, False
     half = lambda p: 0.5 * float(np.sum((p["tip"] - prob.target) ** 2))
     history, k = [], prob.target.size // 2
     for it in range(1, MAX_ITERATIONS + 1):
         history.append(half(pt))
         if float(np.max(np.abs(pt["tip"] - prob.target))) <= EXACT:
-            break  # met to round-off of the positions: nothing left to gain
+            settled = True  # met to round-off of the positions: nothing left to gain
+            break
         if (len(history) > STALL_ITERATIONS and math.sqrt(2 * history[-1] / k) > accept_tol
                 and history[-1] > (1 - STALL_FRACTION) * history[-1 - STALL_ITERATIONS]):
             break  # off the accepted fit, the miss no longer shrinks (the nearest shape found: the
             # minimum may sit where the state from rest changes branch, a kink the steps crawl along)
         e, J = pt["tip"] - prob.target, pt["tip_jac"]
         d = _least_miss_step(prob, w, pt, delta)
-        if d is None:
+        if d is None:  # no step within the limits lowers the linearised miss: they hold it here
+            settled = True
             break
         step = float(np.max(np.abs(d) / prob.half))
         pred = half(pt) - 0.5 * float(np.sum((e + J @ d) ** 2))
@@ -152,6 +158,7 @@ def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> Optional[t
         # (a step that small may still be worth taking where the field is weak and a current
         # moves the rod little: only its gain decides)
         if pred <= FIT_GAIN * half(pt) or pred <= 1e-30:
+            settled = True
             break
         new = smap.evaluate(w + d)
         if new is not None and within_limits(prob, w + d, new) and half(pt) - half(new) >= 0.1 * pred:
@@ -165,7 +172,7 @@ def _fit(prob, smap: _ShapeMap, w0: np.ndarray, accept_tol: float) -> Optional[t
         delta = step / 4
         if delta < DELTA_MIN:
             break
-    return w, pt, it
+    return (w, pt, it, settled), smap.cmap.solves - n0
 
 
 def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerances] = None,
@@ -214,7 +221,7 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                              coils=tuple(getattr(c, "name", "") or f"coil {j + 1}" for j, c in enumerate(coils)),
                              start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                              resistance=tuple(c.resistance for c in coils), tolerances=tol, points=pts,
-                             effort="power" if prob.power is not None else "current_squared", accept_tol=accept_tol)
+                             accept_tol=accept_tol)
     w0 = np.ones(i0.size)
     start = solve(at_weights(scene, w0), options)
     if not (start.success and start.stable):
@@ -228,8 +235,9 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
         out.message = ("no start currents within the limits gave a stable state from rest (the configured "
                        "currents and the screen's ramps)")
         return out
-    w, pt, out.iterations = best
+    w, pt, out.iterations, settled = best
     miss = float(np.max(np.abs(pt["tip"] - prob.target)))
+    out.effort = "fit"  # what was minimised: the fit alone, unless the descent below runs
     if i0.size > prob.target.size and math.sqrt(np.mean((pt["tip"] - prob.target) ** 2) * 2) <= accept_tol:
         # more coils than the points fix, the fit accepted: the least power among the fits as good
         # (every coordinate within twice its miss, at least the tip design's tolerance: near the
@@ -239,24 +247,36 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
         keep = replace(prob, tip_tol=max(prob.tip_tol, 2.0 * miss))
         w, pt, out.iterations, out.least_effort = _feasible_descent(keep, smap.evaluate, w, pt, out.iterations,
                                                                     [], progress)
+        out.effort = "power" if prob.power is not None else "current_squared"
+    currents = w * i0
+    if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
+        w = -w  # one representative of ±I (the same state of a soft rod): the first coil carrying current positive
+        pt = smap.evaluate(w)
     out.currents = tuple((w * i0).tolist())
     out.state = cmap.result(w, pt["z"])
     out.tip = pt["tip_point"]
     out.fitted = np.column_stack([pt["tip"][:k], pt["tip"][k:]])
     err = np.hypot(*(out.fitted - pts[:, 1:]).T)
     out.rms_error, out.max_error = float(np.sqrt(np.mean(err ** 2))), float(np.max(err))
-    out.tip_error = out.max_error
+    out.tip_error = float(np.max(np.abs(out.fitted - pts[:, 1:])))  # as a tip design's: the largest |dx|, |dy|
     out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
     out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
     out.limits_active = _active(prob, w, pt)
     if verify:
         _verify(out, smap, scene_at_currents(scene, w * i0), options)
     out.box = _box(smap, w, out.state, tol, pts, pt["tip_jac"][[k - 1, 2 * k - 1]], i0)
-    out.worst_tip_error = max([c["tip_error"] for c in out.box], default=out.tip_error)
+    worst = [c["tip_error"] for c in out.box]
+    out.worst_tip_error = (max(worst, default=out.tip_error) if all(math.isfinite(v) for v in worst)
+                           else math.nan)  # a corner not reached: no worst miss to state
     out.holds_over_box = all(c["success"] and c["stable"] and c["same_branch"] for c in out.box)
     out.success = bool(out.verified and out.holds_over_box and out.rms_error <= accept_tol)
-    out.status = ("success" if out.success else "unreachable" if out.rms_error > accept_tol else
-                  "not_verified" if not out.verified else "not_robust")
+    # off the accepted fit: a search that stalled or ran out of steps where no limit binds and the
+    # points' Jacobian is thin (as the tip design judges, current_sqp._stopped_short) stopped short,
+    # and the shape may still be reachable; else it found its nearest shape
+    short = not settled and _stopped_short(prob, w, pt)
+    out.status = ("success" if out.success else
+                  ("not_converged" if short else "unreachable") if out.rms_error > accept_tol
+                  else "not_verified" if not out.verified else "not_robust")
     out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
     out.message = _message(out)
     return out
@@ -264,11 +284,14 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
 
 def _best_fit(prob, smap: _ShapeMap, starts, accept_tol: float) -> Optional[tuple]:
     """The fit from each start (the first here, the others forked beside it), the best (least
-    squared miss; ties within 1e-9 relative keep the earlier start), or None."""
+    squared miss; ties within 1e-9 relative keep the earlier start), or None. ``smap.cmap.solves``
+    counts every run's solves, wherever it ran."""
+    base = smap.cmap.solves
     beside = [forked.start(lambda ws=ws: _fit(prob, smap, ws, accept_tol)) for ws in starts[1:]]
     runs = [_fit(prob, smap, starts[0], accept_tol)] + [b.result() for b in beside]
+    smap.cmap.solves = base + sum(n for _, n in runs)
     best, least = None, math.inf
-    for run in runs:
+    for run, _ in runs:
         if run is None:
             continue
         miss = float(np.sum((run[1]["tip"] - prob.target) ** 2))
@@ -302,13 +325,14 @@ def _box(smap: _ShapeMap, w, state, tol: Tolerances, pts: np.ndarray, last_jac: 
         c = cmap.corner(sc, state.z)
         if "z" in c:
             x, y, _, _ = smap.positions(c["z"])
-            err = np.hypot(x - pts[:, 1], y - pts[:, 2])
+            dx, dy = x - pts[:, 1], y - pts[:, 2]
         else:
-            err = np.full(len(pts), math.inf)
+            dx = dy = np.full(len(pts), math.nan)
         tip = c["tip"]
         out.append({"currents_A": list(wc * currents0), "mount_deg": math.degrees(mount), **deltas,
-                    "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]}, "tip_error": float(np.max(err)),
-                    "rms_error": float(np.sqrt(np.mean(err ** 2))),
+                    "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]},
+                    "tip_error": float(np.max(np.maximum(np.abs(dx), np.abs(dy)))),
+                    "rms_error": float(np.sqrt(np.mean(dx ** 2 + dy ** 2))),
                     "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"]})
     return out
 
@@ -317,8 +341,12 @@ def _message(out: CurrentShapeDesign) -> str:
     cur = ", ".join(f"{i:.6g} A" for i in out.currents)
     text = (f"currents {cur} fit the {len(out.points)} points with rms error {out.rms_error:.3g} (largest "
             f"{out.max_error:.3g}) rod lengths")
-    if out.rms_error > out.accept_tol:
+    if out.status == "not_converged" and out.rms_error > out.accept_tol:
+        text += (f"; NOT within the accepted {out.accept_tol:g} rms, and the search stopped short there (it no "
+                 "longer gained, or ran out of steps) with no limit binding: the shape may be reachable by a "
+                 "setting of the currents within the limits, but none was found")
+    elif out.rms_error > out.accept_tol:
         binds = f" ({', '.join(out.limits_active)} at the limit)" if out.limits_active else ""
         text += (f"; NOT within the accepted {out.accept_tol:g} rms: the nearest shape found (a local search, "
                  f"not certified the nearest){binds}")
-    return out.closing_message(text).replace("the tip misses by at most", "the points miss by at most")
+    return out.closing_message(text, what="points")

@@ -106,20 +106,21 @@ class HardwareDesign:
             self.message = (f"no {what} puts the tip on the target: the nearest tip found (a local search, not "
                             f"certified the nearest) misses it by {self.tip_error:.3g} rod lengths{binds}" + extra)
 
-    def closing_message(self, text: str) -> str:
-        """``text`` (what the design is and its miss) with the verification's and the box's verdicts."""
+    def closing_message(self, text: str, what: str = "tip") -> str:
+        """``text`` (what the design is and its miss) with the verification's and the box's verdicts;
+        ``what`` names what misses (``"tip"``, or ``"points"`` for a shape)."""
         if not self.verified:
             v = self.verification
-            return text + (f"; NOT verified: the refitted field solved from rest gives a tip {v.get('error', math.nan):.3g} "
-                           f"rod lengths off ({v.get('status', 'not run')}, stable {v.get('stable')})" if v else
-                           "; not verified (verification off)")
+            return text + (f"; NOT verified: the refitted field solved from rest gives {'a tip' if what == 'tip' else what} "
+                           f"{v.get('error', math.nan):.3g} rod lengths off ({v.get('status', 'not run')}, stable "
+                           f"{v.get('stable')})" if v else "; not verified (verification off)")
         text += f"; verified from rest on the refitted field (miss {self.verification['error']:.2g})"
         if not self.holds_over_box:
             bad = sum(not (c["success"] and c["stable"] and c["same_branch"]) for c in self.box)
             return text + (f"; NOT robust: at {bad} of {len(self.box)} corners of the tolerance box the rod, switched "
                            "on from rest, is not on the designed branch (or not stable)")
-        return text + (f"; over the box ({len(self.box)} corners) the tip misses by at most {self.worst_tip_error:.3g} "
-                       "rod lengths")
+        return text + (f"; over the box ({len(self.box)} corners) the {what} miss{'es' * (what == 'tip')} by at most "
+                       f"{self.worst_tip_error:.3g} rod lengths")
 
 
 def refitted(scene, sources, weights: tuple = ()):

@@ -139,6 +139,9 @@ def parse_tolerances(spec, base: Optional[Tolerances] = None) -> Tolerances:
             return Tolerances(field_rel=0.0, angle=0.0)
         items = []
         for part in spec.split(","):
+            if part.strip().lower() in ("none", "0"):  # e.g. '--tolerance none --tolerance field=5%'
+                raise ValueError(f"tolerance: {part.strip()!r} empties the box and stands alone; give it "
+                                 f"without other tolerances (got {spec!r})")
             if "=" not in part:
                 raise ValueError(f"tolerance: {part.strip()!r} is not NAME=VALUE "
                                  f"(names: {', '.join(_SPEC)})")
