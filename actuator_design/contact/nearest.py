@@ -14,10 +14,12 @@ import numpy as np
 
 from actuator_design.contact.obstacles import distance_jet
 
-__all__ = ["nearest_point", "nearest_pair", "GRID", "ROOT_STEP", "CURVATURE_FLOOR", "ROOT_ITERATIONS"]
+__all__ = ["nearest_point", "nearest_pair", "GRID", "LOCAL", "ROOT_STEP", "CURVATURE_FLOOR", "ROOT_ITERATIONS"]
 
 #: points of the grid :func:`nearest_point` brackets the least distance on (one vectorised evaluation)
 GRID = 65
+#: half-width (arc length) of the bracket :func:`nearest_point` tries first about the contact point
+LOCAL = 4e-3
 #: the searches stop after a Newton step this small (arc length; the error is then ~ its square),
 #: or where bisections narrowed the bracket to it
 ROOT_STEP = 1e-10
@@ -35,7 +37,9 @@ def nearest_point(scene, result, point: dict) -> float:
     distance on a grid (a sign change, from approaching to leaving), else (the least distance at an
     end of the interval, a kink) the bounded minimum of the distance near that grid point.
 
-    The root is bracketed on the grid (one evaluation of the shape), the bracket narrowed to one
+    The root is bracketed first within :data:`LOCAL` of the contact point (where the round before
+    put an element boundary at its nearest point, the new one is that close), else on the grid
+    (one evaluation of the shape); the bracket is narrowed to one
     piece between the mesh's nodes, and the root found there by Newton's method
     with f'(s) = tᵀ∇²d t + θ' ∇d·n (n the rod's normal), kept inside the bracket (a step that
     leaves it bisects it instead): from the bracket's secant point, two evaluations of one point
@@ -53,15 +57,26 @@ def nearest_point(scene, result, point: dict) -> float:
         return (g[0] * c + g[1] * n,
                 h[0] * c * c + 2.0 * h[1] * c * n + h[2] * n * n + v["dtheta"] * (g[1] * c - g[0] * n))
 
-    grid = np.linspace(lo, hi, GRID)
-    e = result.evaluate(grid)
-    i = int(np.argmin(np.asarray(ob.distance(e["x"], e["y"]), float)))
-    ia, ib = max(i - 1, 0), min(i + 1, GRID - 1)
-    a, b = grid[ia], grid[ib]
-    f = slope(grid[ia:ib + 1])[0]
-    if f[0] < 0.0 < f[-1]:
-        k = 1 + int(np.argmax(f[1:] >= 0.0))  # the first point past the crossing
-        a, b, fa, fb = grid[ia + k - 1], grid[ia + k], f[k - 1], f[k]
+    # a contact at the element boundary the round before put at its nearest point is within ~1e-3
+    # of the new one: where the slope changes sign across a bracket that close, the grid is spared
+    # (the point itself too: a node, where θ' kinks, so the bracket's halves are smooth pieces)
+    near = np.array([max(lo, point["s"] - LOCAL), min(max(lo, point["s"]), hi), min(hi, point["s"] + LOCAL)])
+    f = slope(near)[0]
+    if f[0] < 0.0 < f[2]:
+        k = 1 if f[1] >= 0.0 else 2
+        a, b, fa, fb = near[k - 1], near[k], f[k - 1], f[k]
+    else:
+        grid = np.linspace(lo, hi, GRID)
+        e = result.evaluate(grid)
+        i = int(np.argmin(np.asarray(ob.distance(e["x"], e["y"]), float)))
+        ia, ib = max(i - 1, 0), min(i + 1, GRID - 1)
+        a, b = grid[ia], grid[ib]
+        f = slope(grid[ia:ib + 1])[0]
+        fa = fb = None
+        if f[0] < 0.0 < f[-1]:
+            k = 1 + int(np.argmax(f[1:] >= 0.0))  # the first point past the crossing
+            a, b, fa, fb = grid[ia + k - 1], grid[ia + k], f[k - 1], f[k]
+    if fa is not None:
         # θ' kinks at element boundaries (a contact's point force): the nodes inside the bracket
         # narrow it to a piece where f is smooth and Newton converges quadratically
         nodes = np.asarray(result.s, float)
