@@ -434,11 +434,10 @@ def run(args: argparse.Namespace) -> int:
     if force is not None:
         from actuator_design.io.user_units import user_units
         return run_force(args, scene, options, raw, force, settings, user_units(scene, raw))
-    from actuator_design.cli.design_hardware import check_position_tolerance, hardware_design, is_coil_scene
+    from actuator_design.cli.design_hardware import check_position_tolerance, hardware_design, hardware_shape
     check_position_tolerance(args, scene)
-    if args.target_shape is not None and is_coil_scene(scene):  # the coils' currents are the design
-        from actuator_design.cli.design_currents import run_current_shape
-        return run_current_shape(args, scene, options, raw, vary, settings)
+    if args.target_shape is not None and (rc := hardware_shape(args, scene, options, raw, vary, settings)) is not None:
+        return rc
     if args.target_shape is not None:
         from actuator_design.cli.design_shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)

@@ -4,10 +4,11 @@ the flags of those designs (:mod:`actuator_design.cli.design_currents`,
 from __future__ import annotations
 
 from actuator_design.cli.common import InputError
-from actuator_design.cli.design_currents import run_currents
-from actuator_design.cli.design_pose import run_pose
+from actuator_design.cli.design_currents import run_current_shape, run_currents
+from actuator_design.cli.design_pose import run_pose, run_pose_shape
 
-__all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet", "check_position_tolerance"]
+__all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet", "check_position_tolerance",
+           "hardware_shape"]
 
 
 def add_hardware_args(parser) -> None:
@@ -27,6 +28,16 @@ def hardware_design(args, scene, options, raw, target, vary, settings, stiffness
         return run_currents(args, scene, options, raw, target, vary, settings)
     if has_moving_magnet(scene):
         return run_pose(args, scene, options, raw, target, vary, settings)
+    return None
+
+
+def hardware_shape(args, scene, options, raw, vary, settings):
+    """Route ``design --target-shape`` over hardware: the coils' currents on a scene of coils, a
+    magnet's pose on a scene with a moving magnet; the exit code, or None for every other scene."""
+    if is_coil_scene(scene):
+        return run_current_shape(args, scene, options, raw, vary, settings)
+    if has_moving_magnet(scene):
+        return run_pose_shape(args, scene, options, raw, vary, settings)
     return None
 
 

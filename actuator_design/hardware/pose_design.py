@@ -46,7 +46,8 @@ from actuator_design.model.units import MU0
 from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
-__all__ = ["design_pose", "PoseDesign", "PoseVariables", "pose_problem", "scene_at_pose", "POSITION_TOLERANCE"]
+__all__ = ["design_pose", "PoseDesign", "PoseVariables", "pose_problem", "scene_at_pose", "corner_states",
+           "POSITION_TOLERANCE"]
 
 #: the default half-width of the magnet's position error (m): a stage placed by hand or a printed jig
 POSITION_TOLERANCE = 0.5e-3
@@ -271,7 +272,18 @@ def _field_report(scene: Scene, state: EquilibriumResult):
 
 def _box(pmap: HardwareMap, var: PoseVariables, v: np.ndarray, state: EquilibriumResult, tol: Tolerances,
          position_tolerance: float, target: np.ndarray) -> List[dict]:
-    """Every corner of the box, switched on from rest (:meth:`HardwareMap.corner`)."""
+    """Every corner of the box, switched on from rest (:meth:`HardwareMap.corner`), with its tip's miss."""
+    return [{"offsets": offsets, "tip": {"x": c["tip"][0], "y": c["tip"][1], "angle": c["tip"][2]},
+             "tip_error": float(np.max(np.abs(c["tip"][:2] - target[:2]))),
+             "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"],
+             **({"region": c["region"]} if "region" in c else {})}
+            for offsets, c in corner_states(pmap, var, v, state, tol, position_tolerance)]
+
+
+def corner_states(pmap: HardwareMap, var: PoseVariables, v: np.ndarray, state: EquilibriumResult, tol: Tolerances,
+                  position_tolerance: float):
+    """Each corner of the pose design's box, switched on from rest: (its offsets in the outputs'
+    units, :meth:`HardwareMap.corner`'s answer)."""
     axes = {}
     if position_tolerance > 0:
         axes["dx"] = axes["dy"] = position_tolerance / var.length
@@ -285,7 +297,6 @@ def _box(pmap: HardwareMap, var: PoseVariables, v: np.ndarray, state: Equilibriu
         axes["mount"] = tol.clamp_angle
     names = list(axes) + list(others)
     base = np.array(var.placement(v))
-    out = []
     for signs in itertools.product((-1.0, 1.0), repeat=len(names)):
         s = dict(zip(names, signs))
         place = base + np.array([s.get("dx", 0.0) * axes.get("dx", 0.0), s.get("dy", 0.0) * axes.get("dy", 0.0),
@@ -300,17 +311,12 @@ def _box(pmap: HardwareMap, var: PoseVariables, v: np.ndarray, state: Equilibriu
         sc = apply_deltas(sc, deltas) if deltas else sc
         sc = replace(sc, theta0=sc.theta0 + s.get("mount", 0.0) * axes.get("mount", 0.0))
         c = pmap.corner(sc, state.z)
-        tip = c["tip"]
         offsets = {}
         for a in names:  # in the outputs' units: mm, deg, fractions
             value = s[a] * (axes[a] if a in axes else others[a])
             key, convert = _OFFSET_UNITS.get(a, (a, lambda x, _: x))
             offsets[key] = convert(value, var.length)
-        out.append({"offsets": offsets, "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]},
-                    "tip_error": float(np.max(np.abs(tip[:2] - target[:2]))),
-                    "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"],
-                    **({"region": c["region"]} if "region" in c else {})})
-    return out
+        yield offsets, c
 
 
 #: a box offset's key and value in the outputs' units (from rod lengths, rad)

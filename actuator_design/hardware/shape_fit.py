@@ -18,10 +18,11 @@ stops where the points are met to :data:`EXACT` or the linearised fit would gain
 than 0.1 % over six iterations (the nearest shape: its minimum may sit where the state from rest
 changes branch, a kink the steps only crawl along). It runs from the tip design's screened starts
 (the last point taken as a tip target), each in a forked copy of this process, and keeps the best
-fit. With more unknowns than equations (2 per point) and the fit accepted, the tip design's
-feasible descent then lowers the effort among the fits as good (every coordinate kept within twice
-its miss, at least the tip design's tolerance), so the setting is one answer, not the point of a
-family the search ended on. A success is verified on magpylib's field refitted at the answer (the
+fit. With the fit accepted, the tip design's feasible descent then lowers the effort among the
+fits as good (every coordinate kept within twice its miss, at least the tip design's tolerance):
+where the points leave a family of settings (more unknowns than equations, or a magnet's pose
+moved along a curve of equal shapes) the setting is one answer, not the point of the family the
+search ended on. A success is verified on magpylib's field refitted at the answer (the
 points must agree to :data:`~actuator_design.hardware.design.VERIFY_TOL`), holds over the lab's
 tolerance box (every corner reached from rest, stable, on the designed branch) and fits within
 ``accept_tol`` (rms); off it, a search that stopped short where the points' Jacobian is thin and
@@ -196,13 +197,15 @@ def best_fit(prob, smap: ShapeMap, starts, accept_tol: float) -> Optional[tuple]
 
 def least_effort_fit(prob, smap: ShapeMap, w: np.ndarray, pt: dict, iterations: int, accept_tol: float,
                      progress=None) -> tuple:
-    """With more unknowns than equations and the fit accepted: the least effort among the fits as
-    good (every coordinate within twice its miss, at least the tip design's tolerance: near the
-    straight rod a point's motion along it is second order, and the fit stalls ~1e-7 short of
-    exact), by the tip design's feasible descent. Returns (w, point, iterations, least_effort,
-    descended)."""
+    """With the fit accepted: the least effort among the fits as good (every coordinate within
+    twice its miss, at least the tip design's tolerance: near the straight rod a point's motion
+    along it is second order, and the fit stalls ~1e-7 short of exact), by the tip design's feasible
+    descent on the directions the points resolve. Where the fit fixes the setting it stays; where
+    it leaves a family (more unknowns than equations, or fewer directions the points resolve: a
+    magnet's pose moved along a curve of equal shapes) it is one answer, not the point of the
+    family the search ended on. Returns (w, point, iterations, least_effort, descended)."""
     e = pt["tip"] - prob.target
-    if not (w.size > prob.target.size and math.sqrt(np.mean(e ** 2) * 2) <= accept_tol):
+    if not math.sqrt(np.mean(e ** 2) * 2) <= accept_tol:
         return w, pt, iterations, False, False
     keep = replace(prob, tip_tol=max(prob.tip_tol, 2.0 * float(np.max(np.abs(e)))))
     w, pt, iterations, least = _feasible_descent(keep, smap.evaluate, w, pt, iterations, [], progress)

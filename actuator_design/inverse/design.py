@@ -304,11 +304,11 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
         raise ValueError(f"design --target-tip: {rest}; a design keeps the rod clear of the obstacles from rest "
                          "on, so it needs a free rest state (solve and path model a rod held in contact)")
     if getattr(base.field, "kind", "") == "sources":
-        raise ValueError("design: in a field of magnets and coils only the coils' currents (for one tip target, "
-                         "`design CONFIG --target-tip X,Y`, or a shape, `--target-shape FILE.csv`, with `field: "
-                         "{type: coils}`) or one magnet's pose (a magnet with a `travel`, one tip target) can be "
-                         "designed; a stiffness cannot yet, and several poses are a schedule (`schedule CONFIG "
-                         "--waypoints 'X1,Y1;X2,Y2'`: the currents or the pose at each)")
+        raise ValueError("design: in a field of magnets and coils only the coils' currents (`field: {type: coils}`) "
+                         "or one magnet's pose (a magnet with a `travel`) can be designed, for one tip target "
+                         "(`design CONFIG --target-tip X,Y`) or a shape (`--target-shape FILE.csv`); a stiffness "
+                         "cannot yet, and several poses are a schedule (`schedule CONFIG --waypoints "
+                         "'X1,Y1;X2,Y2'`: the currents or the pose at each)")
     if vary is None and base.field is not None and not base.field.is_uniform:
         # a magnet, coil or dipole field has no angle to turn: its strength h (every source scaled
         # together) is designed, with the fibre layout or magnetisation where the scene leaves it free
