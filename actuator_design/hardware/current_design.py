@@ -24,7 +24,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Callable, List, Optional, Sequence
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
-__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem"]
+__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map"]
 
 #: the design's tip tolerance (rod lengths)
 TIP_TOL = 1e-8
@@ -118,6 +118,16 @@ def _coils(scene: Scene) -> Sequence[CoilSource]:
             raise ValueError(f"design over currents: coil {k + 1} has no max_current; give each coil its driver's "
                              "limit (e.g. 'max_current: 8 A')")
     return f.sources
+
+
+def current_map(scene: Scene, options: SolverOptions) -> Tuple[Optional[CurrentMap], str]:
+    """(the map over the coil weights from the configured currents' state from rest, ""), or (None,
+    why there is none: that state did not converge)."""
+    w0 = np.ones(len(scene.field.sources))
+    start = solve(at_weights(scene, w0), options)
+    if not (start.success and start.stable):
+        return None, f"the state from rest at the configured currents did not converge: {start.message}"
+    return CurrentMap(scene, start, w0), ""
 
 
 def coil_problem(scene: Scene, target, tip_tol: float = TIP_TOL) -> CurrentProblem:
@@ -225,12 +235,9 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     resist = np.array([c.resistance for c in coils])
     if np.any(np.isfinite(resist)) and not np.all(np.isfinite(resist)):
         out.notes.append("not every coil has a resistance: the effort minimised is the sum of squared currents")
-    w0 = np.ones(i0.size)
-    start = solve(at_weights(scene, w0), options)
-    if not (start.success and start.stable):
-        out.message = f"the state from rest at the configured currents did not converge: {start.message}"
+    cmap, out.message = current_map(scene, options)
+    if cmap is None:
         return out
-    cmap = CurrentMap(scene, start, w0)
     starts = _screen(cmap, prob, _even(scene), progress)
 
     sqp = run_starts(cmap, prob, starts, lambda a, b: _better(prob, a, b), progress)

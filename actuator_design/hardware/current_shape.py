@@ -18,10 +18,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.pipeline import solve
 from actuator_design.hardware.current_design import (CurrentDesign, _active, _corners, _even, _field_report,
-                                                     _screen, coil_problem, scene_at_currents)
-from actuator_design.hardware.current_map import CurrentMap, at_weights
+                                                     _screen, coil_problem, current_map, scene_at_currents)
+from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
 from actuator_design.model.scene import Scene
@@ -84,12 +83,9 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                              start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                              resistance=tuple(c.resistance for c in coils), tolerances=tol, points=pts,
                              accept_tol=accept_tol, effort="fit")
-    w0 = np.ones(i0.size)
-    start = solve(at_weights(scene, w0), options)
-    if not (start.success and start.stable):
-        out.message = f"the state from rest at the configured currents did not converge: {start.message}"
+    cmap, out.message = current_map(scene, options)
+    if cmap is None:
         return out
-    cmap = CurrentMap(scene, start, w0)
     smap = ShapeMap(cmap, pts[:, 0])
     best = best_fit(prob, smap, _screen(cmap, tip_prob, _even(scene), progress), accept_tol)
     if best is None:

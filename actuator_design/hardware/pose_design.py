@@ -26,7 +26,7 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, field, replace
-from typing import Callable, List, Optional
+from typing import Callable, List, Optional, Tuple
 
 import numpy as np
 
@@ -47,7 +47,7 @@ from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_pose", "PoseDesign", "PoseVariables", "pose_problem", "scene_at_pose", "corner_states",
-           "POSITION_TOLERANCE"]
+           "pose_map", "POSITION_TOLERANCE"]
 
 #: the default half-width of the magnet's position error (m): a stage placed by hand or a printed jig
 POSITION_TOLERANCE = 0.5e-3
@@ -148,13 +148,10 @@ def design_pose(scene: Scene, target, *, tolerances: Optional[Tolerances] = None
     out = PoseDesign(success=False, status="not_converged", message="", target=tuple(target.tolist()),
                      start_position=tuple(magnet.position), start_axis_angle=magnet.axis_angle,
                      travel=_travel_dict(magnet), tolerances=tol, position_tolerance=float(position_tolerance))
-    v0 = np.zeros(len(var.coords))
-    at = at_pose(var)
-    start = solve(at(scene, v0), options)
-    if not (start.success and start.stable):
-        out.message = f"the state from rest at the configured pose did not converge: {start.message}"
+    pmap, out.message = pose_map(scene, var, options)
+    if pmap is None:
         return out
-    pmap = HardwareMap(scene, start, v0, var.names, at, clearance(scene, var))
+    at = pmap.at
     starts = _screen(pmap, prob, var.coords, progress)
 
     sqp = run_starts(pmap, prob, starts, lambda a, b: _better(prob, a, b), progress, restore_first=True)
@@ -179,6 +176,17 @@ def design_pose(scene: Scene, target, *, tolerances: Optional[Tolerances] = None
     out.solves, out.seconds = pmap.solves, time.perf_counter() - t0
     out.message = _message(out)
     return out
+
+
+def pose_map(scene: Scene, var: PoseVariables, options: SolverOptions) -> Tuple[Optional[HardwareMap], str]:
+    """(the map over the pose offsets from the configured pose's state from rest, ""), or (None,
+    why there is none: that state did not converge)."""
+    v0 = np.zeros(len(var.coords))
+    at = at_pose(var)
+    start = solve(at(scene, v0), options)
+    if not (start.success and start.stable):
+        return None, f"the state from rest at the configured pose did not converge: {start.message}"
+    return HardwareMap(scene, start, v0, var.names, at, clearance(scene, var)), ""
 
 
 def _travel_dict(magnet: MagnetSource) -> dict:

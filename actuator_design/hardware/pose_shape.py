@@ -19,11 +19,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.pipeline import solve
-from actuator_design.hardware.map import HardwareMap
 from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _field_report, _screen,
-                                                  _travel_dict, corner_states)
-from actuator_design.hardware.pose_problem import at_pose, clearance, pose_problem, scene_at_pose
+                                                  _travel_dict, corner_states, pose_map)
+from actuator_design.hardware.pose_problem import pose_problem, scene_at_pose
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
 from actuator_design.model.scene import Scene
@@ -88,13 +86,10 @@ def design_pose_shape(scene: Scene, points, *, tolerances: Optional[Tolerances] 
                           start_position=tuple(magnet.position), start_axis_angle=magnet.axis_angle,
                           travel=_travel_dict(magnet), tolerances=tol, position_tolerance=float(position_tolerance),
                           points=pts, accept_tol=accept_tol)
-    v0 = np.zeros(len(var.coords))
-    at = at_pose(var)
-    start = solve(at(scene, v0), options)
-    if not (start.success and start.stable):
-        out.message = f"the state from rest at the configured pose did not converge: {start.message}"
+    pmap, out.message = pose_map(scene, var, options)
+    if pmap is None:
         return out
-    pmap = HardwareMap(scene, start, v0, var.names, at, clearance(scene, var))
+    at = pmap.at
     smap = ShapeMap(pmap, pts[:, 0])
     best = best_fit(prob, smap, _screen(pmap, tip_prob, var.coords, progress), accept_tol)
     if best is None:
