@@ -29,6 +29,7 @@ def run_pose_shape(args, scene, options, raw, vary, settings) -> int:
     from actuator_design.cli.design_shape import read_points
     from actuator_design.hardware.pose_shape import design_pose_shape
 
+    refuse_flags(args, vary, "the magnet's pose (within its travel)", "the magnet's travel is its limit")
     pts = read_points(args.target_shape, args.target_units or "rod", scene)
     position_tolerance = _checked_request(args, scene, vary, pts[-1, 1:])
     with stdout_to_stderr(args.json):

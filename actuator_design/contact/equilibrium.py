@@ -203,7 +203,7 @@ def _dense_checks(scene, result, self_contact: bool) -> tuple:
 def _entry_boundaries(scene, result, inside, self_inside) -> list:
     out = []
     if inside is not None and 0.0 < inside[1] < 1.0:
-        out.append(nearest_point(scene, result, {"obstacle": inside[0], "s": inside[1]}))
+        out.append(nearest_point(scene, result, {"obstacle": inside[0], "s": inside[1]}, local=False))
     if self_inside is not None:
         half = 0.5 / max(1, result.options.elements)
         out += [v for v in nearest_pair(result, self_inside[0], self_inside[1], half) if MERGE < v < 1.0]

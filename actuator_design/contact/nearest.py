@@ -31,15 +31,18 @@ CURVATURE_FLOOR = 1e-3
 ROOT_ITERATIONS = 100
 
 
-def nearest_point(scene, result, point: dict) -> float:
+def nearest_point(scene, result, point: dict, local: bool = True) -> float:
     """The arc length of the shape's point nearest the obstacle of a contact ``point``, within half
     an element of it: the root of the distance's slope f(s) = ∇d(r(s))·t(s) next to the least
     distance on a grid (a sign change, from approaching to leaving), else (the least distance at an
     end of the interval, a kink) the bounded minimum of the distance near that grid point.
 
-    The root is bracketed first within :data:`LOCAL` of the contact point (where the round before
-    put an element boundary at its nearest point, the new one is that close), else on the grid
-    (one evaluation of the shape); the bracket is narrowed to one
+    With ``local`` (a contact point: its distance is the gap, the least in its window) the root is
+    bracketed first within :data:`LOCAL` of it (where the round before put an element boundary at
+    its nearest point, the new one is that close): the local minimum of the distance there; else
+    (and where that bracket holds no sign change, or for a point where the shape enters an obstacle,
+    whose deepest point in the window is wanted) on the grid (one evaluation of the shape); the
+    bracket is narrowed to one
     piece between the mesh's nodes, and the root found there by Newton's method
     with f'(s) = tᵀ∇²d t + θ' ∇d·n (n the rod's normal), kept inside the bracket (a step that
     leaves it bisects it instead): from the bracket's secant point, two evaluations of one point
@@ -61,7 +64,7 @@ def nearest_point(scene, result, point: dict) -> float:
     # of the new one: where the slope changes sign across a bracket that close, the grid is spared
     # (the point itself too: a node, where θ' kinks, so the bracket's halves are smooth pieces)
     near = np.array([max(lo, point["s"] - LOCAL), min(max(lo, point["s"]), hi), min(hi, point["s"] + LOCAL)])
-    f = slope(near)[0]
+    f = slope(near)[0] if local else np.zeros(3)
     if f[0] < 0.0 < f[2]:
         k = 1 if f[1] >= 0.0 else 2
         a, b, fa, fb = near[k - 1], near[k], f[k - 1], f[k]

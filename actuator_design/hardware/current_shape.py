@@ -95,7 +95,7 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
     w, pt, out.iterations, settled = best
     w, pt, out.iterations, out.least_effort, descended = least_effort_fit(prob, smap, w, pt, out.iterations,
                                                                           accept_tol, progress)
-    if descended and i0.size > prob.target.size:  # (else the fit fixes the currents, up to what it cannot resolve)
+    if descended:
         out.effort = "power" if prob.power is not None else "current_squared"
     currents = w * i0
     if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:

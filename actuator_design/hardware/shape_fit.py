@@ -18,11 +18,11 @@ stops where the points are met to :data:`EXACT` or the linearised fit would gain
 than 0.1 % over six iterations (the nearest shape: its minimum may sit where the state from rest
 changes branch, a kink the steps only crawl along). It runs from the tip design's screened starts
 (the last point taken as a tip target), each in a forked copy of this process, and keeps the best
-fit. With the fit accepted, the tip design's feasible descent then lowers the effort among the
-fits as good (every coordinate kept within twice its miss, at least the tip design's tolerance):
-where the points leave a family of settings (more unknowns than equations, or a magnet's pose
-moved along a curve of equal shapes) the setting is one answer, not the point of the family the
-search ended on. A success is verified on magpylib's field refitted at the answer (the
+fit. Where the points are met and leave a family of settings (more unknowns than equations, or a
+magnet's pose moved along a curve of equal shapes), the tip design's feasible descent then lowers
+the effort among the fits as good (every coordinate kept within twice its miss, at least the tip
+design's tolerance; never at the cost of the accepted fit): the setting is one answer, not the
+point of the family the search ended on. A success is verified on magpylib's field refitted at the answer (the
 points must agree to :data:`~actuator_design.hardware.design.VERIFY_TOL`), holds over the lab's
 tolerance box (every corner reached from rest, stable, on the designed branch) and fits within
 ``accept_tol`` (rms); off it, a search that stopped short where the points' Jacobian is thin and
@@ -40,14 +40,15 @@ import numpy as np
 from actuator_design import forked
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.hardware.current_sqp import (DELTA_MAX, DELTA_MIN, DELTA_START, STALL_FRACTION,
-                                                  STALL_ITERATIONS, _feasible_descent, _least_miss_step, _stopped_short,
+                                                  STALL_ITERATIONS, RESOLVED, _feasible_descent, _least_miss_step,
+                                                  _stopped_short,
                                                   within_limits)
 from actuator_design.hardware.design import VERIFY_TOL
 from actuator_design.hardware.map import HardwareMap
 from actuator_design.transcription.arc_points import arc_points_function
 
 __all__ = ["ShapeFit", "ShapeMap", "check_points", "best_fit", "least_effort_fit", "record_fit", "verify_points",
-           "corner_fit", "judge_fit", "fit_message", "ACCEPT_TOL", "MAX_ITERATIONS", "FIT_GAIN", "EXACT"]
+           "corner_fit", "judge_fit", "fit_message", "ACCEPT_TOL", "MAX_ITERATIONS", "FIT_GAIN", "EXACT", "FAMILY_TOL"]
 
 #: the fit a success needs by default (rms over the points, rod lengths): as the ideal-field shape design's
 ACCEPT_TOL = 1e-3
@@ -56,6 +57,9 @@ ACCEPT_TOL = 1e-3
 FIT_GAIN = 1e-10
 #: every point met to this (rod lengths): the fit is exact to the positions' round-off, and stops
 EXACT = 1e-12
+#: the points met to this (rod lengths) leave a family of settings to choose the least effort
+#: from (:func:`least_effort_fit`); a fit farther off is a least-squares minimum, one setting
+FAMILY_TOL = 1e-6
 #: Gauss–Newton iterations from each start (each one forward evaluation at least); the verdict rests
 #: on the fit, the limits and stability, never on this count
 MAX_ITERATIONS = 60
@@ -197,19 +201,28 @@ def best_fit(prob, smap: ShapeMap, starts, accept_tol: float) -> Optional[tuple]
 
 def least_effort_fit(prob, smap: ShapeMap, w: np.ndarray, pt: dict, iterations: int, accept_tol: float,
                      progress=None) -> tuple:
-    """With the fit accepted: the least effort among the fits as good (every coordinate within
-    twice its miss, at least the tip design's tolerance: near the straight rod a point's motion
-    along it is second order, and the fit stalls ~1e-7 short of exact), by the tip design's feasible
-    descent on the directions the points resolve. Where the fit fixes the setting it stays; where
-    it leaves a family (more unknowns than equations, or fewer directions the points resolve: a
-    magnet's pose moved along a curve of equal shapes) it is one answer, not the point of the
-    family the search ended on. Returns (w, point, iterations, least_effort, descended)."""
+    """Where the points are met (to :data:`FAMILY_TOL`) and leave a family of settings (the points
+    resolve fewer directions than there are unknowns: more coils than equations, or a magnet's pose
+    moved along a curve of equal shapes): the least effort among the fits as good (every coordinate
+    within twice its miss, at least the tip design's tolerance: near the straight rod a point's
+    motion along it is second order, and the fit stalls ~1e-7 short of exact), by the tip design's
+    feasible descent on the directions the points resolve, so that the setting is one answer, not
+    the point of the family the search ended on. The descent's end is taken only if every
+    coordinate stays within that bound and the rms fit within ``accept_tol``. Elsewhere (the fit
+    fixes the setting, or a least-squares fit off the points, whose minimiser is one point) the
+    setting stays. Returns (w, point, iterations, least_effort, descended)."""
     e = pt["tip"] - prob.target
-    if not math.sqrt(np.mean(e ** 2) * 2) <= accept_tol:
-        return w, pt, iterations, False, False
-    keep = replace(prob, tip_tol=max(prob.tip_tol, 2.0 * float(np.max(np.abs(e)))))
-    w, pt, iterations, least = _feasible_descent(keep, smap.evaluate, w, pt, iterations, [], progress)
-    return w, pt, iterations, bool(least), True
+    miss = float(np.max(np.abs(e)))
+    sv = np.linalg.svd(pt["tip_jac"] * prob.half, compute_uv=False)
+    resolved = int(np.sum(sv >= RESOLVED * sv[0])) if sv.size and sv[0] > 0 else 0
+    if not (miss <= FAMILY_TOL and resolved < w.size):
+        return w, pt, iterations, False, False  # the fit fixes the setting (or is a least-squares fit: no family)
+    keep = replace(prob, tip_tol=max(prob.tip_tol, 2.0 * miss))
+    w2, pt2, iterations, least = _feasible_descent(keep, smap.evaluate, w, pt, iterations, [], progress)
+    e2 = pt2["tip"] - prob.target
+    if float(np.max(np.abs(e2))) > keep.tip_tol or math.sqrt(np.mean(e2 ** 2) * 2) > accept_tol:
+        return w, pt, iterations, False, False  # (never trade the fit for effort: the point before stands)
+    return w2, pt2, iterations, bool(least), True
 
 
 def record_fit(out: ShapeFit, pt: dict) -> None:
@@ -265,7 +278,8 @@ def judge_fit(out, prob, w: np.ndarray, pt: dict, settled: bool) -> None:
 def fit_message(out, setting: str, hardware: str) -> str:
     """The closing message: ``setting`` (the currents, the pose) fits the points, the verdicts;
     ``hardware`` names what else might reach the shape ("setting of the currents within the limits")."""
-    text = (f"{setting} fit{'s' * setting.startswith('the magnet')} the {len(out.points)} points with rms error "
+    k = len(out.points)
+    text = (f"{setting} fit{'s' * setting.startswith('the magnet')} the {k} point{'s' * (k != 1)} with rms error "
             f"{out.rms_error:.3g} (largest {out.max_error:.3g}) rod lengths")
     if out.status == "not_converged" and out.rms_error > out.accept_tol:
         text += (f"; NOT within the accepted {out.accept_tol:g} rms, and the search stopped short there (it no "
