@@ -53,7 +53,8 @@ class HardwareDesign:
     box : list of dict
         Every corner: its offsets, tip, miss, ``success``, ``stable`` and ``same_branch``.
     worst_tip_error : float
-        Largest miss over the box (rod lengths).
+        Largest miss over the box (rod lengths); nan where a corner was not reached (no state from
+        rest there to measure).
     """
 
     success: bool
@@ -175,7 +176,9 @@ def judge(out: HardwareDesign, box: List[dict]) -> None:
     """Record the box's corners in ``out`` and the design's verdict: a success is verified and on
     the designed branch and stable at every corner."""
     out.box = box
-    out.worst_tip_error = max([c["tip_error"] for c in box], default=out.tip_error)
+    worst = [c["tip_error"] for c in box]
+    out.worst_tip_error = (max(worst, default=out.tip_error) if all(math.isfinite(v) for v in worst)
+                           else math.nan)  # a corner not reached: no worst miss to state
     out.holds_over_box = all(c["success"] and c["stable"] and c["same_branch"] for c in box)
     out.success = bool(out.verified and out.holds_over_box)
     out.status = "success" if out.success else ("not_verified" if not out.verified else "not_robust")

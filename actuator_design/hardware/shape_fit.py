@@ -43,7 +43,7 @@ from actuator_design.hardware.current_sqp import (DELTA_MAX, DELTA_MIN, DELTA_ST
                                                   STALL_ITERATIONS, RESOLVED, _feasible_descent, _least_miss_step,
                                                   _stopped_short,
                                                   within_limits)
-from actuator_design.hardware.design import VERIFY_TOL
+from actuator_design.hardware.design import VERIFY_TOL, judge
 from actuator_design.hardware.map import HardwareMap
 from actuator_design.transcription.arc_points import arc_points_function
 
@@ -261,11 +261,8 @@ def corner_fit(smap: ShapeMap, corner: dict, points: np.ndarray) -> dict:
 
 def judge_fit(out, prob, w: np.ndarray, pt: dict, settled: bool) -> None:
     """The verdict of a shape design whose fit, verification and box are recorded in ``out``."""
-    worst = [c["tip_error"] for c in out.box]
-    out.worst_tip_error = (max(worst, default=out.tip_error) if all(math.isfinite(v) for v in worst)
-                           else math.nan)  # a corner not reached: no worst miss to state
-    out.holds_over_box = all(c["success"] and c["stable"] and c["same_branch"] for c in out.box)
-    out.success = bool(out.verified and out.holds_over_box and out.rms_error <= out.accept_tol)
+    judge(out, out.box)  # verified, and on the designed branch and stable at every corner
+    out.success = bool(out.success and out.rms_error <= out.accept_tol)
     # off the accepted fit: a search that stalled or ran out of steps where no limit binds and the
     # points' Jacobian is thin (as the tip design judges, current_sqp._stopped_short) stopped short,
     # and the shape may still be reachable; else it found its nearest shape

@@ -54,7 +54,7 @@ from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES, pro
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
 from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult,  # noqa: F401
                                               DesignSettings, Optimised, Verification, canonical_target,
-                                              check_h_max, normalise_phi, normalise_tip_angle, phi_period,
+                                              normalise_phi, normalise_tip_angle, phi_period,
                                               tip_error)
 from actuator_design.inverse.verify import schedule_rows, stiffness_by_differences
 from actuator_design.inverse.verify import verify as verify_stage
