@@ -16,9 +16,10 @@ import pytest
 import yaml
 from scipy.spatial.transform import Rotation
 
+from actuator_design.hardware.current_sqp import CurrentProblem
 from actuator_design.hardware.map import HardwareMap
-from actuator_design.hardware.pose_design import design_pose
-from actuator_design.hardware.pose_problem import at_pose, clearance, pose_problem, scene_at_pose
+from actuator_design.hardware.pose_design import _active, design_pose
+from actuator_design.hardware.pose_problem import PoseVariables, at_pose, clearance, pose_problem, scene_at_pose
 from actuator_design.robust.tolerances import Tolerances
 from actuator_design.cli.main import main
 from actuator_design.config import load_scene
@@ -266,3 +267,16 @@ def test_optimality_weighs_bounds_and_limits_by_their_sign():
     assert not _stationary(prob, np.array([0.5, 0.0]), pushing)  # lowering x lowers both: not held by the limit
     holding = dict(pushing, limit_jac=np.array([[-1.0, 0.0]]))
     assert _stationary(prob, np.array([0.5, 0.0]), holding)  # the limit stops x from falling
+
+
+def test_a_whole_turn_of_travel_has_no_end_but_the_searchs_seam_is_named():
+    """Travel angle over a whole turn: an answer 180 deg from the configured axis sits at the seam of
+    the search's window, not at a limit of the stage; the limits list says so (it said 'travel
+    angle at the limit' of a stage that turns freely)."""
+    var = PoseVariables(0, (0, 2), np.array([-0.5, -math.pi]), np.array([1.0, math.pi]), 0.02)
+    half = (var.upper - var.lower) / 2
+    prob = CurrentProblem(target=np.zeros(2), cost=1 / half ** 2, bound=half, max_limit=1.0, lower=var.lower,
+                          upper=var.upper, centre=np.zeros(2))
+    seam = _active(var, prob, np.array([0.2, math.pi]), {"limit": np.array([0.5])})
+    assert len(seam) == 1 and "seam" in seam[0] and "travel" not in seam[0]
+    assert _active(var, prob, np.array([1.0, 0.3]), {"limit": np.array([0.5])}) == ["travel x"]

@@ -262,7 +262,12 @@ def _active(var: PoseVariables, prob: CurrentProblem, v: np.ndarray, pt: dict) -
     act = []
     for i, c in enumerate(var.coords):
         if v[i] >= prob.hi[i] - 1e-6 * prob.half[i] or v[i] <= prob.lo[i] + 1e-6 * prob.half[i]:
-            act.append(f"travel {COORDS[c]}")
+            if c == 2 and prob.hi[i] - prob.lo[i] >= 2 * math.pi - 1e-9:
+                # a whole turn has no end: the search's window (±180 deg about the configured axis) does
+                act.append("the axis 180 deg from the configured one (the seam of the search's whole turn: "
+                           "configure another axis angle to search across it)")
+            else:
+                act.append(f"travel {COORDS[c]}")
     if float(np.max(pt["limit"])) >= 1 - 1e-6:
         act.append("clearance from the magnet")
     return act
