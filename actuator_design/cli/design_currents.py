@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import math
 import sys
+from typing import Optional
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
                                         stdout_to_stderr)
 from actuator_design.cli.output import emit
 
-__all__ = ["run_currents", "run_current_shape", "tail_lines", "finish", "progress_line", "refuse_flags"]
+__all__ = ["run_currents", "run_current_shape", "run_current_stiffness", "finish_stiffness", "tail_lines", "finish", "progress_line", "refuse_flags"]
 
 _NOT_FOR_HARDWARE = ("h_max", "p_max", "alpha_max_deg", "alpha_terms", "margin", "time_limit", "clearance", "rate",
                      "rotation_rate")
@@ -59,21 +60,50 @@ def run_current_shape(args, scene, options, raw, vary, settings) -> int:
     return finish(args, res, scene.scales.length, _shape_summary, "designed state (coil currents)")
 
 
+def run_current_stiffness(args, scene, options, raw, target, vary, settings, stiffness) -> int:
+    """``design --target-stiffness`` on a coil scene (with or without ``--target-tip``): the
+    least-power currents with that tip stiffness
+    (:func:`~actuator_design.hardware.current_stiffness.design_current_stiffness`); exit codes as for a tip."""
+    from actuator_design.hardware.current_design import coil_problem
+    from actuator_design.hardware.current_stiffness import design_current_stiffness
+
+    refuse_flags(args, vary, "the coils' currents (each within its max_current)",
+                 "the coils' max_current, resistance, max_power and max_field are its limits")
+    with bad_input():
+        coil_problem(scene, target if target is not None else (0.0, 0.0))
+    with stdout_to_stderr(args.json):
+        res = design_current_stiffness(scene, stiffness, target, tolerances=settings.tolerances, options=options,
+                                       verify=not args.no_verify, accept_tol=settings.accept_tol,
+                                       progress=progress_line())
+    return finish_stiffness(args, res, scene, _summary, "designed state (coil currents)")
+
+
+def finish_stiffness(args, res, scene, summary, title: str) -> int:
+    """:func:`finish` for a stiffness design over hardware: ``summary``'s lines (the tip design's)
+    with the stiffness in B0/l^3 and N/m, and the stiffness in N/m under the JSON's ``physical``."""
+    k = scene.scales.stiffness
+    return finish(args, res, scene.scales.length, lambda r, length: _stiffness_summary(r, length, k, summary),
+                  title, physical={"target_stiffness_N_per_m": res.stiffness_target * k,
+                                   "achieved_stiffness_N_per_m": res.achieved_stiffness * k,
+                                   "verified_stiffness_N_per_m": res.verification.get("stiffness", math.nan) * k})
+
+
 def progress_line():
     """Progress on stderr, one line a stage, when it is a terminal (else None)."""
     return (lambda line: print(line, file=sys.stderr, flush=True)) if sys.stderr.isatty() else None
 
 
-def finish(args, res, length: float, summary, title: str) -> int:
-    """Print (or write, with --json) a design over hardware with its tip in the rod's unit, write
-    its files, and give the exit code: 0 success, 3 not verified or not robust, 4 unreachable."""
+def finish(args, res, length: float, summary, title: str, physical: Optional[dict] = None) -> int:
+    """Print (or write, with --json) a design over hardware with its tip in the rod's unit (and the
+    values of ``physical`` under the JSON's ``physical`` key), write its files, and give the exit
+    code: 0 success, 3 not verified or not robust, 4 unreachable."""
     from actuator_design.cli.design_force import state_files
 
     payload = res.to_dict()
     payload["physical"] = {"tip_mm": [v * length * 1e3 for v in res.tip[:2]],
                            "target_mm": [v * length * 1e3 for v in res.target[:2]],
                            "tip_error_mm": res.tip_error * length * 1e3,
-                           "worst_tip_error_mm": res.worst_tip_error * length * 1e3}
+                           "worst_tip_error_mm": res.worst_tip_error * length * 1e3, **(physical or {})}
     shape = payload.get("shape")
     if shape is not None:  # a shape target: its fit in mm too, and the fit's table
         payload["physical"].update(rms_error_mm=shape["rms_error"] * length * 1e3,
@@ -99,16 +129,37 @@ def _summary(res, length: float) -> str:
                           f"  note        : {res.message}", f"  RESULT      : {res.status.upper()}"])
     effort = (f"power {res.power:.6g} W" if res.effort == "power" else
               f"sum of squared currents {sum(i * i for i in res.currents):.6g} A^2")
-    lines = ["actuator-design: coil currents for a tip position",
-             f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g} rod lengths "
-             f"({mm(res.target[0])}, {mm(res.target[1])})",
-             f"  currents    : {amps}  (limits {limits}; started from "
+    lines = ["actuator-design: coil currents for a tip position"]
+    if res.target:
+        lines.append(f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g} rod lengths "
+                     f"({mm(res.target[0])}, {mm(res.target[1])})")
+    lines += [f"  currents    : {amps}  (limits {limits}; started from "
              + ", ".join(f"{i:.4g} A" for i in res.start_currents) + ")",
              f"  effort      : {effort}" + ("  (least found)" if res.least_effort else ""),
              f"  field       : mu0 H = {res.field_at_clamp[0] * 1e3:.6g} mT at the clamp, at "
              f"{math.degrees(res.field_at_clamp[1]):.4g} deg; at most {res.max_rod_field * 1e3:.6g} mT on the rod"]
     axes = f"{res.tolerances.describe()}; currents each, the mount by the angle" if res.tolerances else ""
     return "\n".join(lines + tail_lines(res, length, axes))
+
+
+def _stiffness_summary(res, length: float, scale: float, summary) -> str:
+    """The summary of a design for a stiffness: the tip design's (``summary``), with the stiffness
+    in B0/l^3 and N/m."""
+    n_per_m = lambda k: f"{k:.6g} B0/l^3 = {k * scale:.6g} N/m"
+    lines = summary(res, length).splitlines()
+    lines[0] = lines[0].replace("a tip position", "a tip stiffness")
+    if not math.isfinite(res.tip[0]):  # no design: what failed, and nothing else
+        return "\n".join(lines)
+    if not res.target:  # a stiffness alone: the tip has no target to miss
+        lines = [line.replace("(miss nan; ", "(").replace("worst tip miss", "the tip moves by at most")
+                 for line in lines]
+    v = res.verification.get("stiffness", math.nan)
+    extra = [f"  stiffness   : target {n_per_m(res.stiffness_target)}; achieved {n_per_m(res.achieved_stiffness)}"
+             + (f"; verified by differences {n_per_m(v)}" if math.isfinite(v) else "")]
+    if res.box:
+        extra.append(f"  over box    : stiffness off by at most {res.worst_stiffness_error:.3g} relative")
+    at = next(k for k, line in enumerate(lines) if line.startswith("  field "))
+    return "\n".join(lines[:at + 1] + extra + lines[at + 1:])
 
 
 def _shape_summary(res, length: float) -> str:

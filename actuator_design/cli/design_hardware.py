@@ -4,8 +4,8 @@ the flags of those designs (:mod:`actuator_design.cli.design_currents`,
 from __future__ import annotations
 
 from actuator_design.cli.common import InputError
-from actuator_design.cli.design_currents import run_current_shape, run_currents
-from actuator_design.cli.design_pose import run_pose, run_pose_shape
+from actuator_design.cli.design_currents import run_current_shape, run_current_stiffness, run_currents
+from actuator_design.cli.design_pose import run_pose, run_pose_shape, run_pose_stiffness
 
 __all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet", "check_position_tolerance",
            "hardware_shape"]
@@ -20,8 +20,14 @@ def add_hardware_args(parser) -> None:
 
 def hardware_design(args, scene, options, raw, target, vary, settings, stiffness):
     """Route a design over hardware: coil currents on a scene of coils, a magnet's pose on a scene
-    with a moving magnet (one tip target); the exit code, or None for every other design."""
+    with a moving magnet (one tip target, a stiffness, or both); the exit code, or None for every
+    other design."""
     check_position_tolerance(args, scene)
+    if stiffness is not None and not isinstance(target, list):
+        if is_coil_scene(scene):
+            return run_current_stiffness(args, scene, options, raw, target, vary, settings, stiffness)
+        if has_moving_magnet(scene):
+            return run_pose_stiffness(args, scene, options, raw, target, vary, settings, stiffness)
     if stiffness is not None or target is None or isinstance(target, list):
         return None
     if is_coil_scene(scene):

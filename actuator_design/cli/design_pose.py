@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 
 from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr
-from actuator_design.cli.design_currents import finish, progress_line, refuse_flags, tail_lines
+from actuator_design.cli.design_currents import finish, finish_stiffness, progress_line, refuse_flags, tail_lines
 
-__all__ = ["run_pose", "run_pose_shape"]
+__all__ = ["run_pose", "run_pose_shape", "run_pose_stiffness"]
 
 
 def run_pose(args, scene, options, raw, target, vary, settings) -> int:
@@ -37,6 +37,21 @@ def run_pose_shape(args, scene, options, raw, vary, settings) -> int:
                                 options=options, verify=not args.no_verify, accept_tol=settings.accept_tol,
                                 progress=progress_line())
     return finish(args, res, scene.scales.length, _summary, "designed state (magnet pose)")
+
+
+def run_pose_stiffness(args, scene, options, raw, target, vary, settings, stiffness) -> int:
+    """``design --target-stiffness`` on a scene with a moving magnet (with or without
+    ``--target-tip``): the pose with that tip stiffness
+    (:func:`~actuator_design.hardware.pose_stiffness.design_pose_stiffness`); exit codes as for a tip."""
+    from actuator_design.hardware.pose_stiffness import design_pose_stiffness
+
+    position_tolerance = _checked_request(args, scene, vary, target if target is not None else (0.0, 0.0))
+    with stdout_to_stderr(args.json):
+        res = design_pose_stiffness(scene, stiffness, target, tolerances=settings.tolerances,
+                                    position_tolerance=position_tolerance, options=options,
+                                    verify=not args.no_verify, accept_tol=settings.accept_tol,
+                                    progress=progress_line())
+    return finish_stiffness(args, res, scene, _summary, "designed state (magnet pose)")
 
 
 def _checked_request(args, scene, vary, target) -> float:
@@ -70,8 +85,8 @@ def _summary(res, length: float) -> str:
                        for k, v in res.travel.items())
     target = (f"  points      : {len(res.points)} (s, x, y) along the centreline" if shape else
               f"  target      : x = {res.target[0]:.6g}, y = {res.target[1]:.6g} rod lengths "
-              f"({mm(res.target[0])}, {mm(res.target[1])})")
-    lines = [head, target,
+              f"({mm(res.target[0])}, {mm(res.target[1])})" if res.target else "")
+    lines = [head] + [target] * bool(target) + [
              f"  magnet      : at ({res.position[0] * 1e3:.6g}, {res.position[1] * 1e3:.6g}) mm, axis "
              f"{math.degrees(res.axis_angle):.6g} deg  (started from ({res.start_position[0] * 1e3:.6g}, "
              f"{res.start_position[1] * 1e3:.6g}) mm, {math.degrees(res.start_axis_angle):.6g} deg; travel {travel})",

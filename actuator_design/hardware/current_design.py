@@ -275,16 +275,20 @@ def _even(scene: Scene) -> bool:
     return lens.remanent_group(scene) == 0.0
 
 
-def _screen(cmap: CurrentMap, prob: CurrentProblem, even: bool, progress=None) -> List[np.ndarray]:
+def _screen(cmap: CurrentMap, prob: CurrentProblem, even: bool, progress=None,
+            miss: Optional[Callable[[np.ndarray, dict], float]] = None) -> List[np.ndarray]:
     """Start weights for the SQP: the configured currents (w = 1) and the best stations of the
     ramps from rest along :func:`_directions` out to the current limits (one walk per direction,
-    :meth:`CurrentMap.ray`), at most :data:`STARTS`, nearest the target first, mutually apart."""
+    :meth:`CurrentMap.ray`), at most :data:`STARTS`, nearest the target first, mutually apart.
+    ``miss(w, station)`` ranks the stations (default: the largest miss of the tip's coordinates)."""
     m = prob.target.size
     dirs = _directions(prob.bound, even)
+    if miss is None:
+        miss = lambda w, p: float(np.max(np.abs(p["tip"][:m] - prob.target)))
 
     def walk(ds):  # the ramps of some directions: (weights, miss) of each station within the limits,
         n0 = cmap.solves  # and the solves they took
-        return [(w, float(np.max(np.abs(p["tip"][:m] - prob.target))))
+        return [(w, miss(w, p))
                 for d in ds for w, p in cmap.ray(d, SCREEN_FRACTIONS) if within_limits(prob, w, p)], cmap.solves - n0
 
     base = cmap.solves
@@ -294,7 +298,7 @@ def _screen(cmap: CurrentMap, prob: CurrentProblem, even: bool, progress=None) -
     found = [(np.ones(prob.bound.size), None)] + mine + theirs
     ranked = sorted(found[1:], key=lambda c: c[1])
     if progress is not None and ranked:
-        progress(f"screen: {len(found) - 1} states from rest, nearest tip {ranked[0][1]:.3g} rod lengths off")
+        progress(f"screen: {len(found) - 1} states from rest, the nearest {ranked[0][1]:.3g} off the target")
     chosen = [found[0][0]]
     p1 = cmap.evaluate(chosen[0])
     if p1 is not None and math.isfinite(prob.max_limit) and float(np.max(p1["limit"])) > prob.max_limit:

@@ -117,7 +117,7 @@ class HardwareMap:
         that keeps to where every source's fit holds, at the rod's quadrature points — else
         ``region`` says why), ``stable`` and ``same_branch`` (the two states agree to 1e-6 rad:
         switching on at the corner lands on the designed branch), and ``z`` the state from rest
-        (node angles, rad) where it was reached."""
+        (node angles, rad) and ``params`` the scene's NLP parameters where it was reached."""
         P = self.solver.parameter_vector(scene)
         path = path_from_rest(self.solver, P)
         self.solves += path.solves + 1
@@ -133,7 +133,7 @@ class HardwareMap:
         followed = solve(scene, self.options, initial=np.asarray(z_design, float), solver=self.solver)
         same = bool(followed.success and float(np.max(np.abs(np.asarray(followed.z) - z))) <= 1e-6)
         return {"tip": np.array([tip_x, tip_y, tip_theta]), "reached": True,
-                "stable": bool(self.solver.stability(z, P).stable), "same_branch": same, "z": z}
+                "stable": bool(self.solver.stability(z, P).stable), "same_branch": same, "z": z, "params": P}
 
     def result(self, w: np.ndarray, z: np.ndarray) -> EquilibriumResult:
         """The equilibrium result at ``w`` from its state ``z`` (one polishing solve on the map's

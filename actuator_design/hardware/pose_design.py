@@ -198,10 +198,14 @@ def _travel_dict(magnet: MagnetSource) -> dict:
     return out
 
 
-def _screen(pmap: HardwareMap, prob: CurrentProblem, coords, progress=None) -> List[np.ndarray]:
+def _screen(pmap: HardwareMap, prob: CurrentProblem, coords, progress=None,
+            miss: Optional[Callable[[np.ndarray, dict], float]] = None) -> List[np.ndarray]:
     """Start offsets for the SQP: the configured pose (v = 0) and the grid poses over the travel
-    (:data:`SCREEN_LEVELS` per coordinate) nearest the target, mutually apart, at most :data:`STARTS`."""
+    (:data:`SCREEN_LEVELS` per coordinate) nearest the target, mutually apart, at most :data:`STARTS`.
+    ``miss(v, point)`` ranks the poses (default: the largest miss of the tip's coordinates)."""
     m, n = prob.target.size, prob.lo.size
+    if miss is None:
+        miss = lambda v, p: float(np.max(np.abs(p["tip"][:m] - prob.target)))
     levels = SCREEN_LEVELS[n]
     # (a coordinate whose travel is a whole turn has its two ends at one pose: sampled once)
     axes = [np.linspace(lo, hi, levels + 1)[:-1] if c == 2 and hi - lo >= 2 * math.pi - 1e-9 else
@@ -214,7 +218,7 @@ def _screen(pmap: HardwareMap, prob: CurrentProblem, coords, progress=None) -> L
         for v in points:
             p = pmap.evaluate(v)
             if p is not None and within_limits(prob, v, p):
-                found.append((v, float(np.max(np.abs(p["tip"][:m] - prob.target)))))
+                found.append((v, miss(v, p)))
         return found, pmap.solves - n0
 
     base = pmap.solves
@@ -223,8 +227,8 @@ def _screen(pmap: HardwareMap, prob: CurrentProblem, coords, progress=None) -> L
     pmap.solves = base + n1 + n2
     ranked = sorted(mine + theirs, key=lambda c: c[1])
     if progress is not None and ranked:
-        progress(f"screen: {len(grid)} poses over the travel, {len(ranked)} reached from rest, nearest tip "
-                 f"{ranked[0][1]:.3g} rod lengths off")
+        progress(f"screen: {len(grid)} poses over the travel, {len(ranked)} reached from rest, the nearest "
+                 f"{ranked[0][1]:.3g} off the target")
     chosen = [np.zeros(n)]
     for v, _ in ranked:
         if len(chosen) >= STARTS:

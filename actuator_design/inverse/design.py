@@ -306,9 +306,9 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
     if getattr(base.field, "kind", "") == "sources":
         raise ValueError("design: in a field of magnets and coils only the coils' currents (`field: {type: coils}`) "
                          "or one magnet's pose (a magnet with a `travel`) can be designed, for one tip target "
-                         "(`design CONFIG --target-tip X,Y`) or a shape (`--target-shape FILE.csv`); a stiffness "
-                         "cannot yet, and several poses are a schedule (`schedule CONFIG --waypoints "
-                         "'X1,Y1;X2,Y2'`: the currents or the pose at each)")
+                         "(`design CONFIG --target-tip X,Y`), a shape (`--target-shape FILE.csv`) or a stiffness "
+                         "(`--target-stiffness K`, with or without a tip target); several poses are a schedule "
+                         "(`schedule CONFIG --waypoints 'X1,Y1;X2,Y2'`: the currents or the pose at each)")
     if vary is None and base.field is not None and not base.field.is_uniform:
         # a magnet, coil or dipole field has no angle to turn: its strength h (every source scaled
         # together) is designed, with the fibre layout or magnetisation where the scene leaves it free

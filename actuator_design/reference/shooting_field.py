@@ -4,7 +4,8 @@ One of the project's *independent references*: numpy and scipy only, no CasADi a
 :mod:`actuator_design`; the field is a callable (typically magpylib's ``getH`` on the user's magnets
 and coils, evaluated here at every step of the integrator, its gradient by central differences).
 
-Model (THEORY §3–§5, §9; dimensionless: lengths in ℓ, energies in B0/ℓ, b ≡ 1, no dead loads): with
+Model (THEORY §3–§5, §9; dimensionless: lengths in ℓ, energies in B0/ℓ, b ≡ 1, a dead load at the tip
+only): with
 ĥ(r) the field in units of H0, a = (cos(θ+α), sin(θ+α)), m̂ = (cos(θ+β), sin(θ+β)),
 
     e(θ, r) = −h² (a·ĥ)² − h_pos² |ĥ|² − h_r (m̂·ĥ),
@@ -12,7 +13,7 @@ Model (THEORY §3–§5, §9; dimensionless: lengths in ℓ, energies in B0/ℓ,
 the stationarity of ∫ ½θ'² + e ds under r' = (cos θ, sin θ) (multiplier n(s), the internal force) is
 
     θ'' = ∂e/∂θ + n_x sin θ − n_y cos θ,   n' = ∂e/∂r,   r' = (cos θ, sin θ),
-    θ(0) = θ0, r(0) = 0;   θ'(1) = 0, n(1) = 0,
+    θ(0) = θ0, r(0) = 0;   θ'(1) = 0, n(1) = (f_x, f_y) (the tip load; 0 without),
 
 (for a uniform field and n ≡ (0, p) this is THEORY §5's θ'' − h² sin 2(θ − φ) + p cos θ = 0). Shooting
 on (θ'(0), n(0)) with DOP853 and Newton's method on the three end conditions.
@@ -35,7 +36,9 @@ class FieldRod:
     """A rod in a field ``field(points (k, 2)) -> ĥ (k, 2)`` (dimensionless, positions in ℓ).
 
     h, h_pos, h_r : the groups of THEORY §5 and §9; alpha, beta : constant fibre and magnetisation
-    angles (rad); theta0 : clamp angle (rad); delta : step of the central differences for ∇ĥ (ℓ).
+    angles (rad); theta0 : clamp angle (rad); delta : step of the central differences for ∇ĥ (ℓ);
+    end_load : a dead load (f_x, f_y) at the tip (units of B0/ℓ²; f_y = p of THEORY §5): the end
+    condition is then n(1) = end_load.
     """
 
     field: Callable[[np.ndarray], np.ndarray]
@@ -46,6 +49,7 @@ class FieldRod:
     beta: float = 0.0
     theta0: float = 0.0
     delta: float = 1e-4
+    end_load: tuple = (0.0, 0.0)
 
     def jet(self, x: float, y: float):
         """ĥ (2,) and ∇ĥ (2, 2), [i, j] = ∂ĥ_i/∂r_j, by 4th-order central differences."""
@@ -110,13 +114,15 @@ def solve_field_shooting(rod: FieldRod, guess: Sequence[float], *, tol: float = 
     RuntimeError
         When the end conditions are not met to ``tol``.
     """
+    fx, fy = (float(f) for f in rod.end_load)
+
     def ends(v):
         e = shoot_field(rod, v, rtol).end
-        return [e[1], e[4], e[5]]
+        return [e[1], e[4] - fx, e[5] - fy]
 
     out = root(ends, np.asarray(guess, float), method="hybr", options={"xtol": 1e-13})
     shot = shoot_field(rod, out.x, rtol)
-    resid = max(abs(shot.end[1]), abs(shot.end[4]), abs(shot.end[5]))
+    resid = max(abs(shot.end[1]), abs(shot.end[4] - fx), abs(shot.end[5] - fy))
     if not resid <= tol * max(1.0, float(np.max(np.abs(out.x)))):
         raise RuntimeError(f"shooting did not converge: end residual {resid:.3g} ({out.message})")
     shot.converged = True
