@@ -15,7 +15,10 @@ import pytest
 
 from actuator_design.inverse.design import DesignSettings, design
 from actuator_design.analysis.stiffness import tip_stiffness
-from actuator_design.robust.tolerances import parse_tolerances, perturb
+from actuator_design.equilibrium.pipeline import solve
+from actuator_design.physics import parameters as lens
+from actuator_design.robust.design_stiffness_box import stiffness_over_box
+from actuator_design.robust.tolerances import Tolerances, parse_tolerances, perturb
 from actuator_design.cli.main import main
 from actuator_design.reference.closed_forms import lowload_stiffness
 from actuator_design.model.scene import default_scene
@@ -89,3 +92,16 @@ def test_a_tolerance_box_not_checked_is_never_a_success(monkeypatch):
     assert res.verified and not res.success
     assert "not checked over the tolerance box" in res.message
     assert res.to_dict()["status"] == "not_accepted"
+
+
+def test_a_youngs_modulus_tolerance_gives_the_stiffness_in_the_nominal_units():
+    # a scene with E moved is solved in its own units (b = 1, h and loads rescaled): its stiffness,
+    # in B'/l^3, is brought back to B0/l^3. Closed form (THEORY §6): the straight rod in an axial
+    # field h has s(h) B/l^3, and E·(1 + d) turns h into h/sqrt(1 + d), B into B(1 + d)
+    scene = lens.parameter("p").require(default_scene(h=2.0))
+    r = solve(scene)
+    box = stiffness_over_box(scene, r.z, Tolerances(field_rel=0.0, angle=0.0, youngs_rel=0.1), r.options, 10.0)
+    assert len(box.points) == 3 and box.complete
+    for pt in box.points:
+        d = 0.1 * pt["offset"]["youngs_rel"]
+        assert pt["stiffness"] == pytest.approx((1 + d) * float(lowload_stiffness(2.0 / math.sqrt(1 + d))), rel=1e-6)

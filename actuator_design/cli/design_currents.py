@@ -147,12 +147,12 @@ def _stiffness_summary(res, length: float, scale: float, summary) -> str:
     in B0/l^3 and N/m."""
     n_per_m = lambda k: f"{k:.6g} B0/l^3 = {k * scale:.6g} N/m"
     lines = summary(res, length).splitlines()
-    lines[0] = lines[0].replace("a tip position", "a tip stiffness")
+    lines[0] = lines[0].replace("a tip position", "a tip position and stiffness" if res.target else "a tip stiffness")
     if not math.isfinite(res.tip[0]):  # no design: what failed, and nothing else
         return "\n".join(lines)
-    if not res.target:  # a stiffness alone: the tip has no target to miss
+    if not res.target:  # a stiffness alone: the tip has no target to miss, the verification's is the design's tip
         lines = [line.replace("(miss nan; ", "(").replace("worst tip miss", "the tip moves by at most")
-                 for line in lines]
+                 .replace("from rest: miss", "from rest: tip off the design's by") for line in lines]
     v = res.verification.get("stiffness", math.nan)
     extra = [f"  stiffness   : target {n_per_m(res.stiffness_target)}; achieved {n_per_m(res.achieved_stiffness)}"
              + (f"; verified by differences {n_per_m(v)}" if math.isfinite(v) else "")]

@@ -43,7 +43,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
-__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map"]
+__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map", "effort_notes"]
 
 #: the design's tip tolerance (rod lengths)
 TIP_TOL = 1e-8
@@ -232,9 +232,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
                         start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                         resistance=tuple(c.resistance for c in coils), tolerances=tol,
                         effort="power" if prob.power is not None else "current_squared")
-    resist = np.array([c.resistance for c in coils])
-    if np.any(np.isfinite(resist)) and not np.all(np.isfinite(resist)):
-        out.notes.append("not every coil has a resistance: the effort minimised is the sum of squared currents")
+    out.notes += effort_notes(coils)
     cmap, out.message = current_map(scene, options)
     if cmap is None:
         return out
@@ -267,6 +265,14 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
     out.message = _message(out)
     return out
+
+
+def effort_notes(coils: Sequence[CoilSource]) -> List[str]:
+    """A note where some coils have a resistance and others not: the effort is then Σ I_k², not the power."""
+    resist = np.array([c.resistance for c in coils])
+    if np.any(np.isfinite(resist)) and not np.all(np.isfinite(resist)):
+        return ["not every coil has a resistance: the effort minimised is the sum of squared currents"]
+    return []
 
 
 def _even(scene: Scene) -> bool:

@@ -19,7 +19,8 @@ import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.current_design import (CurrentDesign, _active, _corners, _even, _field_report,
-                                                     _screen, coil_problem, current_map, scene_at_currents)
+                                                     _screen, coil_problem, current_map, effort_notes,
+                                                     scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
@@ -83,6 +84,7 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                              start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                              resistance=tuple(c.resistance for c in coils), tolerances=tol, points=pts,
                              accept_tol=accept_tol, effort="fit")
+    out.notes += effort_notes(coils)
     cmap, out.message = current_map(scene, options)
     if cmap is None:
         return out

@@ -23,7 +23,8 @@ import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.current_design import (CurrentDesign, _active, _better, _corners, _even, _field_report,
-                                                     _screen, coil_problem, current_map, scene_at_currents)
+                                                     _screen, coil_problem, current_map, effort_notes,
+                                                     scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.design import judge, run_starts
 from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness, stiffness_message,
@@ -93,6 +94,7 @@ def design_current_stiffness(scene: Scene, stiffness: float, target=None, *, tol
         resistance=tuple(c.resistance for c in coils), tolerances=tol,
         effort="power" if prob.power is not None else "current_squared",
         stiffness_target=float(stiffness), accept_tol=accept_tol)
+    out.notes += effort_notes(coils)
     cmap, out.message = current_map(scene, options)
     if cmap is None:
         return out
@@ -148,6 +150,6 @@ def _box(smap: StiffnessMap, w: np.ndarray, out: CurrentStiffnessDesign, tol: To
         corners.append({"currents_A": list(wc * currents0), "mount_deg": math.degrees(mount), **deltas,
                         "tip": {"x": tip[0], "y": tip[1], "angle": tip[2]},
                         "tip_error": float(np.max(np.abs(tip[:ref.size] - ref))),
-                        **smap.corner_stiffness(c),
+                        **smap.corner_stiffness(c, deltas),
                         "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"]})
     return corners

@@ -21,8 +21,8 @@ import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.design import judge, run_starts
-from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _better, _field_report,
-                                                  _screen, _travel_dict, corner_states, pose_map)
+from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _band, _better,
+                                                  _field_report, _screen, _travel_dict, corner_states, pose_map)
 from actuator_design.hardware.pose_problem import pose_problem, scene_at_pose
 from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness,
                                                     stiffness_message, stiffness_missed, verify_stiffness)
@@ -114,14 +114,16 @@ def design_pose_stiffness(scene: Scene, stiffness: float, target=None, *, tolera
     out.field_at_clamp, out.max_rod_field = _field_report(pmap.at(scene, v), out.state)
     out.limits_active = _active(var, prob, v, pt)
     if not sqp.reached:
-        stiffness_missed(out, sqp, "pose within the travel")
+        stiffness_missed(out, sqp, "pose within the travel",
+                         _band(pt["tip_jac"][:2] * prob.half) if tip_target.size else "")
         out.solves, out.seconds = pmap.solves, time.perf_counter() - t0
         return out
     if verify:
         verify_stiffness(out, scene_at_pose(scene, out.position, out.axis_angle), options, tip_target, accept_tol)
     ref = tip_target if tip_target.size else np.asarray(out.tip, float)[:2]
     judge(out, [{"offsets": offsets, "tip": {"x": c["tip"][0], "y": c["tip"][1], "angle": c["tip"][2]},
-                 "tip_error": float(np.max(np.abs(c["tip"][:ref.size] - ref))), **smap.corner_stiffness(c),
+                 "tip_error": float(np.max(np.abs(c["tip"][:ref.size] - ref))),
+                 **smap.corner_stiffness(c, offsets),
                  "success": c["reached"], "stable": c["stable"], "same_branch": c["same_branch"],
                  **({"region": c["region"]} if "region" in c else {})}
                 for offsets, c in corner_states(pmap, var, v, out.state, tol, position_tolerance)])

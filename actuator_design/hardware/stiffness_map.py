@@ -24,8 +24,9 @@ design's SQP (:mod:`actuator_design.hardware.current_sqp`) meets both as it meet
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
+from typing import Dict, Mapping, Optional, Tuple
 
 import casadi as ca
 import numpy as np
@@ -34,6 +35,7 @@ from actuator_design.equilibrium.pipeline import solve
 from actuator_design.hardware.design import VERIFY_TOL
 from actuator_design.hardware.map import HardwareMap
 from actuator_design.inverse.verify import stiffness_by_differences
+from actuator_design.robust.tolerances import bending_scale
 
 __all__ = ["StiffnessMap", "StiffnessFit", "verify_stiffness", "check_stiffness", "stiffness_missed",
            "stiffness_message", "ACCEPT_TOL"]
@@ -75,13 +77,19 @@ class StiffnessFit:
             else math.nan
 
 
+def _real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
 def check_stiffness(stiffness, target, accept_tol: float) -> np.ndarray:
     """The tip's targeted coordinates as an array (0, 2 or 3); ValueError for a stiffness that is
-    not a finite number > 0, a target that is not x, y[, angle] or an ``accept_tol`` outside (0, 1)."""
-    if not (isinstance(stiffness, (int, float)) and math.isfinite(stiffness) and stiffness > 0):
+    not a finite number > 0, a target that is not x, y[, angle] or an ``accept_tol`` that is not a
+    finite number below 1."""
+    if not (_real(stiffness) and math.isfinite(stiffness) and stiffness > 0):
         raise ValueError(f"stiffness target: must be a finite number > 0 (units of B0/l^3), got {stiffness!r}")
-    if not (isinstance(accept_tol, (int, float)) and math.isfinite(accept_tol) and 0 < accept_tol < 1):
-        raise ValueError(f"stiffness design: accept_tol must be in (0, 1), got {accept_tol!r}")
+    # (as the design settings: below 1, and <= 0 accepts nothing, a way to see the verdicts)
+    if not (_real(accept_tol) and math.isfinite(accept_tol) and accept_tol < 1):
+        raise ValueError(f"stiffness design: accept_tol must be a finite number < 1, got {accept_tol!r}")
     tip = np.zeros(0) if target is None else np.asarray(target, float)
     if tip.size not in (0, 2, 3) or not np.all(np.isfinite(tip)):
         raise ValueError(f"design: the target is x, y[, angle] (finite numbers), got {tip.tolist()}")
@@ -152,12 +160,13 @@ class StiffnessMap:
         du, dP = (np.asarray(q, float).ravel() for q in self._dphi(z[1:], P, v, a))
         return c, du @ self.hmap.state_derivative(z, w) + dP[self._slots]
 
-    def corner_stiffness(self, corner: dict) -> dict:
+    def corner_stiffness(self, corner: dict, deltas: Mapping[str, float]) -> dict:
         """A box corner's (:meth:`~actuator_design.hardware.map.HardwareMap.corner`) ``stiffness`` K
-        (units of B0/ℓ³; nan where it was not reached or sits at a fold) and ``stiffness_error``
-        |K/K_target − 1|."""
+        (units of the nominal B0/ℓ³: a corner whose E is moved by ``deltas`` is solved in its own
+        units, :func:`~actuator_design.robust.tolerances.bending_scale`; nan where it was not
+        reached or sits at a fold) and ``stiffness_error`` |K/K_target − 1|."""
         c = self.compliance(corner["z"], corner["params"])[0] if "z" in corner else math.nan
-        k = 1.0 / c if c != 0.0 else math.inf
+        k = (1.0 / c if c != 0.0 else math.inf) * bending_scale(deltas)
         return {"stiffness": k, "stiffness_error": abs(k / self.k_target - 1.0)}
 
     def evaluate(self, w: np.ndarray) -> Optional[dict]:
@@ -180,8 +189,8 @@ class StiffnessMap:
         return self._cache[key]
 
     def miss(self, w: np.ndarray, station: dict) -> float:
-        """How far a station of a ramp (``z``, ``tip``) is from the target: the largest of the tip
-        coordinates' misses and |c·K_target − 1| (the screen's ranking)."""
+        """How far a station of a ramp (``z``) is from the stiffness: |c·K_target − 1| (the screen's
+        ranking of a stiffness alone)."""
         P = self.hmap.solver.parameter_vector(self.hmap.at(self.hmap.scene, np.asarray(w, float)))
         c, _ = self.compliance(station["z"], P)
         return abs(c * self.k_target - 1.0) if math.isfinite(c) else math.inf
@@ -204,21 +213,22 @@ def verify_stiffness(out, refitted, options, target_tip: np.ndarray, accept_tol:
     out.verified = bool(r.success and r.stable and err <= VERIFY_TOL and rel <= accept_tol)
 
 
-def stiffness_missed(out, sqp, what: str) -> None:
+def stiffness_missed(out, sqp, what: str, extra: str = "") -> None:
     """The search ended off the target: the nearest stiffness (and tip) found, with the limits that
-    bind; ``what`` names the hardware (\"setting of the currents within the limits\")."""
+    bind; ``what`` names the hardware (\"setting of the currents within the limits\"), ``extra``
+    is added to the message."""
     binds = f" ({', '.join(out.limits_active)} at the limit)" if out.limits_active else ""
     near = (f"stiffness {out.achieved_stiffness:.6g} B0/l^3 against the target {out.stiffness_target:.6g}"
             + (f", tip {out.tip_error:.3g} rod lengths off" if out.target else ""))
     if sqp.stopped_short:
         out.status = "not_converged"
         out.message = (f"the search stopped short ({near}) in a thin band of reachable states with no limit "
-                       f"binding: the target may be reachable by a {what}, but none was found")
+                       f"binding: the target may be reachable by a {what}, but none was found" + extra)
     else:
         out.status = "unreachable"
         out.message = (f"no {what} gives the "
                        f"{'stiffness with the tip on the target' if out.target else 'stiffness'}: the nearest found "
-                       f"(a local search, not certified the nearest) has {near}{binds}")
+                       f"(a local search, not certified the nearest) has {near}{binds}" + extra)
 
 
 def stiffness_message(out, setting: str) -> str:

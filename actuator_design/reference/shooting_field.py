@@ -140,7 +140,9 @@ def field_from_function(h_of_points: Callable[[np.ndarray], np.ndarray], length:
 
 def guess_from_shape(rod: FieldRod, s: np.ndarray, theta: np.ndarray, dtheta0: float,
                      x: np.ndarray, y: np.ndarray) -> Optional[np.ndarray]:
-    """(θ'(0), n(0)) for a start: n(0) = −∫₀¹ ∂e/∂r ds along a given shape (trapezoidal)."""
+    """(θ'(0), n(0)) for a start: n(0) = n(1) − ∫₀¹ ∂e/∂r ds along a given shape (trapezoidal), n(1)
+    the tip load."""
     de_dr = np.array([rod.rhs(si, [th, 0.0, xi, yi, 0.0, 0.0])[4:6] for si, th, xi, yi in zip(s, theta, x, y)])
-    n0 = -np.trapz(de_dr, s, axis=0) if hasattr(np, "trapz") else -np.trapezoid(de_dr, s, axis=0)
+    n0 = np.asarray(rod.end_load, float) - (np.trapz(de_dr, s, axis=0) if hasattr(np, "trapz")
+                                            else np.trapezoid(de_dr, s, axis=0))
     return np.array([dtheta0, n0[0], n0[1]])

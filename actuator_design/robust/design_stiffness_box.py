@@ -28,7 +28,7 @@ from actuator_design.equilibrium.solver import get_solver
 from actuator_design.inverse.verify import stiffness_by_differences
 from actuator_design.model.scene import Scene
 from actuator_design.robust.robustness import follow_segment
-from actuator_design.robust.tolerances import Tolerances, perturb
+from actuator_design.robust.tolerances import Tolerances, bending_scale, perturb
 
 __all__ = ["StiffnessOverBox", "stiffness_over_box", "box_grid"]
 
@@ -118,7 +118,9 @@ def stiffness_over_box(scene: Scene, z: np.ndarray, tol: Tolerances, options: So
         if any(off.values()):
             seg = follow_segment(solver, zc, P0, solver.parameter_vector(at))
             reached, zc = seg.completed, seg.z_end
-        k = stiffness_by_differences(at, options, zc) if reached else float("nan")
+        # (a moved E changes the unit of the moved scene's stiffness: back to B0/l^3)
+        k = (stiffness_by_differences(at, options, zc) * bending_scale({a: v * getattr(tol, a) for a, v in off.items()})
+             if reached else float("nan"))
         ok = reached and math.isfinite(k)
         out.points.append({"offset": {a: float(v) for a, v in off.items()}, "reached": bool(reached),
                            "stiffness": float(k) if ok else None,

@@ -27,7 +27,7 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
 
-__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor"]
+__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor", "bending_scale"]
 
 #: name in the CLI/YAML → (attribute, kind): kind "rel" takes a percentage or fraction, "angle" takes
 #: degrees ("2deg") or radians (a plain number)
@@ -220,6 +220,14 @@ def apply_deltas(scene: Scene, deltas: Mapping[str, float]) -> Scene:
     if g["clamp_angle"] != 0.0:
         out = replace(out, theta0=scene.theta0 + g["clamp_angle"])
     return out
+
+
+def bending_scale(deltas: Mapping[str, float]) -> float:
+    """B'/B0 of a scene moved by ``deltas`` (:func:`apply_deltas`): a Young's modulus changed by δE
+    changes the bending stiffness, the unit of the moved scene's energies, loads and stiffnesses
+    (its groups are rescaled with b = 1 kept). A stiffness dp/dv1 computed on the moved scene is in
+    units of B'/ℓ³; times this, in the nominal B0/ℓ³."""
+    return 1.0 + float(deltas.get("youngs_rel", 0.0))
 
 
 def scaled_slots() -> Tuple[lens.Parameter, ...]:
