@@ -29,7 +29,6 @@ import numpy as np
 
 from actuator_design.contact.clearance import clearance_check
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.robust.snap_location import locate_snap, snap_builds, snap_unit
