@@ -43,7 +43,8 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
-__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map", "effort_notes"]
+__all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map", "effort_notes",
+           "first_coil_positive"]
 
 #: the design's tip tolerance (rod lengths)
 TIP_TOL = 1e-8
@@ -243,11 +244,7 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
         out.message = ("no start currents within the limits gave a stable state from rest (the configured "
                        "currents and the screen's ramps)")
         return out
-    w, pt = sqp.w, sqp.point
-    currents = w * i0
-    if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
-        w = -w  # one representative of ±I (the same state): the first coil that carries current positive
-        pt = cmap.evaluate(w)
+    w, pt = first_coil_positive(scene, sqp.w, sqp.point, i0, cmap.evaluate)
     out.currents = tuple((w * i0).tolist())
     out.state, out.tip = cmap.result(w, pt["z"]), pt["tip"]
     out.tip_error = float(np.max(np.abs(pt["tip"][:target.size] - target)))
@@ -265,6 +262,16 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
     out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
     out.message = _message(out)
     return out
+
+
+def first_coil_positive(scene: Scene, w: np.ndarray, pt: dict, i0: np.ndarray, evaluate) -> tuple:
+    """(w, its point) with, for a rod whose energy is even in the field, the sign of every current
+    chosen so that the first coil carrying current carries a positive one (±I hold the same state:
+    one representative); ``evaluate(w)`` re-evaluates the point where the sign flips."""
+    currents = w * i0
+    if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
+        return -w, evaluate(-w)
+    return w, pt
 
 
 def effort_notes(coils: Sequence[CoilSource]) -> List[str]:

@@ -20,7 +20,7 @@ import numpy as np
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.current_design import (CurrentDesign, _active, _corners, _even, _field_report,
                                                      _screen, coil_problem, current_map, effort_notes,
-                                                     scene_at_currents)
+                                                     first_coil_positive, scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
@@ -99,10 +99,7 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                                                                           accept_tol, progress)
     if descended:
         out.effort = "power" if prob.power is not None else "current_squared"
-    currents = w * i0
-    if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
-        w = -w  # one representative of ±I (the same state of a soft rod): the first coil carrying current positive
-        pt = smap.evaluate(w)
+    w, pt = first_coil_positive(scene, w, pt, i0, smap.evaluate)
     out.currents = tuple((w * i0).tolist())
     out.state, out.tip = cmap.result(w, pt["z"]), pt["tip_point"]
     record_fit(out, pt)

@@ -24,7 +24,7 @@ import numpy as np
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.current_design import (CurrentDesign, _active, _better, _corners, _even, _field_report,
                                                      _screen, coil_problem, current_map, effort_notes,
-                                                     scene_at_currents)
+                                                     first_coil_positive, scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.design import judge, run_starts
 from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness, stiffness_message,
@@ -107,11 +107,7 @@ def design_current_stiffness(scene: Scene, stiffness: float, target=None, *, tol
         out.message = ("no start currents within the limits gave a stable state from rest (the configured "
                        "currents and the screen's ramps)")
         return out
-    w, pt = sqp.w, sqp.point
-    currents = w * i0
-    if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
-        w = -w  # one representative of ±I (the same state): the first coil that carries current positive
-        pt = smap.evaluate(w)
+    w, pt = first_coil_positive(scene, sqp.w, sqp.point, i0, smap.evaluate)
     out.currents = tuple((w * i0).tolist())
     out.state, out.tip = cmap.result(w, pt["z"]), pt["tip_point"]
     out.achieved_stiffness = float(pt["stiffness"])

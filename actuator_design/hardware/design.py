@@ -107,6 +107,12 @@ class HardwareDesign:
             self.message = (f"no {what} puts the tip on the target: the nearest tip found (a local search, not "
                             f"certified the nearest) misses it by {self.tip_error:.3g} rod lengths{binds}" + extra)
 
+    def not_robust(self) -> str:
+        """The sentence of a design that does not hold over its box: at how many corners."""
+        bad = sum(not (c["success"] and c["stable"] and c["same_branch"]) for c in self.box)
+        return (f"; NOT robust: at {bad} of {len(self.box)} corners of the tolerance box the rod, switched on from "
+                "rest, is not on the designed branch (or not stable)")
+
     def closing_message(self, text: str, what: str = "tip") -> str:
         """``text`` (what the design is and its miss) with the verification's and the box's verdicts;
         ``what`` names what misses (``"tip"``, or ``"points"`` for a shape)."""
@@ -117,9 +123,7 @@ class HardwareDesign:
                            f"{v.get('stable')})" if v else "; not verified (verification off)")
         text += f"; verified from rest on the refitted field (miss {self.verification['error']:.2g})"
         if not self.holds_over_box:
-            bad = sum(not (c["success"] and c["stable"] and c["same_branch"]) for c in self.box)
-            return text + (f"; NOT robust: at {bad} of {len(self.box)} corners of the tolerance box the rod, switched "
-                           "on from rest, is not on the designed branch (or not stable)")
+            return text + self.not_robust()
         return text + (f"; over the box ({len(self.box)} corners) the {what} miss{'es' * (what == 'tip')} by at most "
                        f"{self.worst_tip_error:.3g} rod lengths")
 

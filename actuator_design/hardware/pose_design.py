@@ -38,8 +38,8 @@ from actuator_design.hardware.current_sqp import CurrentProblem, within_limits
 from actuator_design.hardware.design import HardwareDesign, judge, run_starts
 from actuator_design.hardware.design import verify as verify_on
 from actuator_design.hardware.map import HardwareMap
-from actuator_design.hardware.pose_problem import (COORDS, TIP_TOL, PoseVariables, at_pose, clearance,
-                                                   pose_problem, scene_at_pose)
+from actuator_design.hardware.pose_problem import (COORDS, TIP_TOL, PoseVariables, at_pose, check_position_tolerance,
+                                                   clearance, pose_problem, scene_at_pose)
 from actuator_design.model.field_sources import MagnetSource
 from actuator_design.model.scene import Scene
 from actuator_design.model.units import MU0
@@ -140,9 +140,7 @@ def design_pose(scene: Scene, target, *, tolerances: Optional[Tolerances] = None
     target = np.asarray(target, float)
     if target.size not in (2, 3) or not np.all(np.isfinite(target)):
         raise ValueError(f"design: the target is x, y[, angle] (finite numbers), got {target.tolist()}")
-    if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):
-        raise ValueError(f"position tolerance: must be in [0, {0.1 * scene.field.length * 1e3:g} mm] (a tenth of the "
-                         f"rod), got {position_tolerance * 1e3:g} mm")
+    check_position_tolerance(scene, position_tolerance)
     var, prob = pose_problem(scene, target, tip_tol)
     magnet = scene.field.sources[var.source]
     out = PoseDesign(success=False, status="not_converged", message="", target=tuple(target.tolist()),

@@ -16,7 +16,7 @@ from actuator_design.hardware.current_sqp import CurrentProblem
 from actuator_design.hardware.design import refitted
 
 __all__ = ["PoseVariables", "pose_variables", "at_pose", "clearance", "pose_problem", "scene_at_pose", "TIP_TOL",
-           "COORDS", "angle_offsets"]
+           "check_position_tolerance", "COORDS", "angle_offsets"]
 
 #: the design's tip tolerance (rod lengths; 2 nm on a 20 mm strip, where the stage's ±0.5 mm moves
 #: the tip by ~1e-2): the tips a bent strip reaches form a thin band across which the tip moves up
@@ -145,6 +145,13 @@ def pose_problem(scene: Scene, target, tip_tol: float = TIP_TOL):
     prob = CurrentProblem(target=np.asarray(target, float), cost=1.0 / half ** 2, bound=half, max_limit=1.0,
                           tip_tol=tip_tol, lower=var.lower, upper=var.upper, centre=np.zeros(half.size))
     return var, prob
+
+
+def check_position_tolerance(scene: Scene, position_tolerance: float) -> None:
+    """ValueError unless the magnet's position tolerance (m) is in [0, a tenth of the rod]."""
+    if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):
+        raise ValueError(f"position tolerance: must be in [0, {0.1 * scene.field.length * 1e3:g} mm] (a tenth of the "
+                         f"rod), got {position_tolerance * 1e3:g} mm")
 
 
 def scene_at_pose(scene: Scene, position, axis_angle: float) -> Scene:

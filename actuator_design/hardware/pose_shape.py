@@ -21,7 +21,7 @@ import numpy as np
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _field_report, _screen,
                                                   _travel_dict, corner_states, pose_map)
-from actuator_design.hardware.pose_problem import pose_problem, scene_at_pose
+from actuator_design.hardware.pose_problem import check_position_tolerance, pose_problem, scene_at_pose
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
 from actuator_design.model.scene import Scene
@@ -76,9 +76,7 @@ def design_pose_shape(scene: Scene, points, *, tolerances: Optional[Tolerances] 
     pts = check_points(points, accept_tol, "a magnet's pose")
     tol = tolerances if tolerances is not None else Tolerances()
     options = options or SolverOptions()
-    if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):
-        raise ValueError(f"position tolerance: must be in [0, {0.1 * scene.field.length * 1e3:g} mm] (a tenth of the "
-                         f"rod), got {position_tolerance * 1e3:g} mm")
+    check_position_tolerance(scene, position_tolerance)
     var, tip_prob = pose_problem(scene, pts[-1, 1:])  # the screen ranks its starts by the last point
     prob = replace(tip_prob, target=np.concatenate([pts[:, 1], pts[:, 2]]))
     magnet = scene.field.sources[var.source]

@@ -23,7 +23,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.hardware.design import judge, run_starts
 from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _band, _better,
                                                   _field_report, _screen, _travel_dict, corner_states, pose_map)
-from actuator_design.hardware.pose_problem import pose_problem, scene_at_pose
+from actuator_design.hardware.pose_problem import check_position_tolerance, pose_problem, scene_at_pose
 from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness,
                                                     stiffness_message, stiffness_missed, verify_stiffness)
 from actuator_design.model.scene import Scene
@@ -81,9 +81,7 @@ def design_pose_stiffness(scene: Scene, stiffness: float, target=None, *, tolera
     """
     t0 = time.perf_counter()
     tip_target = check_stiffness(stiffness, target, accept_tol)
-    if not (math.isfinite(position_tolerance) and 0.0 <= position_tolerance <= 0.1 * scene.field.length):
-        raise ValueError(f"position tolerance: must be in [0, {0.1 * scene.field.length * 1e3:g} mm] (a tenth of the "
-                         f"rod), got {position_tolerance * 1e3:g} mm")
+    check_position_tolerance(scene, position_tolerance)
     scene = lens.parameter("p").require(scene)
     tol = tolerances if tolerances is not None else Tolerances()
     options = options or SolverOptions()

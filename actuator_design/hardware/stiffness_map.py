@@ -245,9 +245,7 @@ def stiffness_message(out, setting: str) -> str:
                        f"accepted {out.accept_tol:g}; {v['status']}, stable {v['stable']})")
     text += f"; the refitted field's stiffness by differences is {v['stiffness']:.6g}"
     if not out.holds_over_box:
-        bad = sum(not (c["success"] and c["stable"] and c["same_branch"]) for c in out.box)
-        return text + (f"; NOT robust: at {bad} of {len(out.box)} corners of the tolerance box the rod, switched on "
-                       "from rest, is not on the designed branch (or not stable)")
+        return text + out.not_robust()
     return text + (f"; over the box ({len(out.box)} corners) the stiffness is off by at most "
                    f"{out.worst_stiffness_error:.3g} relative"
                    + (f" and the tip by {out.worst_tip_error:.3g} rod lengths" if out.target else ""))
