@@ -83,16 +83,7 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str, strict: bool
         # confirm a converged IPOPT point (up to 30 cheap steps); from a failed one try briefly
         polish = solver.solve_newton(raw.z, params, max_iter=30 if raw.converged else 4,
                                      tol=solver.options.tol)
-        if polish.converged and not raw.converged and strict and _handed_the_answer(raw, polish, z0):
-            # IPOPT was started on an equilibrium and could not improve it (its search direction
-            # at round-off: a straight rod on a field's axis of symmetry, where the curvature is
-            # so large that the gradient's round-off exceeds IPOPT's absolute tolerance); Newton
-            # confirms the start itself, without moving: the minimisation had nothing to do
-            polish.iterations += raw.iterations
-            polish.message = (raw.message + "; the start is an equilibrium (Newton confirms it without moving "
-                              "from it), which IPOPT could not improve")
-            raw = polish
-        elif polish.converged and not raw.converged and strict:
+        if polish.converged and not raw.converged and strict:
             # every IPOPT failure status is a failure: Newton found a stationary point near
             # IPOPT's last iterate, but the minimisation did not finish (issue 10)
             polish.iterations += raw.iterations
@@ -111,19 +102,6 @@ def _solve_once(solver: EquilibriumSolver, z0, params, method: str, strict: bool
             raw.status = "not_converged"
             raw.message += f"; not confirmed by Newton ({polish.message})"
     return raw
-
-
-#: a Newton point this close to the start (relative to the angles' size) is the start itself: what
-#: remains is round-off (a genuine move, even a small one, is many orders larger)
-UNMOVED = 1e-12
-
-
-def _handed_the_answer(raw: RawSolution, polish: RawSolution, z0) -> bool:
-    """Whether IPOPT stopped because its search direction became too small and Newton's stationary
-    point is the start itself (to :data:`UNMOVED`): the start was already the equilibrium."""
-    start = np.asarray(z0, float)
-    return (raw.status == "Search_Direction_Becomes_Too_Small"
-            and float(np.max(np.abs(np.asarray(polish.z, float) - start))) <= UNMOVED * max(1.0, float(np.max(np.abs(start)))))
 
 
 def make_result(scene, options, solver, params, raw: RawSolution, verdict, escaped, notes, solve_time):
