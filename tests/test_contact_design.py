@@ -11,6 +11,7 @@ from scipy.optimize import brentq
 from actuator_design.contact.design import design_contact_force
 from actuator_design.config.model import load_scene
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
+from actuator_design.robust.tolerances import Tolerances
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "contact_tip_on_floor.yaml"
 
@@ -37,6 +38,20 @@ def test_the_field_that_presses_a_floor_with_a_given_force():
     lo, hi = d.box_force_range
     assert lo < 0.5 < hi and len(d.box) == 4
     assert d.to_dict()["physical"]["force_N"] == pytest.approx(0.5 * scene.scales.force)
+
+
+def test_the_force_over_the_box_is_in_the_nominal_units_with_youngs_modulus_moved():
+    # E and the susceptibility moved together by the same fraction leave every dimensionless group
+    # as it is (h^2 ∝ χ/E): the rod takes the same shape, and every force, the floor's too, scales
+    # with E (THEORY §5: forces in units of B0/l^2, B0 ∝ E)
+    scene, _, _ = load_scene(CONFIG)
+    d = design_contact_force(scene, 0.5, h_max=3.0,
+                             tolerances=Tolerances(field_rel=0.0, angle=0.0, youngs_rel=0.1, chi_rel=0.1))
+    assert d.success, d.message
+    same = [c for c in d.box if c["deltas"]["youngs_rel"] == c["deltas"]["chi_rel"]]
+    assert len(same) == 2
+    for corner in same:
+        assert corner["force"] == pytest.approx(0.5 * (1 + corner["deltas"]["youngs_rel"]), rel=1e-6)
 
 
 def test_an_unreachable_force_says_how_far_the_path_got():

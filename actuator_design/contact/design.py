@@ -30,7 +30,7 @@ from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.contact.path import follow_contact_path
-from actuator_design.robust.tolerances import Tolerances, apply_deltas
+from actuator_design.robust.tolerances import Tolerances, apply_deltas, bending_scale
 
 __all__ = ["design_contact_force", "ContactForceDesign"]
 
@@ -160,8 +160,9 @@ def _finish(out, scene, options, tolerances, below, above, force, xtol, rtol) ->
     for corner in tolerances.corners():
         deltas = {a: s * getattr(tolerances, a) for a, s in corner.items()}
         r = solve(apply_deltas(replace(scene, h=h), deltas), options, initial=state)
-        box.append({"deltas": deltas, "force": obstacle_force(r, k), "success": bool(r.success),
-                    "stable": bool(r.stable)})
+        # (a corner with E moved is solved in its own units, b = 1: its force back in B0/l^2)
+        box.append({"deltas": deltas, "force": obstacle_force(r, k) * bending_scale(deltas),
+                    "success": bool(r.success), "stable": bool(r.stable)})
     fs = [c["force"] for c in box] or [out.force]
     out.box, out.box_force_range = box, (float(min(fs)), float(max(fs)))
     out.holds_over_box = bool(all(c["success"] and c["stable"] and c["force"] > 0 for c in box))

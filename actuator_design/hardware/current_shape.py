@@ -84,7 +84,6 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
                              start_currents=tuple(i0.tolist()), max_current=tuple(c.max_current for c in coils),
                              resistance=tuple(c.resistance for c in coils), tolerances=tol, points=pts,
                              accept_tol=accept_tol, effort="fit")
-    out.notes += effort_notes(coils)
     cmap, out.message = current_map(scene, options)
     if cmap is None:
         return out
@@ -97,8 +96,9 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
     w, pt, out.iterations, settled = best
     w, pt, out.iterations, out.least_effort, descended = least_effort_fit(prob, smap, w, pt, out.iterations,
                                                                           accept_tol, progress)
-    if descended:
+    if descended:  # (only then was an effort minimised)
         out.effort = "power" if prob.power is not None else "current_squared"
+        out.notes += effort_notes(coils)
     w, pt = first_coil_positive(scene, w, pt, i0, smap.evaluate)
     out.currents = tuple((w * i0).tolist())
     out.state, out.tip = cmap.result(w, pt["z"]), pt["tip_point"]
