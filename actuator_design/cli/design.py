@@ -76,7 +76,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="units of X,Y (default rod lengths; mm/m need a physical scene)")
     parser.add_argument("--target-stiffness", metavar="K",
                         help="target vertical tip stiffness dp/dv1: a number in units of B0/l^3, or a "
-                             "quantity such as '1.2 N/m' for a physical scene; alone or with --target-tip")
+                             "quantity such as '1.2 N/m' for a physical scene; alone or with --target-tip (on a scene "
+                             "of coils: the least-power currents; with a magnet on a stage: its pose)")
     parser.add_argument("--target-force", metavar="F",
                         help="with obstacles in the scene: the field magnitude at which the rod, loaded from "
                              "rest, presses an obstacle with this force (a gripper): a number in B0/l^2, or a "
