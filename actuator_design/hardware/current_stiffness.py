@@ -3,7 +3,7 @@ least-power currents within each driver's limit whose rod, loaded from rest, has
 stiffness K = dp/dv1 asked for, with the tip on a target too if one is given.
 
 The tip design (:mod:`actuator_design.hardware.current_design`) with one more equation: the SQP of
-:mod:`actuator_design.hardware.current_sqp` meets c·K_target = 1 (c the compliance, exact with its
+:mod:`actuator_design.hardware.current_sqp` meets log(c·K_target) = 0 (c the compliance, exact with its
 derivative in the currents: :class:`~actuator_design.hardware.stiffness_map.StiffnessMap`) beside
 the tip's coordinates, within the same limits (|I_k| ≤ I_max,k; Σ R_k I_k² ≤ P_max; |μ0 H| ≤ B_max
 on the rod), spending the least power. A stiffness alone leaves a family of currents (one equation):
@@ -27,7 +27,7 @@ from actuator_design.hardware.current_design import (CurrentDesign, _active, _be
                                                      first_coil_positive, scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.design import judge, run_starts
-from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness, stiffness_message,
+from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, AT_TARGET, StiffnessFit, StiffnessMap, check_stiffness, stiffness_message,
                                                     stiffness_missed, verify_stiffness)
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
@@ -84,7 +84,7 @@ def design_current_stiffness(scene: Scene, stiffness: float, target=None, *, tol
     tol = tolerances if tolerances is not None else Tolerances()
     options = options or SolverOptions()
     tip_prob = coil_problem(scene, tip_target if tip_target.size else [math.nan, math.nan])
-    prob = replace(tip_prob, target=np.concatenate([tip_target, [1.0]]))
+    prob = replace(tip_prob, target=np.concatenate([tip_target, [AT_TARGET]]))
     coils = scene.field.sources
     i0 = np.array([c.current for c in coils])
     out = CurrentStiffnessDesign(

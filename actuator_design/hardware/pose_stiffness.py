@@ -3,7 +3,7 @@ put the magnet, within its stage's travel, so that the rod loaded from rest has 
 stiffness K = dp/dv1 asked for, with the tip on a target too if one is given.
 
 The pose design (:mod:`actuator_design.hardware.pose_design`) with one more equation: the SQP meets
-c·K_target = 1 (c the compliance, exact with its derivative in the pose:
+log(c·K_target) = 0 (c the compliance, exact with its derivative in the pose:
 :class:`~actuator_design.hardware.stiffness_map.StiffnessMap`) beside the tip's coordinates, within
 the travel and clear of the magnet, with the least move from the configured pose. Verified on
 magpylib's field refitted at the pose (the tip from rest to 1e-6, the stiffness by central
@@ -24,7 +24,7 @@ from actuator_design.hardware.design import judge, run_starts
 from actuator_design.hardware.pose_design import (POSITION_TOLERANCE, PoseDesign, _active, _band, _better,
                                                   _field_report, _screen, _travel_dict, corner_states, pose_map)
 from actuator_design.hardware.pose_problem import check_position_tolerance, pose_problem, scene_at_pose
-from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, StiffnessFit, StiffnessMap, check_stiffness,
+from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, AT_TARGET, StiffnessFit, StiffnessMap, check_stiffness,
                                                     stiffness_message, stiffness_missed, verify_stiffness)
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
@@ -86,7 +86,7 @@ def design_pose_stiffness(scene: Scene, stiffness: float, target=None, *, tolera
     tol = tolerances if tolerances is not None else Tolerances()
     options = options or SolverOptions()
     var, tip_prob = pose_problem(scene, tip_target if tip_target.size else [math.nan, math.nan])
-    prob = replace(tip_prob, target=np.concatenate([tip_target, [1.0]]))
+    prob = replace(tip_prob, target=np.concatenate([tip_target, [AT_TARGET]]))
     magnet = scene.field.sources[var.source]
     out = PoseStiffnessDesign(success=False, status="not_converged", message="", target=tuple(tip_target.tolist()),
                               start_position=tuple(magnet.position), start_axis_angle=magnet.axis_angle,

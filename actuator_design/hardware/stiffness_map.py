@@ -18,8 +18,10 @@ is stationary in v and a at the equilibrium's v and a, and equals c there; so
 
 du/dw the map's implicit derivative (:meth:`~actuator_design.hardware.map.HardwareMap.state_derivative`)
 and ∂Φ/∂P read at the NLP parameters w sets. :class:`StiffnessMap` gives a point whose "tip" is the
-tip's targeted coordinates followed by c·K_target (1 at the target stiffness), so that the tip
-design's SQP (:mod:`actuator_design.hardware.current_sqp`) meets both as it meets a tip.
+tip's targeted coordinates followed by log(c·K_target) = log(K_target/K) (0 at the target
+stiffness; the logarithm keeps the SQP's steps of one size for a target near and far, and its
+tolerance relative), so that the tip design's SQP (:mod:`actuator_design.hardware.current_sqp`)
+meets both as it meets a tip.
 """
 from __future__ import annotations
 
@@ -38,10 +40,12 @@ from actuator_design.inverse.verify import stiffness_by_differences
 from actuator_design.robust.tolerances import bending_scale
 
 __all__ = ["StiffnessMap", "StiffnessFit", "verify_stiffness", "check_stiffness", "stiffness_missed",
-           "stiffness_message", "ACCEPT_TOL"]
+           "stiffness_message", "ACCEPT_TOL", "AT_TARGET"]
 
 #: the verified stiffness's relative tolerance of a success by default (the ideal-field design's accept_tol)
 ACCEPT_TOL = 1e-3
+#: the stiffness coordinate of a point (log(c·K_target)) at the target stiffness
+AT_TARGET = 0.0
 
 
 @dataclass(kw_only=True)
@@ -170,30 +174,31 @@ class StiffnessMap:
         return {"stiffness": k, "stiffness_error": abs(k / self.k_target - 1.0)}
 
     def evaluate(self, w: np.ndarray) -> Optional[dict]:
-        """The map's point at ``w`` with ``tip`` = (the targeted tip coordinates, c·K_target) and
-        ``tip_jac`` its derivative in w; ``tip_point`` the rod's tip (x, y, angle), ``stiffness``
-        K. None where the map has no point. Cached by w."""
+        """The map's point at ``w`` with ``tip`` = (the targeted tip coordinates, log(c·K_target))
+        and ``tip_jac`` its derivative in w; ``tip_point`` the rod's tip (x, y, angle),
+        ``stiffness`` K. None where the map has no point (or no finite positive compliance: a fold).
+        Cached by w."""
         key = tuple(np.asarray(w, float).tolist())
         if key not in self._cache:
             pt = self.hmap.evaluate(w)
             if pt is not None:
                 P = self.hmap.solver.parameter_vector(self.hmap.at(self.hmap.scene, np.asarray(w, float)))
                 c, dc = self.compliance(pt["z"], P, derivative_of=w)
-                if dc is None:
+                if dc is None or not (math.isfinite(c) and c > 0.0):  # (stable: c = ∂y·H⁻¹∂y > 0)
                     pt = None
                 else:
-                    pt = {**pt, "tip_point": pt["tip"], "stiffness": 1.0 / c if c != 0.0 else math.inf,
-                          "tip": np.concatenate([pt["tip"][:self.m], [c * self.k_target]]),
-                          "tip_jac": np.vstack([pt["tip_jac"][:self.m], self.k_target * dc[None, :]])}
+                    pt = {**pt, "tip_point": pt["tip"], "stiffness": 1.0 / c,
+                          "tip": np.concatenate([pt["tip"][:self.m], [math.log(c * self.k_target)]]),
+                          "tip_jac": np.vstack([pt["tip_jac"][:self.m], dc[None, :] / c])}
             self._cache[key] = pt
         return self._cache[key]
 
     def miss(self, w: np.ndarray, station: dict) -> float:
-        """How far a station of a ramp (``z``) is from the stiffness: |c·K_target − 1| (the screen's
-        ranking of a stiffness alone)."""
+        """How far a station of a ramp (``z``) is from the stiffness: |log(c·K_target)| (the
+        screen's ranking of a stiffness alone)."""
         P = self.hmap.solver.parameter_vector(self.hmap.at(self.hmap.scene, np.asarray(w, float)))
         c, _ = self.compliance(station["z"], P)
-        return abs(c * self.k_target - 1.0) if math.isfinite(c) else math.inf
+        return abs(math.log(c * self.k_target)) if math.isfinite(c) and c > 0.0 else math.inf
 
 
 def verify_stiffness(out, refitted, options, target_tip: np.ndarray, accept_tol: float) -> None:
