@@ -58,7 +58,7 @@ STARTS = 3
 PAIRED_COILS = 4
 
 
-@dataclass
+@dataclass(repr=False)
 class CurrentDesign(HardwareDesign):
     """The result of :func:`design_currents` (currents in A, the tip in rod lengths; the common
     attributes: :class:`~actuator_design.hardware.design.HardwareDesign`).
@@ -86,6 +86,10 @@ class CurrentDesign(HardwareDesign):
     power: float = math.nan
     effort: str = "power"
     least_effort: bool = False
+
+    def _repr_parts(self) -> List[str]:
+        return [f"currents_A=({', '.join(f'{i:.6g}' for i in self.currents)})", f"power_W={self.power:.6g}",
+                *super()._repr_parts()]
 
     def to_dict(self) -> dict:
         """Plain data: the JSON contract of ``design --json`` on a coil scene."""

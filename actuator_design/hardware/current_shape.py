@@ -30,7 +30,7 @@ from actuator_design.robust.tolerances import Tolerances, apply_deltas
 __all__ = ["design_current_shape", "CurrentShapeDesign"]
 
 
-@dataclass
+@dataclass(repr=False)
 class CurrentShapeDesign(CurrentDesign, ShapeFit):
     """The result of :func:`design_current_shape`: a coil design's attributes (currents in A,
     :class:`~actuator_design.hardware.current_design.CurrentDesign`) and the fit's

@@ -36,7 +36,7 @@ from actuator_design.robust.tolerances import Tolerances, apply_deltas
 __all__ = ["design_current_stiffness", "CurrentStiffnessDesign"]
 
 
-@dataclass
+@dataclass(repr=False)
 class CurrentStiffnessDesign(CurrentDesign, StiffnessFit):
     """The result of :func:`design_current_stiffness`: a coil design's attributes
     (:class:`~actuator_design.hardware.current_design.CurrentDesign`; ``target`` the tip's targeted

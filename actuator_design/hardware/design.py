@@ -78,6 +78,17 @@ class HardwareDesign:
     tolerances: Optional[Tolerances] = None
     notes: List[str] = field(default_factory=list)
 
+    def __repr__(self) -> str:
+        """One line: the kind, the verdict, the setting and how well it meets its target."""
+        return f"{type(self).__name__}({', '.join([f'status={self.status!r}', f'success={self.success}', *self._repr_parts()])})"
+
+    def _repr_parts(self) -> List[str]:
+        """The repr's fields after the verdict: the kinds (:class:`~actuator_design.hardware.current_design.CurrentDesign`, ...)
+        put their setting first; a shape or stiffness fit (a mixin later in the order) adds its own."""
+        more = getattr(super(), "_repr_parts", lambda: [])()
+        return [f"tip_error={self.tip_error:.3g}", *more, f"verified={self.verified}",
+                f"holds_over_box={self.holds_over_box}"]
+
     def common_dict(self) -> dict:
         """The keys every design over hardware writes to its JSON contract."""
         out = {k: getattr(self, k) for k in ("success", "status", "message", "verified", "holds_over_box",

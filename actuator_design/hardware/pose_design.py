@@ -57,7 +57,7 @@ SCREEN_LEVELS = {1: 9, 2: 5, 3: 3}
 STARTS = 3
 
 
-@dataclass
+@dataclass(repr=False)
 class PoseDesign(HardwareDesign):
     """The result of :func:`design_pose` (positions in m, angles in rad, the tip in rod lengths; the
     common attributes: :class:`~actuator_design.hardware.design.HardwareDesign`).
@@ -89,6 +89,10 @@ class PoseDesign(HardwareDesign):
     move: float = math.nan
     least_move: bool = False
     position_tolerance: float = POSITION_TOLERANCE
+
+    def _repr_parts(self) -> List[str]:
+        return [f"position_mm=({self.position[0] * 1e3:.6g}, {self.position[1] * 1e3:.6g})",
+                f"axis_deg={math.degrees(self.axis_angle):.6g}", f"move={self.move:.4g}", *super()._repr_parts()]
 
     def to_dict(self) -> dict:
         """Plain data: the JSON contract of ``design --json`` on a scene with a moving magnet."""

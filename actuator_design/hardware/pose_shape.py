@@ -30,7 +30,7 @@ from actuator_design.robust.tolerances import Tolerances
 __all__ = ["design_pose_shape", "PoseShapeDesign"]
 
 
-@dataclass
+@dataclass(repr=False)
 class PoseShapeDesign(PoseDesign, ShapeFit):
     """The result of :func:`design_pose_shape`: a pose design's attributes (positions in m, angles
     in rad, :class:`~actuator_design.hardware.pose_design.PoseDesign`) and the fit's

@@ -33,7 +33,7 @@ from actuator_design.robust.tolerances import Tolerances
 __all__ = ["design_pose_stiffness", "PoseStiffnessDesign"]
 
 
-@dataclass
+@dataclass(repr=False)
 class PoseStiffnessDesign(PoseDesign, StiffnessFit):
     """The result of :func:`design_pose_stiffness`: a pose design's attributes
     (:class:`~actuator_design.hardware.pose_design.PoseDesign`; ``target`` the tip's targeted

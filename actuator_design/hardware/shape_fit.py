@@ -89,6 +89,9 @@ class ShapeFit:
     max_error: float = math.nan
     accept_tol: float = ACCEPT_TOL
 
+    def _repr_parts(self) -> list:
+        return [f"rms_error={self.rms_error:.3g}"]
+
     def shape_dict(self) -> dict:
         """The ``shape`` key of the JSON contract."""
         return {"points": [{"s": float(s), "x": float(x), "y": float(y)} for s, x, y in self.points],

@@ -68,6 +68,9 @@ class StiffnessFit:
     accept_tol: float = ACCEPT_TOL
     worst_stiffness_error: float = math.nan
 
+    def _repr_parts(self) -> list:
+        return [f"stiffness={self.achieved_stiffness:.6g}", f"stiffness_target={self.stiffness_target:.6g}"]
+
     def stiffness_dict(self) -> dict:
         """The ``stiffness`` key of the JSON contract."""
         return {"target": self.stiffness_target, "achieved": self.achieved_stiffness,

@@ -63,7 +63,7 @@ VERIFY_STEP = 1.0
 MAX_SIGN_WAYPOINTS = 6
 
 
-@dataclass
+@dataclass(repr=False)
 class CurrentSchedule:
     """A schedule of coil currents through tip waypoints, and the greedy one it is compared with.
 
@@ -129,6 +129,13 @@ class CurrentSchedule:
     quasi_static: Optional[dict] = None
     step_dynamics: List[dict] = field(default_factory=list)
     timings: Dict[str, float] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        """One line: the verdict, the objective and both schedules' duration (s) and energy."""
+        return (f"CurrentSchedule(status={self.status!r}, success={self.success}, optimal={self.optimal}, "
+                f"objective={self.objective!r}, nodes={self.nodes}, duration={self.duration:.6g}, "
+                f"energy={self.energy:.6g}, greedy_duration={self.greedy_duration:.6g}, "
+                f"greedy_energy={self.greedy_energy:.6g})")
 
     def to_dict(self) -> dict:
         """Plain data: the JSON contract of ``schedule --json`` on a coil scene (currents in A,

@@ -43,7 +43,7 @@ from actuator_design.schedules.schedule import ScheduleResult, verify_schedule
 __all__ = ["pose_schedule", "PoseSchedule"]
 
 
-@dataclass
+@dataclass(repr=False)
 class PoseSchedule:
     """A schedule of a magnet's pose through tip waypoints.
 
@@ -89,6 +89,11 @@ class PoseSchedule:
     step_dynamics: List[dict] = field(default_factory=list)
     solves: int = 0
     timings: Dict[str, float] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        """One line: the verdict, the waypoints and the schedule's duration (s)."""
+        return (f"PoseSchedule(status={self.status!r}, success={self.success}, waypoints={len(self.waypoints)}, "
+                f"steps={len(self.times)}, duration={self.duration:.6g})")
 
     @property
     def duration(self) -> float:

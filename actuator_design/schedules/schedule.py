@@ -40,7 +40,7 @@ SCHEDULE_COLUMNS = {"always": ("step", "h", "phi_rad"),
                     "dynamics": ("relaxation_time_s", "quasi_static")}
 
 
-@dataclass
+@dataclass(repr=False)
 class ScheduleResult:
     """A field schedule through tip waypoints (dimensionless; angles in rad).
 
@@ -72,6 +72,11 @@ class ScheduleResult:
     states: List[EquilibriumResult] = field(default_factory=list)
     path: object = None
     timings: Dict[str, float] = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        """One line: the verdict and the schedule's size."""
+        return (f"ScheduleResult(success={self.success}, verified={self.verified}, snap_free={self.snap_free}, "
+                f"all_stable={self.all_stable}, waypoints={len(self.waypoints)}, steps={len(self.schedule)})")
 
     def to_dict(self) -> Dict[str, object]:
         return {"success": bool(self.success), "verified": bool(self.verified), "snap_free": bool(self.snap_free),

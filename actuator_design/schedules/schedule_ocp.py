@@ -104,7 +104,7 @@ def control_effort(u: np.ndarray, times: np.ndarray, weights) -> float:
     return float(np.sum(np.diff(times) * per))
 
 
-@dataclass
+@dataclass(repr=False)
 class OptimalSchedule:
     """An optimal-control schedule and the greedy one it is compared with.
 
@@ -146,6 +146,13 @@ class OptimalSchedule:
     timings: Dict[str, float] = field(default_factory=dict)
     greedy_schedule: List[Dict[str, float]] = field(default_factory=list)
     greedy_times: List[float] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        """One line: the verdict, the objective and both schedules' time and effort."""
+        return (f"OptimalSchedule(status={self.status!r}, success={self.success}, optimal={self.optimal}, "
+                f"objective={self.objective!r}, "
+                f"nodes={self.nodes}, time_s={self.time_s:.6g}, effort={self.effort:.6g}, "
+                f"greedy_time_s={self.greedy_time_s:.6g}, greedy_effort={self.greedy_effort:.6g})")
 
     @property
     def success(self) -> bool:
