@@ -44,7 +44,7 @@ from actuator_design.physics.fields import field_model
 from actuator_design.robust.tolerances import Tolerances, apply_deltas
 
 __all__ = ["design_currents", "CurrentDesign", "scene_at_currents", "coil_problem", "current_map", "effort_notes",
-           "first_coil_positive"]
+           "first_coil_positive", "record_setting"]
 
 #: the design's tip tolerance (rod lengths)
 TIP_TOL = 1e-8
@@ -249,13 +249,9 @@ def design_currents(scene: Scene, target, *, tolerances: Optional[Tolerances] = 
                        "currents and the screen's ramps)")
         return out
     w, pt = first_coil_positive(scene, sqp.w, sqp.point, i0, cmap.evaluate)
-    out.currents = tuple((w * i0).tolist())
-    out.state, out.tip = cmap.result(w, pt["z"]), pt["tip"]
+    record_setting(out, scene, cmap, prob, w, pt, i0)
     out.tip_error = float(np.max(np.abs(pt["tip"][:target.size] - target)))
     out.iterations, out.least_effort = sqp.iterations, bool(sqp.converged)
-    out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
-    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
-    out.limits_active = _active(prob, w, pt)
     if not sqp.reached:
         out.missed(sqp, "setting of the currents within the limits")
         out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
@@ -276,6 +272,18 @@ def first_coil_positive(scene: Scene, w: np.ndarray, pt: dict, i0: np.ndarray, e
     if _even(scene) and currents[np.argmax(np.abs(currents) > 1e-6 * np.max(np.abs(currents)))] < 0:
         return -w, evaluate(-w)
     return w, pt
+
+
+def record_setting(out: CurrentDesign, scene: Scene, cmap: CurrentMap, prob: CurrentProblem, w: np.ndarray,
+                   pt: dict, i0: np.ndarray) -> None:
+    """Record the designed weights ``w`` and their point ``pt`` in ``out``: the currents (A), the
+    state (one polishing solve), the tip (the rod's, ``tip_point`` where the point's "tip" is a fit's),
+    the power, the field at the clamp and on the rod, and the limits at work."""
+    out.currents = tuple((w * i0).tolist())
+    out.state, out.tip = cmap.result(w, pt["z"]), pt.get("tip_point", pt["tip"])
+    out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
+    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
+    out.limits_active = _active(prob, w, pt)
 
 
 def effort_notes(coils: Sequence[CoilSource]) -> List[str]:

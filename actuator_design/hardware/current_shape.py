@@ -18,9 +18,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.hardware.current_design import (CurrentDesign, _active, _corners, _even, _field_report,
-                                                     _screen, coil_problem, current_map, effort_notes,
-                                                     first_coil_positive, scene_at_currents)
+from actuator_design.hardware.current_design import (CurrentDesign, _corners, _even, _screen, coil_problem,
+                                                     current_map, effort_notes, first_coil_positive, record_setting,
+                                                     scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.shape_fit import (ACCEPT_TOL, ShapeFit, ShapeMap, best_fit, check_points, corner_fit,
                                                 fit_message, judge_fit, least_effort_fit, record_fit, verify_points)
@@ -100,12 +100,8 @@ def design_current_shape(scene: Scene, points, *, tolerances: Optional[Tolerance
         out.effort = "power" if prob.power is not None else "current_squared"
         out.notes += effort_notes(coils)
     w, pt = first_coil_positive(scene, w, pt, i0, smap.evaluate)
-    out.currents = tuple((w * i0).tolist())
-    out.state, out.tip = cmap.result(w, pt["z"]), pt["tip_point"]
+    record_setting(out, scene, cmap, prob, w, pt, i0)
     record_fit(out, pt)
-    out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
-    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
-    out.limits_active = _active(prob, w, pt)
     if verify:
         verify_points(out, scene_at_currents(scene, w * i0), options)
     k = len(pts)

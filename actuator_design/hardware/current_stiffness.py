@@ -22,9 +22,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.hardware.current_design import (CurrentDesign, _active, _better, _corners, _even, _field_report,
-                                                     _screen, coil_problem, current_map, effort_notes,
-                                                     first_coil_positive, scene_at_currents)
+from actuator_design.hardware.current_design import (CurrentDesign, _better, _corners, _even, _screen, coil_problem,
+                                                     current_map, effort_notes, first_coil_positive, record_setting,
+                                                     scene_at_currents)
 from actuator_design.hardware.current_map import at_weights
 from actuator_design.hardware.design import judge, run_starts
 from actuator_design.hardware.stiffness_map import (ACCEPT_TOL, AT_TARGET, StiffnessFit, StiffnessMap, check_stiffness, stiffness_message,
@@ -108,15 +108,11 @@ def design_current_stiffness(scene: Scene, stiffness: float, target=None, *, tol
                        "currents and the screen's ramps)")
         return out
     w, pt = first_coil_positive(scene, sqp.w, sqp.point, i0, smap.evaluate)
-    out.currents = tuple((w * i0).tolist())
-    out.state, out.tip = cmap.result(w, pt["z"]), pt["tip_point"]
+    record_setting(out, scene, cmap, prob, w, pt, i0)
     out.achieved_stiffness = float(pt["stiffness"])
     out.tip_error = (float(np.max(np.abs(pt["tip_point"][:tip_target.size] - tip_target))) if tip_target.size
                      else math.nan)  # a stiffness alone: no tip target to miss
     out.iterations, out.least_effort = sqp.iterations, bool(sqp.converged)
-    out.power = float(np.dot(prob.power, w * w)) if prob.power is not None else math.nan
-    out.field_at_clamp, out.max_rod_field = _field_report(scene, w, pt["limit"])
-    out.limits_active = _active(prob, w, pt)
     if not sqp.reached:
         stiffness_missed(out, sqp, "setting of the currents within the limits")
         out.solves, out.seconds = cmap.solves, time.perf_counter() - t0
