@@ -41,7 +41,7 @@ from actuator_design.equilibrium.acceptance import accept, graded_options, momen
 from actuator_design.equilibrium.dense_shape import Balance
 from actuator_design.equilibrium.options import MAX_SPLITS
 from actuator_design.equilibrium.single import make_result
-from actuator_design.equilibrium.solver import RawSolution, get_solver
+from actuator_design.equilibrium.solver import STALLED, RawSolution, get_solver
 
 __all__ = ["mesh_limited", "solve_contact", "solve_once", "contact_nlp", "ContactVerdict"]
 
@@ -208,10 +208,6 @@ def _entry_boundaries(scene, result, inside, self_inside) -> list:
         half = 0.5 / max(1, result.options.elements)
         out += [v for v in nearest_pair(result, self_inside[0], self_inside[1], half) if MERGE < v < 1.0]
     return out
-
-
-#: IPOPT's status when its steps fell below round-off (not a failure in itself: :func:`solve_once`)
-STALLED = "Search_Direction_Becomes_Too_Small"
 
 
 def solve_once(scene, opts, t0: float, initial=None, refine=None, fraction: float = 1.0,

@@ -44,7 +44,7 @@ from actuator_design.reduced.positional import positional_hessian
 from actuator_design.reduced.stability import STABILITY_TOL, StabilityVerdict, kernel_verdict
 from actuator_design.transcription import make_transcription
 
-__all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict", "FastKernel"]
+__all__ = ["EquilibriumSolver", "get_solver", "RawSolution", "StabilityVerdict", "FastKernel", "STALLED"]
 
 #: solvers kept built (least recently used dropped first): each contact split round and each new
 #: mesh builds one, and an unbounded cache grew a test session past 3 GB
@@ -55,6 +55,10 @@ _CACHE: "OrderedDict[tuple, EquilibriumSolver]" = OrderedDict()
 def _jit_options() -> dict:
     return {"jit": True, "compiler": "shell", "jit_cleanup": True,
             "jit_options": {"flags": ["-O2"], "verbose": False}}
+
+
+#: IPOPT's status when its steps fell below round-off before its error met the tolerance
+STALLED = "Search_Direction_Becomes_Too_Small"
 
 
 class EquilibriumSolver:
@@ -114,7 +118,9 @@ class EquilibriumSolver:
         self._summary_buf.set_arg(1, memoryview(self._summary_in[1]))
         self._summary_buf.set_res(0, memoryview(self._summary_out))
 
-        self._nlp = {"x": z, "p": P, "f": E, "g": z[0] - theta0}
+        # the objective's weight w (a parameter, 1 but for a rescue: see solve_ipopt)
+        w = ca.SX.sym("objective_weight")
+        self._nlp = {"x": z, "p": ca.vertcat(P, w), "f": w * E, "g": z[0] - theta0}
         self._nlpsol = None
         self.build_time = time.perf_counter() - t0
 
@@ -339,18 +345,35 @@ class EquilibriumSolver:
         turns = 0.0
         if all(t.periodic_in_theta for t in self.terms):
             turns = 2.0 * np.pi * np.round(params[self._theta0_index] / (2.0 * np.pi))
-        if turns:
-            shifted = np.array(params, float)
-            shifted[self._theta0_index] -= turns
-            sol = self.nlpsol(x0=np.asarray(z0, float) - turns, p=shifted, lbg=0, ubg=0)
-        else:
-            sol = self.nlpsol(x0=z0, p=params, lbg=0, ubg=0)
+        x0, shifted = np.asarray(z0, float) - turns, np.array(params, float)
+        shifted[self._theta0_index] -= turns
+        sol = self.nlpsol(x0=x0, p=np.append(shifted, 1.0), lbg=0, ubg=0)
         st = self.nlpsol.stats()
+        if st.get("return_status") == STALLED:
+            weight = self.objective_weight(x0, shifted)
+            if weight < 1.0:
+                # IPOPT stopped because its steps fell below round-off while its error was above its
+                # tolerance, which was below the rounding of the gradient at the start (a rod close to
+                # a magnet, where the forces are huge, started at or next to its equilibrium, where
+                # IPOPT's own gradient scaling does not act): the same problem, with the energy scaled
+                # so that its rounding is below the tolerance, from the same start
+                sol = self.nlpsol(x0=x0, p=np.append(shifted, weight), lbg=0, ubg=0)
+                st = self.nlpsol.stats()
         z = np.asarray(sol["x"], float).ravel() + turns
         ok = bool(st.get("success", False))
         return RawSolution(z, ok, st.get("return_status", "unknown"),
                            "IPOPT: " + str(st.get("return_status", "")), int(st.get("iter_count", -1)),
                            self.stationarity(z, params) if np.all(np.isfinite(z)) else np.inf)
+
+    def objective_weight(self, z0: np.ndarray, params: np.ndarray) -> float:
+        """min(1, tol / ρ), with ρ = 16 ε max_i Σ_j |∂²Ê/∂θ_i∂θ_j| · max(1, |θ|∞) the rounding of the
+        gradient ∇Ê at ``z0`` (θ at the nodes, rad; a generous bound): the weight of the energy that
+        lifts IPOPT's absolute tolerance on the gradient to that rounding."""
+        self.kernel.set_params(params)
+        self.kernel.evaluate(np.asarray(z0, float)[1:], hessian=True)
+        rho = self.kernel.gradient_rounding(np.asarray(z0, float)[1:])
+        tol = max(self.options.tol, 1e-14)
+        return 1.0 if rho <= 0.0 else min(1.0, tol / rho)
 
     def solve_newton(self, z0: np.ndarray, params: np.ndarray, max_iter: Optional[int] = None,
                      tol: Optional[float] = None) -> RawSolution:

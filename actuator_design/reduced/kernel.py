@@ -121,6 +121,12 @@ class FastKernel:
         it reaches 1e-10."""
         return rounding_floor(np.bincount(self.rows, weights=np.abs(self.hnz), minlength=self.n), self.inv_mass, zr)
 
+    def gradient_rounding(self, zr: np.ndarray) -> float:
+        """The rounding of the gradient's largest entry |g_i| at ``zr`` (last evaluated H; not divided
+        by the masses): 16 ε max_i Σ_j |H_ij| · max(1, |zr|∞)."""
+        return rounding_floor(np.bincount(self.rows, weights=np.abs(self.hnz), minlength=self.n),
+                              np.ones(self.n), zr)
+
     def hessian_dense(self) -> np.ndarray:
         """The last evaluated Hessian as a dense array, shape (n, n)."""
         H = np.zeros((self.n, self.n))
