@@ -6,7 +6,6 @@ the peak resident memory of the child process (``getrusage``), against the ~1 GB
 """
 import json
 import math
-import resource
 import subprocess
 import sys
 
@@ -33,15 +32,21 @@ def _largest(transcription, degree):
 def test_largest_allowed_mesh_converges_within_the_memory_budget(tmp_path, transcription, degree):
     elements = _largest(transcription, degree)
     assert mesh_problem(transcription, elements + 1, degree, tol=1e-10) is not None
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    out = subprocess.run(
-        [sys.executable, "-m", "actuator_design.cli", "solve", "--h", "1", "--phi-deg", "45",
-         "--transcription", transcription, "--elements", str(elements), "--degree", str(degree),
-         "--json", "--out", str(tmp_path / "o")], capture_output=True, text=True, timeout=600)
-    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    assert out.returncode == 0, out.stderr[-2000:]
-    assert max(peak_kb, before) <= 1.05e6  # kB: the ~1 GB budget (5 % model error)
-    res = json.loads(out.stdout)
+    command = [sys.executable, "-m", "actuator_design.cli", "solve", "--h", "1", "--phi-deg", "45",
+               "--transcription", transcription, "--elements", str(elements), "--degree", str(degree),
+               "--json", "--out", str(tmp_path / "o")]
+    # the solve's peak memory alone: measured by a fresh parent whose only children are the solve and
+    # its own (this test process's high-water mark over its children includes earlier tests' workers)
+    measure = ("import json, resource, subprocess, sys; "
+               f"out = subprocess.run({command!r}, capture_output=True, text=True, timeout=600); "
+               "print(json.dumps([out.returncode, out.stdout, out.stderr, "
+               "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss]))")
+    run = subprocess.run([sys.executable, "-c", measure], capture_output=True, text=True, timeout=700)
+    assert run.returncode == 0, run.stderr[-2000:]
+    returncode, stdout, stderr, peak_kb = json.loads(run.stdout)
+    assert returncode == 0, stderr[-2000:]
+    assert 5e4 <= peak_kb <= 1.05e6  # kB: the ~1 GB budget (5 % model error); Python and CasADi alone ≥ 50 MB
+    res = json.loads(stdout)
     ref = solve_shooting(ShootingParams(h=1.0, phi=math.pi / 4), 0.5)
     assert ref.converged
     tip = res["tip"] if "tip" in res else res["state"]["tip"]
