@@ -219,13 +219,12 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 # real rod leaves along the unstable mode; follow the stable branch from here
                 vec = solver.stability(z, at(lam)).eigenvector
                 v = vec * (1.0 if vec[-1] >= 0 else -1.0)
-                left = solver.descend(z + BRANCH_KICK * v, at(lam))
+                left = solver.solve_ipopt(z + BRANCH_KICK * v, at(lam))
                 solves += 1
                 if not left.converged:
                     return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
                 branch_points.append(lam)
-                # the branch taken: stay on its side of the unstable state (the side the descent went)
-                side = (z.copy(), v if float(np.dot(left.z - z, v)) >= 0.0 else -v)
+                side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
                 z_prev, lam_prev, z = None, None, left.z
                 dl = min(dl, 0.05)
                 visit(left, newton=False)
@@ -238,7 +237,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
             continue
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
         t = min(targets[k], lam + 2 * min_step)
-        snap = solver.descend(z, at(t))
+        snap = solver.solve_ipopt(z, at(t))
         solves += 1
         if not snap.converged:
             return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)

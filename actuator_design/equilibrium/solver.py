@@ -365,23 +365,6 @@ class EquilibriumSolver:
                            "IPOPT: " + str(st.get("return_status", "")), int(st.get("iter_count", -1)),
                            self.stationarity(z, params) if np.all(np.isfinite(z)) else np.inf)
 
-    def descend(self, z0: np.ndarray, params: np.ndarray) -> RawSolution:
-        """The stable state reached by minimising from ``z0`` (θ at the nodes, rad), off an unstable
-        state (an escape along its unstable mode, a snap past a fold): :meth:`solve_ipopt`, and
-        where IPOPT ends short of its tolerance (the quasi-Newton IPOPT of fields that read
-        positions can spend its iterations in a stiff well), Newton from its last iterate, accepted
-        only at a stable state whose energy is below the start's."""
-        raw = self.solve_ipopt(z0, params)
-        if raw.converged or not np.all(np.isfinite(raw.z)):
-            return raw
-        polish = self.solve_newton(raw.z, params, max_iter=30)
-        if not (polish.converged and self.summary(polish.z, params)[0] < self.summary(z0, params)[0]
-                and self.stability(polish.z, params).stable):
-            return raw
-        polish.iterations += raw.iterations
-        polish.message = f"{raw.message}; Newton from its last iterate finished at a stable state below the start"
-        return polish
-
     def objective_weight(self, z0: np.ndarray, params: np.ndarray) -> float:
         """min(1, tol / ρ), with ρ = 16 ε max_i Σ_j |∂²Ê/∂θ_i∂θ_j| · max(1, |θ|∞) the rounding of the
         gradient ∇Ê at ``z0`` (θ at the nodes, rad; a generous bound): the weight of the energy that
