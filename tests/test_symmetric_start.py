@@ -50,6 +50,7 @@ def _energy(theta_of_s, h, n=20001):
 def test_the_straight_rod_on_the_magnets_axis_is_found_and_stable(h):
     r = solve(_scene(h))
     assert r.success and r.status == "converged" and r.stable, r.message
+    assert "then with the energy weighted by" in r.message  # the rescue ran, and says so
     assert np.allclose(r.theta, -0.5 * math.pi, atol=1e-12)  # the symmetric state, exactly
     assert r.tip["y"] == pytest.approx(-1.0, abs=1e-12)
     # stable: bending it either way, at the tip or along the whole rod, raises the energy (by hand)

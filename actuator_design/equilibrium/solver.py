@@ -358,11 +358,13 @@ class EquilibriumSolver:
                 # IPOPT's own gradient scaling does not act): the same problem, with the energy scaled
                 # so that its rounding is below the tolerance, from the same start
                 sol = self.nlpsol(x0=x0, p=np.append(shifted, weight), lbg=0, ubg=0)
-                st = self.nlpsol.stats()
+                iterations = int(st.get("iter_count", 0))
+                st = dict(self.nlpsol.stats(), iter_count=iterations + int(self.nlpsol.stats().get("iter_count", 0)))
+                st["note"] = f"{STALLED}, then with the energy weighted by {weight:.3g}: "
         z = np.asarray(sol["x"], float).ravel() + turns
         ok = bool(st.get("success", False))
         return RawSolution(z, ok, st.get("return_status", "unknown"),
-                           "IPOPT: " + str(st.get("return_status", "")), int(st.get("iter_count", -1)),
+                           "IPOPT: " + st.get("note", "") + str(st.get("return_status", "")), int(st.get("iter_count", -1)),
                            self.stationarity(z, params) if np.all(np.isfinite(z)) else np.inf)
 
     def objective_weight(self, z0: np.ndarray, params: np.ndarray) -> float:
