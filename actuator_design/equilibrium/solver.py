@@ -358,8 +358,9 @@ class EquilibriumSolver:
                 # IPOPT's own gradient scaling does not act): the same problem, with the energy scaled
                 # so that its rounding is below the tolerance, from the same start
                 sol = self.nlpsol(x0=x0, p=np.append(shifted, weight), lbg=0, ubg=0)
-                iterations = int(st.get("iter_count", 0))
-                st = dict(self.nlpsol.stats(), iter_count=iterations + int(self.nlpsol.stats().get("iter_count", 0)))
+                first = int(st.get("iter_count", 0))
+                st = dict(self.nlpsol.stats())
+                st["iter_count"] = first + int(st.get("iter_count", 0))  # both runs
                 st["note"] = f"{STALLED}, then with the energy weighted by {weight:.3g}: "
         z = np.asarray(sol["x"], float).ravel() + turns
         ok = bool(st.get("success", False))
