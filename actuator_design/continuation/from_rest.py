@@ -17,8 +17,11 @@ branch, as an imperfect real rod would, and stays on that side of the unstable s
 step that lands on the mirror branch is refused and the step halved), so that neighbouring loads
 end on the same branch. When the step falls below
 :data:`MIN_STEP` (relative to the load reached) the path has reached a fold of the loading history (a snap-through): the state
-there is released by minimising the energy (IPOPT) from the last state, as the physical rod would
-snap, and the path goes on from the new state.
+there is released by minimising the energy from the last state, as the physical rod would
+snap, and the path goes on from the new state. Both escapes — along the unstable mode and at a
+fold — are the trust-region descent of ``EquilibriumSolver.descend`` (exact Hessian, every step
+lowering the energy), so the state reached is the one descent reaches, whatever the iteration cap;
+a branch-point escape that lands on the other side of the unstable state is refused.
 
 A path can also land on *stations* λ_1 < … < λ_m = 1 on its way (:func:`path_from_rest` with
 ``stations``): the states at the points of a ray of loads {λ P} are those reached from rest at each
@@ -71,8 +74,9 @@ class StationState:
     check : StabilityCheck or None
         What the path learnt of its stability there (:mod:`actuator_design.reduced.stability`).
     newton : bool
-        A converged Newton point of the path; False for IPOPT's answer after a branch-point kick
-        or a snap, which is not polished (a caller that reports it polishes it first).
+        A converged Newton point of the path; False for the descent's answer after a branch-point
+        kick or a snap (converged by Newton, but not a step of the path: a caller that reports it
+        polishes it first).
     """
 
     z: np.ndarray
@@ -219,9 +223,9 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 # real rod leaves along the unstable mode; follow the stable branch from here
                 vec = solver.stability(z, at(lam)).eigenvector
                 v = vec * (1.0 if vec[-1] >= 0 else -1.0)
-                left = solver.solve_ipopt(z + BRANCH_KICK * v, at(lam))
+                left = solver.descend(z + BRANCH_KICK * v, at(lam))
                 solves += 1
-                if not left.converged:
+                if not left.converged or float(np.dot(left.z - z, v)) <= 0.0:
                     return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
                 branch_points.append(lam)
                 side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
@@ -237,7 +241,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
             continue
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
         t = min(targets[k], lam + 2 * min_step)
-        snap = solver.solve_ipopt(z, at(t))
+        snap = solver.descend(z, at(t))
         solves += 1
         if not snap.converged:
             return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)

@@ -38,6 +38,7 @@ from actuator_design.physics.kinematics import PlanarKinematics, PlanarTip
 from actuator_design.physics.registry import build_terms
 from actuator_design.physics.term_protocol import (node_field_sources, residual_slots,
                                                    scalar_parameter_values, structure_key)
+from actuator_design.reduced.descent import trust_region_descent
 from actuator_design.reduced.kernel import FastKernel
 from actuator_design.reduced.newton import RawSolution, damped_newton, fast_newton
 from actuator_design.reduced.positional import positional_hessian
@@ -377,6 +378,16 @@ class EquilibriumSolver:
         rho = self.kernel.gradient_rounding(np.asarray(z0, float)[1:])
         tol = max(self.options.tol, 1e-14)
         return 1.0 if rho <= 0.0 else min(1.0, tol / rho)
+
+    def descend(self, z0: np.ndarray, params: np.ndarray) -> RawSolution:
+        """Minimise the energy from ``z0`` (θ at the nodes, rad) by trust-region Newton with the
+        exact Hessian, then converge by Newton (:func:`~actuator_design.reduced.descent.trust_region_descent`):
+        the minimum that descent from ``z0`` reaches, whatever the iteration cap."""
+        tol = self.options.tol
+        scale = self.residual_scale(params)
+        self.kernel.set_params(params)
+        return trust_region_descent(self.kernel, lambda z: self.summary(z, params)[0], z0,
+                                    params[self._theta0_index], scale, tol * scale, 10.0 * tol)
 
     def solve_newton(self, z0: np.ndarray, params: np.ndarray, max_iter: Optional[int] = None,
                      tol: Optional[float] = None) -> RawSolution:
