@@ -133,3 +133,44 @@ def test_a_sweep_over_the_current_stays_on_one_branch(tmp_path):
         assert res.success and res.stable, (current, res.message)
         ys.append(res.tip["y"])
     assert all(y > 0.1 for y in ys) and np.all(np.diff(ys) > 0), ys
+
+
+def test_a_rod_at_rest_where_the_fit_does_not_hold_is_refused_naming_the_source(tmp_path):
+    """A cylinder magnet 7 mm beside the rod's middle (its body 2 mm away): the fit's sphere about its
+    centre, which holds the whole body, reaches over the straight rod at rest. The solve fails,
+    saying that the rod at rest is where the field is not known, and says nothing of stability."""
+    text = """scene:
+  type: physical
+  rod: {length: 20 mm, width: 5 mm, thickness: 1 mm, youngs_modulus: 1 MPa}
+  magnetics: {remanent_flux_density: 0.01 T}
+  magnetization: 0 deg
+  field: {type: magnet, shape: cylinder, position: {x: 10 mm, y: 7 mm}, axis_angle: 90 deg,
+          remanence: 1.2 T, diameter: 10 mm, height: 10 mm}
+"""
+    path = tmp_path / "beside.yaml"
+    path.write_text(text)
+    scene = load_config(path).to_scene()
+    s = np.linspace(0.0, 1.0, 401)
+    rest = (s * math.cos(scene.theta0), s * math.sin(scene.theta0))
+    t = scene.field.placed_terms()[0]
+    assert np.min(np.hypot(rest[0] - t.centre[0], rest[1] - t.centre[1])) < t.valid_radius  # by hand
+    res = solve(scene)
+    assert not res.success and res.status == "outside_field_region"
+    assert res.message.startswith("at rest, the rod comes closer to source 1's centre"), res.message
+    assert not res.stable and res.morse_index == -1
+
+
+def test_an_unstable_straight_rod_is_not_a_success_when_the_path_from_rest_stops(tmp_path, monkeypatch):
+    """Were the path from rest to stop before the pitchfork's load (simulated), the straight-rod start
+    gives the straight rod, unstable past the pitchfork (a lower, buckled state exists: shooting
+    above): it is no answer, and not a success."""
+    import actuator_design.equilibrium.acceptance as acceptance
+    from actuator_design.continuation.from_rest import RestPath
+
+    def stopped(solver, params, **kwargs):
+        return RestPath(solver.initial_guess(params), False, 0.5, 3, 3)
+
+    monkeypatch.setattr(acceptance, "path_from_rest", stopped)
+    res = solve(_helmholtz_scene(tmp_path, 5))
+    assert abs(res.tip["y"]) <= 1e-9 and not res.stable
+    assert not res.success and res.status == "not_reached_from_rest", res.message

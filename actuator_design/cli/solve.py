@@ -182,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
         what = {"inaccurate": "the result misses the accuracy asked for",
                 "self_intersecting": "the shape intersects itself",
                 "outside_field_region": "the rod leaves the region where the field is known",
-                "obstacle_at_rest": "an obstacle crosses the rod at rest"}.get(result.status,
+                "obstacle_at_rest": "an obstacle crosses the rod at rest",
+                "not_reached_from_rest": "the state reached from rest was not found"}.get(result.status,
                                                                        "the solver did not converge")
         print(f"actuator-design: warning: {what} ({result.status}): "
               f"{' '.join(result.message.split())}", file=sys.stderr)

@@ -111,6 +111,8 @@ class RestPath:
     visits : list of StationState
         With ``stations``: the state at each station reached, in order (shorter than the stations
         when the path stopped early).
+    rest : ndarray, shape (n_nodes,), or None
+        The rest state (λ = 0), when it was found.
     """
 
     z: np.ndarray
@@ -121,6 +123,7 @@ class RestPath:
     snaps: List[float] = field(default_factory=list)
     branch_points: List[float] = field(default_factory=list)
     visits: List[StationState] = field(default_factory=list)
+    rest: Optional[np.ndarray] = None
 
     @property
     def one_step(self) -> bool:
@@ -189,6 +192,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     if not rest.converged:
         return RestPath(z, False, 0.0, 0, solves)
     z, z_prev, lam, lam_prev = rest.z, None, 0.0, None
+    at_rest = rest.z.copy()
     dl, steps, snaps, branch_points, visits = 1.0, 0, [], [], []
     side = None  # (unstable state, mode) of the last branch point left: its branch's side
     k = 0  # next station
@@ -226,7 +230,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 left = solver.descend(z + BRANCH_KICK * v, at(lam))
                 solves += 1
                 if not left.converged or float(np.dot(left.z - z, v)) <= 0.0:
-                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
+                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest)
                 branch_points.append(lam)
                 side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
                 z_prev, lam_prev, z = None, None, left.z
@@ -244,11 +248,11 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         snap = solver.descend(z, at(t))
         solves += 1
         if not snap.converged:
-            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits)
+            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest)
         snaps.append(t)
         side = None
         z_prev, lam_prev, z, lam = None, None, snap.z, t
         steps += 1
         dl = 1e-3
         visit(snap, newton=False)
-    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits)
+    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits, at_rest)

@@ -36,9 +36,11 @@ from actuator_design.continuation.from_rest import path_from_rest
 from actuator_design.config.limits import mesh_problem
 from actuator_design.equilibrium.accuracy import MAX_ELEMENTS, scene_wavenumber, tip_difference
 from actuator_design.equilibrium.options import SolverOptions
-from actuator_design.equilibrium.single import solve_on
+from actuator_design.equilibrium.single import make_result, solve_on
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import dense_hessian, end_moment, tip_layer
+from actuator_design.reduced.newton import RawSolution
+from actuator_design.reduced.stability import StabilityVerdict
 
 __all__ = ["solve_checked", "accept", "refined", "REFINE_DOUBLINGS", "graded_options", "graded_for_scenes",
            "residual_problem", "moment_scale", "check_physical", "warm_values"]
@@ -118,7 +120,8 @@ def check_physical(result):
     leaves the region where the field's representation holds (a fitted magnet or coil field,
     :mod:`~actuator_design.model.field_sources`), in place."""
     region = getattr(result.scene.field, "region_problem", None)
-    if region is not None:  # also a failed solve: it may have failed because the rod left it
+    if region is not None and result.status != "outside_field_region":  # also a failed solve: it
+        # may have failed because the rod left it
         d = result.evaluate(np.linspace(0.0, 1.0, 401))
         problem = region(d["x"], d["y"]) if np.all(np.isfinite(d["x"])) else None
         if problem is not None:
@@ -289,6 +292,16 @@ def _solve_warm(scene, opts, solver, guess):
     return solve_on(scene, opts, warm_values(guess, solver.transcription.nodes), solver, strict=True)
 
 
+def _region_problem(scene, solver, z: np.ndarray) -> Optional[str]:
+    """Why the state ``z`` (θ at the solver's nodes) lies where the field's fit does not hold, or None."""
+    region = getattr(scene.field, "region_problem", None)
+    if region is None or not np.all(np.isfinite(z)):
+        return None
+    tr = solver.transcription
+    x, y = (np.asarray(v, float).ravel() for v in tr.point_positions(tr.point_values(z)[0]))
+    return region(x, y)
+
+
 def _solve_from_start(scene, opts, solver):
     """From rest (``opts.start == "rest"``), compared with the straight-rod start; or straight."""
     if opts.start != "rest":
@@ -299,11 +312,29 @@ def _solve_from_start(scene, opts, solver):
     path_time = time.perf_counter() - t0
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
             "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
+    z_out, when = path.rest, "at rest"  # a rod at rest where the field is not known: no state found
+    where = None if z_out is None else _region_problem(scene, solver, z_out)
+    if where is None and not path.reached:  # or the path stopped because the rod left that region
+        z_out, when = path.z, f"the loading path from rest stopped at {path.lam:.3g} of the load; there"
+        where = _region_problem(scene, solver, z_out)
+    if where is not None:  # that state is the answer's best picture (no solve from the straight rod);
+        # it is no equilibrium of the full load, so nothing is said of its stability
+        raw = RawSolution(z_out, False, "outside_field_region",
+                          f"{when}, {where}: the field there is not known to its stated accuracy (move "
+                          "the source, or turn the clamp)", path.solves, solver.stationarity(z_out, params))
+        unknown = StabilityVerdict(eigenvalues=np.full(1, np.nan), eigenvector=np.zeros(np.size(z_out)),
+                                   morse_index=-1, stable=False, marginal=False)
+        result = make_result(scene, opts, solver, params, raw, unknown, False, [], path_time)
+        result.stats["from_rest"] = {**info, "solved_from": "path"}
+        return result
     straight = solve_on(scene, opts, None, solver, strict=True)
     straight.stats["from_rest"] = {**info, "solved_from": "straight rod"}
     if not path.reached:
         straight.message += (f"; the loading path from rest stopped at {path.lam:.3g} of the load, "
                              "so this is the straight-rod start")
+        if straight.success and not straight.stable:  # a state no loading history keeps
+            straight.success, straight.status = False, "not_reached_from_rest"
+            straight.message += "; the straight-rod start's state is not stable, so it is not the answer"
         return straight
     _, th1, x1, y1 = solver.summary(path.z, params)
     if straight.success and max(abs(straight.tip["x"] - x1), abs(straight.tip["y"] - y1),

@@ -38,6 +38,16 @@ HANDOVER = 1e-7
 FIRST_RADIUS = 0.05
 
 
+class _NotFinite(ArithmeticError):
+    """A gradient or Hessian with a non-finite entry: the descent cannot go on."""
+
+
+def _finite(a: np.ndarray) -> np.ndarray:
+    if not np.all(np.isfinite(a)):
+        raise _NotFinite
+    return a
+
+
 def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.ndarray,
                          theta0: float, scale: float, atol: float, xtol: float,
                          max_iter: int = DESCENT_MAX_ITER) -> RawSolution:
@@ -76,24 +86,31 @@ def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.n
 
     def fun(y):
         full[1:] = unknowns(y)
-        return energy(full)
+        e = energy(full)
+        return e if np.isfinite(e) else np.inf  # a trial step to a non-finite energy is refused
 
     def grad(y):
         kernel.evaluate(unknowns(y), hessian=False)
-        return kernel.g / root_m
+        return _finite(kernel.g / root_m)
 
     def hess(y):
         kernel.evaluate(unknowns(y), hessian=True)
-        return kernel.hessian_dense() / np.outer(root_m, root_m)
+        return _finite(kernel.hessian_dense() / np.outer(root_m, root_m))
 
     y0 = z[1:] * root_m
     if not np.isfinite(fun(y0)):
         return RawSolution(z, False, "not_finite", "trust-region descent: energy not finite at the start", 0, np.inf)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # scipy's notes on a step that cannot predict a decrease
-        out = minimize(fun, y0, jac=grad, hess=hess, method="trust-exact",
-                       options={"gtol": HANDOVER * scale, "maxiter": int(max_iter),
-                                "initial_trust_radius": FIRST_RADIUS})
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy's notes on a step that cannot predict a decrease
+            out = minimize(fun, y0, jac=grad, hess=hess, method="trust-exact",
+                           options={"gtol": HANDOVER * scale, "maxiter": int(max_iter),
+                                    "initial_trust_radius": FIRST_RADIUS})
+    except (_NotFinite, ValueError, np.linalg.LinAlgError):  # (scipy's subproblem refuses a
+        # non-finite matrix with ValueError: an overflow of the Hessian's shifted factor)
+        return RawSolution(z, False, "not_finite", "trust-region descent: the energy's gradient or "
+                           "Hessian is not finite where the descent went (a rod point on or inside a "
+                           "field source?)", 0, np.inf)
     if not np.all(np.isfinite(out.x)) or int(out.nit) >= max_iter:
         z[1:] = unknowns(out.x) if np.all(np.isfinite(out.x)) else z[1:]
         return RawSolution(z, False, "max_iter",
