@@ -181,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     if not result.success:
         what = {"inaccurate": "the result misses the accuracy asked for",
                 "self_intersecting": "the shape intersects itself",
-                "outside_field_region": "the rod leaves the region where the field is known",
+                "outside_field_region": "the rod lies, or is drawn, where the field is not known",
                 "obstacle_at_rest": "an obstacle crosses the rod at rest",
                 "not_reached_from_rest": "the state reached from rest was not found"}.get(result.status,
                                                                        "the solver did not converge")

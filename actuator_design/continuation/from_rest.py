@@ -19,9 +19,11 @@ end on the same branch. When the step falls below
 :data:`MIN_STEP` (relative to the load reached) the path has reached a fold of the loading history (a snap-through): the state
 there is released by minimising the energy from the last state, as the physical rod would
 snap, and the path goes on from the new state. Both escapes — along the unstable mode and at a
-fold — are the trust-region descent of ``EquilibriumSolver.descend`` (exact Hessian, every step
-lowering the energy), so the state reached is the one descent reaches, whatever the iteration cap;
-a branch-point escape that lands on the other side of the unstable state is refused.
+fold — are ``EquilibriumSolver.descend``: IPOPT with the exact Hessian, or in a fitted field a
+trust-region Newton descent (every step lowering the energy), so the state reached is the one
+descent reaches, whatever the iteration cap;
+a branch-point escape that lands on the other side of the unstable state is refused, and so is a
+later step back onto the unstable state (round-off puts it on either side).
 
 A path can also land on *stations* λ_1 < … < λ_m = 1 on its way (:func:`path_from_rest` with
 ``stations``): the states at the points of a ray of loads {λ P} are those reached from rest at each
@@ -49,6 +51,9 @@ MIN_STEP_FLOOR = 1e-9
 BRANCH_KICK = 0.05
 #: a loss of stability is located to within this fraction of the load before the kick
 BRANCH_STEP = 0.02
+#: an offset from the unstable state left at a branch point lies on the branch's side when its cosine
+#: with the unstable mode (mass inner product) exceeds this
+SIDE_COSINE = 1e-3
 #: most Newton solves along one path
 MAX_SOLVES = 400
 #: a secant step is accepted only when Newton's correction of the predictor is at most this
@@ -113,6 +118,8 @@ class RestPath:
         when the path stopped early).
     rest : ndarray, shape (n_nodes,), or None
         The rest state (λ = 0), when it was found.
+    stop : RawSolution or None
+        The escape (branch point or snap) that failed, when that stopped the path.
     """
 
     z: np.ndarray
@@ -124,6 +131,7 @@ class RestPath:
     branch_points: List[float] = field(default_factory=list)
     visits: List[StationState] = field(default_factory=list)
     rest: Optional[np.ndarray] = None
+    stop: Optional[object] = None
 
     @property
     def one_step(self) -> bool:
@@ -149,8 +157,18 @@ def _on_branch(z_new: np.ndarray, guess: np.ndarray, z: np.ndarray) -> bool:
     return correction <= max(CORRECTOR_RATIO * predicted, CORRECTOR_FLOOR)
 
 
+def _on_side(z_new: np.ndarray, side, mass: np.ndarray) -> bool:
+    """Whether ``z_new`` lies on the taken branch's side of the unstable state ``side[0]``: the
+    cosine of its offset and the unstable mode ``side[1]`` in the mass inner product is above
+    :data:`SIDE_COSINE` (a state back on the unstable one, offset ~ round-off, is on neither side)."""
+    d, v = (z_new - side[0])[1:], side[1][1:]
+    dm = float(np.sqrt(np.dot(d * mass, d)) * np.sqrt(np.dot(v * mass, v)))
+    return dm > 0.0 and float(np.dot(d * mass, v)) > SIDE_COSINE * dm
+
+
 def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,
-                   stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None) -> RestPath:
+                   stations: Optional[Sequence[Tuple[float, np.ndarray]]] = None,
+                   admissible=None) -> RestPath:
     """Continue the rest state of ``solver``'s scene from λ = 0 to 1 (loads and field ramped together).
 
     Parameters
@@ -167,6 +185,9 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         Load fractions 0 ≤ λ_1 < … < λ_m = 1, each with its parameter vector (λ_k ``params`` up to
         rounding: the scene of a grid point on the ray): the path lands on each, solving there
         with that vector, and records the state (``RestPath.visits``).
+    admissible : callable, optional
+        ``z (n_nodes,) -> bool``: the states the escapes' descent may step to
+        (``EquilibriumSolver.descend``), e.g. the rod inside the region where a fitted field holds.
 
     Returns
     -------
@@ -181,6 +202,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         return exact[t] if t in exact else load_fraction(solver, params, t)
 
     z = solver.initial_guess(params)
+    mass = 1.0 / solver.kernel.inv_mass
     newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
     budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
     solves = 0
@@ -213,7 +235,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
         solves += 1
         if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
                 and (z_prev is None or _on_branch(raw.z, guess, z))
-                and (side is None or float(np.dot(raw.z - side[0], side[1])) > 0.0)):
+                and (side is None or _on_side(raw.z, side, mass))):
             lowest = []
             unstable = follow_stable and is_unstable(solver, raw.z, at(t), out=lowest)
             if unstable and t - lam > BRANCH_STEP * t:
@@ -227,10 +249,13 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
                 # real rod leaves along the unstable mode; follow the stable branch from here
                 vec = solver.stability(z, at(lam)).eigenvector
                 v = vec * (1.0 if vec[-1] >= 0 else -1.0)
-                left = solver.descend(z + BRANCH_KICK * v, at(lam))
+                left = solver.descend(z + BRANCH_KICK * v, at(lam), admissible)
                 solves += 1
-                if not left.converged or float(np.dot(left.z - z, v)) <= 0.0:
-                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest)
+                if left.converged and not _on_side(left.z, (z, v), mass):
+                    left.converged, left.status = False, "other_side"
+                    left.message += "; it ended on the other side of the unstable state"
+                if not left.converged:
+                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest, left)
                 branch_points.append(lam)
                 side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
                 z_prev, lam_prev, z = None, None, left.z
@@ -245,10 +270,10 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
             continue
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
         t = min(targets[k], lam + 2 * min_step)
-        snap = solver.descend(z, at(t))
+        snap = solver.descend(z, at(t), admissible)
         solves += 1
         if not snap.converged:
-            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest)
+            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest, snap)
         snaps.append(t)
         side = None
         z_prev, lam_prev, z, lam = None, None, snap.z, t

@@ -36,6 +36,7 @@ from actuator_design.continuation.from_rest import path_from_rest
 from actuator_design.config.limits import mesh_problem
 from actuator_design.equilibrium.accuracy import MAX_ELEMENTS, scene_wavenumber, tip_difference
 from actuator_design.equilibrium.options import SolverOptions
+from actuator_design.equilibrium.dense_shape import nan_balance
 from actuator_design.equilibrium.single import make_result, solve_on
 from actuator_design.equilibrium.solver import get_solver
 from actuator_design.physics.registry import dense_hessian, end_moment, tip_layer
@@ -302,29 +303,63 @@ def _region_problem(scene, solver, z: np.ndarray) -> Optional[str]:
     return region(x, y)
 
 
+def _admissible(scene, solver):
+    """``z -> bool``: the rod inside the region where the scene's fitted field holds; None for a
+    field that holds everywhere."""
+    if getattr(scene.field, "region_problem", None) is None:
+        return None
+
+    def admissible(z):
+        problem = _region_problem(scene, solver, z)
+        if problem is not None:
+            admissible.last = problem  # why the last state refused was
+        return problem is None
+
+    admissible.last = None
+    return admissible
+
+
+def _unknown_field_text(scene, solver, path, admissible):
+    """(state, why) when the path from rest met a field not known to its accuracy — the rod at rest,
+    the path's last state, or the escape from it that could only go on outside the field's region
+    — or None."""
+    where = None if path.rest is None else _region_problem(scene, solver, path.rest)
+    if where is not None:
+        return path.rest, f"at rest, {where}"
+    if path.reached:
+        return None
+    stopped = f"the loading path from rest stopped at {path.lam:.3g} of the load"
+    where = _region_problem(scene, solver, path.z)
+    if where is not None:
+        return path.z, f"{stopped}; there, {where}"
+    if path.stop is not None and path.stop.status == "inadmissible":
+        return path.z, (f"{stopped}, where the rod, leaving that state, is drawn to where the field's "
+                        "representation does not hold (a rod pulled onto a magnet): its energy falls only by "
+                        f"steps that leave the region, where {admissible.last}")
+    return None
+
+
 def _solve_from_start(scene, opts, solver):
     """From rest (``opts.start == "rest"``), compared with the straight-rod start; or straight."""
     if opts.start != "rest":
         return solve_on(scene, opts, None, solver, strict=True)
     t0 = time.perf_counter()
     params = solver.parameter_vector(scene)
-    path = path_from_rest(solver, params, follow_stable=opts.ensure_stable)
+    admissible = _admissible(scene, solver)
+    path = path_from_rest(solver, params, follow_stable=opts.ensure_stable, admissible=admissible)
     path_time = time.perf_counter() - t0
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
             "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
-    z_out, when = path.rest, "at rest"  # a rod at rest where the field is not known: no state found
-    where = None if z_out is None else _region_problem(scene, solver, z_out)
-    if where is None and not path.reached:  # or the path stopped because the rod left that region
-        z_out, when = path.z, f"the loading path from rest stopped at {path.lam:.3g} of the load; there"
-        where = _region_problem(scene, solver, z_out)
-    if where is not None:  # that state is the answer's best picture (no solve from the straight rod);
-        # it is no equilibrium of the full load, so nothing is said of its stability
-        raw = RawSolution(z_out, False, "outside_field_region",
-                          f"{when}, {where}: the field there is not known to its stated accuracy (move "
-                          "the source, or turn the clamp)", path.solves, solver.stationarity(z_out, params))
-        unknown = StabilityVerdict(eigenvalues=np.full(1, np.nan), eigenvector=np.zeros(np.size(z_out)),
+    unknown = _unknown_field_text(scene, solver, path, admissible)
+    if unknown is not None:  # the path's state is the answer's best picture (no solve from the
+        # straight rod); it is no equilibrium of the full load: no energy, reactions or stability
+        z_out, text = unknown
+        raw = RawSolution(z_out, False, "outside_field_region", f"{text}: the field there is not known to "
+                          "its stated accuracy (move the source, or turn the clamp)", path.solves, np.nan)
+        nothing = StabilityVerdict(eigenvalues=np.full(1, np.nan), eigenvector=np.zeros(np.size(z_out)),
                                    morse_index=-1, stable=False, marginal=False)
-        result = make_result(scene, opts, solver, params, raw, unknown, False, [], path_time)
+        result = make_result(scene, opts, solver, params, raw, nothing, False, [], path_time)
+        result.energy, result._balance = np.nan, nan_balance
         result.stats["from_rest"] = {**info, "solved_from": "path"}
         return result
     straight = solve_on(scene, opts, None, solver, strict=True)

@@ -379,15 +379,45 @@ class EquilibriumSolver:
         tol = max(self.options.tol, 1e-14)
         return 1.0 if rho <= 0.0 else min(1.0, tol / rho)
 
-    def descend(self, z0: np.ndarray, params: np.ndarray) -> RawSolution:
-        """Minimise the energy from ``z0`` (θ at the nodes, rad) by trust-region Newton with the
-        exact Hessian, then converge by Newton (:func:`~actuator_design.reduced.descent.trust_region_descent`):
-        the minimum that descent from ``z0`` reaches, whatever the iteration cap."""
+    def descend(self, z0: np.ndarray, params: np.ndarray, admissible=None) -> RawSolution:
+        """The minimum that descent of the energy from ``z0`` reaches, whatever the iteration cap.
+
+        IPOPT where it has the exact Hessian; where it would run quasi-Newton (``hessian_mapped``: a
+        fitted field), the trust-region Newton descent of
+        :func:`~actuator_design.reduced.descent.trust_region_descent` with the kernel's exact
+        Hessian, its end accepted only as a stable state (the stability rule) whose energy is not
+        above the start's.
+
+        Parameters
+        ----------
+        z0 : ndarray, shape (n_nodes,)
+            Start (θ at the nodes, rad).
+        params : ndarray, shape (n_params,)
+        admissible : callable, optional
+            ``z (n_nodes,) -> bool``, the states the descent may step to (the trust-region descent
+            only; IPOPT is not asked).
+
+        Returns
+        -------
+        RawSolution
+        """
+        if not self.hessian_mapped:
+            return self.solve_ipopt(z0, params)
         tol = self.options.tol
         scale = self.residual_scale(params)
         self.kernel.set_params(params)
-        return trust_region_descent(self.kernel, lambda z: self.summary(z, params)[0], z0,
-                                    params[self._theta0_index], scale, tol * scale, 10.0 * tol)
+        start = self.summary(np.asarray(z0, float), params)[0]
+        raw = trust_region_descent(self.kernel, lambda z: self.summary(z, params)[0], z0,
+                                   params[self._theta0_index], tol * scale, 10.0 * tol, admissible=admissible)
+        if raw.converged:
+            end = self.summary(raw.z, params)[0]
+            if not self.stability(raw.z, params).stable:
+                raw.converged, raw.status = False, "not_a_minimum"
+                raw.message += "; its end is not a stable state"
+            elif end > start + 1e-12 * max(1.0, abs(start)):
+                raw.converged, raw.status = False, "not_a_minimum"
+                raw.message += f"; its end's energy {end:.12g} is above the start's {start:.12g}"
+        return raw
 
     def solve_newton(self, z0: np.ndarray, params: np.ndarray, max_iter: Optional[int] = None,
                      tol: Optional[float] = None) -> RawSolution:
