@@ -16,8 +16,7 @@ from actuator_design.cli.main import main
 from actuator_design.config.errors import ConfigError
 from actuator_design.config.model import load_config
 from actuator_design.equilibrium.pipeline import solve
-from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
-                                                      solve_field_shooting)
+from field_references import shooting_tip
 
 MU0 = 4e-7 * math.pi
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -25,18 +24,6 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 def _scene(name):
     return load_config(CONFIGS / name).to_scene()
-
-
-def _reference_tip(scene, objs, result):
-    length, h0 = scene.scales.length, scene.scales.field
-    field = field_from_function(lambda p: magpy.getH(objs, p, sumup=True), length, h0)
-    rod = FieldRod(field, h=scene.h, h_pos=scene.h_pos, h_r=scene.h_r,
-                   alpha=float(scene.fibres(np.array([0.0]))[0]),
-                   beta=float(scene.magnetization(np.array([0.0]))[0]) if scene.magnetization is not None else 0.0)
-    s = np.linspace(0, 1, 201)
-    d = result.evaluate(s)
-    shot = solve_field_shooting(rod, guess_from_shape(rod, s, d["theta"], d["dtheta"][0], d["x"], d["y"]))
-    return np.array(shot.tip)
 
 
 def test_hard_magnetic_strip_beside_a_cylinder_magnet_against_shooting():
@@ -47,7 +34,7 @@ def test_hard_magnetic_strip_beside_a_cylinder_magnet_against_shooting():
     up = Rotation.from_rotvec([-0.5 * math.pi, 0, 0])  # the cylinder's axis (local z) to +y
     magnet = magpy.magnet.Cylinder(dimension=(10e-3, 10e-3), magnetization=(0, 0, 1.2 / MU0),
                                    position=(25e-3, -15e-3, 0), orientation=up)
-    ref = _reference_tip(scene, [magnet], res)
+    ref = shooting_tip(scene, [magnet], res)
     ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
     assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
     assert abs(ours[1]) > 0.05  # the field does bend the rod
@@ -62,7 +49,7 @@ def test_hard_magnetic_strip_beside_a_block_magnet_against_shooting():
     assert res.success and res.stable
     block = magpy.magnet.Cuboid(dimension=(10e-3, 5e-3, 10e-3), magnetization=(0, 1.2 / MU0, 0),
                                 position=(25e-3, -15e-3, 0))
-    ref = _reference_tip(scene, [block], res)
+    ref = shooting_tip(scene, [block], res)
     ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
     assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
     assert ours[1] > 0.1  # the field does bend the rod
@@ -76,7 +63,7 @@ def test_soft_strip_between_helmholtz_coils_against_shooting():
     axis = Rotation.from_euler("z", a) * Rotation.from_rotvec([0, 0.5 * math.pi, 0])
     coils = [magpy.current.Circle(diameter=0.1, current=200 * 5.0, orientation=axis,
                                   position=(10e-3 + z * math.cos(a), z * math.sin(a), 0)) for z in (-25e-3, 25e-3)]
-    ref = _reference_tip(scene, coils, res)
+    ref = shooting_tip(scene, coils, res)
     ours = np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
     assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
     assert ours[1] > 0.3

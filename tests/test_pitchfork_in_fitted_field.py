@@ -18,8 +18,7 @@ from scipy.spatial.transform import Rotation
 from actuator_design.config.model import load_config
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.pipeline import solve
-from actuator_design.reference.shooting_field import (FieldRod, field_from_function, guess_from_shape,
-                                                      solve_field_shooting)
+from field_references import shooting_tip
 
 MU0 = 4e-7 * math.pi
 
@@ -78,22 +77,6 @@ def _pole_magnet():
                                   position=(32e-3, 0, 0), orientation=axis)]
 
 
-def _shoot(scene, objs, shape):
-    """Shooting in magpylib's field from the shape (s, θ, θ'(0), x, y); returns (x, y, angle) at the tip."""
-    length, h0 = scene.scales.length, scene.scales.field
-    field = field_from_function(lambda p: magpy.getH(objs, p, sumup=True), length, h0)
-    rod = FieldRod(field, h=scene.h, h_pos=scene.h_pos, h_r=scene.h_r,
-                   alpha=float(scene.fibres(np.array([0.0]))[0]),
-                   beta=float(scene.magnetization(np.array([0.0]))[0]) if scene.magnetization is not None else 0.0)
-    return np.array(solve_field_shooting(rod, guess_from_shape(rod, *shape)).tip)
-
-
-def _shape(res):
-    s = np.linspace(0, 1, 201)
-    d = res.evaluate(s)
-    return s, d["theta"], d["dtheta"][0], d["x"], d["y"]
-
-
 def _tip(res):
     return np.array([res.tip["x"], res.tip["y"], res.tip["angle"]])
 
@@ -107,7 +90,7 @@ def test_past_the_pitchfork_the_buckled_rod_is_found_and_agrees_with_shooting(tm
     assert "left an unstable equilibrium" in res.message  # the straight rod was passed, not returned
     ours = _tip(res)
     assert ours[1] > 0.1  # buckled, to the side of the kick's convention (tip angle up)
-    ref = _shoot(scene, objs, _shape(res))
+    ref = shooting_tip(scene, objs, res)
     assert np.max(np.abs(ours - ref)) <= 1e-6, ours - ref
     # the straight rod is an equilibrium (shooting from it stays) of higher energy, and unstable
     straight = solve(scene, options=SolverOptions(start="straight"))
