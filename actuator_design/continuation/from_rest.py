@@ -54,6 +54,9 @@ BRANCH_STEP = 0.02
 #: an offset from the unstable state left at a branch point lies on the branch's side when its cosine
 #: with the unstable mode (mass inner product) exceeds this
 SIDE_COSINE = 1e-3
+#: ... and its size (L² norm in the mass inner product, rad) exceeds this: a state back on the unstable
+#: one is offset by round-off along the mode itself, so its cosine is ±1 and tells nothing
+SIDE_OFFSET = 1e-6
 #: most Newton solves along one path
 MAX_SOLVES = 400
 #: a secant step is accepted only when Newton's correction of the predictor is at most this
@@ -160,10 +163,12 @@ def _on_branch(z_new: np.ndarray, guess: np.ndarray, z: np.ndarray) -> bool:
 def _on_side(z_new: np.ndarray, side, mass: np.ndarray) -> bool:
     """Whether ``z_new`` lies on the taken branch's side of the unstable state ``side[0]``: the
     cosine of its offset and the unstable mode ``side[1]`` in the mass inner product is above
-    :data:`SIDE_COSINE` (a state back on the unstable one, offset ~ round-off, is on neither side)."""
+    :data:`SIDE_COSINE` and its size :data:`SIDE_OFFSET` (a state back on the unstable one, offset by
+    round-off, is on neither side)."""
     d, v = (z_new - side[0])[1:], side[1][1:]
-    dm = float(np.sqrt(np.dot(d * mass, d)) * np.sqrt(np.dot(v * mass, v)))
-    return dm > 0.0 and float(np.dot(d * mass, v)) > SIDE_COSINE * dm
+    offset = float(np.sqrt(np.dot(d * mass, d)))
+    dm = offset * float(np.sqrt(np.dot(v * mass, v)))
+    return offset > SIDE_OFFSET and float(np.dot(d * mass, v)) > SIDE_COSINE * dm
 
 
 def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable: bool = True,

@@ -349,7 +349,8 @@ def _solve_from_start(scene, opts, solver):
     path = path_from_rest(solver, params, follow_stable=opts.ensure_stable, admissible=admissible)
     path_time = time.perf_counter() - t0
     info = {"reached": path.reached, "steps": path.steps, "newton_solves": path.solves,
-            "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time}
+            "snaps_at": path.snaps, "branch_points_at": path.branch_points, "time_s": path_time,
+            "load_fraction": path.lam}
     unknown = _unknown_field_text(scene, solver, path, admissible)
     if unknown is not None:  # the path's state is the answer's best picture (no solve from the
         # straight rod); it is no equilibrium of the full load: no energy, reactions or stability

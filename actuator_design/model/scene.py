@@ -124,8 +124,8 @@ def outside_region(terms, x: np.ndarray, y: np.ndarray) -> Optional[str]:
             rho = math.hypot(float(x[i]) - t.centre[0], float(y[i]) - t.centre[1])
             side = "closer to" if t.kind == "exterior" else "farther from"
             return (f"the rod comes {side} source {k + 1}'s centre than its field representation holds "
-                    f"(at ({float(x[i]):.4g}, {float(y[i]):.4g}) rod lengths: distance {rho:.4g}, "
-                    f"{'at least' if t.kind == 'exterior' else 'at most'} {t.valid_radius:.4g})")
+                    f"(at ({float(x[i]):.4g}, {float(y[i]):.4g}) rod lengths: distance {rho:.6g}, "
+                    f"{'at least' if t.kind == 'exterior' else 'at most'} {t.valid_radius:.6g})")
     return None
 
 

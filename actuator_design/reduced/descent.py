@@ -73,7 +73,13 @@ def _boundary_step(lam: np.ndarray, gq: np.ndarray, radius: float):
             lo = mid
         else:
             hi = mid
-    return -gq / (lam + hi), False
+    s = -gq / (lam + hi)
+    short = radius ** 2 - float(np.dot(s, s))
+    if lam[0] <= 0.0 and short > 1e-12 * radius ** 2:
+        # nearly the hard case: μ cannot come closer to −λ_0 than its rounding, and the step falls
+        # short of the boundary; the rest of the way along the lowest eigenvector, downhill
+        s[0] = (-1.0 if gq[0] > 0.0 else 1.0) * np.sqrt(s[0] ** 2 + short)
+    return s, False
 
 
 def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.ndarray,
@@ -154,7 +160,7 @@ def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.n
         step = Q @ sq
         trial = u + step / root_m
         f_trial = energy_at(trial)
-        refused |= f_trial is None
+        refused = f_trial is None  # (the last trial's: a descent that ends refused ends there)
         size = float(np.linalg.norm(step))
         ratio = (f - f_trial) / predicted if (f_trial is not None and predicted > 0.0) else -np.inf
         if inside and f_trial is not None and f_trial <= f + NOISE * abs(f):
