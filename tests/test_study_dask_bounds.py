@@ -204,12 +204,12 @@ def _journaled(path):
 
 def _start_study_until_journaled(tmp_path, address):
     """Start the study CLI on ``address``; return (process, folder, journal) once a point is
-    journaled (or 30 s have passed)."""
+    journaled (or 120 s have passed: a busy machine took over 30 s to start the CLI and solve)."""
     out = tmp_path / "s"
     journal = out / "journal.jsonl"
     proc = _cli(["study", str(_config(tmp_path)), "--out", str(out), "--no-progress",
                  "--scheduler", address], {})
-    deadline = time.monotonic() + 30
+    deadline = time.monotonic() + 120
     while _journaled(journal) < 1 and time.monotonic() < deadline:
         time.sleep(0.02)
     return proc, out, journal

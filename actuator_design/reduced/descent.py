@@ -82,6 +82,8 @@ def _boundary_step(lam: np.ndarray, gq: np.ndarray, radius: float):
     return s, False
 
 
+@np.errstate(over="ignore", divide="ignore", invalid="ignore")  # a Newton step through a near-zero
+# eigenvalue is infinite, so judged too long: no warning on the user's terminal
 def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.ndarray,
                          theta0: float, atol: float, xtol: float, max_iter: int = DESCENT_MAX_ITER,
                          admissible: Optional[Callable[[np.ndarray], bool]] = None) -> RawSolution:
