@@ -320,18 +320,17 @@ def _admissible(scene, solver):
 
 
 def _unknown_field_text(scene, solver, path, admissible):
-    """(state, why) when the path from rest met a field not known to its accuracy — the rod at rest,
-    the path's last state, or the escape from it that could only go on outside the field's region
-    — or None."""
-    where = None if path.rest is None else _region_problem(scene, solver, path.rest)
-    if where is not None:
-        return path.rest, f"at rest, {where}"
+    """(state, why) when the path from rest stopped where the field is not known to its accuracy —
+    its last state there (the rod at rest, when it stopped at once), or the escape from it that
+    could only go on outside the field's region — or None. (A path that reached the full load is
+    judged by its end: at rest the field is off, and a rod at rest inside a fit's excluded sphere
+    may well end outside it.)"""
     if path.reached:
         return None
     stopped = f"the loading path from rest stopped at {path.lam:.3g} of the load"
     where = _region_problem(scene, solver, path.z)
     if where is not None:
-        return path.z, f"{stopped}; there, {where}"
+        return path.z, (f"at rest, {where}" if path.lam == 0.0 else f"{stopped}; there, {where}")
     if path.stop is not None and path.stop.status == "inadmissible":
         return path.z, (f"{stopped}, where the rod, leaving that state, is drawn to where the field's "
                         "representation does not hold (a rod pulled onto a magnet): its energy falls only by "
