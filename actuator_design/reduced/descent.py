@@ -107,7 +107,7 @@ def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.n
         ``z (n + 1,) -> bool``: whether a trial state may be taken (e.g. the rod inside the region
         where a fitted field holds). A step to an inadmissible state is refused like one that
         raises the energy; a descent that cannot go on without one ends with status
-        ``"inadmissible"``.
+        ``"inadmissible"``. Not asked when the start itself is not admissible.
 
     Returns
     -------
@@ -136,6 +136,10 @@ def trust_region_descent(kernel, energy: Callable[[np.ndarray], float], z0: np.n
             status, message = "inadmissible", message + ", every step it tried leaving the admissible states"
         return RawSolution(z, False, status, f"trust-region descent: {message}", it, np.inf)
 
+    full[1:] = u
+    if admissible is not None and not admissible(full):
+        admissible = None  # a start already outside: the descent is not kept from where it is (its
+        # end is judged by the caller)
     f = energy_at(u)
     if f is None or not np.isfinite(f):
         return stop("not_finite", "the energy at the start is not finite or not admissible", 0)
