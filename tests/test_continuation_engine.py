@@ -14,7 +14,7 @@ import pytest
 
 from actuator_design.continuation import (PALC, BifurcationProblem, BranchPoint, ContinuationSettings,
                                           Fold, Natural, UserEvent, continuation)
-from actuator_design.continuation.banded import BandedBordered
+from actuator_design.reduced.banded import BandedBordered
 from actuator_design.equilibrium.pipeline import solve
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.reduced import reduced_system

@@ -196,7 +196,7 @@ def test_links_and_fifos_in_a_fit_out_are_replaced_never_followed(tmp_path, caps
 
 
 def test_links_in_a_solve_out_are_replaced_never_followed(tmp_path, capsys):
-    """The same writer as design's and every other command's --out (cli.output.write_out)."""
+    """The same writer as design's and every other command's --out (cli.common.write_out)."""
     outside = Outside(tmp_path)
     out = tmp_path / "solve"
     out.mkdir()

@@ -5,13 +5,13 @@ a unit of the right dimension but the wrong size (``field [kA/mm]`` for kA/m, ``
 mm, ``tip_angle [rad]`` for degrees) passes that check and is found here, from the dimensionless
 groups the data give at the initial parameters (THEORY §5, §9) and from the rod's geometry:
 
-* the largest measured field gives h > :data:`.limits.PLAUSIBLE_H` or
-  h_r > :data:`.limits.PLAUSIBLE_H_R` (the rod would lie along the field but for a boundary layer
+* the largest measured field gives h > :data:`.spec.PLAUSIBLE_H` or
+  h_r > :data:`.spec.PLAUSIBLE_H_R` (the rod would lie along the field but for a boundary layer
   of 1 % of its length);
-* a load gives |p| > :data:`.limits.PLAUSIBLE_LOAD` (p = P ℓ²/B);
-* a tip coordinate lies farther than :data:`.limits.PLAUSIBLE_TIP_DISTANCE` rod lengths from the
+* a load gives |p| > :data:`.spec.PLAUSIBLE_LOAD` (p = P ℓ²/B);
+* a tip coordinate lies farther than :data:`.spec.PLAUSIBLE_TIP_DISTANCE` rod lengths from the
   clamp (an inextensible rod's tip is at most ℓ away);
-* an angle exceeds :data:`.limits.PLAUSIBLE_ANGLE` (two turns).
+* an angle exceeds :data:`.spec.PLAUSIBLE_ANGLE` (two turns).
 
 Each finding is a warning naming the column, its unit and the factor by which it is off; the fit
 then runs, and its goodness-of-fit test (:mod:`.goodness`) says whether the model explains the data.
@@ -22,12 +22,12 @@ from typing import List
 
 import numpy as np
 
-from actuator_design.calibration import limits
+from actuator_design.calibration import spec as fit_limits
 
 __all__ = ["magnitude_warnings"]
 
-_GROUPS = (("h", "field", limits.PLAUSIBLE_H), ("h_r", "field", limits.PLAUSIBLE_H_R),
-           ("fx", "load_x", limits.PLAUSIBLE_LOAD), ("fy", "load_y", limits.PLAUSIBLE_LOAD))
+_GROUPS = (("h", "field", fit_limits.PLAUSIBLE_H), ("h_r", "field", fit_limits.PLAUSIBLE_H_R),
+           ("fx", "load_x", fit_limits.PLAUSIBLE_LOAD), ("fy", "load_y", fit_limits.PLAUSIBLE_LOAD))
 _WHY = {"field": "the rod would lie along the field but for a boundary layer of 1 % of its length",
         "load": "40 times the Euler buckling load",
         "tip": "an inextensible rod's tip is at most one rod length from the clamp",
@@ -74,13 +74,13 @@ def magnitude_warnings(problem) -> List[str]:
     for col in ("tip_x", "tip_y", "tip_deflection"):
         if col in data.columns:
             largest = float(np.max(np.abs(data.columns[col]))) / length
-            if largest > limits.PLAUSIBLE_TIP_DISTANCE:
+            if largest > fit_limits.PLAUSIBLE_TIP_DISTANCE:
                 out.append(_implausible(data, col, "a distance from the clamp in rod lengths",
-                                        largest, limits.PLAUSIBLE_TIP_DISTANCE, _WHY["tip"]))
+                                        largest, fit_limits.PLAUSIBLE_TIP_DISTANCE, _WHY["tip"]))
     for col in ("tip_angle", "field_angle"):
         if col in data.columns:
             largest = float(np.max(np.abs(data.columns[col])))
-            if largest > limits.PLAUSIBLE_ANGLE:
+            if largest > fit_limits.PLAUSIBLE_ANGLE:
                 out.append(_implausible(data, col, "an angle in rad", largest,
-                                        limits.PLAUSIBLE_ANGLE, _WHY["angle"]))
+                                        fit_limits.PLAUSIBLE_ANGLE, _WHY["angle"]))
     return out

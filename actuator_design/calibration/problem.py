@@ -24,7 +24,7 @@ from typing import Callable, List, Optional, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.calibration import limits
+from actuator_design.calibration import spec as fit_limits
 from actuator_design.calibration.branches import BranchSelector
 from actuator_design.calibration.curves import model_curves
 from actuator_design.calibration.data import COLUMNS, DataError, MeasuredData
@@ -151,9 +151,9 @@ class FitProblem:
                                   f"{', '.join(self.data.outputs)})")
         inputs = [cols[c] for c in self.data.inputs]
         n_conditions = len(np.unique(np.column_stack(inputs), axis=0)) if inputs else 1
-        if n_conditions > limits.MAX_CONDITIONS:
+        if n_conditions > fit_limits.MAX_CONDITIONS:
             raise DataError(f"{src}: {n_conditions} distinct measured conditions: a fit is limited "
-                            f"to {limits.MAX_CONDITIONS} (one forward solve each per model "
+                            f"to {fit_limits.MAX_CONDITIONS} (one forward solve each per model "
                             "evaluation; average repeated measurements or thin the data)")
         n_meas = self.data.n * len(self.data.outputs)
         if n_meas <= len(self.names):

@@ -24,7 +24,7 @@ ones), the fit moved from its start unless it started at an exact fit, no fitted
 a bound, and — with the uncertainties given — the residuals pass the χ² test (:mod:`.goodness`).
 Data magnitudes implausible for the scene (a unit 1000× off) are warned about (:mod:`.plausibility`).
 
-The size of a fit is bounded (:mod:`.limits`), and SIGINT/SIGTERM stop it after the forward solve
+The size of a fit is bounded (:mod:`.spec`), and SIGINT/SIGTERM stop it after the forward solve
 in progress (:mod:`.interrupt`).
 """
 from __future__ import annotations

@@ -23,7 +23,7 @@ import csv
 import io as _io
 
 from actuator_design.cli.common import EXIT_OK, InputError, check_out_dir, stdout_to_stderr
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run"]
 

@@ -119,7 +119,7 @@ def _run(args: argparse.Namespace) -> int:
     written = None
     if args.out is not None:  # the files first, all or nothing; then stdout
         from actuator_design.calibration.outputs import fit_files
-        from actuator_design.cli.output import write_out
+        from actuator_design.cli.common import write_out
         written = write_out(args.out, fit_files(result, config=problem.config.raw), args.json, "results ")
     from actuator_design.calibration.report import fit_units, result_dict, summary_text
     units = fit_units(problem.config.raw)  # a physical scene: also the user's units
@@ -130,6 +130,6 @@ def _run(args: argparse.Namespace) -> int:
     else:
         print(summary_text(result, units))
     if written is not None:
-        from actuator_design.cli.output import print_written
+        from actuator_design.cli.common import print_written
         print_written(written, args.json)
     return EXIT_OK if result.success else EXIT_NOT_CONVERGED

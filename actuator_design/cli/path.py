@@ -55,7 +55,7 @@ from actuator_design.cli.scene_args import add_scene_args, build_scene, validate
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_angle_deg,
                      check_out_dir, check_parameter_angle, finite_float, load_config,
                      stdout_to_stderr)
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 
 __all__ = ["HELP", "add_args", "run", "add_scene_flags", "scene_and_options", "study_settings",
            "csv_text"]

@@ -21,7 +21,7 @@ import sys
 
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                                         finite_float, load_config, nonnegative_float, stdout_to_stderr)
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 from actuator_design.io.display import number
 
 __all__ = ["HELP", "add_args", "run", "build_inputs"]

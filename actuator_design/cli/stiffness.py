@@ -36,7 +36,7 @@ import sys
 
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      load_config, stdout_to_stderr)
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 from actuator_design.cli.path import add_scene_flags, csv_text, scene_and_options, study_settings
 
 __all__ = ["HELP", "add_args", "run"]

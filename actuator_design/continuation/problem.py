@@ -13,7 +13,7 @@ from typing import Optional, Tuple
 import numpy as np
 from scipy.linalg import lapack
 
-from actuator_design.continuation.banded import BandedBordered, use_band
+from actuator_design.reduced.banded import BandedBordered, use_band
 from actuator_design.reduced.fold import locate_fold
 from actuator_design.reduced.linalg import (FLOOR_STEP, banded_negatives, ldl_negatives, lowest_eigenpair,
                                             lowest_eigenpair_banded, lu_det_sign,

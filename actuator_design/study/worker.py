@@ -26,8 +26,7 @@ from typing import Any, Dict, List
 from actuator_design.parallel import die_with_parent, single_threaded_blas
 from actuator_design.study.grid import Axis
 from actuator_design.study.lock import close_inherited
-from actuator_design.study.point import one_point
-from actuator_design.study.walk import run_walk_chunk
+from actuator_design.study.walk import one_point, run_walk_chunk
 
 __all__ = ["run_chunk", "init_worker"]
 

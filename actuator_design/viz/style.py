@@ -41,7 +41,7 @@ class FigureBytes(bytes):
     vector : dict of str → bytes
         ``{"svg": ..., "pdf": ...}``: the same figure in each format asked for with
         :func:`vector_format` when :func:`png_bytes` ran (empty if none). Writers of an output set
-        add ``name.svg`` beside ``name.png`` (:func:`actuator_design.cli.output.write_out`).
+        add ``name.svg`` beside ``name.png`` (:func:`actuator_design.cli.common.write_out`).
     """
 
     vector: Dict[str, bytes]

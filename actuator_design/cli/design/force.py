@@ -7,8 +7,8 @@ import math
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
                                         stdout_to_stderr)
-from actuator_design.cli.design_units import positive_target
-from actuator_design.cli.output import emit
+from actuator_design.cli.design.units import positive_target
+from actuator_design.cli.common import emit
 
 __all__ = ["parse_force", "run_force", "state_files"]
 

@@ -13,9 +13,9 @@ field_A_per_m, field_mT (mu0 H) and angle_deg, the text shows waypoints and tips
 of the YAML and the field in mT, and --rate 5mT/s / --rotation-rate 30deg/s add the time of each
 step (the slower of the field change and the rotation governs).
 On a scene whose field comes from coils (`field: {type: coils}`) the coils' currents are scheduled
-instead, within each driver's --slew-rate (A/s) and current limit (:mod:`.schedule_currents`); on a
+instead, within each driver's --slew-rate (A/s) and current limit (:mod:`.currents`); on a
 scene whose magnet has a travel, the magnet's pose within the stage's --stage-speed and --turn-rate
-(:mod:`.schedule_poses`).
+(:mod:`.poses`).
 Exit codes: 0 verified schedule, 2 bad input, 3 no verified schedule (the message says why), 4 (coils, a magnet)
 a waypoint no currents (pose) within the limits (travel) reach.
 """
@@ -31,9 +31,9 @@ from pathlib import Path
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, InputError, add_rate_args, bad_input,
                                         check_out_dir, finite_float, load_config, parse_rates,
                                         repeatable, stdout_to_stderr, table_csv_text)
-from actuator_design.cli.design_units import (path_line, positive_target, quasi_static_line,
+from actuator_design.cli.design.units import (path_line, positive_target, quasi_static_line,
                                               refuse_unknown_keys)
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 from actuator_design.cli.scene_args import add_set_arg, apply_set_flags, check_flags
 
 __all__ = ["HELP", "add_args", "run"]
@@ -232,10 +232,10 @@ def run(args: argparse.Namespace) -> int:
                                scene, tol_name, "length", "length", "rod lengths")
     study.pop("path_tolerance", None)
     if stage:  # the magnet's pose is scheduled
-        from actuator_design.cli.schedule_poses import run_poses
+        from actuator_design.cli.schedule.poses import run_poses
         return run_poses(args, scene, options, raw, study, wps, path_tol)
     if coils:  # the coils' currents are scheduled
-        from actuator_design.cli.schedule_currents import run_currents
+        from actuator_design.cli.schedule.currents import run_currents
         return run_currents(args, scene, options, raw, study, wps, path_tol)
     rate = args.rate_weight if args.rate_weight is not None else float(study.get("rate_weight", 1.0))
     sub = args.substeps if args.substeps is not None else int(study.get("substeps", 8))

@@ -14,7 +14,7 @@ from pathlib import Path
 from actuator_design.io.display import degrees, number
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
                                         stdout_to_stderr)
-from actuator_design.cli.output import emit
+from actuator_design.cli.common import emit
 
 __all__ = ["run_shape", "read_points"]
 

@@ -10,7 +10,7 @@ from typing import Optional
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, InputError, bad_input,
                                         stdout_to_stderr)
-from actuator_design.cli.output import emit
+from actuator_design.cli.common import emit
 
 __all__ = ["run_currents", "run_current_shape", "run_current_stiffness", "finish_stiffness", "tail_lines", "finish", "progress_line", "refuse_flags"]
 
@@ -44,7 +44,7 @@ def run_currents(args, scene, options, raw, target, vary, settings) -> int:
 def run_current_shape(args, scene, options, raw, vary, settings) -> int:
     """``design --target-shape`` on a coil scene: the currents whose rod passes nearest the points
     (:func:`~actuator_design.hardware.current_shape.design_current_shape`); exit codes as for a tip."""
-    from actuator_design.cli.design_shape import read_points
+    from actuator_design.cli.design.shape import read_points
     from actuator_design.hardware.current_design import coil_problem
     from actuator_design.hardware.current_shape import design_current_shape
 
@@ -97,7 +97,7 @@ def finish(args, res, length: float, summary, title: str, physical: Optional[dic
     """Print (or write, with --json) a design over hardware with its tip in the rod's unit (and the
     values of ``physical`` under the JSON's ``physical`` key), write its files, and give the exit
     code: 0 success, 3 not verified or not robust, 4 unreachable."""
-    from actuator_design.cli.design_force import state_files
+    from actuator_design.cli.design.force import state_files
 
     payload = res.to_dict()
     payload["physical"] = {"tip_mm": [v * length * 1e3 for v in res.tip[:2]],

@@ -1,4 +1,4 @@
-"""Band algebra of the continuation problem for long band Hessians (fine meshes).
+"""Band algebra of the continuation problem (bordered systems) for long band Hessians (fine meshes).
 
 For n ≥ 64 unknowns and a bandwidth bw < n/4 the reduced Hessian H is a band matrix, and the
 bordered systems of the corrector and the tangent,

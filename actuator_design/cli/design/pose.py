@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr
-from actuator_design.cli.design_currents import finish, finish_stiffness, progress_line, refuse_flags, tail_lines
+from actuator_design.cli.design.currents import finish, finish_stiffness, progress_line, refuse_flags, tail_lines
 
 __all__ = ["run_pose", "run_pose_shape", "run_pose_stiffness"]
 
@@ -26,7 +26,7 @@ def run_pose(args, scene, options, raw, target, vary, settings) -> int:
 def run_pose_shape(args, scene, options, raw, vary, settings) -> int:
     """``design --target-shape`` on a scene with a moving magnet: the pose whose rod passes nearest
     the points (:func:`~actuator_design.hardware.pose_shape.design_pose_shape`); exit codes as for a tip."""
-    from actuator_design.cli.design_shape import read_points
+    from actuator_design.cli.design.shape import read_points
     from actuator_design.hardware.pose_shape import design_pose_shape
 
     refuse_flags(args, vary, "the magnet's pose (within its travel)", "the magnet's travel is its limit")

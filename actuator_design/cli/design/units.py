@@ -105,7 +105,7 @@ def finish_schedule(args, res, payload: dict, files, summary) -> int:
     """Write ``files()`` to ``--out`` (all or nothing), print the payload (``--json``) or the lines of
     ``summary(res, payload)``, and return the exit code of a hardware schedule: 0 verified, 4 a
     waypoint out of reach, 3 otherwise."""
-    from actuator_design.cli.output import print_written, write_out
+    from actuator_design.cli.common import print_written, write_out
     from actuator_design.io.save import dumps_json
 
     written = write_out(args.out, files(), args.json) if args.out is not None else None

@@ -44,11 +44,11 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACH
                                         parse_rates, repeatable, stdout_to_stderr, table_csv_text)
 from actuator_design.io.display import degrees, number
 from actuator_design.physics.parameters import designable, parameters
-from actuator_design.cli.design_hardware import add_hardware_args
-from actuator_design.cli.design_force import parse_force, run_force
-from actuator_design.cli.design_units import (add_schedule_units, positive_target, profile_terms_help,
+from actuator_design.cli.design.hardware import add_hardware_args
+from actuator_design.cli.design.force import parse_force, run_force
+from actuator_design.cli.design.units import (add_schedule_units, positive_target, profile_terms_help,
                                               quasi_static_line, refuse_unknown_keys, unit_labels, vary_help)
-from actuator_design.cli.output import print_written, write_out
+from actuator_design.cli.common import print_written, write_out
 from actuator_design.cli.scene_args import add_set_arg, apply_set_flags, check_flags
 
 __all__ = ["HELP", "add_args", "run"]
@@ -435,12 +435,12 @@ def run(args: argparse.Namespace) -> int:
     if force is not None:
         from actuator_design.io.user_units import user_units
         return run_force(args, scene, options, raw, force, settings, user_units(scene, raw))
-    from actuator_design.cli.design_hardware import check_position_tolerance, hardware_design, hardware_shape
+    from actuator_design.cli.design.hardware import check_position_tolerance, hardware_design, hardware_shape
     check_position_tolerance(args, scene)
     if args.target_shape is not None and (rc := hardware_shape(args, scene, options, raw, vary, settings)) is not None:
         return rc
     if args.target_shape is not None:
-        from actuator_design.cli.design_shape import run_shape
+        from actuator_design.cli.design.shape import run_shape
         return run_shape(args, scene, options, raw, vary, settings)
     if (rc := hardware_design(args, scene, options, raw, target, vary, settings, stiffness)) is not None:
         return rc
@@ -450,7 +450,7 @@ def run(args: argparse.Namespace) -> int:
     units = user_units(scene, raw)
     check_rates(rates, units)
     if isinstance(target, list):
-        from actuator_design.cli.design_poses import run_poses
+        from actuator_design.cli.design.poses import run_poses
         return run_poses(args, scene, options, raw, target, vary, settings, units, rates)
     from actuator_design.inverse.design import design, design_problem
     from actuator_design.schedules.schedule import schedule_table

@@ -1,11 +1,11 @@
 """``design`` over hardware: which scenes are designed in coil currents or in a magnet's pose, and
-the flags of those designs (:mod:`actuator_design.cli.design_currents`,
-:mod:`actuator_design.cli.design_pose`)."""
+the flags of those designs (:mod:`actuator_design.cli.design.currents`,
+:mod:`actuator_design.cli.design.pose`)."""
 from __future__ import annotations
 
 from actuator_design.cli.common import InputError
-from actuator_design.cli.design_currents import run_current_shape, run_current_stiffness, run_currents
-from actuator_design.cli.design_pose import run_pose, run_pose_shape, run_pose_stiffness
+from actuator_design.cli.design.currents import run_current_shape, run_current_stiffness, run_currents
+from actuator_design.cli.design.pose import run_pose, run_pose_shape, run_pose_stiffness
 
 __all__ = ["hardware_design", "add_hardware_args", "is_coil_scene", "has_moving_magnet", "check_position_tolerance",
            "hardware_shape"]

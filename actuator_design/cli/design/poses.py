@@ -15,8 +15,8 @@ import math
 
 from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACHABLE, bad_input,
                                         stdout_to_stderr)
-from actuator_design.cli.design_units import add_schedule_units, quasi_static_line, unit_labels
-from actuator_design.cli.output import emit
+from actuator_design.cli.design.units import add_schedule_units, quasi_static_line, unit_labels
+from actuator_design.cli.common import emit
 
 __all__ = ["run_poses", "summary"]
 
