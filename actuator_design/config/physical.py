@@ -230,7 +230,6 @@ class PhysicalScene(_MoreKeys, PhysicalMagnetization, _SceneKeys):
             **without_optional_terms(),  # a term is added when given
             theta0=self.clamp.angle if self.clamp else 0.0,
             scales=Scales(length=length, bending_stiffness=b0, field=d.h0, h_per_field=per.get("h", 0.0),
-                          h_r_per_field=per.get("h_r", 0.0),
                           mass_per_length=(float(self.rod.density) * self.rod.cross_section_area
                                            if self.rod.density is not None else 0.0),
                           damping_ratio=float(self.rod.damping_ratio or 0.0),

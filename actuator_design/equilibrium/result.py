@@ -15,6 +15,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.io.display import degrees, number
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
+from actuator_design.physics.registration import describe_scales
 from actuator_design.physics.registry import describe_groups, registered_terms
 
 __all__ = ["EquilibriumResult"]
@@ -216,7 +217,7 @@ class EquilibriumResult:
             "shape": lambda: {"s": self.s.tolist(), "x": self.x.tolist(), "y": self.y.tolist(),
                               "theta": self.theta.tolist()},
             "groups": lambda: describe_groups(self.scene),
-            "scales": lambda: None if self.scene.scales is None else self.scene.scales.as_dict(),
+            "scales": lambda: describe_scales(self.scene.scales),
             "physical": self.physical,
             "units": lambda: {"length": "rod length", "energy": "B0/l", "force": "B0/l^2",
                               "moment": "B0/l", "angle": "rad"},

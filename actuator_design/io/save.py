@@ -29,6 +29,7 @@ from actuator_design import __version__
 from actuator_design.io.safe_files import write_all
 from actuator_design.model.profiles import Profile
 from actuator_design.model.scene import TermValues
+from actuator_design.physics.registration import describe_scales
 
 __all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "result_files",
            "write_result", "shape_csv_text", "atomic_write", "write_output_set", "encode_content",
@@ -91,7 +92,7 @@ def scene_to_dict(scene) -> Dict[str, object]:
     out = {"name": scene.name}  # first, as a reader looks for it
     out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene) if f.name != "values")
     out.update((name, _plain(value)) for name, value in scene.values)  # each term's value under its own name
-    out["scales"] = None if scene.scales is None else scene.scales.as_dict()
+    out["scales"] = describe_scales(scene.scales)
     out["scales_fields"] = scene.scales
     return jsonable(out)
 

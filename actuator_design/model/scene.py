@@ -241,9 +241,6 @@ class Scales:
     h_per_field : float
         dh/dH0 = √(μ0 χ̄ A ℓ² / (2 B0)), per A/m: converts a designed h to a field even when the
         scene's own field is zero (0 when unknown).
-    h_r_per_field : float
-        dh_r/dH0 = μ0 M_r A ℓ² / B0, per A/m (THEORY §9): the hard-magnetic group of a field (0 when
-        the rod has no remanent magnetisation).
     mass_per_length : float
         ρA, kg/m (0 when the rod's density is not given): with B0 and ℓ the time scale
         √(ρA ℓ⁴/B0) of its vibrations (:mod:`actuator_design.schedules.dynamics`).
@@ -263,7 +260,6 @@ class Scales:
     bending_stiffness: float
     field: float = 0.0
     h_per_field: float = 0.0
-    h_r_per_field: float = 0.0
     mass_per_length: float = 0.0
     damping_ratio: float = 0.0
     per_field: Tuple[Tuple[str, float], ...] = ()
@@ -284,23 +280,18 @@ class Scales:
         """Tip stiffness scale B0/ℓ³, N/m."""
         return self.bending_stiffness / self.length**3
 
-    @property
-    def distributed_load(self) -> float:
-        """Distributed load scale B0/ℓ³, N/m."""
-        return self.bending_stiffness / self.length**3
-
     def as_dict(self) -> dict:
+        """The rod's SI scales by key; a result's ``scales`` adds each term's
+        (:func:`actuator_design.physics.registration.describe_scales`)."""
         return {
             "length_m": self.length,
             "bending_stiffness_Nm2": self.bending_stiffness,
             "field_A_per_m": self.field,
             "h_per_field_per_A_per_m": self.h_per_field,
-            "h_r_per_field_per_A_per_m": self.h_r_per_field,
             "force_N": self.force,
             "moment_Nm": self.moment,
             "energy_J": self.moment,
             "stiffness_N_per_m": self.stiffness,
-            "distributed_load_N_per_m": self.distributed_load,
         }
 
 

@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
 
 from actuator_design.model.profiles import Profile
 
 __all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
-           "without_optional_terms", "real_number", "real_pair", "short_repr"]
+           "without_optional_terms", "real_number", "real_pair", "short_repr", "describe_scales"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -96,6 +96,9 @@ class SceneValue:
         Whether None is allowed (and means: no such term).
     doc : str
         What it is, with its units.
+    scale : (str, callable) or None
+        What a physical result's ``scales`` says of its units (:func:`describe_scales`): a key and
+        the SI factor of one unit, from the scene's :class:`~actuator_design.model.scene.Scales`.
     """
 
     name: str
@@ -103,6 +106,7 @@ class SceneValue:
     kind: str
     optional: bool
     doc: str
+    scale: Optional[Tuple[str, Callable[[Any], float]]] = None
 
     def checked(self, value):
         """``value`` as a scene keeps it (floats, a tuple for a pair); ValueError naming this value
@@ -136,9 +140,12 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
                "dead tip force (fx, fy), units of B0/ℓ²; THEORY §5's p is fy (present by default, at zero)"),
     SceneValue("tip_moment", None, NUMBER, True, "dead tip moment, units of B0/ℓ, counter-clockwise positive"),
     SceneValue("distributed_load", None, VECTOR, True,
-               "dead load per unit length (qx, qy) (e.g. weight), units of B0/ℓ³"),
+               "dead load per unit length (qx, qy) (e.g. weight), units of B0/ℓ³",
+               scale=("distributed_load_N_per_m", lambda scales: scales.bending_stiffness / scales.length**3)),
     SceneValue("h_r", 0.0, NUMBER, False,
-               "hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field"),
+               "hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field",
+               # dh_r/dH0 = μ0 M_r A ℓ² / B0 per A/m (0 when the rod has no remanent magnetisation)
+               scale=("h_r_per_field_per_A_per_m", lambda scales: dict(scales.per_field).get("h_r", 0.0))),
     SceneValue("magnetization", None, PROFILE, True,
                "angle β(s) of the remanent magnetisation to the tangent, rad; None builds no hard-magnetic "
                "term (a present term with h_r = 0 is still built)"),
@@ -174,6 +181,16 @@ def short_repr(value, limit: int = 60) -> str:
     """``repr(value)`` on one line, at most ``limit`` characters (an error message quotes it)."""
     text = " ".join(repr(value).split())
     return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def describe_scales(scales) -> Optional[dict]:
+    """A result's ``scales`` (None for a dimensionless scene): the rod's SI scales
+    (:meth:`~actuator_design.model.scene.Scales.as_dict`) and those of the terms' values
+    (:attr:`SceneValue.scale`)."""
+    if scales is None:
+        return None
+    return {**scales.as_dict(), **{key: float(factor(scales)) for key, factor in
+                                   (v.scale for v in SCENE_VALUES.values() if v.scale is not None)}}
 
 
 def without_optional_terms() -> Dict[str, Any]:
