@@ -18,6 +18,8 @@ from __future__ import annotations
 import importlib
 from typing import Dict, Tuple
 
+from actuator_design.physics import TERM_CLASSES
+
 __version__ = "0.1.0"
 
 #: Public name → (module, attribute). Every name here is part of the API users' scripts rely on.
@@ -43,13 +45,6 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "load_scene": ("config.model", "load_scene"),
     # the energy terms
     "EnergyTerm": ("physics.term_protocol", "EnergyTerm"),
-    "Bending": ("physics.terms", "Bending"),
-    "FieldOrientation": ("physics.terms", "FieldOrientation"),
-    "FieldPosition": ("physics.terms", "FieldPosition"),
-    "TipForce": ("physics.terms", "TipForce"),
-    "TipMoment": ("physics.terms", "TipMoment"),
-    "DistributedLoad": ("physics.terms", "DistributedLoad"),
-    "HardMagnetic": ("physics.hard_magnetic", "HardMagnetic"),
     "build_terms": ("physics.registry", "build_terms"),
     # writing a term of your own (the shipped extra terms are written this way)
     "register_term": ("physics.registry", "register_term"),
@@ -103,6 +98,8 @@ _EXPORTS: Dict[str, Tuple[str, str]] = {
     "scene_from_dict": ("io.saved", "scene_from_dict"),
     "SavedResult": ("io.saved", "SavedResult"),
 }
+# the built-in energy term classes, as the physics room lists them (ad.Bending, ad.TipForce, …)
+_EXPORTS.update((name, ("physics", name)) for name in TERM_CLASSES)
 
 __all__ = ["__version__", *_EXPORTS]
 

@@ -284,7 +284,8 @@ def _import_graph():
 
 
 #: the packages whose ``__init__`` defines ``__getattr__`` (a lazy face, PEP 562)
-LAZY_FACES = ("actuator_design", "actuator_design.calibration", "actuator_design.config", "actuator_design.study")
+LAZY_FACES = ("actuator_design", "actuator_design.calibration", "actuator_design.config", "actuator_design.physics",
+              "actuator_design.study")
 
 
 def _lazy_homes():
@@ -294,8 +295,10 @@ def _lazy_homes():
     import actuator_design.calibration
     import actuator_design.config
     import actuator_design.study
+    from actuator_design.physics import TERM_CLASSES
 
     homes = {"actuator_design.study": {n: "actuator_design.study.runner" for n in actuator_design.study.__all__}}
+    homes["actuator_design.physics"] = {n: f"actuator_design.physics.{m}" for n, m in TERM_CLASSES.items()}
     for package in (actuator_design.calibration, actuator_design.config):
         homes[package.__name__] = {n: f"{package.__name__}.{m}" for n, m in package._HOME.items()}
     homes["actuator_design"] = {n: homes.get(f"actuator_design.{m}", {}).get(attr, f"actuator_design.{m}")
