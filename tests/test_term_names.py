@@ -109,7 +109,6 @@ STILL_NAMING_TERMS = {
     "calibration/plausibility.py": 1,
     "cli/design/__init__.py": 1,
     "inverse/settings.py": 1,
-    "model/scene.py": 5,
     "robust/robustness.py": 1,
     "robust/tolerances.py": 3,
 }

@@ -22,7 +22,7 @@ from typing import Any, Dict, Optional, Tuple, Union
 import numpy as np
 
 from actuator_design.model.profiles import Profile, constant_profile
-from actuator_design.physics.registration import PROFILE, SCENE_VALUES, real_number, short_repr
+from actuator_design.physics.registration import PROFILE, SCENE_VALUES, component, real_number, short_repr
 
 __all__ = [
     "UniformField",
@@ -439,7 +439,9 @@ class Scene(_SceneFields):
     @property
     def p(self) -> float:
         """Vertical tip load p = fy (THEORY §5); 0 when the scene has no tip force."""
-        return 0.0 if self.tip_force is None else float(self.tip_force[1])
+        value, i = component("p")
+        pair = self._by_name[value.name]
+        return 0.0 if pair is None else float(pair[i])
 
     def with_values(self, *, h=None, phi=None, p=None, alpha=None) -> "Scene":
         """Return a copy with the dimensionless values of THEORY §5 overridden.
@@ -456,7 +458,10 @@ class Scene(_SceneFields):
                 raise ValueError(f"phi can only be set for a uniform field; this scene has a {scene.field.kind} field")
             scene = replace(scene, field=UniformField(phi=float(phi)))
         if p is not None:
-            scene = replace(scene, tip_force=((scene.tip_force or (0.0, 0.0))[0], float(p)))
+            value, i = component("p")
+            pair = list(scene._by_name[value.name] or (0.0, 0.0))
+            pair[i] = float(p)
+            scene = replace(scene, **{value.name: tuple(pair)})
         if alpha is not None:
             scene = replace(scene, fibres=constant_profile(float(alpha)))
         return scene
@@ -479,7 +484,7 @@ def default_scene(h: float = 1.0, phi: float = 0.0, p: float = 0.0, alpha: float
     """THEORY §5's dimensionless cantilever: uniform field (h, φ), vertical tip load p,
     constant fibre angle α, clamp angle 0, nothing else."""
     return Scene(field=UniformField(phi=float(phi)), h=float(h), fibres=constant_profile(float(alpha)),
-                 tip_force=(0.0, float(p)), name="default dimensionless cantilever (THEORY §5)")
+                 name="default dimensionless cantilever (THEORY §5)").with_values(p=p)
 
 
 @functools.lru_cache(maxsize=None)

@@ -28,7 +28,8 @@ import numpy as np
 from actuator_design.model.profiles import Profile
 
 __all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
-           "without_optional_terms", "real_number", "real_pair", "short_repr", "describe_scales"]
+           "without_optional_terms", "real_number", "real_pair", "short_repr", "describe_scales",
+           "component"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -99,6 +100,9 @@ class SceneValue:
     scale : (str, callable) or None
         What a physical result's ``scales`` says of its units (:func:`describe_scales`): a key and
         the SI factor of one unit, from the scene's :class:`~actuator_design.model.scene.Scales`.
+    component : (str, int) or None
+        THEORY §5's name of one component of a pair and its index (``("p", 1)``: p is fy), read
+        and written as ``scene.p``, ``scene.with_values(p=...)`` (0 and a pair at zero when None).
     """
 
     name: str
@@ -107,6 +111,7 @@ class SceneValue:
     optional: bool
     doc: str
     scale: Optional[Tuple[str, Callable[[Any], float]]] = None
+    component: Optional[Tuple[str, int]] = None
 
     def checked(self, value):
         """``value`` as a scene keeps it (floats, a tuple for a pair); ValueError naming this value
@@ -137,7 +142,8 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
                "positional group, h_pos² = μ0 χ̂ H0² A ℓ² / (2 B0) ≥ 0; its term is built only for "
                "non-uniform fields (in a uniform field it is a constant)"),
     SceneValue("tip_force", (0.0, 0.0), VECTOR, True,
-               "dead tip force (fx, fy), units of B0/ℓ²; THEORY §5's p is fy (present by default, at zero)"),
+               "dead tip force (fx, fy), units of B0/ℓ²; THEORY §5's p is fy (present by default, at zero)",
+               component=("p", 1)),
     SceneValue("tip_moment", None, NUMBER, True, "dead tip moment, units of B0/ℓ, counter-clockwise positive"),
     SceneValue("distributed_load", None, VECTOR, True,
                "dead load per unit length (qx, qy) (e.g. weight), units of B0/ℓ³",
@@ -181,6 +187,15 @@ def short_repr(value, limit: int = 60) -> str:
     """``repr(value)`` on one line, at most ``limit`` characters (an error message quotes it)."""
     text = " ".join(repr(value).split())
     return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def component(name: str) -> Tuple[SceneValue, int]:
+    """The value one of whose components THEORY §5 calls ``name`` (:attr:`SceneValue.component`),
+    and the component's index."""
+    for value in SCENE_VALUES.values():
+        if value.component is not None and value.component[0] == name:
+            return value, value.component[1]
+    raise KeyError(f"no scene value has a component named {name!r}")
 
 
 def describe_scales(scales) -> Optional[dict]:
