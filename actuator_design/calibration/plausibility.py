@@ -5,9 +5,9 @@ a unit of the right dimension but the wrong size (``field [kA/mm]`` for kA/m, ``
 mm, ``tip_angle [rad]`` for degrees) passes that check and is found here, from the dimensionless
 groups the data give at the initial parameters (THEORY §5, §9) and from the rod's geometry:
 
-* the largest measured field gives h > :data:`.spec.PLAUSIBLE_H` or
-  h_r > :data:`.spec.PLAUSIBLE_H_R` (the rod would lie along the field but for a boundary layer
-  of 1 % of its length);
+* the largest measured field gives a field group whose end layer is thinner than
+  :data:`.spec.PLAUSIBLE_LAYER` of the rod (h > 100, h_r > 1e4: the rod would lie along the field
+  but for a boundary layer of 1 % of its length; each group declares its ``layer_power``);
 * a load gives |p| > :data:`.spec.PLAUSIBLE_LOAD` (p = P ℓ²/B);
 * a tip coordinate lies farther than :data:`.spec.PLAUSIBLE_TIP_DISTANCE` rod lengths from the
   clamp (an inextensible rod's tip is at most ℓ away);
@@ -23,11 +23,20 @@ from typing import List
 import numpy as np
 
 from actuator_design.calibration import spec as fit_limits
+from actuator_design.physics import parameters as lens
 
 __all__ = ["magnitude_warnings"]
 
-_GROUPS = (("h", "field", fit_limits.PLAUSIBLE_H), ("h_r", "field", fit_limits.PLAUSIBLE_H_R),
-           ("fx", "load_x", fit_limits.PLAUSIBLE_LOAD), ("fy", "load_y", fit_limits.PLAUSIBLE_LOAD))
+
+def _groups():
+    """(slot, data column, largest plausible value): every group the field drives whose end layers
+    narrow with it (``Parameter.layer_power``: the layer's wavenumber ∝ value^power, so a layer of
+    PLAUSIBLE_LAYER at value PLAUSIBLE_LAYER^(−1/power)), and the tip load's components."""
+    return tuple((p.slot, "field", fit_limits.PLAUSIBLE_LAYER ** (-1.0 / p.layer_power))
+                 for p in lens.parameters().values() if p.layer_power and p.field_power and p.name == p.slot) + (
+        ("fx", "load_x", fit_limits.PLAUSIBLE_LOAD), ("fy", "load_y", fit_limits.PLAUSIBLE_LOAD))
+
+
 _WHY = {"field": "the rod would lie along the field but for a boundary layer of 1 % of its length",
         "load": "40 times the Euler buckling load",
         "tip": "an inextensible rod's tip is at most one rod length from the clamp",
@@ -61,7 +70,7 @@ def magnitude_warnings(problem) -> List[str]:
     theta0 = np.array([problem.initial[n] for n in problem.names], float)
     q = np.asarray(problem.f_map_all(theta0, problem.conditions.T)[0], float)
     q = q.reshape(len(problem.slots), problem.n_conditions)
-    for slot, column, plausible in _GROUPS:
+    for slot, column, plausible in _groups():
         col = _column(data, column)
         if slot not in problem.slots or col not in data.columns:
             continue

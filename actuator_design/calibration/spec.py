@@ -48,7 +48,7 @@ from actuator_design.model.units import QuantityError, parse_quantity
 from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS
 
 __all__ = ["ParameterSpec", "FitSpec", "MAX_DATA_BYTES", "MAX_DATA_ROWS", "MAX_CONDITIONS", "DEFAULT_MIN_P_VALUE",
-           "PLAUSIBLE_H", "PLAUSIBLE_H_R", "PLAUSIBLE_LOAD", "PLAUSIBLE_TIP_DISTANCE", "PLAUSIBLE_ANGLE"]
+           "PLAUSIBLE_LAYER", "PLAUSIBLE_H", "PLAUSIBLE_LOAD", "PLAUSIBLE_TIP_DISTANCE", "PLAUSIBLE_ANGLE"]
 
 MAX_DATA_BYTES = 16 * 2**20
 MAX_DATA_ROWS = 100_000
@@ -56,10 +56,12 @@ MAX_CONDITIONS = 5_000
 DEFAULT_MIN_P_VALUE = 1e-3
 
 #: Plausible magnitudes (:mod:`.plausibility`) at the initial parameters: beyond them the rod is
-#: aligned with the field but for a boundary layer of 1 % of its length (h ~ l/layer for the
-#: induced torque, √h_r for the remanent one, THEORY §5, §9) …
-PLAUSIBLE_H = 100.0
-PLAUSIBLE_H_R = 1.0e4
+#: aligned with the field but for a boundary layer of this fraction of its length (each field group
+#: declares how its layer narrows, ``Parameter.layer_power``: h ~ l/layer for the induced torque,
+#: √h_r for the remanent one, THEORY §5, §9) …
+PLAUSIBLE_LAYER = 0.01
+#: (the field group h's largest plausible value, its layer ~1/h)
+PLAUSIBLE_H = 1.0 / PLAUSIBLE_LAYER
 #: … a dead load is 40 times the Euler buckling load (p = π²/4) …
 PLAUSIBLE_LOAD = 100.0
 #: … the tip lies farther from the clamp than the rod is long (in rod lengths, with room for noise)

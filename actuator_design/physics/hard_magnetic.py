@@ -71,7 +71,7 @@ class HardMagnetic(EnergyTerm):
                   read=lambda sc: sc.h_r, write=lambda sc, v: replace(sc, h_r=v),
                   term="hard_magnetic", lower=0.0, field_power=1, residual="linear",
                   stiffness_power=-1.0, remanent_field=True, ensure=with_hard_magnetic_term,
-                  scene_range=(0.0, 1e8), mirror=1.0,  # as h²: a clamp layer of width ~1/√h_r
+                  scene_range=(0.0, 1e8), mirror=1.0, layer_power=0.5,  # as h²: a clamp layer of width ~1/√h_r
                   flag_help="hard-magnetic group h_r >= 0 (THEORY §9; adds an axial remanent magnetisation)"),
         Parameter("magnetization", "constant magnetisation angle beta to the tangent", "rad", "beta",
                   read=_magnetization_angle,

@@ -78,6 +78,11 @@ class Parameter:
         A designed profile's (``per_point`` and :attr:`designable`) largest allowed bound on its size,
         |profile(s)| ≤ bound (rad), which is also the design's default bound
         (``DesignSettings.<name>_max``: π/2 for the fibre angle α, π for a magnetisation angle β).
+    layer_power : float or None
+        The end layers this value makes narrow with it: their wavenumber grows as |value|^layer_power
+        (1 for h, a clamp layer of width ~1/h; ½ for h_r, ~1/√h_r; THEORY §5, §9). None: it makes
+        none, or does not say. (The fit's check of a header's unit: a value whose layer is thinner
+        than 1 % of the rod is implausible, :mod:`actuator_design.calibration.plausibility`.)
     conjugate : {"x", "y", "angle"} or None
         The free end's quantity a dead end load is work-conjugate to (a tip force's components, a
         tip moment): the tip stiffness's loads (:mod:`actuator_design.analysis.stiffness`); None:
@@ -124,6 +129,7 @@ class Parameter:
     mirror: Optional[float] = None
     conjugate: Optional[str] = None
     design_bound: Optional[float] = None
+    layer_power: Optional[float] = None
 
     @property
     def valid_range(self) -> Tuple[float, float]:

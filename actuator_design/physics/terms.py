@@ -118,7 +118,7 @@ class FieldOrientation(EnergyTerm):
         Parameter("h", "field group h", "1", "h", read=lambda sc: sc.h,
                   write=lambda sc, v: replace(sc, h=v, field=sc.field or UniformField()),
                   field_power=1, designable=True, stiffness_power=-0.5, susceptibility_power=0.5,
-                  scene_range=H_RANGE, **_H_KW),
+                  scene_range=H_RANGE, layer_power=1.0, **_H_KW),
         Parameter("h2", "h squared", "1", "h", read=lambda sc: sc.h ** 2,
                   write=lambda sc, v: replace(sc, h=float(np.sqrt(v)), field=sc.field or UniformField()),
                   transform="sqrt", field_power=2, stiffness_power=-1.0, susceptibility_power=1.0,
