@@ -91,7 +91,9 @@ def scene_to_dict(scene) -> Dict[str, object]:
     """
     out = {"name": scene.name}  # first, as a reader looks for it
     out.update((f.name, _plain(getattr(scene, f.name))) for f in dataclasses.fields(scene) if f.name != "values")
-    out.update((name, _plain(value)) for name, value in scene.values)  # each term's value under its own name
+    out["extra_terms"] = _plain(scene.extra_terms) or []  # the plug-in terms, each {"name", "values"}
+    out.update((name, _plain(value)) for name, value in scene.values  # each built-in value under its own name
+               if not isinstance(value, TermValues))
     out["scales"] = describe_scales(scene.scales)
     out["scales_fields"] = scene.scales
     return jsonable(out)

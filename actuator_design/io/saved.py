@@ -157,7 +157,8 @@ def _scene_from_dict(data: Dict[str, Any]) -> Scene:
     values = {**_term_values(data), **{k: v for k, v in profiles.items() if k in SCENE_VALUES}}
     converted.update((k, v) for k, v in profiles.items() if k not in SCENE_VALUES)
     rod = {k: v for k, v in data.items() if k != "values"}  # the term values are read by their own keys only
-    return dataclasses.replace(_build(Scene, rod, **converted), **values)
+    plugins = converted.pop("extra_terms")
+    return dataclasses.replace(_build(Scene, rod, **converted), extra_terms=plugins, **values)
 
 
 def _term_values(data: Dict[str, Any]) -> Dict[str, Any]:

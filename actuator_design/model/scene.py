@@ -139,7 +139,6 @@ class _SceneFields:
     theta0: float = 0.0
     scales: Optional[Scales] = None
     name: str = "dimensionless cantilever"
-    extra_terms: Tuple[TermValues, ...] = ()
     fibres_given: bool = False
     fibres_physical: bool = True
     obstacles: Tuple[Any, ...] = ()
@@ -147,7 +146,22 @@ class _SceneFields:
     values: Tuple[Tuple[str, Any], ...] = ()
 
 
-_ROD = tuple(f.name for f in fields(_SceneFields))
+#: the keywords of the rod (``extra_terms``, the plug-in terms, is kept in ``values`` too)
+_ROD = tuple(f.name for f in fields(_SceneFields)) + ("extra_terms",)
+
+
+def _plugin_entries(plugins) -> Tuple[TermValues, ...]:
+    """The plug-in terms given (``extra_terms``) as a tuple of :class:`TermValues`, each term once."""
+    plugins = tuple(plugins)
+    for t in plugins:
+        if not isinstance(t, TermValues):
+            raise TypeError(f"Scene: extra_terms must hold TermValues, got {short_repr(t)}")
+        if t.name in SCENE_VALUES:
+            raise ValueError(f"Scene: extra_terms: {t.name!r} is a built-in term value's name")
+    names = [t.name for t in plugins]
+    if len(set(names)) != len(names):
+        raise ValueError(f"Scene: extra_terms lists a term twice ({', '.join(names)})")
+    return plugins
 
 
 class _Checked(tuple):
@@ -176,7 +190,8 @@ class Scene(_SceneFields):
         Free text for reports.
     extra_terms : tuple of TermValues
         Plug-in energy terms present in the scene, with their values (the extension point: which
-        terms are listed is structural, their values are not).
+        terms are listed is structural, their values are not); kept in ``values``, after the
+        built-in terms' values, each under its term's name.
     fibres_given : bool
         The fibre layout was given by the user (a config's ``fibres``): it is fabricated, so inverse
         design keeps it unless asked to vary it (``--vary ...,alpha``).
@@ -192,20 +207,27 @@ class Scene(_SceneFields):
         distance its centre line keeps from an obstacle, and half the distance it keeps from itself
         (self-contact, :mod:`actuator_design.contact.self_contact`); 0: no self-contact.
     values : tuple of (str, object)
-        Every value the built-in terms declare (:data:`actuator_design.physics.registration.SCENE_VALUES`:
-        what each is, its units, default and kind), by name; given and read by name, checked:
-        ``Scene(tip_force=(0.0, 1.0))``, ``scene.tip_force``, ``dataclasses.replace(scene, h_r=2.0)``.
+        The one store of the terms' values: every value the built-in terms declare
+        (:data:`actuator_design.physics.registration.SCENE_VALUES`: what each is, its units, default and
+        kind), by name, given and read by name, checked: ``Scene(tip_force=(0.0, 1.0))``,
+        ``scene.tip_force``, ``dataclasses.replace(scene, h_r=2.0)``; then each plug-in term present,
+        its name with its :class:`TermValues` (``extra_terms``, ``term_values(name)``).
     """
 
     def __init__(self, **kwargs):
         given = {k: kwargs.pop(k) for k in [k for k in kwargs if k in SCENE_VALUES]}
-        old = kwargs.get("values", ())
+        plugins = kwargs.pop("extra_terms", None)
+        stored = kwargs.pop("values", ())
+        old = tuple((k, v) for k, v in stored if not isinstance(v, TermValues))
         unknown = sorted(set(kwargs) - set(_ROD)) + [repr(k) for k, _ in old if k not in SCENE_VALUES]
         if unknown:
             raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(str, unknown))} (the rod's: "
                             f"{', '.join(_ROD)}; the terms': {', '.join(SCENE_VALUES)})")
+        if plugins is None:
+            plugins = tuple(v for _, v in stored if isinstance(v, TermValues))
+        plugins = _plugin_entries(plugins)
         super().__init__(**kwargs)
-        if isinstance(old, _Checked):  # a scene's own (a replace passes them on): checked when it was built
+        if isinstance(stored, _Checked):  # a scene's own (a replace passes them on): checked when it was built
             merged = {**dict(old), **{k: SCENE_VALUES[k].checked(v) for k, v in given.items()}}
         else:
             merged = {**{k: v.default for k, v in SCENE_VALUES.items()}, **dict(old), **given}
@@ -216,8 +238,15 @@ class Scene(_SceneFields):
                 raise ValueError(f"Scene: {name} must be a finite number{' >= 0' * (name == 'contact_gap')}, "
                                  f"got {short_repr(getattr(self, name))}")
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "values", _Checked((k, merged[k]) for k in SCENE_VALUES))
+        object.__setattr__(self, "values", _Checked([*((k, merged[k]) for k in SCENE_VALUES),
+                                                     *((t.name, t) for t in plugins)]))
         object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
+        object.__setattr__(self, "_plugins", plugins)
+
+    @property
+    def extra_terms(self) -> Tuple[TermValues, ...]:
+        """The plug-in energy terms present, with their values (kept in ``values``)."""
+        return self._plugins
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:
@@ -289,6 +318,7 @@ for _name, _value in SCENE_VALUES.items():  # scene.<name>: read-only, as every 
 # help(Scene) and IDEs show the term values as keywords, after the rod's fields
 Scene.__signature__ = inspect.signature(_SceneFields).replace(parameters=[
     *inspect.signature(_SceneFields).parameters.values(),
+    inspect.Parameter("extra_terms", inspect.Parameter.KEYWORD_ONLY, default=()),
     *(inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=value.default)
       for name, value in SCENE_VALUES.items())])
 

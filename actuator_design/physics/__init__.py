@@ -3,7 +3,7 @@
 The built-in term classes are read here by name, lazily (PEP 562), so that the package's face
 (``ad.Bending``, ``ad.HardMagnetic``, …) lists them without naming any: :data:`TERM_CLASSES`.
 A shipped plug-in term (:mod:`.extra_terms`) or a user's is reached by its registered name,
-``ad.term_class("foundation")``.
+``ad.term_class(name)``.
 """
 from __future__ import annotations
 

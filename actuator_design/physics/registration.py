@@ -9,9 +9,10 @@ about the registered terms. Users register through ``ad.register_term`` (the reg
 :func:`register_term`).
 
 A :class:`~actuator_design.model.scene.Scene` is the rod (its fibres, stiffness, clamp), the applied
-field with its strength ``h``, the obstacles, and the values of its terms: those of
-:data:`SCENE_VALUES` (read as attributes, ``scene.tip_force``, written as keywords,
-``Scene(tip_force=(0, 1))`` or ``dataclasses.replace``) and the plug-in terms' ``extra_terms``. The
+field with its strength ``h``, the obstacles, and the values of its terms, in one store
+(``scene.values``): those of :data:`SCENE_VALUES` (read as attributes, ``scene.tip_force``, written
+as keywords, ``Scene(tip_force=(0, 1))`` or ``dataclasses.replace``), then each plug-in term present
+with its values (``extra_terms``, ``scene.term_values(name)``). The
 scene names none of them: a term's values change here and in the term's own module
 (:mod:`.terms`, :mod:`.hard_magnetic`), not in the model, io or config. Which terms a scene
 *contains* is structural: a value that may be None (``optional``) builds no term when it is None; a
