@@ -27,7 +27,8 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
 
-__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor", "bending_scale"]
+__all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor", "bending_scale",
+           "axis_examples", "DEFAULT_AXES"]
 
 #: name in the CLI/YAML → (attribute, kind): kind "rel" takes a percentage or fraction, "angle" takes
 #: degrees ("2deg") or radians (a plain number)
@@ -42,6 +43,17 @@ _SPEC = {
 _ALIASES = {"E": "youngs_modulus", "youngs": "youngs_modulus", "chi": "chi_bar", "fibre": "fibre_angle",
             "fiber": "fibre_angle", "fiber_angle": "fibre_angle", "clamp": "clamp_angle", "phi": "angle",
             "h": "field"}
+#: the box every design holds over unless told otherwise (``--tolerance`` not given)
+DEFAULT_AXES = ("field", "angle")
+
+
+def axis_examples() -> str:
+    """The tolerance axes besides the default box, each with an example half-width
+    (``youngs_modulus=10%, ...``): what ``--tolerance`` also takes."""
+    example = {"rel": "10%", "angle": "1deg"}
+    return ", ".join(f"{name}={example[kind]}" for name, (_, kind) in _SPEC.items() if name not in DEFAULT_AXES)
+
+
 #: the largest half-widths accepted (a box beyond them is not a tolerance but another design)
 _LIMITS = {"rel": 0.5, "angle": math.radians(45.0)}
 

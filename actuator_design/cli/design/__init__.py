@@ -44,6 +44,7 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACH
                                         parse_rates, repeatable, stdout_to_stderr, table_csv_text)
 from actuator_design.io.display import degrees, number
 from actuator_design.physics.parameters import designable, parameters
+from actuator_design.robust.tolerances import axis_examples
 from actuator_design.cli.design.hardware import add_hardware_args
 from actuator_design.cli.design.force import parse_force, run_force
 from actuator_design.cli.design.units import (add_schedule_units, positive_target, profile_terms_help,
@@ -99,8 +100,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help=f"required stability margin: smallest eigenvalue >= margin (default {d.margin:g})")
     g.add_argument("--tolerance", metavar="SPEC", action=repeatable(","),
                    help="the lab's tolerance box the design must hold over, e.g. 'field=5%%,angle=2deg' "
-                        "(the default); also youngs_modulus=10%%, chi_bar=10%%, fibre_angle=1deg, "
-                        "clamp_angle=1deg (the flag repeated adds to the list); 'none' for the nominal design only")
+                        f"(the default); also {axis_examples().replace('%', '%%')} (the flag repeated adds to "
+                        "the list); 'none' for the nominal design only")
     g.add_argument("--time-limit", type=finite_float, metavar="S",
                    help=f"wall-clock budget of the search in seconds (default {d.time_limit:g}); once spent, "
                         "no further starting design is optimised")
