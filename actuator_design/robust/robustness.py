@@ -32,7 +32,7 @@ from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene, UniformField
 from actuator_design.robust.snap_location import locate_snap, snap_builds, snap_unit
-from actuator_design.robust.tolerances import Tolerances, apply_deltas, perturb
+from actuator_design.robust.tolerances import Tolerances, apply_deltas, axis_label, perturb
 
 __all__ = ["Segment", "follow_segment", "FoldDistance", "Robustness", "evaluate_robustness", "fold_search_builds"]
 
@@ -426,12 +426,9 @@ def _discretisation_error(scene, tol, states, offsets, solver, options) -> float
 
 
 def _describe_offset(offset: Dict[str, float], tol: Tolerances) -> str:
-    names = {"field_rel": ("field", True), "angle": ("angle", False), "youngs_rel": ("E", True),
-             "chi_rel": ("chi_bar", True), "fibre_angle": ("fibre angle", False),
-             "clamp_angle": ("clamp angle", False)}
     parts = []
     for attr, sgn in offset.items():
-        label, rel = names[attr]
+        label, rel = axis_label(attr)
         v = sgn * getattr(tol, attr)
         parts.append(f"{label} {100 * v:+.3g} %" if rel else f"{label} {math.degrees(v):+.3g} deg")
     return "(" + ", ".join(parts) + ")"

@@ -28,7 +28,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import registered_terms, term_class, write_keeps_terms
 
 __all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor", "bending_scale",
-           "axis_examples", "DEFAULT_AXES"]
+           "axis_examples", "axis_label", "DEFAULT_AXES"]
 
 #: name in the CLI/YAML → (attribute, kind): kind "rel" takes a percentage or fraction, "angle" takes
 #: degrees ("2deg") or radians (a plain number)
@@ -52,6 +52,17 @@ def axis_examples() -> str:
     (``youngs_modulus=10%, ...``): what ``--tolerance`` also takes."""
     example = {"rel": "10%", "angle": "1deg"}
     return ", ".join(f"{name}={example[kind]}" for name, (_, kind) in _SPEC.items() if name not in DEFAULT_AXES)
+
+
+#: how a message names an axis of the box where not by its name (``E`` for Young's modulus)
+_LABELS = {"youngs_rel": "E", "fibre_angle": "fibre angle", "clamp_angle": "clamp angle"}
+
+
+def axis_label(attribute: str) -> Tuple[str, bool]:
+    """How a message names the box's axis of :class:`Tolerances` ``attribute`` (``"field_rel"``), and
+    whether its half-width is relative (a percentage) rather than an angle."""
+    name, kind = next((n, k) for n, (a, k) in _SPEC.items() if a == attribute)
+    return _LABELS.get(attribute, name), kind == "rel"
 
 
 #: the largest half-widths accepted (a box beyond them is not a tolerance but another design)
