@@ -153,3 +153,20 @@ def test_a_stray_values_key_is_not_read():
     data["values"] = [["h_r", "zz"], ["tip_force", "oops"], [1, 2, 3]]
     scene = scene_from_dict(data)
     assert scene == Scene(h=1.0, h_r=0.5)
+
+
+def test_a_saved_scene_says_each_terms_si_scale_by_hand():
+    """``scene.scales`` of a result gives, beside the rod's scales, what each term declares of its
+    own units; a reader of older versions finds ``scales_fields.h_r_per_field``. Checked against
+    THEORY §9 by hand for configs/hard_magnetic_cantilever.yaml: dh_r/dH = μ0 M_r A ℓ² / B0 with
+    μ0 M_r = 0.1 T, A = 5 mm × 1 mm, ℓ = 20 mm, B0 = E w t³/12 (E = 1 MPa)."""
+    from actuator_design.config import load_config
+
+    root = Path(__file__).resolve().parents[1]
+    data = scene_to_dict(load_config(root / "configs" / "hard_magnetic_cantilever.yaml").to_scene())
+    area, length, b0 = 5e-3 * 1e-3, 20e-3, 1e6 * 5e-3 * (1e-3) ** 3 / 12
+    expected = 0.1 * area * length**2 / b0
+    assert data["scales"]["h_r_per_field_per_A_per_m"] == pytest.approx(expected, rel=1e-12)
+    assert data["scales_fields"]["h_r_per_field"] == data["scales"]["h_r_per_field_per_A_per_m"]
+    assert data["scales"]["distributed_load_N_per_m"] == pytest.approx(b0 / length**3, rel=1e-12)
+    assert data["scales"]["stiffness_N_per_m"] == pytest.approx(b0 / length**3, rel=1e-12)

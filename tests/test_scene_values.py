@@ -92,3 +92,44 @@ def test_solve_of_a_nan_scene_never_starts():
     refused where the scene is built."""
     with pytest.raises(ValueError, match="Scene: h must be a finite number"):
         ad.solve(ad.Scene(h=float("nan")))
+
+
+def test_plug_in_terms_share_the_one_store_and_survive_replace_pickle_and_equality():
+    """A plug-in term's values live in ``values`` after the built-in ones (one store, issue 18):
+    ``extra_terms`` reads them, replace and pickling keep them, and they take part in equality."""
+    from actuator_design.model.scene import TermValues
+
+    tv = TermValues("foundation", (("k_foundation", 2.0),))
+    scene = Scene(extra_terms=(tv,), h_r=1.0)
+    assert scene.extra_terms == (tv,) and scene.values[-1] == ("foundation", tv)
+    assert [k for k, _ in scene.values[:len(SCENE_VALUES)]] == list(SCENE_VALUES)
+    moved = dataclasses.replace(scene, h=2.0, tip_moment=0.5)
+    assert moved.extra_terms == (tv,) and moved.h_r == 1.0 and moved.tip_moment == 0.5
+    assert pickle.loads(pickle.dumps(moved)) == moved
+    assert dataclasses.replace(scene, extra_terms=()) == Scene(h_r=1.0) != scene
+    assert scene.with_term("foundation", k_foundation=3.0).term_values("foundation") == {"k_foundation": 3.0}
+    assert scene.without_term("foundation") == Scene(h_r=1.0)
+    # a values tuple given by hand is the whole store: what it leaves out is default or absent
+    assert dataclasses.replace(scene, values=(("h_r", 2.0),)) == Scene(h_r=2.0)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"extra_terms": ({"name": "foundation"},)}, "must hold TermValues"),
+    ({"extra_terms": ("foundation",)}, "must hold TermValues"),
+    ({"extra_terms": (("tip_force", ()),)}, "must hold TermValues"),
+])
+def test_plug_in_terms_that_are_not_term_values_are_refused(kwargs, match):
+    with pytest.raises(TypeError, match=match):
+        Scene(**kwargs)
+
+
+def test_a_plug_in_term_twice_or_named_as_a_built_in_value_or_given_twice_is_refused():
+    from actuator_design.model.scene import TermValues
+
+    tv = TermValues("foundation", (("k_foundation", 2.0),))
+    with pytest.raises(ValueError, match="lists a term twice"):
+        Scene(extra_terms=(tv, tv))
+    with pytest.raises(ValueError, match="built-in term value's name"):
+        Scene(extra_terms=(TermValues("tip_force"),))
+    with pytest.raises(ValueError, match="not in both"):
+        Scene(values=(("foundation", tv),), extra_terms=(tv,))

@@ -29,7 +29,7 @@ from actuator_design import __version__
 from actuator_design.io.safe_files import write_all
 from actuator_design.model.profiles import Profile
 from actuator_design.model.scene import TermValues
-from actuator_design.physics.registration import describe_scales
+from actuator_design.physics.registration import describe_scales, saved_scales_fields
 
 __all__ = ["jsonable", "dumps_json", "scene_to_dict", "result_to_dict", "result_files",
            "write_result", "shape_csv_text", "atomic_write", "write_output_set", "encode_content",
@@ -95,7 +95,7 @@ def scene_to_dict(scene) -> Dict[str, object]:
     out.update((name, _plain(value)) for name, value in scene.values  # each built-in value under its own name
                if not isinstance(value, TermValues))
     out["scales"] = describe_scales(scene.scales)
-    out["scales_fields"] = scene.scales
+    out["scales_fields"] = saved_scales_fields(scene.scales)
     return jsonable(out)
 
 

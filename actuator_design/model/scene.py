@@ -211,7 +211,9 @@ class Scene(_SceneFields):
         (:data:`actuator_design.physics.registration.SCENE_VALUES`: what each is, its units, default and
         kind), by name, given and read by name, checked: ``Scene(tip_force=(0.0, 1.0))``,
         ``scene.tip_force``, ``dataclasses.replace(scene, h_r=2.0)``; then each plug-in term present,
-        its name with its :class:`TermValues` (``extra_terms``, ``term_values(name)``).
+        its name with its :class:`TermValues` (``extra_terms``, ``term_values(name)``). A ``values``
+        given by hand is the whole store: a value it leaves out takes its default, and a plug-in
+        term it leaves out is absent (``extra_terms=`` may not be given with plug-in entries there).
     """
 
     def __init__(self, **kwargs):
@@ -223,8 +225,11 @@ class Scene(_SceneFields):
         if unknown:
             raise TypeError(f"Scene: unknown keyword(s) {', '.join(map(str, unknown))} (the rod's: "
                             f"{', '.join(_ROD)}; the terms': {', '.join(SCENE_VALUES)})")
+        in_store = tuple(v for _, v in stored if isinstance(v, TermValues))
         if plugins is None:
-            plugins = tuple(v for _, v in stored if isinstance(v, TermValues))
+            plugins = in_store
+        elif in_store and not isinstance(stored, _Checked):
+            raise ValueError("Scene: give the plug-in terms in extra_terms or in values, not in both")
         plugins = _plugin_entries(plugins)
         super().__init__(**kwargs)
         if isinstance(stored, _Checked):  # a scene's own (a replace passes them on): checked when it was built

@@ -21,7 +21,7 @@ present term with value zero is still built (so it can be continued or designed)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
@@ -30,7 +30,7 @@ from actuator_design.model.profiles import Profile
 
 __all__ = ["register_term", "unregister_term", "SceneValue", "SCENE_VALUES", "NUMBER", "VECTOR", "PROFILE",
            "without_optional_terms", "real_number", "real_pair", "short_repr", "describe_scales",
-           "component"]
+           "component", "saved_scales_fields"]
 
 _TERMS: Dict[str, type] = {}
 _CONFIG_MODELS: Dict[str, type] = {}
@@ -101,6 +101,10 @@ class SceneValue:
     scale : (str, callable) or None
         What a physical result's ``scales`` says of its units (:func:`describe_scales`): a key and
         the SI factor of one unit, from the scene's :class:`~actuator_design.model.scene.Scales`.
+    scales_field : str or None
+        The name a saved scene's ``scales_fields`` kept :attr:`scale`'s factor under when it was a
+        field of :class:`~actuator_design.model.scene.Scales` (still written: a reader of those
+        versions finds it; :func:`saved_scales_fields`).
     component : (str, int) or None
         THEORY §5's name of one component of a pair and its index (``("p", 1)``: p is fy), read
         and written as ``scene.p``, ``scene.with_values(p=...)`` (0 and a pair at zero when None).
@@ -112,6 +116,7 @@ class SceneValue:
     optional: bool
     doc: str
     scale: Optional[Tuple[str, Callable[[Any], float]]] = None
+    scales_field: Optional[str] = None
     component: Optional[Tuple[str, int]] = None
 
     def checked(self, value):
@@ -152,7 +157,8 @@ SCENE_VALUES: Dict[str, SceneValue] = {v.name: v for v in (
     SceneValue("h_r", 0.0, NUMBER, False,
                "hard-magnetic group h_r = μ0 M_r H0 A ℓ² / B0 ≥ 0 (THEORY §9); linear in the field",
                # dh_r/dH0 = μ0 M_r A ℓ² / B0 per A/m (0 when the rod has no remanent magnetisation)
-               scale=("h_r_per_field_per_A_per_m", lambda scales: dict(scales.per_field).get("h_r", 0.0))),
+               scale=("h_r_per_field_per_A_per_m", lambda scales: dict(scales.per_field).get("h_r", 0.0)),
+               scales_field="h_r_per_field"),
     SceneValue("magnetization", None, PROFILE, True,
                "angle β(s) of the remanent magnetisation to the tangent, rad; None builds no hard-magnetic "
                "term (a present term with h_r = 0 is still built)"),
@@ -207,6 +213,15 @@ def describe_scales(scales) -> Optional[dict]:
         return None
     return {**scales.as_dict(), **{key: float(factor(scales)) for key, factor in
                                    (v.scale for v in SCENE_VALUES.values() if v.scale is not None)}}
+
+
+def saved_scales_fields(scales) -> Optional[dict]:
+    """A saved scene's ``scales_fields``: the fields of ``scales`` (None for a dimensionless scene),
+    and each factor a term's value once kept there (:attr:`SceneValue.scales_field`)."""
+    if scales is None:
+        return None
+    return {**{f.name: getattr(scales, f.name) for f in fields(scales)},
+            **{v.scales_field: float(v.scale[1](scales)) for v in SCENE_VALUES.values() if v.scales_field}}
 
 
 def without_optional_terms() -> Dict[str, Any]:

@@ -44,9 +44,6 @@ from actuator_design.cli.common import (EXIT_NOT_VERIFIED, EXIT_OK, EXIT_UNREACH
                                         parse_rates, repeatable, stdout_to_stderr, table_csv_text)
 from actuator_design.io.display import degrees, number
 from actuator_design.physics.parameters import designable, parameters
-from actuator_design.robust.tolerances import axis_examples
-from actuator_design.cli.design.hardware import add_hardware_args
-from actuator_design.cli.design.force import parse_force, run_force
 from actuator_design.cli.design.units import (add_schedule_units, positive_target, profile_terms_help,
                                               quasi_static_line, refuse_unknown_keys, unit_labels, vary_help)
 from actuator_design.cli.common import print_written, write_out
@@ -60,7 +57,9 @@ _VARIABLES = tuple(designable())  # the lens entries flagged designable: h, phi,
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
+    from actuator_design.cli.design.hardware import add_hardware_args
     from actuator_design.inverse.design import DesignSettings
+    from actuator_design.robust.tolerances import axis_examples
 
     d = DesignSettings()
     parser.add_argument("config", nargs="?", metavar="CONFIG.yaml",
@@ -161,6 +160,7 @@ def _inputs(args):
         target_text = ";".join(",".join(str(v) for v in t) for t in study["targets"])
     stiffness = _parse_stiffness(args.target_stiffness if args.target_stiffness is not None
                                  else study.get("stiffness"), scene)
+    from actuator_design.cli.design.force import parse_force
     force = parse_force(args.target_force if args.target_force is not None else study.get("force"), scene)
     if force is not None and (target_text is not None or stiffness is not None
                               or getattr(args, "target_shape", None) is not None):
@@ -434,6 +434,7 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir(args.out)
     scene, options, raw, target, vary, settings, stiffness, force = _inputs(args)
     if force is not None:
+        from actuator_design.cli.design.force import run_force
         from actuator_design.io.user_units import user_units
         return run_force(args, scene, options, raw, force, settings, user_units(scene, raw))
     from actuator_design.cli.design.hardware import check_position_tolerance, hardware_design, hardware_shape
