@@ -211,10 +211,14 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
     budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
     solves = 0
-    rest = solver.solve_fast(z, at(0.0), max_iter=newton_iter, tol=tol)
+    # the mesh is graded for the full load (h = 1e4: end elements ~1e-5 long), where rounding alone
+    # leaves |g|/m ~ 1e-5 at the straight rod: a state of the path is held to tol at its own load's
+    # scale, and rounding may excuse what it would at the full load's (with a Newton step ≤ 10 tol)
+    floor_scale = solver.residual_scale(params)
+    rest = solver.solve_fast(z, at(0.0), max_iter=newton_iter, tol=tol, floor_scale=floor_scale)
     solves += 1
     if not rest.converged:
-        rest = solver.solve_newton(z, at(0.0), tol=tol)
+        rest = solver.solve_newton(z, at(0.0), tol=tol, floor_scale=floor_scale)
         solves += 1
     if not rest.converged:
         return RestPath(z, False, 0.0, 0, solves)
@@ -236,7 +240,7 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     while lam < 1.0 and solves < budget:
         t = min(targets[k], lam + dl)
         guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
-        raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol)
+        raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol, floor_scale=floor_scale)
         solves += 1
         if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
                 and (z_prev is None or _on_branch(raw.z, guess, z))

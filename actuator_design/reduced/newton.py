@@ -47,7 +47,7 @@ def _rounding_step(step_norm: float, zr: np.ndarray) -> bool:
 
 
 def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: float,
-                  max_iter: int) -> RawSolution:
+                  max_iter: int, excuse: Optional[float] = None) -> RawSolution:
     """Damped Newton on ∇Ê = 0 in the free unknowns (exact Hessian, backtracking on |∇Ê|).
 
     Converged when r ≤ ``atol`` and the Newton step there is ≤ ``xtol`` (the point after that step
@@ -64,8 +64,12 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
     atol, xtol : float
         Residual and step tolerances.
     max_iter : int
+    excuse : float, optional
+        The most a residual above ``atol`` may exceed it by rounding (the floor's cap; default
+        :data:`~actuator_design.reduced.linalg.FLOOR_EXCUSE` × ``atol``).
     """
     k = kernel
+    cap = FLOOR_EXCUSE * atol if excuse is None else excuse
     z = np.array(z0, float)
     z[0] = theta0
     zr = z[1:].copy()
@@ -88,7 +92,7 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
                 return done(zr, res)  # the step is rounding noise: nothing to improve
             res_new = k.evaluate(zr - step)
             return done(zr - step, res_new) if res_new <= atol else done(zr, res)
-        if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
+        if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), cap):
             return done(zr, res, " (at the rounding floor)")
         if it == max_iter:
             break
@@ -105,7 +109,7 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
             t *= 0.5
         else:
             k.evaluate(zr)
-            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
+            if snorm <= xtol and res <= atol + min(k.rounding_floor(zr), cap):
                 return done(zr, res, " (at the rounding floor)")
             break
         zr, res = zr - t * step, res_new
@@ -118,7 +122,7 @@ def damped_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: floa
 
 
 def fast_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: float,
-                max_iter: int) -> RawSolution:
+                max_iter: int, excuse: Optional[float] = None) -> RawSolution:
     """Newton on ∇Ê = 0 from a warm start, reusing the Hessian's factorisation while it contracts.
 
     The Hessian is evaluated and LU-factorised once; later steps reuse the factorisation (one
@@ -131,6 +135,7 @@ def fast_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: float,
     Parameters are those of :func:`damped_newton`.
     """
     k = kernel
+    cap = FLOOR_EXCUSE * atol if excuse is None else excuse
     zr = np.array(z0[1:], float)
     res = k.evaluate(zr, hessian=False)
     fresh = factored = False
@@ -170,7 +175,7 @@ def fast_newton(kernel, z0: np.ndarray, theta0: float, atol: float, xtol: float,
         if res <= atol and not trusted:
             factored = False  # small gradient, step not certified: refresh the Hessian
             continue
-        if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), FLOOR_EXCUSE * atol):
+        if fresh and snorm <= xtol and res <= atol + min(k.rounding_floor(zr), cap):
             return done(zr, res, " (at the rounding floor)")
         zr_new = zr - step
         res_new = k.evaluate(zr_new, hessian=False)
