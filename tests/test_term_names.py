@@ -107,7 +107,6 @@ def mentions_outside_physics() -> dict:
 #: module -> how many times it still names a term (the ratchet; see the module docstring)
 STILL_NAMING_TERMS = {
     "inverse/settings.py": 1,
-    "robust/tolerances.py": 3,
 }
 
 

@@ -407,6 +407,11 @@ class PhysicalParameter:
         groups the field drives follow (``MagneticSummary.field_groups``).
     symbol : str
         How a report writes it in a formula (``M_r`` in "mu0 M_r = 100 mT"; ``x`` for a plain value).
+    tolerance : str or None
+        The :class:`~actuator_design.robust.tolerances.Tolerances` attribute of its relative scatter
+        when the lab's tolerance box has an axis for it, named by :attr:`name` (and :attr:`aliases`).
+    aliases : tuple of str
+        Other names of that axis (``--tolerance chi=10%``).
     """
 
     name: str
@@ -428,6 +433,8 @@ class PhysicalParameter:
     stiffness: bool = False
     material: bool = False
     symbol: str = "x"
+    tolerance: Optional[str] = None
+    aliases: Tuple[str, ...] = ()
 
     def exponent(self, slot: str) -> float:
         """e in group(slot) ∝ value^e (0 when the group does not depend on it)."""
@@ -454,7 +461,8 @@ _HARD = "hard_magnetic"
 _BOTH = ("physical", "dimensionless")
 _PHYSICAL = (
     PhysicalParameter("chi_bar", "orientational susceptibility χ̄", "dimensionless", True,
-                      ("physical",), groups=(("h", 0.5),), term=_FIELD, material=True),
+                      ("physical",), groups=(("h", 0.5),), term=_FIELD, material=True, tolerance="chi_rel",
+                      aliases=("chi",)),
     PhysicalParameter("youngs_modulus", "Young's modulus E (B0 = E I)", "pressure", True,
                       ("physical",), stiffness=True),
     PhysicalParameter("bending_stiffness", "bending stiffness B0", "bending_stiffness", True,

@@ -30,19 +30,21 @@ from actuator_design.physics.registry import registered_terms, term_class, write
 __all__ = ["Tolerances", "perturb", "apply_deltas", "parse_tolerances", "scaled_slots", "scale_factor", "bending_scale",
            "axis_examples", "axis_label", "DEFAULT_AXES"]
 
+#: the magnetic material's scatter axes, as the terms' physical parameters declare them (χ̄)
+_MATERIAL = tuple(p for p in lens.physical_parameters().values() if p.tolerance)
 #: name in the CLI/YAML → (attribute, kind): kind "rel" takes a percentage or fraction, "angle" takes
 #: degrees ("2deg") or radians (a plain number)
 _SPEC = {
     "field": ("field_rel", "rel"),
     "angle": ("angle", "angle"),
     "youngs_modulus": ("youngs_rel", "rel"),
-    "chi_bar": ("chi_rel", "rel"),
+    **{p.name: (p.tolerance, "rel") for p in _MATERIAL},
     "fibre_angle": ("fibre_angle", "angle"),
     "clamp_angle": ("clamp_angle", "angle"),
 }
-_ALIASES = {"E": "youngs_modulus", "youngs": "youngs_modulus", "chi": "chi_bar", "fibre": "fibre_angle",
-            "fiber": "fibre_angle", "fiber_angle": "fibre_angle", "clamp": "clamp_angle", "phi": "angle",
-            "h": "field"}
+_ALIASES = {"E": "youngs_modulus", "youngs": "youngs_modulus", **{a: p.name for p in _MATERIAL for a in p.aliases},
+            "fibre": "fibre_angle", "fiber": "fibre_angle", "fiber_angle": "fibre_angle", "clamp": "clamp_angle",
+            "phi": "angle", "h": "field"}
 #: the box every design holds over unless told otherwise (``--tolerance`` not given)
 DEFAULT_AXES = ("field", "angle")
 
@@ -58,11 +60,15 @@ def axis_examples() -> str:
 _LABELS = {"youngs_rel": "E", "fibre_angle": "fibre angle", "clamp_angle": "clamp angle"}
 
 
+def _axis_name(attribute: str) -> str:
+    """The name (``--tolerance NAME=...``) of the box's axis of :class:`Tolerances` ``attribute``."""
+    return next(n for n, (a, _) in _SPEC.items() if a == attribute)
+
+
 def axis_label(attribute: str) -> Tuple[str, bool]:
     """How a message names the box's axis of :class:`Tolerances` ``attribute`` (``"field_rel"``), and
     whether its half-width is relative (a percentage) rather than an angle."""
-    name, kind = next((n, k) for n, (a, k) in _SPEC.items() if a == attribute)
-    return _LABELS.get(attribute, name), kind == "rel"
+    return _LABELS.get(attribute, _axis_name(attribute)), _SPEC[_axis_name(attribute)][1] == "rel"
 
 
 #: the largest half-widths accepted (a box beyond them is not a tolerance but another design)
@@ -297,7 +303,7 @@ def _scaled_values(scene: Scene, g: Mapping[str, float]):
     if g["youngs_rel"] or g["chi_rel"]:
         for cls in registered_terms():
             if not cls.scaling_declared and cls.present(scene):
-                what = "youngs_modulus" if g["youngs_rel"] else "chi_bar"
+                what = _axis_name("youngs_rel" if g["youngs_rel"] else "chi_rel")
                 raise ValueError(f"tolerance {what}: the scene's energy term {cls.name!r} does not declare how its "
                                  "values scale with the material (EnergyTerm.scaling_declared)")
     for p in scaled_slots():
