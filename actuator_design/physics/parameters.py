@@ -407,11 +407,9 @@ class PhysicalParameter:
         groups the field drives follow (``MagneticSummary.field_groups``).
     symbol : str
         How a report writes it in a formula (``M_r`` in "mu0 M_r = 100 mT"; ``x`` for a plain value).
-    tolerance : str or None
-        The :class:`~actuator_design.robust.tolerances.Tolerances` attribute of its relative scatter
-        when the lab's tolerance box has an axis for it, named by :attr:`name` (and :attr:`aliases`).
-    aliases : tuple of str
-        Other names of that axis (``--tolerance chi=10%``).
+    tolerance, aliases : str or None, tuple of str
+        The tolerance box's axis of its relative scatter (:class:`~actuator_design.robust.tolerances.Tolerances`
+        attribute), named :attr:`name` or an alias (``--tolerance chi=10%``); None: it has none.
     """
 
     name: str
