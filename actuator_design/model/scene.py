@@ -246,12 +246,11 @@ class Scene(_SceneFields):
         object.__setattr__(self, "values", _Checked([*((k, merged[k]) for k in SCENE_VALUES),
                                                      *((t.name, t) for t in plugins)]))
         object.__setattr__(self, "_by_name", merged)  # (not a field: equality and hash use ``values``)
-        object.__setattr__(self, "_plugins", plugins)
 
     @property
     def extra_terms(self) -> Tuple[TermValues, ...]:
-        """The plug-in energy terms present, with their values (kept in ``values``)."""
-        return self._plugins
+        """The plug-in energy terms present, with their values (kept in ``values``, after the built-in ones)."""
+        return tuple(v for _, v in self.values[len(SCENE_VALUES):])
 
     # -- plug-in terms ---------------------------------------------------------------------------
     def term_values(self, name: str) -> Optional[Dict[str, float]]:
