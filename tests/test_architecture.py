@@ -300,7 +300,8 @@ def _lazy_homes():
     homes = {"actuator_design.study": {n: "actuator_design.study.runner" for n in actuator_design.study.__all__}}
     homes["actuator_design.physics"] = {n: f"actuator_design.physics.{m}" for n, m in TERM_CLASSES.items()}
     for package in (actuator_design.calibration, actuator_design.config):
-        homes[package.__name__] = {n: f"{package.__name__}.{m}" for n, m in package._HOME.items()}
+        homes[package.__name__] = {n: m if "." in m else f"{package.__name__}.{m}"
+                                  for n, m in package._HOME.items()}
     homes["actuator_design"] = {n: homes.get(f"actuator_design.{m}", {}).get(attr, f"actuator_design.{m}")
                                 for n, (m, attr) in actuator_design._EXPORTS.items()}
     return homes

@@ -25,7 +25,7 @@ from actuator_design.physics import parameters as lens
 from actuator_design.calibration import FitSpec, fit_config, prepare_fit
 from actuator_design.config import ConfigError
 from actuator_design.reference.shooting import ShootingParams, solve_shooting
-from actuator_design.study.spec import validate_spec
+from actuator_design.config.studies.validation import validate_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "problems" / "data" / "synthetic_hard_magnetic.csv"

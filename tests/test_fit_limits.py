@@ -29,7 +29,7 @@ import pytest
 
 from actuator_design.calibration import data as data_module
 from actuator_design.calibration import prepare_fit
-from actuator_design.calibration import spec as limits
+from actuator_design.calibration import limits as limits
 from actuator_design.calibration import problem as problem_module
 from actuator_design.calibration.data import parse_data
 from actuator_design.calibration.plausibility import magnitude_warnings
@@ -165,7 +165,7 @@ def test_more_distinct_conditions_than_the_limit_is_one_line_before_any_solve(tm
 
 
 def test_fit_help_states_the_limits_the_code_enforces():
-    """The limits written in ``fit --help`` (and README's fit paragraph) are calibration/spec.py's."""
+    """The limits written in ``fit --help`` (and README's fit paragraph) are calibration/limits.py's."""
     from actuator_design.cli import fit as fit_cli
     text = " ".join(fit_cli.__doc__.split())
     found = re.search(r"at most (\d+) MiB and (\d+) rows, with at most (\d+) distinct conditions",

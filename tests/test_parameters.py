@@ -152,7 +152,7 @@ def test_fit_spec_and_design_reject_non_lens_names_listing_the_lens():
     from actuator_design.inverse.design import design
     from actuator_design.calibration import FitSpec
     from actuator_design.config import ConfigError
-    from actuator_design.study.spec import validate_spec
+    from actuator_design.config.studies.validation import validate_spec
 
     allowed = ", ".join(lens.physical_parameters())
     with pytest.raises(ConfigError, match=rf"study\.parameters\.h2: unknown parameter \(allowed: {allowed}\)"):

@@ -25,7 +25,8 @@ from actuator_design.config import ConfigError
 from actuator_design.reference.closed_forms import critical_field_transverse, transverse_mode
 from actuator_design.study.grid import grid_indices, resolve_axes
 from actuator_design.study.runner import StudyError, plan_study, run_study
-from actuator_design.study.spec import SweepSpec, validate_spec
+from actuator_design.config.studies.sweep import SweepSpec
+from actuator_design.config.studies.validation import validate_spec
 
 MU0 = 4e-7 * math.pi
 ROOT = Path(__file__).resolve().parents[1]

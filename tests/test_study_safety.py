@@ -30,7 +30,8 @@ from actuator_design.study.journal import Journal
 from actuator_design.study.lock import LOCK_NAME, FolderLock, holder_of
 from actuator_design.study.manifest import read_manifest
 from actuator_design.study.runner import plan_study
-from actuator_design.study.spec import SweepSpec, validate_spec
+from actuator_design.config.studies.sweep import SweepSpec
+from actuator_design.config.studies.validation import validate_spec
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -24,7 +24,8 @@ from typing import List, Optional
 from actuator_design.benchmarks.bvp import bvp_from_scene, solve_bvp_peer
 from actuator_design.config import load_config
 from actuator_design.study.grid import resolve_axes, substitute
-from actuator_design.study.spec import SweepSpec, validate_spec
+from actuator_design.config.studies.sweep import SweepSpec
+from actuator_design.config.studies.validation import validate_spec
 
 __all__ = ["walk_order", "bvp_walk", "main"]
 

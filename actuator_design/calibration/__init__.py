@@ -5,7 +5,8 @@ Modules, one job each:
 * :mod:`.data` — measurement files (CSV, units in the header) → :class:`MeasuredData`;
 * :mod:`.parameters` — the fittable parameters (the physical parameters of the lens
   :mod:`actuator_design.physics.parameters`) and the measured outputs;
-* :mod:`.spec` — the ``study: {type: fit}`` section;
+* :mod:`.limits` — the size limits of a fit and its plausibility bounds (the ``study: {type: fit}``
+  section is validated by :mod:`actuator_design.config.studies.fit`);
 * :mod:`.problem` — conditions → scenes → stable equilibria → outputs, exact sensitivities
   (:mod:`.branches` picks the measured branch; :mod:`.curves` draws the model along an input);
 * :mod:`.solve` — nested least squares (:func:`fit`), with :mod:`.identifiability` and
@@ -34,8 +35,8 @@ _HOME = {
     "fit": "solve",
     "fit_config": "solve",
     "prepare_fit": "solve",
-    "FitSpec": "spec",
-    "ParameterSpec": "spec",
+    "FitSpec": "actuator_design.config.studies.fit",
+    "ParameterSpec": "actuator_design.config.studies.fit",
 }
 
 __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "parse_data", "read_data",
@@ -45,7 +46,8 @@ __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "parse_d
 
 def __getattr__(name):
     if name in _HOME:
-        value = getattr(importlib.import_module(f"actuator_design.calibration.{_HOME[name]}"), name)
+        home = _HOME[name] if "." in _HOME[name] else f"actuator_design.calibration.{_HOME[name]}"
+        value = getattr(importlib.import_module(home), name)
         globals()[name] = value
         return value
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -31,8 +31,8 @@ in rod lengths: write ``[1]``, ``[-]``, ``[l]`` or no unit. Angles always need a
 Errors are :class:`DataError` (a ``ValueError``) with one line naming the file, the column and the
 row, e.g. ``data.csv: column 'tip_angle', row 4 (line 6): missing value (empty or NaN)``.
 
-Only regular files of at most :data:`.spec.MAX_DATA_BYTES` bytes and
-:data:`.spec.MAX_DATA_ROWS` rows are read; anything else is refused before it is read in full.
+Only regular files of at most :data:`.limits.MAX_DATA_BYTES` bytes and
+:data:`.limits.MAX_DATA_ROWS` rows are read; anything else is refused before it is read in full.
 """
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from actuator_design.model.units import QuantityError, parse_quantity
-from actuator_design.calibration import spec as fit_limits
+from actuator_design.calibration import limits as fit_limits
 
 __all__ = ["COLUMNS", "INPUTS", "OUTPUTS", "DataError", "MeasuredData", "read_data", "parse_data",
            "read_bounded_text"]
@@ -238,7 +238,7 @@ def parse_data(text: str, source: str = "<data>", *, dimensionless: bool = False
     DataError
         One line naming the file, column and row: unknown or duplicate column, unit of the wrong
         dimension or missing, a missing/non-numeric/non-finite value, a row of the wrong length,
-        no measured output, too few rows or more than :data:`.spec.MAX_DATA_ROWS`.
+        no measured output, too few rows or more than :data:`.limits.MAX_DATA_ROWS`.
     """
     comments: List[str] = []
     header = None
@@ -294,7 +294,7 @@ def _kind_of(mode: int) -> str:
 
 
 def read_bounded_text(path) -> str:
-    """The text of a regular file of at most :data:`.spec.MAX_DATA_BYTES` bytes (UTF-8, BOM
+    """The text of a regular file of at most :data:`.limits.MAX_DATA_BYTES` bytes (UTF-8, BOM
     skipped), checked before its content is read.
 
     The file is opened without blocking (a FIFO with no writer does not hang the open) and its

@@ -3,7 +3,7 @@
 With the uncertainty σ of every measured column given, the weighted residuals of a model that
 explains the data are standard normal, and χ² = Σ w_i (r_i/σ)² follows the χ² distribution with
 m − k degrees of freedom (m residuals, k fitted parameters). The fit fails the test when
-P(χ²_{m−k} ≥ χ²) < ``min_p_value`` (:data:`.spec.DEFAULT_MIN_P_VALUE`; see :mod:`.spec`).
+P(χ²_{m−k} ≥ χ²) < ``min_p_value`` (:data:`actuator_design.config.studies.fit.DEFAULT_MIN_P_VALUE`; see :mod:`.limits`).
 Without given uncertainties σ is estimated from the residuals themselves and the test cannot be
 made (it is reported as not tested).
 

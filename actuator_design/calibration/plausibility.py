@@ -6,12 +6,12 @@ mm, ``tip_angle [rad]`` for degrees) passes that check and is found here, from t
 groups the data give at the initial parameters (THEORY §5, §9) and from the rod's geometry:
 
 * the largest measured field gives a field group whose end layer is thinner than
-  :data:`.spec.PLAUSIBLE_LAYER` of the rod (h > 100, h_r > 1e4: the rod would lie along the field
+  :data:`.limits.PLAUSIBLE_LAYER` of the rod (h > 100, h_r > 1e4: the rod would lie along the field
   but for a boundary layer of 1 % of its length; each group declares its ``layer_power``);
-* a load gives |p| > :data:`.spec.PLAUSIBLE_LOAD` (p = P ℓ²/B);
-* a tip coordinate lies farther than :data:`.spec.PLAUSIBLE_TIP_DISTANCE` rod lengths from the
+* a load gives |p| > :data:`.limits.PLAUSIBLE_LOAD` (p = P ℓ²/B);
+* a tip coordinate lies farther than :data:`.limits.PLAUSIBLE_TIP_DISTANCE` rod lengths from the
   clamp (an inextensible rod's tip is at most ℓ away);
-* an angle exceeds :data:`.spec.PLAUSIBLE_ANGLE` (two turns).
+* an angle exceeds :data:`.limits.PLAUSIBLE_ANGLE` (two turns).
 
 Each finding is a warning naming the column, its unit and the factor by which it is off; the fit
 then runs, and its goodness-of-fit test (:mod:`.goodness`) says whether the model explains the data.
@@ -22,7 +22,7 @@ from typing import List
 
 import numpy as np
 
-from actuator_design.calibration import spec as fit_limits
+from actuator_design.calibration import limits as fit_limits
 from actuator_design.physics import parameters as lens
 
 __all__ = ["magnitude_warnings"]

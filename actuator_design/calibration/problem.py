@@ -24,12 +24,12 @@ from typing import Callable, List, Optional, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.calibration import spec as fit_limits
+from actuator_design.calibration import limits as fit_limits
 from actuator_design.calibration.branches import BranchSelector
 from actuator_design.calibration.curves import model_curves
 from actuator_design.calibration.data import COLUMNS, DataError, MeasuredData
 from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS, alternatives
-from actuator_design.calibration.spec import FitSpec
+from actuator_design.config.studies.fit import FitSpec
 from actuator_design.config import ConfigError
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
@@ -41,7 +41,7 @@ from actuator_design.physics.parameters import parameter as get_parameter
 from actuator_design.physics.parameters import stiffness_groups
 from actuator_design.physics.registry import build_terms
 from actuator_design.physics.term_protocol import scalar_parameter_values
-from actuator_design.study.spec import validate_spec
+from actuator_design.config.studies.validation import validate_spec
 
 __all__ = ["FitProblem", "ConditionState"]
 

@@ -1,7 +1,7 @@
 """Calibration: fit scene parameters to measured equilibria, with confidence intervals.
 
 A configuration gives the scene (what is known) and a ``study:`` section of ``type: fit`` naming
-the parameters to fit (:mod:`.spec`); a CSV file (:mod:`.data`) holds the measurements.
+the parameters to fit (:mod:`actuator_design.config.studies.fit`); a CSV file (:mod:`.data`) holds the measurements.
 
 Fittable parameters (:data:`.parameters.PARAMETERS`): ``chi_bar`` (χ̄), ``youngs_modulus`` (E) or
 ``bending_stiffness`` (B0), ``remanence`` (M_r of a hard-magnetic rod, THEORY §9) — physical scenes; ``h`` (the group at ``reference_field``, or the
@@ -24,7 +24,7 @@ ones), the fit moved from its start unless it started at an exact fit, no fitted
 a bound, and — with the uncertainties given — the residuals pass the χ² test (:mod:`.goodness`).
 Data magnitudes implausible for the scene (a unit 1000× off) are warned about (:mod:`.plausibility`).
 
-The size of a fit is bounded (:mod:`.spec`), and SIGINT/SIGTERM stop it after the forward solve
+The size of a fit is bounded (:mod:`.limits`), and SIGINT/SIGTERM stop it after the forward solve
 in progress (:mod:`.interrupt`).
 """
 from __future__ import annotations
@@ -48,11 +48,11 @@ from actuator_design.calibration.parameters import PARAMETERS
 from actuator_design.calibration.plausibility import magnitude_warnings
 from actuator_design.calibration.problem import FitProblem
 from actuator_design.calibration.result import FitResult
-from actuator_design.calibration.spec import FitSpec
+from actuator_design.config.studies.fit import FitSpec
 from actuator_design.config import ConfigError, load_config
 from actuator_design.physics.magnetics_block import MagneticSummary
 from actuator_design.physics.registry import refuse_unsupported, registered_terms
-from actuator_design.study.spec import validate_spec
+from actuator_design.config.studies.validation import validate_spec
 
 __all__ = ["prepare_fit", "fit_config", "fit"]
 

@@ -37,7 +37,7 @@ from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError,
                                         check_parameter_angle, stdout_to_stderr)
 from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
 from actuator_design.cli.common import print_written, write_out
-from actuator_design.config.study_param_specs import PARAM_NAMES, CriticalStudy
+from actuator_design.config.studies.parameters import PARAM_NAMES, CriticalStudy
 
 __all__ = ["HELP", "add_args", "run", "CriticalStudy"]
 

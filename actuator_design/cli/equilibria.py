@@ -28,7 +28,7 @@ from typing import Tuple
 from actuator_design.cli.common import (EXIT_NOT_CONVERGED, EXIT_OK, InputError, bad_input, check_out_dir,
                      finite_float, load_config, stdout_to_stderr)
 from actuator_design.cli.common import print_written, write_out
-from actuator_design.config.study_specs import EquilibriaStudy, StudyBase
+from actuator_design.config.studies.commands import EquilibriaStudy, StudyBase
 from actuator_design.cli.scene_args import (add_scene_args as _add_scene_args, build_scene as _build_scene,
                                             validate_study)
 

@@ -30,7 +30,7 @@ import argparse
 import os
 import sys
 from actuator_design.cli.common import EXIT_OK, InputError, bad_input, check_out_dir, stdout_to_stderr
-from actuator_design.config.study_param_specs import PARAM_NAMES, MapStudy
+from actuator_design.config.studies.parameters import PARAM_NAMES, MapStudy
 from actuator_design.cli.equilibria import add_output_args, add_scene_args, build_scene
 from actuator_design.cli.common import print_written, write_out
 

@@ -101,7 +101,7 @@ def csv_text(columns, rows, comment: str = "") -> str:
 
 # -- the path command ------------------------------------------------------------------------------
 def _study_model():
-    from actuator_design.config.study_specs import PathStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.studies.commands import PathStudy  # (pydantic loads only when a study is read)
 
     return PathStudy
 

@@ -44,7 +44,7 @@ DEFAULTS = {"h": 1.5, "phi_deg": 90.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from actuator_design.config.study_specs import PhaseStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.studies.commands import PhaseStudy  # (pydantic loads only when a study is read)
 
     return PhaseStudy
 

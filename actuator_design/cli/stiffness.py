@@ -47,7 +47,7 @@ DEFAULTS = {"h": 1.0, "phi_deg": 0.0, "p": 0.0, "alpha_deg": 0.0}
 
 
 def _study_model():
-    from actuator_design.config.study_specs import StiffnessStudy  # (pydantic loads only when a study is read)
+    from actuator_design.config.studies.commands import StiffnessStudy  # (pydantic loads only when a study is read)
 
     return StiffnessStudy
 

@@ -3,7 +3,7 @@
 ``plan_study`` (in :mod:`actuator_design.study.plan`) checks a study before any work and
 ``run_study`` (in :mod:`actuator_design.study.runner`) runs it; ``read_manifest`` reads a study
 folder's manifest truthfully (:mod:`~actuator_design.study.manifest`). The sweep specification
-lives in :mod:`actuator_design.study.spec`, the grid in :mod:`~actuator_design.study.grid`, the
+lives in :mod:`actuator_design.config.studies.sweep`, the grid in :mod:`~actuator_design.study.grid`, the
 per-point work in :mod:`~actuator_design.study.worker`, where it runs in
 :mod:`~actuator_design.study.backends`, the folder's lock in :mod:`~actuator_design.study.lock`,
 the journal in :mod:`~actuator_design.study.journal` and the outputs in

@@ -21,7 +21,7 @@ import numpy as np
 
 from actuator_design.config import ConfigError
 from actuator_design.model.units import COMMON_UNITS, MU0, registry
-from actuator_design.study.spec import RangeSpec, SweepSpec
+from actuator_design.config.studies.sweep import RangeSpec, SweepSpec
 
 __all__ = ["Axis", "resolve_axes", "grid_indices", "substitute", "point_values", "grid_size",
            "check_grid_size", "DEFAULT_MAX_POINTS"]

@@ -16,9 +16,12 @@ import hashlib
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any, List, Optional
+from typing import Any, Dict, List, Optional
 
+from actuator_design.analysis import registry
 from actuator_design.config import ConfigError, load_config
+from actuator_design.config.studies.sweep import SweepSpec
+from actuator_design.config.studies.validation import validate_spec
 from actuator_design.io.safe_files import DIRECTORY, FILE, check_entries
 from actuator_design.io.save import dumps_json
 from actuator_design.study.check import check_points
@@ -27,10 +30,10 @@ from actuator_design.study.grid import (DEFAULT_MAX_POINTS, check_grid_size, gri
                                         resolve_axes)
 from actuator_design.study.journal import JOURNAL_NAME, Journal, JournalRecords
 from actuator_design.study.lock import LOCK_NAME, holder_of, in_use_message
-from actuator_design.study.spec import SweepSpec, analysis_list, validate_spec
 
 __all__ = ["StudyPlan", "plan_study", "journal_records", "check_study_folder", "STUDY_ENTRIES",
-           "CSV_NAME", "PARQUET_NAME", "NETCDF_NAME", "FIGURES_DIR", "MANIFEST_NAME"]
+           "CSV_NAME", "PARQUET_NAME", "NETCDF_NAME", "FIGURES_DIR", "MANIFEST_NAME",
+           "analysis_list"]
 
 MANIFEST_NAME = "manifest.json"
 CSV_NAME = "results.csv"
@@ -199,3 +202,31 @@ def journal_records(plan: StudyPlan) -> JournalRecords:
         return JournalRecords()
     journal = Journal(plan.out / JOURNAL_NAME, plan.study_id, plan.n_points, plan.inputs_digest)
     return journal.records(lambda i: point_values(plan.axes, plan.indices[i]))
+
+
+def analysis_list(spec: SweepSpec) -> List[Dict[str, Any]]:
+    """The analyses as ``[{"type": name, **settings}]``, names checked against the registry.
+
+    Raises
+    ------
+    ConfigError
+        ``study.analyses[i]``: unknown analysis or malformed entry.
+    """
+    known = registry.names()
+    out = []
+    for i, item in enumerate(spec.analyses):
+        where = f"study.analyses[{i}]"
+        if isinstance(item, str):
+            entry = {"type": item}
+        elif isinstance(item.get("type"), str):
+            entry = dict(item)
+        else:
+            raise ConfigError(where, "expected an analysis name or a mapping {type: <name>, "
+                                     f"<settings>}}, got {item!r}")
+        if entry["type"] not in known:
+            raise ConfigError(f"{where}", f"unknown analysis '{entry['type']}' (allowed: "
+                                          f"{', '.join(known)})")
+        if any(e["type"] == entry["type"] for e in out):
+            raise ConfigError(where, f"analysis '{entry['type']}' is listed twice")
+        out.append(entry)
+    return out

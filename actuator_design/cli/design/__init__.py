@@ -137,6 +137,7 @@ def _inputs(args):
     from actuator_design.inverse.design import DesignSettings
     from actuator_design.equilibrium.options import SolverOptions
     from actuator_design.model.scene import default_scene
+    from actuator_design.config.studies.commands import DESIGN_KEYS
 
     study = {}
     if args.config is None:
@@ -148,8 +149,7 @@ def _inputs(args):
             raise InputError(f"study.type: expected 'design' for this command, got {study.get('type')!r}")
     scene = apply_set_flags(scene, args)
     study.pop("type", None)
-    allowed = {"target", "targets", "target_units", "vary", "stiffness", "force", "rate", "rotation_rate",
-               *[f.name for f in dataclasses.fields(DesignSettings)]}
+    allowed = {*DESIGN_KEYS, *[f.name for f in dataclasses.fields(DesignSettings)]}
     refuse_unknown_keys(study, sorted(allowed))
     target_text = args.target_tip
     if target_text is None and "target" in study:
@@ -187,9 +187,7 @@ def _inputs(args):
         if bad or not vary:
             raise InputError(f"--vary: unknown design variable {bad[0] if bad else ''!r} "
                              f"(allowed: {', '.join(_VARIABLES)})")
-    settings_kw = {k: study[k] for k in study
-                   if k not in ("target", "targets", "target_units", "vary", "stiffness", "force", "rate",
-                                "rotation_rate")}
+    settings_kw = {k: study[k] for k in study if k not in DESIGN_KEYS}
     for flag, key, conv in (("h_max", "h_max", float), ("p_max", "p_max", float),
                             ("alpha_max_deg", "alpha_max", math.radians), ("alpha_terms", "alpha_terms", int),
                             ("margin", "margin", float), ("time_limit", "time_limit", float)):

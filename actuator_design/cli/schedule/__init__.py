@@ -215,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--slew-rate: only for a scene whose field comes from coils (`field: {type: coils}`); "
                          "an ideal field's schedule takes --rate and --rotation-rate")
     if study and not coils and not stage:
-        from actuator_design.config.study_specs import SCHEDULE_KEYS
+        from actuator_design.config.studies.commands import SCHEDULE_KEYS
         refuse_unknown_keys(study, SCHEDULE_KEYS["field"])
     if args.waypoints and args.path_csv:
         raise InputError("--waypoints and --path-csv: give one of them, not both")

@@ -12,14 +12,14 @@ import argparse
 import math
 import sys
 
-from actuator_design.config.study_specs import SCHEDULE_KEYS
+from actuator_design.config.studies.commands import SCHEDULE_KEYS
 from actuator_design.cli.common import InputError, bad_input, stdout_to_stderr, table_csv_text
 from actuator_design.cli.design.units import (closing_lines, finish_schedule, hold_path, refuse_unknown_keys,
                                               substeps_arg, tip_columns)
 
 __all__ = ["run_poses", "STUDY_KEYS"]
 
-#: The `study:` keys of this schedule (:data:`~actuator_design.config.study_specs.SCHEDULE_KEYS`).
+#: The `study:` keys of this schedule (:data:`~actuator_design.config.studies.commands.SCHEDULE_KEYS`).
 STUDY_KEYS = SCHEDULE_KEYS["pose"]
 
 

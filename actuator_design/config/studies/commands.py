@@ -5,8 +5,8 @@ rejects unknown keys and bounds its values, and the command's flags override wha
 landscape commands (``equilibria``, ``continue``, ``critical``, ``map``) share :class:`StudyBase`
 (the scene values a study may set); ``path``, ``phase`` and ``stiffness`` have their own. The
 ``schedule`` command's keys depend on what is scheduled (a field, coil currents, a magnet's pose):
-:data:`SCHEDULE_KEYS`. (``sweep`` studies: :mod:`actuator_design.study.spec`; calibration:
-:mod:`actuator_design.calibration.spec`.)
+:data:`SCHEDULE_KEYS`; the ``design`` command's: :data:`DESIGN_KEYS`. (``sweep`` studies:
+:mod:`.sweep`; fits: :mod:`.fit`; the landscape commands that name a parameter: :mod:`.parameters`.)
 """
 from __future__ import annotations
 
@@ -14,7 +14,8 @@ from typing import Dict, List, Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, StrictBool
 
-__all__ = ["StudyBase", "EquilibriaStudy", "PathStudy", "PhaseStudy", "StiffnessStudy", "SCHEDULE_KEYS"]
+__all__ = ["StudyBase", "EquilibriaStudy", "PathStudy", "PhaseStudy", "StiffnessStudy", "SCHEDULE_KEYS",
+           "DESIGN_KEYS"]
 
 #: The keys of ``study: {type: schedule}``, by what is scheduled (``path_tolerance`` for every kind).
 SCHEDULE_KEYS = {
@@ -24,8 +25,12 @@ SCHEDULE_KEYS = {
     "pose": ("waypoints", "substeps", "stage_speed", "turn_rate", "path_tolerance"),
 }
 
+#: The keys of ``study: {type: design}`` that say what to design for; the others are the fields of
+#: :class:`~actuator_design.inverse.settings.DesignSettings`, which validates them on construction.
+DESIGN_KEYS = ("target", "targets", "target_units", "vary", "stiffness", "force", "rate", "rotation_rate")
 
-# -- the landscape commands (equilibria; continue, critical and map: study_param_specs) ------------
+
+# -- the landscape commands (equilibria; continue, critical and map: .parameters) ------------
 class StudyBase(BaseModel):
     """Scene values a study may set (flags override them)."""
 

@@ -9,32 +9,11 @@ A configuration's ``study:`` section of ``type: fit`` names the parameters to fi
         clamp_angle: {initial: 0 deg, bounds: [-5 deg, 5 deg]}
       uncertainty: {tip_angle: 0.5 deg} # optional: σ of each measured column (weights)
       confidence: 0.95
-      min_p_value: 0.001                # optional: the χ² goodness-of-fit test (below)
+      min_p_value: 0.001                # optional: the χ² goodness-of-fit test
+                                        # (:mod:`actuator_design.calibration.goodness`)
 
-Every error is one line naming the field (``study.parameters.chi_bar.bounds``, …).
-
-The size limits of a fit and its goodness-of-fit rule are here too, in one place (README, ``fit --help``):
-
-=========================  ===========  =======================================================
-limit                      value        why
-=========================  ===========  =======================================================
-:data:`MAX_DATA_BYTES`     16 MiB       a data file larger than this is refused before reading
-                                        (≈ 100 000 rows of five columns written in full)
-:data:`MAX_DATA_ROWS`      100 000      data rows (after comments and blank lines)
-:data:`MAX_CONDITIONS`     5 000        distinct measured conditions (field, field angle,
-                                        loads): one forward solve each per model evaluation,
-                                        ≈ 0.3 ms each, tens of evaluations per fit — about a
-                                        minute on one core at the limit; average repeats or
-                                        thin the data to fit more
-=========================  ===========  =======================================================
-
-Only regular files are read (a FIFO, a device such as ``/dev/zero`` or a directory is refused).
-
-Goodness of fit: with every measured column's uncertainty σ given (``study.uncertainty``), the
-weighted residuals r_i/σ of a model that explains the data are standard normal, so
-χ² = Σ (r_i/σ)² follows the χ² distribution with m − k degrees of freedom (m residuals, k fitted
-parameters). A fit whose χ² exceeds that distribution's upper ``study.min_p_value`` quantile
-(:data:`DEFAULT_MIN_P_VALUE`: an honest fit fails 1 time in 1000) does not explain its data.
+Every error is one line naming the field (``study.parameters.chi_bar.bounds``, …). The size limits of
+a fit's data are in :mod:`actuator_design.calibration.limits`.
 """
 from __future__ import annotations
 
@@ -43,31 +22,14 @@ from typing import Dict, List, Literal, Optional, Tuple, Union
 
 from pydantic import Field, StrictFloat, StrictInt, StrictStr, model_validator
 
-from actuator_design.study.spec import StrictModel, spec_error
-from actuator_design.model.units import QuantityError, parse_quantity
 from actuator_design.calibration.parameters import OUTPUT_COMPONENT, PARAMETERS
+from actuator_design.config.studies.validation import StrictModel, spec_error
+from actuator_design.model.units import QuantityError, parse_quantity
 
-__all__ = ["ParameterSpec", "FitSpec", "MAX_DATA_BYTES", "MAX_DATA_ROWS", "MAX_CONDITIONS", "DEFAULT_MIN_P_VALUE",
-           "PLAUSIBLE_LAYER", "PLAUSIBLE_H", "PLAUSIBLE_LOAD", "PLAUSIBLE_TIP_DISTANCE", "PLAUSIBLE_ANGLE"]
+__all__ = ["ParameterSpec", "FitSpec", "DEFAULT_MIN_P_VALUE"]
 
-MAX_DATA_BYTES = 16 * 2**20
-MAX_DATA_ROWS = 100_000
-MAX_CONDITIONS = 5_000
+#: An honest fit fails the χ² goodness-of-fit test 1 time in 1000 (``study.min_p_value``).
 DEFAULT_MIN_P_VALUE = 1e-3
-
-#: Plausible magnitudes (:mod:`.plausibility`) at the initial parameters: beyond them the rod is
-#: aligned with the field but for a boundary layer of this fraction of its length (each field group
-#: declares how its layer narrows, ``Parameter.layer_power``: h ~ l/layer for the induced torque,
-#: √h_r for the remanent one, THEORY §5, §9) …
-PLAUSIBLE_LAYER = 0.01
-#: (the field group h's largest plausible value, its layer ~1/h)
-PLAUSIBLE_H = 1.0 / PLAUSIBLE_LAYER
-#: … a dead load is 40 times the Euler buckling load (p = π²/4) …
-PLAUSIBLE_LOAD = 100.0
-#: … the tip lies farther from the clamp than the rod is long (in rod lengths, with room for noise)
-PLAUSIBLE_TIP_DISTANCE = 1.5
-#: … or an angle exceeds two turns (rad), e.g. degrees written with the unit [rad].
-PLAUSIBLE_ANGLE = 4.0 * math.pi
 
 Value = Union[StrictInt, StrictFloat, StrictStr]
 

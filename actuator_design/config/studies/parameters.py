@@ -1,5 +1,5 @@
 """The ``study:`` sections of the landscape commands that name a parameter of the lens
-(``continue``, ``critical``, ``map``): apart from :mod:`.study_specs` because the parameter names
+(``continue``, ``critical``, ``map``): apart from :mod:`.commands` because the parameter names
 load the lens (and CasADi), which ``equilibria`` and the others do not need at start-up."""
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Literal, Optional, Tuple
 from pydantic import Field, field_validator
 
 from actuator_design.physics.parameters import names as parameter_names
-from actuator_design.config.study_specs import StudyBase
+from actuator_design.config.studies.commands import StudyBase
 
 __all__ = ["PARAM_NAMES", "ParamName", "ContinuationStudy", "CriticalStudy", "MapStudy"]
 
