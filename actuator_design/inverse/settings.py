@@ -26,7 +26,23 @@ __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Ca
            "target_error", "effort", "rank", "canonical_target", "TARGET_DECIMALS"]
 
 
+def _largest(p) -> float:
+    """A designed profile's largest allowed bound (rad; π when its term states none)."""
+    return p.design_bound if p.design_bound is not None else math.pi
+
+
+def _with_profile_bounds(cls):
+    """Add to ``cls`` one setting ``<name>_max`` (rad) per profile a design can vary, in the order of
+    the lens, defaulting to the profile's own largest bound (its term's ``design_bound``): the terms
+    declare their designed profiles, so the settings name none of them."""
+    for name, p in designed_profiles().items():
+        cls.__annotations__[profile_bound(name)] = float
+        setattr(cls, profile_bound(name), _largest(p))
+    return cls
+
+
 @dataclass(frozen=True)
+@_with_profile_bounds
 class DesignSettings:
     """Bounds and tolerances of a design (dimensionless, THEORY §5).
 
@@ -36,13 +52,14 @@ class DesignSettings:
         Largest field group h allowed.
     p_max : float
         Largest |p| allowed when the tip load is designed.
-    alpha_max : float
-        Largest |α(s)| (rad), a fabrication limit on the fibre angle.
     alpha_terms : int
-        Legendre coefficients of α(s) (smooth layouts with few parameters), and of the remanent
-        magnetisation angle β(s) when it is designed.
-    magnetization_max : float
-        Largest |β(s)| (rad) of a designed magnetisation profile (THEORY §9).
+        Legendre coefficients of each designed profile (smooth layouts with few parameters): the
+        fibre angle α(s), and the remanent magnetisation angle β(s) when it is designed.
+    <name>_max : float
+        One per profile a design can vary (:func:`~actuator_design.physics.parameters.designed_profiles`):
+        the largest |profile(s)| (rad), default the profile's own largest bound. ``alpha_max`` (π/2) is
+        a fabrication limit on the fibre angle α(s); ``magnetization_max`` (π) bounds a designed
+        magnetisation angle β(s) (THEORY §9).
     margin : float
         Required stability margin μ: λ_min(H_r, M) ≥ μ.
     clearance : float
@@ -67,9 +84,7 @@ class DesignSettings:
 
     h_max: float = 10.0
     p_max: float = 20.0
-    alpha_max: float = math.pi / 2
     alpha_terms: int = 4
-    magnetization_max: float = math.pi
     margin: float = 1e-2
     clearance: float = 0.0
     reach_tol: float = 1e-6
@@ -121,11 +136,6 @@ class DesignSettings:
         """The bound ``key`` (``<name>_max``, rad) of a designed profile: the setting of that name, or
         for a plug-in term's profile (no setting) its largest bound."""
         return getattr(self, key) if hasattr(self, key) else _largest(designed_profiles()[key[:-len("_max")]])
-
-
-def _largest(p) -> float:
-    """A designed profile's largest allowed bound (rad; π when its term states none)."""
-    return p.design_bound if p.design_bound is not None else math.pi
 
 
 def check_h_max(h_max: float) -> None:
