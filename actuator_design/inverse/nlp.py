@@ -37,12 +37,12 @@ from typing import Dict, Optional, Sequence, Tuple
 import casadi as ca
 import numpy as np
 
-from actuator_design.contact.clearance import clearance_rows
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
                                                 design_params, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
+from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import CertificateTooLarge, SegmentedLDL, check_certificate_size
 from actuator_design.model.profiles import legendre_profile
 from actuator_design.model.scene import Scene
@@ -160,14 +160,11 @@ class DesignNLP:
                                                                 self.alpha_terms - 1)
         P = design_params(P0, self.values(d), lay.slices, self.vandermonde)
 
-        E, g, H = sv.f_grad_hess(zr, P)
-        m = tr.mass[1:]
-        self.gauge = has_fibre_gauge(zr, d, P0, E, self.dslices, sv.parameter_vector(scene))
-        theta0 = P0[lay.slices["theta0"]]
-        tip = ca.vertcat(*[sv.f_tip(ca.vertcat(theta0, zr), P)[i] for i in (1, 2, 0)])  # x, y, angle
         # a scene with obstacles: the designed rod keeps clear of them (issue 20, :mod:`actuator_design.contact.clearance`)
         self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap) + float(clearance)
-        clear = clearance_rows(tr, ca.vertcat(theta0, zr), self.obstacles, self.gap)
+        state = state_rows(sv, zr, P, self.obstacles, self.gap)
+        H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
+        self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dslices, sv.parameter_vector(scene))
         self.n_clear = int(clear.numel())
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
@@ -194,19 +191,19 @@ class DesignNLP:
             sens_rows = (ca.mtimes(H, w_sens) + dg_dfy) / ca.DM(m)
 
         # profile bound rows: α at the quadrature points, then β (in the order of self.profiles)
-        alpha_rows = [ca.mtimes(ca.DM(self.vandermonde), d[self.dslices[v]]) for v in self.profiles]
-        self.n_profile_rows = self.vandermonde.shape[0] if alpha_rows else 0
-        self.n_alpha_rows = self.n_profile_rows * len(alpha_rows)
-        self._parts = dict(x=ca.vertcat(zr, d),
+        self.n_profile_rows = self.vandermonde.shape[0] if self.profiles else 0
+        self.n_alpha_rows = self.n_profile_rows * len(self.profiles)
+        self._parts = dict(x=ca.vertcat(zr, d), theta=zr, d=d,
                            p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
-                           eq=g / ca.DM(m), tip=tip - target, alpha=ca.vertcat(*alpha_rows), clear=clear,
+                           eq=state.eq, tip=tip - target,
+                           alpha=profile_rows(self.vandermonde, self.values(d), self.profiles), clear=clear,
                            H=H, m=m, margin=margin, n=n)
         if self.has_fy:
             # stiffness k = 1/c: the constraint c·k_target − 1 = 0 (k_target an NLP parameter)
             self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
                                k_target=stiffness_target)
             self.f_sensitivity = ca.Function("sensitivity", [zr, d, P0], [H, dg_dfy, ca.gradient(tip[1], zr)])
-        self._nlp, self._certificates = {}, {}
+        self._nlp, self._certificates, self._layouts = {}, {}, {}
         self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
         self.build_time = time.perf_counter() - t0
 
@@ -218,31 +215,37 @@ class DesignNLP:
         key = (certified, stiffness)
         if key not in self._nlp:
             q = self._parts
-            x, p = q["x"], q["p"]
-            rows = [q["eq"]]
+            xs, rows, p = Blocks(), Blocks(), q["p"]
+            xs.add("theta", q["theta"])
+            xs.add("d", q["d"])
+            rows.add("eq", q["eq"], 0.0, 0.0)
             if stiffness:
                 if not self.has_fy:
                     raise ValueError("a stiffness target needs a tip-force term in the scene")
-                x = ca.vertcat(x, q["w_sens"])
+                xs.add("w_sens", q["w_sens"])
                 p = ca.vertcat(p, q["k_target"])
-                rows += [q["sens"], q["stiff"]]
+                rows.add("sens", q["sens"], 0.0, 0.0)
+                rows.add("stiff", q["stiff"], 0.0, 0.0)
             if certified:  # the pivots, and the Schur entries lifted at the element joints
                 check_certificate_size(self.solver, self.n)
                 cert = SegmentedLDL(certificate_matrix(q["H"], q["m"], q["margin"]))
                 self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
-                x = ca.vertcat(x, cert.v)
-                rows += [cert.pivots, cert.rows]
-            rows += [q["tip"], q["alpha"], q["clear"]]
-            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
-                    # exact Hessians, also of the pivot rows: with a quasi-Newton one the certified
-                    # solve wandered and its landing point (and whether it reached) depended on the
-                    # BLAS kernel; the iteration cap bounds the work, it is not a convergence test
-                    "ipopt.max_iter": 150 if certified else 400, "ipopt.acceptable_tol": 1e-7,
-                    # Starts are feasible stable equilibria: a small initial barrier keeps the
-                    # pivot constraints from outweighing the (small) tip objective at the start.
-                    "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
-            self._nlp[key] = ca.nlpsol("design", "ipopt", {"x": x, "p": p, "f": q["f"], "g": ca.vertcat(*rows)},
-                                       opts)
+                xs.add("lifted", cert.v)
+                rows.add("pivots", cert.pivots, 0.0, np.inf)
+                rows.add("lifted", cert.rows, 0.0, 0.0)
+            rows.add("tip", q["tip"])  # free in stage A, pinned in stage B (_solve_once)
+            rows.add("profiles", q["alpha"])  # bounded by the request (profile_bounds)
+            rows.add("clear", q["clear"], 0.0, np.inf)
+            # exact Hessians, also of the pivot rows: with a quasi-Newton one the certified
+            # solve wandered and its landing point (and whether it reached) depended on the
+            # BLAS kernel; the iteration cap bounds the work, it is not a convergence test.
+            # Starts are feasible stable equilibria: a small initial barrier keeps the
+            # pivot constraints from outweighing the (small) tip objective at the start.
+            opts = ipopt_options(tol=1e-10, max_iter=150 if certified else 400, acceptable_tol=1e-7,
+                                 mu_init=1e-6, bound_push=1e-8, bound_frac=1e-8)
+            self._layouts[key] = (xs, rows)
+            self._nlp[key] = ca.nlpsol("design", "ipopt", {"x": xs.vector(), "p": p, "f": q["f"],
+                                                           "g": rows.vector()}, opts)
         return self._nlp[key]
 
     def state_function(self) -> ca.Function:
@@ -407,41 +410,31 @@ class DesignNLP:
         if stiff:
             p = np.concatenate([p, [req.stiffness]])
 
-        nx = self.n + self.nd + (self.n if stiff else 0)
         nlp = self.nlpsol(certified, stiff)
+        xs, rows = self._layouts[(certified, stiff)]
         cert, schur = self._certificates.get((certified, stiff), (None, None))
-        n_lift = cert.m if cert is not None else 0
-        lbx, ubx = np.full(nx + n_lift, -np.inf), np.full(nx + n_lift, np.inf)
         b = req.bounds
-        lo_d, hi_d = self.variable_bounds(b)
-        lbx[self.n:self.n + self.nd], ubx[self.n:self.n + self.nd] = lo_d, hi_d
-        n_piv = self.n if certified else 0
-        n_sens = self.n + 1 if stiff else 0
-        lo_prof, hi_prof = self.profile_bounds(b)
-        lbg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.zeros(n_piv + n_lift), np.full(3, -np.inf),
-                              lo_prof, np.zeros(self.n_clear)])
-        ubg = np.concatenate([np.zeros(self.n), np.zeros(n_sens), np.full(n_piv, np.inf), np.zeros(n_lift),
-                              np.full(3, np.inf), hi_prof, np.full(self.n_clear, np.inf)])
+        lbx, ubx = xs.bounds(d=self.variable_bounds(b))
+        lbg, ubg = rows.bounds(profiles=self.profile_bounds(b))
         if req.stage == "B" and req.target is not None:
-            k = self.n + n_sens + n_piv + n_lift
+            k = rows["tip"].start
             lbg[k:k + 2] = ubg[k:k + 2] = 0.0
             if use_angle:
                 lbg[k + 2] = ubg[k + 2] = 0.0
         if self.gauge:  # α's mean is pinned at 0 (fix_gauge): a unique optimum, not a flat valley
             d0 = self.fix_gauge(d0)
-            lbx[self.n + self.dslices["alpha"].start] = ubx[self.n + self.dslices["alpha"].start] = 0.0
+            i = xs["d"].start + self.dslices["alpha"].start
+            lbx[i] = ubx[i] = 0.0
         x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
-        if n_lift:
+        if cert is not None and cert.m:
             x0 = np.concatenate([x0, cert.start(schur, x0[:self.n + self.nd], p[:self._parts["p"].numel()])])
         sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        st = nlp.stats()
+        converged, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()
         zr, d = x[: self.n], x[self.n:self.n + self.nd]
         theta0 = P0[sv.layout.slices["theta0"]][0]
         tip = np.asarray(self.f_tip(zr, d, P0), float).ravel()
-        status = str(st.get("return_status"))
-        return self.point(d, base, np.concatenate([[theta0], zr]), tip,
-                          converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
+        return self.point(d, base, np.concatenate([[theta0], zr]), tip, converged=converged,
                           status=status, stage=req.stage + ("+certificate" if certified else ""))
 
 

@@ -25,6 +25,7 @@ from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.design_map import (certificate_matrix, design_effort, design_params,
                                                 driven_values, profile_report)
+from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
@@ -84,18 +85,22 @@ class ShapeDesignNLP:
         th = ca.mtimes(ca.DM(L), ca.vertcat(P0[sl["theta0"]], zr))
         xs, ys = ca.mtimes(ca.DM(W), ca.cos(th)), ca.mtimes(ca.DM(W), ca.sin(th))
         tx, ty = ca.SX.sym("tx", len(s_points)), ca.SX.sym("ty", len(s_points))
-        _, g, H = sv.f_grad_hess(zr, P)
-        m = sv.transcription.mass[1:]
+        state = state_rows(sv, zr, P)
+        m = state.mass
         effort = design_effort(base.values(d))
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
-        alpha_rows = [ca.mtimes(ca.DM(base.vandermonde), d[base.dslices[v]]) for v in base.profiles]
-        piv = ca.vertcat(*_ldl_pivots(certificate_matrix(H, m, margin), _bandwidth(sv, n)))
+        piv = ca.vertcat(*_ldl_pivots(certificate_matrix(state.hessian, m, margin), _bandwidth(sv, n)))
         self.base, self.n, self.k = base, n, len(s_points)
         self.n_alpha_rows = base.n_alpha_rows  # the profile rows: α, then β (as in DesignNLP)
-        self._x, self._p = ca.vertcat(zr, d), ca.vertcat(P0, tx, ty, w_eff, margin)
-        self._f, self._rows = f, (g / ca.DM(m), piv, ca.vertcat(*alpha_rows))
+        self._x = Blocks()
+        self._x.add("theta", zr)
+        self._x.add("d", d)
+        self._p = ca.vertcat(P0, tx, ty, w_eff, margin)
+        self._f = f
+        self._rows = (state.eq, piv, profile_rows(base.vandermonde, base.values(d), base.profiles))
         self._nlps: Dict[bool, object] = {}
+        self._layouts: Dict[bool, Blocks] = {}
         self.f_points = ca.Function("shape_points", [zr, P0], [xs, ys])
 
     def nlpsol(self, certified: bool):
@@ -103,15 +108,18 @@ class ShapeDesignNLP:
             check_certificate_size(self.base.solver, self.n, exact_hessian=False)
         if certified not in self._nlps:
             eq, piv, alpha = self._rows
-            g = ca.vertcat(eq, piv, alpha) if certified else ca.vertcat(eq, alpha)
+            rows = Blocks()
+            rows.add("eq", eq, 0.0, 0.0)
+            if certified:
+                rows.add("pivots", piv, 0.0, np.inf)
+            rows.add("profiles", alpha)  # bounded by the request (DesignNLP.profile_bounds)
             # a least-squares objective is tiny near a good fit (1e-14 at 1e-7 rms): scale it so that
             # IPOPT's stopping test resolves the fit, not just the equilibrium
-            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
-                    "ipopt.acceptable_tol": 1e-9, "ipopt.max_iter": 400, "ipopt.obj_scaling_factor": 1e4}
-            if certified:
-                opts["ipopt.hessian_approximation"] = "limited-memory"
-            self._nlps[certified] = ca.nlpsol("shape_design", "ipopt", {"x": self._x, "p": self._p, "f": self._f,
-                                                                        "g": g}, opts)
+            opts = ipopt_options(tol=1e-12, acceptable_tol=1e-9, max_iter=400, obj_scaling_factor=1e4,
+                                 **({"hessian_approximation": "limited-memory"} if certified else {}))
+            self._layouts[certified] = rows
+            self._nlps[certified] = ca.nlpsol("shape_design", "ipopt", {"x": self._x.vector(), "p": self._p,
+                                                                        "f": self._f, "g": rows.vector()}, opts)
         return self._nlps[certified]
 
     def solve(self, base_scene: Scene, points: np.ndarray, d0, z0, *, margin, bounds, certified=False):
@@ -119,24 +127,17 @@ class ShapeDesignNLP:
         sv = b.solver
         P0 = sv.parameter_vector(base_scene)
         p = np.concatenate([P0, points[:, 1], points[:, 2], [1e-12, margin]])  # w: a tie-break only
-        lo_d, hi_d = b.variable_bounds(bounds)
-        lbx = np.concatenate([np.full(n, -np.inf), lo_d])
-        ubx = np.concatenate([np.full(n, np.inf), hi_d])
-        lo_prof, hi_prof = b.profile_bounds(bounds)
-        n_piv = n if certified else 0
-        lbg = np.concatenate([np.zeros(n), np.zeros(n_piv), lo_prof])
-        ubg = np.concatenate([np.zeros(n), np.full(n_piv, np.inf), hi_prof])
+        lbx, ubx = self._x.bounds(d=b.variable_bounds(bounds))
         if certified:
             try:
                 check_certificate_size(sv, n, exact_hessian=False)
             except CertificateTooLarge as err:
                 return np.asarray(d0, float), np.asarray(z0, float), False, str(err)
         nlp = self.nlpsol(certified)
+        lbg, ubg = self._layouts[certified].bounds(profiles=b.profile_bounds(bounds))
         sol = nlp(x0=np.concatenate([np.asarray(z0, float)[1:], d0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        st = nlp.stats()
+        ok, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()
-        status = str(st.get("return_status"))
-        ok = bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level"
         theta0 = float(P0[sv.layout.slices["theta0"]][0])
         return x[n:], np.concatenate([[theta0], x[:n]]), ok, status
 

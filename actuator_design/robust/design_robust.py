@@ -38,8 +38,8 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
-from actuator_design.contact.clearance import clearance_rows
 from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
+from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, CertificateTooLarge, _bandwidth, _ldl_pivots,
                                          check_certificate_size)
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
@@ -157,14 +157,13 @@ class ScenarioDesignNLP:
                 z = ca.SX.sym(f"theta_{k}_{c}", n)
                 zs.append(z)
                 Pc = scenario(Pk, c)
-                _, g, H = sv.f_grad_hess(z, Pc)
-                eq.append(g / ca.DM(m))
-                piv.append(ca.vertcat(*_ldl_pivots(certificate_matrix(H, m, margin), bw)))
-                tip_fn = sv.f_tip(ca.vertcat(Pc[sl["theta0"]], z), Pc)
-                tip = ca.vertcat(tip_fn[1], tip_fn[2], tip_fn[0])
-                tips.append(tip)
                 # with obstacles, every scenario's rod keeps clear of them (:mod:`actuator_design.contact.clearance`)
-                clear.append(clearance_rows(sv.transcription, ca.vertcat(Pc[sl["theta0"]], z), obstacles, gap))
+                state = state_rows(sv, z, Pc, obstacles, gap)
+                eq.append(state.eq)
+                piv.append(ca.vertcat(*_ldl_pivots(certificate_matrix(state.hessian, m, margin), bw)))
+                tip = state.tip
+                tips.append(tip)
+                clear.append(state.clear)
                 e = tip - tgt
                 if c == 0:
                     nom.append(e)
@@ -175,17 +174,24 @@ class ScenarioDesignNLP:
         for k in range(K):
             effort = design_effort(pose_values(k), effort)
         effort = design_effort(shared, effort)  # the shared profiles once
-        alpha_rows = [ca.mtimes(ca.DM(base.vandermonde), c) for c in shared.values()]
-        self.n_alpha_rows = base.vandermonde.shape[0] * len(alpha_rows) if alpha_rows else 0
-        x = ca.vertcat(*zs, d, t)
+        self.n_alpha_rows = base.vandermonde.shape[0] * len(self.profiles) if self.profiles else 0
+        xs = Blocks()
+        xs.add("states", ca.vertcat(*zs))  # θ of pose k, scenario c at block k (C + 1) + c
+        xs.add("d", d)  # bounded by the request (solve)
+        xs.add("t", t, 0.0, np.inf)  # the worst squared corner error of each pose
+        x = xs.vector()
         p = ca.vertcat(P0, offs, target, w_ang, margin, w_eff)
         # the worst case, regularised by the mean square (a pure minimax has degenerate multipliers
         # when several corners are active, which slows IPOPT down near the solution)
         f = (ca.sum1(t) + 0.1 * sum(sq) / C if C else 0) + w_eff * effort
         self._problem = {"x": x, "p": p, "f": f}
         self.n_clear = int(sum(c.numel() for c in clear))
-        self._rows = (ca.vertcat(*eq), ca.vertcat(*piv), ca.vertcat(*nom, *err, *alpha_rows, *clear))
+        self._x = xs
+        self._rows = dict(eq=ca.vertcat(*eq), pivots=ca.vertcat(*piv), nominal=ca.vertcat(*nom),
+                          corners=ca.vertcat(*err), profiles=profile_rows(base.vandermonde, shared, self.profiles),
+                          clear=ca.vertcat(*clear))
         self._nlps: Dict[bool, object] = {}
+        self._layouts: Dict[bool, Blocks] = {}
         self.f_tips = ca.Function("scenario_tips", [x, p], [ca.horzcat(*tips)])
         self.build_time = time.perf_counter() - t0
 
@@ -233,14 +239,18 @@ class ScenarioDesignNLP:
         if certified:
             check_certificate_size(self.base.solver, self.n, self.K * (self.C + 1), exact_hessian=False)
         if certified not in self._nlps:
-            eq, piv, rest = self._rows
-            g = ca.vertcat(eq, piv, rest) if certified else ca.vertcat(eq, rest)
-            opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
-                    "ipopt.acceptable_tol": 1e-7, "ipopt.max_iter": 500,
-                    "ipopt.mu_init": 1e-4, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
+            q, rows = self._rows, Blocks()
+            rows.add("eq", q["eq"], 0.0, 0.0)
             if certified:
-                opts["ipopt.hessian_approximation"] = "limited-memory"
-            self._nlps[certified] = ca.nlpsol("scenario_design", "ipopt", {**self._problem, "g": g}, opts)
+                rows.add("pivots", q["pivots"], 0.0, np.inf)
+            rows.add("nominal", q["nominal"])  # each pose's nominal tip: pinned (solve)
+            rows.add("corners", q["corners"], -np.inf, 0.0)  # each corner's squared error ≤ t_k
+            rows.add("profiles", q["profiles"])  # bounded by the request (_profile_bounds)
+            rows.add("clear", q["clear"], 0.0, np.inf)
+            opts = ipopt_options(tol=1e-10, acceptable_tol=1e-7, max_iter=500, mu_init=1e-4, bound_push=1e-8,
+                                 bound_frac=1e-8, **({"hessian_approximation": "limited-memory"} if certified else {}))
+            self._layouts[certified] = rows
+            self._nlps[certified] = ca.nlpsol("scenario_design", "ipopt", {**self._problem, "g": rows.vector()}, opts)
         return self._nlps[certified]
 
     def solve(self, base_scene: Scene, tol: Tolerances, scale: float, targets: Sequence[Sequence[float]],
@@ -256,28 +266,21 @@ class ScenarioDesignNLP:
         tgt = np.concatenate([[tg[0], tg[1], tg[2] if len(tg) > 2 else 0.0] for tg in targets])
         p = np.concatenate([P0, ov, tgt, [1.0 if use_angle else 0.0, margin, w_eff]])
         nz = K * (C + 1) * n
-        nx = nz + self.nd + K
-        lbx, ubx = np.full(nx, -np.inf), np.full(nx, np.inf)
+        lo_d, hi_d = np.full(self.nd, -np.inf), np.full(self.nd, np.inf)
         for k in range(K):
             for v in self.per_pose:
-                i = nz + self.pose_index(k, v)
-                lbx[i], ubx[i] = scalar_bounds(v, bounds)
-        lbx[nz + self.nd:] = 0.0
+                i = self.pose_index(k, v)
+                lo_d[i], hi_d[i] = scalar_bounds(v, bounds)
         if self.base.gauge:  # α's mean pinned at 0, every pose's φ moved with it (DesignNLP.fix_gauge)
             d0 = np.array(d0, float)
             i0 = self.profile_slice("alpha").start  # α's mean c_0
             c0, d0[i0] = d0[i0], 0.0
             for k in range(K):
                 d0[self.pose_index(k, "phi")] -= c0
-            lbx[nz + i0] = ubx[nz + i0] = 0.0
-        lo_prof, hi_prof = self._profile_bounds(bounds)
-        n_eq, n_piv = K * (C + 1) * n, (K * (C + 1) * n if certified else 0)
-        nom_lb = np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K)
-        nom_ub = np.tile([0.0, 0.0, 0.0 if use_angle else np.inf], K)
-        lbg = np.concatenate([np.zeros(n_eq), np.zeros(n_piv), nom_lb, np.full(K * C, -np.inf), lo_prof,
-                              np.zeros(self.n_clear)])
-        ubg = np.concatenate([np.zeros(n_eq), np.full(n_piv, np.inf), nom_ub, np.zeros(K * C), hi_prof,
-                              np.full(self.n_clear, np.inf)])
+            lo_d[i0] = hi_d[i0] = 0.0
+        lbx, ubx = self._x.bounds(d=(lo_d, hi_d))
+        nominal = (np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K),
+                   np.tile([0.0, 0.0, 0.0 if use_angle else np.inf], K))
         zs = [np.asarray(zc, float)[1:] for zk in z0 for zc in zk]
         tips0 = np.asarray(self.f_tips(np.concatenate(zs + [d0, np.zeros(K)]), p), float)
         t0 = [self._worst(tips0, tgt, k) ** 2 + 1e-12 for k in range(K)]
@@ -288,11 +291,11 @@ class ScenarioDesignNLP:
                 return ScenarioPoint(d=np.asarray(d0, float), z=[list(zk) for zk in z0], worst_error=[math.inf] * K,
                                      converged=False, status=str(err), scale=scale)
         nlp = self.nlpsol(certified)
+        lbg, ubg = self._layouts[certified].bounds(nominal=nominal, profiles=self._profile_bounds(bounds))
         sol = nlp(x0=np.concatenate(zs + [d0, t0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-        st = nlp.stats()
+        converged, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()
         tips = np.asarray(self.f_tips(x, p), float)
-        status = str(st.get("return_status"))
         theta0 = float(P0[sv.layout.slices["theta0"]][0])
         z_out = []
         for k in range(K):
@@ -303,8 +306,7 @@ class ScenarioDesignNLP:
                 row.append(np.concatenate([[th0], x[j * n:(j + 1) * n]]))
             z_out.append(row)
         return ScenarioPoint(d=x[nz:nz + self.nd], z=z_out, worst_error=[self._worst(tips, tgt, k) for k in range(K)],
-                             converged=bool(st.get("success", False)) or status == "Solved_To_Acceptable_Level",
-                             status=status, scale=scale)
+                             converged=converged, status=status, scale=scale)
 
     def _worst(self, tips: np.ndarray, tgt: np.ndarray, k: int) -> float:
         C = self.C
