@@ -43,7 +43,7 @@ from actuator_design.inverse.design_map import (certificate_matrix, coupled_scen
                                                 design_params, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
 from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
-from actuator_design.inverse.ldl import CertificateTooLarge, SegmentedLDL, check_certificate_size
+from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, check_certificate_size
 from actuator_design.model.profiles import legendre_profile
 from actuator_design.model.scene import Scene
 from actuator_design.physics import parameters as lens
@@ -228,7 +228,7 @@ class DesignNLP:
                 rows.add("stiff", q["stiff"], 0.0, 0.0)
             if certified:  # the pivots, and the Schur entries lifted at the element joints
                 check_certificate_size(self.solver, self.n)
-                cert = SegmentedLDL(certificate_matrix(q["H"], q["m"], q["margin"]))
+                cert = Certificate([certificate_matrix(q["H"], q["m"], q["margin"])])
                 self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
                 xs.add("lifted", cert.v)
                 rows.add("pivots", cert.pivots, 0.0, np.inf)

@@ -26,7 +26,7 @@ from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.design_map import (certificate_matrix, design_effort, design_params,
                                                 driven_values, profile_report)
 from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
-from actuator_design.inverse.ldl import CertificateTooLarge, _bandwidth, _ldl_pivots, check_certificate_size
+from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, certified_hessian, check_certificate_size
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignSettings, normalise_phi, phi_period
@@ -90,35 +90,39 @@ class ShapeDesignNLP:
         effort = design_effort(base.values(d))
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
-        piv = ca.vertcat(*_ldl_pivots(certificate_matrix(state.hessian, m, margin), _bandwidth(sv, n)))
         self.base, self.n, self.k = base, n, len(s_points)
         self.n_alpha_rows = base.n_alpha_rows  # the profile rows: α, then β (as in DesignNLP)
-        self._x = Blocks()
-        self._x.add("theta", zr)
-        self._x.add("d", d)
+        self._theta, self._d = zr, d
         self._p = ca.vertcat(P0, tx, ty, w_eff, margin)
         self._f = f
-        self._rows = (state.eq, piv, profile_rows(base.vandermonde, base.values(d), base.profiles))
+        self._eq, self._profiles = state.eq, profile_rows(base.vandermonde, base.values(d), base.profiles)
+        self._certificate = (m, state.hessian, margin)  # (built with the certified NLP)
         self._nlps: Dict[bool, object] = {}
-        self._layouts: Dict[bool, Blocks] = {}
+        self._layouts: Dict[bool, tuple] = {}
         self.f_points = ca.Function("shape_points", [zr, P0], [xs, ys])
 
     def nlpsol(self, certified: bool):
         if certified:
             check_certificate_size(self.base.solver, self.n, exact_hessian=False)
         if certified not in self._nlps:
-            eq, piv, alpha = self._rows
-            rows = Blocks()
-            rows.add("eq", eq, 0.0, 0.0)
-            if certified:
-                rows.add("pivots", piv, 0.0, np.inf)
-            rows.add("profiles", alpha)  # bounded by the request (DesignNLP.profile_bounds)
+            xs, rows, schur = Blocks(), Blocks(), None
+            xs.add("theta", self._theta)
+            xs.add("d", self._d)
+            rows.add("eq", self._eq, 0.0, 0.0)
+            if certified:  # the pivots, and the Schur entries lifted at the element joints
+                m, H, margin = self._certificate
+                cert = Certificate([certificate_matrix(H, m, margin)])
+                schur = (cert, ca.Function("schur", [xs.vector(), self._p, cert.v], [cert.schur]))
+                xs.add("lifted", cert.v)
+                rows.add("pivots", cert.pivots, 0.0, np.inf)
+                rows.add("lifted", cert.rows, 0.0, 0.0)
+            rows.add("profiles", self._profiles)  # bounded by the request (DesignNLP.profile_bounds)
             # a least-squares objective is tiny near a good fit (1e-14 at 1e-7 rms): scale it so that
             # IPOPT's stopping test resolves the fit, not just the equilibrium
             opts = ipopt_options(tol=1e-12, acceptable_tol=1e-9, max_iter=400, obj_scaling_factor=1e4,
-                                 **({"hessian_approximation": "limited-memory"} if certified else {}))
-            self._layouts[certified] = rows
-            self._nlps[certified] = ca.nlpsol("shape_design", "ipopt", {"x": self._x.vector(), "p": self._p,
+                                 **(certified_hessian(self.base.solver, self.n) if certified else {}))
+            self._layouts[certified] = (xs, rows, schur)
+            self._nlps[certified] = ca.nlpsol("shape_design", "ipopt", {"x": xs.vector(), "p": self._p,
                                                                         "f": self._f, "g": rows.vector()}, opts)
         return self._nlps[certified]
 
@@ -127,19 +131,23 @@ class ShapeDesignNLP:
         sv = b.solver
         P0 = sv.parameter_vector(base_scene)
         p = np.concatenate([P0, points[:, 1], points[:, 2], [1e-12, margin]])  # w: a tie-break only
-        lbx, ubx = self._x.bounds(d=b.variable_bounds(bounds))
         if certified:
             try:
                 check_certificate_size(sv, n, exact_hessian=False)
             except CertificateTooLarge as err:
                 return np.asarray(d0, float), np.asarray(z0, float), False, str(err)
         nlp = self.nlpsol(certified)
-        lbg, ubg = self._layouts[certified].bounds(profiles=b.profile_bounds(bounds))
-        sol = nlp(x0=np.concatenate([np.asarray(z0, float)[1:], d0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        xs, rows, schur = self._layouts[certified]
+        lbx, ubx = xs.bounds(d=b.variable_bounds(bounds))
+        lbg, ubg = rows.bounds(profiles=b.profile_bounds(bounds))
+        x0 = np.concatenate([np.asarray(z0, float)[1:], d0])
+        if schur is not None and schur[0].m:
+            x0 = np.concatenate([x0, schur[0].start(schur[1], x0, p)])
+        sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         ok, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()
         theta0 = float(P0[sv.layout.slices["theta0"]][0])
-        return x[n:], np.concatenate([[theta0], x[:n]]), ok, status
+        return x[xs["d"]], np.concatenate([[theta0], x[:n]]), ok, status
 
 
 @dataclass
