@@ -22,6 +22,7 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
+from actuator_design.inverse.layout import Blocks, ipopt_options
 from actuator_design.inverse.ldl import SegmentedLDL
 
 __all__ = ["ScheduleOCP", "MAX_STEP_TURN", "ENERGY_TIME_WEIGHT"]
@@ -67,7 +68,7 @@ class ScheduleOCP:
         P0 = ca.DM(sv.parameter_vector(base))
         state = nlp.state_function()
         at = dict(zip(waypoint_nodes, waypoints))
-        x, rows, lo, hi = [], [], [], []
+        xs, rows = Blocks(), Blocks()
         self.thetas, self.ds, self.certs, self.schur = [], [], [], []
         for k in range(N):
             th, d = ca.SX.sym(f"theta_{k}", self.n), ca.SX.sym(f"d_{k}", self.nd)
@@ -75,28 +76,30 @@ class ScheduleOCP:
             cert = SegmentedLDL(A - margin * ca.SX.eye(self.n))
             self.thetas.append(th), self.ds.append(d), self.certs.append(cert)
             self.schur.append(ca.Function(f"schur_{k}", [th, d, cert.v], [cert.schur]))
-            x += [th, d, cert.v]
-            rows += [eq, cert.pivots, cert.rows]
-            lo += [np.zeros(self.n), np.zeros(self.n), np.zeros(cert.m)]
-            hi += [np.zeros(self.n), np.full(self.n, np.inf), np.zeros(cert.m)]
+            lo_d, hi_d = np.full(self.nd, -np.inf), np.full(self.nd, np.inf)
+            lo_d[self.ih], hi_d[self.ih] = 0.0, (0.0 if k == 0 else h_max)  # from zero field
+            xs.add(f"theta_{k}", th)
+            xs.add(f"d_{k}", d, lo_d, hi_d)
+            xs.add(f"lifted_{k}", cert.v)
+            rows.add(f"eq_{k}", eq, 0.0, 0.0)
+            rows.add(f"pivots_{k}", cert.pivots, 0.0, np.inf)
+            rows.add(f"lifted_{k}", cert.rows, 0.0, 0.0)
             if k in at:
                 tip = nlp.f_tip(th, d, P0)
-                rows.append(tip[:2] - ca.DM(at[k]))
-                lo.append(np.zeros(2)), hi.append(np.zeros(2))
+                rows.add(f"waypoint_{k}", tip[:2] - ca.DM(at[k]), 0.0, 0.0)
         legs = np.diff([0, *waypoint_nodes])
         T = ca.SX.sym("T", len(legs))
-        x.append(T)
+        xs.add("durations", T, 0.0, np.inf)
         dt = ca.vertcat(*[T[j] / int(n) for j, n in enumerate(legs) for _ in range(int(n))])
         self.legs = legs
         h = [d[self.ih] for d in self.ds]
         phi = [d[self.iphi] for d in self.ds]
         for k in range(N - 1):
             dh, dphi = h[k + 1] - h[k], phi[k + 1] - phi[k]
-            rows += [ca.vertcat(dh - limits.h_rate * dt[k], -dh - limits.h_rate * dt[k],
-                                dphi - limits.rotation_rate * dt[k], -dphi - limits.rotation_rate * dt[k]),
-                     self.thetas[k + 1] - self.thetas[k]]
-            lo += [np.full(4, -np.inf), np.full(self.n, -MAX_STEP_TURN)]
-            hi += [np.zeros(4), np.full(self.n, MAX_STEP_TURN)]
+            rows.add(f"rates_{k}", ca.vertcat(dh - limits.h_rate * dt[k], -dh - limits.h_rate * dt[k],
+                                              dphi - limits.rotation_rate * dt[k], -dphi - limits.rotation_rate * dt[k]),
+                     -np.inf, 0.0)
+            rows.add(f"turn_{k}", self.thetas[k + 1] - self.thetas[k], -MAX_STEP_TURN, MAX_STEP_TURN)
         # f = w_T·T + w_E·∫h² dt, and T ≤ T_cap (a row): "energy" is one solve with a small w_T; "time"
         # is two (lexicographic): the least T, then the least effort with T held at it. The
         # time-optimal schedules form a family (h may wander while the rotation sets the pace: two
@@ -106,26 +109,16 @@ class ScheduleOCP:
         # ∫h² dt with h linear in time within each step (as the loading path follows it)
         effort = sum(dt[k] * (h[k] ** 2 + h[k] * h[k + 1] + h[k + 1] ** 2) / 3 for k in range(N - 1))
         f = self.p[0] * ca.sum1(T) + self.p[1] * effort
-        rows.append(ca.sum1(T) - self.p[2])
-        lo.append(np.array([-np.inf])), hi.append(np.zeros(1))
+        rows.add("time_cap", ca.sum1(T) - self.p[2], -np.inf, 0.0)
         self.objective = objective
-        self.x = ca.vertcat(*x)
-        self.lbg, self.ubg = np.concatenate(lo), np.concatenate(hi)
-        self.lbx, self.ubx = np.full(self.x.numel(), -np.inf), np.full(self.x.numel(), np.inf)
-        off = 0
-        self.offsets: List[int] = []
-        for k in range(N):
-            self.offsets.append(off)
-            self.lbx[off + self.n + self.ih] = 0.0
-            self.ubx[off + self.n + self.ih] = 0.0 if k == 0 else h_max  # from zero field
-            off += self.n + self.nd + self.certs[k].m
-        self.lbx[off:] = 0.0  # leg durations
-        opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-9,
-                "ipopt.acceptable_tol": 1e-7, "ipopt.max_iter": MAX_ITER,
-                # the start is a stable schedule within the limits: a small barrier keeps it near
-                "ipopt.mu_init": 1e-6, "ipopt.bound_push": 1e-8, "ipopt.bound_frac": 1e-8}
-        self.solver = ca.nlpsol("schedule_ocp", "ipopt", {"x": self.x, "p": self.p, "f": f, "g": ca.vertcat(*rows)},
-                                opts)
+        self.x = xs.vector()
+        self.lbg, self.ubg = rows.bounds()
+        self.lbx, self.ubx = xs.bounds()
+        self.offsets: List[int] = [xs[f"theta_{k}"].start for k in range(N)]
+        # the start is a stable schedule within the limits: a small barrier keeps it near
+        opts = ipopt_options(tol=1e-9, acceptable_tol=1e-7, max_iter=MAX_ITER, mu_init=1e-6, bound_push=1e-8,
+                             bound_frac=1e-8)
+        self.solver = ca.nlpsol("schedule_ocp", "ipopt", {"x": self.x, "p": self.p, "f": f, "g": rows.vector()}, opts)
         self.status = "not_solved"
 
     def solve(self, start: Dict[str, object]) -> Optional[Dict[str, np.ndarray]]:
