@@ -2,7 +2,9 @@
 
 Pydantic reports a failure as a location tuple and an error kind; :func:`translate` turns the first
 one into a :class:`ConfigError` naming the field by its dotted path, with the ``type:`` tags of
-tagged unions removed from the path (``scene.field.magnitude``, not ``scene.field.uniform.magnitude``).
+tagged unions removed from the path (``scene.field.magnitude``, not ``scene.field.uniform.magnitude``),
+and the members of plain unions and validator wrappers too. It translates the configuration's errors
+and those of a ``study:`` section validated on its own (:mod:`actuator_design.config.studies`).
 """
 from __future__ import annotations
 
@@ -50,7 +52,17 @@ def dotted(loc) -> str:
     return out or "config"
 
 
+#: What pydantic puts in an error's location besides field names: validator wrappers, and the member
+#: types of plain unions (``list[any]``, ``RangeSpec``, ``str``): dropped from the path.
+_WRAPPERS = {"function-after", "function-before", "RangeSpec", "str", "int", "float", "dict[str,any]"}
+
+
+def _is_wrapper(part) -> bool:
+    return isinstance(part, str) and (part in _WRAPPERS or ("[" in part and part.endswith("]")))
+
+
 def _strip_tags(loc) -> list:
+    loc = [part for part in loc if not _is_wrapper(part)]
     out = []
     for i, part in enumerate(loc):
         owner = next((p for p in reversed(loc[:i]) if isinstance(p, str)), None)  # a list's item: the list
@@ -60,10 +72,12 @@ def _strip_tags(loc) -> list:
     return out
 
 
-def translate(err: ValidationError) -> ConfigError:
-    """The first error of ``err`` as a :class:`ConfigError` naming the field by its dotted path."""
+def translate(err: ValidationError, prefix: Optional[str] = None) -> ConfigError:
+    """The first error of ``err`` as a :class:`ConfigError` naming the field by its dotted path
+    (after ``prefix``, e.g. ``"study"``, for a section validated on its own)."""
     e = err.errors()[0]
     loc, kind, ctx, value = _strip_tags(e["loc"]), e["type"], e.get("ctx") or {}, e.get("input")
+    loc = ([prefix] if prefix else []) + loc
     if kind == "config":
         loc += [ctx["field"]] if ctx.get("field") else []
         detail = ctx["detail"]
@@ -80,6 +94,8 @@ def translate(err: ValidationError) -> ConfigError:
         detail = "required (missing)"
     elif kind == "extra_forbidden":
         detail = "unknown key"
+    elif kind == "literal_error":
+        detail = f"must be one of {ctx.get('expected')}, got {short_repr(value, 80)}"
     elif kind in ("model_attributes_type", "model_type", "dict_type"):
         detail = f"expected a mapping of keys to values, got {short_repr(value, 80)}"
     else:
