@@ -25,6 +25,8 @@ from typing import Dict, Optional, Sequence
 import casadi as ca
 import numpy as np
 
+from actuator_design.inverse.layout import Blocks, ipopt_options
+
 __all__ = ["CurrentOCP", "ENERGY_TIME_WEIGHT", "MAX_ITER"]
 
 #: Weight of the duration in the ``"energy"`` objective (the time of current-free steps is otherwise free).
@@ -62,29 +64,25 @@ class CurrentOCP:
         U = ca.SX.sym("u", nu, N)
         T = ca.SX.sym("T", len(self.legs))
         dt = ca.vertcat(*[T[j] / int(n) for j, n in enumerate(self.legs) for _ in range(int(n))])
-        rows, lo, hi = [], [], []
+        rows = Blocks()
         for k in range(N - 1):
             du = U[:, k + 1] - U[:, k]
-            rows.append(ca.vertcat(du - ca.DM(rates) * dt[k], -du - ca.DM(rates) * dt[k]))
-            lo.append(np.full(2 * nu, -np.inf)), hi.append(np.zeros(2 * nu))
+            rows.add(f"slew_{k}", ca.vertcat(du - ca.DM(rates) * dt[k], -du - ca.DM(rates) * dt[k]), -np.inf, 0.0)
         if power is not None and np.isfinite(max_power):
             for k in range(N):
-                rows.append(ca.dot(ca.DM(power), U[:, k] ** 2))
-                lo.append(np.array([-np.inf])), hi.append(np.array([max_power]))
+                rows.add(f"power_{k}", ca.dot(ca.DM(power), U[:, k] ** 2), -np.inf, max_power)
         c = ca.DM(np.asarray(effort, float))
         energy = sum(dt[k] * ca.dot(c, U[:, k] ** 2 + U[:, k] * U[:, k + 1] + U[:, k + 1] ** 2) / 3 for k in range(N - 1))
         self.p = ca.SX.sym("p", 4)  # w_T, w_E, T_cap, E_cap
-        rows.append(ca.vertcat(ca.sum1(T) - self.p[2], energy - self.p[3]))
-        lo.append(np.full(2, -np.inf)), hi.append(np.zeros(2))
+        rows.add("caps", ca.vertcat(ca.sum1(T) - self.p[2], energy - self.p[3]), -np.inf, 0.0)
         self.x = ca.vertcat(ca.vec(U), T)
         self._energy = ca.Function("energy", [self.x], [energy])
-        self.lbg, self.ubg = np.concatenate(lo), np.concatenate(hi)
+        self.lbg, self.ubg = rows.bounds()
         self.bound = np.asarray(bound, float)
-        opts = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
-                "ipopt.acceptable_tol": 1e-8, "ipopt.acceptable_constr_viol_tol": 1e-9, "ipopt.max_iter": MAX_ITER}
+        opts = ipopt_options(tol=1e-10, acceptable_tol=1e-8, acceptable_constr_viol_tol=1e-9, max_iter=MAX_ITER)
         self.solver = ca.nlpsol("current_ocp", "ipopt",
                                 {"x": self.x, "p": self.p, "f": self.p[0] * ca.sum1(T) + self.p[1] * energy,
-                                 "g": ca.vertcat(*rows)}, opts)
+                                 "g": rows.vector()}, opts)
         self.status = "not_solved"
 
     def solve(self, u0: np.ndarray, dt0: np.ndarray, pinned: np.ndarray) -> Optional[Dict[str, np.ndarray]]:
