@@ -53,3 +53,22 @@ def test_a_design_bound_in_degrees_is_refused_with_its_own_range(capsys):
     assert main(["design", "--target-tip", "0.3,0.5", "--alpha-max-deg", "1e9"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "alpha_max must lie in (0, 90] deg, got 1e+09 deg" in err[0], err
+
+
+def test_each_built_in_designed_profile_has_a_bound_setting_with_its_term_s_default():
+    """The profile bounds are settings the terms declare (issue 18: the settings name no term): one
+    ``<name>_max`` per built-in designed profile, after ``p_max``, defaulting to the term's own
+    largest bound; keywords only, so no positional call shifts a value into another setting."""
+    import dataclasses
+
+    from actuator_design.physics.parameters import designed_profiles
+    from actuator_design.physics.registry import is_builtin, term_class
+
+    names = [f.name for f in dataclasses.fields(DesignSettings)]
+    built_in = {n: p for n, p in designed_profiles().items() if is_builtin(term_class(p.term))}
+    assert {"alpha", "magnetization"} <= set(built_in)
+    assert names[:2 + len(built_in)] == ["h_max", "p_max", *[f"{n}_max" for n in built_in]]
+    for n, p in built_in.items():
+        assert getattr(DesignSettings(), f"{n}_max") == p.design_bound
+    with pytest.raises(TypeError):
+        DesignSettings(10.0, 20.0)

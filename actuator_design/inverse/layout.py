@@ -57,15 +57,6 @@ class Blocks:
         self.size += n
         return self._slices[name]
 
-    def extended(self, name: str, expr, lo=-np.inf, hi=np.inf) -> "Blocks":
-        """A copy with block ``name`` appended (a variant of an NLP with more unknowns or rows)."""
-        out = Blocks()
-        for key, sl in self._slices.items():
-            out._slices[key], out._bounds[key] = sl, self._bounds[key]
-        out._exprs, out.size = list(self._exprs), self.size
-        out.add(name, expr, lo, hi)
-        return out
-
     def __getitem__(self, name: str) -> slice:
         return self._slices[name]
 

@@ -165,7 +165,6 @@ class DesignNLP:
         state = state_rows(sv, zr, P, self.obstacles, self.gap)
         H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
         self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dslices, sv.parameter_vector(scene))
-        self.n_clear = int(clear.numel())
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
@@ -192,7 +191,6 @@ class DesignNLP:
 
         # profile bound rows: α at the quadrature points, then β (in the order of self.profiles)
         self.n_profile_rows = self.vandermonde.shape[0] if self.profiles else 0
-        self.n_alpha_rows = self.n_profile_rows * len(self.profiles)
         self._parts = dict(x=ca.vertcat(zr, d), theta=zr, d=d,
                            p=ca.vertcat(P0, target, weights, w_tip, w_eff, margin, d_prev, w_rate), f=f,
                            eq=state.eq, tip=tip - target,

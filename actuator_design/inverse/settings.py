@@ -19,6 +19,7 @@ from actuator_design.equilibrium.result import EquilibriumResult
 from actuator_design.inverse.nlp import DesignNLP, DesignPoint, profile_bound
 from actuator_design.model.scene import Scene
 from actuator_design.physics.parameters import applied_field, designed_profiles, remanent_group
+from actuator_design.physics.registry import is_builtin, term_class
 from actuator_design.robust.tolerances import Tolerances
 
 __all__ = ["DesignSettings", "check_h_max", "DesignResult", "DesignProblem", "Candidate", "ScreenedStart", "Optimised",
@@ -32,16 +33,24 @@ def _largest(p) -> float:
 
 
 def _with_profile_bounds(cls):
-    """Add to ``cls`` one setting ``<name>_max`` (rad) per profile a design can vary, in the order of
-    the lens, defaulting to the profile's own largest bound (its term's ``design_bound``): the terms
-    declare their designed profiles, so the settings name none of them."""
-    for name, p in designed_profiles().items():
-        cls.__annotations__[profile_bound(name)] = float
-        setattr(cls, profile_bound(name), _largest(p))
+    """Add to ``cls`` one setting ``<name>_max`` (rad) per profile a built-in term lets a design vary,
+    after ``p_max``, in the order of the lens, defaulting to the profile's own largest bound (its
+    term's ``design_bound``): the terms declare their designed profiles, so the settings name none
+    of them. A plug-in term's profile has no setting (whenever it is registered): its bound is its
+    largest (:meth:`DesignSettings.profile_max`)."""
+    bounds = {profile_bound(name): p for name, p in designed_profiles().items() if is_builtin(term_class(p.term))}
+    clash = set(bounds) & set(cls.__annotations__)
+    if clash:
+        raise TypeError(f"DesignSettings: a designed profile's bound {sorted(clash)} is already a setting")
+    fields = list(cls.__annotations__.items())
+    at = [name for name, _ in fields].index("p_max") + 1
+    cls.__annotations__ = dict(fields[:at] + [(key, float) for key in bounds] + fields[at:])
+    for key, p in bounds.items():
+        setattr(cls, key, _largest(p))
     return cls
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)  # keywords only: the profile bounds' fields come from the terms
 @_with_profile_bounds
 class DesignSettings:
     """Bounds and tolerances of a design (dimensionless, THEORY §5).

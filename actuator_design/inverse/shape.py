@@ -91,7 +91,6 @@ class ShapeDesignNLP:
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
         self.base, self.n, self.k = base, n, len(s_points)
-        self.n_alpha_rows = base.n_alpha_rows  # the profile rows: α, then β (as in DesignNLP)
         self._theta, self._d = zr, d
         self._p = ca.vertcat(P0, tx, ty, w_eff, margin)
         self._f = f

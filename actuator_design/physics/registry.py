@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 __all__ = ["declaring", "present_parts", "register_term", "unregister_term", "registered_terms", "term_class", "config_models",
            "registry_version", "unsupported_terms", "refuse_unsupported", "parse_term_config",
            "TermConfigError", "plugin_names", "present_terms", "write_keeps_terms", "build_terms",
-           "scene_wavenumber", "end_force", "end_moment", "signed_end_moment", "dense_hessian"]
+           "scene_wavenumber", "end_force", "end_moment", "signed_end_moment", "dense_hessian", "is_builtin"]
 
 def registered_terms() -> List[type]:
     """Every registered term class: the built-in terms, then the shipped extra terms (by module
@@ -54,6 +54,12 @@ def _rank(cls: type):
     if module.startswith(f"{__package__}.extra_terms."):
         return (1, 0, module)
     return (2, 0, "")
+
+
+def is_builtin(cls: type) -> bool:
+    """Whether ``cls`` is one of the built-in terms (registered whenever the registry is read, so
+    what is derived from them does not depend on which module was imported first)."""
+    return _rank(cls)[0] == 0
 
 
 def term_class(name: str) -> type:

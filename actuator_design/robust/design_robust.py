@@ -174,7 +174,6 @@ class ScenarioDesignNLP:
         for k in range(K):
             effort = design_effort(pose_values(k), effort)
         effort = design_effort(shared, effort)  # the shared profiles once
-        self.n_alpha_rows = base.vandermonde.shape[0] * len(self.profiles) if self.profiles else 0
         xs = Blocks()
         xs.add("states", ca.vertcat(*zs))  # θ of pose k, scenario c at block k (C + 1) + c
         xs.add("d", d)  # bounded by the request (solve)
@@ -185,7 +184,6 @@ class ScenarioDesignNLP:
         # when several corners are active, which slows IPOPT down near the solution)
         f = (ca.sum1(t) + 0.1 * sum(sq) / C if C else 0) + w_eff * effort
         self._problem = {"x": x, "p": p, "f": f}
-        self.n_clear = int(sum(c.numel() for c in clear))
         self._x = xs
         self._rows = dict(eq=ca.vertcat(*eq), pivots=ca.vertcat(*piv), nominal=ca.vertcat(*nom),
                           corners=ca.vertcat(*err), profiles=profile_rows(base.vandermonde, shared, self.profiles),
