@@ -384,3 +384,17 @@ def test_the_portable_watchdog_alone_ends_an_orphan(tmp_path):
     finally:
         if parent.poll() is None:
             parent.kill()
+
+
+@pytest.mark.parametrize("section,field", [
+    ({"type": "sweep", "sweep": {"str": {"from": 0, "to": 1, "n": 0}}}, "study.sweep.str.n"),
+    ({"type": "sweep", "sweep": {"RangeSpec": {"from": 0, "to": 1, "n": 0}}}, "study.sweep.RangeSpec.n"),
+    ({"type": "sweep", "sweep": {"h": {"from": 0, "to": 1, "n": 0}}}, "study.sweep.h.n"),
+    ({"type": "sweep", "sweep": {"h": [1]}, "chunk_size": "x"}, "study.chunk_size"),
+])
+def test_an_error_names_a_key_spelled_like_a_type_and_drops_the_types_pydantic_adds(section, field):
+    """Pydantic puts the member type of a union in an error's location (``RangeSpec``, ``str``): it is
+    dropped, but a swept key spelled like one is the user's and stays in the path."""
+    with pytest.raises(ConfigError) as err:
+        validate_spec(SweepSpec, section)
+    assert err.value.field == field

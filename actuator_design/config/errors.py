@@ -54,15 +54,23 @@ def dotted(loc) -> str:
 
 #: What pydantic puts in an error's location besides field names: validator wrappers, and the member
 #: types of plain unions (``list[any]``, ``RangeSpec``, ``str``): dropped from the path.
-_WRAPPERS = {"function-after", "function-before", "RangeSpec", "str", "int", "float", "dict[str,any]"}
+_MEMBERS = {"RangeSpec", "str", "int", "float", "dict[str,any]"}
 
 
-def _is_wrapper(part) -> bool:
-    return isinstance(part, str) and (part in _WRAPPERS or ("[" in part and part.endswith("]")))
+def _is_member(part) -> bool:
+    return isinstance(part, str) and (part in _MEMBERS or ("[" in part and part.endswith("]")))
+
+
+def _is_validator(part) -> bool:
+    return isinstance(part, str) and part.startswith(("function-after", "function-before"))
 
 
 def _strip_tags(loc) -> list:
-    loc = [part for part in loc if not _is_wrapper(part)]
+    # a union member's name follows the field it types; a key spelled like one (a sweep key ``str``)
+    # is followed by the member name of its own value, so it stays
+    loc = [part for part in loc if not _is_validator(part)]
+    loc = [part for i, part in enumerate(loc)
+           if not (_is_member(part) and (i + 1 == len(loc) or not _is_member(loc[i + 1])))]
     out = []
     for i, part in enumerate(loc):
         owner = next((p for p in reversed(loc[:i]) if isinstance(p, str)), None)  # a list's item: the list
