@@ -38,7 +38,7 @@ def _with_profile_bounds(cls):
     term's ``design_bound``): the terms declare their designed profiles, so the settings name none
     of them. A plug-in term's profile has no setting (whenever it is registered): its bound is its
     largest (:meth:`DesignSettings.profile_max`)."""
-    bounds = {profile_bound(name): p for name, p in designed_profiles().items() if is_builtin(term_class(p.term))}
+    bounds = {profile_bound(name): p for name, p in designed_profiles().items() if p.term is not None and is_builtin(term_class(p.term))}
     clash = set(bounds) & set(cls.__annotations__)
     if clash:
         raise TypeError(f"DesignSettings: a designed profile's bound {sorted(clash)} is already a setting")
