@@ -48,10 +48,10 @@ class EquilibriaStudy(StudyBase):
 
 
 # -- path, phase, stiffness ------------------------------------------------------------------------
-class PathStudy(BaseModel):
-    """``study: {type: path, ...}`` — the flags of ``actuator-design path``."""
+class PathStudy(StudyBase):
+    """``study: {type: path, ...}`` — the flags of ``actuator-design path`` (and the scene values of
+    :class:`StudyBase`)."""
 
-    model_config = ConfigDict(extra="forbid", populate_by_name=True)
     type: Literal["path"] = "path"
     param: Optional[str] = None
     schedule: Optional[Union[List[Union[float, str]], List[Dict[str, Union[float, str]]]]] = None  # numbers or quantities
@@ -60,23 +60,15 @@ class PathStudy(BaseModel):
     back: StrictBool = False
     steps: Optional[int] = Field(None, ge=1, le=100000)
     max_step: Optional[float] = Field(None, gt=0, le=1)
-    h: Optional[float] = Field(None, ge=0)
-    phi_deg: Optional[float] = None
-    p: Optional[float] = None
-    alpha_deg: Optional[float] = None
 
 
-class PhaseStudy(BaseModel):
-    """``study: {type: phase, ...}`` — the flags of ``actuator-design phase``."""
+class PhaseStudy(StudyBase):
+    """``study: {type: phase, ...}`` — the flags of ``actuator-design phase`` (and the scene values
+    of :class:`StudyBase`)."""
 
-    model_config = ConfigDict(extra="forbid")
     type: Literal["phase"] = "phase"
     theta_range: Optional[List[float]] = Field(None, min_length=2, max_length=2)
     dtheta_range: Optional[List[float]] = Field(None, min_length=2, max_length=2)
-    h: Optional[float] = Field(None, ge=0)
-    phi_deg: Optional[float] = None
-    p: Optional[float] = None
-    alpha_deg: Optional[float] = None
 
 
 class StiffnessStudy(BaseModel):
