@@ -13,14 +13,14 @@ re-counting offsets. Each equilibrium state an NLP carries contributes the same 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Dict, Mapping, Sequence, Tuple
+from typing import Dict, Mapping, NamedTuple, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
 
 from actuator_design.contact.clearance import clearance_rows
 
-__all__ = ["Blocks", "StateRows", "state_rows", "profile_rows", "ipopt_options", "outcome"]
+__all__ = ["Blocks", "Variant", "StateRows", "state_rows", "profile_rows", "ipopt_options", "outcome"]
 
 Bound = Tuple[object, object]
 
@@ -77,6 +77,18 @@ class Blocks:
         for name, sl in self._slices.items():
             lo[sl], hi[sl] = given.get(name, self._bounds[name])
         return lo, hi
+
+
+class Variant(NamedTuple):
+    """One built variant of a design NLP (e.g. with or without the stability certificate): the
+    solver, its unknowns and rows, and the certificate with the function that starts its lifted
+    entries (``certificate.start(schur, ...)``), when it has one."""
+
+    solver: object
+    x: Blocks
+    rows: Blocks
+    certificate: Optional[object] = None
+    schur: Optional[ca.Function] = None
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
                                                 design_params, scalar_bounds)
 from actuator_design.inverse.gauge import has_fibre_gauge
-from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
+from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, check_certificate_size
 from actuator_design.model.profiles import legendre_profile
 from actuator_design.model.scene import Scene
@@ -201,7 +201,7 @@ class DesignNLP:
             self._parts.update(w_sens=w_sens, sens=sens_rows, stiff=compliance * stiffness_target - 1.0,
                                k_target=stiffness_target)
             self.f_sensitivity = ca.Function("sensitivity", [zr, d, P0], [H, dg_dfy, ca.gradient(tip[1], zr)])
-        self._nlp, self._certificates, self._layouts = {}, {}, {}
+        self._variants: Dict[tuple, Variant] = {}
         self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
         self.build_time = time.perf_counter() - t0
 
@@ -210,10 +210,13 @@ class DesignNLP:
         the stiffness constraint when ``stiffness``; each variant is built on first use. Without the
         certificate, stability is checked at the solution (see :meth:`solve`). ``certified`` raises
         :class:`~actuator_design.inverse.ldl.CertificateTooLarge` for a dense Hessian too big to certify."""
+        return self._variant(certified, stiffness).solver
+
+    def _variant(self, certified: bool, stiffness: bool) -> Variant:
         key = (certified, stiffness)
-        if key not in self._nlp:
+        if key not in self._variants:
             q = self._parts
-            xs, rows, p = Blocks(), Blocks(), q["p"]
+            xs, rows, p, cert, schur = Blocks(), Blocks(), q["p"], None, None
             xs.add("theta", q["theta"])
             xs.add("d", q["d"])
             rows.add("eq", q["eq"], 0.0, 0.0)
@@ -227,7 +230,7 @@ class DesignNLP:
             if certified:  # the pivots, and the Schur entries lifted at the element joints
                 check_certificate_size(self.solver, self.n)
                 cert = Certificate([certificate_matrix(q["H"], q["m"], q["margin"])])
-                self._certificates[key] = (cert, ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur]))
+                schur = ca.Function("schur", [q["x"], q["p"], cert.v], [cert.schur])
                 xs.add("lifted", cert.v)
                 rows.add("pivots", cert.pivots, 0.0, np.inf)
                 rows.add("lifted", cert.rows, 0.0, 0.0)
@@ -241,10 +244,9 @@ class DesignNLP:
             # pivot constraints from outweighing the (small) tip objective at the start.
             opts = ipopt_options(tol=1e-10, max_iter=150 if certified else 400, acceptable_tol=1e-7,
                                  mu_init=1e-6, bound_push=1e-8, bound_frac=1e-8)
-            self._layouts[key] = (xs, rows)
-            self._nlp[key] = ca.nlpsol("design", "ipopt", {"x": xs.vector(), "p": p, "f": q["f"],
-                                                           "g": rows.vector()}, opts)
-        return self._nlp[key]
+            self._variants[key] = Variant(ca.nlpsol("design", "ipopt", {"x": xs.vector(), "p": p, "f": q["f"],
+                                                                        "g": rows.vector()}, opts), xs, rows, cert, schur)
+        return self._variants[key]
 
     def state_function(self) -> ca.Function:
         """One state of this NLP, for NLPs that carry many (:mod:`actuator_design.schedules.schedule_ocp_nlp`):
@@ -408,9 +410,7 @@ class DesignNLP:
         if stiff:
             p = np.concatenate([p, [req.stiffness]])
 
-        nlp = self.nlpsol(certified, stiff)
-        xs, rows = self._layouts[(certified, stiff)]
-        cert, schur = self._certificates.get((certified, stiff), (None, None))
+        nlp, xs, rows, cert, schur = self._variant(certified, stiff)
         b = req.bounds
         lbx, ubx = xs.bounds(d=self.variable_bounds(b))
         lbg, ubg = rows.bounds(profiles=self.profile_bounds(b))

@@ -25,7 +25,7 @@ from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
 from actuator_design.inverse.design_map import (certificate_matrix, design_effort, design_params,
                                                 driven_values, profile_report)
-from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
+from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, certified_hessian, check_certificate_size
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
@@ -96,22 +96,25 @@ class ShapeDesignNLP:
         self._f = f
         self._eq, self._profiles = state.eq, profile_rows(base.vandermonde, base.values(d), base.profiles)
         self._certificate = (m, state.hessian, margin)  # (built with the certified NLP)
-        self._nlps: Dict[bool, object] = {}
-        self._layouts: Dict[bool, tuple] = {}
+        self._variants: Dict[bool, Variant] = {}
         self.f_points = ca.Function("shape_points", [zr, P0], [xs, ys])
 
     def nlpsol(self, certified: bool):
+        """The shape NLP without or with the stability certificate (built on first use)."""
+        return self._variant(certified).solver
+
+    def _variant(self, certified: bool) -> Variant:
         if certified:
             check_certificate_size(self.base.solver, self.n, exact_hessian=False)
-        if certified not in self._nlps:
-            xs, rows, schur = Blocks(), Blocks(), None
+        if certified not in self._variants:
+            xs, rows, cert, schur = Blocks(), Blocks(), None, None
             xs.add("theta", self._theta)
             xs.add("d", self._d)
             rows.add("eq", self._eq, 0.0, 0.0)
             if certified:  # the pivots, and the Schur entries lifted at the element joints
                 m, H, margin = self._certificate
                 cert = Certificate([certificate_matrix(H, m, margin)])
-                schur = (cert, ca.Function("schur", [xs.vector(), self._p, cert.v], [cert.schur]))
+                schur = ca.Function("schur", [xs.vector(), self._p, cert.v], [cert.schur])
                 xs.add("lifted", cert.v)
                 rows.add("pivots", cert.pivots, 0.0, np.inf)
                 rows.add("lifted", cert.rows, 0.0, 0.0)
@@ -120,10 +123,10 @@ class ShapeDesignNLP:
             # IPOPT's stopping test resolves the fit, not just the equilibrium
             opts = ipopt_options(tol=1e-12, acceptable_tol=1e-9, max_iter=400, obj_scaling_factor=1e4,
                                  **(certified_hessian(self.base.solver, self.n) if certified else {}))
-            self._layouts[certified] = (xs, rows, schur)
-            self._nlps[certified] = ca.nlpsol("shape_design", "ipopt", {"x": xs.vector(), "p": self._p,
-                                                                        "f": self._f, "g": rows.vector()}, opts)
-        return self._nlps[certified]
+            nlp = ca.nlpsol("shape_design", "ipopt", {"x": xs.vector(), "p": self._p, "f": self._f,
+                                                      "g": rows.vector()}, opts)
+            self._variants[certified] = Variant(nlp, xs, rows, cert, schur)
+        return self._variants[certified]
 
     def solve(self, base_scene: Scene, points: np.ndarray, d0, z0, *, margin, bounds, certified=False):
         b, n = self.base, self.n
@@ -135,13 +138,12 @@ class ShapeDesignNLP:
                 check_certificate_size(sv, n, exact_hessian=False)
             except CertificateTooLarge as err:
                 return np.asarray(d0, float), np.asarray(z0, float), False, str(err)
-        nlp = self.nlpsol(certified)
-        xs, rows, schur = self._layouts[certified]
+        nlp, xs, rows, cert, schur = self._variant(certified)
         lbx, ubx = xs.bounds(d=b.variable_bounds(bounds))
         lbg, ubg = rows.bounds(profiles=b.profile_bounds(bounds))
         x0 = np.concatenate([np.asarray(z0, float)[1:], d0])
-        if schur is not None and schur[0].m:
-            x0 = np.concatenate([x0, schur[0].start(schur[1], x0, p)])
+        if cert is not None and cert.m:
+            x0 = np.concatenate([x0, cert.start(schur, x0, p)])
         sol = nlp(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         ok, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()

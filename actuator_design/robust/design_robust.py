@@ -39,7 +39,7 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
-from actuator_design.inverse.layout import Blocks, ipopt_options, outcome, profile_rows, state_rows
+from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, CertificateTooLarge, _bandwidth, _ldl_pivots,
                                          check_certificate_size)
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
@@ -188,8 +188,7 @@ class ScenarioDesignNLP:
         self._rows = dict(eq=ca.vertcat(*eq), pivots=ca.vertcat(*piv), nominal=ca.vertcat(*nom),
                           corners=ca.vertcat(*err), profiles=profile_rows(base.vandermonde, shared, self.profiles),
                           clear=ca.vertcat(*clear))
-        self._nlps: Dict[bool, object] = {}
-        self._layouts: Dict[bool, Blocks] = {}
+        self._variants: Dict[bool, Variant] = {}
         self.f_tips = ca.Function("scenario_tips", [x, p], [ca.horzcat(*tips)])
         self.build_time = time.perf_counter() - t0
 
@@ -234,9 +233,12 @@ class ScenarioDesignNLP:
 
     def nlpsol(self, certified: bool):
         """Without the stability rows: exact Hessian; with them: quasi-Newton (built on first use)."""
+        return self._variant(certified).solver
+
+    def _variant(self, certified: bool) -> Variant:
         if certified:
             check_certificate_size(self.base.solver, self.n, self.K * (self.C + 1), exact_hessian=False)
-        if certified not in self._nlps:
+        if certified not in self._variants:
             q, rows = self._rows, Blocks()
             rows.add("eq", q["eq"], 0.0, 0.0)
             if certified:
@@ -247,9 +249,9 @@ class ScenarioDesignNLP:
             rows.add("clear", q["clear"], 0.0, np.inf)
             opts = ipopt_options(tol=1e-10, acceptable_tol=1e-7, max_iter=500, mu_init=1e-4, bound_push=1e-8,
                                  bound_frac=1e-8, **({"hessian_approximation": "limited-memory"} if certified else {}))
-            self._layouts[certified] = rows
-            self._nlps[certified] = ca.nlpsol("scenario_design", "ipopt", {**self._problem, "g": rows.vector()}, opts)
-        return self._nlps[certified]
+            nlp = ca.nlpsol("scenario_design", "ipopt", {**self._problem, "g": rows.vector()}, opts)
+            self._variants[certified] = Variant(nlp, self._x, rows)
+        return self._variants[certified]
 
     def solve(self, base_scene: Scene, tol: Tolerances, scale: float, targets: Sequence[Sequence[float]],
               d0: np.ndarray, z0: Sequence[Sequence[np.ndarray]], *, margin: float,
@@ -289,7 +291,7 @@ class ScenarioDesignNLP:
                 return ScenarioPoint(d=np.asarray(d0, float), z=[list(zk) for zk in z0], worst_error=[math.inf] * K,
                                      converged=False, status=str(err), scale=scale)
         nlp = self.nlpsol(certified)
-        lbg, ubg = self._layouts[certified].bounds(nominal=nominal, profiles=self._profile_bounds(bounds))
+        lbg, ubg = self._variant(certified).rows.bounds(nominal=nominal, profiles=self._profile_bounds(bounds))
         sol = nlp(x0=np.concatenate(zs + [d0, t0]), p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         converged, status = outcome(nlp)
         x = np.asarray(sol["x"], float).ravel()
