@@ -22,9 +22,10 @@ import numpy as np
 
 from actuator_design.continuation.events import BranchPoint, BranchState, EventPoint, Fold, UserEvent
 from actuator_design.continuation.problem import BifurcationProblem
+from actuator_design.continuation.secant import Secant, run_secant
 from actuator_design.continuation.settings import ContinuationSettings
 
-__all__ = ["Natural", "PALC", "ContinuationBranch", "continuation", "locate_event"]
+__all__ = ["Natural", "PALC", "Secant", "ContinuationBranch", "continuation", "locate_event"]
 
 #: a step on which the Morse index changes by two or more, or whose event is only bracketed, is
 #: halved while longer than this many smallest steps (then it is taken: two eigenvalues that cross
@@ -149,7 +150,7 @@ def locate_event(problem, algorithm, settings, x, t, s, kind, name, idx_before, 
             if polished is not None:
                 xs = polished
     except (RuntimeError, ValueError):
-        xs, ok, located = x + 0.5 * s * t, True, False
+        xs, located = x + 0.5 * s * t, False
     tc, _ = problem.tangent(xs, t)
     xe = point(s)[0] if s in cache else x + s * t
     return EventPoint(kind, name, xs, tc, int(idx_before), int(idx_after), located,
@@ -172,28 +173,39 @@ def _to_edge(problem, settings, x, xn, edge):
 def continuation(problem: BifurcationProblem, algorithm=PALC(),
                  settings: ContinuationSettings = ContinuationSettings(),
                  events: Sequence = (), *, x0: Optional[np.ndarray] = None,
-                 tangent: Optional[np.ndarray] = None) -> ContinuationBranch:
+                 tangent: Optional[np.ndarray] = None, start=None, solves: int = 0):
     """Continue the branch of ``problem`` from its start until λ leaves ``settings.window`` (the
     end point is placed on the window's edge), the branch closes, ``settings.max_steps`` points are
     reached or the step underflows.
 
     Parameters
     ----------
-    problem : BifurcationProblem or FoldCurveProblem
+    problem : BifurcationProblem or FoldCurveProblem, or a StatePath for Secant
         Anything with their interface (corrector, tangent, stability, ``accept`` and ``inside``
         hooks, ``evaluations``).
-    algorithm : PALC or Natural
+    algorithm : PALC, Natural or Secant
+        :class:`~.secant.Secant` continues the full state of a :class:`~.secant.StatePath` with its
+        own loop (:func:`~.secant.run_secant`), as BifurcationKit's deflated continuation does.
     settings : ContinuationSettings
-    events : sequence of Fold, BranchPoint, UserEvent
+    events : sequence of Fold, BranchPoint, UserEvent (Secant: Fold(stop=True) or Snap, StabilityLoss)
     x0 : ndarray (n + 1,), optional
-        Converged start (u, λ); default ``problem.u0, problem.lam0`` corrected at fixed λ.
+        Converged start (u, λ); default ``problem.u0, problem.lam0`` corrected at fixed λ. Secant:
+        the converged start state (n_nodes,) at λ = ``settings.window[0]``, required.
     tangent : ndarray (n + 1,), optional
         Start tangent (branch switching); default the tangent along ``settings.direction``.
+    start, solves
+        Secant only: the start's solve and the solves already spent (:func:`~.secant.run_secant`).
 
     Returns
     -------
-    ContinuationBranch
+    ContinuationBranch, or SecantRun for Secant
     """
+    if isinstance(algorithm, Secant):
+        if x0 is None:
+            raise ValueError("continuation: Secant needs the converged start state x0")
+        return run_secant(problem, algorithm, settings, events, z0=x0, start=start, solves=solves)
+    if any(getattr(e, "kind", None) in ("snap", "stability_loss") for e in events):
+        raise ValueError("continuation: Snap and StabilityLoss events are for the Secant algorithm")
     tstart = time.perf_counter()
     st = settings
     lo, hi = st.window

@@ -3,6 +3,8 @@
 * :class:`Fold` — a limit point: the λ-component of the tangent changes sign;
 * :class:`BranchPoint` — an inertia change that is not a fold: the sign of det [G_x; tᵀW] changes
   (with a continuously oriented tangent it changes at a simple branch point, not at a fold);
+* :class:`Snap`, :class:`StabilityLoss` — what a :class:`~.secant.Secant` run does at a fold (snap
+  through it) and at a state that lost stability (refuse it, or leave along its unstable mode);
 * :class:`UserEvent` — a sign change of a scalar function of the point on the branch
   (:class:`BranchState`), e.g. "the tip crosses the wall x = c".
 
@@ -18,7 +20,7 @@ from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["Fold", "BranchPoint", "UserEvent", "EventPoint", "BranchState"]
+__all__ = ["Fold", "BranchPoint", "Snap", "StabilityLoss", "UserEvent", "EventPoint", "BranchState"]
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,34 @@ class BranchPoint:
 
     kind: str = "branch_point"
     stop: bool = False
+
+
+@dataclass(frozen=True)
+class Snap:
+    """For :class:`~.secant.Secant` runs: at a fold of the path the state is released — the path's
+    ``snap`` minimises the energy from the last state at ``past`` smallest steps beyond the fold, as
+    the physical rod snaps — and the run goes on from there with the step ``after_step``."""
+
+    past: float = 2.0
+    after_step: float = 1e-3
+    kind: str = "snap"
+
+
+@dataclass(frozen=True)
+class StabilityLoss:
+    """For :class:`~.secant.Secant` runs: a state that lost stability.
+
+    ``leave=False``: refused like a failed step (the loss is located to the smallest step, like a
+    fold; a refusal reports ``reason``). ``leave=True``: located to ``locate`` λ, accepted, and left
+    along its unstable mode by the path's ``leave`` (a branch point crossed); the run goes on with
+    a step of at most ``after_step``.
+    """
+
+    leave: bool = False
+    locate: float = 0.02
+    after_step: float = 0.05
+    reason: str = "fold or stability loss"
+    kind: str = "stability_loss"
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,9 @@ distributed loads, …) — by λ ∈ [0, 1]; geometry (φ, fibre angles, stiffn
 λ = 0 the rod is at rest: the straight rod at the clamp angle (a term with natural curvature makes
 the rest state curved; it is solved for).
 
-Natural-parameter continuation with a secant predictor and the fast Newton of
-:mod:`actuator_design.reduced.newton`; a step is accepted when Newton converges and no node angle
+A run of the continuation engine: the natural-parameter :class:`~.secant.Secant` algorithm (a
+secant predictor and the fast Newton of :mod:`actuator_design.reduced.newton`) with the events
+:class:`~.events.Snap` and :class:`~.events.StabilityLoss` (``leave``); a step is accepted when Newton converges and no node angle
 moves more than :data:`MAX_TURN` rad, otherwise it is halved. Each accepted state's stability is
 checked (THEORY §7): past a branch point the path leaves along the unstable mode onto the stable
 branch, as an imperfect real rod would, and stays on that side of the unstable state (a Newton
@@ -36,6 +37,10 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from actuator_design.continuation.engine import continuation
+from actuator_design.continuation.events import Snap, StabilityLoss
+from actuator_design.continuation.secant import Secant, StatePath
+from actuator_design.continuation.settings import ContinuationSettings
 from actuator_design.reduced.stability import is_unstable
 
 __all__ = ["RestPath", "StationState", "path_from_rest", "MAX_TURN", "MIN_STEP"]
@@ -199,94 +204,80 @@ def path_from_rest(solver, params: np.ndarray, tol: float = None, follow_stable:
     RestPath
     """
     targets = [1.0] if stations is None else [float(lam) for lam, _ in stations]
-    exact = {} if stations is None else {float(lam): np.asarray(p, float) for lam, p in stations}
     if any(b <= a for a, b in zip(targets, targets[1:])) or targets[-1] != 1.0 or targets[0] < 0.0:
         raise ValueError("stations must be ascending load fractions in [0, 1] ending at 1")
-
-    def at(t):
-        return exact[t] if t in exact else load_fraction(solver, params, t)
-
+    ramp = _LoadRamp(solver, params, tol, stations, targets, admissible)
     z = solver.initial_guess(params)
-    mass = 1.0 / solver.kernel.inv_mass
-    newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
-    budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
     solves = 0
-    # the mesh is graded for the full load (h = 1e4: end elements ~1e-5 long), where rounding alone
-    # leaves |g|/m ~ 1e-5 at the straight rod: a state of the path is held to tol at its own load's
-    # scale, and rounding may excuse what it would at the full load's (with a Newton step ≤ 10 tol)
-    floor_scale = solver.residual_scale(params)
-    rest = solver.solve_fast(z, at(0.0), max_iter=newton_iter, tol=tol, floor_scale=floor_scale)
+    rest = solver.solve_fast(z, ramp.at(0.0), max_iter=ramp.newton_iter, tol=tol, floor_scale=ramp.floor_scale)
     solves += 1
     if not rest.converged:
-        rest = solver.solve_newton(z, at(0.0), tol=tol, floor_scale=floor_scale)
+        rest = solver.solve_newton(z, ramp.at(0.0), tol=tol, floor_scale=ramp.floor_scale)
         solves += 1
     if not rest.converged:
         return RestPath(z, False, 0.0, 0, solves)
-    z, z_prev, lam, lam_prev = rest.z, None, 0.0, None
-    at_rest = rest.z.copy()
-    dl, steps, snaps, branch_points, visits = 1.0, 0, [], [], []
-    side = None  # (unstable state, mode) of the last branch point left: its branch's side
-    k = 0  # next station
+    budget = MAX_SOLVES + (4 * len(targets) if stations is not None else 0)
+    settings = ContinuationSettings(ds=1.0, ds_min=MIN_STEP_FLOOR, ds_max=1.0, max_steps=budget,
+                                    window=(0.0, 1.0), max_du=MAX_TURN)
+    events = [Snap(past=2.0, after_step=1e-3)]
+    if follow_stable:
+        events.append(StabilityLoss(leave=True, locate=BRANCH_STEP, after_step=0.05))
+    run = continuation(ramp, Secant(growth=2.0, min_step_relative=MIN_STEP), settings, events,
+                       x0=rest.z, start=rest if stations is not None else None, solves=solves)
+    return RestPath(run.z, run.reached, run.lam, run.steps, run.solves, run.snaps, run.branch_points,
+                    ramp.visits, rest.z.copy(), run.escape)
 
-    def visit(raw, check=None, newton=True):
-        nonlocal k
-        while k < len(targets) and targets[k] == lam:
-            visits.append(StationState(raw.z.copy(), raw, tuple(snaps), tuple(branch_points),
-                                       check, newton))
-            k += 1
 
-    if stations is not None:
-        visit(rest)
-    while lam < 1.0 and solves < budget:
-        t = min(targets[k], lam + dl)
-        guess = z if z_prev is None else z + (t - lam) / (lam - lam_prev) * (z - z_prev)
-        raw = solver.solve_fast(guess, at(t), max_iter=newton_iter, tol=tol, floor_scale=floor_scale)
-        solves += 1
-        if (raw.converged and float(np.max(np.abs(raw.z - z))) <= MAX_TURN
-                and (z_prev is None or _on_branch(raw.z, guess, z))
-                and (side is None or _on_side(raw.z, side, mass))):
-            lowest = []
-            unstable = follow_stable and is_unstable(solver, raw.z, at(t), out=lowest)
-            if unstable and t - lam > BRANCH_STEP * t:
-                dl = 0.5 * (t - lam)  # locate the loss of stability first
-                continue
-            z_prev, lam_prev, z, lam = z, lam, raw.z, t
-            steps += 1
-            dl = min(2.0 * dl, 1.0)
-            if unstable:
-                # the path crossed a branch point (e.g. the pitchfork of the transverse field): the
-                # real rod leaves along the unstable mode; follow the stable branch from here
-                vec = solver.stability(z, at(lam)).eigenvector
-                v = vec * (1.0 if vec[-1] >= 0 else -1.0)
-                left = solver.descend(z + BRANCH_KICK * v, at(lam), admissible)
-                solves += 1
-                if left.converged and not _on_side(left.z, (z, v), mass):
-                    left.converged, left.status = False, "other_side"
-                    left.message += "; it ended on the other side of the unstable state"
-                if not left.converged:
-                    return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest, left)
-                branch_points.append(lam)
-                side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
-                z_prev, lam_prev, z = None, None, left.z
-                dl = min(dl, 0.05)
-                visit(left, newton=False)
-            else:
-                visit(raw, lowest[0] if lowest else None)
-            continue
-        dl *= 0.5
-        min_step = max(MIN_STEP * lam, MIN_STEP_FLOOR)
-        if dl >= min_step:
-            continue
+class _LoadRamp(StatePath):
+    """Loads and field ramped together, λ ∈ [0, 1], landing on the stations (:func:`path_from_rest`)."""
+
+    def __init__(self, solver, params, tol, stations, targets, admissible):
+        self.solver, self.params, self.tol, self.targets = solver, params, tol, targets
+        self.exact = {} if stations is None else {float(lam): np.asarray(p, float) for lam, p in stations}
+        self.escape_admissible = admissible
+        self.mass = 1.0 / solver.kernel.inv_mass
+        self.newton_iter = min(15, int(solver.options.max_iter))  # an iteration limit binds the path too
+        # the mesh is graded for the full load (h = 1e4: end elements ~1e-5 long), where rounding
+        # alone leaves |g|/m ~ 1e-5 at the straight rod: a state of the path is held to tol at its
+        # own load's scale, and rounding may excuse what it would at the full load's (with a Newton
+        # step ≤ 10 tol)
+        self.floor_scale = solver.residual_scale(params)
+        self.side = None  # (unstable state, mode) of the last branch point left: its branch's side
+        self.visits: List[StationState] = []
+
+    def at(self, lam):
+        return self.exact[lam] if lam in self.exact else load_fraction(self.solver, self.params, lam)
+
+    def correct(self, guess, z, P):
+        return self.solver.solve_fast(guess, P, max_iter=self.newton_iter, tol=self.tol,
+                                      floor_scale=self.floor_scale)
+
+    def continues(self, z_new, guess, z, secant):
+        return ((not secant or _on_branch(z_new, guess, z))
+                and (self.side is None or _on_side(z_new, self.side, self.mass)))
+
+    def stability(self, z, P):
+        lowest = []
+        unstable = is_unstable(self.solver, z, P, out=lowest)
+        return unstable, (lowest[0] if lowest else None)
+
+    def leave(self, z, P):
+        # the path crossed a branch point (e.g. the pitchfork of the transverse field): the real
+        # rod leaves along the unstable mode; follow the stable branch from here
+        vec = self.solver.stability(z, P).eigenvector
+        v = vec * (1.0 if vec[-1] >= 0 else -1.0)
+        left = self.solver.descend(z + BRANCH_KICK * v, P, self.escape_admissible)
+        if left.converged and not _on_side(left.z, (z, v), self.mass):
+            left.converged, left.status = False, "other_side"
+            left.message += "; it ended on the other side of the unstable state"
+        self.side = (z.copy(), v)  # the branch taken: stay on its side of the unstable state
+        return left
+
+    def snap(self, z, P):
         # a fold of the loading path: the rod snaps; minimise from the last state just past it
-        t = min(targets[k], lam + 2 * min_step)
-        snap = solver.descend(z, at(t), admissible)
-        solves += 1
-        if not snap.converged:
-            return RestPath(z, False, lam, steps, solves, snaps, branch_points, visits, at_rest, snap)
-        snaps.append(t)
-        side = None
-        z_prev, lam_prev, z, lam = None, None, snap.z, t
-        steps += 1
-        dl = 1e-3
-        visit(snap, newton=False)
-    return RestPath(z, lam >= 1.0, lam, steps, solves, snaps, branch_points, visits, at_rest)
+        self.side = None
+        return self.solver.descend(z, P, self.escape_admissible)
+
+    def reached(self, run, raw, record, newton):
+        self.visits.append(StationState(raw.z.copy(), raw, tuple(run.snaps), tuple(run.branch_points),
+                                        record, newton))

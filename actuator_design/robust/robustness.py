@@ -15,7 +15,9 @@ A step is accepted only when Newton converges (small residual and small step, th
 the state moved by at most ``max_dtheta`` rad at every node (else it jumped to another branch) and
 the state is stable; otherwise the step is halved. A segment fails when the step falls below
 ``min_step`` (a fraction of the segment): the fold or stability loss is then located to that
-precision. A re-solve from rest at the perturbed scene would answer a different question (where
+precision. Each segment is a run of the continuation engine's natural-parameter algorithm
+(:class:`~actuator_design.continuation.secant.Secant`, with ``Fold(stop=True)`` and a refusing
+``StabilityLoss``). A re-solve from rest at the perturbed scene would answer a different question (where
 the rod goes from straight), and can land on another branch.
 """
 from __future__ import annotations
@@ -28,6 +30,10 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from actuator_design.contact.clearance import clearance_check
+from actuator_design.continuation.engine import continuation
+from actuator_design.continuation.events import Fold, StabilityLoss
+from actuator_design.continuation.secant import Secant, StatePath
+from actuator_design.continuation.settings import ContinuationSettings
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
 from actuator_design.model.scene import Scene, UniformField
@@ -90,42 +96,45 @@ def follow_segment(solver: EquilibriumSolver, z0: np.ndarray, P_a: np.ndarray, P
     -------
     Segment
     """
-    def record(t, z, P, lam):
-        _, th1, x1, y1 = solver.summary(z, P)
-        samples.append((t, x1, y1, th1, lam))
-
-    samples: List[Tuple[float, float, float, float, float]] = []
+    path = _SegmentPath(solver, np.asarray(P_a, float), np.asarray(P_b, float), admissible)
     z = np.asarray(z0, float).copy()
-    lam0 = solver.stability(z, P_a).eigenvalues[0]
-    record(0.0, z, P_a, float(lam0))
-    t, dt = 0.0, first_step
-    z_old, t_old = None, None
-    reason = ""
-    for _ in range(max_steps):
-        if t >= 1.0:
-            return Segment(True, 1.0, z, samples)
-        if dt < min_step:
-            return Segment(False, t, z, samples, reason or "no convergence")
-        t_new = min(1.0, t + dt)
-        P = (1.0 - t_new) * P_a + t_new * P_b
-        # secant predictor from the last two accepted states
-        guess = z if z_old is None else z + (z - z_old) * ((t_new - t) / (t - t_old))
-        raw = _newton(solver, guess, z, P)
-        if raw.converged and np.all(np.isfinite(raw.z)) and np.max(np.abs(raw.z - z)) <= max_dtheta:
-            if admissible is not None and not admissible(raw.z):
-                return Segment(False, t, z, samples, "touches an obstacle")
-            verdict = solver.stability(raw.z, P)
-            if verdict.stable:
-                z_old, t_old, z, t = z, t, raw.z, t_new
-                record(t, z, P, float(verdict.eigenvalues[0]))
-                dt = min(max_step, 1.5 * dt)
-                continue
-            reason = "fold or stability loss"
-        else:
-            reason = "fold or stability loss" if samples[-1][4] < 1e-2 * max(1.0, abs(samples[0][4])) \
-                else "no convergence"
-        dt *= 0.5
-    return Segment(False, t, z, samples, "work bound reached")
+    path.record(0.0, z, P_a, float(solver.stability(z, P_a).eigenvalues[0]))
+    settings = ContinuationSettings(ds=first_step, ds_min=min_step, ds_max=max_step, max_steps=max_steps,
+                                    window=(0.0, 1.0), max_du=max_dtheta)
+    run = continuation(path, Secant(growth=1.5), settings, [Fold(stop=True), StabilityLoss()], x0=z)
+    return Segment(run.reached, run.lam, run.z, path.samples, run.reason)
+
+
+class _SegmentPath(StatePath):
+    """P(t) = (1 − t) P_a + t P_b on one stable branch (:func:`follow_segment`)."""
+
+    def __init__(self, solver, P_a, P_b, admissible):
+        self.solver, self.P_a, self.P_b, self.clear = solver, P_a, P_b, admissible
+        self.samples: List[Tuple[float, float, float, float, float]] = []
+
+    def record(self, t, z, P, lam):
+        _, th1, x1, y1 = self.solver.summary(z, P)
+        self.samples.append((t, x1, y1, th1, lam))
+
+    def at(self, t):
+        return (1.0 - t) * self.P_a + t * self.P_b
+
+    def correct(self, guess, z, P):
+        return _newton(self.solver, guess, z, P)
+
+    def admissible(self, z):
+        return self.clear is None or self.clear(z)
+
+    def stability(self, z, P):
+        verdict = self.solver.stability(z, P)
+        return not verdict.stable, verdict
+
+    def failure_reason(self, run):
+        first, last = self.samples[0][4], self.samples[-1][4]
+        return "fold or stability loss" if last < 1e-2 * max(1.0, abs(first)) else "no convergence"
+
+    def accepted(self, run, P, verdict):
+        self.record(run.lam, run.z, P, float(verdict.eigenvalues[0]))
 
 
 #: how :meth:`FoldDistance.sentence` names a search axis
