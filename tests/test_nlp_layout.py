@@ -54,3 +54,31 @@ def test_a_state_s_rows_are_the_forward_solver_s_at_an_equilibrium():
     m = rows.mass
     lam = np.linalg.eigvalsh(H / np.sqrt(np.outer(m, m)))[0]
     assert lam == pytest.approx(sv.stability(res.z, P).eigenvalues[0], rel=1e-8)
+
+
+def test_one_design_vector_map_lays_out_one_pose_and_several_poses():
+    from actuator_design.inverse.design_map import DesignVector
+    single = DesignVector.single(("h", "phi", "alpha", "p", "magnetization"), 3)
+    joint = DesignVector.poses(("alpha", "magnetization"), ("h", "phi", "p"), 2, 3)
+    # each map's slices tile its vector exactly, in storage order
+    for dmap, size in ((single, 9), (joint, 12)):
+        cover = sorted((sl.start, sl.stop) for sl in dmap._slices.values())
+        assert cover[0][0] == 0 and cover[-1][1] == dmap.size == size
+        assert all(a[1] == b[0] for a, b in zip(cover, cover[1:]))
+    assert single["alpha"] == slice(2, 5) and joint.slice("p", 1) == slice(11, 12)
+    assert joint.slice("alpha", 1) == joint["alpha"] == slice(0, 3)  # shared by every pose
+    assert list(single.values(np.arange(9.0))) == ["h", "phi", "alpha", "p", "magnetization"]
+    # two poses joined from single-pose vectors and read back: each pose's scalars, pose 1's profiles
+    d1, d2 = np.arange(9.0), 100 + np.arange(9.0)
+    d = np.zeros(joint.size)
+    for k, dv in reversed(list(enumerate((d1, d2)))):
+        single.move(dv, 0, joint, d, into_pose=k)
+    back = [joint.move(d, k, single, np.zeros(single.size)) for k in (0, 1)]
+    assert back[0].tolist() == d1.tolist()
+    assert back[1].tolist() == [100, 101, 2, 3, 4, 105, 6, 7, 8]
+    lo, hi = joint.bounds({"h_max": 7.0, "p_max": 3.0})
+    assert np.isinf(lo[:6]).all() and hi[joint.slice("h", 1)][0] == 7.0 and lo[joint.slice("p", 0)][0] == -3.0
+    # the fibre gauge: α's mean moved into every pose's φ
+    g = joint.fix_gauge(d)
+    assert g[0] == 0.0 and g[joint.slice("phi", 1)][0] == d[joint.slice("phi", 1)][0] - d[0]
+    assert g[1:6].tolist() == d[1:6].tolist()

@@ -3,13 +3,15 @@ stability certificate matrix (issue 18: one home for what every design NLP assem
 
 The single-pose design NLP (:mod:`actuator_design.inverse.nlp`), the shape fit
 (:mod:`actuator_design.inverse.shape`) and the scenario NLP of robust design
-(:mod:`actuator_design.robust.design_robust`) each lay out their own design vector (one pose, one
-shape, K poses sharing a profile), but they write a pose's values into the forward parameters, cost
-them and bound them here, so that the physics they optimise is the same:
+(:mod:`actuator_design.robust.design_robust`) optimise one pose, one shape, or K poses sharing a
+profile, but they lay out their design vectors, write a pose's values into the forward parameters,
+cost them and bound them here, so that the physics they optimise is the same:
 
 * a scalar design value goes into its NLP slot through the parameter lens (h, φ, p);
 * a designed field magnitude h moves every group the field drives with it (h_r, h_pos: THEORY §5,
   §9; :func:`couple_field_groups`);
+* where each value sits in the design vector is a :class:`DesignVector` (one pose in design order,
+  or shared profiles then each pose's scalars);
 * a designed profile (α, β) is a Legendre series evaluated at the quadrature points;
 * the effort is h² + p² + Σ_k k²(k+1)²/4 · c_k² per profile (∫ profile'² grows like k² c_k²: it
   penalises variation, not the mean angle);
@@ -35,7 +37,7 @@ from actuator_design.model.scene import Scene, UniformField
 from actuator_design.physics import parameters as lens
 from actuator_design.physics.registry import term_class
 
-__all__ = ["EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
+__all__ = ["DesignVector", "EFFORT_SCALARS", "design_params", "design_effort", "scalar_bounds", "smoothness_weights",
            "certificate_matrix", "couple_field_groups", "coupled_scene", "driven_values", "field_bound",
            "prepare_scene", "profile_report", "without_soft_coupling"]
 
@@ -81,6 +83,96 @@ def design_params(P0: ca.SX, values: Mapping[str, ca.SX], slices, vandermonde=No
         if par.per_point:
             P[slices[par.slot]] = ca.mtimes(ca.DM(vandermonde), value)
     return P
+
+
+class DesignVector:
+    """Where each design value sits in a design NLP's vector d: the one design-vector map.
+
+    A designed profile (α, β: a per-point lens entry) is ``terms`` Legendre coefficients shared by
+    every pose; a scalar (h, φ, p) is one entry per pose. The single-pose NLP stores its values in
+    design order (:meth:`single`); the scenario NLP stores the shared profiles first, then each
+    pose's scalars (:meth:`poses`). ``dmap[name]`` is the slice of ``name`` (pose 0's for a scalar).
+
+    Parameters
+    ----------
+    entries : sequence of (str, int or None)
+        (name, pose) in storage order; pose ``None`` for a shared profile.
+    terms : int
+        Coefficients of each profile.
+    """
+
+    def __init__(self, entries: Sequence[Tuple[str, object]], terms: int):
+        self.terms = int(terms)
+        self._slices, off = {}, 0
+        for name, pose in entries:
+            size = self.terms if lens.parameter(name).per_point else 1
+            self._slices[(name, pose)] = slice(off, off + size)
+            off += size
+        #: length of the design vector
+        self.size = off
+        self.profiles = tuple(n for n, pose in self._slices if pose is None)
+        self.scalars = tuple(dict.fromkeys(n for n, pose in self._slices if pose is not None))
+
+    @classmethod
+    def single(cls, vary: Sequence[str], terms: int) -> "DesignVector":
+        """One pose, the values in the order of ``vary``."""
+        return cls([(v, None if lens.parameter(v).per_point else 0) for v in vary], terms)
+
+    @classmethod
+    def poses(cls, profiles: Sequence[str], scalars: Sequence[str], n_poses: int, terms: int) -> "DesignVector":
+        """``n_poses`` poses: the shared ``profiles``, then pose 0's ``scalars``, pose 1's, …"""
+        return cls([(v, None) for v in profiles] + [(v, k) for k in range(n_poses) for v in scalars], terms)
+
+    def slice(self, name: str, pose: int = 0) -> slice:
+        """Where pose ``pose``'s value ``name`` sits (a profile's coefficients whatever the pose)."""
+        return self._slices[(name, None)] if (name, None) in self._slices else self._slices[(name, pose)]
+
+    def __getitem__(self, name: str) -> slice:
+        return self.slice(name)
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.profiles or name in self.scalars
+
+    def pose_values(self, d, pose: int = 0) -> dict:
+        """Pose ``pose``'s scalar values by name (each shape (1,)), in storage order."""
+        return {v: d[self.slice(v, pose)] for v in self.scalars}
+
+    def shared_values(self, d) -> dict:
+        """The shared profiles' coefficients by name, in storage order."""
+        return {v: d[self.slice(v)] for v in self.profiles}
+
+    def values(self, d, pose: int = 0) -> dict:
+        """Every value pose ``pose`` sees, by name in storage order (what
+        :func:`design_params` writes and :func:`design_effort` costs)."""
+        return {n: d[sl] for (n, p), sl in self._slices.items() if p is None or p == pose}
+
+    def bounds(self, bounds: Mapping[str, float]) -> Tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the design vector, shape (size,) each: every pose's scalars
+        (:func:`scalar_bounds`); the profiles are bounded by rows at the quadrature points."""
+        lo, hi = np.full(self.size, -np.inf), np.full(self.size, np.inf)
+        for (name, pose), sl in self._slices.items():
+            if pose is not None:
+                lo[sl], hi[sl] = scalar_bounds(name, bounds)
+        return lo, hi
+
+    def fix_gauge(self, d: np.ndarray) -> np.ndarray:
+        """A copy of ``d`` moved along the fibre gauge's orbit to α's mean c_0 = 0: c_0 taken from α
+        and from every pose's φ (the same equilibria: :mod:`actuator_design.inverse.gauge`)."""
+        d = np.array(d, float)
+        i0 = self.slice("alpha").start
+        c0, d[i0] = d[i0], 0.0
+        for (name, pose), sl in self._slices.items():
+            if name == "phi":
+                d[sl] -= c0
+        return d
+
+    def move(self, d: np.ndarray, pose: int, into: "DesignVector", out: np.ndarray, into_pose: int = 0) -> np.ndarray:
+        """Copy pose ``pose``'s values (and the shared profiles) of ``d`` into ``out``, laid out by
+        ``into`` as its pose ``into_pose``; values ``into`` does not hold are dropped. Returns ``out``."""
+        for (name, p), sl in into._slices.items():
+            if (p is None or p == into_pose) and name in self:
+                out[sl] = d[self.slice(name, pose)]
+        return out
 
 
 def smoothness_weights(n_terms: int) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 __all__ = ["has_fibre_gauge"]
 
 
-def has_fibre_gauge(zr, d, P0, E, dslices, P_scene: np.ndarray, trials: int = 3) -> bool:
+def has_fibre_gauge(zr, d, P0, E, dmap, P_scene: np.ndarray, trials: int = 3) -> bool:
     """Does the energy depend on φ and the fibre layout only through α(s) − φ?
 
     Parameters
@@ -27,8 +27,8 @@ def has_fibre_gauge(zr, d, P0, E, dslices, P_scene: np.ndarray, trials: int = 3)
         The design NLP's free nodes (n,), design vector (nd,) and base parameters.
     E : casadi.SX
         The discrete energy in them.
-    dslices : dict
-        The design vector's named slices (``"phi"``, ``"alpha"``: α's Legendre coefficients).
+    dmap : DesignVector
+        Where the design vector holds ``"phi"`` and ``"alpha"`` (α's Legendre coefficients).
     P_scene : ndarray
         The base scene's parameter vector (scaled at random around it).
     trials : int
@@ -37,11 +37,11 @@ def has_fibre_gauge(zr, d, P0, E, dslices, P_scene: np.ndarray, trials: int = 3)
     symmetry; it is detected here, whatever the terms, by the identity ∂E/∂φ + ∂E/∂c_0 = 0 at
     random states, designs and parameters (the NLP is cached per structure, not per value).
     """
-    if "alpha" not in dslices or "phi" not in dslices:
+    if "alpha" not in dmap or "phi" not in dmap:
         return False
     gE = ca.gradient(E, d)
-    f = ca.Function("gauge", [zr, d, P0], [gE[dslices["phi"].start] + gE[dslices["alpha"].start],
-                                          gE[dslices["phi"].start]])
+    f = ca.Function("gauge", [zr, d, P0], [gE[dmap["phi"].start] + gE[dmap["alpha"].start],
+                                          gE[dmap["phi"].start]])
     rng = np.random.default_rng(20261202)  # fixed seed: the same verdict on every run
     for _ in range(trials):
         z = rng.uniform(-1.0, 1.0, zr.shape[0])

@@ -39,8 +39,8 @@ import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.inverse.design_map import (certificate_matrix, coupled_scene, design_effort,
-                                                design_params, scalar_bounds)
+from actuator_design.inverse.design_map import (DesignVector, certificate_matrix, coupled_scene,
+                                                design_effort, design_params)
 from actuator_design.inverse.gauge import has_fibre_gauge
 from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, check_certificate_size
@@ -79,7 +79,7 @@ def effort_scale(nlp: "DesignNLP", d0: np.ndarray) -> float:
     effort w·h² (9 at h = 300 for w = 1e-4) outweighs the tip error and drags a strong-field start
     back to h ~ 2.5. Below STRONG_FIELD the weights are unchanged.
     """
-    h0 = float(np.asarray(d0)[nlp.dslices["h"]][0]) if "h" in nlp.vary else 0.0
+    h0 = float(np.asarray(d0)[nlp.dmap["h"]][0]) if "h" in nlp.vary else 0.0
     return max(1.0, h0 / STRONG_FIELD) ** 4
 #: Stage A's effort weights w_eff (objective ½|tip − target|² + w_eff·effort): regularised, then
 #: near zero from the regularised minimiser (see :meth:`DesignNLP._solve`).
@@ -145,13 +145,9 @@ class DesignNLP:
         n = tr.nodes.size - 1
         self.n = n
 
-        # design vector d and its named slices
-        sizes = {v: self.alpha_terms if lens.parameter(v).per_point else 1 for v in self.vary}
-        self.dslices, off = {}, 0
-        for v in self.vary:
-            self.dslices[v] = slice(off, off + sizes[v])
-            off += sizes[v]
-        self.nd = off
+        #: the design vector d: its values in design order (``dmap[name]`` their slices)
+        self.dmap = DesignVector.single(self.vary, self.alpha_terms)
+        self.nd = self.dmap.size
         zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
         self.vandermonde = None
@@ -164,7 +160,7 @@ class DesignNLP:
         self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap) + float(clearance)
         state = state_rows(sv, zr, P, self.obstacles, self.gap)
         H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
-        self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dslices, sv.parameter_vector(scene))
+        self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dmap, sv.parameter_vector(scene))
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
@@ -264,7 +260,7 @@ class DesignNLP:
         d = np.zeros(self.nd)
         for name, val in (("h", h), ("phi", phi), ("p", p)):
             if name in self.vary:
-                d[self.dslices[name]] = val
+                d[self.dmap[name]] = val
         given = dict(profiles or {})
         if coefficients is not None:
             given["alpha"] = coefficients
@@ -273,7 +269,7 @@ class DesignNLP:
             if given.get(name) is not None:
                 cc = np.asarray(given[name], float).ravel()[: self.alpha_terms]
                 c[: cc.size] = cc
-            d[self.dslices[name]] = c
+            d[self.dmap[name]] = c
         return d
 
     def point_vector(self, pt: "DesignPoint", phi=None) -> np.ndarray:
@@ -285,35 +281,26 @@ class DesignNLP:
         """The :class:`DesignPoint` of a design vector ``d`` (shape (nd,)); a value not designed is
         ``base``'s, a profile not designed is empty. ``z``: θ at all nodes; ``tip``: (x, y, angle)."""
         def scalar(name, default):
-            return float(d[self.dslices[name]][0]) if name in self.vary else default
+            return float(d[self.dmap[name]][0]) if name in self.vary else default
 
         return DesignPoint(h=scalar("h", base.h), phi=scalar("phi", base.phi), p=scalar("p", base.p), z=z, tip=tip,
                            converged=converged, status=status, stage=stage,
-                           profiles={v: np.asarray(d[self.dslices[v]], float) for v in self.profiles})
+                           profiles={v: np.asarray(d[self.dmap[v]], float) for v in self.profiles})
 
     def fix_gauge(self, d: np.ndarray) -> np.ndarray:
         """The design vector moved along the gauge orbit to α's mean c_0 = 0 (φ − c_0, α − c_0: the
         same equilibrium, see :func:`has_fibre_gauge`); ``d`` itself when the scene has no gauge."""
-        d = np.array(d, float)
-        if self.gauge:
-            c0 = d[self.dslices["alpha"].start]
-            d[self.dslices["phi"]] -= c0
-            d[self.dslices["alpha"].start] = 0.0
-        return d
+        return self.dmap.fix_gauge(d) if self.gauge else np.array(d, float)
 
     def values(self, d) -> Dict[str, object]:
         """The design vector's values by name, in design order (scalars shape (1,), profiles their
         Legendre coefficients): what :func:`~actuator_design.inverse.design_map.design_params` writes."""
-        return {v: d[self.dslices[v]] for v in self.vary}
+        return self.dmap.values(d)
 
     def variable_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the design vector, shape (nd,) each: the scalars'
         (:func:`~actuator_design.inverse.design_map.scalar_bounds`); profiles are bounded by rows."""
-        lo, hi = np.full(self.nd, -np.inf), np.full(self.nd, np.inf)
-        for v in self.vary:
-            if v in _LENS_VARIABLES:
-                lo[self.dslices[v]], hi[self.dslices[v]] = scalar_bounds(v, bounds)
-        return lo, hi
+        return self.dmap.bounds(bounds)
 
     def profile_bounds(self, bounds: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the profile rows (|α(s_q)| ≤ α_max, |β(s_q)| ≤ β_max)."""
@@ -327,11 +314,11 @@ class DesignNLP:
         sc = base
         for v in self.vary:  # h, phi, p written through the parameter lens
             if v in _LENS_VARIABLES:
-                sc = lens.parameter(v).write(sc, float(d[self.dslices[v]][0]))
+                sc = lens.parameter(v).write(sc, float(d[self.dmap[v]][0]))
         if "h" in self.vary:
             sc = coupled_scene(base, sc)
         for v in self.profiles:  # α(s), β(s) as their exact Legendre series
-            sc = lens.parameter(v).with_profile(sc, legendre_profile(d[self.dslices[v]]))
+            sc = lens.parameter(v).with_profile(sc, legendre_profile(d[self.dmap[v]]))
         return sc
 
     def solve(self, base: Scene, x0_theta: np.ndarray, d0: np.ndarray, req: "DesignRequest",
@@ -421,7 +408,7 @@ class DesignNLP:
                 lbg[k + 2] = ubg[k + 2] = 0.0
         if self.gauge:  # α's mean is pinned at 0 (fix_gauge): a unique optimum, not a flat valley
             d0 = self.fix_gauge(d0)
-            i = xs["d"].start + self.dslices["alpha"].start
+            i = xs["d"].start + self.dmap["alpha"].start
             lbx[i] = ubx[i] = 0.0
         x0 = np.concatenate([np.asarray(x0_theta, float)[1:], d0] + ([np.zeros(self.n)] if stiff else []))
         if cert is not None and cert.m:

@@ -144,5 +144,5 @@ def start_grid(nlp: DesignNLP, base: Scene, settings: DesignSettings) -> List[np
 
 def unpack(nlp: DesignNLP, d: np.ndarray, base: Scene):
     """(h, φ, p) of a design vector; the base scene's values for variables not designed."""
-    get = lambda name, default: float(d[nlp.dslices[name]][0]) if name in nlp.vary else default
+    get = lambda name, default: float(d[nlp.dmap[name]][0]) if name in nlp.vary else default
     return get("h", base.h), get("phi", base.phi), get("p", base.p)

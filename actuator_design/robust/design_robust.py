@@ -38,7 +38,7 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
-from actuator_design.inverse.design_map import certificate_matrix, design_effort, design_params, scalar_bounds
+from actuator_design.inverse.design_map import DesignVector, certificate_matrix, design_effort, design_params
 from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
 from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, CertificateTooLarge, _bandwidth, _ldl_pivots,
                                          check_certificate_size)
@@ -112,8 +112,9 @@ class ScenarioDesignNLP:
         self.per_pose = tuple(v for v in _PER_POSE if v in base.vary)
         #: the shared profiles (α, then β when designed), each ``base.alpha_terms`` coefficients
         self.profiles = base.profiles
-        self.n_shared = len(self.profiles) * base.alpha_terms
-        self.nd = self.n_shared + K * len(self.per_pose)
+        #: the design vector: the shared profiles, then each pose's scalars
+        self.dmap = DesignVector.poses(self.profiles, self.per_pose, K, base.alpha_terms)
+        self.nd = self.dmap.size
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)
         #: the slots a corner scales (the field groups, loads, plug-in values: from the lens)
@@ -128,7 +129,7 @@ class ScenarioDesignNLP:
         shared = self.shared_values(d)
 
         def pose_values(k):
-            return {v: d[self.pose_index(k, v)] for v in self.per_pose}
+            return self.dmap.pose_values(d, k)
 
         def pose_params(k):  # the single-pose map: h moves the groups the field drives (THEORY §9)
             return design_params(P0, {**pose_values(k), **shared}, sl, base.vandermonde)
@@ -195,36 +196,21 @@ class ScenarioDesignNLP:
     # -- layout of the design vector ------------------------------------------------------------
     def pose_index(self, k: int, name: str) -> int:
         """Index of pose k's value ``name`` (h, phi or p) in the design vector."""
-        return self.n_shared + k * len(self.per_pose) + self.per_pose.index(name)
-
-    def profile_slice(self, name: str) -> slice:
-        """Where the shared profile ``name``'s coefficients sit in the design vector."""
-        i, T = self.profiles.index(name), self.base.alpha_terms
-        return slice(i * T, (i + 1) * T)
+        return self.dmap.slice(name, k).start
 
     def shared_values(self, d) -> Dict[str, object]:
         """The shared profiles' coefficients by name (α, then β), from a design vector."""
-        return {v: d[self.profile_slice(v)] for v in self.profiles}
+        return self.dmap.shared_values(d)
 
     def pose_vector(self, d: np.ndarray, k: int) -> np.ndarray:
         """The single-pose design vector (of :class:`DesignNLP`) of pose k."""
-        b = self.base
-        dv = np.zeros(b.nd)
-        for v in self.per_pose:
-            dv[b.dslices[v]] = float(d[self.pose_index(k, v)])
-        for v in self.profiles:
-            dv[b.dslices[v]] = d[self.profile_slice(v)]
-        return dv
+        return self.dmap.move(np.asarray(d, float), k, self.base.dmap, np.zeros(self.base.nd))
 
     def join(self, pose_vectors: Sequence[np.ndarray]) -> np.ndarray:
         """The scenario design vector from single-pose vectors (α and β taken from the first)."""
-        b = self.base
         d = np.zeros(self.nd)
-        for v in self.profiles:
-            d[self.profile_slice(v)] = np.asarray(pose_vectors[0])[b.dslices[v]]
-        for k, dv in enumerate(pose_vectors):
-            for v in self.per_pose:
-                d[self.pose_index(k, v)] = float(np.asarray(dv)[b.dslices[v]][0])
+        for k in reversed(range(len(pose_vectors))):  # the first pose's profiles written last
+            self.base.dmap.move(np.asarray(pose_vectors[k], float), 0, self.dmap, d, into_pose=k)
         return d
 
     def _profile_bounds(self, bounds: Dict[str, float]):
@@ -266,17 +252,10 @@ class ScenarioDesignNLP:
         tgt = np.concatenate([[tg[0], tg[1], tg[2] if len(tg) > 2 else 0.0] for tg in targets])
         p = np.concatenate([P0, ov, tgt, [1.0 if use_angle else 0.0, margin, w_eff]])
         nz = K * (C + 1) * n
-        lo_d, hi_d = np.full(self.nd, -np.inf), np.full(self.nd, np.inf)
-        for k in range(K):
-            for v in self.per_pose:
-                i = self.pose_index(k, v)
-                lo_d[i], hi_d[i] = scalar_bounds(v, bounds)
+        lo_d, hi_d = self.dmap.bounds(bounds)
         if self.base.gauge:  # α's mean pinned at 0, every pose's φ moved with it (DesignNLP.fix_gauge)
-            d0 = np.array(d0, float)
-            i0 = self.profile_slice("alpha").start  # α's mean c_0
-            c0, d0[i0] = d0[i0], 0.0
-            for k in range(K):
-                d0[self.pose_index(k, "phi")] -= c0
+            d0 = self.dmap.fix_gauge(d0)
+            i0 = self.dmap.slice("alpha").start  # α's mean c_0
             lo_d[i0] = hi_d[i0] = 0.0
         lbx, ubx = self._x.bounds(d=(lo_d, hi_d))
         nominal = (np.tile([0.0, 0.0, 0.0 if use_angle else -np.inf], K),

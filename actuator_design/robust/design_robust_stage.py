@@ -198,9 +198,9 @@ def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, 
     _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
     moved = replace(nlp.point(d, cand.base, z, np.array([x, y, th]), converged=True, status=out.point.status,
                               stage="robust"),
-                    h=pt.h if "h" not in nlp.vary else float(d[nlp.dslices["h"]][0]),
-                    phi=pt.phi if "phi" not in nlp.vary else float(d[nlp.dslices["phi"]][0]),
-                    p=pt.p if "p" not in nlp.vary else float(d[nlp.dslices["p"]][0]))
+                    h=pt.h if "h" not in nlp.vary else float(d[nlp.dmap["h"]][0]),
+                    phi=pt.phi if "phi" not in nlp.vary else float(d[nlp.dmap["phi"]][0]),
+                    p=pt.p if "p" not in nlp.vary else float(d[nlp.dmap["p"]][0]))
     if tip_error(moved.tip, target) > s.reach_tol:
         return choice, None, 0.0, None
     moved_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))

@@ -237,7 +237,7 @@ def optimal_schedule(waypoints: Sequence[Sequence[float]], limits: RateLimits, s
     start = resample_nodes(greedy, g_times, nodes, steps, lambda d: nlp.scene_for(base, d), nlp.solver, options)
     say(f"optimal control: building the NLP over {nodes} time nodes")
     t1 = time.perf_counter()
-    ih, iphi = nlp.dslices["h"].start, nlp.dslices["phi"].start
+    ih, iphi = nlp.dmap["h"].start, nlp.dmap["phi"].start
     start.update(h=[u[ih] for u in start["u"]], phi=[u[iphi] for u in start["u"]])
     problem = ScheduleOCP(nlp, base, len(start["h"]), start["waypoint_nodes"], greedy.waypoints, limits,
                           settings.margin, settings.h_max, objective)

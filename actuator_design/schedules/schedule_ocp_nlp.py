@@ -64,7 +64,7 @@ class ScheduleOCP:
                  h_max: float, objective: str):
         sv = nlp.solver
         self.nlp, self.N, self.n, self.nd = nlp, N, nlp.n, nlp.nd
-        self.ih, self.iphi = nlp.dslices["h"].start, nlp.dslices["phi"].start
+        self.ih, self.iphi = nlp.dmap["h"].start, nlp.dmap["phi"].start
         P0 = ca.DM(sv.parameter_vector(base))
         state = nlp.state_function()
         at = dict(zip(waypoint_nodes, waypoints))
