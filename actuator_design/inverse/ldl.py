@@ -5,8 +5,8 @@ certificate's size.
 The single-pose, shape and schedule NLPs (:mod:`actuator_design.inverse.nlp`, :mod:`actuator_design.inverse.shape`,
 :mod:`actuator_design.schedules.schedule_ocp_nlp`) lift the Schur complement at the element joints
 (:class:`SegmentedLDL`, every state of an NLP: :class:`Certificate`). The scenario NLP
-(:mod:`actuator_design.robust.design_robust`) keeps the nested banded pivots (:func:`_ldl_pivots`) with a
-quasi-Newton Hessian: with the segmented certificate (exact or quasi-Newton Hessian) a two-pose design without a
+(:mod:`actuator_design.robust.design_robust`) takes the same :class:`Certificate` in its nested banded form
+(``bandwidth``: :func:`_ldl_pivots`, nothing lifted) with a quasi-Newton Hessian: with the segmented certificate (exact or quasi-Newton Hessian) a two-pose design without a
 tolerance box (targets (0.5, 0.5) and (0.6, 0.4)) no longer found its shared layout."""
 from __future__ import annotations
 
@@ -191,11 +191,15 @@ class SegmentedLDL:
 
 class Certificate:
     """The stability certificate of every state a design NLP carries: one :class:`SegmentedLDL`
-    per state's matrix M^-1/2 H_r M^-1/2 − μ I, stacked.
+    per state's matrix M^-1/2 H_r M^-1/2 − μ I, stacked — or, with ``bandwidth``, each matrix's
+    nested banded pivots (:func:`_ldl_pivots`, nothing lifted: the scenario NLP's form, see the
+    module docstring).
 
     Parameters
     ----------
     matrices : sequence of casadi.SX, each shape (n, n)
+    bandwidth : int, optional
+        The matrices' bandwidth: nested pivots instead of lifted segments.
 
     Attributes
     ----------
@@ -205,7 +209,12 @@ class Certificate:
         Lifted Schur entries in all.
     """
 
-    def __init__(self, matrices):
+    def __init__(self, matrices, bandwidth: int = None):
+        if bandwidth is not None:
+            self.pivots = ca.vertcat(*[ca.vertcat(*_ldl_pivots(A, bandwidth)) for A in matrices])
+            self.v = self.schur = self.rows = ca.SX(0, 1)
+            self.m, self._depth = 0, 0
+            return
         parts = [SegmentedLDL(A) for A in matrices]
         self.pivots = ca.vertcat(*[c.pivots for c in parts])
         self.v = ca.vertcat(*[c.v for c in parts])

@@ -40,7 +40,7 @@ import numpy as np
 
 from actuator_design.inverse.design_map import DesignVector, certificate_matrix, design_effort, design_params
 from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
-from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, CertificateTooLarge, _bandwidth, _ldl_pivots,
+from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, Certificate, CertificateTooLarge, _bandwidth,
                                          check_certificate_size)
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
 from actuator_design.model.scene import Scene
@@ -149,7 +149,7 @@ class ScenarioDesignNLP:
             Pc[sl["theta0"]] = P[sl["theta0"]] + dth
             return Pc
 
-        zs, eq, piv, nom, err, tips, sq, clear = [], [], [], [], [], [], [], []
+        zs, eq, mats, nom, err, tips, sq, clear = [], [], [], [], [], [], [], []
         obstacles, gap = base.obstacles, base.gap
         for k in range(K):
             Pk = pose_params(k)
@@ -161,7 +161,7 @@ class ScenarioDesignNLP:
                 # with obstacles, every scenario's rod keeps clear of them (:mod:`actuator_design.contact.clearance`)
                 state = state_rows(sv, z, Pc, obstacles, gap)
                 eq.append(state.eq)
-                piv.append(ca.vertcat(*_ldl_pivots(certificate_matrix(state.hessian, m, margin), bw)))
+                mats.append(certificate_matrix(state.hessian, m, margin))
                 tip = state.tip
                 tips.append(tip)
                 clear.append(state.clear)
@@ -186,7 +186,7 @@ class ScenarioDesignNLP:
         f = (ca.sum1(t) + 0.1 * sum(sq) / C if C else 0) + w_eff * effort
         self._problem = {"x": x, "p": p, "f": f}
         self._x = xs
-        self._rows = dict(eq=ca.vertcat(*eq), pivots=ca.vertcat(*piv), nominal=ca.vertcat(*nom),
+        self._rows = dict(eq=ca.vertcat(*eq), pivots=Certificate(mats, bandwidth=bw).pivots, nominal=ca.vertcat(*nom),
                           corners=ca.vertcat(*err), profiles=profile_rows(base.vandermonde, shared, self.profiles),
                           clear=ca.vertcat(*clear))
         self._variants: Dict[bool, Variant] = {}
