@@ -82,3 +82,42 @@ def test_one_design_vector_map_lays_out_one_pose_and_several_poses():
     g = joint.fix_gauge(d)
     assert g[0] == 0.0 and g[joint.slice("phi", 1)][0] == d[joint.slice("phi", 1)][0] - d[0]
     assert g[1:6].tolist() == d[1:6].tolist()
+
+
+def test_the_states_of_two_poses_are_the_forward_solver_s_equilibria_of_their_scenes():
+    """DesignStates (poses × scenarios): at each pose's forward equilibrium (a fresh solve of the
+    scene its design values stand for) that pose's stationarity rows vanish and its tip is the
+    solver's; a corner scenario is the forward solve at the corner's parameters."""
+    from actuator_design.inverse.design_map import DesignVector
+    from actuator_design.inverse.layout import DesignStates
+    from actuator_design.inverse.nlp import get_design_nlp
+    options = SolverOptions()
+    base = default_scene()
+    nlp = get_design_nlp(base, ("h", "phi", "alpha"), options, 3)
+    joint = DesignVector.poses(("alpha",), ("h", "phi"), 2, 3)
+    singles = [nlp.design_vector(h=2.5, phi=1.2, coefficients=[0.1, -0.2, 0.05]),
+               nlp.design_vector(h=4.0, phi=0.7, coefficients=[0.1, -0.2, 0.05])]
+    dv = np.zeros(joint.size)
+    for k in (1, 0):
+        nlp.dmap.move(singles[k], 0, joint, dv, into_pose=k)
+    sv = nlp.solver
+    d, P0 = ca.SX.sym("d", joint.size), ca.SX.sym("P0", sv.layout.size)
+    theta0 = sv.layout.slices["theta0"]
+
+    def tilt(P, c):  # a corner: the clamp turned by 0.1 rad
+        Pc = ca.SX(P)
+        Pc[theta0] = P[theta0] + 0.1
+        return Pc
+
+    states = DesignStates(sv, joint, d, P0, nlp.vandermonde, 1, tilt)
+    assert len(states.rows) == 4 and len(states.params) == 2
+    for k in (0, 1):
+        scene = nlp.scene_for(base, singles[k])
+        for c, sc in enumerate((scene, dataclasses.replace(scene, theta0=scene.theta0 + 0.1))):
+            res = solve(sc, options)
+            assert res.success
+            rows = states.rows[2 * k + c]
+            f = ca.Function("rows", [states.z[2 * k + c], d, P0], [rows.eq, rows.tip])
+            eq, tip = (np.asarray(v, float).ravel() for v in f(res.z[1:], dv, sv.parameter_vector(base)))
+            assert np.max(np.abs(eq)) < 1e-8
+            assert tip == pytest.approx([res.tip["x"], res.tip["y"], res.tip["angle"]], abs=1e-10)

@@ -112,6 +112,8 @@ class DesignVector:
         self.size = off
         self.profiles = tuple(n for n, pose in self._slices if pose is None)
         self.scalars = tuple(dict.fromkeys(n for n, pose in self._slices if pose is not None))
+        #: poses laid out (1 when only shared profiles are designed)
+        self.n_poses = 1 + max((pose for _, pose in self._slices if pose is not None), default=0)
 
     @classmethod
     def single(cls, vary: Sequence[str], terms: int) -> "DesignVector":
@@ -145,6 +147,14 @@ class DesignVector:
         """Every value pose ``pose`` sees, by name in storage order (what
         :func:`design_params` writes and :func:`design_effort` costs)."""
         return {n: d[sl] for (n, p), sl in self._slices.items() if p is None or p == pose}
+
+    def effort(self, d):
+        """The effort of a design vector (:func:`design_effort`): every pose's scalars, then the
+        shared profiles once."""
+        total = 0
+        for k in range(self.n_poses):
+            total = design_effort(self.pose_values(d, k), total)
+        return design_effort(self.shared_values(d), total)
 
     def bounds(self, bounds: Mapping[str, float]) -> Tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the design vector, shape (size,) each: every pose's scalars

@@ -6,9 +6,13 @@ A design NLP (single pose :class:`~actuator_design.inverse.nlp.DesignNLP`, shape
 the design vector d, lifted certificate entries, …) and its rows (equilibrium, stability pivots, tip,
 profile bounds, clearance, …) in one order. :class:`Blocks` keeps that order once, by name, with each
 block's default bounds, so that a solve asks for ``rows.bounds(profiles=(lo, hi))`` instead of
-re-counting offsets. Each equilibrium state an NLP carries contributes the same rows
-(:func:`state_rows`: stationarity, reduced Hessian, tip pose, clearance); :func:`profile_rows`,
-:func:`ipopt_options` and :func:`outcome` are the other pieces the three assemble alike.
+re-counting offsets. The states an NLP carries are poses × scenarios (:class:`DesignStates`: one
+pose and the nominal scenario for the single-pose and shape NLPs), each with the same rows
+(:func:`state_rows`: stationarity, reduced Hessian, tip pose, clearance); with the design vector's
+map and effort (:class:`~actuator_design.inverse.design_map.DesignVector`), the certificate
+(:class:`~actuator_design.inverse.ldl.Certificate`), :func:`profile_rows`, :func:`ipopt_options` and
+:func:`outcome`, they are what the three assemble alike; each adds its own objective (tip, shape,
+worst corner, stiffness) and IPOPT options.
 """
 from __future__ import annotations
 
@@ -19,8 +23,9 @@ import casadi as ca
 import numpy as np
 
 from actuator_design.contact.clearance import clearance_rows
+from actuator_design.inverse.design_map import design_params
 
-__all__ = ["Blocks", "Variant", "StateRows", "state_rows", "profile_rows", "ipopt_options", "outcome"]
+__all__ = ["Blocks", "Variant", "StateRows", "DesignStates", "state_rows", "profile_rows", "ipopt_options", "outcome"]
 
 Bound = Tuple[object, object]
 
@@ -118,6 +123,53 @@ class StateRows:
     mass: np.ndarray
     tip: ca.SX
     clear: ca.SX
+
+
+class DesignStates:
+    """Every equilibrium state a design NLP carries: poses × scenarios, each with its rows.
+
+    Pose k's design values (its scalars and the shared profiles, read by ``dmap``) give its forward
+    parameters P_k (:func:`~actuator_design.inverse.design_map.design_params`); scenario c gives
+    P_kc = ``corner``(P_k, c) (c = 0: P_k itself, the nominal state; c ≥ 1: a corner of the lab's
+    tolerance box); the state θ_kc (n free nodes, a new unknown) contributes :func:`state_rows`.
+
+    Parameters
+    ----------
+    solver : EquilibriumSolver
+    dmap : DesignVector
+    d, P0 : casadi.SX
+        The design vector (dmap.size,) and the base scene's parameters (n_params,).
+    vandermonde : ndarray or None
+        Legendre basis at the quadrature points (designed profiles).
+    n_corners : int
+        Scenarios besides the nominal one, per pose.
+    corner : callable, optional
+        ``(P (n_params,), c) -> P_c``: scenario c's parameters (needed when ``n_corners`` > 0).
+    obstacles, gap
+        Obstacles every state keeps ``gap`` clear of (:func:`state_rows`).
+
+    Attributes
+    ----------
+    params : list of casadi.SX
+        P_k per pose.
+    z : list of casadi.SX, each (n,)
+        θ of pose k, scenario c at index k (n_corners + 1) + c.
+    rows : list of StateRows
+        In the same order.
+    """
+
+    def __init__(self, solver, dmap, d: ca.SX, P0: ca.SX, vandermonde=None, n_corners: int = 0,
+                 corner=None, obstacles: Sequence = (), gap: float = 0.0):
+        n = solver.transcription.nodes.size - 1
+        sl = solver.layout.slices
+        self.params, self.z, self.rows = [], [], []
+        for k in range(dmap.n_poses):
+            Pk = design_params(P0, dmap.values(d, k), sl, vandermonde)
+            self.params.append(Pk)
+            for c in range(n_corners + 1):
+                z = ca.SX.sym(f"theta_{k}_{c}", n)
+                self.z.append(z)
+                self.rows.append(state_rows(solver, z, Pk if c == 0 else corner(Pk, c), obstacles, gap))
 
 
 def state_rows(solver, z: ca.SX, P: ca.SX, obstacles: Sequence = (), gap: float = 0.0) -> StateRows:

@@ -39,10 +39,9 @@ import numpy as np
 
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.equilibrium.solver import EquilibriumSolver, get_solver
-from actuator_design.inverse.design_map import (DesignVector, certificate_matrix, coupled_scene,
-                                                design_effort, design_params)
+from actuator_design.inverse.design_map import DesignVector, certificate_matrix, coupled_scene
 from actuator_design.inverse.gauge import has_fibre_gauge
-from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
+from actuator_design.inverse.layout import Blocks, DesignStates, Variant, ipopt_options, outcome, profile_rows
 from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, check_certificate_size
 from actuator_design.model.profiles import legendre_profile
 from actuator_design.model.scene import Scene
@@ -148,24 +147,23 @@ class DesignNLP:
         #: the design vector d: its values in design order (``dmap[name]`` their slices)
         self.dmap = DesignVector.single(self.vary, self.alpha_terms)
         self.nd = self.dmap.size
-        zr, d = ca.SX.sym("theta", n), ca.SX.sym("d", self.nd)
+        d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
         self.vandermonde = None
         if self.profiles:
             self.vandermonde = np.polynomial.legendre.legvander(2 * tr.quadrature_points - 1,
                                                                 self.alpha_terms - 1)
-        P = design_params(P0, self.values(d), lay.slices, self.vandermonde)
-
         # a scene with obstacles: the designed rod keeps clear of them (issue 20, :mod:`actuator_design.contact.clearance`)
         self.obstacles, self.gap = tuple(scene.obstacles), float(scene.contact_gap) + float(clearance)
-        state = state_rows(sv, zr, P, self.obstacles, self.gap)
+        states = DesignStates(sv, self.dmap, d, P0, self.vandermonde, obstacles=self.obstacles, gap=self.gap)
+        zr, P, state = states.z[0], states.params[0], states.rows[0]
         H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
         self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dmap, sv.parameter_vector(scene))
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
         margin = ca.SX.sym("margin")
-        effort = design_effort(self.values(d))
+        effort = self.dmap.effort(d)
         err = weights * (tip - target)
         # rate of change against the previous design (field schedules through waypoints)
         d_prev, w_rate = ca.SX.sym("d_prev", self.nd), ca.SX.sym("w_rate")

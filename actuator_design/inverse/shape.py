@@ -23,18 +23,18 @@ from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
 from actuator_design.inverse.design import design_problem, search
-from actuator_design.inverse.design_map import (certificate_matrix, design_effort, design_params,
-                                                driven_values, profile_report)
-from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
-from actuator_design.inverse.ldl import Certificate, CertificateTooLarge, certified_hessian, check_certificate_size
+from actuator_design.inverse.design_map import certificate_matrix, driven_values, profile_report
+from actuator_design.inverse.layout import Blocks, DesignStates, Variant, ipopt_options, outcome, profile_rows
+from actuator_design.inverse.ldl import (Certificate, CertificateTooLarge, certified_hessian,
+                                         check_certificate_size)
 from actuator_design.inverse.nlp import DesignNLP
 from actuator_design.inverse.optimise import design_vector
 from actuator_design.inverse.settings import Choice, DesignSettings, normalise_phi, phi_period
 from actuator_design.inverse.verify import schedule_rows
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene
-from actuator_design.transcription.arc_points import arc_point_maps
 from actuator_design.robust.robustness import Robustness, evaluate_robustness
+from actuator_design.transcription.arc_points import arc_point_maps
 
 __all__ = ["ShapeResult", "design_shape", "read_shape_points", "MAX_SHAPE_POINTS"]
 
@@ -79,15 +79,15 @@ class ShapeDesignNLP:
         sv, lay = base.solver, base.solver.layout
         n, sl = base.n, lay.slices
         L, W = arc_point_maps(sv.transcription, s_points)  # θ(σ) = L z, x_i = W cos θ(σ)
-        zr, d, P0 = ca.SX.sym("theta", n), ca.SX.sym("d", base.nd), ca.SX.sym("P0", lay.size)
+        d, P0 = ca.SX.sym("d", base.nd), ca.SX.sym("P0", lay.size)
         # the design NLP's map: a designed h moves the groups the field drives (h_r, h_pos) with it
-        P = design_params(P0, base.values(d), sl, base.vandermonde)
+        states = DesignStates(sv, base.dmap, d, P0, base.vandermonde)
+        zr, state = states.z[0], states.rows[0]
         th = ca.mtimes(ca.DM(L), ca.vertcat(P0[sl["theta0"]], zr))
         xs, ys = ca.mtimes(ca.DM(W), ca.cos(th)), ca.mtimes(ca.DM(W), ca.sin(th))
         tx, ty = ca.SX.sym("tx", len(s_points)), ca.SX.sym("ty", len(s_points))
-        state = state_rows(sv, zr, P)
         m = state.mass
-        effort = design_effort(base.values(d))
+        effort = base.dmap.effort(d)
         w_eff, margin = ca.SX.sym("w_eff"), ca.SX.sym("margin")
         f = ca.sumsqr(xs - tx) + ca.sumsqr(ys - ty) + w_eff * effort
         self.base, self.n, self.k = base, n, len(s_points)

@@ -38,8 +38,8 @@ from typing import Dict, List, Optional, Sequence
 import casadi as ca
 import numpy as np
 
-from actuator_design.inverse.design_map import DesignVector, certificate_matrix, design_effort, design_params
-from actuator_design.inverse.layout import Blocks, Variant, ipopt_options, outcome, profile_rows, state_rows
+from actuator_design.inverse.design_map import DesignVector, certificate_matrix
+from actuator_design.inverse.layout import Blocks, DesignStates, Variant, ipopt_options, outcome, profile_rows
 from actuator_design.inverse.ldl import (CERTIFICATE_REFUSED, Certificate, CertificateTooLarge, _bandwidth,
                                          check_certificate_size)
 from actuator_design.inverse.nlp import _LENS_VARIABLES, DesignNLP
@@ -128,15 +128,7 @@ class ScenarioDesignNLP:
         bw = _bandwidth(sv, n)
         shared = self.shared_values(d)
 
-        def pose_values(k):
-            return self.dmap.pose_values(d, k)
-
-        def pose_params(k):  # the single-pose map: h moves the groups the field drives (THEORY §9)
-            return design_params(P0, {**pose_values(k), **shared}, sl, base.vandermonde)
-
-        def scenario(P, c):
-            if c == 0:
-                return P
+        def scenario(P, c):  # corner c ≥ 1 of the box
             vals = offs[n_off * (c - 1):n_off * c]
             Pc = ca.SX(P)
             for i, slot in enumerate(self.scaled):
@@ -149,17 +141,14 @@ class ScenarioDesignNLP:
             Pc[sl["theta0"]] = P[sl["theta0"]] + dth
             return Pc
 
-        zs, eq, mats, nom, err, tips, sq, clear = [], [], [], [], [], [], [], []
-        obstacles, gap = base.obstacles, base.gap
+        # the single-pose map per pose (h moves the groups the field drives, THEORY §9); with
+        # obstacles, every scenario's rod keeps clear of them (:mod:`actuator_design.contact.clearance`)
+        states = DesignStates(sv, self.dmap, d, P0, base.vandermonde, C, scenario, base.obstacles, base.gap)
+        eq, mats, nom, err, tips, sq, clear = [], [], [], [], [], [], []
         for k in range(K):
-            Pk = pose_params(k)
             tgt = target[3 * k:3 * k + 3]
             for c in range(C + 1):
-                z = ca.SX.sym(f"theta_{k}_{c}", n)
-                zs.append(z)
-                Pc = scenario(Pk, c)
-                # with obstacles, every scenario's rod keeps clear of them (:mod:`actuator_design.contact.clearance`)
-                state = state_rows(sv, z, Pc, obstacles, gap)
+                state = states.rows[k * (C + 1) + c]
                 eq.append(state.eq)
                 mats.append(certificate_matrix(state.hessian, m, margin))
                 tip = state.tip
@@ -171,12 +160,9 @@ class ScenarioDesignNLP:
                 else:
                     err.append(e[0] ** 2 + e[1] ** 2 + w_ang * e[2] ** 2 - t[k])
                     sq.append(e[0] ** 2 + e[1] ** 2 + w_ang * e[2] ** 2)
-        effort = 0
-        for k in range(K):
-            effort = design_effort(pose_values(k), effort)
-        effort = design_effort(shared, effort)  # the shared profiles once
+        effort = self.dmap.effort(d)  # every pose's scalars, the shared profiles once
         xs = Blocks()
-        xs.add("states", ca.vertcat(*zs))  # θ of pose k, scenario c at block k (C + 1) + c
+        xs.add("states", ca.vertcat(*states.z))  # θ of pose k, scenario c at block k (C + 1) + c
         xs.add("d", d)  # bounded by the request (solve)
         xs.add("t", t, 0.0, np.inf)  # the worst squared corner error of each pose
         x = xs.vector()
