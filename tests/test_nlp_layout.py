@@ -121,3 +121,10 @@ def test_the_states_of_two_poses_are_the_forward_solver_s_equilibria_of_their_sc
             eq, tip = (np.asarray(v, float).ravel() for v in f(res.z[1:], dv, sv.parameter_vector(base)))
             assert np.max(np.abs(eq)) < 1e-8
             assert tip == pytest.approx([res.tip["x"], res.tip["y"], res.tip["angle"]], abs=1e-10)
+
+
+def test_a_map_of_shared_profiles_alone_keeps_its_poses():
+    from actuator_design.inverse.design_map import DesignVector
+    joint = DesignVector.poses(("alpha",), (), 3, 4)
+    assert joint.n_poses == 3 and joint.size == 4
+    assert all(list(joint.values(np.arange(4.0), k)) == ["alpha"] for k in range(3))

@@ -140,3 +140,13 @@ def test_events_that_do_not_fit_the_algorithm_are_refused():
 def test_secant_settings_validate_themselves(kw, match):
     with pytest.raises(ValueError, match=match):
         Secant(**kw)
+
+
+def test_a_target_at_the_start_and_the_end_reached_on_the_last_allowed_solve():
+    path = _fold_path()
+    path.targets = (0.0, 0.05, 0.1)  # a station at the start (no solve given for it) is passed over
+    run = continuation(path, Secant(), _settings(ds=0.05, ds_max=0.05, max_steps=2, window=(0.0, 0.1)), [Fold(stop=True)],
+                       x0=_start(path))
+    assert run.reached and run.solves == 2 and run.lam == 0.1 and run.reason == ""
+    right = min(r.real for r in np.roots([1, 0, -3, -(4 * 0.1 - 1)]) if abs(r.imag) < 1e-12)  # z³ − 3z = 4λ − 1
+    assert run.z[0] == pytest.approx(right, abs=1e-12)

@@ -8,8 +8,9 @@ inertia: the cheapest follower, what a state reached from rest needs):
 * predictor: the secant through the last two accepted states (the last state after a start, a
   snap or a branch-point escape); the step lands on each of the path's ``targets`` on its way;
 * a step is accepted when Newton converges, θ moves by at most ``settings.max_du`` rad at every
-  node, the path's own ``continues`` test passes and the state is ``admissible``; the step then
-  grows by ``Secant.growth`` up to ``settings.ds_max``. Otherwise it is halved;
+  node and the path's own ``continues`` test passes; the step then grows by ``Secant.growth`` up
+  to ``settings.ds_max``. Otherwise it is halved. The first state the path does not find
+  ``admissible`` ends the run (reason ``"touches an obstacle"``);
 * a fold: natural continuation cannot pass one, so a fold is where the step falls below
   max(``Secant.min_step_relative`` λ, ``settings.ds_min``). :class:`~.events.Fold` with ``stop``
   ends the run there; :class:`~.events.Snap` releases the state by the path's ``snap`` (a descent
@@ -18,8 +19,8 @@ inertia: the cheapest follower, what a state reached from rest needs):
   located like a fold), or, with ``leave``, located to ``locate`` λ, accepted, and left along its
   unstable mode by the path's ``leave``.
 
-``settings.max_steps`` bounds the Newton solves (the work), ``settings.window[1]`` is the end of the
-path (its last target).
+``settings.max_steps`` bounds the Newton solves (the work): a run that reaches the end on its last
+allowed solve has reached it. ``settings.window[1]`` is the end of the path (its last target).
 """
 from __future__ import annotations
 
@@ -59,7 +60,9 @@ class Secant:
 class StatePath:
     """A path of equilibria z(λ) (θ at the nodes) of parameter vectors P(λ): what :class:`Secant` continues.
 
-    Subclasses give :meth:`at` and :meth:`correct`; the other hooks default to "always" / "never".
+    Subclasses give :meth:`at` and :meth:`correct`; :meth:`leave` and :meth:`snap` when they run
+    with ``StabilityLoss(leave=True)`` and ``Snap``; the other hooks default to accepting every
+    state, finding none unstable and recording nothing.
 
     Attributes
     ----------
@@ -176,8 +179,9 @@ def run_secant(path: StatePath, algorithm: Secant, settings, events: Sequence = 
         raise ValueError("Secant: events must be Fold(stop=True) or Snap, and optionally StabilityLoss")
     targets = [float(t) for t in path.targets]
     lam0, end = st.window
-    if end != targets[-1] or not lam0 <= targets[0]:
-        raise ValueError(f"Secant: the path's targets {targets} must lie in the window {st.window} and end on its edge")
+    if end != targets[-1] or not lam0 <= targets[0] or any(b <= a for a, b in zip(targets, targets[1:])):
+        raise ValueError(f"Secant: the path's targets {targets} must ascend in the window {st.window} "
+                         "and end on its edge")
     run = SecantRun(np.asarray(z0, float), lam0, solves=solves)
     z_prev, lam_prev = None, None
     dl, k = st.ds, 0
@@ -190,6 +194,8 @@ def run_secant(path: StatePath, algorithm: Secant, settings, events: Sequence = 
 
     if start is not None:
         land(start)
+    while k < len(targets) - 1 and targets[k] == lam0:  # a target at the start without its solve: nothing to report
+        k += 1
     while run.lam < end and run.solves < st.max_steps:
         z, lam = run.z, run.lam
         t = min(targets[k], lam + dl)

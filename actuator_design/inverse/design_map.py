@@ -99,9 +99,11 @@ class DesignVector:
         (name, pose) in storage order; pose ``None`` for a shared profile.
     terms : int
         Coefficients of each profile.
+    n_poses : int
+        Poses the vector stands for (at least those its entries name).
     """
 
-    def __init__(self, entries: Sequence[Tuple[str, object]], terms: int):
+    def __init__(self, entries: Sequence[Tuple[str, object]], terms: int, n_poses: int = 1):
         self.terms = int(terms)
         self._slices, off = {}, 0
         for name, pose in entries:
@@ -112,8 +114,8 @@ class DesignVector:
         self.size = off
         self.profiles = tuple(n for n, pose in self._slices if pose is None)
         self.scalars = tuple(dict.fromkeys(n for n, pose in self._slices if pose is not None))
-        #: poses laid out (1 when only shared profiles are designed)
-        self.n_poses = 1 + max((pose for _, pose in self._slices if pose is not None), default=0)
+        #: poses the vector stands for (each sees the shared profiles and its own scalars)
+        self.n_poses = max([int(n_poses)] + [pose + 1 for _, pose in self._slices if pose is not None])
 
     @classmethod
     def single(cls, vary: Sequence[str], terms: int) -> "DesignVector":
@@ -123,7 +125,8 @@ class DesignVector:
     @classmethod
     def poses(cls, profiles: Sequence[str], scalars: Sequence[str], n_poses: int, terms: int) -> "DesignVector":
         """``n_poses`` poses: the shared ``profiles``, then pose 0's ``scalars``, pose 1's, …"""
-        return cls([(v, None) for v in profiles] + [(v, k) for k in range(n_poses) for v in scalars], terms)
+        return cls([(v, None) for v in profiles] + [(v, k) for k in range(n_poses) for v in scalars], terms,
+                   n_poses)
 
     def slice(self, name: str, pose: int = 0) -> slice:
         """Where pose ``pose``'s value ``name`` sits (a profile's coefficients whatever the pose)."""
