@@ -81,6 +81,9 @@ def test_a_numerical_failure_in_the_screen_is_a_failed_design_not_bad_input(caps
 @pytest.mark.parametrize("argv,field", [
     (["--target-tip", "0.3,0.5", "--vary", "h,magnetization"], "--vary magnetization"),
     (["--target-tip", "0.3,0.5", "--h-max", "1e5"], "--h-max"),
+    # at zero field (the default scene's h = 0) a field angle and a fibre layout do nothing
+    (["--target-tip", "0.3,0.5", "--vary", "phi"], "--vary phi: no effect on this actuator"),
+    (["--target-tip", "0.3,0.5", "--vary", "alpha,p"], "--vary alpha: no effect"),
 ])
 def test_bad_requests_are_still_one_line_and_exit_2(capsys, tmp_path, argv, field):
     out = tmp_path / "o"
@@ -160,3 +163,17 @@ def test_a_numerical_failure_inside_a_shape_design_is_exit_3_not_bad_input(capsy
     assert code == 3 and len(err) == 1, err
     assert err[0].startswith("actuator-design: error: numerical failure (LinAlgError: Singular matrix)")
     assert not out.exists()
+
+
+def test_the_variables_without_effect_are_those_the_energy_does_not_see():
+    """The soft-magnetic energy is −h/2 (χ̄ cos²(θ + α − φ) + …) (THEORY §5): at h = 0 neither φ nor
+    α enters it, while the tip load p always does (its work −p y(1)); with h designed, or at a
+    nonzero field, every variable acts."""
+    from actuator_design.equilibrium.options import SolverOptions
+    from actuator_design.inverse.design_map import prepare_scene
+    from actuator_design.inverse.nlp import get_design_nlp
+    for h, vary, idle in ((0.0, ("phi", "alpha", "p"), ["phi", "alpha"]), (2.0, ("phi", "alpha", "p"), []),
+                          (0.0, ("h", "phi", "alpha"), [])):
+        scene = prepare_scene(default_scene(h=h), vary)
+        nlp = get_design_nlp(scene, vary, SolverOptions(), 3)
+        assert nlp.idle_variables(nlp.solver.parameter_vector(scene)) == idle

@@ -50,7 +50,7 @@ from actuator_design.inverse.design_map import (driven_values, field_bound, prep
 from actuator_design.inverse.mesh import (MAX_REGRADES, check_mesh, check_state, grading, mesh_dict, regrade,
                                           unresolved)
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
-from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES, profile_bound
+from actuator_design.inverse.nlp import DESIGN_VARIABLES, PROFILE_VARIABLES, profile_bound, refuse_idle
 from actuator_design.inverse.optimise import candidate, design_vector, search_set, warm_robust_nlp
 from actuator_design.inverse.settings import (Choice, DesignProblem, DesignResult,  # noqa: F401
                                               DesignSettings, Optimised, Verification, canonical_target,
@@ -321,7 +321,9 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
                              f"field acts through {', '.join(p.name for p in lens.remanent_groups(base))} alone; "
                              f"give --vary {','.join(lens.remanent_profiles(base))}")
     for vset in sets:  # every set's terms, up front: a stage's error is then never bad input
-        prepare_scene(base, vset)
+        ready = prepare_scene(base, vset)
+        if vary is not None:  # and every variable the user names acts on the actuator
+            refuse_idle(ready, vset, options or SolverOptions(), settings.alpha_terms, settings.clearance)
     return DesignProblem(target=target, stiffness=stiffness, base=base, options=options or SolverOptions(),
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
                          deadline=t0 + settings.time_limit,

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
@@ -159,6 +159,7 @@ class DesignNLP:
         zr, P, state = states.z[0], states.params[0], states.rows[0]
         H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
         self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dmap, sv.parameter_vector(scene))
+        self._energy = (zr, d, P0, state.energy)  # (the effect of each variable: idle_variables)
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
@@ -249,6 +250,21 @@ class DesignNLP:
         q = self._parts
         return ca.Function("design_state", [q["x"][:self.n], q["x"][self.n:], q["p"][:self.solver.layout.size]],
                            [q["eq"], certificate_matrix(q["H"], q["m"])])
+
+    def idle_variables(self, P_scene: np.ndarray, trials: int = 3) -> List[str]:
+        """The design variables the rod's energy does not depend on, whatever the state and the other
+        designed values, at the scene's parameters ``P_scene`` (∂Ê/∂d_v = 0 at ``trials`` random
+        states and designs; e.g. a field angle or a fibre layout at zero field): they would have no
+        physical effect on the actuator."""
+        zr, d, P0, E = self._energy
+        f = ca.Function("design_effect", [zr, d, P0], [ca.gradient(E, d)])
+        rng = np.random.default_rng(20261207)  # fixed seed: the same verdict on every run
+        moved = np.zeros(self.nd)
+        for _ in range(trials):
+            g = np.abs(np.asarray(f(rng.uniform(-1.0, 1.0, self.n), rng.uniform(0.2, 1.5, self.nd), P_scene),
+                                  float).ravel())
+            moved = np.maximum(moved, g / (1.0 + float(np.max(g, initial=0.0))))
+        return [v for v in self.vary if not np.max(moved[self.dmap[v]]) > 1e-12]
 
     # -- helpers --------------------------------------------------------------------------------
     def design_vector(self, h=None, phi=None, coefficients=None, p=None, profiles=None) -> np.ndarray:
@@ -440,6 +456,21 @@ class DesignRequest:
     d_prev: Optional[np.ndarray] = None
     w_rate: float = 0.0
     stiffness: Optional[float] = None
+
+
+def refuse_idle(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int,
+                clearance: float = 0.0) -> None:
+    """ValueError naming each variable of ``vary`` that would have no physical effect on ``scene``'s
+    actuator (:meth:`DesignNLP.idle_variables`), and what to do instead; ``scene`` is prepared for
+    ``vary`` (:func:`~actuator_design.inverse.design_map.prepare_scene`)."""
+    nlp = get_design_nlp(scene, vary, options, alpha_terms, clearance)
+    idle = nlp.idle_variables(nlp.solver.parameter_vector(scene))
+    if idle:
+        zero = not any(abs(q.get(scene)) > 0 for q, _ in lens.field_groups())
+        raise ValueError(f"--vary {','.join(idle)}: no effect on this actuator (its energy does not depend on "
+                         f"{'it' if len(idle) == 1 else 'them'} at the scene's values"
+                         + ("; the scene's field is 0: vary h as well, or give the field's magnitude "
+                            "(--set h=VALUE or the scene's field))" if zero else ")"))
 
 
 def get_design_nlp(scene: Scene, vary: Sequence[str], options: SolverOptions, alpha_terms: int,
