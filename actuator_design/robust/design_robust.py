@@ -32,8 +32,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import casadi as ca
 import numpy as np
@@ -300,6 +300,8 @@ class RobustOutcome:
     scale: float  # largest fraction of the tolerances solved for (0: none)
     attempts: List[str]
     nlp: Optional[ScenarioDesignNLP] = None
+    #: every step of the homotopy that worked, (box fraction, its point), in order: the last is ``point``
+    ladder: List[Tuple[float, ScenarioPoint]] = field(default_factory=list)
 
 
 def pose_designs(nlp: ScenarioDesignNLP, base: Scene, d: np.ndarray) -> List[Scene]:
@@ -380,7 +382,7 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
     d = snlp.join(d0)
     zs = [[np.asarray(z, float)] * (len(corners) + 1) for z in z0]
     best: Optional[ScenarioPoint] = None
-    done, attempts = 0.0, []
+    done, attempts, ladder = 0.0, [], []
 
     def attempt(scale):
         start = []
@@ -413,9 +415,10 @@ def robustify(nlp: DesignNLP, base: Scene, d0: Sequence[np.ndarray], z0: Sequenc
             pt.converged = False
         if pt.converged:
             best, done, d, zs = pt, scale, pt.d, pt.z
+            ladder.append((scale, pt))
             step = min(2.0 * step, max_step)
         elif pt.status.startswith(CERTIFICATE_REFUSED):
             break  # a smaller box has the same dense Hessian: the certificate stays refused
         else:
             step *= 0.5
-    return RobustOutcome(best, done, attempts, snlp)
+    return RobustOutcome(best, done, attempts, snlp, ladder)

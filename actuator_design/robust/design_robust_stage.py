@@ -144,6 +144,8 @@ def robust_stage(problem: DesignProblem, choice: Choice,
     finally:
         beside.cancel()  # (nothing left to end once its result is in)
     best_choice, best_rob, largest, ahead = _moved(problem, choice, out, d, nominal, follow)
+    best_choice, best_rob, largest, ahead = _reachable(problem, choice, best_choice, best_rob, largest,
+                                                       out.ladder, ahead, follow)
     try:
         return _report(problem, choice, best_choice, best_rob, largest, nominal, out.attempts) + (ahead,)
     except BaseException:
@@ -180,7 +182,8 @@ def _robust_design(nlp, base, d0: np.ndarray, z0: np.ndarray, target, tol, margi
     point), shape (nlp.nd,): ``(RobustOutcome without its NLP, d)``, which pickles (a forked task)."""
     out = robustify(nlp, base, [d0], [z0], [target], tol, margin=margin, bounds=bounds)
     d = out.nlp.pose_vector(out.point.d, 0) if out.point is not None else None
-    return replace(out, nlp=None), d
+    ladder = [(scale, out.nlp.pose_vector(pt.d, 0), pt.z[0][0]) for scale, pt in out.ladder]
+    return replace(out, nlp=None, ladder=ladder), d
 
 
 def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, follow):
@@ -190,20 +193,12 @@ def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, 
     ``(choice, None, 0, None)`` when the nominal design is kept."""
     if out.point is None:
         return choice, None, 0.0, None
-    cand, pt, target, s = choice.candidate, choice.point, problem.target, problem.settings
-    nlp, tol, options = cand.nlp, problem.settings.tolerances, problem.options
+    target, tol, options = problem.target, problem.settings.tolerances, problem.options
     z = out.point.z[0][0]
-    scene = nlp.scene_for(cand.base, d)
-    sv = nlp.solver
-    _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
-    moved = replace(nlp.point(d, cand.base, z, np.array([x, y, th]), converged=True, status=out.point.status,
-                              stage="robust"),
-                    h=pt.h if "h" not in nlp.vary else float(d[nlp.dmap["h"]][0]),
-                    phi=pt.phi if "phi" not in nlp.vary else float(d[nlp.dmap["phi"]][0]),
-                    p=pt.p if "p" not in nlp.vary else float(d[nlp.dmap["p"]][0]))
-    if tip_error(moved.tip, target) > s.reach_tol:
+    moved_choice = _moved_choice(problem, choice, d, z, out.point.status)
+    if moved_choice is None:
         return choice, None, 0.0, None
-    moved_choice = replace(choice, point=moved, scene=scene, notes=list(choice.notes))
+    scene = moved_choice.scene
     ahead = forked.start(partial(follow, moved_choice)) if follow is not None else None
     try:
         rob = evaluate_robustness(scene, z, target, tol, options)
@@ -216,3 +211,69 @@ def _moved(problem: DesignProblem, choice: Choice, out, d, nominal: Robustness, 
     if ahead is not None:
         ahead.cancel()
     return choice, None, 0.0, None
+
+
+def _moved_choice(problem: DesignProblem, choice: Choice, d: np.ndarray, z: np.ndarray, status: str):
+    """The choice of a design vector ``d`` (shape (nlp.nd,)) with its state ``z`` (θ at the nodes),
+    values not designed as ``choice``'s; None when its tip misses the target by more than reach_tol."""
+    cand, pt = choice.candidate, choice.point
+    nlp = cand.nlp
+    scene = nlp.scene_for(cand.base, d)
+    sv = nlp.solver
+    _, th, x, y = sv.summary(z, sv.parameter_vector(scene))
+    moved = replace(nlp.point(d, cand.base, z, np.array([x, y, th]), converged=True, status=status, stage="robust"),
+                    h=pt.h if "h" not in nlp.vary else float(d[nlp.dmap["h"]][0]),
+                    phi=pt.phi if "phi" not in nlp.vary else float(d[nlp.dmap["phi"]][0]),
+                    p=pt.p if "p" not in nlp.vary else float(d[nlp.dmap["p"]][0]))
+    if tip_error(moved.tip, problem.target) > problem.settings.reach_tol:
+        return None
+    return replace(choice, point=moved, scene=scene, notes=list(choice.notes))
+
+
+class _Verified:
+    """A verification already done, answering as the forked one would (``result``, ``cancel``)."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+    def cancel(self) -> None:
+        pass
+
+
+def _reachable(problem: DesignProblem, choice: Choice, moved: Choice, rob, largest: float, ladder, ahead, follow):
+    """The robust design when the verification reaches it from zero field without a snap; else the
+    design of the largest box fraction of the homotopy (``ladder``: (fraction, d, z)) that it
+    reaches, its robustness over the whole box and that fraction; else the nominal design
+    (``choice``, no robustness: the report is made on it). A design the user cannot reach is not
+    one to build: it holds over the box only on a branch that the field, ramped from zero, does not
+    lead to. When none of them is reachable either, the robust design stays (and its verification
+    says so). Returns ``(choice, robustness, largest box, verification)`` as :func:`_moved`."""
+    if follow is None or ahead is None or moved is choice:
+        return moved, rob, largest, ahead
+    verification = ahead.result()
+    if verification.path is not None:
+        return moved, rob, largest, _Verified(verification)
+    tol, options, target = problem.settings.tolerances, problem.options, problem.target
+    unreachable = (f"the design made for {100 * largest:.3g} % of the tolerance box could not be reached from "
+                   "zero field without a snap")
+    for scale, d, z in sorted(ladder, key=lambda rung: -rung[0]):
+        rung = _moved_choice(problem, choice, d, z, "robust") if scale < largest else None
+        if rung is None:
+            continue
+        v = follow(rung)
+        if v.path is not None:
+            rob = evaluate_robustness(rung.scene, z, target, tol, options)
+            whole = _holds(rob)  # (by branch following it may hold over more than it was made for)
+            rung.notes.append(f"{unreachable}; this one, made for {100 * scale:.3g} % of it, is reached without one"
+                              + (" and holds over the whole box" if whole else ""))
+            return rung, rob, 1.0 if whole else scale, _Verified(v)
+    v = follow(choice)
+    if v.path is not None:
+        choice.notes.append(f"{unreachable}, nor could one made for a smaller box; the least-effort design, "
+                            "reached without one, is kept")
+        return choice, None, 0.0, _Verified(v)
+    moved.notes.append(f"{unreachable}, nor could one made for a smaller box, nor the least-effort design")
+    return moved, rob, largest, _Verified(verification)
