@@ -1,8 +1,9 @@
-"""A robust design is one the user can reach: when the design made for the whole tolerance box is not
-reachable from zero field without a snap, the robust stage takes the design made for the largest
-smaller box that is, else the least-effort design, else keeps the robust one (its verification
-then says so). The verification (a loading path from zero field) is the independent judge; the
-selection is tested here with stand-ins for it, and end to end on a target where it matters."""
+"""A robust design is one the user can reach: when no snap-free schedule from zero field reaches the
+design made for the whole tolerance box, the design falls back on the least-effort design when it
+holds over the box, then on the designs made for smaller boxes (largest first), then on the
+least-effort design, and keeps the robust one when none is reached (its verification then says
+so). The verification (a loading path from zero field) is the judge; the order is tested here with
+stand-ins for it, and end to end on a target where it matters (slow)."""
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
@@ -17,59 +18,64 @@ class _Choice:
     name: str
     notes: list = field(default_factory=list)
     scene: object = None
+    point: object = None
 
 
-def _run(monkeypatch, reachable, holds=()):
-    """``_reachable`` with the robust design (box 1.0) and rungs 0.25, 0.5, 0.75: ``reachable`` names
-    the designs the stand-in verification reaches, ``holds`` those that hold over the whole box."""
-    monkeypatch.setattr(stage, "_moved_choice",
-                        lambda problem, choice, d, z, status: _Choice(f"rung {d}", scene=f"rung {d}"))
-    monkeypatch.setattr(stage, "evaluate_robustness",
-                        lambda scene, z, target, tol, options: SimpleNamespace(holds=scene in holds,
-                                                                               worst_tip_error=0.01))
+def _run(monkeypatch, reached, holds=(), least_holds=False, raises=()):
+    """``reachable`` after the robust design (made for the whole box) was not reached, with the
+    homotopy's designs for 0.75, 0.5 and 0.25 of the box: ``reached`` names the designs the
+    stand-in verification reaches, ``holds`` those that hold over the whole box, ``raises`` those
+    whose verification fails numerically."""
+    monkeypatch.setattr(stage, "evaluate_robustness", lambda scene, z, target, tol, options:
+                        SimpleNamespace(holds=scene in holds, worst_tip_error=0.01))
+    monkeypatch.setattr(stage, "_report", lambda problem, least, cand, rob, largest, nominal, attempts, unreached:
+                        (cand, SimpleNamespace(largest_box=largest, robustness=rob, unreached=unreached)))
     calls = []
 
     def follow(ch):
         calls.append(ch.name)
-        return SimpleNamespace(path=object() if ch.name in reachable else None, name=ch.name)
+        if ch.name in raises:
+            raise np.linalg.LinAlgError("singular matrix")
+        return SimpleNamespace(path=object() if ch.name in reached else None, name=ch.name)
 
     problem = SimpleNamespace(settings=SimpleNamespace(tolerances=None), options=None, target=(0.3, 0.5))
-    nominal, moved = _Choice("nominal"), _Choice("robust")
-    ahead = SimpleNamespace(result=lambda: follow(moved))
-    ladder = [(0.25, 0.25, np.zeros(3)), (0.5, 0.5, np.zeros(3)), (0.75, 0.75, np.zeros(3)), (1.0, 1.0, np.zeros(3))]
-    out = stage._reachable(problem, nominal, moved, "robust robustness", 1.0, ladder, ahead, follow)
+    robust, least = _Choice("robust"), _Choice("least-effort")
+    rungs = [(f, _Choice(f"rung {f}", scene=f"rung {f}", point=SimpleNamespace(z=None))) for f in (0.75, 0.5, 0.25)]
+    fallbacks = [(None, least)] + rungs if least_holds else rungs + [(None, least)]
+    report = SimpleNamespace(fallbacks=fallbacks, largest_box=1.0, nominal=None, attempts=[])
+    out = stage.reachable(problem, robust, report, follow(robust), follow)
     return out, calls
 
 
-def test_a_reachable_robust_design_stays(monkeypatch):
-    (choice, rob, largest, verification), calls = _run(monkeypatch, {"robust"})
-    assert choice.name == "robust" and largest == 1.0 and verification.result().name == "robust"
-    assert calls == ["robust"]
-
-
-def test_the_largest_reachable_smaller_box_is_taken_from_the_top(monkeypatch):
-    (choice, rob, largest, verification), calls = _run(monkeypatch, {"rung 0.5", "rung 0.25"})
-    assert choice.name == "rung 0.5" and largest == 0.5 and verification.result().name == "rung 0.5"
-    assert calls == ["robust", "rung 0.75", "rung 0.5"]  # the full box's design is not tried twice
-    assert "made for 50 % of it, is reached without one" in choice.notes[0]
+def test_the_largest_reached_smaller_box_is_taken_from_the_top(monkeypatch):
+    (choice, report, verification), calls = _run(monkeypatch, {"rung 0.5", "rung 0.25"})
+    assert choice.name == "rung 0.5" and report.largest_box == 0.5 and verification.name == "rung 0.5"
+    assert calls == ["robust", "rung 0.75", "rung 0.5"]
+    assert "made for 50 % of it, is reached without one" in choice.notes[-1] and report.unreached == 1.0
 
 
 def test_a_smaller_box_design_that_holds_over_the_whole_box_says_so(monkeypatch):
-    (choice, rob, largest, _), _ = _run(monkeypatch, {"rung 0.75"}, holds={"rung 0.75"})
-    assert choice.name == "rung 0.75" and largest == 1.0 and "holds over the whole box" in choice.notes[0]
+    (choice, report, _), _ = _run(monkeypatch, {"rung 0.75"}, holds={"rung 0.75"})
+    assert choice.name == "rung 0.75" and report.largest_box == 1.0
+    assert "holds over the whole box" in choice.notes[-1]
 
 
-def test_the_least_effort_design_when_no_box_design_is_reachable(monkeypatch):
-    (choice, rob, largest, verification), calls = _run(monkeypatch, {"nominal"})
-    assert choice.name == "nominal" and rob is None and largest == 0.0
-    assert verification.result().name == "nominal" and calls[-1] == "nominal"
-    assert "the least-effort design, reached without one, is kept" in choice.notes[0]
+def test_a_least_effort_design_that_holds_comes_before_the_smaller_boxes(monkeypatch):
+    (choice, report, verification), calls = _run(monkeypatch, {"least-effort", "rung 0.75"}, least_holds=True)
+    assert choice.name == "least-effort" and calls == ["robust", "least-effort"]
+    assert "the least-effort design, reached without one, is kept" in choice.notes[-1]
 
 
-def test_the_robust_design_stays_when_nothing_is_reachable(monkeypatch):
-    (choice, rob, largest, verification), calls = _run(monkeypatch, set())
-    assert choice.name == "robust" and largest == 1.0 and verification.result().path is None
-    assert calls == ["robust", "rung 0.75", "rung 0.5", "rung 0.25", "nominal"]
+def test_a_fallback_whose_verification_fails_numerically_is_not_reached(monkeypatch):
+    (choice, _, _), calls = _run(monkeypatch, {"rung 0.5"}, raises={"rung 0.75"})
+    assert choice.name == "rung 0.5" and calls == ["robust", "rung 0.75", "rung 0.5"]
+
+
+def test_the_robust_design_stays_when_nothing_is_reached(monkeypatch):
+    (choice, report, verification), calls = _run(monkeypatch, set())
+    assert choice.name == "robust" and verification.path is None and report.largest_box == 1.0
+    assert calls == ["robust", "rung 0.75", "rung 0.5", "rung 0.25", "least-effort"]
+    assert "nor the least-effort design" in choice.notes[-1]
 
 
 @pytest.mark.slow
@@ -88,3 +94,16 @@ def test_a_target_whose_full_box_design_snaps_gets_a_reachable_one_that_holds():
     path = follow_path(res.design_scene or res.scene, ad.SolverOptions(), res.schedule)
     assert path.snap_free and path.final.stable
     assert np.hypot(path.final.tip["x"] - 0.3, path.final.tip["y"] - 0.5) < 1e-6
+
+
+def test_a_report_on_a_kept_design_names_the_robust_one_it_could_not_reach():
+    from actuator_design.robust.robustness import FoldDistance, Robustness
+    from actuator_design.robust.tolerances import Tolerances
+    rob = Robustness(tolerances=Tolerances(), worst_tip_error=0.01, discretisation_error=0.0, worst_angle_error=None,
+                     stable_over_box=False, min_eigenvalue=-1.0, corners=[],
+                     fold_distance=FoldDistance(None, None, None, None, {}), spread=np.zeros((1, 2)),
+                     failures=["the branch is lost"])
+    said = stage.RobustReport(rob, 0.0, unreached=1.0).sentence()
+    assert "no design reached from zero field without a snap holds over any part of it" in said
+    assert "(one made for 100 % of it was found)" in said
+    assert "no design found holds" in stage.RobustReport(rob, 0.0).sentence()

@@ -45,8 +45,8 @@ from actuator_design.contact.clearance import clearances, entered_at_rest
 from actuator_design.contact.guard import refuse_contact
 from actuator_design.equilibrium.options import SolverOptions
 from actuator_design.inverse.choose import choose
-from actuator_design.inverse.design_map import (driven_values, field_bound, prepare_scene, profile_report,
-                                                without_soft_coupling)
+from actuator_design.inverse.design_map import (driven_values, fibres_fixed, field_bound, prepare_scene,
+                                                profile_report, without_soft_coupling)
 from actuator_design.inverse.mesh import (MAX_REGRADES, check_mesh, check_state, grading, mesh_dict, regrade,
                                           unresolved)
 from actuator_design.inverse.mirror import mirror_choice, mirrored_problem, robust_by_mirror
@@ -60,7 +60,7 @@ from actuator_design.inverse.verify import schedule_rows, stiffness_by_differenc
 from actuator_design.inverse.verify import verify as verify_stage
 from actuator_design.model.scene import Scene, UniformField, default_scene
 from actuator_design.physics import parameters as lens
-from actuator_design.robust.design_robust_stage import RobustReport, robust_stage
+from actuator_design.robust.design_robust_stage import RobustReport, reachable, robust_stage
 from actuator_design.robust.tolerances import parse_tolerances
 
 __all__ = ["design", "DesignResult", "DesignSettings", "AUTO_VARIABLE_SETS", "design_problem", "search",
@@ -157,6 +157,8 @@ def _stages(problem: DesignProblem, verify: bool, timings: Dict[str, float], sta
         finally:
             if verifying is not None:
                 verifying.cancel()
+        if verification.path is None and robust is not None and robust.fallbacks:  # a design the user can reach
+            choice, robust, verification = reachable(problem, choice, robust, verification, follow)
         timings["verify"] = time.perf_counter() - tv
     result = result_of(problem, choice, verification, timings, robust)
     result.mesh = mesh
@@ -328,13 +330,6 @@ def design_problem(target, scene, vary, options, settings, stiffness, t0: float)
                          settings=settings, variable_sets=tuple(sets), user_vary=vary is not None,
                          deadline=t0 + settings.time_limit,
                          fibres_fixed=fibres_fixed(base) and base.fibres_physical, notes=tuple(notes))
-
-
-def fibres_fixed(scene: Scene) -> bool:
-    """Whether the scene's fibre layout is the user's (given in a config, or any layout other than
-    the default straight fibres α = 0): inverse design then keeps it unless asked to vary it."""
-    f = scene.fibres
-    return bool(scene.fibres_given or not (f.kind == "constant" and f.value == 0.0))
 
 
 def search(problem: DesignProblem, timings: Dict[str, float]) -> List[Optimised]:

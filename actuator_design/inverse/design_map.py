@@ -294,6 +294,13 @@ def profile_report(scene: Scene, profiles: Mapping[str, np.ndarray], vary) -> di
             for v, p in lens.designable().items() if p.per_point and (v == "alpha" or v in vary)}
 
 
+def fibres_fixed(scene: Scene) -> bool:
+    """Whether the scene's fibre layout is the user's (given in a config, or any layout other than
+    the default straight fibres α = 0): inverse design then keeps it unless asked to vary it."""
+    f = scene.fibres
+    return bool(scene.fibres_given or not (f.kind == "constant" and f.value == 0.0))
+
+
 def prepare_scene(scene: Scene, vary: Sequence[str]) -> Scene:
     """Make sure the scene contains the terms the design varies (through the parameter lens: a
     field for ``h``/``phi``, which must be uniform for ``phi``, a tip force for ``p``, the

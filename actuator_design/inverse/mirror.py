@@ -153,5 +153,7 @@ def robust_by_mirror(problem: DesignProblem, mirror: DesignProblem, choice: Choi
         raise
     largest = report.largest_box if rob.holds or report.largest_box < 1.0 else 0.0
     # the vertical stiffness dp/dv1 is invariant under the reflection (p and v1 both change sign)
+    # the designs the verification may fall back on (robust_stage: reachable), reflected too
+    fallbacks = [(scale, mirror_choice(ch, period)) for scale, ch in report.fallbacks]
     return out, RobustReport(rob, largest, nominal, list(report.attempts), stiffness=report.stiffness,
-                             pose_target=report.pose_target), ahead
+                             pose_target=report.pose_target, fallbacks=fallbacks), ahead

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Sequence
 
 import casadi as ca
 import numpy as np
@@ -300,8 +300,9 @@ class RobustOutcome:
     scale: float  # largest fraction of the tolerances solved for (0: none)
     attempts: List[str]
     nlp: Optional[ScenarioDesignNLP] = None
-    #: every step of the homotopy that worked, (box fraction, its point), in order: the last is ``point``
-    ladder: List[Tuple[float, ScenarioPoint]] = field(default_factory=list)
+    #: every step of the homotopy that worked, in order (the last is ``point``): (box fraction,
+    #: ScenarioPoint) from :func:`robustify`; the robust stage's forked task sends (fraction, d, z)
+    ladder: List[tuple] = field(default_factory=list)
 
 
 def pose_designs(nlp: ScenarioDesignNLP, base: Scene, d: np.ndarray) -> List[Scene]:

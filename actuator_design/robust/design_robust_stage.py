@@ -31,7 +31,8 @@ class RobustReport:
     """How the chosen design holds over the tolerance box.
 
     robustness : the final design's :class:`~actuator_design.robust.robustness.Robustness` over the full box.
-    largest_box : the fraction of the box the design was made to hold (1.0: all of it).
+    largest_box : the fraction of the box the design holds over (1.0: all of it): the fraction it was
+        made for, or 1.0 when branch following finds it holds over the whole box.
     nominal : the robustness of the design before this stage (None when it was not evaluated).
     attempts : one line per robust NLP solve.
     stiffness : the stiffness over the box (:mod:`actuator_design.robust.design_stiffness_box`) of a stiffness target.
@@ -44,6 +45,11 @@ class RobustReport:
     attempts: List[str] = field(default_factory=list)
     stiffness: Optional[StiffnessOverBox] = None
     pose_target: bool = True
+    #: the designs the verification may fall back on when it reaches no robust design, in order:
+    #: (box fraction it was made for, Choice), None for the least-effort design (:func:`reachable`)
+    fallbacks: List[Tuple[Optional[float], Choice]] = field(default_factory=list, repr=False)
+    #: the box fraction of a robust design found but not reached from zero field (0: none)
+    unreached: float = 0.0
 
     @property
     def bounded(self) -> bool:
@@ -86,6 +92,8 @@ class RobustReport:
             return f"does NOT hold over the box ({box}): {stiff}{tip}; {r.fold_distance.sentence()}"
         part = (f"the most robust design found holds over {100 * self.largest_box:.3g} % of the box "
                 f"({r.tolerances.scaled(self.largest_box).describe()})" if self.largest_box > 0
+                else f"no design reached from zero field without a snap holds over any part of it (one made "
+                     f"for {100 * self.unreached:.3g} % of it was found)" if self.unreached > 0
                 else "no design found holds over any part of it")
         why = f" ({r.failures[0]})" if r.failures else ""
         return f"does NOT hold over the box ({box}){why}: {part}; {r.fold_distance.sentence()}"
@@ -144,18 +152,24 @@ def robust_stage(problem: DesignProblem, choice: Choice,
     finally:
         beside.cancel()  # (nothing left to end once its result is in)
     best_choice, best_rob, largest, ahead = _moved(problem, choice, out, d, nominal, follow)
-    best_choice, best_rob, largest, ahead = _reachable(problem, choice, best_choice, best_rob, largest,
-                                                       out.ladder, ahead, follow)
     try:
-        return _report(problem, choice, best_choice, best_rob, largest, nominal, out.attempts) + (ahead,)
+        best_choice, report = _report(problem, choice, best_choice, best_rob, largest, nominal, out.attempts)
+        if best_choice is not choice:  # what the verification may fall back on (:func:`reachable`)
+            rungs = [(scale, _moved_choice(problem, choice, dr, zr, "robust"))
+                     for scale, dr, zr in sorted(out.ladder, key=lambda rung: -rung[0]) if scale < largest]
+            rungs = [(scale, rung) for scale, rung in rungs if rung is not None]
+            least = [(None, choice)]
+            report.fallbacks = least + rungs if _holds(nominal) else rungs + least
+        return best_choice, report, ahead
     except BaseException:
         if ahead is not None:
             ahead.cancel()
         raise
 
 
-def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts):
-    """The report of the robust stage's outcome: ``(choice, RobustReport)``."""
+def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts, unreached: float = 0.0):
+    """The report of the robust stage's outcome: ``(choice, RobustReport)`` (``unreached``: the box
+    fraction of a robust design found but not reached from zero field)."""
     tol, options, target, pt = problem.settings.tolerances, problem.options, problem.target, choice.point
     nlp = choice.candidate.nlp
     if best_rob is None:  # keep the nominal design; report how it holds (with its nearest snap)
@@ -166,7 +180,7 @@ def _report(problem, choice, best_choice, best_rob, largest, nominal, attempts):
         sc, zz = best_choice.scene, best_choice.point.z
         if not _holds(evaluate_robustness(sc, zz, target, tol.scaled(largest), options, fold_search=False)):
             largest = 0.0
-    report = RobustReport(best_rob, largest, nominal, attempts)
+    report = RobustReport(best_rob, largest, nominal, attempts, unreached=unreached)
     if not report.holds:
         best_choice.notes.append(report.sentence())
     elif best_choice is not choice and np.max(np.abs(design_vector(nlp, best_choice.point)
@@ -230,50 +244,45 @@ def _moved_choice(problem: DesignProblem, choice: Choice, d: np.ndarray, z: np.n
     return replace(choice, point=moved, scene=scene, notes=list(choice.notes))
 
 
-class _Verified:
-    """A verification already done, answering as the forked one would (``result``, ``cancel``)."""
-
-    def __init__(self, value):
-        self.value = value
-
-    def result(self):
-        return self.value
-
-    def cancel(self) -> None:
-        pass
+#: What a fallback's verification may raise on a numerical failure: that design is then not reached.
+_NUMERICAL_ERRORS = (ValueError, ArithmeticError, RuntimeError, np.linalg.LinAlgError)
 
 
-def _reachable(problem: DesignProblem, choice: Choice, moved: Choice, rob, largest: float, ladder, ahead, follow):
-    """The robust design when the verification reaches it from zero field without a snap; else the
-    design of the largest box fraction of the homotopy (``ladder``: (fraction, d, z)) that it
-    reaches, its robustness over the whole box and that fraction; else the nominal design
-    (``choice``, no robustness: the report is made on it). A design the user cannot reach is not
-    one to build: it holds over the box only on a branch that the field, ramped from zero, does not
-    lead to. When none of them is reachable either, the robust design stays (and its verification
-    says so). Returns ``(choice, robustness, largest box, verification)`` as :func:`_moved`."""
-    if follow is None or ahead is None or moved is choice:
-        return moved, rob, largest, ahead
-    verification = ahead.result()
-    if verification.path is not None:
-        return moved, rob, largest, _Verified(verification)
+def reachable(problem: DesignProblem, choice: Choice, report: RobustReport, verification, follow):
+    """A design the user can reach, when the verification reached no robust design ``choice``
+    (``verification.path`` None): the first of ``report.fallbacks`` that ``follow`` (the
+    verification) reaches from zero field without a snap — the least-effort design first when it
+    holds over the box, then the designs the box homotopy made for smaller boxes, largest first
+    (each judged over the whole box by branch following), then the least-effort design. A robust
+    design no schedule reaches holds over the box only on a branch the field, ramped from zero, does
+    not lead to: it is no design to build. When none is reached, ``choice`` stays.
+
+    Returns
+    -------
+    (Choice, RobustReport, Verification)
+    """
     tol, options, target = problem.settings.tolerances, problem.options, problem.target
-    unreachable = (f"the design made for {100 * largest:.3g} % of the tolerance box could not be reached from "
-                   "zero field without a snap")
-    for scale, d, z in sorted(ladder, key=lambda rung: -rung[0]):
-        rung = _moved_choice(problem, choice, d, z, "robust") if scale < largest else None
-        if rung is None:
+    least = next(ch for scale, ch in report.fallbacks if scale is None)
+    unreachable = (f"the design made for {100 * report.largest_box:.3g} % of the tolerance box could not be "
+                   "reached from zero field without a snap")
+    for scale, cand in report.fallbacks:
+        cand = replace(cand, notes=list(cand.notes))
+        try:
+            v = follow(cand)
+        except _NUMERICAL_ERRORS:
             continue
-        v = follow(rung)
-        if v.path is not None:
-            rob = evaluate_robustness(rung.scene, z, target, tol, options)
+        if v.path is None:
+            continue
+        if scale is None:
+            cand.notes.append(f"{unreachable}; the least-effort design, reached without one, is kept")
+            rob, largest = None, 0.0
+        else:
+            rob = evaluate_robustness(cand.scene, cand.point.z, target, tol, options)
             whole = _holds(rob)  # (by branch following it may hold over more than it was made for)
-            rung.notes.append(f"{unreachable}; this one, made for {100 * scale:.3g} % of it, is reached without one"
+            cand.notes.append(f"{unreachable}; this one, made for {100 * scale:.3g} % of it, is reached without one"
                               + (" and holds over the whole box" if whole else ""))
-            return rung, rob, 1.0 if whole else scale, _Verified(v)
-    v = follow(choice)
-    if v.path is not None:
-        choice.notes.append(f"{unreachable}, nor could one made for a smaller box; the least-effort design, "
-                            "reached without one, is kept")
-        return choice, None, 0.0, _Verified(v)
-    moved.notes.append(f"{unreachable}, nor could one made for a smaller box, nor the least-effort design")
-    return moved, rob, largest, _Verified(verification)
+            largest = 1.0 if whole else scale
+        chosen, new = _report(problem, least, cand, rob, largest, report.nominal, report.attempts, report.largest_box)
+        return chosen, new, v
+    choice.notes.append(f"{unreachable}, nor could one made for a smaller box, nor the least-effort design")
+    return choice, report, verification
