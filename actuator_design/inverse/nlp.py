@@ -146,7 +146,6 @@ class DesignNLP:
 
         #: the design vector d: its values in design order (``dmap[name]`` their slices)
         self.dmap = DesignVector.single(self.vary, self.alpha_terms)
-        self.nd = self.dmap.size
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)  # the base scene's parameters (numbers not designed)
         self.vandermonde = None
@@ -159,7 +158,7 @@ class DesignNLP:
         zr, P, state = states.z[0], states.params[0], states.rows[0]
         H, m, tip, clear = state.hessian, state.mass, state.tip, state.clear  # tip: x, y, angle
         self.gauge = has_fibre_gauge(zr, d, P0, state.energy, self.dmap, sv.parameter_vector(scene))
-        self._energy = (zr, d, P0, state.energy)  # (the effect of each variable: idle_variables)
+        self._energy, self._effect = (zr, d, P0, state.energy), None  # ∂Ê/∂d when asked (idle_variables)
 
         target, weights = ca.SX.sym("target", 3), ca.SX.sym("weights", 3)
         w_tip, w_eff = ca.SX.sym("w_tip"), ca.SX.sym("w_eff")
@@ -199,6 +198,11 @@ class DesignNLP:
         self._variants: Dict[tuple, Variant] = {}
         self.f_tip = ca.Function("design_tip", [zr, d, P0], [tip])
         self.build_time = time.perf_counter() - t0
+
+    @property
+    def nd(self) -> int:
+        """Length of the design vector."""
+        return self.dmap.size
 
     def nlpsol(self, certified: bool, stiffness: bool = False):
         """The NLP without (``certified=False``) or with the LDLᵀ stability certificate, and with
@@ -256,8 +260,10 @@ class DesignNLP:
         designed values, at the scene's parameters ``P_scene`` (∂Ê/∂d_v = 0 at ``trials`` random
         states and designs; e.g. a field angle or a fibre layout at zero field): they would have no
         physical effect on the actuator."""
-        zr, d, P0, E = self._energy
-        f = ca.Function("design_effect", [zr, d, P0], [ca.gradient(E, d)])
+        if self._effect is None:  # built on first use, then kept
+            zr, d, P0, E = self._energy
+            self._effect = ca.Function("design_effect", [zr, d, P0], [ca.gradient(E, d)])
+        f = self._effect
         rng = np.random.default_rng(20261207)  # fixed seed: the same verdict on every run
         moved = np.zeros(self.nd)
         for _ in range(trials):

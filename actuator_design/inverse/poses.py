@@ -309,7 +309,7 @@ def _from_start(ch1, first, targets, vset, options, settings, verify, timings, t
             notes.append(f"pose {k} does not hold over the box")
     if verify and all(p.verified for p in poses) and not schedule:
         notes.append("no snap-free schedule visits the poses in order")
-    report = profile_report(scenes[0], {**ch1.point.profiles, **snlp.shared_values(point.d)}, vset)
+    report = profile_report(scenes[0], {**ch1.point.profiles, **snlp.dmap.shared_values(point.d)}, vset)
     alpha = report.pop("alpha")
     timings["total"] = time.perf_counter() - t0
     head = (f"one layout, {len(poses)} poses, each verified from rest and holding over the box" if ok

@@ -114,7 +114,6 @@ class ScenarioDesignNLP:
         self.profiles = base.profiles
         #: the design vector: the shared profiles, then each pose's scalars
         self.dmap = DesignVector.poses(self.profiles, self.per_pose, K, base.alpha_terms)
-        self.nd = self.dmap.size
         d = ca.SX.sym("d", self.nd)
         P0 = ca.SX.sym("P0", lay.size)
         #: the slots a corner scales (the field groups, loads, plug-in values: from the lens)
@@ -126,7 +125,7 @@ class ScenarioDesignNLP:
         t = ca.SX.sym("t", K)
         m = sv.transcription.mass[1:]
         bw = _bandwidth(sv, n)
-        shared = self.shared_values(d)
+        shared = self.dmap.shared_values(d)
 
         def scenario(P, c):  # corner c ≥ 1 of the box
             vals = offs[n_off * (c - 1):n_off * c]
@@ -180,13 +179,10 @@ class ScenarioDesignNLP:
         self.build_time = time.perf_counter() - t0
 
     # -- layout of the design vector ------------------------------------------------------------
-    def pose_index(self, k: int, name: str) -> int:
-        """Index of pose k's value ``name`` (h, phi or p) in the design vector."""
-        return self.dmap.slice(name, k).start
-
-    def shared_values(self, d) -> Dict[str, object]:
-        """The shared profiles' coefficients by name (α, then β), from a design vector."""
-        return self.dmap.shared_values(d)
+    @property
+    def nd(self) -> int:
+        """Length of the design vector."""
+        return self.dmap.size
 
     def pose_vector(self, d: np.ndarray, k: int) -> np.ndarray:
         """The single-pose design vector (of :class:`DesignNLP`) of pose k."""
